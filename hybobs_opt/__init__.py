@@ -1,0 +1,12 @@
+"""hybobs_opt: optimization-based state observers for hybrid systems.
+
+Layers (DESIGN.md): ``systems`` and ``examples`` describe plants; ``regions``, ``lmi`` and ``mhe``
+pose the design questions as optimisation problems; ``observers`` and ``sim`` run them;
+``report`` and :mod:`hybobs_opt.cli` present the results.
+"""
+
+from .errors import HybobsError, InfeasibleError, ModelError, SolverError
+
+__version__ = "0.1.0"
+
+__all__ = ["HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__"]

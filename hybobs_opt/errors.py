@@ -1,0 +1,64 @@
+"""The one exception hierarchy of hybobs_opt (see DESIGN.md, "Conventions").
+
+``HybobsError`` is the base.  ``ModelError`` is bad input (it is also a ``ValueError`` so generic
+callers can catch it the usual way), ``InfeasibleError`` carries the certificate that proves an
+optimisation problem has no solution, and ``SolverError`` means a solver crashed, hit a limit or
+returned a point it could not certify: it names the problem, the solver and what to try.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class HybobsError(Exception):
+    """Base class of every error raised on purpose by hybobs_opt."""
+
+
+class ModelError(HybobsError, ValueError):
+    """Invalid model or input data.
+
+    Parameters
+    ----------
+    field
+        Name of the offending field or argument (e.g. ``"modes[2].A"``).
+    expected
+        What was expected there (shape, range, property).
+    got
+        Optional description of what was received.
+    """
+
+    def __init__(self, field: str, expected: str, got: str | None = None):
+        self.field = field
+        self.expected = expected
+        self.got = got
+        message = f"{field}: expected {expected}"
+        if got is not None:
+            message += f", got {got}"
+        super().__init__(message)
+
+
+class InfeasibleError(HybobsError):
+    """An optimisation problem is infeasible; ``certificate`` proves it (``certificate.verify()``)."""
+
+    def __init__(self, problem: str, certificate: Any = None, detail: str = ""):
+        self.problem = problem
+        self.certificate = certificate
+        message = f"{problem} is infeasible"
+        if detail:
+            message += f": {detail}"
+        super().__init__(message)
+
+
+class SolverError(HybobsError):
+    """A solver failed, hit a limit, or returned an answer it could not certify."""
+
+    def __init__(self, problem: str, solver: str, status: str, hint: str = ""):
+        self.problem = problem
+        self.solver = solver
+        self.status = status
+        self.hint = hint
+        message = f"{problem}: solver {solver} returned status {status!r}"
+        if hint:
+            message += f"; try: {hint}"
+        super().__init__(message)

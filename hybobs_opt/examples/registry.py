@@ -1,0 +1,114 @@
+"""The registry of the seed papers' example systems.
+
+Each example module calls :func:`register` with an :class:`Example`: a factory for the system,
+the paper's simulation scenario, and the metadata the CLI prints (``hybobs examples --json``).
+Example names and state names are a contract (issue 2): keep them stable.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import ModelError
+
+#: Short labels of the five seed papers (``../shared/seeds``).
+PAPERS: dict[str, str] = {
+    "000": "Balluchi et al., hybrid observer for a driveline with discontinuous elasticity",
+    "001": "Djemai, Manamanni, Barbot, sliding-mode observer for nonlinear hybrid systems",
+    "002": "Observability and deadbeat observers for PWA powertrains with backlash",
+    "003": "Observer design for piecewise affine hybrid systems with constant drift",
+    "004": "Rajamani et al., switched-gain observers for non-monotonic nonlinear systems",
+}
+
+
+@dataclass(frozen=True)
+class Example:
+    """One example system of a seed paper.
+
+    Attributes
+    ----------
+    name : str
+        Stable identifier (``powertrain3``, ``traffic_junction``, ...).
+    kind : str
+        System class: ``"pwa"``, ``"hybrid_automaton"``, ``"constant_drift"`` or ``"scalar_nonlinear"``.
+    paper : str
+        Seed-paper key (``"002"``) into :data:`PAPERS`.
+    summary : str
+        One line for ``hybobs examples``.
+    state_names : tuple of str
+        Names of the states, as the paper names them.
+    build : callable
+        ``build(**params) -> system``; keyword parameters documented in the factory.
+    scenario : callable
+        ``scenario(system, t_final=None) -> Trace``: the paper's simulation scenario.
+    default_t_final : float
+        Horizon of the scenario when ``t_final`` is not given (seconds).
+    params : dict
+        Default keyword parameters of ``build`` (e.g. ``{"gear_ratio": 1/12}``).
+    """
+
+    name: str
+    kind: str
+    paper: str
+    summary: str
+    state_names: tuple[str, ...]
+    build: Callable[..., Any]
+    scenario: Callable[..., Any]
+    default_t_final: float
+    params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_states(self) -> int:
+        return len(self.state_names)
+
+    def simulate(self, t_final: float | None = None, **params: Any):
+        """Build the system with ``params`` and run the paper's scenario up to ``t_final``."""
+        unknown = set(params) - set(self.params)
+        if unknown:
+            raise ModelError(
+                f"parameters of example {self.name!r}",
+                f"names among {sorted(self.params) or 'none'}",
+                f"{sorted(unknown)}",
+            )
+        system = self.build(**params)
+        return self.scenario(system, t_final=self.default_t_final if t_final is None else t_final)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``hybobs examples --json`` record."""
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "paper": self.paper,
+            "paper_title": PAPERS.get(self.paper, ""),
+            "summary": self.summary,
+            "n_states": self.n_states,
+            "state_names": list(self.state_names),
+            "params": {k: v for k, v in self.params.items()},
+            "default_t_final": self.default_t_final,
+        }
+
+
+_REGISTRY: dict[str, Example] = {}
+
+
+def register(example: Example) -> Example:
+    """Add ``example`` to the registry (names must be unique)."""
+    if example.name in _REGISTRY:
+        raise ModelError("example name", "a unique name", f"duplicate {example.name!r}")
+    _REGISTRY[example.name] = example
+    return example
+
+
+def get_example(name: str) -> Example:
+    """Look an example up by name; the error lists the valid names."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ModelError("example", f"one of {sorted(_REGISTRY)}", repr(name)) from None
+
+
+def list_examples() -> list[Example]:
+    """All registered examples, in registration order (papers 000 to 004)."""
+    return list(_REGISTRY.values())

@@ -1,0 +1,1 @@
+"""Observer LMIs, Jacobian bounds, infeasibility certificates and switched gains (paper 004)."""

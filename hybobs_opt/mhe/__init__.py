@@ -1,0 +1,1 @@
+"""Moving-horizon observers posed as MIQP / MILP in CasADi (paper 002, eq. 10)."""

@@ -1,0 +1,1 @@
+"""Observability regions of PWA systems from LP feasibility tests (paper 002, Sections 2-3)."""

@@ -1,0 +1,109 @@
+"""The one trace type every simulator returns: samples of ``(t, x, q, u, y)``."""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """A sampled trajectory of a hybrid system.
+
+    Attributes
+    ----------
+    t : (N,) array
+        Sample times (seconds, or sample index times ``Ts`` for discrete systems).
+    x : (N, n) array
+        States.
+    q : (N,) int array
+        Discrete state: PWA mode index, automaton location index, or constant-drift mode.
+    u : (N, m) array
+        Inputs applied at ``t`` (``m = 0`` for autonomous systems).
+    y : (N, p) array
+        Outputs at ``t``.
+    state_names, input_names, output_names : tuple of str
+        Column names (used in CSV headers and CLI options).
+    location_names : tuple of str
+        Optional names of the discrete states, indexed by ``q``.
+    events : list of dict
+        Optional event log (time, kind, from, to, ...), e.g. guard crossings or served-queue switches.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    q: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    state_names: tuple[str, ...]
+    input_names: tuple[str, ...] = ()
+    output_names: tuple[str, ...] = ()
+    location_names: tuple[str, ...] = ()
+    events: list[dict[str, Any]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=float).reshape(-1)
+        N = t.size
+        x = np.asarray(self.x, dtype=float).reshape(N, -1)
+        u = np.asarray(self.u, dtype=float).reshape(N, -1) if np.size(self.u) else np.zeros((N, 0))
+        y = np.asarray(self.y, dtype=float).reshape(N, -1) if np.size(self.y) else np.zeros((N, 0))
+        q = np.asarray(self.q).reshape(-1).astype(int)
+        if q.size != N:
+            raise ModelError("Trace.q", f"{N} entries", f"{q.size}")
+        if len(self.state_names) != x.shape[1]:
+            raise ModelError("Trace.state_names", f"{x.shape[1]} names", f"{len(self.state_names)}")
+        for name, arr in (("t", t), ("x", x), ("q", q), ("u", u), ("y", y)):
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n_samples(self) -> int:
+        return self.t.size
+
+    def state(self, name: str) -> np.ndarray:
+        """Column of the state called ``name``."""
+        try:
+            return self.x[:, self.state_names.index(name)]
+        except ValueError:
+            raise ModelError("state name", f"one of {self.state_names}", repr(name)) from None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary with the arrays as nested lists (the ``--json`` contract)."""
+        return {
+            "t": self.t.tolist(),
+            "x": self.x.tolist(),
+            "q": self.q.tolist(),
+            "u": self.u.tolist(),
+            "y": self.y.tolist(),
+            "state_names": list(self.state_names),
+            "input_names": list(self.input_names),
+            "output_names": list(self.output_names),
+            "location_names": list(self.location_names),
+            "events": [_jsonable(e) for e in self.events],
+        }
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write one row per sample with columns ``t, <states>, q, <inputs>, <outputs>``."""
+        header = ["t", *self.state_names, "q", *self.input_names, *self.output_names]
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(header)
+            for k in range(self.n_samples):
+                w.writerow([self.t[k], *self.x[k], int(self.q[k]), *self.u[k], *self.y[k]])
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -1,0 +1,23 @@
+"""Named numerical tolerances.
+
+Every tolerance used by the toolbox is defined here, with the reason for its size, so that no
+bare literal decides a geometric or numerical question somewhere deep in the code.  Tolerances
+on geometry are *relative*: they apply in coordinates normalised by the state and input bounds
+(DESIGN.md, "Scale before you solve").
+"""
+
+#: Slack allowed when testing ``A z <= b`` for a point, relative to ``1 + |b|`` row-wise.
+MEMBERSHIP_RTOL: float = 1e-9
+
+#: A polytope is full-dimensional when its Chebyshev radius, in coordinates scaled to the unit
+#: box of its bounding box, exceeds this value.
+FULL_DIMENSION_RTOL: float = 1e-7
+
+#: Row-normalised constraint coefficients below this are treated as zero (degenerate rows).
+ZERO_ROW_TOL: float = 1e-12
+
+#: Relative singular-value threshold for rank tests (``s_min / s_max``) in scaled coordinates.
+RANK_RTOL: float = 1e-9
+
+#: Relative tolerance used when checking that two affine maps (mode dynamics) are equal.
+MATRIX_EQUAL_RTOL: float = 1e-12
