@@ -21,3 +21,14 @@ RANK_RTOL: float = 1e-9
 
 #: Relative tolerance used when checking that two affine maps (mode dynamics) are equal.
 MATRIX_EQUAL_RTOL: float = 1e-12
+
+#: A user-supplied derivative of a scalar function (paper 004, eq. 3) must match CasADi's automatic
+#: derivative to this tolerance relative to ``1 + max |f'|`` on the operating box: both are exact
+#: up to rounding, so any real disagreement is a wrong formula, not noise.
+DERIVATIVE_CHECK_RTOL: float = 1e-8
+
+#: Relative / absolute tolerances of the adaptive ODE solver of the nonlinear simulator: tight
+#: enough that the sampled trajectory is exact for the physics checks of the examples (turn angles
+#: to 1e-6 rad), loose enough to keep a 30 s vehicle scenario well under a second.
+NONLINEAR_ODE_RTOL: float = 1e-10
+NONLINEAR_ODE_ATOL: float = 1e-10

@@ -1,0 +1,1 @@
+"""Placeholder: filled in by the example work for this paper."""

@@ -1,0 +1,106 @@
+"""The HTML report: a list of sections, each contributing HTML and PNG figures.
+
+The foundation contributes the example-systems section; later issues register their own
+sections (observability regions, observers, LMI diagnostics) with :func:`register_section`.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import HybobsError
+
+SectionBuilder = Callable[[Path, Callable[[str], None]], "ReportSection"]
+
+
+@dataclass
+class ReportSection:
+    """One section of the report: a title, an HTML body, and a JSON-ready summary."""
+
+    title: str
+    body_html: str
+    summary: dict[str, Any] = field(default_factory=dict)
+    figures: list[str] = field(default_factory=list)
+
+
+_SECTIONS: list[tuple[str, SectionBuilder]] = []
+
+
+def register_section(key: str, builder: SectionBuilder) -> None:
+    """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``."""
+    if any(k == key for k, _ in _SECTIONS):
+        return
+    _SECTIONS.append((key, builder))
+
+
+def section_keys() -> list[str]:
+    _load_builtin_sections()
+    return [k for k, _ in _SECTIONS]
+
+
+def _load_builtin_sections() -> None:
+    from . import sections  # noqa: F401  registers the built-in sections
+
+
+def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = None, only: list[str] | None = None) -> dict[str, Any]:
+    """Build ``out_dir/index.html`` (with PNG figures) from every registered section.
+
+    A section that fails is reported in the page with its error instead of aborting the report.
+
+    Returns
+    -------
+    dict
+        ``{"index": path, "sections": [{"key", "title", "ok", "summary", "figures", "seconds"}]}``
+    """
+    _load_builtin_sections()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    progress = progress or (lambda msg: None)
+    parts, records = [], []
+    for key, builder in _SECTIONS:
+        if only and key not in only:
+            continue
+        t0 = time.perf_counter()
+        progress(key)
+        try:
+            section = builder(out, progress)
+            ok, err = True, ""
+        except HybobsError as exc:
+            section = ReportSection(key, f"<p class='error'>This section failed: {html.escape(str(exc))}</p>")
+            ok, err = False, str(exc)
+        seconds = time.perf_counter() - t0
+        parts.append(f"<section id='{key}'><h2>{html.escape(section.title)}</h2>\n{section.body_html}</section>")
+        records.append(
+            {"key": key, "title": section.title, "ok": ok, "error": err, "summary": section.summary,
+             "figures": section.figures, "seconds": round(seconds, 3)}
+        )
+    index = out / "index.html"
+    toc = "".join(f"<li><a href='#{r['key']}'>{html.escape(r['title'])}</a></li>" for r in records)
+    index.write_text(_PAGE.format(toc=toc, body="\n".join(parts), stamp=time.strftime("%Y-%m-%d %H:%M:%S")))
+    (out / "summary.json").write_text(json.dumps({"sections": records}, indent=2))
+    return {"index": str(index), "sections": records}
+
+
+_PAGE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>hybobs_opt report</title>
+<style>
+body {{ font-family: system-ui, sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
+table {{ border-collapse: collapse; margin: 1em 0; }}
+td, th {{ border: 1px solid #ccc; padding: 0.3em 0.6em; font-size: 0.9em; }}
+th {{ background: #f2f2f2; }}
+img {{ max-width: 100%; }}
+.error {{ color: #a00; }}
+code {{ background: #f6f6f6; padding: 0 0.2em; }}
+</style></head><body>
+<h1>hybobs_opt report</h1>
+<p>Generated {stamp}. Every number below is recomputed from the models by the toolbox.</p>
+<ul>{toc}</ul>
+{body}
+</body></html>
+"""

@@ -1,0 +1,55 @@
+"""Plots of simulation traces (matplotlib, Agg backend: no screen needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..sim.trace import Trace  # noqa: E402
+
+
+def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int = 6) -> Path:
+    """Plot each state and the discrete state ``q`` against time and save a PNG.
+
+    Parameters
+    ----------
+    trace : Trace
+    path : path-like
+        Output file (PNG).
+    title : str
+    max_states : int
+        Plot at most this many states (one panel each).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    n = min(trace.x.shape[1], max_states)
+    fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * (n + 1) + 0.6), sharex=True)
+    axes = np.atleast_1d(axes)
+    for i in range(n):
+        axes[i].plot(trace.t, trace.x[:, i], lw=1.0)
+        axes[i].set_ylabel(trace.state_names[i], rotation=0, ha="right", va="center")
+        axes[i].grid(alpha=0.3)
+    axes[n].step(trace.t, trace.q, where="post", lw=1.0, color="tab:red")
+    axes[n].set_ylabel("q", rotation=0, ha="right", va="center")
+    if trace.location_names:
+        ticks = sorted(set(int(v) for v in np.unique(trace.q)))
+        axes[n].set_yticks(ticks)
+        axes[n].set_yticklabels([trace.location_names[k] if k < len(trace.location_names) else str(k) for k in ticks], fontsize=7)
+    axes[n].set_xlabel("t [s]")
+    axes[n].grid(alpha=0.3)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

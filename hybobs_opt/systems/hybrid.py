@@ -1,0 +1,300 @@
+"""Continuous-time hybrid automata: locations with flows, outputs, invariants and a location graph.
+
+Covers the driveline with discontinuous elasticity of paper 000 (three locations of the elastic
+characteristic) and the switched systems of paper 001 (switching decided by a function of the
+state).  Affine locations can be discretised exactly (zero-order hold per location) into a
+:class:`~hybobs_opt.systems.pwa.PWASystem`, so every PWA-like automaton can also be handed to the
+lookup-table deadbeat observer of paper 002.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import expm
+
+from ..errors import ModelError
+from ._validate import as_matrix, as_names, as_vector, check_finite
+from .polytope import Polytope
+from .pwa import PWAMode, PWASystem
+
+FlowFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True, eq=False)
+class Location:
+    """One location (discrete state) of a hybrid automaton.
+
+    The flow is affine, ``x' = A x + B u + E`` (give ``A``, and optionally ``B``, ``E``), or
+    nonlinear, ``x' = flow(x, u)`` (give ``flow``).  The output is ``y = C x + D u + c`` or
+    ``output(x, u)``.  The invariant is the region of the state (``dim n``) or of ``(x, u)``
+    (``dim n + m``) where the location is active.
+
+    Parameters
+    ----------
+    name : str
+    invariant : Polytope
+    A, B, E : arrays, optional
+        Affine flow data.
+    C, D, c : arrays, optional
+        Affine output data.
+    flow : callable, optional
+        ``flow(x, u) -> dx`` for nonlinear flows (then ``A`` must be ``None``).
+    output : callable, optional
+        ``output(x, u) -> y`` for nonlinear outputs (then ``C`` must be ``None``).
+    """
+
+    name: str
+    invariant: Polytope
+    A: np.ndarray | None = None
+    B: np.ndarray | None = None
+    E: np.ndarray | None = None
+    C: np.ndarray | None = None
+    D: np.ndarray | None = None
+    c: np.ndarray | None = None
+    flow: FlowFn | None = None
+    output: FlowFn | None = None
+
+    @property
+    def is_affine(self) -> bool:
+        """True when both the flow and the output are affine (so :meth:`HybridAutomaton.discretize` applies)."""
+        return self.A is not None and self.C is not None
+
+    def validated(self, index: int, n: int, m: int, p: int) -> "Location":
+        f = f"locations[{index}] ({self.name})"
+        if not isinstance(self.invariant, Polytope) or self.invariant.dim not in (n, n + m):
+            got = type(self.invariant).__name__ if not isinstance(self.invariant, Polytope) else f"dimension {self.invariant.dim}"
+            raise ModelError(f"{f}.invariant", f"a Polytope over x (dim {n}) or over (x, u) (dim {n + m})", got)
+        if (self.A is None) == (self.flow is None):
+            raise ModelError(f"{f}.flow", "exactly one of an affine flow (A, B, E) or a callable flow", "both or neither")
+        if (self.C is None) == (self.output is None):
+            raise ModelError(f"{f}.output", "exactly one of an affine output (C, D, c) or a callable output", "both or neither")
+        A = B = E = C = D = c = None
+        if self.A is not None:
+            A = as_matrix(self.A, f"{f}.A", (n, n))
+            B = as_matrix(np.zeros((n, m)) if self.B is None else self.B, f"{f}.B", (n, m))
+            E = as_vector(np.zeros(n) if self.E is None else self.E, f"{f}.E", n)
+        elif not callable(self.flow):
+            raise ModelError(f"{f}.flow", "a callable flow(x, u) -> dx", type(self.flow).__name__)
+        if self.C is not None:
+            C = as_matrix(self.C, f"{f}.C", (p, n))
+            D = as_matrix(np.zeros((p, m)) if self.D is None else self.D, f"{f}.D", (p, m))
+            c = as_vector(np.zeros(p) if self.c is None else self.c, f"{f}.c", p)
+        elif not callable(self.output):
+            raise ModelError(f"{f}.output", "a callable output(x, u) -> y", type(self.output).__name__)
+        return Location(self.name, self.invariant, A, B, E, C, D, c, self.flow, self.output)
+
+
+@dataclass(frozen=True, eq=False)
+class Edge:
+    """An allowed transition ``source -> target`` of the location graph.
+
+    Parameters
+    ----------
+    source, target : int
+        Location indices.
+    guard : Polytope, optional
+        Region of the state (dim ``n``) where the jump may be taken; ``None`` means "when the
+        state enters the target's invariant".
+    reset : (R, r), optional
+        Affine reset ``x+ = R x + r`` applied at the jump (identity by default).
+    """
+
+    source: int
+    target: int
+    guard: Polytope | None = None
+    reset: tuple[np.ndarray, np.ndarray] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class HybridAutomaton:
+    """A continuous-time hybrid automaton with polyhedral invariants.
+
+    Parameters
+    ----------
+    locations : sequence of Location
+    edges : sequence of Edge
+        The allowed location graph; ``None`` means every pair of locations whose invariants touch.
+    state_bounds : Polytope
+        Bounded operating set ``X`` of the state (used for scaling and by :meth:`discretize`).
+    input_bounds : Polytope or None
+        Bounded input set ``U``; ``None`` for autonomous automata.
+    state_names, input_names, output_names : sequence of str
+    name : str
+    """
+
+    locations: tuple[Location, ...]
+    state_bounds: Polytope
+    edges: tuple[Edge, ...] | None = None
+    input_bounds: Polytope | None = None
+    state_names: tuple[str, ...] = field(default=())
+    input_names: tuple[str, ...] = field(default=())
+    output_names: tuple[str, ...] = field(default=())
+    name: str = "automaton"
+    p: int | None = None
+
+    def __post_init__(self) -> None:
+        locs = tuple(self.locations)
+        if not locs:
+            raise ModelError("locations", "at least one Location", "an empty sequence")
+        if not isinstance(self.state_bounds, Polytope):
+            raise ModelError("state_bounds", "a bounded Polytope over x", type(self.state_bounds).__name__)
+        n = self.state_bounds.dim
+        m = 0 if self.input_bounds is None else self.input_bounds.dim
+        p = self.p
+        if p is None:
+            first = next((loc for loc in locs if loc.C is not None), None)
+            if first is not None:
+                p = np.atleast_2d(np.asarray(first.C, dtype=float)).shape[0]
+            else:
+                probe = np.asarray(locs[0].output(np.zeros(n), np.zeros(m)), dtype=float)
+                p = int(np.atleast_1d(probe).size)
+        object.__setattr__(self, "p", int(p))
+        locs = tuple(loc.validated(i, n, m, p) for i, loc in enumerate(locs))
+        object.__setattr__(self, "locations", locs)
+        object.__setattr__(self, "state_names", as_names(self.state_names, "state_names", n, "x"))
+        object.__setattr__(self, "input_names", as_names(self.input_names, "input_names", m, "u"))
+        object.__setattr__(self, "output_names", as_names(self.output_names, "output_names", p, "y"))
+        if not self.state_bounds.is_bounded():
+            raise ModelError("state_bounds", "a bounded, non-empty polytope", "an unbounded or empty set")
+        if self.input_bounds is not None and not self.input_bounds.is_bounded():
+            raise ModelError("input_bounds", "a bounded, non-empty polytope", "an unbounded or empty set")
+        lo, hi = self.state_bounds.bounding_box()
+        scale = np.where(hi - lo > 0, hi - lo, 1.0)
+        for i, loc in enumerate(locs):
+            inv_x = loc.invariant if loc.invariant.dim == n else None
+            if inv_x is not None and not inv_x.intersect(self.state_bounds).is_full_dimensional(scale):
+                raise ModelError(
+                    f"locations[{i}] ({loc.name}).invariant",
+                    "a full-dimensional region inside state_bounds",
+                    "an empty or lower-dimensional set",
+                )
+        edges = self.edges
+        if edges is None:
+            edges = tuple(Edge(i, j) for i in range(len(locs)) for j in range(len(locs)) if i != j)
+        checked = []
+        for k, e in enumerate(edges):
+            for end in ("source", "target"):
+                v = getattr(e, end)
+                if not isinstance(v, (int, np.integer)) or not 0 <= v < len(locs):
+                    raise ModelError(f"edges[{k}].{end}", f"a location index in 0..{len(locs) - 1}", repr(v))
+            if e.guard is not None and (not isinstance(e.guard, Polytope) or e.guard.dim != n):
+                raise ModelError(f"edges[{k}].guard", f"a Polytope over x (dim {n}) or None", repr(e.guard))
+            reset = None
+            if e.reset is not None:
+                R, r = e.reset
+                reset = (as_matrix(R, f"edges[{k}].reset[0]", (n, n)), as_vector(r, f"edges[{k}].reset[1]", n))
+            checked.append(Edge(int(e.source), int(e.target), e.guard, reset))
+        object.__setattr__(self, "edges", tuple(checked))
+
+    # ------------------------------------------------------------------ dimensions
+    @property
+    def n(self) -> int:
+        return self.state_bounds.dim
+
+    @property
+    def m(self) -> int:
+        return 0 if self.input_bounds is None else self.input_bounds.dim
+
+    @property
+    def n_locations(self) -> int:
+        return len(self.locations)
+
+    @property
+    def location_names(self) -> tuple[str, ...]:
+        return tuple(loc.name for loc in self.locations)
+
+    def successors(self, q: int) -> tuple[int, ...]:
+        """Locations reachable from ``q`` by one edge of the location graph."""
+        return tuple(e.target for e in self.edges if e.source == q)
+
+    # ------------------------------------------------------------------ evaluation
+    def _u(self, u) -> np.ndarray:
+        if u is None:
+            return np.zeros(self.m)
+        u = np.atleast_1d(np.asarray(u, dtype=float))
+        if u.shape != (self.m,):
+            raise ModelError("u", f"an input of length {self.m}", f"shape {u.shape}")
+        return u
+
+    def in_invariant(self, q: int, x, u=None, rtol: float | None = None) -> bool:
+        """True when ``x`` (and ``u``) satisfy the invariant of location ``q``."""
+        inv = self.locations[q].invariant
+        z = np.asarray(x, dtype=float) if inv.dim == self.n else np.concatenate([np.asarray(x, dtype=float), self._u(u)])
+        return bool(inv.contains(z) if rtol is None else inv.contains(z, rtol))
+
+    def location_of(self, x, u=None) -> int:
+        """First location whose invariant contains ``x`` (and ``u``); raises ``ModelError`` if none."""
+        for q in range(self.n_locations):
+            if self.in_invariant(q, x, u):
+                return q
+        raise ModelError("x", "a state inside some location's invariant", f"{np.asarray(x).tolist()}")
+
+    def flow(self, q: int, x, u=None) -> np.ndarray:
+        """Right-hand side ``dx/dt`` in location ``q``."""
+        loc = self.locations[q]
+        u = self._u(u)
+        x = np.asarray(x, dtype=float)
+        if loc.A is not None:
+            return loc.A @ x + loc.B @ u + loc.E
+        dx = np.asarray(loc.flow(x, u), dtype=float).reshape(self.n)
+        check_finite(dx, f"locations[{q}] ({loc.name}).flow(x, u)")
+        return dx
+
+    def output(self, q: int, x, u=None) -> np.ndarray:
+        """Output ``y`` in location ``q``."""
+        loc = self.locations[q]
+        u = self._u(u)
+        x = np.asarray(x, dtype=float)
+        if loc.C is not None:
+            return loc.C @ x + loc.D @ u + loc.c
+        return np.asarray(loc.output(x, u), dtype=float).reshape(self.p)
+
+    # ------------------------------------------------------------------ discretisation
+    def discretize(self, Ts: float) -> PWASystem:
+        """Exact zero-order-hold discretisation per location, giving a :class:`PWASystem`.
+
+        For each location, ``[A_d, B_d, a_d] = [I, 0, 0] expm([[A, B, E], [0, 0, 0]] Ts)``, i.e.
+        ``A_d = e^{A Ts}``, ``B_d = int_0^Ts e^{A s} ds B``, ``a_d = int_0^Ts e^{A s} ds E``; the
+        guard of the resulting mode is the location's invariant (lifted to ``(x, u)``).  The
+        location is frozen over a sample, as in the PWA models of paper 002: the map is exact for
+        every sample whose trajectory does not cross a location boundary.
+
+        Raises
+        ------
+        ModelError
+            If ``Ts`` is not positive, or a location has a nonlinear flow or output.
+        """
+        if not (np.isfinite(Ts) and Ts > 0):
+            raise ModelError("Ts", "a positive finite sampling period", repr(Ts))
+        n, m = self.n, self.m
+        modes = []
+        for i, loc in enumerate(self.locations):
+            if not loc.is_affine:
+                raise ModelError(
+                    f"locations[{i}] ({loc.name})", "an affine flow and output for discretize()", "a callable flow or output"
+                )
+            M = np.zeros((n + m + 1, n + m + 1))
+            M[:n, :n] = loc.A
+            M[:n, n : n + m] = loc.B
+            M[:n, n + m] = loc.E
+            Phi = expm(M * Ts)
+            guard = loc.invariant if loc.invariant.dim == n + m else (
+                loc.invariant if m == 0 else loc.invariant.lift(n + m, range(n))
+            )
+            modes.append(PWAMode(Phi[:n, :n], Phi[:n, n : n + m], Phi[:n, n + m], loc.C, guard, loc.D, loc.c, loc.name))
+        return PWASystem(
+            tuple(modes),
+            self.state_bounds,
+            self.input_bounds,
+            self.state_names,
+            self.input_names,
+            self.output_names,
+            Ts=float(Ts),
+            name=f"{self.name} (ZOH, Ts={Ts:g})",
+        )
+
+    def __repr__(self) -> str:
+        return f"HybridAutomaton(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, locations={self.location_names})"

@@ -1,0 +1,216 @@
+"""Discrete-time piecewise-affine systems, eq. (1) of paper 002.
+
+``x(t+1) = A_i x(t) + B_i u(t) + a_i``, ``y(t) = C_i x(t) + D_i u(t) + c_i`` if
+``[x(t); u(t)]`` lies in the guard polytope ``Q_i``, with bounded state and input sets
+(eq. 2: ``X`` and ``U``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ._validate import as_matrix, as_names, as_vector
+from .polytope import Polytope
+
+
+@dataclass(frozen=True, eq=False)
+class PWAMode:
+    """One affine piece of a PWA system (one index ``i`` of eq. (1), paper 002).
+
+    Parameters
+    ----------
+    A : (n, n) array
+    B : (n, m) array
+    a : (n,) array
+    C : (p, n) array
+    D : (p, m) array, optional (zeros)
+    c : (p,) array, optional (zeros)
+    guard : Polytope
+        ``Q_i`` over the stacked vector ``(x, u)`` of dimension ``n + m``.
+    name : str
+        Human-readable label (``"contact+"``, ``"backlash"``, ...).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    a: np.ndarray
+    C: np.ndarray
+    guard: Polytope
+    D: np.ndarray | None = None
+    c: np.ndarray | None = None
+    name: str = ""
+
+    def validated(self, index: int, n: int, m: int, p: int) -> "PWAMode":
+        """Return a copy whose arrays are checked against ``(n, m, p)``; fields named ``modes[index].X``."""
+        f = f"modes[{index}]"
+        A = as_matrix(self.A, f"{f}.A", (n, n))
+        B = as_matrix(self.B if np.size(self.B) else np.zeros((n, m)), f"{f}.B", (n, m))
+        a = as_vector(self.a, f"{f}.a", n)
+        C = as_matrix(self.C, f"{f}.C", (p, n))
+        D = as_matrix(np.zeros((p, m)) if self.D is None else self.D, f"{f}.D", (p, m))
+        c = as_vector(np.zeros(p) if self.c is None else self.c, f"{f}.c", p)
+        if not isinstance(self.guard, Polytope):
+            raise ModelError(f"{f}.guard", "a Polytope over (x, u)", type(self.guard).__name__)
+        if self.guard.dim != n + m:
+            raise ModelError(f"{f}.guard", f"a polytope of dimension n + m = {n + m}", f"dimension {self.guard.dim}")
+        return PWAMode(A, B, a, C, self.guard, D, c, self.name or f"mode{index}")
+
+
+@dataclass(frozen=True, eq=False)
+class PWASystem:
+    """Discrete-time PWA system of eq. (1), paper 002, with bounded state and input sets.
+
+    Parameters
+    ----------
+    modes : sequence of PWAMode
+        The affine pieces; their guards are intersected with ``X x U`` and must be
+        full-dimensional there (paper 002: "disjoint, full dimensional ... polytopes").
+    state_bounds : Polytope
+        Bounded state set ``X`` (dimension ``n``).
+    input_bounds : Polytope or None
+        Bounded input set ``U`` (dimension ``m``); ``None`` only for autonomous systems (``m = 0``).
+    state_names, input_names, output_names : sequence of str
+        Names used in CLI options, plots and CSV headers.
+    Ts : float, optional
+        Sampling period in seconds (for time axes); ``None`` means unit steps.
+    name : str
+        Label of the system.
+
+    Notes
+    -----
+    Overlapping guards are resolved by mode order (the first mode that contains the point wins),
+    which is how the "not necessarily closed" boundaries of eq. (1) are made disjoint.
+    """
+
+    modes: tuple[PWAMode, ...]
+    state_bounds: Polytope
+    input_bounds: Polytope | None = None
+    state_names: tuple[str, ...] = field(default=())
+    input_names: tuple[str, ...] = field(default=())
+    output_names: tuple[str, ...] = field(default=())
+    Ts: float | None = None
+    name: str = "pwa"
+
+    def __post_init__(self) -> None:
+        modes = tuple(self.modes)
+        if not modes:
+            raise ModelError("modes", "at least one PWAMode", "an empty sequence")
+        if not isinstance(self.state_bounds, Polytope):
+            raise ModelError("state_bounds", "a bounded Polytope over x", type(self.state_bounds).__name__)
+        n = self.state_bounds.dim
+        if self.input_bounds is None:
+            m = 0
+        elif isinstance(self.input_bounds, Polytope):
+            m = self.input_bounds.dim
+        else:
+            raise ModelError("input_bounds", "a bounded Polytope over u, or None", type(self.input_bounds).__name__)
+        p = np.asarray(modes[0].C, dtype=float).reshape(-1, n).shape[0] if np.size(modes[0].C) else 0
+        modes = tuple(mode.validated(i, n, m, p) for i, mode in enumerate(modes))
+        object.__setattr__(self, "modes", modes)
+        object.__setattr__(self, "state_names", as_names(self.state_names, "state_names", n, "x"))
+        object.__setattr__(self, "input_names", as_names(self.input_names, "input_names", m, "u"))
+        object.__setattr__(self, "output_names", as_names(self.output_names, "output_names", p, "y"))
+        if self.Ts is not None and not (np.isfinite(self.Ts) and self.Ts > 0):
+            raise ModelError("Ts", "a positive finite sampling period or None", repr(self.Ts))
+        for label, poly in (("state_bounds", self.state_bounds), ("input_bounds", self.input_bounds)):
+            if poly is not None and not poly.is_bounded():
+                raise ModelError(label, "a bounded, non-empty polytope (every coordinate bounded)", "an unbounded or empty set")
+        domain = self.domain
+        lo, hi = domain.bounding_box()
+        scale = np.where(hi - lo > 0, hi - lo, 1.0)
+        for i, mode in enumerate(modes):
+            if not mode.guard.intersect(domain).is_full_dimensional(scale):
+                raise ModelError(
+                    f"modes[{i}].guard",
+                    "a full-dimensional polytope inside X x U (paper 002, eq. 1)",
+                    "an empty or lower-dimensional set",
+                )
+
+    # ------------------------------------------------------------------ dimensions
+    @property
+    def n(self) -> int:
+        """Number of states."""
+        return self.state_bounds.dim
+
+    @property
+    def m(self) -> int:
+        """Number of inputs."""
+        return 0 if self.input_bounds is None else self.input_bounds.dim
+
+    @property
+    def p(self) -> int:
+        """Number of outputs."""
+        return self.modes[0].C.shape[0]
+
+    @property
+    def n_modes(self) -> int:
+        return len(self.modes)
+
+    @property
+    def domain(self) -> Polytope:
+        """``X x U`` as one polytope over ``(x, u)``."""
+        if self.input_bounds is None:
+            return self.state_bounds
+        return self.state_bounds.product(self.input_bounds)
+
+    # ------------------------------------------------------------------ evaluation
+    def _xu(self, x, u) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        u = np.zeros(x.shape[:-1] + (0,)) if u is None else np.asarray(u, dtype=float)
+        if x.shape[-1] != self.n:
+            raise ModelError("x", f"a state of length {self.n}", f"shape {x.shape}")
+        if u.ndim == 0:
+            u = u.reshape(1)
+        if u.shape[-1] != self.m:
+            raise ModelError("u", f"an input of length {self.m}", f"shape {u.shape}")
+        return np.concatenate([x, u], axis=-1)
+
+    def modes_of(self, X: np.ndarray, U: np.ndarray | None = None) -> np.ndarray:
+        """Vectorised mode lookup: index of the first guard containing each row of ``[X U]``, ``-1`` if none."""
+        Z = self._xu(np.atleast_2d(X), None if U is None else np.atleast_2d(U))
+        out = np.full(Z.shape[0], -1, dtype=int)
+        in_domain = self.domain.contains(Z)
+        for i, mode in enumerate(self.modes):
+            hit = (out < 0) & in_domain & mode.guard.contains(Z)
+            out[hit] = i
+        return out
+
+    def mode_of(self, x: Sequence[float], u: Sequence[float] | None = None) -> int:
+        """Index of the mode whose guard contains ``(x, u)``.
+
+        Raises
+        ------
+        ModelError
+            If ``(x, u)`` lies outside ``X x U`` or outside every guard.
+        """
+        i = int(self.modes_of(np.asarray(x, dtype=float)[None, :], None if u is None else np.atleast_1d(u)[None, :])[0])
+        if i < 0:
+            raise ModelError("(x, u)", "a point of X x U inside one of the guards", f"x={np.asarray(x).tolist()}, u={None if u is None else np.atleast_1d(u).tolist()}")
+        return i
+
+    def step(self, x, u=None) -> np.ndarray:
+        """Successor state ``A_i x + B_i u + a_i`` with ``i = mode_of(x, u)`` (eq. 1)."""
+        i = self.mode_of(x, u)
+        mode = self.modes[i]
+        uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
+        return mode.A @ np.asarray(x, dtype=float) + mode.B @ uu + mode.a
+
+    def output(self, x, u=None) -> np.ndarray:
+        """Output ``C_i x + D_i u + c_i`` with ``i = mode_of(x, u)`` (eq. 1)."""
+        i = self.mode_of(x, u)
+        mode = self.modes[i]
+        uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
+        return mode.C @ np.asarray(x, dtype=float) + mode.D @ uu + mode.c
+
+    def scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md."""
+        lo, hi = self.domain.bounding_box()
+        half = np.where(hi - lo > 0, (hi - lo) / 2.0, 1.0)
+        return half, (hi + lo) / 2.0
+
+    def __repr__(self) -> str:
+        return f"PWASystem(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, modes={self.n_modes})"
