@@ -77,3 +77,130 @@ def solve_lp(
         f"{res.status}: {res.message}",
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients",
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# Fast, certified "maximum slack" LPs (the thousands of tiny LPs of paper 002, Algorithm 3.1)
+# ---------------------------------------------------------------------------------------------
+
+import daqp  # noqa: E402
+
+from .tolerances import SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
+
+_DAQP_OPTIMAL = (1, 2)
+
+
+@dataclass
+class LPCounters:
+    """How many max-slack LPs ran, and how many needed the robust solver to confirm them."""
+
+    fast: int = 0
+    confirmed_by_highs: int = 0
+
+    def reset(self) -> None:
+        self.fast = 0
+        self.confirmed_by_highs = 0
+
+    @property
+    def total(self) -> int:
+        return self.fast + self.confirmed_by_highs
+
+
+#: Process-wide counters (each worker process has its own; executors add them up).
+COUNTERS = LPCounters()
+
+
+@dataclass(frozen=True)
+class SlackResult:
+    """Largest ``t`` (capped at :data:`~hybobs_opt.tolerances.SLACK_CAP`) with ``G w + |G_k| t <= g``.
+
+    ``lower`` is a slack certified by numpy at the returned point ``w`` (a feasible point proves
+    the optimum is at least this); ``upper`` is an upper bound certified from the dual multipliers
+    (or ``inf`` when none is available).  ``solver`` is ``"daqp"`` or ``"highs"``.
+    """
+
+    lower: float
+    upper: float
+    w: np.ndarray | None
+    solver: str
+
+
+def _normalise_rows(G: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Unit-norm rows; returns ``ok=False`` if a zero row reads ``0 <= negative`` (empty set)."""
+    norms = np.linalg.norm(G, axis=1)
+    zero = norms <= ZERO_ROW_TOL
+    if np.any(zero & (g < -ZERO_ROW_TOL)):
+        return G[:0], g[:0], False
+    keep = ~zero
+    return G[keep] / norms[keep, None], g[keep] / norms[keep], True
+
+
+def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: float, problem: str = "max-slack LP") -> SlackResult:
+    """Largest uniform slack of ``G w <= g`` (the Chebyshev radius of the polytope), certified.
+
+    Solves ``max t  s.t.  G_k w + ||G_k|| t <= g_k, t <= SLACK_CAP`` with DAQP (dense active-set,
+    about 30 microseconds for 10 variables and 30 rows).  Its answer is accepted only when it is
+    *certified* against ``threshold`` with plain numpy:
+
+    * the returned point gives the lower bound ``min_k (g_k - G_k w) / ||G_k||``;
+    * the dual multipliers ``lambda >= 0, mu >= 0`` give the upper bound
+      ``(g' lambda + SLACK_CAP mu + R ||G' lambda||_2) / (n' lambda + mu)``, valid for every
+      feasible ``w`` with ``||w||_2 <= R = radius_bound`` (weak duality with the stationarity
+      residual bounded by Cauchy-Schwarz).
+
+    If neither bound decides ``slack > threshold``, the LP is re-solved with HiGHS and that
+    answer is returned (counted in :data:`COUNTERS`).
+
+    Parameters
+    ----------
+    G, g : arrays
+        Inequalities in *scaled* coordinates (so that feasible points have ``||w|| <= R``).
+    radius_bound : float
+        ``R`` above.
+    threshold : float
+        The decision the caller will take (``slack > threshold``).
+    problem : str
+        Name for error messages.
+    """
+    G = np.asarray(G, dtype=float)
+    g = np.asarray(g, dtype=float)
+    d = G.shape[1]
+    Gn, gn, ok = _normalise_rows(G, g)
+    if not ok:
+        return SlackResult(-np.inf, -np.inf, None, "numpy")
+    k = Gn.shape[0]
+    if k == 0:
+        return SlackResult(SLACK_CAP, SLACK_CAP, np.zeros(d), "numpy")
+    A = np.zeros((k + 1, d + 1))
+    A[:k, :d] = Gn
+    A[:k, d] = 1.0
+    A[k, d] = 1.0
+    bu = np.concatenate([gn, [SLACK_CAP]])
+    bl = np.full(k + 1, -1e30)
+    f = np.zeros(d + 1)
+    f[d] = -1.0
+    COUNTERS.fast += 1
+    x, _, flag, info = daqp.solve(np.zeros((d + 1, d + 1)), f, A, bu, bl, np.zeros(k + 1, dtype=np.int32))
+    if flag in _DAQP_OPTIMAL:
+        w = np.asarray(x[:d], dtype=float)
+        lower = min(float(np.min(gn - Gn @ w)), SLACK_CAP)
+        lam = np.clip(np.asarray(info["lam"], dtype=float), 0.0, None)
+        lam_rows, mu = lam[:k], lam[k]
+        denom = float(lam_rows.sum() + mu)
+        if denom > 0:
+            upper = (float(gn @ lam_rows) + SLACK_CAP * mu + radius_bound * float(np.linalg.norm(Gn.T @ lam_rows))) / denom
+        else:
+            upper = np.inf
+        if lower > threshold or upper <= threshold:
+            return SlackResult(lower, upper, w, "daqp")
+    # Undecided (or DAQP failed): the robust solver decides.
+    COUNTERS.fast -= 1
+    COUNTERS.confirmed_by_highs += 1
+    res = solve_lp(f, A, bu, problem=problem)
+    if res.status == "infeasible":
+        return SlackResult(-np.inf, -np.inf, None, "highs")
+    if res.status != "optimal":
+        raise SolverError(problem, "HiGHS", res.status, hint="the slack LP is capped and cannot be unbounded: check the data for NaN")
+    w = res.x[:d]
+    slack = float(res.x[d])
+    return SlackResult(slack, slack, w, "highs")

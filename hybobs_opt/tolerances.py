@@ -32,3 +32,12 @@ DERIVATIVE_CHECK_RTOL: float = 1e-8
 #: to 1e-6 rad), loose enough to keep a 30 s vehicle scenario well under a second.
 NONLINEAR_ODE_RTOL: float = 1e-10
 NONLINEAR_ODE_ATOL: float = 1e-10
+
+#: Cap on the slack variable of max-slack LPs (in scaled coordinates a set inside the unit box has
+#: Chebyshev radius <= 1, so the cap never binds for the sets of interest and keeps LPs bounded).
+SLACK_CAP: float = 1.0
+
+#: A region (or a pair set R_ij) counts as non-empty and full-dimensional when its Chebyshev
+#: radius in coordinates scaled to [-1, 1] by the state and input bounds exceeds this.  Regions
+#: thinner than 1e-6 of the operating range are numerically indistinguishable from boundaries.
+REGION_SLACK_TOL: float = 1e-6

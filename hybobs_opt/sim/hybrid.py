@@ -106,14 +106,18 @@ def simulate_hybrid(
         inv = n_inv[q].invariant
         lifted = inv.dim != automaton.n
 
-        def rhs(tt, xx, q=q):
-            return automaton.flow(q, xx, ufn(tt))
+        # Inside a segment the input is read strictly before its end: at a breakpoint the
+        # solver's last stage would otherwise see the next piece of a piecewise-constant input.
+        t_last = np.nextafter(t_stop, -np.inf)
 
-        def make_event(k, inv=inv, lifted=lifted):
+        def rhs(tt, xx, q=q, t_last=t_last):
+            return automaton.flow(q, xx, ufn(min(tt, t_last)))
+
+        def make_event(k, inv=inv, lifted=lifted, t_last=t_last):
             a, b = inv.A[k], inv.b[k]
 
             def ev(tt, xx):
-                z = np.concatenate([xx, ufn(tt)]) if lifted else xx
+                z = np.concatenate([xx, ufn(min(tt, t_last))]) if lifted else xx
                 return float(a @ z - b)
 
             ev.terminal = True

@@ -47,7 +47,8 @@ def simulate_nonlinear(
     t0 : float
         Initial time.
     breakpoints : sequence of float
-        Times where ``u_fn`` is discontinuous.
+        Times where ``u_fn`` is discontinuous.  Between two breakpoints the flow uses the input
+        of the open interval, whichever side ``u_fn`` assigns the breakpoint itself to.
 
     Returns
     -------
@@ -80,8 +81,8 @@ def simulate_nonlinear(
     elif callable(u_fn):
         def ufn(t: float) -> np.ndarray:
             return np.asarray(u_fn(t), dtype=float).reshape(-1) if m else np.zeros(0)
-        probe = np.asarray(u_fn(t0), dtype=float) if m else np.zeros(0)
-        if probe.shape not in ((m,),) and not (m == 1 and probe.shape == ()):
+        probe = np.asarray(u_fn(t0), dtype=float).reshape(-1) if m else np.zeros(0)
+        if probe.shape != (m,):
             raise ModelError("u_fn", f"a callable u_fn(t) returning {m} inputs", f"shape {probe.shape}")
     else:
         raise ModelError("u_fn", "a callable u_fn(t) -> (m,) or None", type(u_fn).__name__)
@@ -92,12 +93,16 @@ def simulate_nonlinear(
     xs = np.full((grid.size, system.n), np.nan)
     x = x0.copy()
 
-    def rhs(t: float, xx: np.ndarray) -> np.ndarray:
-        return system.rhs(xx, ufn(t))
-
     for a, b in zip(stops[:-1], stops[1:]):
         if b <= a:
             continue
+        # The solver evaluates the flow at the segment's end points, where a piecewise-constant
+        # input already has its next (or previous) value: read u strictly inside the segment.
+        lo_t, hi_t = np.nextafter(a, b), np.nextafter(b, a)
+
+        def rhs(t: float, xx: np.ndarray, lo_t=lo_t, hi_t=hi_t) -> np.ndarray:
+            return system.rhs(xx, ufn(min(max(t, lo_t), hi_t)))
+
         sol = solve_ivp(rhs, (a, b), x, method="RK45", rtol=NONLINEAR_ODE_RTOL, atol=NONLINEAR_ODE_ATOL,
                         dense_output=True)
         if sol.status != 0:
@@ -107,7 +112,6 @@ def simulate_nonlinear(
         x = sol.y[:, -1].copy()
         if not np.all(np.isfinite(x)):
             raise SimulationError(f"state became non-finite before t = {b:.6g}")
-    # A grid point on a breakpoint takes the end of the segment before it; the state is continuous.
 
     us = np.array([ufn(t) for t in grid]).reshape(grid.size, m)
     if not np.all(np.isfinite(us)):

@@ -58,6 +58,10 @@ def _to_scalar_sx(value, z: ca.SX, field_name: str) -> ca.SX:
     for s in ca.symvar(out):
         if not ca.is_equal(s, z):
             raise ModelError(field_name, "an expression of its argument only", f"a free symbol {s}")
+    # math.sin(SX) and float(SX) silently give a constant NaN: catch it here, not on the box.
+    if out.is_constant() and not np.isfinite(float(out)):
+        raise ModelError(field_name, "a symbolic expression built with casadi functions (ca.sin, not math.sin)",
+                         f"the constant {float(out)}")
     return out
 
 
@@ -118,7 +122,8 @@ class ScalarFunction:
                 raise ModelError(f"{label}.derivative", "a callable mapping a CasADi SX scalar to an SX expression",
                                  f"{type(exc).__name__}: {exc}") from None
             deriv = _to_scalar_sx(raw_d, z, f"{label}.derivative")
-        safe = "".join(c if c.isalnum() else "_" for c in self.name)
+        # CasADi function names: a letter, then letters, digits and single underscores.
+        safe = "_".join("".join(c if c.isalnum() else " " for c in self.name).split()) or "fn"
         object.__setattr__(self, "_z", z)
         object.__setattr__(self, "_value_sx", value)
         object.__setattr__(self, "_deriv_sx", deriv)
