@@ -96,3 +96,25 @@ def test_bad_edge_and_unbounded_bounds():
         HybridAutomaton((loc,), inv, edges=(Edge(0, 3),))
     with pytest.raises(ModelError, match="state_bounds"):
         HybridAutomaton((loc,), Polytope(np.array([[1.0]]), np.array([1.0])))
+
+
+def test_exit_through_entry_face_is_located():
+    """Regression: a state that enters a location and leaves it through the same face must jump back.
+
+    x' = v, v' = -1 (a ball thrown upwards across x = 0): it enters x >= 0 at t = 0 and must leave
+    through x = 0 again at t = 2 v0, returning to the lower location.
+    """
+    down = Polytope(np.array([[1.0, 0.0]]), np.array([0.0]))
+    up = Polytope(np.array([[-1.0, 0.0]]), np.array([0.0]))
+    A = np.array([[0.0, 1.0], [0.0, 0.0]])
+    aut = HybridAutomaton(
+        (Location("below", down, A=A, E=[0.0, 1.0], C=[[1.0, 0.0]]), Location("above", up, A=A, E=[0.0, -1.0], C=[[1.0, 0.0]])),
+        Polytope.from_box([-10, -10], [10, 10]),
+    )
+    trace = simulate_hybrid(aut, [-0.5, 1.0], 4.0, dt=0.01)
+    times = [e["t"] for e in trace.events]
+    # below: x = -0.5 + t + t^2/2 reaches 0 at t1 = sqrt(2) - 1 with v = sqrt(2); above it returns after 2 sqrt(2)
+    t1 = np.sqrt(2.0) - 1.0
+    assert times[0] == pytest.approx(t1, abs=1e-7)
+    assert times[1] == pytest.approx(t1 + 2 * np.sqrt(2.0), abs=1e-7)
+    assert [e["to"] for e in trace.events[:2]] == [1, 0]

@@ -1,7 +1,9 @@
 """Simulators for every system class; all return a :class:`~hybobs_opt.sim.trace.Trace`."""
 
+from .constant_drift import simulate_constant_drift
 from .fixed_step import integrate_fixed_step, simulate_hybrid_fixed_step
 from .hybrid import SimulationError, simulate_hybrid
+from .nonlinear import simulate_nonlinear
 from .pwa import simulate_pwa, simulate_pwa_batch
 from .trace import Trace
 
@@ -9,8 +11,10 @@ __all__ = [
     "SimulationError",
     "Trace",
     "integrate_fixed_step",
+    "simulate_constant_drift",
     "simulate_hybrid",
     "simulate_hybrid_fixed_step",
+    "simulate_nonlinear",
     "simulate_pwa",
     "simulate_pwa_batch",
 ]

@@ -17,6 +17,11 @@ InputFn = Callable[[float], np.ndarray]
 ODE_RTOL = 1e-9
 ODE_ATOL = 1e-12
 
+#: Relative offset of the event threshold of invariant rows that are active when a segment starts.
+#: Events fire on upward crossings only and the state moves inwards after a jump, so the offset
+#: only has to absorb rounding of the located event point (about 1e-16), not model error.
+EVENT_OFFSET_RTOL = 1e-12
+
 
 class SimulationError(HybobsError):
     """The simulation could not continue (Zeno behaviour, state left every invariant)."""
@@ -113,21 +118,26 @@ def simulate_hybrid(
         def rhs(tt, xx, q=q, t_last=t_last):
             return automaton.flow(q, xx, ufn(min(tt, t_last)))
 
-        def make_event(k, inv=inv, lifted=lifted, t_last=t_last):
-            a, b = inv.A[k], inv.b[k]
+        # Every row stays armed.  A row already active at the segment start (the state sits on
+        # the face it just entered through) gets its threshold moved outwards by the membership
+        # slack, so the start point does not fire at once but a real exit through that same
+        # face still does.
+        z0 = np.concatenate([x, ufn(t)]) if lifted else x
+        active = inv.A @ z0 - inv.b
+        offsets = np.where(active > -EVENT_OFFSET_RTOL * (1 + np.abs(inv.b)), EVENT_OFFSET_RTOL * (1 + np.abs(inv.b)), 0.0)
+
+        def make_event(k, inv=inv, lifted=lifted, t_last=t_last, offsets=offsets):
+            a, b, offset = inv.A[k], inv.b[k], float(offsets[k])
 
             def ev(tt, xx):
                 z = np.concatenate([xx, ufn(min(tt, t_last))]) if lifted else xx
-                return float(a @ z - b)
+                return float(a @ z - b - offset)
 
             ev.terminal = True
             ev.direction = 1.0
             return ev
 
-        # Rows already active at the start (state sits on the boundary) would fire at once.
-        z0 = np.concatenate([x, ufn(t)]) if lifted else x
-        active = inv.A @ z0 - inv.b
-        ev_fns = [make_event(k) for k in range(inv.n_constraints) if active[k] < -1e-12 * (1 + abs(inv.b[k]))]
+        ev_fns = [make_event(k) for k in range(inv.n_constraints)]
         sol = solve_ivp(rhs, (t, t_stop), x, method="RK45", rtol=ODE_RTOL, atol=ODE_ATOL, events=ev_fns or None, dense_output=True)
         if sol.status == -1:
             raise SimulationError(f"ODE solver failed in location {n_inv[q].name} at t = {t:.6g}: {sol.message}")
@@ -138,6 +148,11 @@ def simulate_hybrid(
             qs[mask] = q
         x = sol.y[:, -1].copy()
         t = t_end
+        if sol.status != 1 and not automaton.in_invariant(q, x, ufn(min(t, t_last)), rtol=1e-6):
+            raise SimulationError(
+                f"state {x.tolist()} at t = {t:.6g} left location {n_inv[q].name!r} without an event: "
+                "the invariant is crossed twice within one solver step; reduce the horizon between breakpoints"
+            )
         if sol.status == 1:  # an invariant row became active: jump
             q_new, x = _jump(automaton, q, x, ufn(t))
             events.append({"t": t, "kind": "location change", "from": q, "to": q_new, "x": x.tolist()})

@@ -122,6 +122,10 @@ class PWASystem:
         domain = self.domain
         lo, hi = domain.bounding_box()
         scale = np.where(hi - lo > 0, hi - lo, 1.0)
+        half, centre = np.where(hi - lo > 0, (hi - lo) / 2.0, 1.0), (hi + lo) / 2.0
+        half.setflags(write=False)
+        centre.setflags(write=False)
+        object.__setattr__(self, "_scales", (half, centre))
         for i, mode in enumerate(modes):
             if not mode.guard.intersect(domain).is_full_dimensional(scale):
                 raise ModelError(
@@ -207,10 +211,11 @@ class PWASystem:
         return mode.C @ np.asarray(x, dtype=float) + mode.D @ uu + mode.c
 
     def scales(self) -> tuple[np.ndarray, np.ndarray]:
-        """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md."""
-        lo, hi = self.domain.bounding_box()
-        half = np.where(hi - lo > 0, (hi - lo) / 2.0, 1.0)
-        return half, (hi + lo) / 2.0
+        """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md.
+
+        Computed once at construction (read-only arrays).
+        """
+        return self._scales
 
     def __repr__(self) -> str:
         return f"PWASystem(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, modes={self.n_modes})"
