@@ -128,6 +128,122 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0 if all(r["ok"] for r in result["sections"]) else 2
 
 
+def _executor_from_args(args: argparse.Namespace):
+    from .executor import make_executor
+
+    if args.workers is not None and args.workers < 1:
+        raise ModelError("--workers", "a positive number of processes", repr(args.workers))
+    return make_executor(args.executor, args.workers, args.scheduler, args.dask_local)
+
+
+def _progress_bar(enabled: bool, desc: str):
+    """A tqdm bar on a terminal (stderr), nothing in tests or --json mode."""
+    if not enabled or not sys.stderr.isatty():
+        return None, lambda: None
+    from tqdm import tqdm
+
+    bar = tqdm(total=0, desc=desc, file=sys.stderr, leave=False)
+
+    def update(done: int, total: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    return update, bar.close
+
+
+def cmd_regions(args: argparse.Namespace) -> int:
+    from .examples import get_example
+    from .regions import analyse_observability, compute_cut, parse_assignments, plot_cut, save_analysis
+
+    example = get_example(args.example)
+    if example.kind != "pwa":
+        raise ModelError("example", "a PWA example (observability regions need a PWASystem)",
+                         f"{example.name!r} of kind {example.kind!r}")
+    params = _parse_params(args.param)
+    system = example.build(**params)
+    fixed = parse_assignments(args.cut, system.state_names)
+    executor = _executor_from_args(args)
+    update, close = _progress_bar(not args.json, "Algorithm 3.1")
+    try:
+        analysis = analyse_observability(system, args.horizon, executor=executor, progress=update)
+    finally:
+        close()
+        executor.close()
+    out = analysis.summary()
+    out["example"] = example.name
+    out["params"] = params
+    if args.save:
+        save_analysis(analysis, args.save, example.name, params)
+        out["saved"] = str(args.save)
+    if args.query:
+        out["observable"] = _query_points(analysis, args.query, system.state_names)
+    if fixed or args.plot:
+        if not fixed:
+            raise ModelError("--plot", f"a --cut fixing {system.n - 2} states so that a 2-D plane remains", "no --cut")
+        nx, ny = _resolution(args.resolution)
+        update, close = _progress_bar(not args.json, "cut")
+        try:
+            cut = compute_cut(analysis, fixed, (nx, ny), progress=update)
+        finally:
+            close()
+        out["cut"] = {"axes": list(cut.axes), "fixed": cut.fixed, "resolution": [nx, ny],
+                      "fraction_observable_of_feasible": cut.fraction_of_feasible("observable"),
+                      "fraction_unobservable_of_feasible": cut.fraction_of_feasible("unobservable")}
+        if args.plot:
+            stretch = {"theta": 10.0} if "theta" in cut.axes else None  # as the paper's figures
+            plot_cut(cut, args.plot, title=f"{example.name}, T = {args.horizon}, " + ", ".join(f"{k} = {v:g}" for k, v in fixed.items()), stretch=stretch)
+            out["plot"] = str(args.plot)
+    if args.json:
+        _print_json(out)
+        return 0
+    print(f"{example.name} (T = {args.horizon}): {out['n_regions']} regions, {out['n_full_rank']} with rank C_i = n, "
+          f"{out['n_unobservable_pieces']} polytopes in B_T ({out['n_reduced_pieces']} in B~_T), "
+          f"{out['n_lps']} LPs ({out['n_lps_avoided_by_pruning']} avoided by pruning), {out['seconds']:.2f} s [{out['executor']}]")
+    if "cut" in out:
+        c = out["cut"]
+        print(f"cut {c['fixed']}: {100 * c['fraction_observable_of_feasible']:.1f} % of the feasible grid points observable")
+    for key in ("saved", "plot"):
+        if key in out:
+            print(f"{key}: {out[key]}")
+    if "observable" in out:
+        print(f"query: {sum(out['observable'])} of {len(out['observable'])} states observable")
+    return 0
+
+
+def _resolution(text: str) -> tuple[int, int]:
+    try:
+        nx, ny = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ModelError("--resolution", "NXxNY, e.g. 41x31", repr(text)) from None
+    if nx < 2 or ny < 2:
+        raise ModelError("--resolution", "at least 2 points per axis", repr(text))
+    return nx, ny
+
+
+def _query_points(analysis, path: str, state_names: tuple[str, ...]) -> list[bool]:
+    import csv
+
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise ModelError(f"--query {path}", "a header row naming the states", "an empty file")
+    header = [h.strip() for h in rows[0]]
+    if sorted(header) != sorted(state_names):
+        raise ModelError(f"--query {path} header", f"the state names {list(state_names)}", f"{header}")
+    order = [header.index(nm) for nm in state_names]
+    points = []
+    for k, row in enumerate(rows[1:], start=2):
+        if not row:
+            continue
+        try:
+            values = [float(row[c]) for c in order]
+        except (ValueError, IndexError):
+            raise ModelError(f"--query {path} line {k}", f"{len(state_names)} numbers", repr(row)) from None
+        points.append(values)
+    return [analysis.is_observable(p) for p in points]
+
+
 def cmd_observe(args: argparse.Namespace) -> int:
     from .examples import get_example
 
@@ -165,6 +281,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--section", action="append", metavar="KEY", help="build only these sections")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("regions", help="observability regions of a PWA example (paper 002, Algorithm 3.1)")
+    p.add_argument("example", help="a PWA example (powertrain3, powertrain5)")
+    p.add_argument("--horizon", "-T", type=int, required=True, help="observation horizon T")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="model parameter, e.g. gear_ratio=1/2")
+    p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
+    p.add_argument("--resolution", default="41x31", metavar="NXxNY", help="grid of the cut (default 41x31)")
+    p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
+    p.add_argument("--save", metavar="FILE", help="save the result (JSON) for the lookup observer")
+    p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
+    p.add_argument("--executor", choices=("serial", "processes"), default="processes", help="where the LPs run")
+    p.add_argument("--workers", type=int, default=None, help="number of local processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on a Dask distributed scheduler")
+    p.add_argument("--dask-local", type=int, metavar="N", help="start a Dask LocalCluster with N workers")
+    p.add_argument("--json", action="store_true", help="machine-readable summary")
+    p.set_defaults(func=cmd_regions)
 
     p = sub.add_parser("observe", help="run an observer on an example's scenario")
     p.add_argument("example", help="example name")

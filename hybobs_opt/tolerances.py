@@ -17,7 +17,7 @@ FULL_DIMENSION_RTOL: float = 1e-7
 ZERO_ROW_TOL: float = 1e-12
 
 #: Relative singular-value threshold for rank tests (``s_min / s_max``) in scaled coordinates.
-RANK_RTOL: float = 1e-9
+RANK_RTOL: float = 1e-12
 
 #: Relative tolerance used when checking that two affine maps (mode dynamics) are equal.
 MATRIX_EQUAL_RTOL: float = 1e-12
@@ -41,3 +41,45 @@ SLACK_CAP: float = 1.0
 #: radius in coordinates scaled to [-1, 1] by the state and input bounds exceeds this.  Regions
 #: thinner than 1e-6 of the operating range are numerically indistinguishable from boundaries.
 REGION_SLACK_TOL: float = 1e-6
+
+# ---------------------------------------------------------------------- polytope operations
+# (projection, redundancy removal, set difference; paper 002, Sections 2-3).  All of these act in
+# coordinates scaled so that the set's bounding box is [-1, 1]^d.
+
+#: A row is redundant when its maximum over the other rows exceeds its right-hand side by at
+#: most this, relative to ``1 + |b_i|``.  HiGHS certifies optimality to a primal/dual feasibility
+#: of 1e-7, so a smaller value would keep rows whose "non-redundancy" is LP noise; dropping a row
+#: that cuts off less than this moves the set by a negligible 1e-7 of its size.
+REDUNDANCY_RTOL: float = 1e-7
+
+#: Two unit-norm rows are treated as the same direction (the looser one dropped without an LP)
+#: when they round to the same point of a grid of this spacing: they then differ by at most
+#: ``sqrt(d) * 1e-10``, which moves the set by far less than REDUNDANCY_RTOL inside the unit box.
+#: Near-parallel rows that straddle a grid line are simply left to the LP test.
+PARALLEL_ROW_TOL: float = 1e-10
+
+#: Iterative-hull projection: a support point found beyond a facet of the current hull by more
+#: than this (target coordinates scaled to the image's bounding box) is added and the hull is
+#: rebuilt.  Ten times the LP feasibility tolerance, so LP noise cannot create endless near-
+#: duplicate points; the computed projection is exact to this relative accuracy.
+PROJECTION_HULL_RTOL: float = 1e-6
+
+#: A cloud of support points (scaled to the unit box) is flat in a direction when its singular
+#: value there is below this: the projection then lies in that affine hull (a lower-dimensional
+#: set, returned with its equalities as paired inequalities).  Same size as PROJECTION_HULL_RTOL
+#: because both compare LP support values in the same scaled coordinates.
+AFFINE_HULL_RTOL: float = 1e-6
+
+#: Least-squares residual of ``E z = e`` (scaled coordinates), relative to ``1 + |e|``, above
+#: which the equalities are declared inconsistent.  Well above the rank-truncation noise
+#: (RANK_RTOL times the largest singular value times ``|z|``) and far below any real conflict.
+EQUALITY_CONSISTENCY_RTOL: float = 1e-7
+
+#: A constraint row is implied by the box X x U^T (and dropped) when its largest value over the box
+#: stays below its bound by this relative margin; rows that reach the bound are kept.
+BOX_IMPLIED_RTOL: float = 1e-12
+
+#: Rows whose slack at DAQP's point is within this (scaled units) of DAQP's slack variable are
+#: treated as active when the dual multipliers are refined.  DAQP's points violate rows by up to
+#: about 1e-6 here; extra rows only give NNLS more freedom, the bound stays valid for any choice.
+NEAR_ACTIVE_TOL: float = 1e-5

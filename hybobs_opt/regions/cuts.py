@@ -1,0 +1,159 @@
+"""2-D cuts of the observability regions (paper 002, Figs. 3-6), from exact point queries.
+
+A cut fixes all states but two; every grid point of the remaining plane is classified exactly
+by :meth:`ObservabilityAnalysis.classify` (``observable`` / ``unobservable`` / ``infeasible``,
+i.e. outside ``X*_T``), so the picture and the numbers asserted by the tests are the same data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+
+LABELS = ("observable", "unobservable", "infeasible")
+
+
+@dataclass(frozen=True, eq=False)
+class Cut:
+    """Classification of a grid in the plane of two states, the others fixed.
+
+    Attributes
+    ----------
+    axes : (str, str)
+        Names of the free states (horizontal, vertical).
+    fixed : dict
+        The fixed states and their values.
+    x_values, y_values : arrays
+        Grid coordinates.
+    labels : (len(y), len(x)) array of str
+        One of :data:`LABELS` per grid point.
+    """
+
+    axes: tuple[str, str]
+    fixed: dict
+    x_values: np.ndarray
+    y_values: np.ndarray
+    labels: np.ndarray
+
+    def fraction(self, label: str, mask: np.ndarray | None = None) -> float:
+        """Share of grid points (optionally within ``mask``) carrying ``label``."""
+        sel = self.labels if mask is None else self.labels[mask]
+        return float(np.mean(sel == label)) if sel.size else float("nan")
+
+    def fraction_of_feasible(self, label: str, mask: np.ndarray | None = None) -> float:
+        """Share of the points of ``X*_T`` (optionally within ``mask``) carrying ``label``."""
+        m = self.labels != "infeasible"
+        if mask is not None:
+            m &= mask
+        return float(np.mean(self.labels[m] == label)) if m.any() else float("nan")
+
+    def grid(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.meshgrid(self.x_values, self.y_values)
+
+    def to_dict(self) -> dict:
+        return {
+            "axes": list(self.axes),
+            "fixed": dict(self.fixed),
+            "x_values": self.x_values.tolist(),
+            "y_values": self.y_values.tolist(),
+            "labels": self.labels.tolist(),
+            "fraction_observable_of_feasible": self.fraction_of_feasible("observable"),
+        }
+
+
+def parse_assignments(items: list[str] | None, state_names: tuple[str, ...], option: str = "--cut") -> dict[str, float]:
+    """Parse ``["omega_l=25", ...]`` into ``{name: value}`` with the names checked."""
+    out: dict[str, float] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise ModelError(option, "NAME=VALUE with NAME a state name", repr(item))
+        name, value = (s.strip() for s in item.split("=", 1))
+        if name not in state_names:
+            raise ModelError(option, f"a state name among {state_names}", repr(name))
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ModelError(f"{option} {name}", "a number", repr(value)) from None
+    return out
+
+
+def compute_cut(
+    analysis,
+    fixed: dict[str, float],
+    resolution: tuple[int, int] = (41, 31),
+    limits: dict[str, tuple[float, float]] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Cut:
+    """Classify a grid of the plane left free by ``fixed`` (which must fix all states but two).
+
+    Parameters
+    ----------
+    analysis : ObservabilityAnalysis
+    fixed : dict
+        ``{state name: value}`` for ``n - 2`` states.
+    resolution : (int, int)
+        Grid points along the horizontal and vertical axes.
+    limits : dict, optional
+        ``{state name: (lo, hi)}`` for the free axes; default: the state bounds.
+    """
+    system = analysis.system
+    names = system.state_names
+    free = [k for k, nm in enumerate(names) if nm not in fixed]
+    if len(free) != 2:
+        raise ModelError("--cut", f"values for exactly {system.n - 2} of the states {names} (two stay free)",
+                         f"{sorted(fixed)}")
+    nx, ny = resolution
+    if nx < 2 or ny < 2:
+        raise ModelError("resolution", "at least 2 points per axis", repr(resolution))
+    lo, hi = system.state_bounds.bounding_box()
+    limits = limits or {}
+    axes = []
+    for k in free:
+        a, b = limits.get(names[k], (lo[k], hi[k]))
+        axes.append(np.linspace(a, b, nx if len(axes) == 0 else ny))
+    X = np.zeros((ny, nx, system.n))
+    for nm, v in fixed.items():
+        X[:, :, names.index(nm)] = v
+    gx, gy = np.meshgrid(axes[0], axes[1])
+    X[:, :, free[0]] = gx
+    X[:, :, free[1]] = gy
+    labels = analysis.classify_many(X.reshape(-1, system.n), progress=progress).reshape(ny, nx)
+    return Cut((names[free[0]], names[free[1]]), dict(fixed), axes[0], axes[1], labels)
+
+
+def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None = None):
+    """Save a PNG of the cut: observable (green), unobservable (red), outside ``X*_T`` (white).
+
+    ``stretch`` multiplies an axis for display (the paper multiplies the theta axis by 10).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    code = np.vectorize({"observable": 0, "unobservable": 1, "infeasible": 2}.get)(cut.labels)
+    sx = (stretch or {}).get(cut.axes[0], 1.0)
+    sy = (stretch or {}).get(cut.axes[1], 1.0)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    dx = (cut.x_values[1] - cut.x_values[0]) * sx / 2
+    dy = (cut.y_values[1] - cut.y_values[0]) * sy / 2
+    ax.imshow(code, origin="lower", aspect="auto", interpolation="nearest",
+              extent=(cut.x_values[0] * sx - dx, cut.x_values[-1] * sx + dx, cut.y_values[0] * sy - dy, cut.y_values[-1] * sy + dy),
+              cmap=ListedColormap(["#7fc97f", "#e7298a", "#ffffff"]), vmin=0, vmax=2)
+    ax.set_xlabel(cut.axes[0] + (f" x {sx:g}" if sx != 1 else ""))
+    ax.set_ylabel(cut.axes[1] + (f" x {sy:g}" if sy != 1 else ""))
+    fixed = ", ".join(f"{k} = {v:g}" for k, v in cut.fixed.items())
+    ax.set_title(title or f"cut at {fixed}", fontsize=10)
+    from matplotlib.patches import Patch
+
+    ax.legend(handles=[Patch(color="#7fc97f", label="observable (O_T)"), Patch(color="#e7298a", label="unobservable (B_T)"),
+                       Patch(facecolor="white", edgecolor="k", label="outside X*_T")], fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,275 @@
+"""Mode enumeration over a horizon T: the regions P_i and output maps of eq. (4), paper 002.
+
+For every mode sequence ``sigma = (i_0, ..., i_{T-1})`` the state is affine in ``(x, U)``,
+``x(k) = Phi_k x + Gamma_k U + phi_k``, so the set of ``(x, U)`` that follow ``sigma`` is a
+polytope ``P_sigma`` and the output sequence is ``Y = C_sigma x + D_sigma U + f_sigma`` on it.
+Sequences are enumerated as a prefix tree: a prefix whose polytope is empty (or thinner than
+:data:`~hybobs_opt.tolerances.REGION_SLACK_TOL` in scaled coordinates) is pruned with one LP,
+together with its whole subtree.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ..lp import COUNTERS, max_slack
+from ..systems.pwa import PWASystem
+from ..tolerances import BOX_IMPLIED_RTOL, REGION_SLACK_TOL
+
+
+@dataclass(frozen=True, eq=False)
+class ModeRegion:
+    """One region ``P_i`` of eq. (4): a mode sequence, its polytope over ``(x, U)`` and output map.
+
+    Attributes
+    ----------
+    sequence : tuple of int
+        Modes ``i_0 ... i_{T-1}``.
+    H, h : arrays
+        ``P_i = {(x, U) : H [x; U] <= h}`` in original (unscaled) coordinates.
+    C, D, f : arrays
+        ``Y = C x + D U + f`` on ``P_i`` (``Y`` stacks ``y(0) ... y(T-1)``).
+    Phi, Gamma, phi : arrays
+        ``x(T) = Phi x + Gamma U + phi`` (used to propagate an estimate to the current time).
+    slack : float
+        Chebyshev radius of ``P_i`` in scaled coordinates (certified lower bound).
+    """
+
+    sequence: tuple[int, ...]
+    H: np.ndarray
+    h: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    f: np.ndarray
+    Phi: np.ndarray
+    Gamma: np.ndarray
+    phi: np.ndarray
+    slack: float
+
+
+@dataclass(frozen=True, eq=False)
+class ModeEnumeration:
+    """Result of :func:`enumerate_modes`: the regions of eq. (4) for horizon ``T``.
+
+    ``scale``/``centre`` map scaled coordinates ``w in [-1, 1]`` of ``(x, U)`` to original ones,
+    ``z = centre + scale * w``.
+    """
+
+    system: PWASystem
+    T: int
+    regions: tuple[ModeRegion, ...]
+    scale: np.ndarray
+    centre: np.ndarray
+    n_lps: int
+    n_prefixes_tested: int
+    n_prefixes_total: int
+    seconds: float
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return self.system.n
+
+    @property
+    def m(self) -> int:
+        return self.system.m
+
+    @property
+    def n_lps_avoided(self) -> int:
+        """LPs saved by pruning: prefixes never tested because an ancestor was empty."""
+        return self.n_prefixes_total - self.n_prefixes_tested
+
+
+def horizon_scaling(system: PWASystem, T: int, copies_of_x: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Half-widths and centres of ``(x, [x_hat,] U)``: state bounds per state copy, input bounds per step."""
+    half, centre = system.scales()
+    n = system.n
+    sx, cx = half[:n], centre[:n]
+    su, cu = half[n:], centre[n:]
+    scale = np.concatenate([np.tile(sx, copies_of_x), np.tile(su, T)])
+    ctr = np.concatenate([np.tile(cx, copies_of_x), np.tile(cu, T)])
+    return scale, ctr
+
+
+def check_horizon(system: PWASystem, T: int) -> None:
+    """Validate ``T``: a positive integer satisfying the necessary condition ``T p >= n`` (eq. 8)."""
+    if not isinstance(T, (int, np.integer)) or T < 1:
+        raise ModelError("horizon T", "a positive integer", repr(T))
+    if T * system.p < system.n:
+        raise ModelError(
+            "horizon T",
+            f"T p >= n (eq. 8 of paper 002): T >= {int(np.ceil(system.n / system.p))} for n = {system.n}, p = {system.p}",
+            f"T = {T}: no state can be observable in T steps",
+        )
+
+
+class _Node:
+    """A prefix of the tree: affine state map, accumulated constraint rows and output rows."""
+
+    __slots__ = ("seq", "Phi", "Gamma", "phi", "H", "h", "C", "D", "f")
+
+    def __init__(self, seq, Phi, Gamma, phi, H, h, C, D, f):
+        self.seq, self.Phi, self.Gamma, self.phi = seq, Phi, Gamma, phi
+        self.H, self.h, self.C, self.D, self.f = H, h, C, D, f
+
+
+def _root(system: PWASystem, T: int) -> _Node:
+    n, m = system.n, system.m
+    return _Node((), np.eye(n), np.zeros((n, T * m)), np.zeros(n), np.zeros((0, n + T * m)), np.zeros(0),
+                 np.zeros((0, n)), np.zeros((0, T * m)), np.zeros(0))
+
+
+def _child(system: PWASystem, T: int, node: _Node, i: int, domain_rows, box=None) -> _Node:
+    """Extend ``node`` by mode ``i`` at step ``k = len(node.seq)``."""
+    n, m = system.n, system.m
+    k = len(node.seq)
+    mode = system.modes[i]
+    Ek = np.zeros((m, T * m))
+    Ek[:, k * m : (k + 1) * m] = np.eye(m)
+    rows_A = np.vstack([mode.guard.A, domain_rows[0]])
+    rows_b = np.concatenate([mode.guard.b, domain_rows[1]])
+    Ax, Au = rows_A[:, :n], rows_A[:, n:]
+    newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
+    newh = rows_b - Ax @ node.phi
+    C = np.vstack([node.C, mode.C @ node.Phi])
+    D = np.vstack([node.D, mode.C @ node.Gamma + mode.D @ Ek])
+    f = np.concatenate([node.f, mode.C @ node.phi + mode.c])
+    Phi = mode.A @ node.Phi
+    Gamma = mode.A @ node.Gamma + mode.B @ Ek
+    phi = mode.A @ node.phi + mode.a
+    if box is not None:
+        # Rows that cannot be active anywhere in the box X x U^T are implied by it: drop them
+        # (interval arithmetic, exact).  The box's own rows reach their bound and are kept.
+        scale, centre = box
+        reach = newH @ centre + np.abs(newH) @ scale
+        keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
+        newH, newh = newH[keep], newh[keep]
+    return _Node(node.seq + (i,), Phi, Gamma, phi, np.vstack([node.H, newH]), np.concatenate([node.h, newh]), C, D, f)
+
+
+def _slack(node: _Node, scale: np.ndarray, centre: np.ndarray) -> float:
+    G = node.H * scale[None, :]
+    g = node.h - node.H @ centre
+    res = max_slack(G, g, radius_bound=np.sqrt(scale.size), threshold=REGION_SLACK_TOL,
+                    problem=f"region of mode prefix {node.seq}")
+    return res.lower if res.lower > REGION_SLACK_TOL else res.upper
+
+
+def _expand(system: PWASystem, T: int, node: _Node, scale, centre, domain_rows, out: list, counts: list) -> None:
+    """Depth-first expansion in lexicographic order (so every executor returns the same order)."""
+    for i in range(system.n_modes):
+        child = _child(system, T, node, i, domain_rows, (scale, centre))
+        counts[0] += 1
+        slack = _slack(child, scale, centre)
+        if slack <= REGION_SLACK_TOL:
+            continue
+        if len(child.seq) == T:
+            out.append(ModeRegion(child.seq, child.H, child.h, child.C, child.D, child.f,
+                                  child.Phi, child.Gamma, child.phi, float(slack)))
+        else:
+            _expand(system, T, child, scale, centre, domain_rows, out, counts)
+
+
+def _prefix_node(system: PWASystem, T: int, prefix: tuple[int, ...], domain_rows) -> _Node:
+    node = _root(system, T)
+    for i in prefix:
+        node = _child(system, T, node, i, domain_rows, horizon_scaling(system, T))
+    return node
+
+
+def enumerate_subtree(system: PWASystem, T: int, prefix: tuple[int, ...]) -> tuple[list[ModeRegion], int, int]:
+    """Enumerate the regions below ``prefix`` (a feasible prefix); returns (regions, n_tested, n_lps)."""
+    scale, centre = horizon_scaling(system, T)
+    domain = system.domain
+    domain_rows = (domain.A, domain.b)
+    start = COUNTERS.total
+    node = _prefix_node(system, T, prefix, domain_rows)
+    out: list[ModeRegion] = []
+    counts = [0]
+    if len(prefix) == T:
+        slack = _slack(node, scale, centre)
+        counts[0] += 1
+        if slack > REGION_SLACK_TOL:
+            out.append(ModeRegion(node.seq, node.H, node.h, node.C, node.D, node.f, node.Phi, node.Gamma, node.phi, float(slack)))
+    else:
+        _expand(system, T, node, scale, centre, domain_rows, out, counts)
+    return out, counts[0], COUNTERS.total - start
+
+
+def _feasible_prefixes(system: PWASystem, T: int, depth: int) -> tuple[list[tuple[int, ...]], int]:
+    """Feasible prefixes of length ``depth`` (breadth-first, lexicographic), and the number tested."""
+    scale, centre = horizon_scaling(system, T)
+    domain_rows = (system.domain.A, system.domain.b)
+    level = [_root(system, T)]
+    tested = 0
+    for _ in range(depth):
+        nxt = []
+        for node in level:
+            for i in range(system.n_modes):
+                child = _child(system, T, node, i, domain_rows, (scale, centre))
+                tested += 1
+                if _slack(child, scale, centre) > REGION_SLACK_TOL:
+                    nxt.append(child)
+        level = nxt
+    return [node.seq for node in level], tested
+
+
+def _subtree_task(args):
+    system, T, prefix = args
+    return enumerate_subtree(system, T, prefix)
+
+
+def enumerate_modes(
+    system: PWASystem,
+    T: int,
+    *,
+    executor=None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ModeEnumeration:
+    """Enumerate the regions ``P_i`` of eq. (4) of paper 002 for horizon ``T``.
+
+    Parameters
+    ----------
+    system : PWASystem
+    T : int
+        Horizon (must satisfy ``T p >= n``, eq. 8).
+    executor : Executor, optional
+        Where the subtrees run (:mod:`hybobs_opt.executor`); serial by default.  Every executor
+        returns the same regions in the same (lexicographic) order.
+    progress : callable, optional
+        ``progress(done, total)`` over subtrees.
+
+    Returns
+    -------
+    ModeEnumeration
+    """
+    from ..executor import SerialExecutor
+
+    check_horizon(system, T)
+    executor = executor or SerialExecutor()
+    t0 = time.perf_counter()
+    start = COUNTERS.total
+    depth = 0
+    if executor.n_workers > 1 and T > 2:
+        # Split into enough subtrees to keep every worker busy.
+        depth = 1
+        while depth < T - 1 and system.n_modes ** depth < 4 * executor.n_workers:
+            depth += 1
+    prefixes, tested = _feasible_prefixes(system, T, depth) if depth else ([()], 0)
+    lps_here = COUNTERS.total - start
+    results = executor.map(_subtree_task, [(system, T, p) for p in prefixes], progress=progress)
+    regions: list[ModeRegion] = []
+    n_lps = lps_here
+    for regs, n_tested, lps in results:
+        regions.extend(regs)
+        tested += n_tested
+        n_lps += lps
+    total = sum(system.n_modes ** k for k in range(1, T + 1))
+    scale, centre = horizon_scaling(system, T)
+    return ModeEnumeration(system, T, tuple(regions), scale, centre, n_lps, tested, total, time.perf_counter() - t0,
+                           {"executor": executor.name, "split_depth": depth})

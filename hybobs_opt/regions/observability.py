@@ -1,0 +1,433 @@
+"""Algorithm 3.1 of paper 002: the unobservable set B_T, the reduced set B~_T (15), O_T (9).
+
+Notation: regions ``P_i`` of eq. (4) over ``(x, U)`` with outputs ``Y = C_i x + D_i U + f_i``.
+
+* ``I`` (step 1): regions whose ``C_i`` has full column rank ``n`` (rank test on ``C_i`` scaled
+  by the state bounds, relative threshold :data:`~hybobs_opt.tolerances.RANK_RTOL`).
+* ``B_T`` (steps 2-3): the projections ``Proj_x(P_i)`` for ``i`` not in ``I`` and
+  ``Proj_x(R_ij)`` for ``i`` in ``I``, ``j != i`` with ``R_ij`` non-empty, where
+  ``R_ij = {(x, x^, U) : (x, U) in P_i, (x^, U) in P_j, C_i x + D_i U + f_i = C_j x^ + D_j U + f_j}``.
+* ``B~_T`` (eq. 15): the ``R_ij`` with ``i`` in ``I`` and ``j`` not in ``I``.
+
+Like the paper, the sets are computed up to sets of zero measure: a pair set counts when it has
+a Chebyshev ball of radius above :data:`~hybobs_opt.tolerances.REGION_SLACK_TOL` inside the
+affine subspace of its output equalities (scaled coordinates) *and* its projection onto ``x`` is
+full-dimensional (the projected nullspace of the equalities has rank ``n``).  Working with the
+interiors is what makes ``x != x^`` automatic, as the paper's "not necessarily closed, disjoint"
+regions do: the interiors of different ``P_i`` are disjoint.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ..lp import COUNTERS, max_slack
+from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL
+from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
+
+
+def _rank(M: np.ndarray) -> int:
+    if M.size == 0:
+        return 0
+    s = np.linalg.svd(M, compute_uv=False)
+    return int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny)))
+
+
+def _nullspace(M: np.ndarray) -> tuple[np.ndarray, int]:
+    """Orthonormal basis of ``ker M`` (columns) and ``rank M`` with the relative threshold."""
+    if M.shape[0] == 0:
+        return np.eye(M.shape[1]), 0
+    _, s, Vt = np.linalg.svd(M)
+    r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
+    return Vt[r:].T, r
+
+
+@dataclass(frozen=True, eq=False)
+class PairSet:
+    """A non-empty ``R_ij`` with full-dimensional projection, as constraints in original coordinates.
+
+    ``G [x; x^; U] <= g`` and ``E [x; x^; U] = e``; ``slack`` is its Chebyshev radius inside the
+    equality subspace, in scaled coordinates.
+    """
+
+    i: int
+    j: int
+    G: np.ndarray
+    g: np.ndarray
+    E: np.ndarray
+    e: np.ndarray
+    slack: float
+
+
+@dataclass(eq=False)
+class ObservabilityAnalysis:
+    """Result of Algorithm 3.1 (paper 002) with the exact point query of Definition 2.2.
+
+    Attributes
+    ----------
+    enumeration : ModeEnumeration
+        The regions ``P_i`` of eq. (4).
+    full_rank : tuple of bool
+        Membership of each region in ``I`` (step 1).
+    pairs : tuple of PairSet
+        Every non-empty ``R_ij`` (``i`` in ``I``, ``j != i``) found in step 3.
+    n_pair_lps, n_pairs_tested, n_pairs_skipped_rank : int
+        LPs solved for the pair tests, pairs tested, pairs discarded before any LP because the
+        projection of their equality subspace onto ``x`` is not full-dimensional.
+    seconds : float
+        Time of step 1-3 (enumeration excluded; see ``enumeration.seconds``).
+    """
+
+    enumeration: ModeEnumeration
+    full_rank: tuple[bool, ...]
+    pairs: tuple[PairSet, ...]
+    n_pair_lps: int
+    n_pairs_tested: int
+    n_pairs_skipped_rank: int
+    seconds: float
+    stats: dict = field(default_factory=dict)
+    _pair_cache: dict = field(default_factory=dict, repr=False)
+    _xboxes: np.ndarray | None = field(default=None, repr=False)
+
+    # ------------------------------------------------------------------ sets
+    @property
+    def system(self):
+        return self.enumeration.system
+
+    @property
+    def T(self) -> int:
+        return self.enumeration.T
+
+    @property
+    def regions(self):
+        return self.enumeration.regions
+
+    @property
+    def index_set(self) -> tuple[int, ...]:
+        """``I``: indices of the regions with ``rank C_i = n``."""
+        return tuple(k for k, ok in enumerate(self.full_rank) if ok)
+
+    @property
+    def rank_deficient(self) -> tuple[int, ...]:
+        """``M \\ I``."""
+        return tuple(k for k, ok in enumerate(self.full_rank) if not ok)
+
+    @property
+    def reduced_pairs(self) -> tuple[PairSet, ...]:
+        """The ``R_ij`` of ``B~_T`` (eq. 15): ``i`` in ``I``, ``j`` not in ``I``."""
+        return tuple(p for p in self.pairs if not self.full_rank[p.j])
+
+    @property
+    def n_unobservable_pieces(self) -> int:
+        """Number of polytopes composing ``B_T``: rank-deficient regions plus non-empty pair sets."""
+        return len(self.rank_deficient) + len(self.pairs)
+
+    # ------------------------------------------------------------------ point query
+    def _region_slack_at(self, k: int, x: np.ndarray) -> float:
+        """Largest slack of ``P_k`` at fixed ``x`` over ``U`` (scaled): ``> tol`` iff ``x in int Proj_x P_k``."""
+        reg = self.regions[k]
+        n = self.system.n
+        scale, centre = self.enumeration.scale, self.enumeration.centre
+        Hx, HU = reg.H[:, :n], reg.H[:, n:]
+        G = HU * scale[None, n:]
+        g = reg.h - Hx @ x - HU @ centre[n:]
+        res = max_slack(G, g, radius_bound=np.sqrt(G.shape[1]), threshold=REGION_SLACK_TOL,
+                        problem=f"x in Proj_x(P_{k})")
+        return res.lower if res.lower > REGION_SLACK_TOL else res.upper
+
+    def _x_boxes(self) -> np.ndarray:
+        """Bounding boxes of ``Proj_x(P_k)`` for a cheap pre-filter of point queries (computed once)."""
+        if self._xboxes is None:
+            from ..lp import solve_lp
+
+            n = self.system.n
+            boxes = np.empty((len(self.regions), 2, n))
+            for k, reg in enumerate(self.regions):
+                for d in range(n):
+                    for side, sign in ((0, 1.0), (1, -1.0)):
+                        c = np.zeros(reg.H.shape[1])
+                        c[d] = sign
+                        res = solve_lp(c, reg.H, reg.h, problem=f"bounding box of Proj_x(P_{k})")
+                        if res.status != "optimal":
+                            raise ModelError(f"region {k}", "a bounded non-empty polytope", res.status)
+                        boxes[k, side, d] = sign * res.objective
+            self._xboxes = boxes
+        return self._xboxes
+
+    def regions_containing(self, x) -> list[int]:
+        """Indices ``k`` with ``x`` in the interior of ``Proj_x(P_k)`` (so ``x in X*_T``, eq. 5)."""
+        x = self._check_point(x)
+        boxes = self._x_boxes()
+        span = np.maximum(self.enumeration.scale[: self.system.n], 1e-300)
+        near = np.all((x >= boxes[:, 0] - span * REGION_SLACK_TOL) & (x <= boxes[:, 1] + span * REGION_SLACK_TOL), axis=1)
+        return [k for k in np.nonzero(near)[0] if self._region_slack_at(int(k), x) > REGION_SLACK_TOL]
+
+    def _pair_slack_at(self, i: int, j: int, x: np.ndarray) -> float:
+        """Largest slack over ``(x^, U)`` of ``R_ij`` at fixed ``x`` (in the equality subspace)."""
+        enum = self.enumeration
+        n = self.system.n
+        ri, rj = self.regions[i], self.regions[j]
+        scale, centre = horizon_scaling(self.system, self.T, copies_of_x=2)
+        G, g, E, e = pair_constraints(ri, rj, n)
+        # fix x: variables are (x^, U)
+        Gv, gv = G[:, n:] * scale[None, n:], g - G[:, :n] @ x - G[:, n:] @ centre[n:]
+        Ev, ev = E[:, n:] * scale[None, n:], e - E[:, :n] @ x - E[:, n:] @ centre[n:]
+        N, r = _nullspace(Ev)
+        w0, *_ = np.linalg.lstsq(Ev, ev, rcond=None)
+        if Ev.shape[0] and np.linalg.norm(Ev @ w0 - ev) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(ev)):
+            return -np.inf  # the outputs cannot match
+        res = max_slack(Gv @ N, gv - Gv @ w0, radius_bound=np.sqrt(Gv.shape[1]) + np.linalg.norm(w0),
+                        threshold=REGION_SLACK_TOL, problem=f"R_{i},{j} at fixed x")
+        del enum
+        return res.lower if res.lower > REGION_SLACK_TOL else res.upper
+
+    def is_observable(self, x) -> bool:
+        """Exact test of Definition 2.2 (up to measure zero) at one state, by LPs, without projections.
+
+        ``x`` is observable in ``T`` steps when it lies in ``X*_T`` and for every region ``P_i``
+        whose projection contains it, ``i`` is in ``I`` and no ``R_ij`` (``j != i``) has a point
+        over this ``x``.  States outside ``X*_T`` are reported not observable.
+        """
+        return self.classify(x) == "observable"
+
+    def classify(self, x) -> str:
+        """``"observable"``, ``"unobservable"`` or ``"infeasible"`` (``x`` not in ``X*_T``).
+
+        Only the pairs that Algorithm 3.1 found non-empty can hold a point indistinguishable from
+        ``x`` (an empty ``R_ij`` has no slice at any ``x``), so those are the only LPs solved
+        beyond the region-membership ones.
+        """
+        x = self._check_point(x)
+        inside = self.regions_containing(x)
+        if not inside:
+            return "infeasible"
+        if any(not self.full_rank[i] for i in inside):
+            return "unobservable"
+        by_i = self._pairs_by_i()
+        for i in inside:
+            for j in by_i.get(i, ()):
+                if self._pair_slack_at(i, j, x) > REGION_SLACK_TOL:
+                    return "unobservable"
+        return "observable"
+
+    def _pairs_by_i(self) -> dict[int, list[int]]:
+        if "_by_i" not in self._pair_cache:
+            by_i: dict[int, list[int]] = {}
+            for p in self.pairs:
+                by_i.setdefault(p.i, []).append(p.j)
+            self._pair_cache["_by_i"] = by_i
+        return self._pair_cache["_by_i"]
+
+    def classify_many(self, X: np.ndarray, progress: Callable[[int, int], None] | None = None) -> np.ndarray:
+        """Vector of :meth:`classify` labels for the rows of ``X``."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        out = np.empty(X.shape[0], dtype=object)
+        for k, x in enumerate(X):
+            out[k] = self.classify(x)
+            if progress:
+                progress(k + 1, X.shape[0])
+        return out
+
+    def _check_point(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=float).reshape(-1)
+        if x.shape != (self.system.n,) or not np.all(np.isfinite(x)):
+            raise ModelError("x", f"a finite state of length {self.system.n}", f"{x.tolist()}")
+        return x
+
+    # ------------------------------------------------------------------ summary
+    def summary(self) -> dict:
+        """The ``hybobs regions --json`` record."""
+        enum = self.enumeration
+        return {
+            "example": self.system.name,
+            "horizon": self.T,
+            "n_regions": len(self.regions),
+            "n_full_rank": len(self.index_set),
+            "n_unobservable_pieces": self.n_unobservable_pieces,
+            "n_reduced_pieces": len(self.reduced_pairs),
+            "n_lps": enum.n_lps + self.n_pair_lps,
+            "n_lps_enumeration": enum.n_lps,
+            "n_lps_pairs": self.n_pair_lps,
+            "n_lps_avoided_by_pruning": enum.n_lps_avoided,
+            "n_pairs_tested": self.n_pairs_tested,
+            "n_pairs_skipped_rank": self.n_pairs_skipped_rank,
+            "seconds_enumeration": enum.seconds,
+            "seconds_algorithm_3_1": self.seconds,
+            "seconds": enum.seconds + self.seconds,
+            "executor": self.stats.get("executor", "serial"),
+        }
+
+
+# ---------------------------------------------------------------------- pair sets
+def pair_constraints(ri, rj, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Constraints of ``R_ij`` over ``(x, x^, U)``: ``G z <= g`` (P_i, P_j) and ``E z = e`` (equal outputs)."""
+    HxI, HUI = ri.H[:, :n], ri.H[:, n:]
+    HxJ, HUJ = rj.H[:, :n], rj.H[:, n:]
+    G = np.vstack([
+        np.hstack([HxI, np.zeros_like(HxI), HUI]),
+        np.hstack([np.zeros_like(HxJ), HxJ, HUJ]),
+    ])
+    g = np.concatenate([ri.h, rj.h])
+    E = np.hstack([ri.C, -rj.C, ri.D - rj.D])
+    e = rj.f - ri.f
+    return G, g, E, e
+
+
+def _scaled_regions(enum: ModeEnumeration):
+    """Per region, the constraint rows and output maps in scaled coordinates (computed once per task)."""
+    n = enum.system.n
+    sx, su = enum.scale[:n], enum.scale[n:]
+    cx, cu = enum.centre[:n], enum.centre[n:]
+    out = []
+    for reg in enum.regions:
+        Hx, HU = reg.H[:, :n], reg.H[:, n:]
+        out.append((Hx * sx, HU * su, reg.h - Hx @ cx - HU @ cu, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
+    return out
+
+
+def _batched_rank(M: np.ndarray) -> np.ndarray:
+    s = np.linalg.svd(M, compute_uv=False)
+    top = np.maximum(s[:, :1], np.finfo(float).tiny)
+    return np.sum(s > RANK_RTOL * top, axis=1)
+
+
+def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list[PairSet], int, int]:
+    r"""Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``.
+
+    Pairs are screened in one batch before any LP: ``Proj_x(R_ij)`` can only be full-dimensional
+    if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be solvable
+    for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
+
+    ``R_ji`` is ``R_ij`` with ``x`` and ``x^`` swapped, so for ``j`` also in ``I`` one LP decides
+    both; this task handles such pairs only for ``j > i`` and reports ``R_ji`` too when its own
+    rank screen passes.  The equality nullspaces and particular solutions of all surviving pairs
+    come from one batched SVD.
+
+    Returns ``(pairs_found, n_pairs_tested, n_pairs_skipped_by_rank)``.
+    """
+    n = enum.system.n
+    HxI, HUI, hI, CI, DI, fI = scaled[i]
+    js = np.array([j for j in range(len(scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
+    if js.size == 0:
+        return [], 0, 0
+    CJ = np.stack([scaled[j][3] for j in js])
+    DJ = np.stack([scaled[j][4] for j in js])
+    FJ = np.stack([scaled[j][5] for j in js])
+    Mj = np.concatenate([CJ, DJ - DI], axis=2)
+    with_ci = np.concatenate([np.broadcast_to(CI, (js.size,) + CI.shape), Mj], axis=2)
+    ok_ij = _batched_rank(Mj) == _batched_rank(with_ci)
+    sym = np.array([bool(full_rank[j]) for j in js])
+    ok_ji = np.zeros(js.size, dtype=bool)
+    if np.any(sym):
+        Mi = np.concatenate([np.broadcast_to(CI, (int(sym.sum()),) + CI.shape), DI - DJ[sym]], axis=2)
+        with_cj = np.concatenate([CJ[sym], Mi], axis=2)
+        ok_ji[sym] = _batched_rank(Mi) == _batched_rank(with_cj)
+    ok = ok_ij | ok_ji
+    n_tested = int(js.size + sym.sum())
+    n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
+    found: list[PairSet] = []
+    sel = np.nonzero(ok)[0]
+    if sel.size == 0:
+        return found, n_tested, n_skipped
+    # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
+    E = np.concatenate([np.broadcast_to(CI, (sel.size,) + CI.shape), -CJ[sel], DI - DJ[sel]], axis=2)
+    e = FJ[sel] - fI
+    U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
+    top = np.maximum(S_[:, :1], np.finfo(float).tiny)
+    ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
+    radius0 = np.sqrt(E.shape[2])
+    for k, j in enumerate(js[sel]):
+        r = int(ranks[k])
+        V = Vt[k]
+        w0 = V[:r].T @ ((U_[k][:, :r].T @ e[k]) / S_[k, :r])
+        if np.linalg.norm(E[k] @ w0 - e[k]) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e[k])):
+            continue  # the outputs can never be equal
+        N = V[r:].T
+        HxJ, HUJ, hJ = scaled[j][0], scaled[j][1], scaled[j][2]
+        Nx, Nxh, NU = N[:n], N[n : 2 * n], N[2 * n :]
+        wx, wxh, wU = w0[:n], w0[n : 2 * n], w0[2 * n :]
+        Gv = np.vstack([HxI @ Nx + HUI @ NU, HxJ @ Nxh + HUJ @ NU])
+        gv = np.concatenate([hI - HxI @ wx - HUI @ wU, hJ - HxJ @ wxh - HUJ @ wU])
+        res = max_slack(Gv, gv, radius_bound=radius0 + np.linalg.norm(w0), threshold=REGION_SLACK_TOL,
+                        problem=f"R_{i},{j} (Algorithm 3.1, step 3.1.1)")
+        slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
+        if slack <= REGION_SLACK_TOL:
+            continue
+        idx = int(np.nonzero(js == j)[0][0])
+        if ok_ij[idx]:
+            G, g, Eo, eo = pair_constraints(enum.regions[i], enum.regions[int(j)], n)
+            found.append(PairSet(i, int(j), G, g, Eo, eo, float(slack)))
+        if ok_ji[idx]:
+            G, g, Eo, eo = pair_constraints(enum.regions[int(j)], enum.regions[i], n)
+            found.append(PairSet(int(j), i, G, g, Eo, eo, float(slack)))
+    return found, n_tested, n_skipped
+
+
+def _pairs_task(args):
+    """A chunk of ``i`` values (one pickle of the enumeration per chunk for process executors)."""
+    enum, full_rank, i_list = args
+    start = COUNTERS.total
+    scaled = _scaled_regions(enum)
+    found, tested, skipped = [], 0, 0
+    for i in i_list:
+        f, t, s = _pairs_for_i(enum, scaled, full_rank, i)
+        found.extend(f)
+        tested += t
+        skipped += s
+    return found, COUNTERS.total - start, tested, skipped
+
+
+def analyse_observability(
+    system_or_enum,
+    T: int | None = None,
+    *,
+    executor=None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ObservabilityAnalysis:
+    """Run mode enumeration (if needed) and Algorithm 3.1 of paper 002.
+
+    Parameters
+    ----------
+    system_or_enum : PWASystem or ModeEnumeration
+    T : int
+        Horizon (required when a system is given).
+    executor : Executor, optional
+        Serial by default; the pair tests are split by ``i`` (one task per region of ``I``).
+    progress : callable, optional
+        ``progress(done, total)``.
+    """
+    from ..executor import SerialExecutor
+    from ..systems.pwa import PWASystem
+
+    executor = executor or SerialExecutor()
+    if isinstance(system_or_enum, PWASystem):
+        if T is None:
+            raise ModelError("T", "a horizon when a PWASystem is given", "None")
+        enum = enumerate_modes(system_or_enum, T, executor=executor)
+    elif isinstance(system_or_enum, ModeEnumeration):
+        enum = system_or_enum
+    else:
+        raise ModelError("system_or_enum", "a PWASystem or a ModeEnumeration", type(system_or_enum).__name__)
+    t0 = time.perf_counter()
+    n = enum.system.n
+    sx = enum.scale[:n]
+    full_rank = tuple(_rank(reg.C * sx[None, :]) == n for reg in enum.regions)
+    I = [i for i, ok in enumerate(full_rank) if ok]
+    n_chunks = 1 if executor.n_workers == 1 else min(len(I), 4 * executor.n_workers)
+    tasks = [(enum, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
+    results = executor.map(_pairs_task, tasks, progress=progress)
+    pairs: list[PairSet] = []
+    n_lps = tested = skipped = 0
+    for found, lps, n_tested, n_skipped in results:
+        pairs.extend(found)
+        n_lps += lps
+        tested += n_tested
+        skipped += n_skipped
+    pairs.sort(key=lambda p: (p.i, p.j))  # same order on every executor
+    return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
+                                 {"executor": executor.name})

@@ -1,0 +1,296 @@
+"""Observability regions (paper 002, Algorithm 3.1): the paper's figure features, an oracle, executors."""
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from hybobs_opt.cli import main
+from hybobs_opt.errors import ModelError
+from hybobs_opt.examples.powertrain import TABLE1, TABLE2, powertrain3, powertrain5
+from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
+from hybobs_opt.regions import analyse_observability, compute_cut, enumerate_modes, load_analysis, save_analysis
+from hybobs_opt.systems import Polytope, PWAMode, PWASystem
+
+ALPHA = TABLE1["alpha"]
+
+
+@pytest.fixture(scope="module")
+def pt3_T3():
+    return analyse_observability(powertrain3(), 3)
+
+
+def band_fraction_unobservable(analysis, omega_l=25.0, n_theta=9, omega_m=(60.0, 150.0, 300.0, 450.0)):
+    """Share of sampled states inside the backlash band |theta| < alpha classified unobservable."""
+    thetas = np.linspace(-0.9 * ALPHA, 0.9 * ALPHA, n_theta)
+    labels = [analysis.classify([th, wm, omega_l]) for th in thetas for wm in omega_m]
+    feasible = [lab for lab in labels if lab != "infeasible"]
+    return np.mean([lab == "unobservable" for lab in feasible])
+
+
+# ------------------------------------------------------------------ Fig. 3(b)
+def test_fig3b_backlash_band_unobservable_at_T3(pt3_T3):
+    """Fig. 3(b): cut at omega_l = 25 rad/s, T = 3: the band |theta| < alpha is unobservable."""
+    cut = compute_cut(pt3_T3, {"omega_l": 25.0}, (25, 9), limits={"omega_m": (20.0, 580.0)})
+    gx, _ = cut.grid()
+    band = np.abs(gx) < ALPHA * 0.98
+    outside = np.abs(gx) > ALPHA + 0.03
+    assert cut.fraction_of_feasible("unobservable", band) == 1.0
+    # Away from the band (contact on both sides) the state is reconstructed from 3 engine speeds.
+    assert cut.fraction_of_feasible("observable", outside) > 0.95
+
+
+def test_region_structure_T3(pt3_T3):
+    s = pt3_T3.summary()
+    # 3 modes, but the twist angle moves at most Ts*|tau*omega_m - omega_l| <= 0.1 rad per step:
+    # the shaft cannot jump from negative to positive contact in one step, so fewer than 3^3 regions.
+    assert 0 < s["n_regions"] < 27
+    assert s["n_lps_avoided_by_pruning"] > 0
+    # The all-backlash sequence is a region and is rank deficient (eq. 18: omega_m decoupled).
+    seqs = [r.sequence for r in pt3_T3.regions]
+    assert (1, 1, 1) in seqs
+    assert not pt3_T3.full_rank[seqs.index((1, 1, 1))]
+    # All-contact sequences determine the state from three engine speeds.
+    assert pt3_T3.full_rank[seqs.index((2, 2, 2))] and pt3_T3.full_rank[seqs.index((0, 0, 0))]
+
+
+def test_output_maps_match_simulation(pt3_T3):
+    """Eq. (4): Y = C_i x + D_i U + f_i on P_i, checked against the simulator at interior points."""
+    from hybobs_opt.sim import simulate_pwa_batch
+
+    plant = pt3_T3.system
+    rng = np.random.default_rng(1)
+    checked = 0
+    for reg in pt3_T3.regions:
+        # a point of P_i: the Chebyshev centre
+        from hybobs_opt.systems import Polytope as P
+
+        centre, radius = P(reg.H, reg.h).chebyshev_ball(pt3_T3.enumeration.scale)
+        assert radius > 0
+        x, U = centre[:3], centre[3:]
+        X, Q, Y = simulate_pwa_batch(plant, x[None], U.reshape(1, 3, 1))
+        assert tuple(Q[0]) == reg.sequence
+        np.testing.assert_allclose(Y[0, :, 0], reg.C @ x + reg.D @ U + reg.f, rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(X[0, 3], reg.Phi @ x + reg.Gamma @ U + reg.phi, rtol=1e-10, atol=1e-9)
+        checked += 1
+        del rng
+        rng = np.random.default_rng(checked)
+    assert checked == len(pt3_T3.regions)
+
+
+# ------------------------------------------------------------------ Figs. 4 and 5
+@pytest.mark.slow
+def test_fig4_unobservable_band_shrinks_with_horizon(pt3_T3):
+    fractions = [band_fraction_unobservable(pt3_T3)]
+    for T in (5, 7):
+        fractions.append(band_fraction_unobservable(analyse_observability(powertrain3(), T, executor=ProcessExecutor(2))))
+    assert fractions[0] == 1.0
+    assert fractions[0] > fractions[1] > fractions[2] > 0.0
+
+
+@pytest.mark.slow
+def test_fig5_observable_band_grows_with_gear_ratio():
+    """Figs. 4(b), 5(a), 5(b): at T = 7 the observable part of the band grows with the gear ratio."""
+    observable = []
+    for tau in (1 / 12, 1 / 2, 1.0):
+        a = analyse_observability(powertrain3(gear_ratio=tau), 7, executor=ProcessExecutor(2))
+        observable.append(1.0 - band_fraction_unobservable(a, omega_m=(60.0, 150.0, 300.0)))
+    assert observable[0] < observable[1] < observable[2]
+
+
+# ------------------------------------------------------------------ Fig. 6 (model 17)
+@pytest.mark.slow
+def test_fig6_model17_unobservable_cut_shrinks_with_horizon():
+    """Fig. 6: cut at theta_mc = 0, omega_m = 90, omega_l = 30 in (theta_cl, omega_c)."""
+    fixed = {"theta_mc": 0.0, "omega_m": 90.0, "omega_l": 30.0}
+    limits = {"theta_cl": (-0.02, 0.02), "omega_c": (60.0, 120.0)}
+    fractions = []
+    for T in (5, 7):
+        a = analyse_observability(powertrain5(), T, executor=ProcessExecutor(2))
+        cut = compute_cut(a, fixed, (13, 7), limits=limits)
+        fractions.append(cut.fraction_of_feasible("unobservable"))
+    assert fractions[0] > fractions[1]
+    # the band |theta_cl| < alpha is where the unobservable states are
+    gx, _ = cut.grid()
+    assert np.all(np.abs(gx[cut.labels == "unobservable"]) < TABLE2["alpha"] + 0.01)
+
+
+# ------------------------------------------------------------------ oracle
+def _random_pwa(seed: int, n: int, n_modes: int) -> PWASystem:
+    rng = np.random.default_rng(seed)
+    cuts = np.sort(rng.uniform(-0.6, 0.6, n_modes - 1))
+    edges = np.concatenate([[-np.inf], cuts, [np.inf]])
+    modes = []
+    for i in range(n_modes):
+        rows, rhs = [], []
+        if np.isfinite(edges[i]):
+            rows.append(np.eye(1, n + 1, 0)[0] * -1)
+            rhs.append(-edges[i])
+        if np.isfinite(edges[i + 1]):
+            rows.append(np.eye(1, n + 1, 0)[0])
+            rhs.append(edges[i + 1])
+        A = rng.normal(size=(n, n))
+        A *= 0.8 / max(1e-9, np.max(np.abs(np.linalg.eigvals(A))))
+        C = rng.normal(size=(1, n))
+        if rng.random() < 0.3:
+            C[0, rng.integers(n)] = 0.0  # sometimes a blind direction
+        modes.append(PWAMode(A, rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1, C, Polytope(np.array(rows), np.array(rhs)),
+                             D=rng.normal(size=(1, 1)) * 0.2, c=rng.normal(size=1) * 0.1))
+    return PWASystem(tuple(modes), Polytope.from_box([-1] * n, [1] * n), Polytope.from_box([-1], [1]))
+
+
+def _oracle_maps(system, seq, T):
+    """(x, U) -> constraints and outputs of a mode sequence, composed directly (independent of enumeration)."""
+    n, m = system.n, system.m
+    d = n + T * m
+    Phi, Gam, phi = np.eye(n), np.zeros((n, T * m)), np.zeros(n)
+    rows, rhs, Cs, Ds, fs = [], [], [], [], []
+    dom = system.domain
+    for k, i in enumerate(seq):
+        mode = system.modes[i]
+        Sel = np.zeros((m, T * m))
+        Sel[:, k * m:(k + 1) * m] = np.eye(m)
+        for poly in (mode.guard, dom):
+            Ax, Au = poly.A[:, :n], poly.A[:, n:]
+            rows.append(np.hstack([Ax @ Phi, Ax @ Gam + Au @ Sel]))
+            rhs.append(poly.b - Ax @ phi)
+        Cs.append(mode.C @ Phi)
+        Ds.append(mode.C @ Gam + mode.D @ Sel)
+        fs.append(mode.C @ phi + mode.c)
+        Phi, Gam, phi = mode.A @ Phi, mode.A @ Gam + mode.B @ Sel, mode.A @ phi + mode.a
+    return np.vstack(rows), np.concatenate(rhs), np.vstack(Cs), np.vstack(Ds), np.concatenate(fs)
+
+
+def _max_slack_highs(A_ub, b_ub, A_eq=None, b_eq=None):
+    norms = np.linalg.norm(A_ub, axis=1)
+    keep = norms > 1e-12
+    if np.any(b_ub[~keep] < 0):  # a row that no longer depends on the variables and is violated
+        return -np.inf
+    A = np.hstack([A_ub[keep], norms[keep, None]])
+    c = np.zeros(A.shape[1])
+    c[-1] = -1
+    Aeq = None if A_eq is None else np.hstack([A_eq, np.zeros((A_eq.shape[0], 1))])
+    res = linprog(c, A_ub=A, b_ub=b_ub[keep], A_eq=Aeq, b_eq=b_eq, bounds=[(None, None)] * (A.shape[1] - 1) + [(None, 1.0)], method="highs")
+    return -res.fun if res.status == 0 else -np.inf
+
+
+def oracle_classify(system, T, x, tol=1e-6):
+    """Definition 2.2 by brute force: every mode sequence and every pair of sequences, HiGHS LPs."""
+    n = system.n
+    seqs = list(itertools.product(range(system.n_modes), repeat=T))
+    maps = {s: _oracle_maps(system, s, T) for s in seqs}
+    inside = []
+    for s, (H, h, C, D, f) in maps.items():
+        if _max_slack_highs(H[:, n:], h - H[:, :n] @ x) > tol:
+            inside.append(s)
+    if not inside:
+        return "infeasible"
+    for s in inside:
+        if np.linalg.matrix_rank(maps[s][2], tol=1e-9) < n:
+            return "unobservable"
+        H, h, C, D, f = maps[s]
+        for s2 in seqs:
+            if s2 == s:
+                continue
+            H2, h2, C2, D2, f2 = maps[s2]
+            # variables (x^, U): (x, U) in P_s, (x^, U) in P_s2, C x + D U + f = C2 x^ + D2 U + f2
+            A_ub = np.vstack([np.hstack([np.zeros((H.shape[0], n)), H[:, n:]]), H2])
+            b_ub = np.concatenate([h - H[:, :n] @ x, h2])
+            A_eq = np.hstack([-C2, D - D2])
+            b_eq = f2 - f - C @ x
+            if _max_slack_highs(A_ub, b_ub, A_eq, b_eq) > tol:
+                return "unobservable"
+    return "observable"
+
+
+@settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), n=st.integers(2, 3), n_modes=st.integers(2, 3), T=st.integers(2, 4))
+def test_point_query_agrees_with_brute_force_oracle(seed, n, n_modes, T):
+    T = max(T, n)  # eq. (8): T p >= n with p = 1
+    if n_modes ** T > 27:  # keep the brute-force oracle (all pairs of sequences) affordable
+        T = 3
+    system = _random_pwa(seed, n, n_modes)
+    analysis = analyse_observability(system, T)
+    rng = np.random.default_rng(seed)
+    for x in rng.uniform(-1, 1, size=(5, n)):
+        assert analysis.classify(x) == oracle_classify(system, T, x), f"x = {x}"
+
+
+# ------------------------------------------------------------------ executors, files, CLI, bad input
+def _pair_keys(a):
+    return [(p.i, p.j) for p in a.pairs]
+
+
+def test_executors_give_identical_results():
+    plant = powertrain3()
+    serial = analyse_observability(plant, 5, executor=SerialExecutor())
+    ex = ProcessExecutor(2)
+    try:
+        procs = analyse_observability(plant, 5, executor=ex)
+    finally:
+        ex.close()
+    assert [r.sequence for r in serial.regions] == [r.sequence for r in procs.regions]
+    assert _pair_keys(serial) == _pair_keys(procs)
+
+
+@pytest.mark.distributed
+@pytest.mark.slow
+def test_dask_local_cluster_gives_identical_results():
+    plant = powertrain3()
+    serial = analyse_observability(plant, 5)
+    ex = DaskExecutor(local_workers=2)
+    try:
+        dask = analyse_observability(plant, 5, executor=ex)
+    finally:
+        ex.close()
+    assert [r.sequence for r in serial.regions] == [r.sequence for r in dask.regions]
+    assert _pair_keys(serial) == _pair_keys(dask)
+
+
+def test_save_load_roundtrip(tmp_path, pt3_T3):
+    path = save_analysis(pt3_T3, tmp_path / "r.json", "powertrain3", {})
+    loaded = load_analysis(path)
+    assert _pair_keys(loaded) == _pair_keys(pt3_T3) and loaded.full_rank == pt3_T3.full_rank
+    for x in ([0.0, 100.0, 25.0], [0.12, 100.0, 8.0], [-0.1, 300.0, 25.0]):
+        assert loaded.classify(x) == pt3_T3.classify(x)
+    data = json.loads(path.read_text())
+    data["version"] = 99
+    (tmp_path / "bad.json").write_text(json.dumps(data))
+    with pytest.raises(ModelError, match="version"):
+        load_analysis(tmp_path / "bad.json")
+
+
+def test_horizon_below_necessary_condition_is_an_error():
+    with pytest.raises(ModelError, match=r"eq\. 8"):
+        enumerate_modes(powertrain3(), 2)
+    with pytest.raises(ModelError, match="positive integer"):
+        enumerate_modes(powertrain3(), 0)
+
+
+def test_cli_regions_json_and_query(capsys, tmp_path):
+    q = tmp_path / "q.csv"
+    q.write_text("omega_l,theta,omega_m\n25,0.0,100\n25,0.15,100\n")
+    code = main(["regions", "powertrain3", "--horizon", "3", "--json", "--executor", "serial", "--query", str(q)])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    for key in ("n_regions", "n_full_rank", "n_unobservable_pieces", "n_lps", "seconds"):
+        assert key in out
+    assert out["observable"] == [False, True]  # inside the band / in contact
+
+
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["regions", "powertrain3", "--horizon", "2"], "eq. 8"),
+        (["regions", "traffic_junction", "--horizon", "3"], "PWA"),
+        (["regions", "powertrain3", "--horizon", "3", "--cut", "speed=3"], "--cut"),
+        (["regions", "powertrain3", "--horizon", "3", "--plot", "x.png"], "--cut"),
+    ],
+)
+def test_cli_regions_bad_input(capsys, argv, fragment):
+    assert main(argv) == 2
+    assert fragment in capsys.readouterr().err
