@@ -64,17 +64,22 @@ def solve_lp(
     c = np.asarray(c, dtype=float)
     if bounds is None:
         bounds = (None, None)
-    res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method="highs")
-    if res.status == 0:
-        return LPResult("optimal", np.asarray(res.x, dtype=float), float(res.fun))
-    if res.status == 2:
-        return LPResult("infeasible", None, None)
-    if res.status == 3:
-        return LPResult("unbounded", None, None)
+    messages = []
+    # HiGHS's automatic choice first; on a numerical failure its interior-point and dual simplex
+    # solvers are tried before giving up (they fail on different degenerate instances).
+    for method in ("highs", "highs-ipm", "highs-ds"):
+        res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method=method)
+        if res.status == 0:
+            return LPResult("optimal", np.asarray(res.x, dtype=float), float(res.fun), method)
+        if res.status == 2:
+            return LPResult("infeasible", None, None, method)
+        if res.status == 3:
+            return LPResult("unbounded", None, None, method)
+        messages.append(f"{method}: {res.status} {res.message}")
     raise SolverError(
         problem,
-        "HiGHS (scipy.optimize.linprog)",
-        f"{res.status}: {res.message}",
+        "HiGHS (scipy.optimize.linprog: highs, highs-ipm, highs-ds)",
+        "; ".join(messages),
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients",
     )
 

@@ -13,8 +13,10 @@ MEMBERSHIP_RTOL: float = 1e-9
 #: box of its bounding box, exceeds this value.
 FULL_DIMENSION_RTOL: float = 1e-7
 
-#: Row-normalised constraint coefficients below this are treated as zero (degenerate rows).
-ZERO_ROW_TOL: float = 1e-12
+#: A constraint row whose norm is below this is treated as zero (the constraint no longer depends
+#: on the variables: it holds or fails by its right-hand side alone).  Callers pass rows that were
+#: unit-norm in scaled coordinates before any restriction to a subspace, so this is relative.
+ZERO_ROW_TOL: float = 1e-10
 
 #: Relative singular-value threshold for rank tests (``s_min / s_max``) in scaled coordinates.
 RANK_RTOL: float = 1e-12

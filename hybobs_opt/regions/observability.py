@@ -174,8 +174,10 @@ class ObservabilityAnalysis:
         ri, rj = self.regions[i], self.regions[j]
         scale, centre = horizon_scaling(self.system, self.T, copies_of_x=2)
         G, g, E, e = pair_constraints(ri, rj, n)
-        # fix x: variables are (x^, U)
+        # fix x: variables are (x^, U); unit rows in the scaled space before the projection
         Gv, gv = G[:, n:] * scale[None, n:], g - G[:, :n] @ x - G[:, n:] @ centre[n:]
+        inv = 1.0 / np.maximum(np.linalg.norm(G * scale[None, :], axis=1), np.finfo(float).tiny)
+        Gv, gv = Gv * inv[:, None], gv * inv
         Ev, ev = E[:, n:] * scale[None, n:], e - E[:, :n] @ x - E[:, n:] @ centre[n:]
         N, r = _nullspace(Ev)
         w0, *_ = np.linalg.lstsq(Ev, ev, rcond=None)
@@ -285,8 +287,12 @@ def _scaled_regions(enum: ModeEnumeration):
     cx, cu = enum.centre[:n], enum.centre[n:]
     out = []
     for reg in enum.regions:
-        Hx, HU = reg.H[:, :n], reg.H[:, n:]
-        out.append((Hx * sx, HU * su, reg.h - Hx @ cx - HU @ cu, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
+        Hx, HU = reg.H[:, :n] * sx, reg.H[:, n:] * su
+        h = reg.h - reg.H[:, :n] @ cx - reg.H[:, n:] @ cu
+        # Unit rows in the scaled space, so that after restriction to an equality subspace a row
+        # norm below ZERO_ROW_TOL means "constant on the subspace", not "badly scaled".
+        inv = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", Hx, Hx) + np.einsum("ij,ij->i", HU, HU)), np.finfo(float).tiny)
+        out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
     return out
 
 
