@@ -238,7 +238,10 @@ def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver
     M = np.vstack([GA.T, np.ones((1, active.size))])
     rhs = np.zeros(M.shape[0])
     rhs[-1] = 1.0
-    lam, _ = nnls(M, rhs)
+    try:
+        lam, _ = nnls(M, rhs)
+    except RuntimeError:  # NNLS iteration limit: no refined bound, the robust solver decides
+        return np.inf
     total = lam.sum()
     if total <= 0:
         return np.inf

@@ -85,3 +85,29 @@ BOX_IMPLIED_RTOL: float = 1e-12
 #: treated as active when the dual multipliers are refined.  DAQP's points violate rows by up to
 #: about 1e-6 here; extra rows only give NNLS more freedom, the bound stays valid for any choice.
 NEAR_ACTIVE_TOL: float = 1e-5
+
+#: Redundancy removal by ray shooting from an interior point: the first row crossed is a facet
+#: only if the next row is crossed later by more than this fraction of the distance; closer
+#: crossings (a ray through a vertex or edge, up to rounding) prove nothing and an LP decides.
+RAY_TIE_RTOL: float = 1e-9
+
+#: Lookup observer (paper 002, Algorithm 4.1): a region test [x_i; U] in P_i passes when every
+#: row (unit-norm in scaled coordinates) is violated by at most this; far above the rounding of
+#: C_i^+ (about 1e-12 relative) and far below any real excursion out of a region.
+LOOKUP_MEMBERSHIP_TOL: float = 1e-7
+
+#: Lookup observer: the output equality C_i x_i = Y - D_i U - f_i of eq. (12) holds when its
+#: residual is below this times max(1, |Y|_inf).  Noise-free data give about 1e-13; raise it
+#: (output_rtol=...) for noisy measurements.
+LOOKUP_OUTPUT_RTOL: float = 1e-8
+
+#: Lookup observer: two candidates of chi are the same state when they differ by less than this
+#: in coordinates scaled by the state bounds (a state on the common boundary of two regions).
+LOOKUP_SAME_STATE_TOL: float = 1e-6
+
+#: Lookup observer: a candidate must lie *strictly* inside its region P_i, by this margin (rows
+#: unit-norm in scaled coordinates).  The paper's regions are not closed: when the true shaft
+#: enters the backlash, the data force the contact region's candidate exactly onto the guard
+#: boundary, which belongs to the backlash sequence.  States closer than this to a boundary are
+#: flagged unobservable (conservative), never wrongly reconstructed.
+LOOKUP_INTERIOR_MARGIN: float = 1e-9

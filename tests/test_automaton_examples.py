@@ -14,7 +14,6 @@ from scipy.linalg import expm
 
 from hybobs_opt.examples import get_example
 from hybobs_opt.examples.driveline import driveline
-from hybobs_opt.sim import simulate_hybrid
 from hybobs_opt.examples.sliding_mode import (
     P_DERIVED,
     double_scroll,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from ..sim.hybrid import SimulationError, simulate_hybrid
+from ..sim.hybrid import simulate_hybrid
 from ..sim.trace import Trace
 from ..systems.hybrid import Edge, HybridAutomaton, Location
 from ..systems.polytope import Polytope

@@ -35,7 +35,10 @@ class ModeRegion:
     C, D, f : arrays
         ``Y = C x + D U + f`` on ``P_i`` (``Y`` stacks ``y(0) ... y(T-1)``).
     Phi, Gamma, phi : arrays
-        ``x(T) = Phi x + Gamma U + phi`` (used to propagate an estimate to the current time).
+        ``x(T) = Phi x + Gamma U + phi``: the state one step after the window.
+    Phi_last, Gamma_last, phi_last : arrays
+        ``x(T - 1) = Phi_last x + Gamma_last U + phi_last``: the state at the window's last sample,
+        i.e. the current time of a moving-horizon observer (paper 002, Section 4).
     slack : float
         Chebyshev radius of ``P_i`` in scaled coordinates (certified lower bound).
     """
@@ -50,6 +53,9 @@ class ModeRegion:
     Gamma: np.ndarray
     phi: np.ndarray
     slack: float
+    Phi_last: np.ndarray | None = None
+    Gamma_last: np.ndarray | None = None
+    phi_last: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,11 +117,16 @@ def check_horizon(system: PWASystem, T: int) -> None:
 class _Node:
     """A prefix of the tree: affine state map, accumulated constraint rows and output rows."""
 
-    __slots__ = ("seq", "Phi", "Gamma", "phi", "H", "h", "C", "D", "f")
+    __slots__ = ("seq", "Phi", "Gamma", "phi", "H", "h", "C", "D", "f", "prev")
 
-    def __init__(self, seq, Phi, Gamma, phi, H, h, C, D, f):
+    def __init__(self, seq, Phi, Gamma, phi, H, h, C, D, f, prev=None):
         self.seq, self.Phi, self.Gamma, self.phi = seq, Phi, Gamma, phi
         self.H, self.h, self.C, self.D, self.f = H, h, C, D, f
+        self.prev = prev  # (Phi, Gamma, phi) of the state before the last step
+
+    def region(self, slack: float) -> "ModeRegion":
+        Pl, Gl, pl = self.prev
+        return ModeRegion(self.seq, self.H, self.h, self.C, self.D, self.f, self.Phi, self.Gamma, self.phi, float(slack), Pl, Gl, pl)
 
 
 def _root(system: PWASystem, T: int) -> _Node:
@@ -149,7 +160,8 @@ def _child(system: PWASystem, T: int, node: _Node, i: int, domain_rows, box=None
         reach = newH @ centre + np.abs(newH) @ scale
         keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
         newH, newh = newH[keep], newh[keep]
-    return _Node(node.seq + (i,), Phi, Gamma, phi, np.vstack([node.H, newH]), np.concatenate([node.h, newh]), C, D, f)
+    return _Node(node.seq + (i,), Phi, Gamma, phi, np.vstack([node.H, newH]), np.concatenate([node.h, newh]), C, D, f,
+                 (node.Phi, node.Gamma, node.phi))
 
 
 def _slack(node: _Node, scale: np.ndarray, centre: np.ndarray) -> float:
@@ -169,8 +181,7 @@ def _expand(system: PWASystem, T: int, node: _Node, scale, centre, domain_rows, 
         if slack <= REGION_SLACK_TOL:
             continue
         if len(child.seq) == T:
-            out.append(ModeRegion(child.seq, child.H, child.h, child.C, child.D, child.f,
-                                  child.Phi, child.Gamma, child.phi, float(slack)))
+            out.append(child.region(slack))
         else:
             _expand(system, T, child, scale, centre, domain_rows, out, counts)
 
@@ -195,7 +206,7 @@ def enumerate_subtree(system: PWASystem, T: int, prefix: tuple[int, ...]) -> tup
         slack = _slack(node, scale, centre)
         counts[0] += 1
         if slack > REGION_SLACK_TOL:
-            out.append(ModeRegion(node.seq, node.H, node.h, node.C, node.D, node.f, node.Phi, node.Gamma, node.phi, float(slack)))
+            out.append(node.region(slack))
     else:
         _expand(system, T, node, scale, centre, domain_rows, out, counts)
     return out, counts[0], COUNTERS.total - start

@@ -36,7 +36,8 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
         "centre": enum.centre.tolist(),
         "regions": [
             {"sequence": list(r.sequence), "H": r.H.tolist(), "h": r.h.tolist(), "C": r.C.tolist(), "D": r.D.tolist(),
-             "f": r.f.tolist(), "Phi": r.Phi.tolist(), "Gamma": r.Gamma.tolist(), "phi": r.phi.tolist(), "slack": r.slack}
+             "f": r.f.tolist(), "Phi": r.Phi.tolist(), "Gamma": r.Gamma.tolist(), "phi": r.phi.tolist(), "slack": r.slack,
+             "Phi_last": r.Phi_last.tolist(), "Gamma_last": r.Gamma_last.tolist(), "phi_last": r.phi_last.tolist()}
             for r in enum.regions
         ],
         "full_rank": list(analysis.full_rank),
@@ -85,7 +86,7 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
         raise ModelError("system", f"states {data['state_names']}", f"{list(system.state_names)}")
     regions = tuple(
         ModeRegion(tuple(r["sequence"]), *(np.asarray(r[k], dtype=float) for k in ("H", "h", "C", "D", "f", "Phi", "Gamma", "phi")),
-                   float(r["slack"]))
+                   float(r["slack"]), *(np.asarray(r[k], dtype=float) for k in ("Phi_last", "Gamma_last", "phi_last")))
         for r in data["regions"]
     )
     es = data["enumeration_stats"]

@@ -122,6 +122,24 @@ class ObservabilityAnalysis:
         """The ``R_ij`` of ``B~_T`` (eq. 15): ``i`` in ``I``, ``j`` not in ``I``."""
         return tuple(p for p in self.pairs if not self.full_rank[p.j])
 
+    def reduced_pairs_all_dimensions(self) -> tuple[PairSet, ...]:
+        """Every non-empty ``R_ij`` with ``i`` in ``I``, ``j`` not in ``I``, whatever its projection's dimension.
+
+        Algorithm 3.1 drops pairs whose projection on ``x`` is lower-dimensional (measure zero in
+        the state space).  The lookup observer cannot: the data of a true state in ``P_j`` can
+        force the candidate of ``P_i`` onto exactly such a flat set, for a set of true states of
+        positive measure.  Computed on demand (one LP per pair) and cached.
+        """
+        if "_reduced_all" not in self._pair_cache:
+            scaled = _scaled_regions(self.enumeration)
+            found = []
+            for i in self.index_set:
+                found.extend(_pair_lps(self.enumeration, scaled, i, np.array(self.rank_deficient, dtype=int),
+                                       np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool)))
+            found.sort(key=lambda p: (p.i, p.j))
+            self._pair_cache["_reduced_all"] = tuple(found)
+        return self._pair_cache["_reduced_all"]
+
     @property
     def n_unobservable_pieces(self) -> int:
         """Number of polytopes composing ``B_T``: rank-deficient regions plus non-empty pair sets."""
@@ -169,7 +187,6 @@ class ObservabilityAnalysis:
 
     def _pair_slack_at(self, i: int, j: int, x: np.ndarray) -> float:
         """Largest slack over ``(x^, U)`` of ``R_ij`` at fixed ``x`` (in the equality subspace)."""
-        enum = self.enumeration
         n = self.system.n
         ri, rj = self.regions[i], self.regions[j]
         scale, centre = horizon_scaling(self.system, self.T, copies_of_x=2)
@@ -185,7 +202,6 @@ class ObservabilityAnalysis:
             return -np.inf  # the outputs cannot match
         res = max_slack(Gv @ N, gv - Gv @ w0, radius_bound=np.sqrt(Gv.shape[1]) + np.linalg.norm(w0),
                         threshold=REGION_SLACK_TOL, problem=f"R_{i},{j} at fixed x")
-        del enum
         return res.lower if res.lower > REGION_SLACK_TOL else res.upper
 
     def is_observable(self, x) -> bool:
@@ -316,14 +332,12 @@ def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list
 
     Returns ``(pairs_found, n_pairs_tested, n_pairs_skipped_by_rank)``.
     """
-    n = enum.system.n
-    HxI, HUI, hI, CI, DI, fI = scaled[i]
+    CI, DI = scaled[i][3], scaled[i][4]
     js = np.array([j for j in range(len(scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
     if js.size == 0:
         return [], 0, 0
     CJ = np.stack([scaled[j][3] for j in js])
     DJ = np.stack([scaled[j][4] for j in js])
-    FJ = np.stack([scaled[j][5] for j in js])
     Mj = np.concatenate([CJ, DJ - DI], axis=2)
     with_ci = np.concatenate([np.broadcast_to(CI, (js.size,) + CI.shape), Mj], axis=2)
     ok_ij = _batched_rank(Mj) == _batched_rank(with_ci)
@@ -336,18 +350,33 @@ def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list
     ok = ok_ij | ok_ji
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
-    found: list[PairSet] = []
     sel = np.nonzero(ok)[0]
-    if sel.size == 0:
-        return found, n_tested, n_skipped
+    found = _pair_lps(enum, scaled, i, js[sel], ok_ij[sel], ok_ji[sel])
+    return found, n_tested, n_skipped
+
+
+def _pair_lps(enum: ModeEnumeration, scaled, i: int, js: np.ndarray, report_ij: np.ndarray, report_ji: np.ndarray) -> list[PairSet]:
+    """One max-slack LP per pair ``(i, j)``, ``j`` in ``js``: is ``R_ij`` non-empty inside its equality subspace?
+
+    Reports ``R_ij`` where ``report_ij`` and ``R_ji`` where ``report_ji`` (the same LP decides both).
+    The equality nullspaces and particular solutions come from one batched SVD.
+    """
+    n = enum.system.n
+    found: list[PairSet] = []
+    if js.size == 0:
+        return found
+    HxI, HUI, hI, CI, DI, fI = scaled[i]
+    CJ = np.stack([scaled[j][3] for j in js])
+    DJ = np.stack([scaled[j][4] for j in js])
+    FJ = np.stack([scaled[j][5] for j in js])
     # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
-    E = np.concatenate([np.broadcast_to(CI, (sel.size,) + CI.shape), -CJ[sel], DI - DJ[sel]], axis=2)
-    e = FJ[sel] - fI
+    E = np.concatenate([np.broadcast_to(CI, (js.size,) + CI.shape), -CJ, DI - DJ], axis=2)
+    e = FJ - fI
     U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
     top = np.maximum(S_[:, :1], np.finfo(float).tiny)
     ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
     radius0 = np.sqrt(E.shape[2])
-    for k, j in enumerate(js[sel]):
+    for k, j in enumerate(js):
         r = int(ranks[k])
         V = Vt[k]
         w0 = V[:r].T @ ((U_[k][:, :r].T @ e[k]) / S_[k, :r])
@@ -364,14 +393,13 @@ def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list
         slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
         if slack <= REGION_SLACK_TOL:
             continue
-        idx = int(np.nonzero(js == j)[0][0])
-        if ok_ij[idx]:
+        if report_ij[k]:
             G, g, Eo, eo = pair_constraints(enum.regions[i], enum.regions[int(j)], n)
             found.append(PairSet(i, int(j), G, g, Eo, eo, float(slack)))
-        if ok_ji[idx]:
+        if report_ji[k]:
             G, g, Eo, eo = pair_constraints(enum.regions[int(j)], enum.regions[i], n)
             found.append(PairSet(int(j), i, G, g, Eo, eo, float(slack)))
-    return found, n_tested, n_skipped
+    return found
 
 
 def _pairs_task(args):

@@ -38,3 +38,5 @@ def examples_section(out: Path, progress: Callable[[str], None]) -> ReportSectio
 
 
 register_section("examples", examples_section)
+
+from . import regions_section  # noqa: E402,F401

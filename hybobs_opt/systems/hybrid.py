@@ -9,7 +9,7 @@ lookup-table deadbeat observer of paper 002.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np

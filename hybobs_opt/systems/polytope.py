@@ -30,6 +30,7 @@ from ..tolerances import (
     PARALLEL_ROW_TOL,
     PROJECTION_HULL_RTOL,
     RANK_RTOL,
+    RAY_TIE_RTOL,
     REDUNDANCY_RTOL,
     ZERO_ROW_TOL,
 )
@@ -38,13 +39,20 @@ from ._validate import as_matrix, as_names, as_vector
 #: Target dimension up to which :meth:`Polytope.project` (``method="auto"``) uses the iterative
 #: convex-hull method; above it, Fourier-Motzkin elimination.  Qhull's cost grows quickly with the
 #: dimension, while the hull method needs only ~(facets + vertices) LPs; set this module attribute
-#: (or pass ``hull_max_dim``) to move the switch.  Also the largest dimension for which
-#: :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume` are available.
+#: (or pass ``hull_max_dim``) to move the switch.
 HULL_PROJECTION_MAX_DIM: int = 4
+
+#: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
+#: (qhull on the vertices) are offered; above it the volume is estimated by Monte Carlo.
+VERTEX_MAX_DIM: int = 4
 
 #: Safety cap on the support LPs of one iterative-hull projection; reaching it means the hull
 #: does not converge (numerical trouble), which raises :class:`SolverError`.
 HULL_MAX_SUPPORT_LPS: int = 20000
+
+#: Largest dimension in which Fourier-Motzkin's redundancy removal first drops rows by one qhull
+#: call on the polar points (thousands of rows in < 1 s up to 6-D; qhull slows sharply beyond).
+FM_QHULL_MAX_DIM: int = 6
 
 _METHODS = ("auto", "hull", "fm")
 
@@ -506,7 +514,7 @@ class Polytope:
         return Polytope(img.H, img.h, names)
 
     def vertices(self) -> np.ndarray:
-        """Vertices of a bounded polytope of dimension ``<= HULL_PROJECTION_MAX_DIM``.
+        """Vertices of a bounded polytope of dimension ``<= VERTEX_MAX_DIM`` (4).
 
         Computed with the iterative-hull machinery of :meth:`project` (identity map): LP support
         points whose hull is the polytope, reduced to the hull's vertices.
@@ -520,11 +528,11 @@ class Polytope:
         Raises
         ------
         ModelError
-            If ``d > HULL_PROJECTION_MAX_DIM`` or the polytope is unbounded.
+            If ``d > VERTEX_MAX_DIM`` or the polytope is unbounded.
         """
         d = self.dim
-        if d > HULL_PROJECTION_MAX_DIM:
-            raise ModelError("polytope", f"dimension <= {HULL_PROJECTION_MAX_DIM} for vertex enumeration", f"dimension {d}")
+        if d > VERTEX_MAX_DIM:
+            raise ModelError("polytope", f"dimension <= {VERTEX_MAX_DIM} for vertex enumeration", f"dimension {d}")
         img = _image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
         if img is None:
             return np.zeros((0, d))
@@ -540,7 +548,7 @@ class Polytope:
         Parameters
         ----------
         method : {"auto", "exact", "monte-carlo"}
-            ``"exact"``: qhull volume of the vertices (``d <= HULL_PROJECTION_MAX_DIM``);
+            ``"exact"``: qhull volume of the vertices (``d <= VERTEX_MAX_DIM``);
             ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
             ``"auto"``: exact when possible.
         n_samples : int
@@ -563,7 +571,7 @@ class Polytope:
             raise ModelError("method", "'auto', 'exact' or 'monte-carlo'", repr(method))
         d = self.dim
         if method == "auto":
-            method = "exact" if d <= HULL_PROJECTION_MAX_DIM else "monte-carlo"
+            method = "exact" if d <= VERTEX_MAX_DIM else "monte-carlo"
         if method == "exact":
             V = self.vertices()
             if len(V) <= d:
@@ -745,32 +753,150 @@ def _nullspace(E: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray] | 
     return y0, Vt[r:].T
 
 
-def _irredundant(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Mask of the rows of the non-empty ``{A z <= b}`` (unit rows, unit-box scaled) that are kept."""
-    k = A.shape[0]
+def _irredundant(A: np.ndarray, b: np.ndarray, polar_prefilter: bool = False) -> np.ndarray:
+    """Mask of the rows of the non-empty ``{A z <= b}`` (unit rows, unit-box scaled) that are kept.
+
+    A row is dropped when its maximum over the other kept rows exceeds ``b_i`` by at most
+    ``REDUNDANCY_RTOL (1 + |b_i|)``; one LP per row decides, with these accelerations:
+
+    * parallel rows are grouped without LPs (the tightest is kept: no duplicates survive);
+    * rows certified non-redundant by ray shooting from the Chebyshev centre skip their LP (the
+      certificate is a point beyond the row, inside all others, by more than the tolerance);
+    * with ``polar_prefilter`` (used by Fourier-Motzkin on thousands of rows), rows whose polar
+      points ``a_i / (b_i - a_i c)`` are not vertices of their convex hull are dropped first by a
+      single qhull call (exact up to qhull's roundoff, far below REDUNDANCY_RTOL);
+    * the LPs use only the rows already proved non-redundant (Clarkson's algorithm): if the
+      optimum violates another row, the ray from the centre to it names one more facet, which is
+      added and the LP repeated.  LPs stay the size of the output, not of the input.
+    """
+    k, d = A.shape
     active = np.zeros(k, dtype=bool)
-    # Parallel rows first, tightest kept: no LP needed, and it keeps exact duplicates out.
-    for i in np.argsort(b, kind="stable"):
-        kept = np.nonzero(active)[0]
-        if kept.size and np.any(A[kept] @ A[i] > 1.0 - PARALLEL_ROW_TOL):
+    if k == 0:
+        return active
+    # Parallel rows: group on a grid of spacing PARALLEL_ROW_TOL, keep the smallest b per group.
+    keys = np.round(A / PARALLEL_ROW_TOL).astype(np.int64)
+    order = np.lexsort(np.vstack([b, keys.T[::-1]]))
+    first = np.ones(k, dtype=bool)
+    first[1:] = np.any(keys[order][1:] != keys[order][:-1], axis=1)
+    active[order[first]] = True
+    certified = np.zeros(k, dtype=bool)
+    centre = None
+    if active.sum() > d + 1:
+        certified, centre = _prefilter(A, b, active, polar_prefilter)
+    tol = REDUNDANCY_RTOL * (1.0 + np.abs(b))
+    for i in np.nonzero(active & ~certified)[0]:
+        if centre is not None and _clarkson_test(A, b, i, active, certified, centre, tol):
             continue
-        active[i] = True
-    for i in np.nonzero(active)[0]:
         active[i] = False
         # The copy of row i relaxed by 1 (the size of the unit box) keeps the LP bounded.
-        A_ub = np.vstack([A[active], A[i]])
-        b_ub = np.concatenate([b[active], [b[i] + 1.0]])
-        res = _lp(-A[i], A_ub, b_ub, problem=f"redundancy test of row {i}")
-        if res.status != "optimal":
-            raise SolverError(
-                f"redundancy test of row {i}",
-                "HiGHS (solve_lp)",
-                res.status,
-                hint="the set was found non-empty before; rescale the data (huge/small coefficients)",
-            )
-        if -res.objective > b[i] + REDUNDANCY_RTOL * (1.0 + abs(b[i])):
+        res = _redundancy_lp(A, b, i, active)
+        if -res.objective > b[i] + tol[i]:
             active[i] = True
     return active
+
+
+def _redundancy_lp(A: np.ndarray, b: np.ndarray, i: int, rows: np.ndarray):
+    """``max a_i z`` over ``rows`` and ``a_i z <= b_i + 1`` (the relaxed copy keeps it bounded)."""
+    res = _lp(-A[i], np.vstack([A[rows], A[i]]), np.concatenate([b[rows], [b[i] + 1.0]]), problem=f"redundancy test of row {i}")
+    if res.status != "optimal":
+        raise SolverError(
+            f"redundancy test of row {i}",
+            "HiGHS (solve_lp)",
+            res.status,
+            hint="the set was found non-empty before; rescale the data (huge/small coefficients)",
+        )
+    return res
+
+
+def _clarkson_test(A, b, i, active, facets, centre, tol) -> bool:
+    """Decide row ``i`` with LPs over the known facets only; updates ``active`` and ``facets``.
+
+    Returns False when a tie of the ray test leaves the question open (the caller then runs the
+    LP over all active rows).
+    """
+    beta = b - A @ centre
+    while not facets[i]:
+        rows = facets.copy()
+        rows[i] = False
+        res = _redundancy_lp(A, b, i, rows)
+        if -res.objective <= b[i] + tol[i]:
+            active[i] = False  # redundant already with respect to a subset of the other rows
+            return True
+        z = res.x
+        others = active.copy()
+        others[i] = False
+        if not np.any(A[others] @ z - b[others] > tol[others]):
+            facets[i] = True  # z is inside all other rows and beyond row i
+            return True
+        # The first row crossed on the way from the centre to z is a facet (if the crossing is unique).
+        idx = np.nonzero(active)[0]
+        proj = A[idx] @ (z - centre)
+        with np.errstate(divide="ignore"):
+            t = np.where(proj > ZERO_ROW_TOL, beta[idx] / np.where(proj > ZERO_ROW_TOL, proj, 1.0), np.inf)
+        two = np.argsort(t)[:2]
+        if t[two[1]] - t[two[0]] <= RAY_TIE_RTOL * t[two[0]]:
+            return False
+        facets[idx[two[0]]] = True
+    return True
+
+
+def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Cheap redundancy facts before the per-row LPs; updates ``active`` in place.
+
+    Returns the mask of rows certified non-redundant and the interior point used (the Chebyshev
+    centre), or ``None`` when the Chebyshev radius is not above FULL_DIMENSION_RTOL (then nothing
+    is done: the per-row LPs decide).
+    """
+    k, d = A.shape
+    certified = np.zeros(k, dtype=bool)
+    idx = np.nonzero(active)[0]
+    Aa, ba = A[idx], b[idx]
+    c_lp = np.zeros(d + 1)
+    c_lp[-1] = -1.0
+    bounds = [(None, None)] * d + [(None, 1.0)]  # radius capped: the set may be unbounded
+    res = solve_lp(c_lp, np.hstack([Aa, np.ones((idx.size, 1))]), ba, bounds=bounds, problem="Chebyshev centre for redundancy removal")
+    if res.status != "optimal" or res.x[-1] <= FULL_DIMENSION_RTOL:
+        return certified, None
+    centre = res.x[:d]
+    beta = ba - Aa @ centre  # >= radius > 0
+    if polar and d <= FM_QHULL_MAX_DIM and d >= 2:
+        polar_pts = np.vstack([Aa / beta[:, None], np.zeros((1, d))])
+        try:
+            hull = ConvexHull(polar_pts)
+        except QhullError:
+            pass  # the set contains a line: the polar points are flat; the LPs decide
+        else:
+            vert = np.zeros(idx.size + 1, dtype=bool)
+            vert[hull.vertices] = True
+            active[idx[~vert[:-1]]] = False
+            keep = vert[:-1]
+            idx, Aa, ba, beta = idx[keep], Aa[keep], ba[keep], beta[keep]
+    if idx.size < 2:
+        return certified, centre
+    # Ray shooting: along each row normal and along random directions from the centre.  The
+    # first row hit is a facet if the ray can go on, past it by more than the tolerance, before
+    # hitting the second row.
+    rng = np.random.default_rng(0)
+    n_random = min(_RAYS_PER_ROW * idx.size, max(_RAY_BUDGET // idx.size - idx.size, 0))
+    dirs = np.vstack([Aa, rng.normal(size=(n_random, d))])
+    proj = dirs @ Aa.T  # (n_dirs, n_rows)
+    with np.errstate(divide="ignore"):
+        t = np.where(proj > ZERO_ROW_TOL, beta[None, :] / np.where(proj > ZERO_ROW_TOL, proj, 1.0), np.inf)
+    two = np.argpartition(t, 1, axis=1)[:, :2]
+    rows_n = np.arange(t.shape[0])
+    t1, t2 = t[rows_n, two[:, 0]], t[rows_n, two[:, 1]]
+    swap = t2 < t1
+    first_row = np.where(swap, two[:, 1], two[:, 0])
+    t_first, t_second = np.minimum(t1, t2), np.maximum(t1, t2)
+    excess = (np.minimum(t_second, t_first + _RAY_CAP) - t_first) * proj[rows_n, first_row]
+    ok = np.isfinite(t_first) & (excess > REDUNDANCY_RTOL * (1.0 + np.abs(ba[first_row])))
+    certified[idx[first_row[ok]]] = True
+    return certified, centre
+
+
+_RAYS_PER_ROW = 20  # random rays per row for the non-redundancy certificates (cheap numpy work)
+_RAY_BUDGET = 4_000_000  # cap on rays x rows (~32 MB per array) for sets with thousands of rows
+_RAY_CAP = 1.0  # the LP test relaxes a row by 1 in unit-box coordinates: same cap for the rays
 
 
 @dataclass(frozen=True)
@@ -900,11 +1026,24 @@ def _dedupe_points(pts: list[np.ndarray]) -> list[np.ndarray]:
     return kept
 
 
-def _same_plane(planes: list[tuple[np.ndarray, float]], n: np.ndarray, h: float) -> int | None:
-    for j, (m, g) in enumerate(planes):
-        if np.linalg.norm(m - n) <= PROJECTION_HULL_RTOL and abs(g - h) <= PROJECTION_HULL_RTOL:
-            return j
-    return None
+def _match_planes(planes: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Index into ``known`` of the plane equal to each row of ``planes`` (``-1`` if none).
+
+    Planes are rows ``(normal, offset)``; equal means within PROJECTION_HULL_RTOL in both.
+    """
+    out = np.full(planes.shape[0], -1)
+    if known.shape[0] == 0 or planes.shape[0] == 0:
+        return out
+    for start in range(0, planes.shape[0], _MATCH_CHUNK):
+        block = planes[start : start + _MATCH_CHUNK]
+        dist = np.max(np.abs(block[:, None, :] - known[None, :, :]), axis=2)
+        j = np.argmin(dist, axis=1)
+        hit = dist[np.arange(block.shape[0]), j] <= PROJECTION_HULL_RTOL
+        out[start : start + _MATCH_CHUNK] = np.where(hit, j, -1)
+    return out
+
+
+_MATCH_CHUNK = 2048  # planes compared per vectorised block (bounds the memory of the distance array)
 
 
 def _iterative_hull(support: Callable[[np.ndarray], tuple[float, np.ndarray]], pts: list[np.ndarray], k: int):
@@ -951,34 +1090,53 @@ def _iterative_hull(support: Callable[[np.ndarray], tuple[float, np.ndarray]], p
         hi, y_hi = support(np.array([1.0]))
         neg_lo, y_lo = support(np.array([-1.0]))
         return np.array([[1.0], [-1.0]]), np.array([hi, neg_lo]), np.array([y_lo, y_hi])
-    confirmed: list[tuple[np.ndarray, float]] = []
+    confirmed = np.zeros((0, k + 1))  # rows (normal, offset) proved to support the image
     while True:
-        try:
-            hull = ConvexHull(np.array(pts))
-        except QhullError as exc:  # pragma: no cover - defensive, points are affinely full-rank
-            raise SolverError("iterative-hull projection", "qhull", str(exc).splitlines()[0], hint="use method='fm'") from None
-        planes: list[tuple[np.ndarray, float]] = []
-        for eqn in hull.equations:
-            if _same_plane(planes, eqn[:-1], -eqn[-1]) is None:
-                planes.append((eqn[:-1], -eqn[-1]))
-        new, final = [], []
-        for n, h in planes:
-            j = _same_plane(confirmed, n, h)
-            if j is not None:
-                final.append(confirmed[j])
+        hull = _convex_hull(np.array(pts))
+        planes = np.hstack([hull.equations[:, :-1], -hull.equations[:, -1:]])
+        match = _match_planes(planes, confirmed)
+        todo = planes[match < 0]
+        if todo.shape[0]:
+            # coplanar simplices of one facet: test the plane once
+            _, first = np.unique(np.round(todo / PROJECTION_HULL_RTOL), axis=0, return_index=True)
+            todo = todo[np.sort(first)]
+        new: list[np.ndarray] = []
+        found = []
+        for plane in todo:
+            n, h = plane[:-1], plane[-1]
+            # a facet that already sees a point found in this round will not survive the rebuild
+            if new and np.max(np.array(new) @ n) > h + PROJECTION_HULL_RTOL:
                 continue
             val, y = support(n)
             if val > h + PROJECTION_HULL_RTOL:
                 new.append(y)
             else:
-                confirmed.append((n, max(val, h)))
-                final.append(confirmed[-1])
+                found.append(np.append(n, max(val, h)))
+        if found:
+            confirmed = np.vstack([confirmed, np.array(found)])
         if not new:
             break
         pts = _dedupe_points(pts + new)
-    G = np.array([n for n, _ in final])
-    g = np.array([h for _, h in final])
-    return G, g, hull.points[hull.vertices]
+    used = np.unique(_match_planes(planes, confirmed))
+    final = confirmed[used[used >= 0]]
+    return final[:, :-1], final[:, -1], hull.points[hull.vertices]
+
+
+def _convex_hull(points: np.ndarray) -> ConvexHull:
+    """qhull with its default (merged-facet) options, retried with joggled input ("QJ").
+
+    From 5-D up, near-coplanar support points can make qhull's facet merging fail with a
+    "dupridge" topology error; joggling by ~1e-11 (relative) avoids it, and the joggled facets of
+    one true facet are merged again by the PROJECTION_HULL_RTOL plane comparison.
+    """
+    try:
+        return ConvexHull(points)
+    except QhullError:
+        pass
+    try:
+        return ConvexHull(points, qhull_options="QJ")
+    except QhullError as exc:
+        raise SolverError("iterative-hull projection", "qhull", str(exc).splitlines()[0], hint="use method='fm'") from None
 
 
 def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
@@ -986,18 +1144,22 @@ def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
 
     ``Ls`` is completed by an orthonormal basis of its null space to an invertible ``T``; in
     ``u = T w + (cs, 0)`` the image is the projection onto the first ``k`` coordinates, and the
-    others are eliminated one at a time (cheapest first), with LP redundancy removal after each
-    step to stop the quadratic growth of rows.
+    others are eliminated one at a time (cheapest first).  After each step, rows built from more
+    than ``s + 1`` rows of the starting system (``s`` = variables eliminated so far) are dropped
+    (Chernikov's rule: such rows are always redundant), then the LP redundancy removal of
+    :func:`_irredundant` runs, with its qhull polar prefilter.
     """
     k, r = Ls.shape
     _, _, Vt = np.linalg.svd(Ls, full_matrices=True)
     T = np.vstack([Ls, Vt[k:]])
     Au = np.linalg.solve(T.T, Aw.T).T
     bu = bw + Au @ np.concatenate([cs, np.zeros(r - k)])
-    Au, bu = _unit_rows(Au, bu)
-    keep = _irredundant(Au, bu)
+    Au, bu, nz = _unit_rows_mask(Au, bu)
+    keep = _irredundant(Au, bu, polar_prefilter=True)
     Au, bu = Au[keep], bu[keep]
+    anc = np.eye(Au.shape[0], dtype=bool)  # ancestors of each row among the starting rows
     labels = list(range(r))
+    eliminated = 0
     while len(labels) > k:
         best, cost = -1, None
         for j, lab in enumerate(labels):
@@ -1008,19 +1170,30 @@ def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
             cj = npos * nneg - npos - nneg
             if cost is None or cj < cost:
                 best, cost = j, cj
-        Au, bu = _fm_step(Au, bu, best)
+        Au, bu, anc = _fm_step(Au, bu, best, anc)
         labels.pop(best)
-        Au, bu = _unit_rows(Au, bu)
-        keep = _irredundant(Au, bu)
-        Au, bu = Au[keep], bu[keep]
+        eliminated += 1
+        few = anc.sum(axis=1) <= eliminated + 1
+        Au, bu, anc = Au[few], bu[few], anc[few]
+        Au, bu, nz = _unit_rows_mask(Au, bu)
+        anc = anc[nz]
+        keep = _irredundant(Au, bu, polar_prefilter=True)
+        Au, bu, anc = Au[keep], bu[keep], anc[keep]
     return Au, bu
 
 
-def _fm_step(A: np.ndarray, b: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
+def _unit_rows_mask(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    norms = np.linalg.norm(A, axis=1)
+    keep = norms > ZERO_ROW_TOL
+    return A[keep] / norms[keep, None], b[keep] / norms[keep], keep
+
+
+def _fm_step(A: np.ndarray, b: np.ndarray, j: int, anc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eliminate column ``j``: rows without it, plus every positive/negative pair combined.
 
     Pairs are combined as ``|a_nj| row_p + a_pj row_n`` (products, no division), so small
-    pivots cannot blow up the coefficients.
+    pivots cannot blow up the coefficients.  ``anc`` (rows x starting rows, bool) is carried
+    along: a combined row's ancestors are the union of its parents'.
     """
     a = A[:, j]
     pos = np.nonzero(a > ZERO_ROW_TOL)[0]
@@ -1030,9 +1203,10 @@ def _fm_step(A: np.ndarray, b: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarr
     wn = -a[neg][None, :]
     newA = (A[pos][:, None, :] * wn[..., None] + A[neg][None, :, :] * wp[..., None]).reshape(-1, A.shape[1])
     newb = (b[pos][:, None] * wn + b[neg][None, :] * wp).reshape(-1)
+    newanc = (anc[pos][:, None, :] | anc[neg][None, :, :]).reshape(-1, anc.shape[1])
     A2 = np.vstack([A[zer], newA])
     b2 = np.concatenate([b[zer], newb])
-    return np.delete(A2, j, axis=1), b2
+    return np.delete(A2, j, axis=1), b2, np.vstack([anc[zer], newanc])
 
 
 def monte_carlo_volume(

@@ -1,0 +1,459 @@
+"""Benchmark of the observability-region computations of paper 002 (Algorithm 3.1, Sections 6-7).
+
+Run ``python -m benchmarks.bench_regions`` (full, a few minutes) or ``--quick`` (smoke test,
+under a minute).  Writes ``benchmarks/results/regions.json`` (quick runs go to
+``benchmarks/results/quick/``) and the Fig. 6 cut PNGs next to it.
+
+Measured (medians over the stated number of repeats, with the ratio to the paper's figure):
+
+(a) model (16), T = 3: mode enumeration + Algorithm 3.1, serial (paper: 1.4 s + 0.3 s);
+(b) model (17), T = 7: every non-empty R_ij (paper: 33 s), serial / processes / Dask, with the
+    pair lists checked identical across executors;
+(c) model (17), T = 8: the same summary (no published figure);
+(d) model (17): share of X*_7 that is observable (paper: O_7 not obtained in 4 h), by sampling
+    with exact point queries under a time budget, with a 95 % Wilson interval, plus the Fig. 6 cut.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from hybobs_opt.errors import SolverError
+from hybobs_opt.examples.powertrain import TABLE2, powertrain3, powertrain5
+from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
+from hybobs_opt.lp import COUNTERS, solve_lp
+from hybobs_opt.regions import Cut, analyse_observability, plot_cut
+from hybobs_opt.report.regions_section import PAPER_002, PointClassifier, fig6_planes, robust_cut
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+#: Targets of the issue (seconds), checked in the JSON (never asserted).
+TARGET_MODEL16_T3 = 0.020
+TARGET_MODEL17_T7 = 3.0
+#: Wall-clock budget of part (d), seconds.
+BUDGET_O7 = 60.0
+
+
+def log(msg: str) -> None:
+    print(f"[bench_regions] {msg}", file=sys.stderr, flush=True)
+
+
+def _machine() -> dict:
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    return {"platform": platform.platform(), "machine": platform.machine(), "cpu": cpu, "cpu_count": os.cpu_count(),
+            "python": platform.python_version(), "load_average_at_start": list(load) if load else None}
+
+
+def _versions() -> dict:
+    out = {}
+    for pkg in ("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "matplotlib", "dask", "distributed"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = None
+    return out
+
+
+def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
+    """95 % Wilson score interval of a binomial proportion ``k / n``."""
+    if n == 0:
+        return None
+    p = k / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def _median(xs):
+    return float(statistics.median(xs)) if xs else None
+
+
+# ---------------------------------------------------------------------------- (a)
+def bench_model16_T3(repeats: int) -> dict:
+    """Model (16), T = 3, serial: enumeration + Algorithm 3.1 (paper: 1.4 s + 0.3 s)."""
+    log(f"(a) model (16), T = 3, serial, {repeats} repeats")
+    for _ in range(2):  # warm-up (imports, first-call caches), not counted
+        analyse_observability(powertrain3(), 3)
+    wall, enum, alg, summary = [], [], [], None
+    for _ in range(repeats):
+        system = powertrain3()
+        t0 = time.perf_counter()
+        a = analyse_observability(system, 3, executor=SerialExecutor())
+        wall.append(time.perf_counter() - t0)
+        summary = a.summary()
+        enum.append(summary["seconds_enumeration"])
+        alg.append(summary["seconds_algorithm_3_1"])
+    med = _median(wall)
+    return {
+        "what": "analyse_observability(powertrain3(), T=3): mode enumeration + Algorithm 3.1, serial executor",
+        "repeats": repeats,
+        "median_wall_seconds": med,
+        "min_wall_seconds": min(wall),
+        "median_seconds_enumeration": _median(enum),
+        "median_seconds_algorithm_3_1": _median(alg),
+        "paper_seconds": PAPER_002["model16_T3_total_seconds"],
+        "paper_seconds_enumeration": PAPER_002["model16_T3_enumeration_seconds"],
+        "paper_seconds_algorithm_3_1": PAPER_002["model16_T3_algorithm_3_1_seconds"],
+        "ratio_to_paper": med / PAPER_002["model16_T3_total_seconds"],
+        "ratio_to_paper_enumeration": _median(enum) / PAPER_002["model16_T3_enumeration_seconds"],
+        "ratio_to_paper_algorithm_3_1": _median(alg) / PAPER_002["model16_T3_algorithm_3_1_seconds"],
+        "target_seconds": TARGET_MODEL16_T3,
+        "meets_target": med <= TARGET_MODEL16_T3,
+        "paper_reduced_pieces": PAPER_002["model16_T3_reduced_pieces"],
+        "summary": summary,
+    }
+
+
+# ---------------------------------------------------------------------------- (b), (c)
+def _timed_runs(system_factory, T: int, executor, repeats: int, count_lps: bool):
+    wall, runs, highs = [], [], []
+    analysis = None
+    for _ in range(repeats):
+        system = system_factory()
+        COUNTERS.reset()
+        t0 = time.perf_counter()
+        analysis = analyse_observability(system, T, executor=executor)
+        wall.append(time.perf_counter() - t0)
+        runs.append(analysis.summary())
+        highs.append(COUNTERS.confirmed_by_highs)
+    s = runs[-1]
+    rec = {
+        "repeats": repeats,
+        "median_wall_seconds": _median(wall),
+        "wall_seconds": wall,
+        "median_seconds_enumeration": _median([r["seconds_enumeration"] for r in runs]),
+        "median_seconds_algorithm_3_1": _median([r["seconds_algorithm_3_1"] for r in runs]),
+        "n_pairs": len(analysis.pairs),
+        "summary": s,
+    }
+    if count_lps:
+        rec["highs_confirmations"] = highs[-1]
+        rec["daqp_lps"] = COUNTERS.fast
+    else:
+        rec["highs_confirmations"] = None
+        rec["note"] = "LP counters live in the worker processes; see the serial run for HiGHS confirmations"
+    return rec, analysis
+
+
+def bench_model17(T: int, repeats: int, executors: tuple[str, ...], target: float | None, paper: float | None) -> tuple[dict, object]:
+    """All non-empty R_ij of model (17) at horizon T, on each executor; pair lists compared."""
+    out: dict = {"what": f"analyse_observability(powertrain5(), T={T}): enumeration + all non-empty R_ij (B_{T}, B~_{T})",
+                 "horizon": T, "executors": {}}
+    pair_lists = {}
+    analysis_serial = None
+    for kind in executors:
+        log(f"model (17), T = {T}, {kind}, {repeats} repeat(s)")
+        rec: dict = {}
+        try:
+            t0 = time.perf_counter()
+            if kind == "serial":
+                ex = SerialExecutor()
+            elif kind == "processes":
+                ex = ProcessExecutor(2)
+            elif kind == "dask":
+                ex = DaskExecutor(local_workers=2)
+                rec["cluster_startup_seconds"] = time.perf_counter() - t0
+            else:
+                raise ValueError(kind)
+            try:
+                r, a = _timed_runs(powertrain5, T, ex, repeats, count_lps=(kind == "serial"))
+            finally:
+                t1 = time.perf_counter()
+                ex.close()
+                if kind == "dask":
+                    rec["cluster_close_seconds"] = time.perf_counter() - t1
+            rec.update(r)
+            rec["n_workers"] = ex.n_workers
+            pair_lists[kind] = [(p.i, p.j) for p in a.pairs]
+            if kind == "serial":
+                analysis_serial = a
+            elif analysis_serial is None:
+                analysis_serial = a
+        except Exception as exc:  # a failing executor is reported, not fatal
+            rec["error"] = f"{type(exc).__name__}: {exc}"
+            log(f"  failed: {rec['error']}")
+        if paper is not None and rec.get("median_wall_seconds") is not None:
+            rec["ratio_to_paper"] = rec["median_wall_seconds"] / paper
+        if target is not None and rec.get("median_wall_seconds") is not None:
+            rec["meets_target"] = rec["median_wall_seconds"] <= target
+        out["executors"][kind] = rec
+    lists = list(pair_lists.values())
+    out["executors_compared"] = list(pair_lists)
+    out["identical_pair_lists"] = bool(lists) and all(lst == lists[0] for lst in lists)
+    if paper is not None:
+        out["paper_seconds"] = paper
+    if target is not None:
+        out["target_seconds"] = target
+    serial = out["executors"].get("serial", {})
+    if "summary" in serial:
+        s = serial["summary"]
+        out.update(n_lps=s["n_lps"], n_lps_avoided_by_pruning=s["n_lps_avoided_by_pruning"],
+                   highs_confirmations=serial["highs_confirmations"], n_regions=s["n_regions"],
+                   n_unobservable_pieces=s["n_unobservable_pieces"], n_reduced_pieces=s["n_reduced_pieces"])
+    return out, analysis_serial
+
+
+# ---------------------------------------------------------------------------- (d)
+def _slip_coordinates() -> np.ndarray:
+    """``z = M x``: (theta_mc, theta_cl, omega_m, omega_c - omega_m, omega_l - tau omega_c); det M = 1."""
+    tau = TABLE2["gear_ratio"]
+    M = np.eye(5)
+    M[3, 2] = -1.0  # omega_c - omega_m
+    M[4, 3] = -tau  # omega_l - tau omega_c
+    return M
+
+
+def _z_box(analysis, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A box containing ``M X*_T``: state bounds for the rows of ``M`` that are coordinates, LPs over
+    every region (scaled coordinates) for the others."""
+    enum = analysis.enumeration
+    n = analysis.system.n
+    scale, centre = enum.scale, enum.centre
+    xlo, xhi = analysis.system.state_bounds.bounding_box()
+    unit = [r for r in range(n) if np.count_nonzero(M[r]) == 1 and M[r, r] == 1.0]
+    lo = np.full(n, np.inf)
+    hi = np.full(n, -np.inf)
+    lo[unit], hi[unit] = xlo[unit], xhi[unit]
+    for reg in enum.regions:
+        G = reg.H * scale[None, :]
+        g = reg.h - reg.H @ centre
+        for r in (r for r in range(n) if r not in unit):
+            c = np.zeros(scale.size)
+            c[:n] = M[r] * scale[:n]
+            off = float(M[r] @ centre[:n])
+            for sign in (1.0, -1.0):
+                res = solve_lp(sign * c, G, g, problem="bounding box of M X*_T")
+                if res.status == "optimal":
+                    v = sign * res.objective + off
+                    lo[r], hi[r] = min(lo[r], v), max(hi[r], v)
+    return lo, hi
+
+
+_SAMPLING_ANALYSIS = None  # inherited by forked workers (avoids pickling ~MBs of pair sets)
+
+
+def _sample_worker(args) -> dict:
+    seed, seconds, Minv, zlo, zhi, xlo, xhi = args
+    analysis = _SAMPLING_ANALYSIS
+    if analysis is None:
+        raise RuntimeError("the sampling workers need the fork start method (analysis inherited from the parent)")
+    clf = PointClassifier(analysis)
+    rng = np.random.default_rng(seed)
+    counts = {"observable": 0, "unobservable": 0, "infeasible": 0}
+    drawn = outside = errors = 0
+    deadline = time.perf_counter() + seconds
+    while time.perf_counter() < deadline:
+        x = Minv @ (zlo + (zhi - zlo) * rng.random(zlo.size))
+        drawn += 1
+        if np.any(x < xlo) or np.any(x > xhi):
+            outside += 1
+            continue
+        try:
+            counts[clf.classify(x)] += 1
+        except SolverError:
+            errors += 1
+    return {"drawn": drawn, "outside_box": outside, "counts": counts, "errors": errors, "fallback": clf.n_fallback}
+
+
+def _cut_block(args):
+    fixed, limits, resolution = args
+    return robust_cut(_SAMPLING_ANALYSIS, fixed, resolution=resolution, limits=limits)
+
+
+def parallel_cut(analysis, ex, fixed: dict, grid: tuple[int, int], limits: dict | None = None) -> tuple[Cut, int]:
+    """:func:`robust_cut` with the rows of the vertical axis split among the executor's workers."""
+    names = analysis.system.state_names
+    free = [nm for nm in names if nm not in fixed]
+    limits = dict(limits or {})
+    nx, ny = grid
+    blocks = np.array_split(np.arange(ny), ex.n_workers)
+    if ex.n_workers == 1 or min(len(b) for b in blocks) < 2:
+        return robust_cut(analysis, fixed, resolution=grid, limits=limits)
+    xlo, xhi = analysis.system.state_bounds.bounding_box()
+    k = names.index(free[1])
+    y = np.linspace(*limits.get(free[1], (xlo[k], xhi[k])), ny)
+    parts = ex.map(_cut_block, [(fixed, {**limits, free[1]: (y[b[0]], y[b[-1]])}, (nx, len(b))) for b in blocks])
+    cuts = [c for c, _ in parts]
+    cut = Cut(cuts[0].axes, dict(fixed), cuts[0].x_values, np.concatenate([c.y_values for c in cuts]),
+              np.vstack([c.labels for c in cuts]))
+    return cut, sum(n for _, n in parts)
+
+
+def bench_O7(analysis, budget: float, grid: tuple[int, int], n_workers: int) -> dict:
+    """Share of X*_T that is observable, by uniform sampling with exact point queries (budget in s)."""
+    global _SAMPLING_ANALYSIS
+    T = analysis.T
+    log(f"(d) model (17): observable share of X*_{T}, budget {budget:g} s")
+    t0 = time.perf_counter()
+    system = analysis.system
+    _SAMPLING_ANALYSIS = analysis  # set before the pool forks
+    lo, hi = system.state_bounds.bounding_box()
+    analysis.classify(0.5 * (lo + hi))  # builds the point query's caches once, before the workers fork
+    ex = ProcessExecutor(n_workers) if n_workers > 1 else SerialExecutor()
+    try:
+        return _bench_O7(analysis, ex, t0, budget, grid, system, T)
+    finally:
+        ex.close()
+        _SAMPLING_ANALYSIS = None
+
+
+def _bench_O7(analysis, ex, t0, budget, grid, system, T) -> dict:
+    # Fig. 6 cut at the paper's plane, and at the nearest plane that meets X*_T
+    planes = fig6_planes(analysis)
+    t_planes = time.perf_counter() - t0
+    figs = {}
+    cut, n_fb = parallel_cut(analysis, ex, planes["paper"], grid)
+    name = f"regions_fig6_T{T}_paper_plane.png"
+    plot_cut(cut, RESULTS_DIR / name, title=f"Fig. 6: model (17), T = {T}, theta_mc = 0, omega_m = 90, omega_l = 30")
+    figs["paper_plane"] = {"png": name, "plane": planes["paper"], "fraction_in_X*": float(np.mean(cut.labels != "infeasible")),
+                           "omega_c_range_on_plane": planes["paper_omega_c_range"]}
+    if planes["consistent"] is not None:
+        cut2, n_fb2 = parallel_cut(analysis, ex, planes["consistent"], grid,
+                                   limits={"omega_c": planes["consistent_omega_c_range"]})
+        n_fb += n_fb2
+        name = f"regions_fig6_T{T}_consistent_plane.png"
+        plot_cut(cut2, RESULTS_DIR / name,
+                 title=f"model (17), T = {T}, theta_mc = 0, omega_m = 90, omega_l = {planes['consistent']['omega_l']:.4g}")
+        figs["consistent_plane"] = {"png": name, "plane": planes["consistent"],
+                                    "omega_c_limits": planes["consistent_omega_c_range"],
+                                    "observable_of_feasible": cut2.fraction_of_feasible("observable")}
+    figs["omega_l_range_at_theta_mc_0_omega_m_90"] = planes["omega_l_range"]
+    figs["grid"] = list(grid)
+    figs["points_fallback"] = n_fb
+    t_cut = time.perf_counter() - t0 - t_planes
+    # sampling: uniform in the state box; drawn in the slip coordinates z = M x (det M = 1) over the
+    # bounding box of M X*_T, which contains X*_T, so the accepted points are uniform on X*_T too.
+    M = _slip_coordinates()
+    zlo, zhi = _z_box(analysis, M)
+    xlo, xhi = system.state_bounds.bounding_box()
+    t_prep = time.perf_counter() - t0
+    remaining = budget - (time.perf_counter() - t0) - 2.0  # margin for the workers' return
+    t_s = time.perf_counter()
+    parts = ex.map(_sample_worker, [(1000 + k, max(remaining, 0.5), np.linalg.inv(M), zlo, zhi, xlo, xhi)
+                                    for k in range(ex.n_workers)])
+    t_sampling = time.perf_counter() - t_s
+    counts = {lab: sum(p["counts"][lab] for p in parts) for lab in ("observable", "unobservable", "infeasible")}
+    drawn = sum(p["drawn"] for p in parts)
+    in_box = drawn - sum(p["outside_box"] for p in parts)
+    feasible = counts["observable"] + counts["unobservable"]
+    seconds = time.perf_counter() - t0
+    vol_ratio = float(np.prod(zhi - zlo) / np.prod(xhi - xlo))
+    share_in = wilson(feasible, drawn)
+    return {
+        "what": f"share of X*_{T} (model 17) that is observable: uniform samples in the state box, kept when "
+                f"classify(x) != 'infeasible' (exact point queries), 95 % Wilson interval",
+        "horizon": T,
+        "paper": PAPER_002["model17_O7"],
+        "sampling": "uniform in the slip coordinates z = (theta_mc, theta_cl, omega_m, omega_c - omega_m, "
+                    "omega_l - tau omega_c) over the LP bounding box of z(X*_T), points outside the state box "
+                    "rejected: the same uniform law on X*_T as plain box sampling, with fewer wasted draws",
+        "z_box": {"lower": zlo.tolist(), "upper": zhi.tolist()},
+        "workers": ex.n_workers,
+        "points_drawn": drawn,
+        "points_in_state_box": in_box,
+        "points_classified": sum(counts.values()),
+        "points_in_X*": feasible,
+        "points_observable": counts["observable"],
+        "points_unobservable": counts["unobservable"],
+        "points_solver_error": sum(p["errors"] for p in parts),
+        "points_fallback": sum(p["fallback"] for p in parts),
+        "observable_share_of_X*": counts["observable"] / feasible if feasible else None,
+        "observable_share_wilson95": wilson(counts["observable"], feasible),
+        "volume_share_of_state_box_in_X*": (feasible / drawn) * vol_ratio if drawn else None,
+        "volume_share_of_state_box_in_X*_wilson95": [share_in[0] * vol_ratio, share_in[1] * vol_ratio] if share_in else None,
+        "fig6": figs,
+        "seconds_fig6_planes_lps": t_planes,
+        "seconds_cuts": t_cut,
+        "seconds_sampling_box_lps": t_prep - t_planes - t_cut,
+        "seconds_sampling": t_sampling,
+        "seconds_total": seconds,
+        "budget_seconds": budget,
+        "within_budget": seconds <= budget,
+    }
+
+
+RESULTS_DIR = RESULTS  # reassigned for --quick
+
+
+def main(argv: list[str] | None = None) -> int:
+    global RESULTS_DIR
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_regions", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="tiny versions (smoke test); results in results/quick/")
+    parser.add_argument("--no-dask", action="store_true", help="skip the Dask executor")
+    args = parser.parse_args(argv)
+    quick = args.quick
+    RESULTS_DIR = RESULTS / "quick" if quick else RESULTS
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    t_start = time.perf_counter()
+    record: dict = {
+        "benchmark": "regions",
+        "quick": quick,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "machine": _machine(),
+        "versions": _versions(),
+        "paper_002_published": PAPER_002,
+        "notes": "medians over the stated repeats; the machine may be shared (see load_average); "
+                 "ratio_to_paper = ours / paper (below 1 is faster)",
+    }
+    executors = ("serial", "processes") if args.no_dask else ("serial", "processes", "dask")
+    try:
+        record["model16_T3"] = bench_model16_T3(3 if quick else 30)
+    except Exception as exc:
+        record["model16_T3"] = {"error": f"{type(exc).__name__}: {exc}"}
+    T_b = 5 if quick else 7
+    rec_b, analysis_b = bench_model17(T_b, 1 if quick else 3, executors, None if quick else TARGET_MODEL17_T7,
+                                      None if quick else PAPER_002["model17_T7_B_seconds"])
+    record[f"model17_T{T_b}"] = rec_b
+    T_c = 6 if quick else 8
+    rec_c, _ = bench_model17(T_c, 1, ("processes",), None, None)
+    record[f"model17_T{T_c}"] = rec_c
+    if analysis_b is not None:
+        try:
+            record[f"model17_O{T_b}"] = bench_O7(analysis_b, 10.0 if quick else BUDGET_O7, (11, 9) if quick else (31, 21),
+                                                 min(2, os.cpu_count() or 1))
+        except Exception as exc:
+            record[f"model17_O{T_b}"] = {"error": f"{type(exc).__name__}: {exc}"}
+    else:
+        record[f"model17_O{T_b}"] = {"error": "no analysis of model (17) available (part b failed)"}
+    record["machine"]["load_average_at_end"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
+    record["seconds_total"] = time.perf_counter() - t_start
+    path = RESULTS_DIR / "regions.json"
+    path.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
+    log(f"wrote {path} ({record['seconds_total']:.0f} s)")
+    return 0
+
+
+def _json_default(o):
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.bool_,)):
+        return bool(o)
+    raise TypeError(type(o).__name__)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
