@@ -6,6 +6,7 @@ Exit codes: 0 success, 2 bad input or a failed computation (one-line message on 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 import time
@@ -246,13 +247,19 @@ def _query_points(analysis, path: str, state_names: tuple[str, ...]) -> list[boo
 
 def cmd_observe(args: argparse.Namespace) -> int:
     from .examples import get_example
+    from .observers.scenarios import get_scenario
 
     example = get_example(args.example)
-    raise ModelError(
-        "hybobs observe",
-        "an example with an observer scenario",
-        f"no observer is available for {example.name!r} (paper {example.paper}) in this version",
-    )
+    scenario = get_scenario(example.name)
+    summary = scenario(args)
+    if args.json:
+        _print_json(summary)
+    else:
+        for key, value in summary.items():
+            if isinstance(value, (list, dict)) and len(str(value)) > 200:
+                value = f"{type(value).__name__} of {len(value)} items (use --json)"
+            print(f"{key}: {value}")
+    return 0
 
 
 # ---------------------------------------------------------------------------- parser
@@ -301,9 +308,19 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("observe", help="run an observer on an example's scenario")
     p.add_argument("example", help="example name")
     p.add_argument("--observer", default=None, metavar="KIND", help="observer kind")
+    p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
+    p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_observe)
+
+    for module in COMMAND_MODULES:
+        importlib.import_module(module).add_commands(sub)
     return parser
+
+
+#: Modules that add subcommands: each defines ``add_commands(subparsers)`` and the command
+#: functions (which return an exit code and raise HybobsError on bad input).
+COMMAND_MODULES: list[str] = []
 
 
 def main(argv: list[str] | None = None) -> int:
