@@ -39,11 +39,8 @@ from ..tolerances import (
     LOOKUP_SAME_STATE_TOL,
     REGION_SLACK_TOL,
 )
+from . import _lookup_kernels as K
 from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
-
-#: Windows processed per matrix product by :meth:`LookupObserver.run` (bounded memory).
-RUN_CHUNK = 16384
-
 
 class LookupObserver(Observer):
     """Algorithm 4.1 of paper 002 on the common observer contract.
@@ -78,9 +75,8 @@ class LookupObserver(Observer):
         self.state_names = self.system.state_names
         self.name = "lookup" if variant == "table" else "lookup-exact"
         self._build_tables()
-        if variant == "table":
-            pieces = list(b_tilde) if b_tilde is not None else reduced_unobservable_polytopes(analysis)
-            self._build_btilde(pieces)
+        pieces = list(b_tilde) if b_tilde is not None else (reduced_unobservable_polytopes(analysis) if variant == "table" else [])
+        self._build_btilde(pieces)
         self.reset()
 
     # ------------------------------------------------------------------ offline tables
@@ -145,45 +141,52 @@ class LookupObserver(Observer):
         self._bt_b = np.concatenate(rhs) if rhs else np.zeros(0)
         self._bt_starts = np.array(starts, dtype=int)
 
+    def _build_kernel_args(self) -> None:
+        sysm = self.system
+        table, rhs, starts = sysm._mode_table
+        self._modeA = np.ascontiguousarray(np.stack([md.A for md in sysm.modes]))
+        self._modeB = np.ascontiguousarray(np.stack([md.B for md in sysm.modes]))
+        self._modea = np.ascontiguousarray(np.stack([md.a for md in sysm.modes]))
+        self._guard = np.ascontiguousarray(table)
+        self._guard_rhs = np.ascontiguousarray(rhs)
+        self._guard_starts = np.append(starts, table.shape[0]).astype(np.int64)
+        self._Pl = np.ascontiguousarray(np.stack([l[0] for l in self._last]))
+        self._Gl = np.ascontiguousarray(np.stack([l[1] for l in self._last]))
+        self._pl = np.ascontiguousarray(np.stack([l[2] for l in self._last]))
+        self._last_mode = np.array([l[3] for l in self._last], dtype=np.int64)
+        self._mstarts_k = np.append(self._mstarts, self._table.shape[0] - self._nx - self._nr).astype(np.int64)
+        if self.variant != "table":
+            self._bt_A, self._bt_b, self._bt_starts = np.zeros((0, self.n)), np.zeros(0), np.zeros(1, dtype=np.int64)
+        bt_starts = np.append(self._bt_starts, self._bt_A.shape[0]).astype(np.int64) if len(self._bt_starts) and self._bt_A.shape[0] else np.zeros(1, dtype=np.int64)
+        self._bt_starts_k = bt_starts
+        self._ints = np.array([self.T, self._nx, self._nr, self.p * self.T, 1 if self.variant == "table" else 0, 1], dtype=np.int64)
+        self._ints_bad = self._ints.copy()
+        self._ints_bad[5] = 0
+        self._reals = np.array([self.output_rtol, LOOKUP_INTERIOR_MARGIN, LOOKUP_SAME_STATE_TOL, LOOKUP_MEMBERSHIP_TOL])
+        self._tables = (self._table, self._offset, self._mstarts_k, self._sx, np.ascontiguousarray(self._bt_A),
+                        np.ascontiguousarray(self._bt_b), self._bt_starts_k, self._Pl, self._Gl, self._pl, self._last_mode,
+                        self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts)
+        self._nan_u = np.full(self.m, np.nan)
+        self._nan_y = np.full(self.p, np.nan)
+
     # ------------------------------------------------------------------ state
     def reset(self, x0: np.ndarray | None = None, **kwargs) -> None:
         """Clear the window; ``x0`` (default: centre of the state box) seeds open-loop prediction."""
+        if not hasattr(self, "_tables"):
+            self._build_kernel_args()
         if x0 is None:
             x0 = self.analysis.enumeration.centre[: self.n]
         x0 = np.asarray(x0, dtype=float).reshape(-1)
         if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
             raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
-        self._x = x0.copy()
-        self._mode = -1
-        self._Y = np.zeros((self.T, self.p))
-        self._U = np.zeros((self.T, self.m))
-        self._count = 0
-        self._u_prev: np.ndarray | None = None
-
-    # ------------------------------------------------------------------ per-step core
-    def _classify_window(self, z: np.ndarray) -> tuple[int, np.ndarray | None]:
-        """Index into ``I`` of the unique consistent candidate (or -1), and the window-start state."""
-        out = self._table @ z + self._offset
-        n, p, T, K = self.n, self.p, self.T, self._K
-        xs = out[: self._nx].reshape(K, n)
-        res = out[self._nx : self._nx + self._nr].reshape(K, p * T)
-        viol = out[self._nx + self._nr :]
-        ymax = max(1.0, float(np.max(np.abs(z[: p * T]))))
-        ok = np.max(np.abs(res), axis=1) <= self.output_rtol * ymax
-        ok &= np.maximum.reduceat(viol, self._mstarts) < -LOOKUP_INTERIOR_MARGIN
-        cand = np.nonzero(ok)[0]
-        if cand.size == 0:
-            return -1, None
-        first = xs[cand[0]]
-        if cand.size > 1 and np.max(np.abs((xs[cand] - first) / self._sx)) > LOOKUP_SAME_STATE_TOL:
-            return -1, None  # card(chi) > 1
-        return int(cand[0]), first
-
-    def _in_btilde(self, x: np.ndarray) -> bool:
-        if self._bt_A.shape[0] == 0:
-            return False
-        viol = self._bt_A @ x - self._bt_b
-        return bool(np.any(np.maximum.reduceat(viol, self._bt_starts) <= LOOKUP_MEMBERSHIP_TOL))
+        self._xcur = x0.copy()
+        self._meta = np.array([0, -1, 0, 0, -1], dtype=np.int64)
+        self._Ybuf = np.zeros((self.T, self.p))
+        self._Ubuf = np.zeros((self.T, self.m))
+        self._uprev = np.zeros(self.m)
+        self._z = np.zeros(self.T * (self.p + self.m))
+        self._xs0 = np.zeros(self.n)
+        self._xnew = np.zeros(self.n)
 
     def _other_sequence_consistent(self, x: np.ndarray, z: np.ndarray) -> bool:
         """Exact variant: does a rank-deficient region admit another state with these data (an LP each)?"""
@@ -211,132 +214,76 @@ class LookupObserver(Observer):
                 return True
         return False
 
-    def _open_loop(self, u: np.ndarray | None) -> tuple[np.ndarray, int, bool]:
-        """``f_pwa(x(t-1), u(t-1))``; keeps the estimate if it has left ``X x U`` (never raises)."""
-        if u is None:
-            return self._x, self._mode, False
-        q = int(self.system.modes_of(self._x[None, :], u[None, :])[0])
-        if q < 0:
-            return self._x, self._mode, False
-        mode = self.system.modes[q]
-        return mode.A @ self._x + mode.B @ u + mode.a, q, True
+    # ------------------------------------------------------------------ online
+    def _advance(self, u: np.ndarray, y: np.ndarray, good: bool) -> int:
+        code = K.advance(u, y, self._ints if good else self._ints_bad, self._reals, self._Ybuf, self._Ubuf, self._xcur,
+                         self._meta, self._uprev, self._z, self._xs0, self._xnew, *self._tables)
+        if code == K.CANDIDATE_CODE:  # exact variant: ask the data with LPs
+            if self._other_sequence_consistent(self._xs0, self._z):
+                code = K.UNOBSERVABLE_CODE
+            else:
+                k = int(self._meta[4])
+                K.propagate_last(k, self._xs0, self._z, self.p * self.T, self._Pl, self._Gl, self._pl, self._xcur)
+                self._meta[1] = self._last_mode[k]
+                code = K.OBSERVABLE_CODE
+        return code
+
+    def step(self, u, y) -> Estimate:
+        """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step."""
+        t0 = time.perf_counter()
+        reason = ""
+        try:
+            uu = np.asarray(u, dtype=np.float64).reshape(-1)
+            yy = np.asarray(y, dtype=np.float64).reshape(-1)
+            if uu.shape[0] != self.m or yy.shape[0] != self.p:
+                reason = f"sample of length (u={uu.shape[0]}, y={yy.shape[0]}), expected (u={self.m}, y={self.p})"
+        except (TypeError, ValueError) as exc:
+            reason = f"sample not numeric ({exc})"
+        if reason:
+            uu, yy = self._nan_u, self._nan_y
+        code = self._advance(uu, yy, not reason)
+        if code == K.FALLBACK_CODE and not reason and int(self._meta[3]) == 0:
+            reason = "sample with NaN or Inf"
+        info = {"reason": reason} if reason else {}
+        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], time.perf_counter() - t0, info)
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
-        # open-loop prediction of x(t) from x(t-1), u(t-1)
-        x_pred, q_pred, ok_pred = self._open_loop(self._u_prev) if self._count > 0 else (self._x, self._mode, True)
-        self._Y[:-1] = self._Y[1:]
-        self._Y[-1] = y
-        self._U[:-1] = self._U[1:]
-        self._U[-1] = u
-        self._count += 1
-        self._u_prev = u
-        if self._count < self.T:
-            self._x, self._mode = x_pred, q_pred
-            return Estimate(self._x.copy(), self._mode, WARMING_UP, 0.0, {})
-        z = np.concatenate([self._Y.reshape(-1), self._U.reshape(-1)])
-        k, x_start = self._classify_window(z)
-        if k >= 0:
-            unobs = self._in_btilde(x_start) if self.variant == "table" else self._other_sequence_consistent(x_start, z)
-            if not unobs:
-                Pl, Gl, pl, last_mode = self._last[k]
-                self._x = Pl @ x_start + Gl @ z[self.p * self.T :] + pl
-                self._mode = int(last_mode)
-                return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, {"region": int(self.I[k])})
-        self._x, self._mode = x_pred, q_pred
-        return Estimate(self._x.copy(), self._mode, UNOBSERVABLE if ok_pred else FALLBACK, 0.0, {})
+        return self.step(u, y)
 
     def _fallback(self, u, reason: str) -> Estimate:
-        x_pred, q_pred, _ = self._open_loop(self._u_prev) if self._count > 0 else (self._x, self._mode, True)
-        self._x, self._mode = x_pred, q_pred
-        self._u_prev = u
-        # a bad sample breaks the window: start filling it again
-        self._count = 0
-        return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason})
+        code = self._advance(self._nan_u, self._nan_y, False)
+        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], 0.0, {"reason": reason})
 
-    # ------------------------------------------------------------------ batch
     def run(self, U, Y, x0: np.ndarray | None = None) -> ObserverTrace:
-        """Vectorised Algorithm 4.1 over a recorded trace (from a reset state).
+        """Algorithm 4.1 over a recorded trace, from a reset state (compiled loop for ``"table"``).
 
-        All windows are classified with chunked matrix products (:data:`RUN_CHUNK` windows at a
-        time); only the steps that are not reconstructed are propagated open loop in a loop.
-        Rows with NaN/Inf are treated as bad samples (flag ``fallback``).
+        Rows with NaN/Inf are bad samples (flag ``fallback``).  ``seconds`` holds the mean time
+        per step of the whole run.
         """
         t_start = time.perf_counter()
-        U = np.asarray(U, dtype=float).reshape(len(U), -1)
-        Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
+        U = np.ascontiguousarray(np.asarray(U, dtype=float).reshape(len(U), -1))
+        Y = np.ascontiguousarray(np.asarray(Y, dtype=float).reshape(len(Y), -1))
         if U.shape != (Y.shape[0], self.m) or Y.shape[1] != self.p:
             raise ModelError("U, Y", f"arrays of shapes (N, {self.m}) and (N, {self.p})", f"{U.shape} and {Y.shape}")
         self.reset(x0)
-        N, T, n, p = U.shape[0], self.T, self.n, self.p
-        good = np.all(np.isfinite(U), axis=1) & np.all(np.isfinite(Y), axis=1)
-        flags = np.full(N, UNOBSERVABLE, dtype=object)
-        flags[: min(T - 1, N)] = WARMING_UP
-        xs = np.full((N, n), np.nan)
-        modes = np.full(N, -1)
-        recon = np.zeros(N, dtype=bool)
-        if N >= T:
-            W = N - T + 1
-            # window k covers samples k .. k+T-1 and estimates the state at k+T-1
-            Yw = np.lib.stride_tricks.sliding_window_view(Y, T, axis=0).transpose(0, 2, 1).reshape(W, T * p)
-            Uw = np.lib.stride_tricks.sliding_window_view(U, T, axis=0).transpose(0, 2, 1).reshape(W, T * self.m)
-            Z = np.hstack([Yw, Uw])
-            win_good = np.lib.stride_tricks.sliding_window_view(good, T).all(axis=1)
-            for a in range(0, W, RUN_CHUNK):
-                b = min(W, a + RUN_CHUNK)
-                self._classify_chunk(Z[a:b], win_good[a:b], xs, modes, recon, T - 1 + a)
-        flags[recon] = OBSERVABLE
-        flags[~good] = FALLBACK
-        # open-loop propagation where not reconstructed
-        x_prev = self._x.copy()
-        q_prev = -1
-        for t in range(N):
-            if recon[t]:
-                x_prev, q_prev = xs[t], modes[t]
-                continue
-            if t > 0:
-                self._x, self._mode = x_prev, q_prev
-                x_new, q_new, ok = self._open_loop(U[t - 1] if good[t - 1] else None)
-                if not ok and flags[t] == UNOBSERVABLE:
-                    flags[t] = FALLBACK
-                x_prev, q_prev = x_new, q_new
-            xs[t], modes[t] = x_prev, q_prev
+        N = U.shape[0]
+        xs = np.empty((N, self.n))
+        modes = np.empty(N, dtype=np.int64)
+        codes = np.empty(N, dtype=np.int64)
+        if self.variant == "table":
+            K.run_table(U, Y, self._ints, self._reals, self._Ybuf, self._Ubuf, self._xcur, self._meta, self._uprev,
+                        self._z, self._xs0, self._xnew, *self._tables, xs, modes, codes)
+        else:
+            for t in range(N):
+                codes[t] = self._advance(U[t], Y[t], True)
+                xs[t], modes[t] = self._xcur, self._meta[1]
         per_step = (time.perf_counter() - t_start) / max(N, 1)
-        self._x, self._mode = x_prev.copy(), int(q_prev)
+        flags = np.array([_FLAGS[c] for c in range(5)], dtype=object)[codes]
         return ObserverTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name)
 
-    def _classify_chunk(self, Z, win_good, xs, modes, recon, t0) -> None:
-        n, p, T, K = self.n, self.p, self.T, self._K
-        out = Z @ self._table.T + self._offset
-        X = out[:, : self._nx].reshape(-1, K, n)
-        R = out[:, self._nx : self._nx + self._nr].reshape(-1, K, p * T)
-        V = out[:, self._nx + self._nr :]
-        ymax = np.maximum(1.0, np.max(np.abs(Z[:, : p * T]), axis=1))
-        ok = np.max(np.abs(R), axis=2) <= self.output_rtol * ymax[:, None]
-        ok &= np.maximum.reduceat(V, self._mstarts, axis=1) < -LOOKUP_INTERIOR_MARGIN
-        ok &= win_good[:, None]
-        count = ok.sum(axis=1)
-        first = np.argmax(ok, axis=1)
-        rows = np.arange(Z.shape[0])
-        xstart = X[rows, first]
-        unique = count == 1
-        multi = np.nonzero(count > 1)[0]
-        for w in multi:  # several regions: the same state (a boundary) or card(chi) > 1
-            c = np.nonzero(ok[w])[0]
-            unique[w] = np.max(np.abs((X[w, c] - X[w, c[0]]) / self._sx)) <= LOOKUP_SAME_STATE_TOL
-        sel = np.nonzero(unique)[0]
-        if sel.size and self.variant == "table" and self._bt_A.shape[0]:
-            viol = xstart[sel] @ self._bt_A.T - self._bt_b
-            inside = np.any(np.maximum.reduceat(viol, self._bt_starts, axis=1) <= LOOKUP_MEMBERSHIP_TOL, axis=1)
-            sel = sel[~inside]
-        elif sel.size and self.variant == "exact":
-            sel = np.array([w for w in sel if not self._other_sequence_consistent(xstart[w], Z[w])], dtype=int)
-        for w in sel:
-            k = first[w]
-            Pl, Gl, pl, last_mode = self._last[k]
-            t = t0 + w
-            xs[t] = Pl @ xstart[w] + Gl @ Z[w, p * T :] + pl
-            modes[t] = last_mode
-            recon[t] = True
+
+_FLAGS = {K.OBSERVABLE_CODE: OBSERVABLE, K.UNOBSERVABLE_CODE: UNOBSERVABLE, K.FALLBACK_CODE: FALLBACK,
+          K.WARMING_CODE: WARMING_UP, K.CANDIDATE_CODE: UNOBSERVABLE}
 
 
 def reduced_unobservable_polytopes(analysis) -> list[Polytope]:

@@ -40,7 +40,7 @@ from ._validate import as_matrix, as_names, as_vector
 #: convex-hull method; above it, Fourier-Motzkin elimination.  Qhull's cost grows quickly with the
 #: dimension, while the hull method needs only ~(facets + vertices) LPs; set this module attribute
 #: (or pass ``hull_max_dim``) to move the switch.
-HULL_PROJECTION_MAX_DIM: int = 4
+HULL_PROJECTION_MAX_DIM: int = 5
 
 #: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
 #: (qhull on the vertices) are offered; above it the volume is estimated by Monte Carlo.
@@ -391,6 +391,8 @@ class Polytope:
         other kept rows (and ``a_i z <= b_i + 1``, which keeps the LP bounded) does not exceed
         ``b_i`` by more than ``REDUNDANCY_RTOL``.  The tests run in coordinates scaled so the
         bounding box is ``[-1, 1]^d`` (or by ``scale`` when given), so the tolerance is relative.
+        Rows proved to be facets by ray shooting from the Chebyshev centre skip their LP, and the
+        LPs use only rows already proved to be facets (Clarkson's algorithm), so they stay small.
 
         Parameters
         ----------
@@ -834,8 +836,8 @@ def _clarkson_test(A, b, i, active, facets, centre, tol) -> bool:
         with np.errstate(divide="ignore"):
             t = np.where(proj > ZERO_ROW_TOL, beta[idx] / np.where(proj > ZERO_ROW_TOL, proj, 1.0), np.inf)
         two = np.argsort(t)[:2]
-        if t[two[1]] - t[two[0]] <= RAY_TIE_RTOL * t[two[0]]:
-            return False
+        if t[two[1]] - t[two[0]] <= RAY_TIE_RTOL * t[two[0]] or facets[idx[two[0]]]:
+            return False  # a tie, or LP noise pointing back at a known facet: let the full LP decide
         facets[idx[two[0]]] = True
     return True
 
@@ -877,8 +879,10 @@ def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) ->
     # first row hit is a facet if the ray can go on, past it by more than the tolerance, before
     # hitting the second row.
     rng = np.random.default_rng(0)
-    n_random = min(_RAYS_PER_ROW * idx.size, max(_RAY_BUDGET // idx.size - idx.size, 0))
-    dirs = np.vstack([Aa, rng.normal(size=(n_random, d))])
+    n_rays = max(_RAY_BUDGET // idx.size, 1)
+    normals = Aa if idx.size <= n_rays else Aa[rng.choice(idx.size, n_rays, replace=False)]
+    n_random = min(_RAYS_PER_ROW * idx.size, n_rays - normals.shape[0])
+    dirs = np.vstack([normals, rng.normal(size=(n_random, d))])
     proj = dirs @ Aa.T  # (n_dirs, n_rows)
     with np.errstate(divide="ignore"):
         t = np.where(proj > ZERO_ROW_TOL, beta[None, :] / np.where(proj > ZERO_ROW_TOL, proj, 1.0), np.inf)
@@ -1201,9 +1205,10 @@ def _fm_step(A: np.ndarray, b: np.ndarray, j: int, anc: np.ndarray) -> tuple[np.
     zer = np.nonzero(np.abs(a) <= ZERO_ROW_TOL)[0]
     wp = a[pos][:, None]
     wn = -a[neg][None, :]
-    newA = (A[pos][:, None, :] * wn[..., None] + A[neg][None, :, :] * wp[..., None]).reshape(-1, A.shape[1])
-    newb = (b[pos][:, None] * wn + b[neg][None, :] * wp).reshape(-1)
-    newanc = (anc[pos][:, None, :] | anc[neg][None, :, :]).reshape(-1, anc.shape[1])
+    n_new = pos.size * neg.size
+    newA = (A[pos][:, None, :] * wn[..., None] + A[neg][None, :, :] * wp[..., None]).reshape(n_new, A.shape[1])
+    newb = (b[pos][:, None] * wn + b[neg][None, :] * wp).reshape(n_new)
+    newanc = (anc[pos][:, None, :] | anc[neg][None, :, :]).reshape(n_new, anc.shape[1])
     A2 = np.vstack([A[zer], newA])
     b2 = np.concatenate([b[zer], newb])
     return np.delete(A2, j, axis=1), b2, np.vstack([anc[zer], newanc])

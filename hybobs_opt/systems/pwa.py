@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
+from ..tolerances import MEMBERSHIP_RTOL
 from ._validate import as_matrix, as_names, as_vector
 from .polytope import Polytope
 
@@ -126,6 +127,14 @@ class PWASystem:
         half.setflags(write=False)
         centre.setflags(write=False)
         object.__setattr__(self, "_scales", (half, centre))
+        object.__setattr__(self, "_domain", domain)
+        # Mode lookup table: every mode's guard rows followed by the domain rows, stacked, so
+        # that modes_of is one matrix product and a segmented max (used in runtime loops).
+        rows = [np.vstack([mode.guard.A, domain.A]) for mode in modes]
+        rhs = [np.concatenate([mode.guard.b, domain.b]) for mode in modes]
+        starts = np.cumsum([0] + [r.shape[0] for r in rows[:-1]])
+        table_b = np.concatenate(rhs)
+        object.__setattr__(self, "_mode_table", (np.vstack(rows), table_b + MEMBERSHIP_RTOL * (1.0 + np.abs(table_b)), starts))
         for i, mode in enumerate(modes):
             if not mode.guard.intersect(domain).is_full_dimensional(scale):
                 raise ModelError(
@@ -157,6 +166,9 @@ class PWASystem:
     @property
     def domain(self) -> Polytope:
         """``X x U`` as one polytope over ``(x, u)``."""
+        cached = self.__dict__.get("_domain")
+        if cached is not None:
+            return cached
         if self.input_bounds is None:
             return self.state_bounds
         return self.state_bounds.product(self.input_bounds)
@@ -176,12 +188,9 @@ class PWASystem:
     def modes_of(self, X: np.ndarray, U: np.ndarray | None = None) -> np.ndarray:
         """Vectorised mode lookup: index of the first guard containing each row of ``[X U]``, ``-1`` if none."""
         Z = self._xu(np.atleast_2d(X), None if U is None else np.atleast_2d(U))
-        out = np.full(Z.shape[0], -1, dtype=int)
-        in_domain = self.domain.contains(Z)
-        for i, mode in enumerate(self.modes):
-            hit = (out < 0) & in_domain & mode.guard.contains(Z)
-            out[hit] = i
-        return out
+        table, rhs, starts = self._mode_table
+        inside = np.maximum.reduceat(Z @ table.T - rhs, starts, axis=1) <= 0.0
+        return np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
 
     def mode_of(self, x: Sequence[float], u: Sequence[float] | None = None) -> int:
         """Index of the mode whose guard contains ``(x, u)``.
