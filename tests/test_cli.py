@@ -54,7 +54,7 @@ def test_simulate_param_changes_model(capsys):
         (["simulate", "powertrain3", "--param", "gear_ratio"], "--param"),
         (["simulate", "powertrain3", "--param", "warp=2"], "parameters"),
         (["simulate", "powertrain3", "--t-final", "-1"], "--t-final"),
-        (["observe", "powertrain3"], "observer"),
+        (["observe", "traffic_light"], "one of"),
     ],
 )
 def test_bad_input_one_line_and_exit_2(capsys, argv, fragment):

@@ -125,3 +125,19 @@ def test_bad_construction_arguments(setup):
         LookupObserver(analysis, output_rtol=-1.0)
     with pytest.raises(ModelError, match="U, Y"):
         LookupObserver(analysis).run(np.zeros((5, 2)), np.zeros((5, 1)))
+
+
+def test_cli_bench_json_contract(capsys):
+    import json
+
+    from hybobs_opt.cli import main
+
+    code = main(["bench", "powertrain3", "--horizon", "3", "--steps", "1200", "--observers", "lookup", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    rec = out["observers"]["lookup"]
+    for key in ("median_step_s", "p95_step_s", "max_abs_error_observable", "n_flagged_unobservable", "solver"):
+        assert key in rec
+    assert rec["max_abs_error_observable_all"] < 1e-9
+    assert rec["batch_equals_steps"] is True
+    assert main(["bench", "powertrain3", "--steps", "2"]) == 2

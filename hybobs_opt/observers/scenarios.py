@@ -18,7 +18,7 @@ Scenario = Callable[[argparse.Namespace], dict[str, Any]]
 _SCENARIOS: dict[str, Scenario] = {}
 
 #: Modules that register scenarios on import (each calls :func:`register_scenario`).
-SCENARIO_MODULES: list[str] = []
+SCENARIO_MODULES: list[str] = ["hybobs_opt.observers.bench"]
 
 
 def register_scenario(example: str, scenario: Scenario) -> None:
