@@ -306,3 +306,17 @@ def test_cli_regions_json_and_query(capsys, tmp_path):
 def test_cli_regions_bad_input(capsys, argv, fragment):
     assert main(argv) == 2
     assert fragment in capsys.readouterr().err
+
+
+def test_cut_sets_union_difference_agrees_with_point_queries(pt3_T3):
+    """O_T = X*_T minus B_T (eq. 9) as polygons on the cut omega_l = 25 matches the exact point query."""
+    X, B, O = pt3_T3.cut_sets({"omega_l": 25.0})
+    assert len(X) > 0 and len(B) > 0 and len(O) > 0
+    rng = np.random.default_rng(7)
+    pts = np.column_stack([rng.uniform(-0.2, 0.2, 150), rng.uniform(0.0, 600.0, 150)])
+    labels = np.array([pt3_T3.classify([p[0], p[1], 25.0]) for p in pts])
+    np.testing.assert_array_equal(O.contains(pts), labels == "observable")
+    np.testing.assert_array_equal(X.contains(pts), labels != "infeasible")
+    # the band |theta| < alpha is in B_T, never in O_T (Fig. 3b)
+    band = np.column_stack([np.full(20, 0.0), np.linspace(10.0, 590.0, 20)])
+    assert not O.contains(band).any() and B.contains(band).all()

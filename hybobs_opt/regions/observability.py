@@ -257,6 +257,63 @@ class ObservabilityAnalysis:
             raise ModelError("x", f"a finite state of length {self.system.n}", f"{x.tolist()}")
         return x
 
+    # ------------------------------------------------------------------ sets on cuts
+    def cut_sets(self, fixed: dict[str, float] | None = None):
+        r"""``X*_T``, ``B_T`` and ``O_T = X*_T \ B_T`` (eqs. 5, 9) as unions of polytopes on a cut.
+
+        Every piece is sliced at ``fixed`` (state name -> value) and projected exactly onto the
+        remaining states: ``Proj_x(P_i)`` for ``X*_T`` and for ``i`` not in ``I``, and
+        ``Proj_x(R_ij)`` (with its output equalities) for the pairs.  ``fixed=None`` gives the
+        sets in the full state space (practical for ``n <= 3``).  ``O_T`` is the region
+        difference, exact up to sets of measure zero as in the paper.
+
+        Returns
+        -------
+        (PolytopeUnion, PolytopeUnion, PolytopeUnion)
+        """
+        from ..systems.polytope import Polytope
+        from .union import PolytopeUnion
+
+        fixed = dict(fixed or {})
+        names = self.system.state_names
+        n, T, m = self.system.n, self.T, self.system.m
+        for k in fixed:
+            if k not in names:
+                raise ModelError("fixed", f"state names among {names}", repr(k))
+        free = [nm for nm in names if nm not in fixed]
+        if not free:
+            raise ModelError("fixed", "at least one free state", "all states fixed")
+        u_names = tuple(f"u{k}_{j}" for k in range(T) for j in range(m))
+        hat = tuple(f"{nm}^" for nm in names)
+
+        def project(P: Polytope, E=None, e=None):
+            if E is None:
+                Q = P.slice(fixed) if fixed else P
+                return Q.project(free)
+            cols = [P.names.index(k) for k in fixed]
+            keep = [c for c in range(P.dim) if c not in cols]
+            values = np.array([fixed[k] for k in fixed])
+            Q = P.slice(fixed) if fixed else P
+            E2, e2 = E[:, keep], e - (E[:, cols] @ values if cols else 0.0)
+            return Q.project_with_equalities(E2, e2, free)
+
+        xstar, bt = [], []
+        for k, reg in enumerate(self.regions):
+            piece = project(Polytope(reg.H, reg.h, names + u_names))
+            if piece.is_empty():
+                continue
+            xstar.append(piece)
+            if not self.full_rank[k]:
+                bt.append(piece)
+        for pair in self.pairs:
+            piece = project(Polytope(pair.G, pair.g, names + hat + u_names), pair.E, pair.e)
+            if not piece.is_empty():
+                bt.append(piece)
+        d = len(free)
+        X = PolytopeUnion(tuple(xstar), d, tuple(free))
+        B = PolytopeUnion(tuple(bt), d, tuple(free))
+        return X, B, X.difference(B)
+
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict:
         """The ``hybobs regions --json`` record."""
