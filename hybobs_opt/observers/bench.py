@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
-from .base import OBSERVABLE, ObserverTrace
+from .base import OBSERVABLE, Observer, ObserverTrace
 
 
 def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, params: dict | None = None):
@@ -52,17 +52,13 @@ def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
 
 
 def timed_steps(observer, U: np.ndarray, Y: np.ndarray) -> ObserverTrace:
-    """Run ``observer.step`` sample by sample (the online cost), collecting an ObserverTrace."""
+    """Run ``observer.step`` sample by sample from a reset state (the online cost).
+
+    Calls the base class's :meth:`Observer.run`, which loops ``step``, even for observers whose
+    own ``run`` is a vectorised batch.
+    """
     observer.reset()
-    N = U.shape[0]
-    xs = np.full((N, observer.n), np.nan)
-    modes = np.full(N, -1)
-    flags = np.empty(N, dtype=object)
-    secs = np.zeros(N)
-    for k in range(N):
-        e = observer.step(U[k], Y[k])
-        xs[k], modes[k], flags[k], secs[k] = e.x, e.mode, e.flag, e.seconds
-    return ObserverTrace(xs, modes, flags, secs, observer.state_names, observer.name)
+    return Observer.run(observer, U, Y)
 
 
 def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarray, state_names, solver: str) -> dict[str, Any]:
