@@ -320,7 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: Modules that add subcommands: each defines ``add_commands(subparsers)`` and the command
 #: functions (which return an exit code and raise HybobsError on bad input).
-COMMAND_MODULES: list[str] = ["hybobs_opt.observers.bench"]
+COMMAND_MODULES: list[str] = ["hybobs_opt.observers.bench", "hybobs_opt.lmi.commands"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -111,3 +111,196 @@ LOOKUP_SAME_STATE_TOL: float = 1e-6
 #: boundary, which belongs to the backlash sequence.  States closer than this to a boundary are
 #: flagged unobservable (conservative), never wrongly reconstructed.
 LOOKUP_INTERIOR_MARGIN: float = 1e-9
+
+# ---------------------------------------------------------------------- moving-horizon observers
+# (paper 002, eq. 10; hybobs_opt.mhe).  Constraint rows of the MLD encoding have a largest
+# coefficient of one and the variables are scaled to the state box, so these are relative.
+
+#: A guard row is left out of the big-M encoding when its largest value minus its right-hand side
+#: over X x U is at most this (relative to the row's size): it holds on the whole domain.
+BIGM_IMPLIED_RTOL: float = 1e-9
+
+# ---------------------------------------------------------------------- observer LMIs (paper 004)
+
+#: Jacobian bounds (eqs. 4-5) found by dense sampling plus refined critical points are widened
+#: outward by this fraction of ``max |f'|`` on the interval: the refined extrema are exact to
+#: brentq's ~1e-12, so the widening only covers rounding and a critical-point pair narrower than
+#: one sampling cell; it is far too small to change a monotonicity verdict (see next tolerance).
+JACOBIAN_BOUND_RTOL: float = 1e-7
+
+#: A function counts as monotonic on an interval when its derivative never has the "wrong" sign
+#: by more than this fraction of ``max |f'|``: twice the widening above, so a derivative that only
+#: touches zero at an end point (cos on [0, 80 deg]) stays monotonic after widening.
+MONOTONIC_RTOL: float = 2e-7
+
+#: Observer LMIs are solved as ``B(P, Y) <= -margin I`` with ``P >= I`` in box-scaled coordinates.
+#: The LMIs are homogeneous there, so any positive margin is no loss of generality; it keeps the
+#: returned point strictly inside the cone so that Clarabel's 1e-8 feasibility error cannot push
+#: it out of ``B <= 0``, which numpy then re-checks.
+LMI_STRICT_MARGIN: float = 1e-6
+
+#: Dual (Farkas) certificates of infeasibility, re-checked in numpy: Z is accepted as PSD, W as
+#: PSD and the Y-coefficient as zero when their violations are below this times ``||Z||_F`` (after
+#: an exact projection that zeroes the Y-coefficient).  Clarabel's rays are accurate to ~1e-9
+#: relative; anything above 1e-6 is a wrong certificate, not rounding.
+CERTIFICATE_RTOL: float = 1e-6
+
+#: Bisection on the decay rate sigma and on the dwell time tau stops when the bracket is this
+#: fraction of its upper end: 5 % is below the spread between regions, the design uses half the
+#: largest rate anyway, and it keeps each search to about 8 solves.
+BISECTION_RTOL: float = 5e-2
+
+#: Proximal weight of the MIQP (scaled cost units, where the largest diagonal entry of the output
+#: part of the Hessian is one).  DAQP's branch-and-bound needs a positive-definite Hessian, but the
+#: big-M copies and the binaries have no curvature in eq. (10): the term ``eps ||v - v_bar||^2``
+#: towards the warm start ``v_bar`` supplies it.  Its effect on the optimum is bounded (reported
+#: as ``gap_bound``) and is removed from the estimate by the fixed-sequence polish; it must stay
+#: well below the output sensitivity of the weakest observable direction (about 1e-7 for model
+#: (16) at T = 3), which 1e-10 does.
+MHE_PROX_WEIGHT: float = 1e-10
+
+#: Absolute optimality gap of the MIQP branch-and-bound (same scaled units): a node is pruned when
+#: its bound is within this of the incumbent.  The cost is a sum of squares plus the proximal
+#: term, so no relaxation is below zero: once the warm start gives a zero-cost incumbent (noise-
+#: free data) every node is pruned at once instead of every node whose relaxation also fits the
+#: data being explored.  It only has to absorb rounding in the objective (about 1e-16 of the
+#: output energy), and it is kept far below the cost differences between mode sequences of
+#: model (16) (1e-10 in these units).  Added to ``gap_bound``.
+MHE_ABS_SUBOPT: float = 1e-12
+
+#: A binary of a returned solution counts as integral when within this of 0 or 1.
+MHE_INTEGRALITY_TOL: float = 1e-6
+
+#: Largest violation of a constraint row of the MLD encoding (largest coefficient one, scaled
+#: variables) accepted in a returned solution; larger means the solver's answer is not certified.
+MHE_FEASIBILITY_TOL: float = 1e-6
+
+#: Feasibility tolerance asked of the MILP solvers (HiGHS primal and MIP feasibility), in the same
+#: scaled units: tighter than MHE_FEASIBILITY_TOL so that accepted answers pass the check.
+MHE_MILP_FEASIBILITY_TOL: float = 1e-9
+
+#: The fixed-sequence polish of the MIQP is skipped when the solution's continuous part is within
+#: this (scaled units) of the warm start and its mode sequence equals the warm start's: the
+#: proximal term then moves the optimum by about MHE_PROX_WEIGHT times this over the output
+#: sensitivity (1e-18 / 1e-7 = 1e-11 of the state range for model (16)), far below any tolerance.
+MHE_POLISH_SKIP_TOL: float = 1e-8
+
+# ---------------------------------------------------------------------- constant-drift observers (paper 003)
+# The event-sampled matrices (eqs. 14-15) are products of a few rational numbers of size ~1, so
+# their rounding is ~1e-15 relative; these tolerances sit well above that and far below any
+# structural quantity (a gain, a rate, a queue length).
+
+#: Rank decisions of the sequential deadbeat algorithm (subspace intersections and images), on
+#: singular values relative to the largest.  A few products deep the rounding is ~1e-14; a genuine
+#: direction of the error subspace has a singular value of the size of the rates' ratios (>= 1e-3).
+SEQUENTIAL_RANK_RTOL: float = 1e-9
+
+#: The per-phase linear conditions on a deadbeat gain are consistent when their least-squares
+#: residual is below this times ``1 + |right-hand side|``: rounding gives ~1e-14, a real conflict
+#: between two periods' conditions is of the size of the gains themselves.
+GAIN_CONSISTENCY_RTOL: float = 1e-8
+
+#: A transition matrix of the periodic error system counts as zero (deadbeat reached) when its
+#: largest entry is below this times the product of ``max(1, |M_j|_2)`` over the steps: exactly
+#: nilpotent products of the paper's matrices leave ~1e-16 relative residues.
+DEADBEAT_RTOL: float = 1e-9
+
+#: Entrywise positivity of ``A_j - L_j C_j`` and ``L_j C_j`` (Remark 4.4) is accepted down to
+#: ``-this * max|A_j|``: the paper's gains (20a-b) make some entries exactly zero in exact
+#: arithmetic, which rounds to +-1e-17.
+POSITIVITY_RTOL: float = 1e-12
+
+#: Positive-observer LP: the copositive Lyapunov vectors are bounded to ``1 <= p <= kappa``.  The
+#: LP is homogeneous in ``p``, so some bound is needed; this one allows weights over four orders of
+#: magnitude (a queue that matters 1e4 times less than another) and keeps Clarabel's
+#: 1e-8 accuracy meaningful after the gains ``L = Z / p`` are recovered.
+POSITIVE_LP_KAPPA: float = 1e4
+
+#: Positive-observer LP: the largest contraction rate per visible event that is tried is
+#: ``1 - this`` (a rate of 1 proves nothing), and the bisection on the rate stops when its bracket
+#: is narrower than POSITIVE_LP_RATE_ATOL (rates are reported to three decimals).
+POSITIVE_LP_RATE_MARGIN: float = 1e-6
+POSITIVE_LP_RATE_ATOL: float = 1e-3
+
+#: A Perron (Collatz-Wielandt) certificate ``Phi z >= r z`` is re-checked in numpy with this
+#: relative slack on ``r z``: the eigenvector comes from LAPACK to ~1e-15.
+PERRON_RTOL: float = 1e-9
+
+# ---------------------------------------------------------------------- sliding-mode observers
+# (paper 001: canonical form (4), observer (5), Theorem 1; hybobs_opt.systems.canonical_form and
+# hybobs_opt.observers.sliding_mode)
+
+#: Two observability coordinate maps ``C A_q^k`` (or offsets, or the ``alpha_q`` of two locations)
+#: are the same when they differ by less than this relative to their largest entry.  They are
+#: products of the model's own numbers (Example 3: exact multiples of 100/7), so rounding leaves
+#: ~1e-15; a genuine difference between locations is many orders larger.
+CANONICAL_FORM_RTOL: float = 1e-9
+
+#: A callable flow is in the triangular form (4) when ``x_k' - x_{k+1}`` (and ``y - x1``) is below
+#: this times ``1 + |bound of x_{k+1}|`` at every sample: a wrong structure differs by O(1).
+TRIANGULAR_CHECK_RTOL: float = 1e-9
+
+#: Samples of the operating box used to check the triangular form of callable flows and to bound
+#: ``f_q`` (the derivative of the last canonical state).  20 000 uniform samples put the largest
+#: gap along a coordinate at ~1e-4 of its range: for Example 2's ``F2 = -40 cos(300 x3 + pi/2)``
+#: (period 0.021 in x3 over [-1, 1]) the sampled peak is within 0.3 % of the true one.
+DERIVATIVE_BOUND_SAMPLES: int = 20_000
+
+#: The sampled range of a callable ``f_q`` is widened by this fraction of itself on both sides, to
+#: cover peaks between samples (see above: 0.3 % for Example 2) with a wide margin.  It enters the
+#: last gain only, whose own margin SMO_GAIN_MARGIN then still holds.
+DERIVATIVE_BOUND_MARGIN: float = 0.1
+
+#: Gain rule of the sliding-mode observer: ``lambda_j = rho * (width of z_{j+1}'s range)`` and
+#: ``lambda_n = rho * (width of f's range)``.  The estimate is clipped to the range, so the error
+#: ``|e_{j+1}|`` that stage ``j`` must dominate never exceeds that width; ``rho = 1.5`` leaves a
+#: reaching rate of at least ``(rho - 1) * width`` (Theorem 2's "there exists a choice of
+#: lambda_i", made explicit).
+SMO_GAIN_MARGIN: float = 1.5
+
+#: A stage counts as sliding (its anti-peaking switch ``E_j`` of eq. 5 closes) after this many
+#: consecutive samples inside its boundary layer ``|e_j| <= h lambda_j``: the first sample inside
+#: still carries part of the reaching injection, the equivalent value is exact from the second.
+SMO_SLIDING_HOLD: int = 2
+
+#: Default time constant of the low-pass filter of the auxiliary states used for the switching
+#: decision, in samples: 20 samples attenuate sample-to-sample noise of the auxiliary states about
+#: 6-fold (standard deviation ``~ 1/sqrt(2 * 20)``) for a delay of 20 samples (Fig. 5 vs Fig. 6).
+SMO_FILTER_STEPS: int = 20
+
+# ---------------------------------------------------------------------- location observer (paper 000)
+
+#: Popov-Belevitch-Hautus test of (A_i, C_i) in coordinates scaled by the state bounds: the pair is
+#: unobservable when the smallest singular value of [A - lambda I; C] is below this times the
+#: largest.  Eigenvalues are computed to ~1e-13 relative, so a real loss of rank (an exact zero,
+#: e.g. the backlash location of the driveline) sits far below and any observable pair far above.
+OBSERVABILITY_RTOL: float = 1e-9
+
+#: Strictness margin of the Luenberger decay LMIs of paper 000 (time-normalised so the data are of
+#: order one, P >= I).  Any positive value is no loss of generality; it keeps Clarabel's point
+#: inside the cone.  The decay actually used is recomputed with numpy from the returned P and gain.
+LUENBERGER_LMI_MARGIN: float = 1e-6
+
+#: The decay-rate search asks for this fraction more than the rate the residual bound needs at
+#: Delta, so that the rounding of the numpy-verified decay cannot undo the guarantee.
+DELAY_DESIGN_RTOL: float = 1e-3
+
+#: Relative slack (times 1 + |b|) added to the guaranteed margin of a location's invariant test on
+#: its generator's state.  It covers rounding and the plant's event instants falling between
+#: samples; it is far below the widths of the invariants of interest.
+LOCATION_INVARIANT_RTOL: float = 1e-9
+
+#: Proximal weight of the MIQP's binaries (scaled units).  It steers the branch-and-bound towards
+#: the incumbent's mode sequence and biases the choice between two sequences by at most this per
+#: changed binary (included in ``gap_bound``).  Smaller values (1e-12) are still factorised by
+#: DAQP but resolve the nearly indistinguishable sequences of model (16) no better (measured
+#: against enumeration on noisy windows: larger excess cost, not smaller), so it equals
+#: MHE_PROX_WEIGHT.
+MHE_BINARY_PROX_WEIGHT: float = 1e-10
+
+#: A warm start whose exact cost is below this times the largest output curvature of the MIQP
+#: (``J_s``, about the squared output range) is accepted as the optimum without branch-and-bound:
+#: the cost of eq. (10) is a sum of squares, so the optimum is at least zero and the accepted
+#: point is within this of it.  Noise-free data give 1e-25 relative; 1e-14 of 9e4 (rad/s)^2 for
+#: model (16) is a residual of 1.7e-5 rad/s, below the solver tolerances of the MIQP itself.
+MHE_ZERO_COST_RTOL: float = 1e-14

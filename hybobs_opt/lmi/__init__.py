@@ -1,1 +1,32 @@
-"""Observer LMIs, Jacobian bounds, infeasibility certificates and switched gains (paper 004)."""
+"""Observer LMIs, Jacobian bounds, infeasibility certificates and switched gains (paper 004).
+
+Modules, one concept each:
+
+* :mod:`.schedule` -- regions of a scheduling coordinate (sub-boxes of the operating box);
+* :mod:`.bounds` -- Jacobian bounds (eqs. 4-5), monotonicity, slope changes, monotonic pieces;
+* :mod:`.observer_lmi` -- LMIs (8), (22), (23) compiled once with cvxpy ``Parameter``s;
+* :mod:`.certificates` -- infeasibility certificates (structural reason, dual multiplier, numpy re-check);
+* :mod:`.subtraction` -- Theorem 5 (linear subtraction does not help);
+* :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
+* :mod:`.switched` -- per-region synthesis and automatic region growth;
+* :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
+* :mod:`.presets` -- the examples' scheduling settings; :mod:`.commands` -- ``hybobs diagnose/synth``.
+"""
+
+from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points
+from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
+from .diagnose import Diagnosis, diagnose
+from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
+from .observer_lmi import LMISolution, ObserverLMI
+from .schedule import SchedulingRegion, adjacent_pairs, make_region, regions_from_switch_points
+from .solve import COUNTERS
+from .subtraction import SubtractionCheck, theorem5_check
+from .switched import RegionGain, SwitchedDesign, grow_regions, synthesize_switched
+
+__all__ = [
+    "COUNTERS", "DerivativeBound", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
+    "JacobianBounds", "LMISolution", "ObserverLMI", "RegionGain", "SchedulingRegion", "SubtractionCheck",
+    "SwitchedDesign", "adjacent_pairs", "certify_infeasible", "derivative_bound", "diagnose", "dwell_for_hysteresis",
+    "dwell_time_fixed", "grow_regions", "hysteresis_for_dwell", "jacobian_bounds", "make_region", "monotonic_pieces",
+    "regions_from_switch_points", "slope_change_points", "synthesize_switched", "theorem5_check",
+]

@@ -18,7 +18,13 @@ Scenario = Callable[[argparse.Namespace], dict[str, Any]]
 _SCENARIOS: dict[str, Scenario] = {}
 
 #: Modules that register scenarios on import (each calls :func:`register_scenario`).
-SCENARIO_MODULES: list[str] = ["hybobs_opt.observers.bench"]
+SCENARIO_MODULES: list[str] = [
+    "hybobs_opt.observers.bench",
+    "hybobs_opt.observers.switched_gain",
+    "hybobs_opt.observers.hybrid_observer",
+    "hybobs_opt.observers.drift_observer",
+    "hybobs_opt.observers.sliding_mode",
+]
 
 
 def register_scenario(example: str, scenario: Scenario) -> None:

@@ -40,3 +40,7 @@ def examples_section(out: Path, progress: Callable[[str], None]) -> ReportSectio
 register_section("examples", examples_section)
 
 from . import regions_section  # noqa: E402,F401
+from . import lmi_section  # noqa: E402,F401
+from . import driveline_section  # noqa: E402,F401
+from . import drift_section  # noqa: E402,F401
+from . import sliding_section  # noqa: E402,F401

@@ -1,0 +1,524 @@
+"""The observer-design LMIs of paper 004: Theorem 1's (8), Corollary 1.1's (22), Corollary 1.2's (23).
+
+For ``x' = A x + F f(E x) + B u + g(y, u)``, ``y_j = h_j(C_j x)`` and the observer (6) with gain
+``L``, Theorem 1 (with the S-procedure multiplier ``eps`` of eq. (21) kept explicit and the change
+of variables ``Y = P L``) asks for ``P > 0`` with
+
+.. math::
+
+    \\begin{bmatrix}
+      He(PA) - He(Y_\\ell C_\\ell) + \\sigma P + \\epsilon Q & PF + \\epsilon E^T\\tfrac{U+V}{2} & -Y_n + \\epsilon C_n^T\\tfrac{M+N}{2} \\\\
+      \\ast & -\\epsilon I & 0 \\\\
+      \\ast & 0 & -\\epsilon I
+    \\end{bmatrix} \\preceq 0,
+    \\qquad Q = -E^T U V E - C_n^T M N C_n ,
+
+where ``C_n`` are the rows of the nonlinear outputs (bounds ``M, N``, eq. 4) and ``C_l`` those of
+the linear outputs (``y = C x``), whose error ``C_l e`` is substituted directly as in (23).  The
+special cases are exactly the paper's LMIs with ``eps`` absorbed into ``P`` (divide by ``eps``):
+
+* ``A = 0``, no linear outputs: LMI (8) (Box I);
+* no ``f`` (``F f(x) = A x``), all outputs nonlinear: LMI (22) (Corollary 1.1);
+* all outputs linear: LMI (23) (Corollary 1.2).
+
+Keeping ``eps`` as a variable makes the problem homogeneous, so ``P >= I`` is no loss of generality
+and the LMI can be solved with a strict margin (:data:`~hybobs_opt.tolerances.LMI_STRICT_MARGIN`).
+The returned ``P`` is divided by ``eps`` so that it satisfies the paper's printed LMI with ``L``.
+The decay rate ``sigma`` (``V' <= -sigma V``) enters bilinearly as ``sigma P``: it is a cvxpy
+``Parameter`` and its maximum is found by bisection.  An optional bound ``||L||_2 <= l`` on the
+gain (noise sensitivity) uses ``P >= alpha I`` and ``[[P, Y], [Y^T, alpha l^2 I]] >= 0``, which
+imply ``L^T L <= L^T P L / alpha <= l^2 I`` (sufficient, not necessary).
+
+Everything is solved in coordinates scaled by the half-widths of the operating box (DESIGN.md:
+"scale before you solve"); the LMI is invariant under that congruence.  Each :class:`ObserverLMI`
+builds its cvxpy problem once, with the region's bounds as ``Parameter``s, and re-solves it.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+
+from ..errors import ModelError
+from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
+from .bounds import JacobianBounds, jacobian_bounds
+from .schedule import SchedulingRegion
+from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem
+
+#: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
+#: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
+#: search needs a cap; with a gain bound the bound decides.
+SIGMA_CAP: float = 100.0
+
+
+# ---------------------------------------------------------------------------- numpy model of the LMI
+@dataclass(frozen=True)
+class SectorData:
+    """The region-dependent numbers of the LMI: ``U V``, ``(U+V)/2``, ``M N``, ``(M+N)/2``.
+
+    ``a_shift`` and ``m_shift`` are non-zero only for the transformed LMI of Theorem 5
+    (``A + F U E`` and the output injection through ``M C``); see :mod:`.subtraction`.
+    """
+
+    uv: np.ndarray
+    upv: np.ndarray
+    mn: np.ndarray
+    mpn: np.ndarray
+    a_shift: np.ndarray
+    m_shift: np.ndarray
+
+
+@dataclass(frozen=True)
+class LMIData:
+    """The constant matrices of the LMI (``A, F, E, C_l, C_n``), in whatever coordinates."""
+
+    A: np.ndarray
+    F: np.ndarray
+    E: np.ndarray
+    C_lin: np.ndarray
+    C_nl: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def r(self) -> int:
+        return self.F.shape[1]
+
+    @property
+    def p_lin(self) -> int:
+        return self.C_lin.shape[0]
+
+    @property
+    def p_nl(self) -> int:
+        return self.C_nl.shape[0]
+
+    @property
+    def size(self) -> int:
+        return self.n + self.r + self.p_nl
+
+    def scaled(self, d: np.ndarray) -> "LMIData":
+        """The same LMI in coordinates ``x = diag(d) x_bar``."""
+        D, Di = np.diag(d), np.diag(1.0 / d)
+        return LMIData(Di @ self.A @ D, Di @ self.F, self.E @ D, self.C_lin @ D, self.C_nl @ D)
+
+    def sector(self, bounds: JacobianBounds, shifted: bool = False) -> SectorData:
+        """Sector data of ``bounds``; ``shifted`` gives Theorem 5's transformed functions."""
+        U, V = bounds.U, bounds.V
+        M, N = bounds.M, bounds.N
+        if shifted:
+            return SectorData(np.zeros_like(U), (V - U) / 2, np.zeros_like(M), (N - M) / 2,
+                              self.F @ np.diag(U) @ self.E if self.r else np.zeros((self.n, self.n)), M.copy())
+        return SectorData(U * V, (U + V) / 2, M * N, (M + N) / 2, np.zeros((self.n, self.n)), np.zeros_like(M))
+
+    def matrix(self, P, Y_lin, Y_nl, eps: float, s: SectorData, sigma: float) -> np.ndarray:
+        """The LMI matrix at a point, in plain numpy (the solver-independent re-check)."""
+        n, r, pn = self.n, self.r, self.p_nl
+        P = np.asarray(P, dtype=float)
+        Y_lin = np.asarray(Y_lin, dtype=float).reshape(n, self.p_lin)
+        Y_nl = np.asarray(Y_nl, dtype=float).reshape(n, pn)
+        Aeff = self.A + s.a_shift
+        B11 = P @ Aeff + Aeff.T @ P - Y_lin @ self.C_lin - self.C_lin.T @ Y_lin.T + sigma * P
+        if pn:
+            K = Y_nl @ np.diag(s.m_shift) @ self.C_nl
+            B11 = B11 - K - K.T
+        B11 = B11 + eps * (-(self.E.T * s.uv) @ self.E - (self.C_nl.T * s.mn) @ self.C_nl)
+        out = np.zeros((n + r + pn, n + r + pn))
+        out[:n, :n] = B11
+        if r:
+            B12 = P @ self.F + eps * self.E.T * s.upv
+            out[:n, n:n + r] = B12
+            out[n:n + r, :n] = B12.T
+            out[n:n + r, n:n + r] = -eps * np.eye(r)
+        if pn:
+            B13 = -Y_nl + eps * self.C_nl.T * s.mpn
+            out[:n, n + r:] = B13
+            out[n + r:, :n] = B13.T
+            out[n + r:, n + r:] = -eps * np.eye(pn)
+        return 0.5 * (out + out.T)
+
+
+def lmi_data(system: ScalarNonlinearSystem) -> LMIData:
+    """Split ``system`` into the LMI's matrices (linear outputs substituted, eq. 23)."""
+    lin = np.array(system.linear_outputs, dtype=bool)
+    return LMIData(system.A.astype(float), system.F.astype(float), system.E.astype(float),
+                   system.C[lin].astype(float), system.C[~lin].astype(float))
+
+
+def box_scaling(system: ScalarNonlinearSystem) -> np.ndarray:
+    """Half-widths of the operating box (the state scaling of the LMIs)."""
+    d = 0.5 * (system.box_upper - system.box_lower)
+    return np.where(d > 0, d, 1.0).astype(float)
+
+
+def lmi_form(data: LMIData) -> str:
+    """Which of the paper's LMIs the system's structure gives."""
+    if data.r == 0:
+        return "(22)"
+    if data.p_nl == 0:
+        return "(23)"
+    return "(8)"
+
+
+LMI_NAMES = {"(8)": "LMI (8) of Theorem 1", "(22)": "LMI (22) of Corollary 1.1", "(23)": "LMI (23) of Corollary 1.2"}
+
+
+# ---------------------------------------------------------------------------- cvxpy expression
+def _bmat(rows: list[list]) -> cp.Expression:
+    return cp.bmat(rows)
+
+
+@dataclass
+class LMIParameters:
+    """The cvxpy ``Parameter``s of one region's LMI."""
+
+    uv: cp.Parameter | None
+    upv: cp.Parameter | None
+    mn: cp.Parameter | None
+    mpn: cp.Parameter | None
+    sigma: cp.Parameter
+    a_shift: cp.Parameter | None = None
+    m_shift: cp.Parameter | None = None
+
+    @classmethod
+    def create(cls, data: LMIData, shifted: bool) -> "LMIParameters":
+        r, pn, n = data.r, data.p_nl, data.n
+        return cls(
+            cp.Parameter(r, name="uv") if r else None, cp.Parameter(r, name="upv") if r else None,
+            cp.Parameter(pn, name="mn") if pn else None, cp.Parameter(pn, name="mpn") if pn else None,
+            cp.Parameter(nonneg=True, name="sigma", value=0.0),
+            cp.Parameter((n, n), name="a_shift") if shifted and r else None,
+            cp.Parameter(pn, name="m_shift") if shifted and pn else None,
+        )
+
+    def assign(self, s: SectorData, sigma: float) -> None:
+        for name in ("uv", "upv", "mn", "mpn"):
+            par = getattr(self, name)
+            if par is not None:
+                par.value = np.asarray(getattr(s, name), dtype=float)
+        if self.a_shift is not None:
+            self.a_shift.value = s.a_shift
+        if self.m_shift is not None:
+            self.m_shift.value = s.m_shift
+        self.sigma.value = float(sigma)
+
+
+def lmi_expression(data: LMIData, P, Y_lin, Y_nl, eps, par: LMIParameters) -> cp.Expression:
+    """The LMI matrix as an affine cvxpy expression (DPP: parameter times variable only)."""
+    r, pn, pl = data.r, data.p_nl, data.p_lin
+    B11 = P @ data.A + data.A.T @ P + par.sigma * P
+    if pl:
+        B11 = B11 - Y_lin @ data.C_lin - data.C_lin.T @ Y_lin.T
+    if par.a_shift is not None:
+        B11 = B11 + P @ par.a_shift + par.a_shift.T @ P
+    if r:
+        B11 = B11 - data.E.T @ cp.diag(cp.multiply(eps, par.uv)) @ data.E
+    if pn:
+        B11 = B11 - data.C_nl.T @ cp.diag(cp.multiply(eps, par.mn)) @ data.C_nl
+        if par.m_shift is not None:
+            K = Y_nl @ cp.diag(par.m_shift) @ data.C_nl
+            B11 = B11 - K - K.T
+    row1, blocks = [B11], []
+    if r:
+        B12 = P @ data.F + data.E.T @ cp.diag(cp.multiply(eps, par.upv))
+        row1.append(B12)
+    if pn:
+        B13 = -Y_nl + data.C_nl.T @ cp.diag(cp.multiply(eps, par.mpn))
+        row1.append(B13)
+    blocks.append(row1)
+    if r:
+        row = [B12.T, -eps * np.eye(r)]
+        if pn:
+            row.append(np.zeros((r, pn)))
+        blocks.append(row)
+    if pn:
+        row = [B13.T]
+        if r:
+            row.append(np.zeros((pn, r)))
+        row.append(-eps * np.eye(pn))
+        blocks.append(row)
+    M = _bmat(blocks) if len(blocks) > 1 or len(row1) > 1 else B11
+    return 0.5 * (M + M.T)
+
+
+# ---------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class LMISolution:
+    """One solve of an observer LMI for one region.
+
+    Attributes
+    ----------
+    feasible : bool
+        True only for an ``optimal`` solver status whose point passes the numpy re-check
+        (``lmi_max_eig <= 0``, ``P`` positive definite).
+    status : str
+        The cvxpy status (``optimal``, ``infeasible``, ``optimal_inaccurate``, ``solver_error``...).
+    form : str
+        ``"(8)"``, ``"(22)"`` or ``"(23)"``.
+    sigma : float
+        Decay rate imposed (``V' <= -sigma V``).
+    L, P : arrays or None
+        Gain (``n x p``, columns in output order; zero columns for unused outputs) and the
+        Lyapunov matrix in the paper's normalisation (the printed LMI holds with ``eps = 1``),
+        both in the model's coordinates.
+    multiplier : float or None
+        The S-procedure multiplier ``eps`` at the solver's point (scaled problem).
+    lmi_max_eig : float or None
+        Largest eigenvalue of the LMI matrix at the returned point (scaled coordinates, numpy).
+    p_min_eig : float or None
+        Smallest eigenvalue of the scaled ``P`` (at least 1 by the normalisation).
+    gain_norm : float or None
+        ``||L||_2``.
+    """
+
+    feasible: bool
+    status: str
+    form: str
+    sigma: float
+    region: SchedulingRegion | None
+    bounds: JacobianBounds
+    L: np.ndarray | None = None
+    P: np.ndarray | None = None
+    multiplier: float | None = None
+    lmi_max_eig: float | None = None
+    p_min_eig: float | None = None
+    gain_norm: float | None = None
+    outcome: SolveOutcome | None = None
+    farkas: np.ndarray | None = field(default=None, repr=False)
+    P_scaled: np.ndarray | None = field(default=None, repr=False)
+    Y_scaled: np.ndarray | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict:
+        return {"feasible": self.feasible, "status": self.status, "form": self.form, "sigma": self.sigma,
+                "region": None if self.region is None else self.region.to_dict(),
+                "L": None if self.L is None else self.L.tolist(), "P": None if self.P is None else self.P.tolist(),
+                "multiplier": self.multiplier, "lmi_max_eig": self.lmi_max_eig, "p_min_eig": self.p_min_eig,
+                "gain_norm": self.gain_norm}
+
+
+@dataclass(frozen=True)
+class DecayResult:
+    """Largest decay rate found by bisection and the solution there."""
+
+    sigma_max: float
+    capped: bool
+    solution: LMISolution
+    solves: int
+
+
+# ---------------------------------------------------------------------------- the compiled LMI
+_COMPILED: "weakref.WeakKeyDictionary[ScalarNonlinearSystem, dict]" = weakref.WeakKeyDictionary()
+
+
+class ObserverLMI:
+    """The observer LMI of one system, compiled once and re-solved per region and sigma.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+    gain_bound : float, optional
+        Require ``||L||_2 <= gain_bound`` (model units); ``None`` for no bound.
+    shifted : bool
+        Build Theorem 5's transformed LMI instead (functions made monotonic by subtracting their
+        lower-bound linear term; see :mod:`.subtraction`).
+    scaling : array, optional
+        State scaling (default: the box half-widths).
+    """
+
+    def __init__(self, system: ScalarNonlinearSystem, *, gain_bound: float | None = None, shifted: bool = False,
+                 scaling: np.ndarray | None = None):
+        if not isinstance(system, ScalarNonlinearSystem):
+            raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
+        if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
+            raise ModelError("gain_bound", "a positive finite bound on ||L||_2 (or None)", repr(gain_bound))
+        self.system = system
+        self.shifted = shifted
+        self.gain_bound = None if gain_bound is None else float(gain_bound)
+        self.data = lmi_data(system)
+        self.d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
+        if self.d.shape != (system.n,) or not np.all(self.d > 0):
+            raise ModelError("scaling", f"{system.n} positive numbers", repr(scaling))
+        self.sdata = self.data.scaled(self.d)
+        self.form = lmi_form(self.data)
+        lin = np.array(system.linear_outputs, dtype=bool)
+        self._lin_idx = np.nonzero(lin)[0]
+        self._nl_idx = np.nonzero(~lin)[0]
+        self._build()
+        self._alternative = None
+
+    @classmethod
+    def compiled(cls, system: ScalarNonlinearSystem, *, gain_bound: float | None = None, shifted: bool = False,
+                 scaling: np.ndarray | None = None) -> "ObserverLMI":
+        """The process-wide compiled LMI for ``system`` (built on first use, then only re-solved).
+
+        Keyed by the system object, ``shifted``, whether there is a gain bound and the scaling;
+        the bound itself is a ``Parameter`` and is set on every call.
+        """
+        d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
+        key = (bool(shifted), gain_bound is None, d.tobytes())
+        per = _COMPILED.setdefault(system, {})
+        lmi = per.get(key)
+        if lmi is None:
+            lmi = per[key] = cls(system, gain_bound=gain_bound, shifted=shifted, scaling=d)
+        elif gain_bound is not None:
+            lmi.set_gain_bound(gain_bound)
+        return lmi
+
+    # -- construction
+    def _build(self) -> None:
+        sd, n = self.sdata, self.sdata.n
+        self.P = cp.Variable((n, n), symmetric=True, name="P")
+        self.Y_lin = cp.Variable((n, sd.p_lin), name="Y_lin") if sd.p_lin else None
+        self.Y_nl = cp.Variable((n, sd.p_nl), name="Y_nl") if sd.p_nl else None
+        self.eps = cp.Variable(nonneg=True, name="eps")
+        self.par = LMIParameters.create(sd, self.shifted)
+        B = lmi_expression(sd, self.P, self.Y_lin, self.Y_nl, self.eps, self.par)
+        self.lmi_constraint = B << -LMI_STRICT_MARGIN * np.eye(sd.size)
+        cons = [self.lmi_constraint]
+        Ys = [Y for Y in (self.Y_lin, self.Y_nl) if Y is not None]
+        Yall = cp.hstack(Ys) if len(Ys) > 1 else Ys[0]
+        if self.gain_bound is None:
+            cons.append(self.P >> np.eye(n))
+            self.gamma = None
+        else:
+            dmax = float(self.d.max())
+            cons.append(self.P >> np.diag((self.d / dmax) ** 2))
+            self.gamma = cp.Parameter(nonneg=True, name="gamma", value=(self.gain_bound / dmax) ** 2)
+            p = Yall.shape[1]
+            G = cp.bmat([[self.P, Yall], [Yall.T, self.gamma * np.eye(p)]])
+            cons.append(0.5 * (G + G.T) >> 0)
+        self.problem = cp.Problem(cp.Minimize(cp.norm(Yall, "fro")), cons)
+
+    def set_gain_bound(self, gain_bound: float) -> None:
+        """Change the gain bound without rebuilding (only for an LMI built with a bound)."""
+        if self.gamma is None:
+            raise ModelError("gain_bound", "an ObserverLMI built with gain_bound=...", "one built without")
+        if not (np.isfinite(gain_bound) and gain_bound > 0):
+            raise ModelError("gain_bound", "a positive finite bound", repr(gain_bound))
+        self.gain_bound = float(gain_bound)
+        self.gamma.value = (self.gain_bound / float(self.d.max())) ** 2
+
+    # -- solving
+    def bounds(self, region: SchedulingRegion | None = None, **kwargs) -> JacobianBounds:
+        """Jacobian bounds of the system over ``region`` (see :func:`.bounds.jacobian_bounds`)."""
+        return jacobian_bounds(self.system, region, **kwargs)
+
+    def solve(self, bounds: JacobianBounds, sigma: float = 0.0) -> LMISolution:
+        """One feasibility solve at decay rate ``sigma`` with the given bounds.
+
+        The answer is ``feasible`` only when Clarabel reports ``optimal`` and numpy confirms the
+        point; an inaccurate status or a failed re-check is returned as not feasible (with the
+        solver's status), never as feasible.
+        """
+        if not (np.isfinite(sigma) and sigma >= 0):
+            raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
+        s = self.sdata.sector(bounds, self.shifted)
+        self.par.assign(s, sigma)
+        out = solve_problem(self.problem)
+        region = bounds.region
+        if out.status == INFEASIBLE:
+            Z = self.lmi_constraint.dual_value
+            return LMISolution(False, out.status, self.form, sigma, region, bounds, outcome=out,
+                               farkas=None if Z is None else np.asarray(Z, dtype=float))
+        if out.status != OPTIMAL or self.P.value is None:
+            return LMISolution(False, out.status, self.form, sigma, region, bounds, outcome=out)
+        Pb = np.asarray(self.P.value, dtype=float)
+        Pb = 0.5 * (Pb + Pb.T)
+        n = self.sdata.n
+        Yl = np.asarray(self.Y_lin.value, dtype=float) if self.Y_lin is not None else np.zeros((n, 0))
+        Yn = np.asarray(self.Y_nl.value, dtype=float) if self.Y_nl is not None else np.zeros((n, 0))
+        eps = float(self.eps.value)
+        Bm = self.sdata.matrix(Pb, Yl, Yn, eps, s, sigma)
+        max_eig = float(np.linalg.eigvalsh(Bm).max())
+        p_min = float(np.linalg.eigvalsh(Pb).min())
+        ok = max_eig <= 0.0 and p_min > 0.0 and eps > 0.0
+        Lbar = np.linalg.solve(Pb, np.hstack([Yl, Yn]))
+        L = np.zeros((n, self.system.p))
+        L[:, np.concatenate([self._lin_idx, self._nl_idx]).astype(int)] = self.d[:, None] * Lbar
+        P = (Pb / self.d[:, None] / self.d[None, :]) / eps if eps > 0 else None
+        gain = float(np.linalg.norm(L, 2))
+        if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
+            ok = False
+        status = out.status if ok else f"{out.status} (numpy re-check failed)"
+        return LMISolution(ok, status, self.form, sigma, region, bounds, L, P, eps, max_eig, p_min, gain, out,
+                           P_scaled=Pb, Y_scaled=np.hstack([Yl, Yn]))
+
+    def max_decay(self, bounds: JacobianBounds, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL,
+                  guess: float | None = None) -> DecayResult:
+        """Largest ``sigma`` in ``[0, sigma_cap]`` for which the LMI is feasible (bisection).
+
+        A bracket is found by doubling or halving from ``guess`` (default ``sigma_cap / 8``; a
+        neighbouring region's rate is a good guess), then bisected on a geometric scale to
+        ``rtol``; every step is one re-solve of the same compiled problem.  The LMI is monotone in
+        ``sigma`` (``sigma P >= 0``), so a feasible rate proves every smaller one.  The returned
+        rate is certified by a feasible, numpy-checked solve at that rate; a step the solver
+        cannot decide counts as infeasible (the rate may be underestimated, never overstated).
+
+        Raises
+        ------
+        InfeasibleError
+            Not even ``sigma = 0`` is feasible (no constant gain on this region); the error
+            carries the certificate.
+        SolverError
+            The solver could not decide at ``sigma = 0`` and no certificate could be verified.
+        """
+        from .certificates import certify_infeasible
+
+        if not (np.isfinite(sigma_cap) and sigma_cap > 0):
+            raise ModelError("sigma_cap", "a positive upper end of the decay-rate search", repr(sigma_cap))
+        floor = sigma_cap * 1e-6
+        g = sigma_cap / 8.0 if guess is None or not (np.isfinite(guess) and guess > floor) else min(float(guess), sigma_cap)
+        solves = 1
+        sol = self.solve(bounds, g)
+        if sol.feasible:
+            lo, best, hi = g, sol, None
+            while hi is None:
+                if lo >= sigma_cap:
+                    return DecayResult(sigma_cap, True, best, solves)
+                t = min(2.0 * lo, sigma_cap)
+                s = self.solve(bounds, t)
+                solves += 1
+                if s.feasible:
+                    lo, best = t, s
+                else:
+                    hi = t
+        else:
+            hi, lo, best = g, 0.0, None
+            while best is None:
+                t = 0.5 * hi
+                if t < floor:
+                    zero = self.solve(bounds, 0.0)
+                    solves += 1
+                    if not zero.feasible:
+                        certify_infeasible(self, zero, raise_error=True)
+                    return DecayResult(0.0, False, zero, solves)
+                s = self.solve(bounds, t)
+                solves += 1
+                if s.feasible:
+                    lo, best = t, s
+                else:
+                    hi = t
+        while hi - lo > rtol * hi:
+            mid = float(np.sqrt(lo * hi))
+            s = self.solve(bounds, mid)
+            solves += 1
+            if s.feasible:
+                lo, best = mid, s
+            else:
+                hi = mid
+        return DecayResult(lo, False, best, solves)
+
+    # -- certificates
+    def alternative(self):
+        """The theorem-of-alternatives SDP for this LMI, built on first use (see certificates)."""
+        if self._alternative is None:
+            from .certificates import AlternativeSDP
+
+            self._alternative = AlternativeSDP(self.sdata, self.shifted)
+        return self._alternative
+

@@ -1,0 +1,191 @@
+"""Regions of a scheduling variable: the operating sub-boxes of a switched-gain observer (paper 004).
+
+A switched-gain observer (paper 004, Section 5, Fig. 1) uses one constant gain per region of one
+scalar *scheduling coordinate* of the state -- the yaw angle ``psi`` of the vehicle (Section 6:
+``0 <= psi <= 80 deg`` and ``60 <= psi <= 140 deg``), the piston position ``z`` (Section 7,
+regions ``R_1 .. R_11`` of Fig. 7).  A region is the operating box of the system with that one
+coordinate restricted to an interval; neighbouring regions overlap by twice the hysteresis
+``epsilon`` of Fig. 1 (Theorem 6 needs the overlap to enforce a dwell time).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from ..lp import solve_lp
+from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+
+
+@dataclass(frozen=True)
+class SchedulingRegion:
+    """The operating box with state ``coordinate`` restricted to ``[lo, hi]`` (model units).
+
+    Parameters
+    ----------
+    coordinate : int
+        Index of the scheduling state.
+    name : str
+        Its name (``"psi"``, ``"z"``).
+    lo, hi : float
+        The interval, ``lo < hi``, in the model's units (radians for ``psi``).
+    index : int
+        Position of the region in its partition (0-based).
+    """
+
+    coordinate: int
+    name: str
+    lo: float
+    hi: float
+    index: int = 0
+
+    def __post_init__(self) -> None:
+        for label, value in (("lo", self.lo), ("hi", self.hi)):
+            if not np.isfinite(value):
+                raise ModelError(f"region {self.name}.{label}", "a finite number", repr(value))
+        if not self.lo < self.hi:
+            raise ModelError(f"region of {self.name}", "a non-empty interval lo < hi",
+                             f"[{self.lo:.6g}, {self.hi:.6g}]")
+
+    @property
+    def width(self) -> float:
+        return self.hi - self.lo
+
+    def contains(self, value: float) -> bool:
+        return self.lo <= value <= self.hi
+
+    def to_dict(self) -> dict:
+        return {"index": self.index, "coordinate": self.name, "lo": self.lo, "hi": self.hi}
+
+
+def coordinate_index(system: ScalarNonlinearSystem, coordinate: int | str) -> int:
+    """Index of a state given by index or name (``ModelError`` names the valid states)."""
+    if isinstance(coordinate, str):
+        try:
+            return system.state_names.index(coordinate)
+        except ValueError:
+            raise ModelError("scheduling coordinate", f"one of the states {system.state_names}", repr(coordinate)) from None
+    k = int(coordinate)
+    if not 0 <= k < system.n:
+        raise ModelError("scheduling coordinate", f"a state index in [0, {system.n})", repr(coordinate))
+    return k
+
+
+def make_region(system: ScalarNonlinearSystem, coordinate: int | str, lo: float, hi: float, index: int = 0) -> SchedulingRegion:
+    """A region of ``system``, checked against the operating box.
+
+    Raises
+    ------
+    ModelError
+        ``lo >= hi`` (an empty region), non-finite ends, or an interval that does not meet the
+        box's range of the coordinate.
+    """
+    k = coordinate_index(system, coordinate)
+    region = SchedulingRegion(k, system.state_names[k], float(lo), float(hi), index)
+    blo, bhi = float(system.box_lower[k]), float(system.box_upper[k])
+    if region.hi <= blo or region.lo >= bhi:
+        raise ModelError(f"region of {region.name}", f"an interval meeting the operating range [{blo:.6g}, {bhi:.6g}]",
+                         f"[{region.lo:.6g}, {region.hi:.6g}] (an empty region)")
+    return region
+
+
+def full_region(system: ScalarNonlinearSystem, coordinate: int | str) -> SchedulingRegion:
+    """The whole operating range of the coordinate."""
+    k = coordinate_index(system, coordinate)
+    return make_region(system, k, system.box_lower[k], system.box_upper[k])
+
+
+def _is_axis_box(system: ScalarNonlinearSystem) -> bool:
+    A = system.box.A
+    return bool(np.all(np.count_nonzero(np.abs(A) > 0, axis=1) == 1))
+
+
+def argument_intervals(system: ScalarNonlinearSystem, rows: np.ndarray, region: SchedulingRegion | None) -> np.ndarray:
+    """``[min, max]`` of each ``row . x`` over the box restricted to ``region``, ``(k, 2)``.
+
+    Interval arithmetic when the operating set is an axis-aligned box (the examples), two LPs
+    per row otherwise.
+    """
+    rows = np.atleast_2d(np.asarray(rows, dtype=float))
+    lo = system.box_lower.astype(float).copy()
+    hi = system.box_upper.astype(float).copy()
+    if region is not None:
+        k = region.coordinate
+        lo[k] = max(lo[k], region.lo)
+        hi[k] = min(hi[k], region.hi)
+        if lo[k] > hi[k]:
+            raise ModelError(f"region of {region.name}", f"an interval meeting the operating range [{system.box_lower[k]:.6g}, {system.box_upper[k]:.6g}]",
+                             f"[{region.lo:.6g}, {region.hi:.6g}] (an empty region)")
+    out = np.empty((rows.shape[0], 2))
+    if _is_axis_box(system):
+        pos, neg = np.clip(rows, 0, None), np.clip(rows, None, 0)
+        out[:, 0] = pos @ lo + neg @ hi
+        out[:, 1] = pos @ hi + neg @ lo
+        return out
+    A, b = system.box.A, system.box.b
+    if region is not None:
+        e = np.zeros(system.n)
+        e[region.coordinate] = 1.0
+        A = np.vstack([A, e, -e])
+        b = np.concatenate([b, [region.hi, -region.lo]])
+    for i, row in enumerate(rows):
+        for col, sign in ((0, 1.0), (1, -1.0)):
+            res = solve_lp(sign * row, A, b, problem=f"range of row {i} over the region")
+            if res.status != "optimal":
+                raise ModelError("region", "a non-empty part of the operating box", f"LP status {res.status}")
+            out[i, col] = sign * res.objective
+    return out
+
+
+def regions_from_switch_points(
+    system: ScalarNonlinearSystem,
+    coordinate: int | str,
+    lo: float,
+    hi: float,
+    switch_points: Sequence[float],
+    overlap: float,
+) -> list[SchedulingRegion]:
+    """Regions ``[s_{k-1} - eps, s_k + eps]`` around nominal switching points (paper 004, Fig. 1).
+
+    With ``s_0 = lo``, ``s_K = hi`` and ``eps = overlap``: the paper's vehicle split,
+    ``0-80 deg`` and ``60-140 deg`` (eqs. 61-62), is ``switch_points = [70 deg]``, ``overlap =
+    10 deg``.  Neighbouring regions share ``2 eps``; the hysteresis state machine switches when the
+    estimate leaves its region, i.e. at ``s_k + eps`` going up and ``s_k - eps`` going down.
+
+    Raises
+    ------
+    ModelError
+        Unsorted switching points, points outside ``(lo, hi)``, a negative overlap, or an
+        overlap so wide that a region would reach past its neighbour's switching point.
+    """
+    k = coordinate_index(system, coordinate)
+    pts = [float(s) for s in switch_points]
+    if not (np.isfinite(overlap) and overlap >= 0):
+        raise ModelError("overlap", "a non-negative hysteresis width", repr(overlap))
+    if not lo < hi:
+        raise ModelError("range", "lo < hi (a non-empty range)", f"[{lo:.6g}, {hi:.6g}]")
+    edges = [float(lo), *pts, float(hi)]
+    if any(not (b > a) for a, b in zip(edges[:-1], edges[1:])):
+        raise ModelError("switch_points", f"increasing points strictly inside ({lo:.6g}, {hi:.6g})", f"{pts}")
+    gaps = np.diff(edges)
+    if len(pts) and overlap > 0.5 * float(gaps.min()):
+        raise ModelError("overlap", f"at most half the narrowest region ({0.5 * float(gaps.min()):.6g})", f"{overlap:.6g}")
+    out = []
+    for i in range(len(edges) - 1):
+        a = edges[i] - (overlap if i > 0 else 0.0)
+        b = edges[i + 1] + (overlap if i < len(edges) - 2 else 0.0)
+        out.append(make_region(system, k, a, b, i))
+    return out
+
+
+def adjacent_pairs(regions: Sequence[SchedulingRegion]) -> list[tuple[int, int]]:
+    """Ordered pairs ``(i, j)`` of overlapping regions: the switches the observer can make."""
+    pairs = []
+    for i, a in enumerate(regions):
+        for j, b in enumerate(regions):
+            if i != j and a.lo <= b.hi and b.lo <= a.hi:
+                pairs.append((i, j))
+    return pairs

@@ -1,0 +1,94 @@
+"""Running a compiled cvxpy problem through Clarabel: status, timing and the solver-call counters.
+
+Every LMI of the package is a cvxpy problem built once with ``Parameter``s and re-solved here.
+The first solve of a problem canonicalises it (cvxpy's DPP compilation); later solves only
+substitute the parameters, which is what :data:`COUNTERS` lets the benchmarks check: the share of
+wall time in cvxpy compilation versus inside Clarabel.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+
+#: cvxpy statuses.  Only ``OPTIMAL`` (and ``INFEASIBLE`` with a checked certificate) are ever
+#: turned into an answer; the ``*_INACCURATE`` ones are never reported as feasible.
+OPTIMAL = cp.OPTIMAL
+INFEASIBLE = cp.INFEASIBLE
+SOLVER_ERROR = "solver_error"
+
+SOLVER = "CLARABEL"
+
+
+@dataclass
+class SolveCounters:
+    """Totals over every LMI solve of the process (reset with :meth:`reset`)."""
+
+    calls: int = 0
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    solver_seconds: float = 0.0
+    first_compile_seconds: float = 0.0
+    statuses: dict[str, int] = field(default_factory=dict)
+
+    def reset(self) -> None:
+        self.calls = 0
+        self.seconds = self.compile_seconds = self.solver_seconds = self.first_compile_seconds = 0.0
+        self.statuses = {}
+
+    def snapshot(self) -> dict:
+        other = self.seconds - self.compile_seconds - self.solver_seconds
+        total = self.seconds or float("nan")
+        return {"calls": self.calls, "seconds": self.seconds, "compile_seconds": self.compile_seconds,
+                "first_compile_seconds": self.first_compile_seconds,
+                "solver_seconds": self.solver_seconds, "other_seconds": other,
+                "compile_share": self.compile_seconds / total, "solver_share": self.solver_seconds / total,
+                "other_share": other / total, "statuses": dict(self.statuses)}
+
+
+COUNTERS = SolveCounters()
+
+
+@dataclass(frozen=True)
+class SolveOutcome:
+    """Status of one solve and where its time went (seconds)."""
+
+    status: str
+    seconds: float
+    compile_seconds: float
+    solver_seconds: float
+    message: str = ""
+
+    @property
+    def optimal(self) -> bool:
+        return self.status == OPTIMAL
+
+
+def solve_problem(problem: cp.Problem) -> SolveOutcome:
+    """Solve ``problem`` with Clarabel; a crash becomes status :data:`SOLVER_ERROR`, never an exception."""
+    first = problem._cache.param_prog is None if hasattr(problem, "_cache") else False
+    t0 = time.perf_counter()
+    message = ""
+    with warnings.catch_warnings():
+        # "Solution may be inaccurate" is carried by the status, which callers check.
+        warnings.simplefilter("ignore", UserWarning)
+        try:
+            problem.solve(solver=SOLVER)
+            status = str(problem.status)
+        except cp.error.SolverError as exc:
+            status, message = SOLVER_ERROR, str(exc)
+    seconds = time.perf_counter() - t0
+    compile_s = float(getattr(problem, "compilation_time", 0.0) or 0.0)
+    stats = getattr(problem, "solver_stats", None)
+    solver_s = float(getattr(stats, "solve_time", 0.0) or 0.0) if stats is not None and status != SOLVER_ERROR else 0.0
+    COUNTERS.calls += 1
+    COUNTERS.seconds += seconds
+    COUNTERS.compile_seconds += compile_s
+    COUNTERS.solver_seconds += solver_s
+    if first:
+        COUNTERS.first_compile_seconds += compile_s
+    COUNTERS.statuses[status] = COUNTERS.statuses.get(status, 0) + 1
+    return SolveOutcome(status, seconds, compile_s, solver_s, message)

@@ -1,0 +1,306 @@
+"""Switched-gain synthesis (paper 004, Section 5): one gain per region, then the joint dwell time.
+
+For each region of the scheduling coordinate the observer LMI (8)/(22)/(23) is solved with the
+region's Jacobian bounds: the largest decay rate ``sigma_max`` (bisection, with an optional gain
+bound), then a design rate ``sigma_i = decay_fraction * sigma_max``.  The dwell time ``tau`` of
+eqs. (47)-(48) is then searched jointly over all ``P_i`` (:class:`.dwell.DwellTimeLMI`), which
+also returns the final ``P_i, L_i``; the hysteresis ``epsilon`` that enforces ``tau`` for a given
+maximum rate of the scheduling variable comes from :func:`.dwell.hysteresis_for_dwell`.
+
+:func:`grow_regions` builds the regions automatically: starting at the lower end of the range,
+each region is grown (bisection on its upper end, one LMI re-solve per step) as far as a gain with
+decay rate ``min_decay`` exists, and the next one starts ``2 epsilon`` below its end.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InfeasibleError, ModelError
+from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from .bounds import JacobianBounds, jacobian_bounds
+from .certificates import certify_infeasible
+from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
+from .observer_lmi import SIGMA_CAP, ObserverLMI
+from .schedule import SchedulingRegion, adjacent_pairs, coordinate_index, make_region
+from .solve import COUNTERS
+
+
+@dataclass(frozen=True)
+class RegionGain:
+    """The design of one region.
+
+    Attributes
+    ----------
+    region : SchedulingRegion
+    L : (n, p) array
+        Observer gain (model units).
+    P : (n, n) array
+        Lyapunov matrix (model coordinates; all regions share one scaling, so eqs. (47)-(48)
+        hold between them).
+    sigma : float
+        Design decay rate (``V' <= -sigma V`` inside the region).
+    sigma_max : float
+        Largest rate found for the region (with the gain bound); ``capped`` when it hit the cap.
+    multiplier : float
+        The S-procedure multiplier of the region's LMI at ``P`` (the paper absorbs it into ``P``).
+    lmi_max_eig : float
+        Largest eigenvalue of the region's LMI at the returned point (numpy, scaled; <= 0).
+    bounds : JacobianBounds
+    """
+
+    region: SchedulingRegion
+    L: np.ndarray
+    P: np.ndarray
+    sigma: float
+    sigma_max: float
+    capped: bool
+    multiplier: float
+    lmi_max_eig: float
+    bounds: JacobianBounds = field(repr=False)
+
+    @property
+    def gain_norm(self) -> float:
+        return float(np.linalg.norm(self.L, 2))
+
+
+@dataclass(frozen=True)
+class SwitchedDesign:
+    """A switched-gain observer design: gains per region, dwell time and hysteresis.
+
+    Attributes
+    ----------
+    system : ScalarNonlinearSystem
+    coordinate : int
+        Index of the scheduling state.
+    regions : tuple of RegionGain
+    pairs : list of (i, j)
+        The switches the observer can make (overlapping regions).
+    tau : float
+        Dwell time of eqs. (47)-(48), searched jointly over the ``P_i``.
+    tau_fixed : float
+        The dwell time for the per-region ``P_i`` (no joint search), for comparison.
+    overlap : float or None
+        Hysteresis ``epsilon`` the regions were built with (half the overlap of neighbours).
+    max_rate : float or None
+        Maximum rate of the scheduling variable (model units per second).
+    epsilon_required : float or None
+        ``tau * max_rate / 2``: the hysteresis that enforces ``tau`` at ``max_rate``.
+    dwell_guaranteed : float or None
+        Dwell time the regions' overlap guarantees at ``max_rate``.
+    gain_bound : float or None
+    solves : int
+        LMI solves of the synthesis (including the dwell search).
+    seconds : float
+    """
+
+    system: ScalarNonlinearSystem = field(repr=False)
+    coordinate: int
+    regions: tuple[RegionGain, ...]
+    pairs: list[tuple[int, int]]
+    tau: float
+    tau_fixed: float
+    overlap: float | None
+    max_rate: float | None
+    epsilon_required: float | None
+    dwell_guaranteed: float | None
+    gain_bound: float | None
+    solves: int
+    seconds: float
+    dwell_solves: int = 0
+    min_pair_eig: float = float("nan")
+
+    @property
+    def dwell_enforced(self) -> bool | None:
+        """Whether the overlap enforces ``tau`` at ``max_rate`` (``None`` without a rate)."""
+        if self.dwell_guaranteed is None:
+            return None
+        return bool(self.dwell_guaranteed >= self.tau)
+
+    @property
+    def coordinate_name(self) -> str:
+        return self.system.state_names[self.coordinate]
+
+    def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
+        """The JSON of ``hybobs synth``; intervals also in display units (``value / factor``)."""
+        regs = []
+        for g in self.regions:
+            regs.append({
+                "index": g.region.index, "coordinate": g.region.name,
+                "interval": [g.region.lo / factor, g.region.hi / factor], "unit": unit,
+                "interval_model": [g.region.lo, g.region.hi],
+                "L": g.L.tolist(), "P": g.P.tolist(), "sigma": g.sigma, "sigma_max": g.sigma_max,
+                "sigma_max_capped": g.capped, "gain_norm": g.gain_norm, "multiplier": g.multiplier,
+                "lmi_max_eig": g.lmi_max_eig,
+                "monotonicity": {b.name: b.monotonicity for b in (*g.bounds.f, *g.bounds.h) if b.method != "linear"},
+            })
+        return {
+            "system": self.system.name, "coordinate": self.coordinate_name, "unit": unit,
+            "state_names": list(self.system.state_names), "output_names": list(self.system.output_names),
+            "regions": regs, "pairs": [list(p) for p in self.pairs],
+            "tau": self.tau, "tau_fixed_P": self.tau_fixed,
+            "epsilon": None if self.overlap is None else self.overlap / factor,
+            "max_rate": None if self.max_rate is None else self.max_rate / factor,
+            "epsilon_required": None if self.epsilon_required is None else self.epsilon_required / factor,
+            "dwell_guaranteed": self.dwell_guaranteed, "dwell_enforced": self.dwell_enforced,
+            "gain_bound": self.gain_bound, "solves": self.solves, "dwell_solves": self.dwell_solves,
+            "min_pair_eig": self.min_pair_eig, "seconds": self.seconds,
+        }
+
+
+def grow_regions(
+    system: ScalarNonlinearSystem,
+    coordinate: int | str,
+    lo: float,
+    hi: float,
+    *,
+    overlap: float,
+    min_decay: float,
+    gain_bound: float | None = None,
+    scaling: np.ndarray | None = None,
+    resolution: float | None = None,
+    lmi: ObserverLMI | None = None,
+) -> list[SchedulingRegion]:
+    """Cover ``[lo, hi]`` with regions on which a gain of decay rate ``min_decay`` exists.
+
+    Greedy from ``lo``: each region's upper end is the largest (to ``resolution``) for which the
+    LMI is feasible at ``sigma = min_decay`` (with the gain bound); the next region starts ``2 *
+    overlap`` below it, so neighbours overlap by twice the hysteresis.
+
+    Raises
+    ------
+    InfeasibleError
+        Even the narrowest region at some point admits no such gain (carries the certificate).
+    ModelError
+        Bad range, overlap or rate.
+    """
+    k = coordinate_index(system, coordinate)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ModelError("range", "finite lo < hi (a non-empty range)", f"[{lo}, {hi}]")
+    if not (np.isfinite(overlap) and overlap >= 0):
+        raise ModelError("overlap", "a non-negative hysteresis width", repr(overlap))
+    if not (np.isfinite(min_decay) and min_decay >= 0):
+        raise ModelError("min_decay", "a non-negative decay rate", repr(min_decay))
+    res = (hi - lo) / 400.0 if resolution is None else float(resolution)
+    lmi = lmi or ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=scaling)
+    min_width = 2.0 * overlap + res
+
+    def solve(a: float, b: float):
+        return lmi.solve(jacobian_bounds(system, make_region(system, k, a, b)), min_decay)
+
+    spans: list[tuple[float, float]] = []
+    a = float(lo)
+    while True:
+        if solve(a, hi).feasible:
+            spans.append((a, float(hi)))
+            break
+        b_ok = min(a + min_width, hi)
+        first = solve(a, b_ok)
+        if not first.feasible:
+            if first.status.startswith("infeasible") or first.farkas is not None:
+                cert = certify_infeasible(lmi, first)
+                raise InfeasibleError(f"region growth from {system.state_names[k]} = {a:.6g}", cert,
+                                      f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]")
+            raise InfeasibleError(f"region growth from {system.state_names[k]} = {a:.6g}", None,
+                                  f"the solver could not confirm a gain on [{a:.6g}, {b_ok:.6g}] ({first.status})")
+        b_bad = float(hi)
+        while b_bad - b_ok > res:
+            mid = 0.5 * (b_ok + b_bad)
+            if solve(a, mid).feasible:
+                b_ok = mid
+            else:
+                b_bad = mid
+        spans.append((a, b_ok))
+        a = b_ok - 2.0 * overlap
+    return [make_region(system, k, s0, s1, i) for i, (s0, s1) in enumerate(spans)]
+
+
+def synthesize_switched(
+    system: ScalarNonlinearSystem,
+    regions: Sequence[SchedulingRegion],
+    *,
+    gain_bound: float | None = None,
+    decay_fraction: float = 0.5,
+    sigma_cap: float = SIGMA_CAP,
+    scaling: np.ndarray | None = None,
+    max_rate: float | None = None,
+    overlap: float | None = None,
+    dwell: bool = True,
+) -> SwitchedDesign:
+    """Gains per region and the joint dwell time (paper 004, Section 5, Theorem 6).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+    regions : sequence of SchedulingRegion
+        Regions of one coordinate (e.g. from :func:`.schedule.regions_from_switch_points` or
+        :func:`grow_regions`).
+    gain_bound : float, optional
+        ``||L_i||_2 <= gain_bound`` (noise sensitivity); without it ``sigma_max`` is only limited by
+        ``sigma_cap`` and the gains grow without bound as the rate does.
+    decay_fraction : float
+        Design rate ``sigma_i = decay_fraction * sigma_max_i`` (in ``(0, 1]``): a margin below the
+        largest rate leaves room for the joint dwell-time constraints.
+    sigma_cap : float
+        Upper end of the decay-rate search.
+    max_rate : float, optional
+        Maximum rate of the scheduling variable (model units/s) for the hysteresis of Fig. 1.
+    overlap : float, optional
+        The hysteresis ``epsilon`` the regions were built with (for the dwell-time guarantee).
+    dwell : bool
+        Run the joint dwell-time search (else ``tau`` is the fixed-``P`` value).
+
+    Raises
+    ------
+    InfeasibleError
+        A region admits no constant gain (carries the certificate).
+    """
+    t0 = time.perf_counter()
+    calls0 = COUNTERS.calls
+    if not regions:
+        raise ModelError("regions", "at least one region", "none")
+    k = regions[0].coordinate
+    if any(r.coordinate != k for r in regions):
+        raise ModelError("regions", "regions of one scheduling coordinate", "regions of several coordinates")
+    if not (0 < decay_fraction <= 1):
+        raise ModelError("decay_fraction", "a number in (0, 1]", repr(decay_fraction))
+    regions = [SchedulingRegion(r.coordinate, r.name, r.lo, r.hi, i) for i, r in enumerate(regions)]
+    lmi = ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=scaling)
+    per = []
+    guess = None
+    for reg in regions:
+        b = jacobian_bounds(system, reg)
+        dr = lmi.max_decay(b, sigma_cap, guess=guess)
+        guess = dr.sigma_max if dr.sigma_max > 0 else None
+        # the solution at sigma_max also satisfies the LMI at the smaller design rate
+        per.append((reg, b, dr, decay_fraction * dr.sigma_max, dr.solution))
+    pairs = adjacent_pairs(regions)
+    sigmas = [p[3] for p in per]
+    P_scaled = [p[4].P_scaled for p in per]
+    tau_fixed = dwell_time_fixed(P_scaled, sigmas, pairs)
+    dwell_solves = 0
+    if dwell and len(regions) > 1:
+        search = DwellTimeLMI.compiled(system, len(regions), pairs, gain_bound=gain_bound, scaling=lmi.d)
+        res = search.set_regions([p[1] for p in per], sigmas).search(tau_fixed, tau_fixed=tau_fixed)
+        tau, Ps, Ls, mults, eigs = res.tau, res.P, res.L, res.multipliers, res.lmi_max_eig
+        dwell_solves, min_pair = res.solves, res.min_pair_eig
+    else:
+        tau = tau_fixed
+        Ps = [p[4].P_scaled / lmi.d[:, None] / lmi.d[None, :] for p in per]
+        Ls = [p[4].L for p in per]
+        mults = [p[4].multiplier for p in per]
+        eigs = [p[4].lmi_max_eig for p in per]
+        min_pair = float("nan")
+    gains = tuple(RegionGain(reg, L, P, sigma, dr.sigma_max, dr.capped, float(m), float(e), b)
+                  for (reg, b, dr, sigma, _), L, P, m, e in zip(per, Ls, Ps, mults, eigs))
+    eps_req = dwell_g = None
+    if max_rate is not None:
+        eps_req = float(hysteresis_for_dwell(tau, max_rate))
+        if overlap is not None:
+            dwell_g = float(dwell_for_hysteresis(overlap, max_rate, regions))
+    return SwitchedDesign(system, k, gains, pairs, float(tau), float(tau_fixed), overlap, None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
+                          COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair)
