@@ -136,8 +136,8 @@ class ObservabilityAnalysis:
             for i in self.index_set:
                 found.extend(_pair_lps(self.enumeration, scaled, i, np.array(self.rank_deficient, dtype=int),
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool)))
-            found.sort(key=lambda p: (p.i, p.j))
-            self._pair_cache["_reduced_all"] = tuple(found)
+            found.sort()
+            self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
         return self._pair_cache["_reduced_all"]
 
     @property
@@ -353,6 +353,11 @@ def pair_constraints(ri, rj, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return G, g, E, e
 
 
+def _pair_set(enum: ModeEnumeration, i: int, j: int, slack: float) -> PairSet:
+    G, g, E, e = pair_constraints(enum.regions[i], enum.regions[j], enum.system.n)
+    return PairSet(i, j, G, g, E, e, slack)
+
+
 def _scaled_regions(enum: ModeEnumeration):
     """Per region, the constraint rows and output maps in scaled coordinates (computed once per task)."""
     n = enum.system.n
@@ -412,14 +417,16 @@ def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list
     return found, n_tested, n_skipped
 
 
-def _pair_lps(enum: ModeEnumeration, scaled, i: int, js: np.ndarray, report_ij: np.ndarray, report_ji: np.ndarray) -> list[PairSet]:
+def _pair_lps(enum: ModeEnumeration, scaled, i: int, js: np.ndarray, report_ij: np.ndarray,
+              report_ji: np.ndarray) -> list[tuple[int, int, float]]:
     """One max-slack LP per pair ``(i, j)``, ``j`` in ``js``: is ``R_ij`` non-empty inside its equality subspace?
 
-    Reports ``R_ij`` where ``report_ij`` and ``R_ji`` where ``report_ji`` (the same LP decides both).
+    Reports ``(i, j, slack)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
+    (the same LP decides both); :func:`_pair_set` turns a triple into a :class:`PairSet`.
     The equality nullspaces and particular solutions come from one batched SVD.
     """
     n = enum.system.n
-    found: list[PairSet] = []
+    found: list[tuple[int, int, float]] = []
     if js.size == 0:
         return found
     HxI, HUI, hI, CI, DI, fI = scaled[i]
@@ -450,12 +457,12 @@ def _pair_lps(enum: ModeEnumeration, scaled, i: int, js: np.ndarray, report_ij: 
         slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
         if slack <= REGION_SLACK_TOL:
             continue
+        # (i, j, slack) only: the constraint arrays are rebuilt where they are needed, so process
+        # and Dask workers do not ship megabytes of matrices back to the parent.
         if report_ij[k]:
-            G, g, Eo, eo = pair_constraints(enum.regions[i], enum.regions[int(j)], n)
-            found.append(PairSet(i, int(j), G, g, Eo, eo, float(slack)))
+            found.append((i, int(j), float(slack)))
         if report_ji[k]:
-            G, g, Eo, eo = pair_constraints(enum.regions[int(j)], enum.regions[i], n)
-            found.append(PairSet(int(j), i, G, g, Eo, eo, float(slack)))
+            found.append((int(j), i, float(slack)))
     return found
 
 
@@ -512,13 +519,14 @@ def analyse_observability(
     n_chunks = 1 if executor.n_workers == 1 else min(len(I), 4 * executor.n_workers)
     tasks = [(enum, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
     results = executor.map(_pairs_task, tasks, progress=progress)
-    pairs: list[PairSet] = []
+    pairs: list = []
     n_lps = tested = skipped = 0
     for found, lps, n_tested, n_skipped in results:
         pairs.extend(found)
         n_lps += lps
         tested += n_tested
         skipped += n_skipped
-    pairs.sort(key=lambda p: (p.i, p.j))  # same order on every executor
+    pairs.sort()  # same order on every executor
+    pairs = [_pair_set(enum, *t) for t in pairs]
     return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
                                  {"executor": executor.name})
