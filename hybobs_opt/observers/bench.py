@@ -112,7 +112,7 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
             obs = MHEObserver(plant, T, norm=norm)
             n_mhe = min(steps, mhe_steps or steps)
             out = timed_steps(obs, U[:n_mhe], y[:n_mhe])
-            rec = summarise(out, trace.x[:n_mhe], truly[:n_mhe], plant.state_names, obs.solver_name)
+            rec = summarise(out, trace.x[:n_mhe], truly[:n_mhe], plant.state_names, obs.solver)
         else:
             raise ModelError("--observers", "names among lookup, miqp, milp, milp_inf", repr(name))
         results[name] = rec

@@ -44,3 +44,4 @@ from . import lmi_section  # noqa: E402,F401
 from . import driveline_section  # noqa: E402,F401
 from . import drift_section  # noqa: E402,F401
 from . import sliding_section  # noqa: E402,F401
+from . import observers_section  # noqa: E402,F401

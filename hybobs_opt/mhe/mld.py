@@ -1,0 +1,518 @@
+"""Mixed-logical-dynamical (big-M) encoding of a PWA system over a moving horizon.
+
+The moving-horizon observer of Bemporad, Ferrari-Trecate and Morari (2000), eq. (10) of paper
+002, minimises the output error over the initial state of a window of ``T`` samples subject to
+the PWA dynamics of eq. (1).  The "if ``[x(k); u(k)] in Q_i``" of eq. (10) is turned into linear
+constraints on binary and continuous variables with the mixed-logical-dynamical (MLD) construction
+of Bemporad and Morari (1999), "Control of systems integrating logic, dynamics, and constraints",
+Automatica 35(3):407-427:
+
+* a binary ``delta[k, i]`` per window step ``k`` and mode ``i``, with ``sum_i delta[k, i] = 1``;
+* the guard of mode ``i`` enforced only where ``delta[k, i] = 1``:
+  ``G_i [x(k); u(k)] <= g_i + M^Q_i (1 - delta[k, i])``;
+* continuous copies ``z[k, i] = delta[k, i] (A_i x(k) + B_i u(k) + a_i)`` of each mode's
+  successor, by the four big-M inequalities
+  ``m_i delta <= z <= M_i delta`` and
+  ``m'_i (1 - delta) <= A_i x + B_i u + a_i - z <= M'_i (1 - delta)``,
+  so that ``x(k + 1) = sum_i z[k, i]`` (plus an optional disturbance ``w(k)``);
+* the same copies of the outputs ``C_i x + D_i u + c_i`` when the output map depends on the mode
+  (when every mode shares ``(C, D, c)`` the output is affine in ``x(k)`` and needs no copies).
+
+Every big-M constant is the value of a linear program over the state and input bounds (via
+:func:`hybobs_opt.lp.solve_lp`), never a guessed number: ``M^Q_i`` is the largest value of each
+guard row minus its right-hand side over ``X x U``; ``m_i, M_i`` are the extremes of each row of
+the affine map over ``Q_i ∩ (X x U)`` (the only points where ``delta = 1`` places it) and
+``m'_i, M'_i`` its extremes over ``X x U``.  These are the tightest constants for which the
+encoding is exact on ``X x U``, which is why the states of the window are constrained to ``X``.
+
+All decision variables are scaled (states by the half-widths of ``X``'s bounding box, DESIGN.md
+"Scale before you solve") and every constraint row is normalised to a largest coefficient of one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError, SolverError
+from ..lp import solve_lp
+from ..systems.polytope import Polytope
+from ..systems.pwa import PWASystem
+from ..tolerances import BIGM_IMPLIED_RTOL
+
+
+@dataclass(frozen=True, eq=False)
+class BigMConstants:
+    """The LP-computed constants of the encoding (original units).
+
+    Attributes
+    ----------
+    guard_rows : tuple of (G, g, M) per mode
+        Rows ``G [x; u] <= g`` of ``Q_i`` kept in the encoding and their big-M ``M`` (the max of
+        ``G_r [x; u] - g_r`` over ``X x U``).  Rows with ``M <= 0`` hold on all of ``X x U`` and
+        are dropped.
+    succ_on_guard, succ_on_domain : (s, n, 2) arrays
+        ``[min, max]`` of each row of ``A_i x + B_i u + a_i`` over ``Q_i ∩ (X x U)`` and over
+        ``X x U``.
+    out_on_guard, out_on_domain : (s, p, 2) arrays or None
+        The same for ``C_i x + D_i u + c_i`` (``None`` when the output map is mode-independent).
+    output_range : (p, 2) array
+        ``[min, max]`` of every mode's output over ``X x U`` (used to scale the output error).
+    n_lps : int
+        Number of LPs solved.
+    """
+
+    guard_rows: tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]
+    succ_on_guard: np.ndarray
+    succ_on_domain: np.ndarray
+    out_on_guard: np.ndarray | None
+    out_on_domain: np.ndarray | None
+    output_range: np.ndarray
+    n_lps: int
+
+
+class _Support:
+    """Extremes of affine functions over a polytope, by LPs in the unit-box coordinates of ``X x U``."""
+
+    def __init__(self, system: PWASystem):
+        half, centre = system.scales()
+        self.half, self.centre = half, centre
+        self.n_lps = 0
+
+    def range(self, P: Polytope, c: np.ndarray, c0: float, what: str) -> tuple[float, float]:
+        """``[min, max]`` of ``c' z + c0`` over ``P`` (``z = (x, u)``)."""
+        # z = centre + half * s: LPs in s are well scaled even when states span 0.05 to 600.
+        A = P.A * self.half[None, :]
+        b = P.b - P.A @ self.centre
+        cs = c * self.half
+        base = float(c @ self.centre + c0)
+        out = []
+        for sign in (1.0, -1.0):
+            res = solve_lp(sign * cs, A, b, problem=f"big-M constant: {what}")
+            self.n_lps += 1
+            if res.status != "optimal":
+                raise SolverError(f"big-M constant: {what}", res.solver, res.status,
+                                  hint="the guard or the state/input bounds are empty or unbounded")
+            out.append(sign * res.objective + base)
+        return out[0], out[1]
+
+
+def big_m_constants(system: PWASystem) -> BigMConstants:
+    """Compute every big-M constant of the MLD encoding by LPs over ``X x U``.
+
+    Implements the bounds of the big-M construction of Bemporad & Morari (1999), applied to the
+    PWA dynamics of eq. (1) of paper 002 with the bounded sets of eq. (2).
+
+    Parameters
+    ----------
+    system : PWASystem
+
+    Returns
+    -------
+    BigMConstants
+    """
+    n, p, s = system.n, system.p, system.n_modes
+    D = system.domain
+    sup = _Support(system)
+    half = sup.half
+    guard_rows = []
+    succ_g = np.empty((s, n, 2))
+    succ_d = np.empty((s, n, 2))
+    common = _common_output(system)
+    out_g = None if common else np.empty((s, p, 2))
+    out_d = None if common else np.empty((s, p, 2))
+    out_all = np.empty((s, p, 2))
+    for i, mode in enumerate(system.modes):
+        Q = mode.guard.intersect(D)
+        G, g = mode.guard.A, mode.guard.b
+        M = np.empty(G.shape[0])
+        for r in range(G.shape[0]):
+            M[r] = sup.range(D, G[r], -g[r], f"guard row {r} of mode {i}")[1]
+        # a row whose slack over X x U never goes negative constrains nothing: drop it
+        scale = np.abs(G) @ half + np.abs(g)
+        keep = M > BIGM_IMPLIED_RTOL * np.maximum(scale, 1.0)
+        guard_rows.append((G[keep], g[keep], M[keep]))
+        F = np.hstack([mode.A, mode.B])
+        for j in range(n):
+            succ_g[i, j] = sup.range(Q, F[j], mode.a[j], f"successor row {j} of mode {i} on its guard")
+            succ_d[i, j] = sup.range(D, F[j], mode.a[j], f"successor row {j} of mode {i} on X x U")
+        H = np.hstack([mode.C, mode.D])
+        for j in range(p):
+            out_all[i, j] = sup.range(D, H[j], mode.c[j], f"output row {j} of mode {i} on X x U")
+            if not common:
+                out_d[i, j] = out_all[i, j]
+                out_g[i, j] = sup.range(Q, H[j], mode.c[j], f"output row {j} of mode {i} on its guard")
+    output_range = np.stack([out_all[:, :, 0].min(axis=0), out_all[:, :, 1].max(axis=0)], axis=1)
+    return BigMConstants(tuple(guard_rows), succ_g, succ_d, out_g, out_d, output_range, sup.n_lps)
+
+
+def _common_output(system: PWASystem) -> bool:
+    """True when every mode has the same output map ``(C, D, c)`` (no output copies needed)."""
+    m0 = system.modes[0]
+    return all(np.array_equal(md.C, m0.C) and np.array_equal(md.D, m0.D) and np.array_equal(md.c, m0.c)
+               for md in system.modes[1:])
+
+
+@dataclass(frozen=True, eq=False)
+class MLDEncoding:
+    """The MLD form of eq. (10)'s constraints over a window of ``T`` samples.
+
+    Decision vector ``v`` (scaled) = ``[xi0, delta, zeta, zeta_y, omega]`` where ``x(0) = cx + hx * xi0``,
+    ``delta`` are the ``T * s`` binaries (row-major ``[k, i]``), ``zeta`` the scaled successor copies
+    (``z[k, i] = hx * zeta[k, i]``, ``k < T - 1``), ``zeta_y`` the scaled output copies (empty when the
+    output map is common), ``omega`` the scaled disturbances (``w(k) = hx * omega[k]``, empty when
+    disabled).  With the stacked window input ``U = [u(0); ...; u(T-1)]``:
+
+    * constraints: ``lo <= A v + BU U <= hi`` (rows with ``lo == hi`` are equalities);
+    * bounds: ``lb <= v <= ub`` (``delta`` in ``[0, 1]``, marked by ``discrete``);
+    * states: ``x(k) = Xmap[k] v + Xoff[k]``;
+    * outputs: ``Y^ = Ymap v + YU U + Yoff`` (stacked ``y^(0) ... y^(T-1)``).
+
+    Build with :func:`encode_mld`.
+    """
+
+    system: PWASystem
+    T: int
+    disturbances: bool
+    A: np.ndarray
+    BU: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
+    discrete: np.ndarray
+    Xmap: np.ndarray
+    Xoff: np.ndarray
+    Ymap: np.ndarray
+    YU: np.ndarray
+    Yoff: np.ndarray
+    slices: dict = field(default_factory=dict)
+    big_m: BigMConstants | None = None
+    state_scale: np.ndarray | None = None
+
+    @property
+    def n_vars(self) -> int:
+        return self.A.shape[1]
+
+    @property
+    def n_constraints(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def x_scale(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(hx, cx)``: state scale (default the half-widths of the state box) and box centre."""
+        half, centre = self.system.scales()
+        n = self.system.n
+        return (half[:n] if self.state_scale is None else self.state_scale), centre[:n]
+
+    def bounds(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Row bounds ``lo - BU U``, ``hi - BU U`` for the stacked window input ``U``."""
+        shift = self.BU @ U
+        return self.lo - shift, self.hi - shift
+
+    def states(self, v: np.ndarray) -> np.ndarray:
+        """``(T, n)`` window states of the decision vector ``v``."""
+        return np.einsum("kij,j->ki", self.Xmap, v) + self.Xoff
+
+    def outputs(self, v: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """``(T, p)`` window outputs."""
+        return (self.Ymap @ v + self.YU @ U + self.Yoff).reshape(self.T, self.system.p)
+
+    def modes(self, v: np.ndarray) -> np.ndarray:
+        """``(T,)`` mode index of each step (largest ``delta``)."""
+        return np.argmax(v[self.slices["delta"]].reshape(self.T, self.system.n_modes), axis=1)
+
+    def disturbance(self, v: np.ndarray) -> np.ndarray:
+        """``(T - 1, n)`` disturbances ``w(k)`` (zeros when disabled)."""
+        n = self.system.n
+        if not self.disturbances:
+            return np.zeros((self.T - 1, n))
+        return v[self.slices["omega"]].reshape(self.T - 1, n) * self.x_scale[0]
+
+    def point(self, x0: np.ndarray, modes: np.ndarray, U: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
+        """The decision vector of a trajectory: start ``x0``, mode sequence ``modes``, inputs ``U``.
+
+        The states follow ``x(k + 1) = A_q x + B_q u + a_q + w(k)`` with ``q = modes[k]`` (guards
+        are not checked; :meth:`violation` does that).  Used for warm starts and tests.
+        """
+        sysm, T = self.system, self.T
+        Uw = np.asarray(U, dtype=float).reshape(T, sysm.m)
+        X = np.empty((T, sysm.n))
+        X[0] = np.asarray(x0, dtype=float)
+        for k in range(T - 1):
+            md = sysm.modes[int(modes[k])]
+            X[k + 1] = md.A @ X[k] + md.B @ Uw[k] + md.a + (W[k] if W is not None else 0.0)
+        return self.pack(X, modes, Uw, W)
+
+    def pack(self, X: np.ndarray, modes: np.ndarray, U: np.ndarray, W: np.ndarray | None = None) -> np.ndarray:
+        """The decision vector of a known trajectory: states ``X`` (``(T, n)``), modes, inputs, disturbances.
+
+        Vectorised counterpart of :meth:`point` for a trajectory that is already simulated.
+        """
+        sysm, T = self.system, self.T
+        n, s = sysm.n, sysm.n_modes
+        hx, cx = self.x_scale
+        modes = np.asarray(modes, dtype=int)
+        v = np.zeros(self.n_vars)
+        v[self.slices["xi0"]] = (X[0] - cx) / hx
+        ks = np.arange(T)
+        v[self.slices["delta"].start + ks * s + modes] = 1.0
+        if T > 1:
+            succ = X[1:] if W is None else X[1:] - W
+            zeta = np.zeros((T - 1, s, n))
+            zeta[ks[:-1], modes[:-1]] = succ / hx
+            v[self.slices["zeta"]] = zeta.reshape(-1)
+        if self.slices["zeta_y"].stop > self.slices["zeta_y"].start:
+            Uw = np.asarray(U, dtype=float).reshape(T, sysm.m)
+            zy = np.zeros((T, s, sysm.p))
+            for k in range(T):
+                md = sysm.modes[int(modes[k])]
+                zy[k, modes[k]] = (md.C @ X[k] + md.D @ Uw[k] + md.c) / self._hy()
+            v[self.slices["zeta_y"]] = zy.reshape(-1)
+        if self.disturbances and W is not None:
+            v[self.slices["omega"]] = (np.asarray(W, dtype=float) / hx).reshape(-1)
+        return v
+
+    def _hy(self) -> np.ndarray:
+        r = self.big_m.output_range
+        return np.maximum(np.abs(r).max(axis=1), 1e-300)
+
+    def violation(self, v: np.ndarray, U: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+        """Largest violation of the (row-normalised) constraints, bounds and integrality at ``v``.
+
+        ``bounds`` are :meth:`bounds` of ``U`` when already computed.
+        """
+        lo, hi = self.bounds(U) if bounds is None else bounds
+        Av = self.A @ v
+        d = v[self.discrete]
+        # one reduction: infinite bounds give -inf entries, which never win
+        r = np.concatenate([lo - Av, Av - hi, self.lb - v, v - self.ub, np.abs(d - np.round(d)), [0.0]])
+        return float(r.max())
+
+
+class _Rows:
+    """Accumulates rows ``lo <= a v + bu U <= hi``."""
+
+    def __init__(self, nv: int, nu: int):
+        self.nv, self.nu = nv, nu
+        self.A: list[np.ndarray] = []
+        self.BU: list[np.ndarray] = []
+        self.lo: list[float] = []
+        self.hi: list[float] = []
+
+    def add(self, a: np.ndarray, bu: np.ndarray | None, lo: float, hi: float) -> None:
+        self.A.append(a)
+        self.BU.append(np.zeros(self.nu) if bu is None else bu)
+        self.lo.append(lo)
+        self.hi.append(hi)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        A = np.array(self.A).reshape(-1, self.nv)
+        BU = np.array(self.BU).reshape(-1, self.nu)
+        lo, hi = np.array(self.lo), np.array(self.hi)
+        # unit largest coefficient per row (the binaries' big-M columns included)
+        norm = np.max(np.abs(A), axis=1)
+        norm = np.where(norm > 0, norm, 1.0)
+        return A / norm[:, None], BU / norm[:, None], lo / norm, hi / norm
+
+
+def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
+               big_m: BigMConstants | None = None, state_scale: np.ndarray | None = None) -> MLDEncoding:
+    """Derive the MLD / big-M encoding of eq. (10)'s constraints for a window of ``T`` samples.
+
+    Implements the mixed-logical-dynamical form of Bemporad & Morari (1999) for the PWA system of
+    eq. (1) of paper 002, as used by the moving-horizon observer of eq. (10) (Bemporad,
+    Ferrari-Trecate & Morari, 2000).  See the module docstring for the constraints.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model, with bounded ``X`` and ``U`` (eq. 2): every big-M constant comes from them.
+    T : int
+        Window length (``T >= 1``).
+    disturbances : bool
+        Add state disturbances ``x(k + 1) = f_i(x(k), u(k)) + w(k)`` (penalised by the observer).
+    big_m : BigMConstants, optional
+        Precomputed constants (:func:`big_m_constants`), e.g. shared by several horizons.
+    state_scale : (n,) array, optional
+        Unit of each scaled state variable (``x = cx + state_scale * xi``); default the half-widths
+        of ``X``'s bounding box.
+
+    Returns
+    -------
+    MLDEncoding
+
+    Raises
+    ------
+    ModelError
+        If ``system`` is not a PWASystem or ``T < 1``.
+    """
+    if not isinstance(system, PWASystem):
+        raise ModelError("system", "a PWASystem", type(system).__name__)
+    if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
+        raise ModelError("T", "an integer horizon T >= 1", repr(T))
+    T = int(T)
+    bm = big_m_constants(system) if big_m is None else big_m
+    n, m, p, s = system.n, system.m, system.p, system.n_modes
+    half, centre = system.scales()
+    hx, cx = half[:n].copy(), centre[:n]
+    if state_scale is not None:
+        hx = np.asarray(state_scale, dtype=float).reshape(-1)
+        if hx.shape != (n,) or not np.all(np.isfinite(hx) & (hx > 0)):
+            raise ModelError("state_scale", f"{n} positive finite numbers", f"{np.asarray(state_scale).tolist()}")
+    common = bm.out_on_guard is None
+    hy = np.maximum(np.abs(bm.output_range).max(axis=1), 1e-300)
+
+    # variable layout
+    sizes = [("xi0", n), ("delta", T * s), ("zeta", (T - 1) * s * n),
+             ("zeta_y", 0 if common else T * s * p), ("omega", (T - 1) * n if disturbances else 0)]
+    slices, off = {}, 0
+    for name, size in sizes:
+        slices[name] = slice(off, off + size)
+        off += size
+    nv, nu = off, m * T
+
+    def idx_delta(k: int, i: int) -> int:
+        return slices["delta"].start + k * s + i
+
+    def idx_zeta(k: int, i: int) -> slice:
+        a = slices["zeta"].start + (k * s + i) * n
+        return slice(a, a + n)
+
+    def idx_zy(k: int, i: int) -> slice:
+        a = slices["zeta_y"].start + (k * s + i) * p
+        return slice(a, a + p)
+
+    def ublock(k: int, mat: np.ndarray) -> np.ndarray:
+        out = np.zeros((mat.shape[0], nu))
+        out[:, k * m:(k + 1) * m] = mat
+        return out
+
+    # states as affine maps of v: x(0) = cx + hx xi0; x(k+1) = sum_i hx zeta[k,i] + hx omega[k]
+    Xmap = np.zeros((T, n, nv))
+    Xoff = np.zeros((T, n))
+    Xmap[0][:, slices["xi0"]] = np.diag(hx)
+    Xoff[0] = cx
+    for k in range(T - 1):
+        for i in range(s):
+            Xmap[k + 1][:, idx_zeta(k, i)] = np.diag(hx)
+        if disturbances:
+            a = slices["omega"].start + k * n
+            Xmap[k + 1][:, a:a + n] = np.diag(hx)
+
+    rows = _Rows(nv, nu)
+    inf = np.inf
+    X = system.state_bounds
+    box_X = _is_axis_box(X)
+    for k in range(T):
+        # one mode per step
+        a = np.zeros(nv)
+        a[[idx_delta(k, i) for i in range(s)]] = 1.0
+        rows.add(a, None, 1.0, 1.0)
+        # x(k) in X (x(0) by its variable bounds when X is a box)
+        if k > 0 or not box_X:
+            for r in range(X.n_constraints):
+                rows.add(X.A[r] @ Xmap[k], None, -inf, X.b[r] - X.A[r] @ Xoff[k])
+        for i, mode in enumerate(system.modes):
+            d = idx_delta(k, i)
+            # guard: G_x x(k) + G_u u(k) <= g + M (1 - delta)
+            G, g, M = bm.guard_rows[i]
+            for r in range(G.shape[0]):
+                a = G[r, :n] @ Xmap[k]
+                a[d] += M[r]
+                rows.add(a, ublock(k, G[r:r + 1, n:])[0], -inf, g[r] + M[r] - G[r, :n] @ Xoff[k])
+            if k < T - 1:
+                zs = idx_zeta(k, i)
+                lo_g, hi_g = bm.succ_on_guard[i, :, 0], bm.succ_on_guard[i, :, 1]
+                lo_d, hi_d = bm.succ_on_domain[i, :, 0], bm.succ_on_domain[i, :, 1]
+                for j in range(n):
+                    # m delta <= hx zeta <= M delta
+                    a = np.zeros(nv)
+                    a[zs.start + j] = hx[j]
+                    a[d] = -hi_g[j]
+                    rows.add(a, None, -inf, 0.0)
+                    a = np.zeros(nv)
+                    a[zs.start + j] = hx[j]
+                    a[d] = -lo_g[j]
+                    rows.add(a, None, 0.0, inf)
+                    # m' (1 - delta) <= f_j(x, u) - hx zeta <= M' (1 - delta)
+                    f = mode.A[j] @ Xmap[k]
+                    f[zs.start + j] -= hx[j]
+                    fu = ublock(k, mode.B[j:j + 1])[0]
+                    c0 = mode.a[j] + mode.A[j] @ Xoff[k]
+                    a = f.copy()
+                    a[d] += hi_d[j]
+                    rows.add(a, fu, -inf, hi_d[j] - c0)
+                    a = f.copy()
+                    a[d] += lo_d[j]
+                    rows.add(a, fu, lo_d[j] - c0, inf)
+            if not common:
+                ys = idx_zy(k, i)
+                lo_g, hi_g = bm.out_on_guard[i, :, 0], bm.out_on_guard[i, :, 1]
+                lo_d, hi_d = bm.out_on_domain[i, :, 0], bm.out_on_domain[i, :, 1]
+                for j in range(p):
+                    a = np.zeros(nv)
+                    a[ys.start + j] = hy[j]
+                    a[d] = -hi_g[j]
+                    rows.add(a, None, -inf, 0.0)
+                    a = np.zeros(nv)
+                    a[ys.start + j] = hy[j]
+                    a[d] = -lo_g[j]
+                    rows.add(a, None, 0.0, inf)
+                    f = mode.C[j] @ Xmap[k]
+                    f[ys.start + j] -= hy[j]
+                    fu = ublock(k, mode.D[j:j + 1])[0]
+                    c0 = mode.c[j] + mode.C[j] @ Xoff[k]
+                    a = f.copy()
+                    a[d] += hi_d[j]
+                    rows.add(a, fu, -inf, hi_d[j] - c0)
+                    a = f.copy()
+                    a[d] += lo_d[j]
+                    rows.add(a, fu, lo_d[j] - c0, inf)
+    A, BU, lo, hi = rows.arrays()
+
+    # outputs
+    Ymap = np.zeros((T * p, nv))
+    YU = np.zeros((T * p, nu))
+    Yoff = np.zeros(T * p)
+    m0 = system.modes[0]
+    for k in range(T):
+        r = slice(k * p, (k + 1) * p)
+        if common:
+            Ymap[r] = m0.C @ Xmap[k]
+            YU[r] = ublock(k, m0.D)
+            Yoff[r] = m0.C @ Xoff[k] + m0.c
+        else:
+            for i in range(s):
+                Ymap[r, idx_zy(k, i)] = np.diag(hy)
+
+    # variable bounds (scaled)
+    lb = np.full(nv, -inf)
+    ub = np.full(nv, inf)
+    xlo, xhi = cx - half[:n], cx + half[:n]
+    lb[slices["xi0"]], ub[slices["xi0"]] = -half[:n] / hx, half[:n] / hx
+    lb[slices["delta"]], ub[slices["delta"]] = 0.0, 1.0
+    zlo = np.minimum(bm.succ_on_guard[:, :, 0], 0.0) / hx
+    zhi = np.maximum(bm.succ_on_guard[:, :, 1], 0.0) / hx
+    lb[slices["zeta"]] = np.tile(zlo.reshape(-1), T - 1)
+    ub[slices["zeta"]] = np.tile(zhi.reshape(-1), T - 1)
+    if not common:
+        lb[slices["zeta_y"]] = np.tile((np.minimum(bm.out_on_guard[:, :, 0], 0.0) / hy).reshape(-1), T)
+        ub[slices["zeta_y"]] = np.tile((np.maximum(bm.out_on_guard[:, :, 1], 0.0) / hy).reshape(-1), T)
+    if disturbances:
+        # w = x(k+1) - f(x(k), u(k)) with x(k+1) in X: these bounds are implied, never binding
+        wlo = (xlo - bm.succ_on_domain[:, :, 1].max(axis=0)) / hx
+        whi = (xhi - bm.succ_on_domain[:, :, 0].min(axis=0)) / hx
+        lb[slices["omega"]] = np.tile(wlo, T - 1)
+        ub[slices["omega"]] = np.tile(whi, T - 1)
+    discrete = np.zeros(nv, dtype=bool)
+    discrete[slices["delta"]] = True
+    return MLDEncoding(system, T, bool(disturbances), A, BU, lo, hi, lb, ub, discrete,
+                       Xmap, Xoff, Ymap, YU, Yoff, slices, bm, None if state_scale is None else hx)
+
+
+
+def _is_axis_box(P: Polytope) -> bool:
+    """True when every row of ``P`` has a single non-zero (the set is its bounding box)."""
+    return bool(np.all(np.count_nonzero(P.A, axis=1) <= 1))
