@@ -37,6 +37,7 @@ from ..tolerances import (
     LOOKUP_MEMBERSHIP_TOL,
     LOOKUP_OUTPUT_RTOL,
     LOOKUP_SAME_STATE_TOL,
+    RANK_RTOL,
     REGION_SLACK_TOL,
 )
 from . import _lookup_kernels as K
@@ -199,7 +200,7 @@ class LookupObserver(Observer):
             E = reg.C * sx[None, :]
             e = Y - reg.D @ U - reg.f - reg.C @ cx
             _, s, Vt = np.linalg.svd(E)
-            r = int(np.sum(s > 1e-12 * max(s[0], 1e-300))) if s.size else 0
+            r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
             v0 = Vt[:r].T @ ((np.linalg.svd(E)[0][:, :r].T @ e) / s[:r]) if r else np.zeros(n)
             if np.linalg.norm(E @ v0 - e) > self.output_rtol * max(1.0, np.max(np.abs(Y))):
                 continue

@@ -22,6 +22,21 @@ ODE_ATOL = 1e-12
 #: only has to absorb rounding of the located event point (about 1e-16), not model error.
 EVENT_OFFSET_RTOL = 1e-12
 
+#: Relative slack with which a located event point is accepted in a guard or target invariant:
+#: the event root is located to about ODE_RTOL, a hundred times tighter than this.
+EVENT_MEMBERSHIP_RTOL = 1e-7
+
+#: Relative slack of the end-of-segment check that the state is still in its location's
+#: invariant (a crossing missed inside one solver step shows up far above this).
+SEGMENT_END_RTOL = 1e-6
+
+#: Times closer than this (seconds) are the same instant (segment ends, breakpoints, grid).
+TIME_EPS = 1e-12
+
+#: Step (in units of the flow) of the probe that decides which of several target locations the
+#: flow enters from a shared boundary point.
+ENTRY_PROBE = 1e-9
+
 
 class SimulationError(HybobsError):
     """The simulation could not continue (Zeno behaviour, state left every invariant)."""
@@ -104,10 +119,10 @@ def simulate_hybrid(
     t, x = float(t0), x0.copy()
     n_inv = automaton.locations
 
-    while t < t_final - 1e-12:
+    while t < t_final - TIME_EPS:
         if len(events) > max_events:
             raise SimulationError(f"more than {max_events} location changes before t = {t:.6g}: Zeno behaviour?")
-        t_stop = next(s for s in stops if s > t + 1e-12)
+        t_stop = next(s for s in stops if s > t + TIME_EPS)
         inv = n_inv[q].invariant
         lifted = inv.dim != automaton.n
 
@@ -142,13 +157,13 @@ def simulate_hybrid(
         if sol.status == -1:
             raise SimulationError(f"ODE solver failed in location {n_inv[q].name} at t = {t:.6g}: {sol.message}")
         t_end = float(sol.t[-1])
-        mask = (grid >= t - 1e-12) & (grid <= t_end + 1e-12) & np.isnan(xs[:, 0])
+        mask = (grid >= t - TIME_EPS) & (grid <= t_end + TIME_EPS) & np.isnan(xs[:, 0])
         if np.any(mask):
             xs[mask] = sol.sol(grid[mask]).T
             qs[mask] = q
         x = sol.y[:, -1].copy()
         t = t_end
-        if sol.status != 1 and not automaton.in_invariant(q, x, ufn(min(t, t_last)), rtol=1e-6):
+        if sol.status != 1 and not automaton.in_invariant(q, x, ufn(min(t, t_last)), rtol=SEGMENT_END_RTOL):
             raise SimulationError(
                 f"state {x.tolist()} at t = {t:.6g} left location {n_inv[q].name!r} without an event: "
                 "the invariant is crossed twice within one solver step; reduce the horizon between breakpoints"
@@ -170,10 +185,10 @@ def _jump(automaton: HybridAutomaton, q: int, x: np.ndarray, u: np.ndarray) -> t
     for e in automaton.edges:
         if e.source != q:
             continue
-        if e.guard is not None and not e.guard.contains(x, 1e-7):
+        if e.guard is not None and not e.guard.contains(x, EVENT_MEMBERSHIP_RTOL):
             continue
         x_new = x if e.reset is None else e.reset[0] @ x + e.reset[1]
-        if automaton.in_invariant(e.target, x_new, u, rtol=1e-7):
+        if automaton.in_invariant(e.target, x_new, u, rtol=EVENT_MEMBERSHIP_RTOL):
             candidates.append((e.target, x_new))
     if not candidates:
         raise SimulationError(
@@ -184,7 +199,7 @@ def _jump(automaton: HybridAutomaton, q: int, x: np.ndarray, u: np.ndarray) -> t
         # Several targets on a shared boundary: take the one the flow moves into.
         def inside_after(target_x):
             target, xn = target_x
-            probe = xn + 1e-9 * automaton.flow(target, xn, u)
+            probe = xn + ENTRY_PROBE * automaton.flow(target, xn, u)
             return automaton.in_invariant(target, probe, u, rtol=0.0)
         inside = [c for c in candidates if inside_after(c)]
         candidates = inside or candidates
