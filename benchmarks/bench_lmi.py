@@ -23,14 +23,14 @@ import argparse
 import json
 import math
 import os
-import platform
 import statistics
 import sys
 import time
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
+
+from ._machine import machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -43,22 +43,7 @@ def log(msg: str) -> None:
 
 
 def _machine() -> dict:
-    cpu = platform.processor()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    versions = {}
-    for pkg in ("numpy", "cvxpy", "clarabel", "casadi", "scipy"):
-        try:
-            versions[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            versions[pkg] = None
-    return {"platform": platform.platform(), "python": platform.python_version(), "cpu": cpu,
-            "cores": os.cpu_count(), "versions": versions}
+    return {**machine(), "versions": versions(("numpy", "cvxpy", "clarabel", "casadi", "scipy"))}
 
 
 def _load() -> list[float]:

@@ -26,10 +26,8 @@ import argparse
 import collections
 import json
 import os
-import platform
 import sys
 import time
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +35,8 @@ import numpy as np
 from hybobs_opt.examples.registry import get_example
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe.miqp import MHEObserver
+
+from ._machine import machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -55,27 +55,11 @@ def log(msg: str) -> None:
 
 
 def _machine() -> dict:
-    cpu = platform.processor()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = os.getloadavg() if hasattr(os, "getloadavg") else None
-    return {"platform": platform.platform(), "machine": platform.machine(), "cpu": cpu, "cpu_count": os.cpu_count(),
-            "python": platform.python_version(), "load_average_at_start": list(load) if load else None}
+    return machine()
 
 
 def _versions() -> dict:
-    out = {}
-    for pkg in ("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "casadi"):
-        try:
-            out[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            out[pkg] = None
-    return out
+    return versions(("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "casadi"))
 
 
 def run_observer(obs: MHEObserver, U: np.ndarray, Y: np.ndarray, X: np.ndarray, observable: np.ndarray | None) -> dict:

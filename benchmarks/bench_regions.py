@@ -20,11 +20,9 @@ import argparse
 import json
 import math
 import os
-import platform
 import statistics
 import sys
 import time
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -33,8 +31,10 @@ from hybobs_opt.errors import SolverError
 from hybobs_opt.examples.powertrain import TABLE2, powertrain3, powertrain5
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
 from hybobs_opt.lp import COUNTERS, solve_lp
-from hybobs_opt.regions import Cut, analyse_observability, plot_cut
-from hybobs_opt.report.regions_section import PAPER_002, PointClassifier, fig6_planes, robust_cut
+from hybobs_opt.regions import Cut, analyse_observability, compute_cut, plot_cut
+from hybobs_opt.report.regions_section import PAPER_002, fig6_planes
+
+from ._machine import machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -50,27 +50,11 @@ def log(msg: str) -> None:
 
 
 def _machine() -> dict:
-    cpu = platform.processor()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = os.getloadavg() if hasattr(os, "getloadavg") else None
-    return {"platform": platform.platform(), "machine": platform.machine(), "cpu": cpu, "cpu_count": os.cpu_count(),
-            "python": platform.python_version(), "load_average_at_start": list(load) if load else None}
+    return machine()
 
 
 def _versions() -> dict:
-    out = {}
-    for pkg in ("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "matplotlib", "dask", "distributed"):
-        try:
-            out[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            out[pkg] = None
-    return out
+    return versions(("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "matplotlib", "dask", "distributed"))
 
 
 def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
@@ -257,7 +241,6 @@ def _sample_worker(args) -> dict:
     analysis = _SAMPLING_ANALYSIS
     if analysis is None:
         raise RuntimeError("the sampling workers need the fork start method (analysis inherited from the parent)")
-    clf = PointClassifier(analysis)
     rng = np.random.default_rng(seed)
     counts = {"observable": 0, "unobservable": 0, "infeasible": 0}
     drawn = outside = errors = 0
@@ -269,34 +252,34 @@ def _sample_worker(args) -> dict:
             outside += 1
             continue
         try:
-            counts[clf.classify(x)] += 1
+            counts[analysis.classify(x)] += 1
         except SolverError:
             errors += 1
-    return {"drawn": drawn, "outside_box": outside, "counts": counts, "errors": errors, "fallback": clf.n_fallback}
+    return {"drawn": drawn, "outside_box": outside, "counts": counts, "errors": errors}
 
 
 def _cut_block(args):
     fixed, limits, resolution = args
-    return robust_cut(_SAMPLING_ANALYSIS, fixed, resolution=resolution, limits=limits)
+    return compute_cut(_SAMPLING_ANALYSIS, fixed, resolution=resolution, limits=limits)
 
 
-def parallel_cut(analysis, ex, fixed: dict, grid: tuple[int, int], limits: dict | None = None) -> tuple[Cut, int]:
-    """:func:`robust_cut` with the rows of the vertical axis split among the executor's workers."""
+def parallel_cut(analysis, ex, fixed: dict, grid: tuple[int, int], limits: dict | None = None) -> Cut:
+    """:func:`compute_cut` with the rows of the vertical axis split among the executor's workers."""
     names = analysis.system.state_names
     free = [nm for nm in names if nm not in fixed]
     limits = dict(limits or {})
     nx, ny = grid
     blocks = np.array_split(np.arange(ny), ex.n_workers)
     if ex.n_workers == 1 or min(len(b) for b in blocks) < 2:
-        return robust_cut(analysis, fixed, resolution=grid, limits=limits)
+        return compute_cut(analysis, fixed, resolution=grid, limits=limits)
     xlo, xhi = analysis.system.state_bounds.bounding_box()
     k = names.index(free[1])
     y = np.linspace(*limits.get(free[1], (xlo[k], xhi[k])), ny)
     parts = ex.map(_cut_block, [(fixed, {**limits, free[1]: (y[b[0]], y[b[-1]])}, (nx, len(b))) for b in blocks])
-    cuts = [c for c, _ in parts]
+    cuts = list(parts)
     cut = Cut(cuts[0].axes, dict(fixed), cuts[0].x_values, np.concatenate([c.y_values for c in cuts]),
               np.vstack([c.labels for c in cuts]))
-    return cut, sum(n for _, n in parts)
+    return cut
 
 
 def bench_O7(analysis, budget: float, grid: tuple[int, int], n_workers: int) -> dict:
@@ -322,15 +305,14 @@ def _bench_O7(analysis, ex, t0, budget, grid, system, T) -> dict:
     planes = fig6_planes(analysis)
     t_planes = time.perf_counter() - t0
     figs = {}
-    cut, n_fb = parallel_cut(analysis, ex, planes["paper"], grid)
+    cut = parallel_cut(analysis, ex, planes["paper"], grid)
     name = f"regions_fig6_T{T}_paper_plane.png"
     plot_cut(cut, RESULTS_DIR / name, title=f"Fig. 6: model (17), T = {T}, theta_mc = 0, omega_m = 90, omega_l = 30")
     figs["paper_plane"] = {"png": name, "plane": planes["paper"], "fraction_in_X*": float(np.mean(cut.labels != "infeasible")),
                            "omega_c_range_on_plane": planes["paper_omega_c_range"]}
     if planes["consistent"] is not None:
-        cut2, n_fb2 = parallel_cut(analysis, ex, planes["consistent"], grid,
+        cut2 = parallel_cut(analysis, ex, planes["consistent"], grid,
                                    limits={"omega_c": planes["consistent_omega_c_range"]})
-        n_fb += n_fb2
         name = f"regions_fig6_T{T}_consistent_plane.png"
         plot_cut(cut2, RESULTS_DIR / name,
                  title=f"model (17), T = {T}, theta_mc = 0, omega_m = 90, omega_l = {planes['consistent']['omega_l']:.4g}")
@@ -339,7 +321,6 @@ def _bench_O7(analysis, ex, t0, budget, grid, system, T) -> dict:
                                     "observable_of_feasible": cut2.fraction_of_feasible("observable")}
     figs["omega_l_range_at_theta_mc_0_omega_m_90"] = planes["omega_l_range"]
     figs["grid"] = list(grid)
-    figs["points_fallback"] = n_fb
     t_cut = time.perf_counter() - t0 - t_planes
     # sampling: uniform in the state box; drawn in the slip coordinates z = M x (det M = 1) over the
     # bounding box of M X*_T, which contains X*_T, so the accepted points are uniform on X*_T too.
@@ -376,7 +357,6 @@ def _bench_O7(analysis, ex, t0, budget, grid, system, T) -> dict:
         "points_observable": counts["observable"],
         "points_unobservable": counts["unobservable"],
         "points_solver_error": sum(p["errors"] for p in parts),
-        "points_fallback": sum(p["fallback"] for p in parts),
         "observable_share_of_X*": counts["observable"] / feasible if feasible else None,
         "observable_share_wilson95": wilson(counts["observable"], feasible),
         "volume_share_of_state_box_in_X*": (feasible / drawn) * vol_ratio if drawn else None,
