@@ -427,49 +427,15 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
                 lo_g, hi_g = bm.succ_on_guard[i, :, 0], bm.succ_on_guard[i, :, 1]
                 lo_d, hi_d = bm.succ_on_domain[i, :, 0], bm.succ_on_domain[i, :, 1]
                 for j in range(n):
-                    # m delta <= hx zeta <= M delta
-                    a = np.zeros(nv)
-                    a[zs.start + j] = hx[j]
-                    a[d] = -hi_g[j]
-                    rows.add(a, None, -inf, 0.0)
-                    a = np.zeros(nv)
-                    a[zs.start + j] = hx[j]
-                    a[d] = -lo_g[j]
-                    rows.add(a, None, 0.0, inf)
-                    # m' (1 - delta) <= f_j(x, u) - hx zeta <= M' (1 - delta)
-                    f = mode.A[j] @ Xmap[k]
-                    f[zs.start + j] -= hx[j]
-                    fu = ublock(k, mode.B[j:j + 1])[0]
-                    c0 = mode.a[j] + mode.A[j] @ Xoff[k]
-                    a = f.copy()
-                    a[d] += hi_d[j]
-                    rows.add(a, fu, -inf, hi_d[j] - c0)
-                    a = f.copy()
-                    a[d] += lo_d[j]
-                    rows.add(a, fu, lo_d[j] - c0, inf)
+                    _copy_rows(rows, nv, d, zs.start + j, hx[j], lo_g[j], hi_g[j], lo_d[j], hi_d[j],
+                               mode.A[j] @ Xmap[k], ublock(k, mode.B[j:j + 1])[0], mode.a[j] + mode.A[j] @ Xoff[k])
             if not common:
                 ys = idx_zy(k, i)
                 lo_g, hi_g = bm.out_on_guard[i, :, 0], bm.out_on_guard[i, :, 1]
                 lo_d, hi_d = bm.out_on_domain[i, :, 0], bm.out_on_domain[i, :, 1]
                 for j in range(p):
-                    a = np.zeros(nv)
-                    a[ys.start + j] = hy[j]
-                    a[d] = -hi_g[j]
-                    rows.add(a, None, -inf, 0.0)
-                    a = np.zeros(nv)
-                    a[ys.start + j] = hy[j]
-                    a[d] = -lo_g[j]
-                    rows.add(a, None, 0.0, inf)
-                    f = mode.C[j] @ Xmap[k]
-                    f[ys.start + j] -= hy[j]
-                    fu = ublock(k, mode.D[j:j + 1])[0]
-                    c0 = mode.c[j] + mode.C[j] @ Xoff[k]
-                    a = f.copy()
-                    a[d] += hi_d[j]
-                    rows.add(a, fu, -inf, hi_d[j] - c0)
-                    a = f.copy()
-                    a[d] += lo_d[j]
-                    rows.add(a, fu, lo_d[j] - c0, inf)
+                    _copy_rows(rows, nv, d, ys.start + j, hy[j], lo_g[j], hi_g[j], lo_d[j], hi_d[j],
+                               mode.C[j] @ Xmap[k], ublock(k, mode.D[j:j + 1])[0], mode.c[j] + mode.C[j] @ Xoff[k])
     A, BU, lo, hi = rows.arrays()
 
     # outputs
@@ -511,6 +477,33 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
     return MLDEncoding(system, T, bool(disturbances), A, BU, lo, hi, lb, ub, discrete,
                        Xmap, Xoff, Ymap, YU, Yoff, slices, bm, None if state_scale is None else hx)
 
+
+
+def _copy_rows(rows, nv: int, d: int, col: int, scale: float, lo_g: float, hi_g: float, lo_d: float, hi_d: float,
+               f: np.ndarray, fu: np.ndarray, c0: float) -> None:
+    """Big-M rows tying the scaled copy ``scale * w[col]`` to one affine function and to ``delta = w[d]``.
+
+    ``lo_g delta <= scale w <= hi_g delta`` (the copy vanishes when the mode is off, bounds over
+    the guard) and ``lo_d (1 - delta) <= f w + fu u + c0 - scale w <= hi_d (1 - delta)`` (it equals
+    the function when the mode is on, bounds over the domain); Bemporad & Morari (1999).
+    """
+    inf = np.inf
+    a = np.zeros(nv)
+    a[col] = scale
+    a[d] = -hi_g
+    rows.add(a, None, -inf, 0.0)
+    a = np.zeros(nv)
+    a[col] = scale
+    a[d] = -lo_g
+    rows.add(a, None, 0.0, inf)
+    f = f.copy()
+    f[col] -= scale
+    a = f.copy()
+    a[d] += hi_d
+    rows.add(a, fu, -inf, hi_d - c0)
+    a = f.copy()
+    a[d] += lo_d
+    rows.add(a, fu, lo_d - c0, inf)
 
 
 def _is_axis_box(P: Polytope) -> bool:
