@@ -31,8 +31,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
-import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -40,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InfeasibleError, ModelError, SolverError
+from ..lmi.solve import SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
 from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace
@@ -277,16 +276,10 @@ class ContinuousObserverLMI:
         if self.gain_bound is not None:
             self.lmax.value = self.gain_bound / self.scale
         what = f"continuous observer LMI of {aut.name}"
-        t0 = time.perf_counter()
-        try:
-            with warnings.catch_warnings():
-                # "solution may be inaccurate": kept in the status; every bound is re-verified
-                warnings.simplefilter("ignore", UserWarning)
-                self.problem.solve(solver=SOLVER)
-        except cp.error.SolverError as exc:
-            raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate ({exc})") from None
-        seconds = time.perf_counter() - t0
-        status = self.problem.status
+        outcome = solve_problem(self.problem)
+        if outcome.status == SOLVER_ERROR:
+            raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate ({outcome.message})")
+        seconds, status = outcome.seconds, outcome.status
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             raise InfeasibleError(what, None, self._diagnose(decay))
         if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or self.P.value is None:

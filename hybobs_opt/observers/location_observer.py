@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -56,9 +55,9 @@ from ..tolerances import (
     MATRIX_EQUAL_RTOL,
     OBSERVABILITY_RTOL,
 )
+from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
 from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
 
-SOLVER = "CLARABEL"
 
 #: Numerical guard on the decay-rate search when no ``max_decay`` is given (1/s): far beyond any
 #: sampled implementation, it only stops a diverging search.
@@ -251,16 +250,10 @@ class LuenbergerLMI:
         self.alpha.value = float(alpha) / s
         if self.gain_bound is not None:
             self.lmax.value = self.gain_bound / s
-        t0 = time.perf_counter()
-        try:
-            with warnings.catch_warnings():
-                # "solution may be inaccurate": kept in the status; every bound is re-verified
-                warnings.simplefilter("ignore", UserWarning)
-                self.problem.solve(solver=SOLVER)
-        except cp.error.SolverError as exc:
-            raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate or a larger gain bound ({exc})") from None
-        seconds = time.perf_counter() - t0
-        status = self.problem.status
+        outcome = solve_problem(self.problem)
+        if outcome.status == SOLVER_ERROR:
+            raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate or a larger gain bound ({outcome.message})")
+        seconds, status = outcome.seconds, outcome.status
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return None
         if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or self.P.value is None or self.Y.value is None:
