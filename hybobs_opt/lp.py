@@ -90,7 +90,8 @@ def solve_lp(
 
 import daqp  # noqa: E402
 
-from .tolerances import NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
+from ._lp_kernels import slack_bounds, slack_lp_data  # noqa: E402
+from .tolerances import DAQP_EPS_PROX, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
 
 _DAQP_OPTIMAL = (1, 2)
 
@@ -130,24 +131,12 @@ class SlackResult:
     solver: str
 
 
-def _normalise_rows(G: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Unit-norm rows; returns ``ok=False`` if a zero row reads ``0 <= negative`` (empty set)."""
-    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-    zero = norms <= ZERO_ROW_TOL
-    if zero.any():
-        if np.any(zero & (g < -ZERO_ROW_TOL)):
-            return G[:0], g[:0], False
-        G, g, norms = G[~zero], g[~zero], norms[~zero]
-    inv = 1.0 / norms
-    return G * inv[:, None], g * inv, True
-
-
 def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: float, problem: str = "max-slack LP") -> SlackResult:
     """Largest uniform slack of ``G w <= g`` (the Chebyshev radius of the polytope), certified.
 
     Solves ``max t  s.t.  G_k w + ||G_k|| t <= g_k, t <= SLACK_CAP`` with DAQP (dense active-set,
     about 30 microseconds for 10 variables and 30 rows).  Its answer is accepted only when it is
-    *certified* against ``threshold`` with plain numpy:
+    *certified* against ``threshold`` with plain arithmetic:
 
     * the returned point gives the lower bound ``min_k (g_k - G_k w) / ||G_k||``;
     * the dual multipliers ``lambda >= 0, mu >= 0`` give the upper bound
@@ -155,13 +144,16 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
       feasible ``w`` with ``||w||_2 <= R = radius_bound`` (weak duality with the stationarity
       residual bounded by Cauchy-Schwarz).
 
-    If neither bound decides ``slack > threshold``, the LP is re-solved with HiGHS and that
-    answer is returned (counted in :data:`COUNTERS`).
+    If neither bound decides ``slack > threshold``, the multipliers are refined by NNLS, and if
+    that does not decide either the LP is re-solved with HiGHS and that answer is returned
+    (counted in :data:`COUNTERS`).
 
     Parameters
     ----------
     G, g : arrays
         Inequalities in *scaled* coordinates (so that feasible points have ``||w|| <= R``).
+        Rows with norm below :data:`~hybobs_opt.tolerances.ZERO_ROW_TOL` are constant: they are
+        dropped when they hold and make the set empty when they do not.
     radius_bound : float
         ``R`` above.
     threshold : float
@@ -169,41 +161,35 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
     problem : str
         Name for error messages.
     """
-    G = np.asarray(G, dtype=float)
-    g = np.asarray(g, dtype=float)
+    G = np.ascontiguousarray(G, dtype=float)
+    g = np.ascontiguousarray(g, dtype=float)
     d = G.shape[1]
-    Gn, gn, ok = _normalise_rows(G, g)
+    A, bu, ok = slack_lp_data(G, g, ZERO_ROW_TOL, SLACK_CAP)
     if not ok:
         return SlackResult(-np.inf, -np.inf, None, "numpy")
-    k = Gn.shape[0]
-    if k == 0:
+    if A.shape[0] == 1:
         return SlackResult(SLACK_CAP, SLACK_CAP, np.zeros(d), "numpy")
-    A = np.zeros((k + 1, d + 1))
-    A[:k, :d] = Gn
-    A[:k, d] = 1.0
-    A[k, d] = 1.0
-    bu = np.concatenate([gn, [SLACK_CAP]])
-    bl = np.full(k + 1, -1e30)
+    return _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+
+
+def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str) -> SlackResult:
+    """DAQP on the data of :func:`~hybobs_opt._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback."""
+    k = A.shape[0] - 1
+    d = A.shape[1] - 1
     f = np.zeros(d + 1)
     f[d] = -1.0
     COUNTERS.fast += 1
-    x, _, flag, info = daqp.solve(np.zeros((d + 1, d + 1)), f, A, bu, bl, np.zeros(k + 1, dtype=np.int32))
+    x, _, flag, info = daqp.solve(np.zeros((d + 1, d + 1)), f, A, bu, np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32),
+                                  eps_prox=DAQP_EPS_PROX)
     if flag in _DAQP_OPTIMAL:
+        lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
-        lower = min(float(np.min(gn - Gn @ w)), SLACK_CAP)
-        lam = np.clip(np.asarray(info["lam"], dtype=float), 0.0, None)
-        lam_rows, mu = lam[:k], lam[k]
-        denom = float(lam_rows.sum() + mu)
-        if denom > 0:
-            upper = (float(gn @ lam_rows) + SLACK_CAP * mu + radius_bound * float(np.linalg.norm(Gn.T @ lam_rows))) / denom
-        else:
-            upper = np.inf
         if lower > threshold or upper <= threshold:
             return SlackResult(lower, upper, w, "daqp")
         # Refine the dual on the rows active at DAQP's point (non-negative least squares on the
-        # stationarity conditions): DAQP's proximal multipliers are too loose to certify a slack
-        # of exactly zero, which is the common case of two regions that only touch.
-        upper = min(upper, _refined_upper_bound(Gn, gn, w, float(x[d]), radius_bound))
+        # stationarity conditions): a slack of exactly zero (two regions that only touch) needs
+        # multipliers more exact than a proximal solve may return.
+        upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
         if upper <= threshold:
             return SlackResult(lower, upper, w, "daqp+nnls")
     # Undecided (or DAQP failed): the robust solver decides.

@@ -26,8 +26,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import COUNTERS, max_slack
-from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL
+from .._lp_kernels import restricted_pair_rows, slack_lp_data
+from ..lp import COUNTERS, _solve_slack_lp, max_slack
+from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 
 
@@ -131,10 +132,10 @@ class ObservabilityAnalysis:
         positive measure.  Computed on demand (one LP per pair) and cached.
         """
         if "_reduced_all" not in self._pair_cache:
-            scaled = _scaled_regions(self.enumeration)
+            algebra = _PairAlgebra(_scaled_regions(self.enumeration))
             found = []
             for i in self.index_set:
-                found.extend(_pair_lps(self.enumeration, scaled, i, np.array(self.rank_deficient, dtype=int),
+                found.extend(_pair_lps(self.enumeration, algebra, i, np.array(self.rank_deficient, dtype=int),
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool)))
             found.sort()
             self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
@@ -341,14 +342,16 @@ class ObservabilityAnalysis:
 # ---------------------------------------------------------------------- pair sets
 def pair_constraints(ri, rj, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Constraints of ``R_ij`` over ``(x, x^, U)``: ``G z <= g`` (P_i, P_j) and ``E z = e`` (equal outputs)."""
-    HxI, HUI = ri.H[:, :n], ri.H[:, n:]
-    HxJ, HUJ = rj.H[:, :n], rj.H[:, n:]
-    G = np.vstack([
-        np.hstack([HxI, np.zeros_like(HxI), HUI]),
-        np.hstack([np.zeros_like(HxJ), HxJ, HUJ]),
-    ])
+    kI, kJ = ri.H.shape[0], rj.H.shape[0]
+    G = np.zeros((kI + kJ, n + ri.H.shape[1]))
+    G[:kI, :n] = ri.H[:, :n]
+    G[:kI, 2 * n :] = ri.H[:, n:]
+    G[kI:, n:] = rj.H
     g = np.concatenate([ri.h, rj.h])
-    E = np.hstack([ri.C, -rj.C, ri.D - rj.D])
+    E = np.empty((ri.C.shape[0], G.shape[1]))
+    E[:, :n] = ri.C
+    E[:, n : 2 * n] = -rj.C
+    E[:, 2 * n :] = ri.D - rj.D
     e = rj.f - ri.f
     return G, g, E, e
 
@@ -380,81 +383,140 @@ def _batched_rank(M: np.ndarray) -> np.ndarray:
     return np.sum(s > RANK_RTOL * top, axis=1)
 
 
-def _pairs_for_i(enum: ModeEnumeration, scaled, full_rank, i: int) -> tuple[list[PairSet], int, int]:
+class _PairAlgebra:
+    """The linear algebra of the pair tests, shared by the regions with the same output map.
+
+    The rank screen and the nullspace of the output equalities of ``R_ij`` depend on ``(C_i,
+    D_i, C_j, D_j)`` only, and mode sequences through modes with the same linear part share
+    them bit for bit (model 17, T = 7: 354 regions, 32 distinct ``(C, D)``).  Both are
+    computed once per pair of such classes, in batches, instead of once per pair of regions.
+    """
+
+    def __init__(self, scaled):
+        self.scaled = scaled
+        index: dict[bytes, int] = {}
+        self.cls = np.empty(len(scaled), dtype=int)
+        reps = []
+        for k, (_, _, _, C, D, _) in enumerate(scaled):
+            key = C.tobytes() + D.tobytes()
+            if key not in index:
+                index[key] = len(reps)
+                reps.append(k)
+            self.cls[k] = index[key]
+        self.C = np.stack([scaled[k][3] for k in reps])
+        self.D = np.stack([scaled[k][4] for k in reps])
+        n_cls = len(reps)
+        self._screened = np.zeros((n_cls, n_cls), dtype=bool)
+        self._screen = np.zeros((n_cls, n_cls), dtype=bool)
+        self._svd: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, int]] = {}
+        self._rows_i: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._rows_j: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def rows_as_i(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows of ``P_k`` over ``z = (x, x^, U)`` acting on ``x`` (scaled, unit norm), and ``f_k``."""
+        if k not in self._rows_i:
+            Hx, HU, h, _, _, f = self.scaled[k]
+            self._rows_i[k] = (np.ascontiguousarray(np.hstack([Hx, np.zeros_like(Hx), HU])), h, f)
+        return self._rows_i[k]
+
+    def rows_as_j(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows of ``P_k`` over ``z = (x, x^, U)`` acting on ``x^``, and ``f_k``."""
+        if k not in self._rows_j:
+            Hx, HU, h, _, _, f = self.scaled[k]
+            self._rows_j[k] = (np.ascontiguousarray(np.hstack([np.zeros_like(Hx), Hx, HU])), h, f)
+        return self._rows_j[k]
+
+    def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
+        r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
+
+        Only if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be
+        solvable for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
+        """
+        new = np.unique(bs[~self._screened[a, bs]])
+        if new.size:
+            Ca, Da = self.C[a], self.D[a]
+            Mj = np.concatenate([self.C[new], self.D[new] - Da], axis=2)
+            with_ci = np.concatenate([np.broadcast_to(Ca, (new.size,) + Ca.shape), Mj], axis=2)
+            self._screen[a, new] = _batched_rank(Mj) == _batched_rank(with_ci)
+            self._screened[a, new] = True
+        return self._screen[a, bs]
+
+    def screen_reversed(self, as_: np.ndarray, b: int) -> np.ndarray:
+        """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
+        for a in np.unique(as_[~self._screened[as_, b]]):
+            self.screen(int(a), np.array([b]))
+        return self._screen[as_, b]
+
+    def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
+        """SVD ``(U, s, Vt, rank)`` of ``E = [C_i, -C_j, D_i - D_j]`` (scaled) for each class in ``bs``."""
+        new = [b for b in np.unique(bs) if (a, int(b)) not in self._svd]
+        if new:
+            Ca, Da = self.C[a], self.D[a]
+            E = np.concatenate([np.broadcast_to(Ca, (len(new),) + Ca.shape), -self.C[new], Da - self.D[new]], axis=2)
+            U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
+            top = np.maximum(S_[:, :1], np.finfo(float).tiny)
+            ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
+            for k, b in enumerate(new):
+                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), int(ranks[k]))
+        return [self._svd[(a, int(b))] for b in bs]
+
+
+def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int]:
     r"""Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``.
 
-    Pairs are screened in one batch before any LP: ``Proj_x(R_ij)`` can only be full-dimensional
-    if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be solvable
-    for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
+    Pairs are screened before any LP (:meth:`_PairAlgebra.screen`): a pair whose output
+    equalities cannot be solved for every ``x`` has a lower-dimensional projection.
 
     ``R_ji`` is ``R_ij`` with ``x`` and ``x^`` swapped, so for ``j`` also in ``I`` one LP decides
     both; this task handles such pairs only for ``j > i`` and reports ``R_ji`` too when its own
-    rank screen passes.  The equality nullspaces and particular solutions of all surviving pairs
-    come from one batched SVD.
+    rank screen passes.
 
-    Returns ``(pairs_found, n_pairs_tested, n_pairs_skipped_by_rank)``.
+    Returns ``(pairs_found as (i, j, slack), n_pairs_tested, n_pairs_skipped_by_rank)``.
     """
-    CI, DI = scaled[i][3], scaled[i][4]
-    js = np.array([j for j in range(len(scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
+    js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
     if js.size == 0:
         return [], 0, 0
-    CJ = np.stack([scaled[j][3] for j in js])
-    DJ = np.stack([scaled[j][4] for j in js])
-    Mj = np.concatenate([CJ, DJ - DI], axis=2)
-    with_ci = np.concatenate([np.broadcast_to(CI, (js.size,) + CI.shape), Mj], axis=2)
-    ok_ij = _batched_rank(Mj) == _batched_rank(with_ci)
+    ci, cj = algebra.cls[i], algebra.cls[js]
+    ok_ij = algebra.screen(ci, cj)
     sym = np.array([bool(full_rank[j]) for j in js])
     ok_ji = np.zeros(js.size, dtype=bool)
-    if np.any(sym):
-        Mi = np.concatenate([np.broadcast_to(CI, (int(sym.sum()),) + CI.shape), DI - DJ[sym]], axis=2)
-        with_cj = np.concatenate([CJ[sym], Mi], axis=2)
-        ok_ji[sym] = _batched_rank(Mi) == _batched_rank(with_cj)
+    ok_ji[sym] = algebra.screen_reversed(cj[sym], ci)
     ok = ok_ij | ok_ji
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
     sel = np.nonzero(ok)[0]
-    found = _pair_lps(enum, scaled, i, js[sel], ok_ij[sel], ok_ji[sel])
+    found = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
     return found, n_tested, n_skipped
 
 
-def _pair_lps(enum: ModeEnumeration, scaled, i: int, js: np.ndarray, report_ij: np.ndarray,
+def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
               report_ji: np.ndarray) -> list[tuple[int, int, float]]:
     """One max-slack LP per pair ``(i, j)``, ``j`` in ``js``: is ``R_ij`` non-empty inside its equality subspace?
 
     Reports ``(i, j, slack)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
     (the same LP decides both); :func:`_pair_set` turns a triple into a :class:`PairSet`.
-    The equality nullspaces and particular solutions come from one batched SVD.
     """
-    n = enum.system.n
     found: list[tuple[int, int, float]] = []
     if js.size == 0:
         return found
-    HxI, HUI, hI, CI, DI, fI = scaled[i]
-    CJ = np.stack([scaled[j][3] for j in js])
-    DJ = np.stack([scaled[j][4] for j in js])
-    FJ = np.stack([scaled[j][5] for j in js])
-    # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
-    E = np.concatenate([np.broadcast_to(CI, (js.size,) + CI.shape), -CJ, DI - DJ], axis=2)
-    e = FJ - fI
-    U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
-    top = np.maximum(S_[:, :1], np.finfo(float).tiny)
-    ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
-    radius0 = np.sqrt(E.shape[2])
+    GI, hI, fI = algebra.rows_as_i(i)
+    svds = algebra.equality_svd(algebra.cls[i], algebra.cls[js])
+    radius0 = np.sqrt(GI.shape[1])
     for k, j in enumerate(js):
-        r = int(ranks[k])
-        V = Vt[k]
-        w0 = V[:r].T @ ((U_[k][:, :r].T @ e[k]) / S_[k, :r])
-        if np.linalg.norm(E[k] @ w0 - e[k]) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e[k])):
+        U_, S_, Vt, r = svds[k]
+        GJ, hJ, fJ = algebra.rows_as_j(int(j))
+        # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
+        Gv, gv, w0_norm, consistent = restricted_pair_rows(GI, hI, GJ, hJ, U_, S_, Vt, r, fJ - fI, EQUALITY_CONSISTENCY_RTOL)
+        if not consistent:
             continue  # the outputs can never be equal
-        N = V[r:].T
-        HxJ, HUJ, hJ = scaled[j][0], scaled[j][1], scaled[j][2]
-        Nx, Nxh, NU = N[:n], N[n : 2 * n], N[2 * n :]
-        wx, wxh, wU = w0[:n], w0[n : 2 * n], w0[2 * n :]
-        Gv = np.vstack([HxI @ Nx + HUI @ NU, HxJ @ Nxh + HUJ @ NU])
-        gv = np.concatenate([hI - HxI @ wx - HUI @ wU, hJ - HxJ @ wxh - HUJ @ wU])
-        res = max_slack(Gv, gv, radius_bound=radius0 + np.linalg.norm(w0), threshold=REGION_SLACK_TOL,
-                        problem=f"R_{i},{j} (Algorithm 3.1, step 3.1.1)")
-        slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
+        A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
+        if not ok:
+            continue
+        if A.shape[0] == 1:
+            slack = SLACK_CAP
+        else:
+            res = _solve_slack_lp(A, bu, radius0 + w0_norm, REGION_SLACK_TOL, f"R_{i},{j} (Algorithm 3.1, step 3.1.1)")
+            slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
         if slack <= REGION_SLACK_TOL:
             continue
         # (i, j, slack) only: the constraint arrays are rebuilt where they are needed, so process
@@ -470,10 +532,10 @@ def _pairs_task(args):
     """A chunk of ``i`` values (one pickle of the enumeration per chunk for process executors)."""
     enum, full_rank, i_list = args
     start = COUNTERS.total
-    scaled = _scaled_regions(enum)
+    algebra = _PairAlgebra(_scaled_regions(enum))
     found, tested, skipped = [], 0, 0
     for i in i_list:
-        f, t, s = _pairs_for_i(enum, scaled, full_rank, i)
+        f, t, s = _pairs_for_i(enum, algebra, full_rank, i)
         found.extend(f)
         tested += t
         skipped += s
@@ -516,7 +578,9 @@ def analyse_observability(
     sx = enum.scale[:n]
     full_rank = tuple(_rank(reg.C * sx[None, :]) == n for reg in enum.regions)
     I = [i for i, ok in enumerate(full_rank) if ok]
-    n_chunks = 1 if executor.n_workers == 1 else min(len(I), 4 * executor.n_workers)
+    # Few large tasks: each one pickles the enumeration and rebuilds the class-pair algebra, and
+    # the interleaved split I[c::n_chunks] already balances the work.
+    n_chunks = 1 if executor.n_workers == 1 else min(len(I), 2 * executor.n_workers)
     tasks = [(enum, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
     results = executor.map(_pairs_task, tasks, progress=progress)
     pairs: list = []

@@ -1,0 +1,139 @@
+"""Compiled helpers of the certified max-slack LPs (:func:`hybobs_opt.lp.max_slack`).
+
+Algorithm 3.1 of paper 002 solves tens of thousands of LPs with about ten variables each; a
+DAQP solve takes some 40 microseconds, and a dozen small numpy calls around it (row
+normalisation, building the LP, the two certified bounds) cost more than the solve.  These
+loops do that work in one compiled call each.  numba caches them on disk.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def slack_lp_data(G, g, zero_tol, cap):
+    """``max t  s.t.  G_k w / |G_k| + t <= g_k / |G_k|,  t <= cap`` as DAQP data ``(A, bu)``.
+
+    Rows with ``|G_k| <= zero_tol`` are constant: dropped when they hold, and ``ok = False``
+    (the set is empty) when one reads ``0 <= g_k < -zero_tol``.
+    """
+    k, d = G.shape
+    norms = np.empty(k)
+    keep = 0
+    for r in range(k):
+        s = 0.0
+        for c in range(d):
+            s += G[r, c] * G[r, c]
+        s = np.sqrt(s)
+        norms[r] = s
+        if s <= zero_tol:
+            if g[r] < -zero_tol:
+                return np.zeros((0, d + 1)), np.zeros(0), False
+        else:
+            keep += 1
+    A = np.zeros((keep + 1, d + 1))
+    bu = np.empty(keep + 1)
+    q = 0
+    for r in range(k):
+        if norms[r] > zero_tol:
+            inv = 1.0 / norms[r]
+            for c in range(d):
+                A[q, c] = G[r, c] * inv
+            A[q, d] = 1.0
+            bu[q] = g[r] * inv
+            q += 1
+    A[keep, d] = 1.0
+    bu[keep] = cap
+    return A, bu, True
+
+
+@njit(cache=True)
+def slack_bounds(A, bu, x, lam, radius_bound, cap):
+    """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
+
+    ``lower`` is the smallest row slack at the point ``x[:d]`` (a feasible point's value);
+    ``upper = (g' lambda + cap mu + R |G' lambda|) / (1' lambda + mu)`` for the clipped
+    multipliers, valid for every feasible ``w`` with ``|w| <= R`` (weak duality, with the
+    stationarity residual bounded by Cauchy-Schwarz).  ``upper = inf`` without usable multipliers.
+    """
+    k = A.shape[0] - 1
+    d = A.shape[1] - 1
+    lower = cap
+    station = np.zeros(d)
+    num = 0.0
+    den = 0.0
+    for r in range(k):
+        v = bu[r]
+        for c in range(d):
+            v -= A[r, c] * x[c]
+        if v < lower:
+            lower = v
+        lr = lam[r] if lam[r] > 0.0 else 0.0
+        if lr > 0.0:
+            den += lr
+            num += bu[r] * lr
+            for c in range(d):
+                station[c] += lr * A[r, c]
+    mu = lam[k] if lam[k] > 0.0 else 0.0
+    den += mu
+    num += cap * mu
+    if den <= 0.0:
+        return lower, np.inf
+    return lower, (num + radius_bound * np.sqrt(np.sum(station * station))) / den
+
+
+@njit(cache=True)
+def restricted_pair_rows(GI, hI, GJ, hJ, U, s, Vt, r, e, consistency_rtol):
+    """Constraints of ``R_ij`` restricted to its output-equality subspace ``w = w0 + N v``.
+
+    ``GI z <= hI`` and ``GJ z <= hJ`` are the rows of ``P_i`` and ``P_j`` over
+    ``z = (x, x^, U)``; the equalities ``E z = e`` are given by the SVD ``E = U diag(s) Vt`` of
+    numerical rank ``r``, so ``N = Vt[r:]'`` and ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``.
+
+    Returns ``(G, g, |w0|, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
+    ``consistent = False`` when ``e`` is not in ``range(E)`` (relative residual above
+    ``consistency_rtol``), i.e. the outputs can never be equal.
+    """
+    p = U.shape[0]
+    dim = Vt.shape[0]
+    coef = np.zeros(r)
+    for a in range(r):
+        acc = 0.0
+        for b in range(p):
+            acc += U[b, a] * e[b]
+        coef[a] = acc
+    resid2 = 0.0
+    enorm2 = 0.0
+    for b in range(p):
+        acc = e[b]
+        for a in range(r):
+            acc -= U[b, a] * coef[a]
+        resid2 += acc * acc
+        enorm2 += e[b] * e[b]
+    if np.sqrt(resid2) > consistency_rtol * (1.0 + np.sqrt(enorm2)):
+        return np.zeros((0, dim - r)), np.zeros(0), 0.0, False
+    w0 = np.zeros(dim)
+    for a in range(r):
+        ca = coef[a] / s[a]
+        for q in range(dim):
+            w0[q] += Vt[a, q] * ca
+    nI, nJ = GI.shape[0], GJ.shape[0]
+    G = np.empty((nI + nJ, dim - r))
+    g = np.empty(nI + nJ)
+    for row in range(nI + nJ):
+        if row < nI:
+            src, rhs = GI[row], hI[row]
+        else:
+            src, rhs = GJ[row - nI], hJ[row - nI]
+        acc = rhs
+        for q in range(dim):
+            acc -= src[q] * w0[q]
+        g[row] = acc
+        for c in range(dim - r):
+            acc = 0.0
+            for q in range(dim):
+                acc += src[q] * Vt[r + c, q]
+            G[row, c] = acc
+    return G, g, np.sqrt(np.sum(w0 * w0)), True
