@@ -137,3 +137,22 @@ def restricted_pair_rows(GI, hI, GJ, hJ, U, s, Vt, r, e, consistency_rtol):
                 acc += src[q] * Vt[r + c, q]
             G[row, c] = acc
     return G, g, np.sqrt(np.sum(w0 * w0)), True
+
+
+@njit(cache=True)
+def support_upper_bound(A, b, c, lam, radius_bound):
+    """Certified upper bound on ``max c'v`` over ``{A v <= b, |v| <= R}`` from multipliers ``lam``.
+
+    For any ``lam >= 0``: ``c'v = lam'A v + (c - A'lam)'v <= lam'b + R |c - A'lam|`` (weak
+    duality, the residual bounded by Cauchy-Schwarz).  ``lam`` is clipped at zero.
+    """
+    k, d = A.shape
+    resid = c.copy()
+    val = 0.0
+    for r in range(k):
+        lr = lam[r] if lam[r] > 0.0 else 0.0
+        if lr > 0.0:
+            val += lr * b[r]
+            for q in range(d):
+                resid[q] -= lr * A[r, q]
+    return val + radius_bound * np.sqrt(np.sum(resid * resid))

@@ -90,7 +90,7 @@ def solve_lp(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import slack_bounds, slack_lp_data  # noqa: E402
+from ._lp_kernels import slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
 from .tolerances import DAQP_EPS_PROX, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
 
 _DAQP_OPTIMAL = (1, 2)
@@ -203,6 +203,28 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     w = res.x[:d]
     slack = float(res.x[d])
     return SlackResult(slack, slack, w, "highs")
+
+
+def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float) -> bool:
+    """Is the width ``max c'v - min c'v`` of ``{A v <= b}`` certified to be at most ``width``?
+
+    Two DAQP LPs (maximise and minimise ``c'v``); each optimum is bounded from the solver's
+    multipliers (:func:`~hybobs_opt._lp_kernels.support_upper_bound`, valid for every feasible
+    ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  ``False`` means "not
+    certified" (wider, or a solve that did not finish): callers must treat it as the safe answer.
+    """
+    d = A.shape[1]
+    H = np.zeros((d, d))
+    lower = np.full(A.shape[0], -1e30)
+    sense = np.zeros(A.shape[0], dtype=np.int32)
+    total = 0.0
+    for sign in (1.0, -1.0):
+        COUNTERS.fast += 1
+        _, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
+        if flag not in _DAQP_OPTIMAL:
+            return False
+        total += support_upper_bound(A, b, sign * c, info["lam"], radius_bound)
+    return total <= width
 
 
 def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver: float, radius_bound: float) -> float:

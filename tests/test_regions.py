@@ -232,6 +232,62 @@ def test_point_query_agrees_with_brute_force_oracle(seed, n, n_modes, T):
         assert analysis.classify(x) == oracle_classify(system, T, x), f"x = {x}"
 
 
+# ------------------------------------------------------------------ thin pair sets
+def _pair_lps_scaled(system, T, ri, rj):
+    """R_ij over w = (x, x^, U) scaled to [-1, 1] by the bounds: A_ub w <= b_ub, A_eq w = b_eq (built here)."""
+    n = system.n
+    half, mid = system.scales()
+    scale = np.concatenate([half[:n], half[:n], np.tile(half[n:], T)])
+    centre = np.concatenate([mid[:n], mid[:n], np.tile(mid[n:], T)])
+    G = np.vstack([np.hstack([ri.H[:, :n], np.zeros((ri.H.shape[0], n)), ri.H[:, n:]]),
+                   np.hstack([np.zeros((rj.H.shape[0], n)), rj.H])])
+    g = np.concatenate([ri.h, rj.h])
+    E = np.hstack([ri.C, -rj.C, ri.D - rj.D])
+    e = rj.f - ri.f
+    return G * scale, g - G @ centre, E * scale, e - E @ centre
+
+
+def test_pair_sets_thin_in_x_are_left_out_of_B_T():
+    """The 11-piece PWA piston at T = 3: pair sets with a fat ball inside their equality subspace
+    but a projection on x thinner than the tolerance (the outputs pin the acceleration down to
+    1e-9 of its range) are dropped, like regions thinner than REGION_SLACK_TOL.  Checked here
+    with HiGHS on the explicit equalities, independently of the nullspace code."""
+    from scipy.linalg import null_space
+
+    from hybobs_opt.examples.piston_pwa import magnetic_piston_pwa
+    from hybobs_opt.tolerances import REGION_SLACK_TOL
+
+    system = magnetic_piston_pwa(11)
+    T = 3
+    analysis = analyse_observability(system, T)
+    dropped = analysis.stats["pairs_dropped_thin"]
+    assert len(dropped) == analysis.summary()["n_pairs_dropped_thin"] > 0
+    kept = {(p.i, p.j) for p in analysis.pairs}
+    assert not kept & set(dropped)
+    n = system.n
+    for i, j in dropped[:: max(1, len(dropped) // 12)]:
+        A_ub, b_ub, A_eq, b_eq = _pair_lps_scaled(system, T, analysis.regions[i], analysis.regions[j])
+        N = null_space(A_eq)
+        u = np.linalg.svd(N[:n])[0][:, -1]
+        c = np.concatenate([u, np.zeros(A_ub.shape[1] - n)])
+        free = [(None, None)] * A_ub.shape[1]
+        hi = linprog(-c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=free, method="highs")
+        lo = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=free, method="highs")
+        assert hi.status == 0 and lo.status == 0  # non-empty
+        width = -hi.fun - lo.fun
+        assert width <= 2 * REGION_SLACK_TOL + 1e-7, (i, j, width)
+        # ... although the Chebyshev radius inside the equality subspace is far above the tolerance,
+        # which is all the slack test alone looks at.
+        w0 = np.linalg.lstsq(A_eq, b_eq, rcond=None)[0]
+        unit = 1.0 / np.linalg.norm(A_ub, axis=1)
+        Gv, gv = (A_ub * unit[:, None]) @ N, (b_ub - A_ub @ w0) * unit
+        constant = np.linalg.norm(Gv, axis=1) <= 1e-10  # rows that do not vary on the subspace
+        assert np.all(gv[constant] >= -1e-10)
+        assert _max_slack_highs(Gv[~constant], gv[~constant]) > 100 * REGION_SLACK_TOL
+    # The pair sets that carry the observer's data (eq. 15, all dimensions) are not filtered.
+    assert len(analysis.reduced_pairs_all_dimensions()) >= len(analysis.reduced_pairs)
+
+
 # ------------------------------------------------------------------ executors, files, CLI, bad input
 def _pair_keys(a):
     return [(p.i, p.j) for p in a.pairs]

@@ -45,7 +45,8 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
         "enumeration_stats": {"n_lps": enum.n_lps, "n_prefixes_tested": enum.n_prefixes_tested,
                               "n_prefixes_total": enum.n_prefixes_total, "seconds": enum.seconds},
         "analysis_stats": {"n_pair_lps": analysis.n_pair_lps, "n_pairs_tested": analysis.n_pairs_tested,
-                           "n_pairs_skipped_rank": analysis.n_pairs_skipped_rank, "seconds": analysis.seconds},
+                           "n_pairs_skipped_rank": analysis.n_pairs_skipped_rank, "seconds": analysis.seconds,
+                           "n_pairs_dropped_thin": analysis.stats.get("n_pairs_dropped_thin")},
         "summary": analysis.summary(),
     }
     path = Path(path)
@@ -99,4 +100,5 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
     )
     st = data["analysis_stats"]
     return ObservabilityAnalysis(enum, tuple(bool(b) for b in data["full_rank"]), pairs, st["n_pair_lps"],
-                                 st["n_pairs_tested"], st["n_pairs_skipped_rank"], st["seconds"])
+                                 st["n_pairs_tested"], st["n_pairs_skipped_rank"], st["seconds"],
+                                 {"n_pairs_dropped_thin": st.get("n_pairs_dropped_thin")})

@@ -11,10 +11,13 @@ Notation: regions ``P_i`` of eq. (4) over ``(x, U)`` with outputs ``Y = C_i x + 
 
 Like the paper, the sets are computed up to sets of zero measure: a pair set counts when it has
 a Chebyshev ball of radius above :data:`~hybobs_opt.tolerances.REGION_SLACK_TOL` inside the
-affine subspace of its output equalities (scaled coordinates) *and* its projection onto ``x`` is
-full-dimensional (the projected nullspace of the equalities has rank ``n``).  Working with the
-interiors is what makes ``x != x^`` automatic, as the paper's "not necessarily closed, disjoint"
-regions do: the interiors of different ``P_i`` are disjoint.
+affine subspace of its output equalities (scaled coordinates), its projection onto ``x`` is
+full-dimensional (the projected nullspace of the equalities has rank ``n``), *and* that
+projection is not certified to be thinner than ``2 REGION_SLACK_TOL`` in the direction of ``x``
+the equalities pin down most (the tolerance the regions ``P_i`` are held to; see
+:func:`_pair_lps`).  Working with the interiors is what makes ``x != x^`` automatic, as the
+paper's "not necessarily closed, disjoint" regions do: the interiors of different ``P_i`` are
+disjoint.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .._lp_kernels import restricted_pair_rows, slack_lp_data
-from ..lp import COUNTERS, _solve_slack_lp, max_slack
+from ..lp import COUNTERS, _solve_slack_lp, certified_width_below, max_slack
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 
@@ -82,6 +85,10 @@ class ObservabilityAnalysis:
         projection of their equality subspace onto ``x`` is not full-dimensional.
     seconds : float
         Time of step 1-3 (enumeration excluded; see ``enumeration.seconds``).
+    stats : dict
+        ``executor``; ``n_pairs_dropped_thin`` and ``pairs_dropped_thin``: the non-empty
+        ``R_ij`` left out of ``B_T`` because their projection on ``x`` is certified thinner
+        than ``2 REGION_SLACK_TOL`` (see :func:`_pair_lps`).
     """
 
     enumeration: ModeEnumeration
@@ -132,11 +139,12 @@ class ObservabilityAnalysis:
         positive measure.  Computed on demand (one LP per pair) and cached.
         """
         if "_reduced_all" not in self._pair_cache:
-            algebra = _PairAlgebra(_scaled_regions(self.enumeration))
+            algebra = _PairAlgebra(_scaled_regions(self.enumeration), self.system.n)
             found = []
             for i in self.index_set:
                 found.extend(_pair_lps(self.enumeration, algebra, i, np.array(self.rank_deficient, dtype=int),
-                                       np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool)))
+                                       np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool),
+                                       thin_filter=False)[0])
             found.sort()
             self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
         return self._pair_cache["_reduced_all"]
@@ -332,6 +340,7 @@ class ObservabilityAnalysis:
             "n_lps_avoided_by_pruning": enum.n_lps_avoided,
             "n_pairs_tested": self.n_pairs_tested,
             "n_pairs_skipped_rank": self.n_pairs_skipped_rank,
+            "n_pairs_dropped_thin": self.stats.get("n_pairs_dropped_thin"),
             "seconds_enumeration": enum.seconds,
             "seconds_algorithm_3_1": self.seconds,
             "seconds": enum.seconds + self.seconds,
@@ -392,8 +401,9 @@ class _PairAlgebra:
     computed once per pair of such classes, in batches, instead of once per pair of regions.
     """
 
-    def __init__(self, scaled):
+    def __init__(self, scaled, n: int):
         self.scaled = scaled
+        self.n = n
         index: dict[bytes, int] = {}
         self.cls = np.empty(len(scaled), dtype=int)
         reps = []
@@ -447,8 +457,26 @@ class _PairAlgebra:
             self.screen(int(a), np.array([b]))
         return self._screen[as_, b]
 
-    def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
-        """SVD ``(U, s, Vt, rank)`` of ``E = [C_i, -C_j, D_i - D_j]`` (scaled) for each class in ``bs``."""
+    @staticmethod
+    def _thinnest(Nt: np.ndarray) -> np.ndarray:
+        """For the rows ``Nt = N_y'`` of one state copy ``y`` of a nullspace basis: ``c = N_y' u``.
+
+        ``u`` is the unit direction of ``y`` with the smallest singular value of ``N_y``, so
+        ``c'v = u'y`` on the subspace ``w = w0 + N v``: the direction in which the projection
+        on ``y`` of a ball of ``v`` is thinnest.
+        """
+        if Nt.shape[0] == 0:
+            return np.zeros(0)
+        u = np.linalg.svd(Nt.T)[0][:, -1]
+        return np.ascontiguousarray(Nt @ u)
+
+    def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
+        """``(U, s, Vt, rank, c_x, c_xhat)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
+
+        ``E = U diag(s) Vt`` with numerical rank ``rank``; ``c_x`` and ``c_xhat`` are the
+        functionals of :meth:`_thinnest` for ``x`` (the state of ``R_ij``) and ``x^`` (the state
+        of ``R_ji``) on the subspace coordinates ``v``, ``w = w0 + Vt[rank:]' v``.
+        """
         new = [b for b in np.unique(bs) if (a, int(b)) not in self._svd]
         if new:
             Ca, Da = self.C[a], self.D[a]
@@ -457,11 +485,13 @@ class _PairAlgebra:
             top = np.maximum(S_[:, :1], np.finfo(float).tiny)
             ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
             for k, b in enumerate(new):
-                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), int(ranks[k]))
+                r = int(ranks[k])
+                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r,
+                                          self._thinnest(Vt[k][r:, : self.n]), self._thinnest(Vt[k][r:, self.n : 2 * self.n]))
         return [self._svd[(a, int(b))] for b in bs]
 
 
-def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int]:
+def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list[tuple[int, int]]]:
     r"""Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``.
 
     Pairs are screened before any LP (:meth:`_PairAlgebra.screen`): a pair whose output
@@ -471,11 +501,12 @@ def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int
     both; this task handles such pairs only for ``j > i`` and reports ``R_ji`` too when its own
     rank screen passes.
 
-    Returns ``(pairs_found as (i, j, slack), n_pairs_tested, n_pairs_skipped_by_rank)``.
+    Returns ``(pairs_found as (i, j, slack), n_pairs_tested, n_pairs_skipped_by_rank,
+    pairs_dropped_thin)``.
     """
     js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
     if js.size == 0:
-        return [], 0, 0
+        return [], 0, 0, []
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
     sym = np.array([bool(full_rank[j]) for j in js])
@@ -485,25 +516,37 @@ def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
     sel = np.nonzero(ok)[0]
-    found = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
-    return found, n_tested, n_skipped
+    found, thin = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
+    return found, n_tested, n_skipped, thin
 
 
 def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
-              report_ji: np.ndarray) -> list[tuple[int, int, float]]:
+              report_ji: np.ndarray, thin_filter: bool = True) -> tuple[list[tuple[int, int, float]], int]:
     """One max-slack LP per pair ``(i, j)``, ``j`` in ``js``: is ``R_ij`` non-empty inside its equality subspace?
 
     Reports ``(i, j, slack)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
     (the same LP decides both); :func:`_pair_set` turns a triple into a :class:`PairSet`.
+
+    With ``thin_filter``, a non-empty pair is still dropped when its projection on ``x`` is
+    certified to be at most ``2 REGION_SLACK_TOL`` wide (scaled) in the direction the output
+    equalities pin down most (two more LPs, :func:`~hybobs_opt.lp.certified_width_below`):
+    such a set holds no ``x``-ball of radius ``REGION_SLACK_TOL``, the measure-zero criterion
+    the regions ``P_i`` themselves are held to.  The Chebyshev radius inside the equality
+    subspace alone does not see this: when the equalities barely let ``x`` move (the 44-piece
+    piston at T = 3: smallest singular value of the subspace's ``x``-part 2.7e-9), a ball of
+    radius 3.5e-3 in the subspace projects to a sliver 1e-11 wide.
+
+    Returns ``(found, dropped_thin)``, the latter as ``(i, j)`` pairs.
     """
     found: list[tuple[int, int, float]] = []
+    thin: list[tuple[int, int]] = []
     if js.size == 0:
-        return found
+        return found, thin
     GI, hI, fI = algebra.rows_as_i(i)
     svds = algebra.equality_svd(algebra.cls[i], algebra.cls[js])
     radius0 = np.sqrt(GI.shape[1])
     for k, j in enumerate(js):
-        U_, S_, Vt, r = svds[k]
+        U_, S_, Vt, r, c_x, c_xhat = svds[k]
         GJ, hJ, fJ = algebra.rows_as_j(int(j))
         # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
         Gv, gv, w0_norm, consistent = restricted_pair_rows(GI, hI, GJ, hJ, U_, S_, Vt, r, fJ - fI, EQUALITY_CONSISTENCY_RTOL)
@@ -521,25 +564,30 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
             continue
         # (i, j, slack) only: the constraint arrays are rebuilt where they are needed, so process
         # and Dask workers do not ship megabytes of matrices back to the parent.
-        if report_ij[k]:
-            found.append((i, int(j), float(slack)))
-        if report_ji[k]:
-            found.append((int(j), i, float(slack)))
-    return found
+        for report, c, pair in ((report_ij[k], c_x, (i, int(j))), (report_ji[k], c_xhat, (int(j), i))):
+            if not report:
+                continue
+            if thin_filter and A.shape[0] > 1 and certified_width_below(
+                    A[:-1, :-1], bu[:-1], c, radius_bound=radius0 + w0_norm, width=2.0 * REGION_SLACK_TOL):
+                thin.append(pair)
+                continue
+            found.append(pair + (float(slack),))
+    return found, thin
 
 
 def _pairs_task(args):
     """A chunk of ``i`` values (one pickle of the enumeration per chunk for process executors)."""
     enum, full_rank, i_list = args
     start = COUNTERS.total
-    algebra = _PairAlgebra(_scaled_regions(enum))
-    found, tested, skipped = [], 0, 0
+    algebra = _PairAlgebra(_scaled_regions(enum), enum.system.n)
+    found, tested, skipped, thin = [], 0, 0, []
     for i in i_list:
-        f, t, s = _pairs_for_i(enum, algebra, full_rank, i)
+        f, t, s, th = _pairs_for_i(enum, algebra, full_rank, i)
         found.extend(f)
         tested += t
         skipped += s
-    return found, COUNTERS.total - start, tested, skipped
+        thin.extend(th)
+    return found, COUNTERS.total - start, tested, skipped, thin
 
 
 def analyse_observability(
@@ -585,12 +633,15 @@ def analyse_observability(
     results = executor.map(_pairs_task, tasks, progress=progress)
     pairs: list = []
     n_lps = tested = skipped = 0
-    for found, lps, n_tested, n_skipped in results:
+    thin: list = []
+    for found, lps, n_tested, n_skipped, dropped in results:
         pairs.extend(found)
         n_lps += lps
         tested += n_tested
         skipped += n_skipped
+        thin.extend(dropped)
     pairs.sort()  # same order on every executor
     pairs = [_pair_set(enum, *t) for t in pairs]
     return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
-                                 {"executor": executor.name})
+                                 {"executor": executor.name, "n_pairs_dropped_thin": len(thin),
+                                  "pairs_dropped_thin": tuple(sorted(thin))})
