@@ -293,7 +293,25 @@ def _pair_keys(a):
     return [(p.i, p.j) for p in a.pairs]
 
 
-def test_executors_give_identical_results():
+@pytest.fixture
+def always_parallel(monkeypatch):
+    """Send even a small problem to the executor (by default small ones stay in-process)."""
+    from hybobs_opt.regions import enumeration, observability
+
+    monkeypatch.setattr(enumeration, "PARALLEL_MIN_SEQUENCES", 0)
+    monkeypatch.setattr(observability, "PARALLEL_MIN_PAIRS", 0)
+
+
+def test_small_problems_stay_in_process():
+    ex = ProcessExecutor(2)
+    try:
+        a = analyse_observability(powertrain3(), 3, executor=ex)
+    finally:
+        ex.close()
+    assert a.stats["executor"] == "serial" and a.enumeration.stats["executor"] == "serial"
+
+
+def test_executors_give_identical_results(always_parallel):
     plant = powertrain3()
     serial = analyse_observability(plant, 5, executor=SerialExecutor())
     ex = ProcessExecutor(2)
@@ -301,13 +319,14 @@ def test_executors_give_identical_results():
         procs = analyse_observability(plant, 5, executor=ex)
     finally:
         ex.close()
+    assert procs.stats["executor"] == "processes" and procs.enumeration.stats["executor"] == "processes"
     assert [r.sequence for r in serial.regions] == [r.sequence for r in procs.regions]
     assert _pair_keys(serial) == _pair_keys(procs)
 
 
 @pytest.mark.distributed
 @pytest.mark.slow
-def test_dask_local_cluster_gives_identical_results():
+def test_dask_local_cluster_gives_identical_results(always_parallel):
     plant = powertrain3()
     serial = analyse_observability(plant, 5)
     ex = DaskExecutor(local_workers=2)
@@ -315,6 +334,7 @@ def test_dask_local_cluster_gives_identical_results():
         dask = analyse_observability(plant, 5, executor=ex)
     finally:
         ex.close()
+    assert dask.stats["executor"] == "dask" and dask.enumeration.stats["executor"] == "dask"
     assert [r.sequence for r in serial.regions] == [r.sequence for r in dask.regions]
     assert _pair_keys(serial) == _pair_keys(dask)
 
