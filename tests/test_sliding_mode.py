@@ -348,6 +348,23 @@ def test_example1_observer_tracks_the_unstable_switched_system():
 
 
 # ---------------------------------------------------------------------------------- CLI
+def test_cli_switched_unstable_json(capsys):
+    """Example 1 through ``hybobs observe``: both stages converge while the plant's state grows
+    4-fold per revolution (Remark 1: the bounded-state assumption concerns the switched system)."""
+    from hybobs_opt.cli import main
+
+    assert main(["observe", "switched_unstable", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["example"] == "switched_unstable"
+    times = [c["t"] for c in out["convergence_times"]]
+    assert [c["state"] for c in out["convergence_times"]] == ["z1", "z2"]
+    assert all(t is not None and t < 1.0 for t in times)
+    Ts = out["Ts"]
+    # error band j h D_j with |z2| <= 100 and |z2'| <= 400 on the operating box (see the test above)
+    assert out["final_error_band"]["z1"] <= 1 * Ts * 100.0 * 1.01
+    assert out["final_error_band"]["z2"] <= 2 * Ts * 400.0 * 1.01
+
+
 def test_cli_double_scroll_json_with_filter(capsys):
     from hybobs_opt.cli import main
 

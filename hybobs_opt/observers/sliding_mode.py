@@ -925,5 +925,5 @@ def _cli_scenario(name: str):
     return scenario
 
 
-for _name in ("triangular", "double_scroll"):
+for _name in ("triangular", "double_scroll", "switched_unstable"):
     register_scenario(_name, _cli_scenario(_name))
