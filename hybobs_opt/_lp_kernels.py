@@ -85,12 +85,39 @@ def slack_bounds(A, bu, x, lam, radius_bound, cap):
 
 
 @njit(cache=True)
-def restricted_pair_rows(GI, hI, GJ, hJ, U, s, Vt, r, e, consistency_rtol):
+def _restrict_rows(Hx, HU, h, N, w0, off, base, G, g):
+    """Rows ``Hx y + HU U <= h`` of one region (``y`` = ``w[off:off + n]``) written as ``G v <= g``
+    into rows ``base...`` of ``G, g``, for ``w = w0 + N v`` (``U`` = ``w[2n:]``)."""
+    n = Hx.shape[1]
+    mU = HU.shape[1]
+    q = N.shape[1]
+    for row in range(Hx.shape[0]):
+        acc = h[row]
+        Grow = G[base + row]
+        Grow[:] = 0.0
+        # inner loops run along the rows of N (contiguous): LLVM vectorises them
+        for t in range(n):
+            a = Hx[row, t]
+            acc -= a * w0[off + t]
+            for c in range(q):
+                Grow[c] += a * N[off + t, c]
+        for t in range(mU):
+            a = HU[row, t]
+            acc -= a * w0[2 * n + t]
+            for c in range(q):
+                Grow[c] += a * N[2 * n + t, c]
+        g[base + row] = acc
+
+
+@njit(cache=True)
+def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consistency_rtol):
     """Constraints of ``R_ij`` restricted to its output-equality subspace ``w = w0 + N v``.
 
-    ``GI z <= hI`` and ``GJ z <= hJ`` are the rows of ``P_i`` and ``P_j`` over
-    ``z = (x, x^, U)``; the equalities ``E z = e`` are given by the SVD ``E = U diag(s) Vt`` of
-    numerical rank ``r``, so ``N = Vt[r:]'`` and ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``.
+    ``HxI x + HUI U <= hI`` and ``HxJ x^ + HUJ U <= hJ`` are the rows of ``P_i`` and ``P_j``
+    over ``w = (x, x^, U)`` (so the rows of ``P_i`` are zero on ``x^`` and those of ``P_j`` on
+    ``x``, which the loops skip); the equalities ``E w = e`` are given by the SVD
+    ``E = U diag(s) Vt`` of numerical rank ``r``, so ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``, and
+    ``N = Vt[r:]'`` is passed as a contiguous array.
 
     Returns ``(G, g, |w0|, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
     ``consistent = False`` when ``e`` is not in ``range(E)`` (relative residual above
@@ -98,6 +125,8 @@ def restricted_pair_rows(GI, hI, GJ, hJ, U, s, Vt, r, e, consistency_rtol):
     """
     p = U.shape[0]
     dim = Vt.shape[0]
+    n = HxI.shape[1]
+    q = dim - r
     coef = np.zeros(r)
     for a in range(r):
         acc = 0.0
@@ -113,29 +142,17 @@ def restricted_pair_rows(GI, hI, GJ, hJ, U, s, Vt, r, e, consistency_rtol):
         resid2 += acc * acc
         enorm2 += e[b] * e[b]
     if np.sqrt(resid2) > consistency_rtol * (1.0 + np.sqrt(enorm2)):
-        return np.zeros((0, dim - r)), np.zeros(0), 0.0, False
+        return np.zeros((0, q)), np.zeros(0), 0.0, False
     w0 = np.zeros(dim)
     for a in range(r):
         ca = coef[a] / s[a]
-        for q in range(dim):
-            w0[q] += Vt[a, q] * ca
-    nI, nJ = GI.shape[0], GJ.shape[0]
-    G = np.empty((nI + nJ, dim - r))
+        for t in range(dim):
+            w0[t] += Vt[a, t] * ca
+    nI, nJ = HxI.shape[0], HxJ.shape[0]
+    G = np.empty((nI + nJ, q))
     g = np.empty(nI + nJ)
-    for row in range(nI + nJ):
-        if row < nI:
-            src, rhs = GI[row], hI[row]
-        else:
-            src, rhs = GJ[row - nI], hJ[row - nI]
-        acc = rhs
-        for q in range(dim):
-            acc -= src[q] * w0[q]
-        g[row] = acc
-        for c in range(dim - r):
-            acc = 0.0
-            for q in range(dim):
-                acc += src[q] * Vt[r + c, q]
-            G[row, c] = acc
+    _restrict_rows(HxI, HUI, hI, N, w0, 0, 0, G, g)
+    _restrict_rows(HxJ, HUJ, hJ, N, w0, n, nI, G, g)
     return G, g, np.sqrt(np.sum(w0 * w0)), True
 
 

@@ -179,9 +179,14 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     f = np.zeros(d + 1)
     f[d] = -1.0
     COUNTERS.fast += 1
-    x, _, flag, info = daqp.solve(np.zeros((d + 1, d + 1)), f, A, bu, np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32),
-                                  eps_prox=DAQP_EPS_PROX)
-    if flag in _DAQP_OPTIMAL:
+    H, lower_bounds, sense = np.zeros((d + 1, d + 1)), np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32)
+    # DAQP_EPS_PROX first; on the rare cycling exit (0.2 % of model 17's pair LPs) DAQP's own
+    # automatic regularisation usually finishes, then NNLS sharpens its multipliers.
+    for eps_prox in (DAQP_EPS_PROX, None):
+        settings = {} if eps_prox is None else {"eps_prox": eps_prox}
+        x, _, flag, info = daqp.solve(H, f, A, bu, lower_bounds, sense, **settings)
+        if flag not in _DAQP_OPTIMAL:
+            continue
         lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
         if lower > threshold or upper <= threshold:
@@ -192,6 +197,7 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
         upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
         if upper <= threshold:
             return SlackResult(lower, upper, w, "daqp+nnls")
+        break
     # Undecided (or DAQP failed): the robust solver decides.
     COUNTERS.fast -= 1
     COUNTERS.confirmed_by_highs += 1
@@ -205,13 +211,16 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     return SlackResult(slack, slack, w, "highs")
 
 
-def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float) -> bool:
+def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float,
+                          point: np.ndarray | None = None) -> bool:
     """Is the width ``max c'v - min c'v`` of ``{A v <= b}`` certified to be at most ``width``?
 
     Two DAQP LPs (maximise and minimise ``c'v``); each optimum is bounded from the solver's
     multipliers (:func:`~hybobs_opt._lp_kernels.support_upper_bound`, valid for every feasible
     ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  ``False`` means "not
     certified" (wider, or a solve that did not finish): callers must treat it as the safe answer.
+    With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
+    is already more than ``width`` away from it along ``c``.
     """
     d = A.shape[1]
     H = np.zeros((d, d))
@@ -220,8 +229,10 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     total = 0.0
     for sign in (1.0, -1.0):
         COUNTERS.fast += 1
-        _, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
+        v, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
         if flag not in _DAQP_OPTIMAL:
+            return False
+        if point is not None and sign > 0 and float(c @ (v - point)) > width:
             return False
         total += support_upper_bound(A, b, sign * c, info["lam"], radius_bound)
     return total <= width

@@ -424,22 +424,6 @@ class _PairAlgebra:
         self._screened = np.zeros((n_cls, n_cls), dtype=bool)
         self._screen = np.zeros((n_cls, n_cls), dtype=bool)
         self._svd: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, int]] = {}
-        self._rows_i: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._rows_j: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-
-    def rows_as_i(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows of ``P_k`` over ``z = (x, x^, U)`` acting on ``x`` (scaled, unit norm), and ``f_k``."""
-        if k not in self._rows_i:
-            Hx, HU, h, _, _, f = self.scaled[k]
-            self._rows_i[k] = (np.ascontiguousarray(np.hstack([Hx, np.zeros_like(Hx), HU])), h, f)
-        return self._rows_i[k]
-
-    def rows_as_j(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows of ``P_k`` over ``z = (x, x^, U)`` acting on ``x^``, and ``f_k``."""
-        if k not in self._rows_j:
-            Hx, HU, h, _, _, f = self.scaled[k]
-            self._rows_j[k] = (np.ascontiguousarray(np.hstack([np.zeros_like(Hx), Hx, HU])), h, f)
-        return self._rows_j[k]
 
     def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
         r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
@@ -476,9 +460,9 @@ class _PairAlgebra:
         return np.ascontiguousarray(Nt @ u)
 
     def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
-        """``(U, s, Vt, rank, c_x, c_xhat)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
+        """``(U, s, Vt, rank, N, c_x, c_xhat)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
 
-        ``E = U diag(s) Vt`` with numerical rank ``rank``; ``c_x`` and ``c_xhat`` are the
+        ``E = U diag(s) Vt`` with numerical rank ``rank`` and nullspace basis ``N = Vt[rank:]'``; ``c_x`` and ``c_xhat`` are the
         functionals of :meth:`_thinnest` for ``x`` (the state of ``R_ij``) and ``x^`` (the state
         of ``R_ji``) on the subspace coordinates ``v``, ``w = w0 + Vt[rank:]' v``.
         """
@@ -492,6 +476,7 @@ class _PairAlgebra:
             for k, b in enumerate(new):
                 r = int(ranks[k])
                 self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r,
+                                          np.ascontiguousarray(Vt[k][r:].T),
                                           self._thinnest(Vt[k][r:, : self.n]), self._thinnest(Vt[k][r:, self.n : 2 * self.n]))
         return [self._svd[(a, int(b))] for b in bs]
 
@@ -547,24 +532,27 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     thin: list[tuple[int, int]] = []
     if js.size == 0:
         return found, thin
-    GI, hI, fI = algebra.rows_as_i(i)
+    HxI, HUI, hI, _, _, fI = algebra.scaled[i]
     svds = algebra.equality_svd(algebra.cls[i], algebra.cls[js])
-    radius0 = np.sqrt(GI.shape[1])
+    radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
     for k, j in enumerate(js):
-        U_, S_, Vt, r, c_x, c_xhat = svds[k]
-        GJ, hJ, fJ = algebra.rows_as_j(int(j))
+        U_, S_, Vt, r, N, c_x, c_xhat = svds[k]
+        HxJ, HUJ, hJ, _, _, fJ = algebra.scaled[j]
         # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
-        Gv, gv, w0_norm, consistent = restricted_pair_rows(GI, hI, GJ, hJ, U_, S_, Vt, r, fJ - fI, EQUALITY_CONSISTENCY_RTOL)
+        Gv, gv, w0_norm, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
+                                                           EQUALITY_CONSISTENCY_RTOL)
         if not consistent:
             continue  # the outputs can never be equal
         A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
         if not ok:
             continue
+        centre = None
         if A.shape[0] == 1:
             slack = SLACK_CAP
         else:
             res = _solve_slack_lp(A, bu, radius0 + w0_norm, REGION_SLACK_TOL, f"R_{i},{j} (Algorithm 3.1, step 3.1.1)")
             slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
+            centre = res.w
         if slack <= REGION_SLACK_TOL:
             continue
         # (i, j, slack) only: the constraint arrays are rebuilt where they are needed, so process
@@ -573,7 +561,7 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
             if not report:
                 continue
             if thin_filter and A.shape[0] > 1 and certified_width_below(
-                    A[:-1, :-1], bu[:-1], c, radius_bound=radius0 + w0_norm, width=2.0 * REGION_SLACK_TOL):
+                    A[:-1, :-1], bu[:-1], c, radius_bound=radius0 + w0_norm, width=2.0 * REGION_SLACK_TOL, point=centre):
                 thin.append(pair)
                 continue
             found.append(pair + (float(slack),))
