@@ -569,19 +569,21 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     return found, thin
 
 
-def _pairs_task(args):
+def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
     """A chunk of ``i`` values; the enumeration arrives pickled (see :func:`analyse_observability`)."""
     payload, full_rank, i_list = args
     enum = pickle.loads(payload) if isinstance(payload, bytes) else payload
     start = COUNTERS.total
     algebra = _PairAlgebra(_scaled_regions(enum), enum.system.n)
     found, tested, skipped, thin = [], 0, 0, []
-    for i in i_list:
+    for k, i in enumerate(i_list):
         f, t, s, th = _pairs_for_i(enum, algebra, full_rank, i)
         found.extend(f)
         tested += t
         skipped += s
         thin.extend(th)
+        if progress:
+            progress(k + 1, len(i_list))
     return found, COUNTERS.total - start, tested, skipped, thin
 
 
@@ -630,7 +632,10 @@ def analyse_observability(
     # while a bytes object costs one copy.
     payload = pickle.dumps(enum, protocol=pickle.HIGHEST_PROTOCOL) if parallel else enum
     tasks = [(payload, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
-    results = executor.map(_pairs_task, tasks, progress=progress)
+    if parallel:
+        results = executor.map(_pairs_task, tasks, progress=progress)
+    else:  # one task in this process: report progress per region of I
+        results = [_pairs_task(t, progress) for t in tasks]
     pairs: list = []
     n_lps = tested = skipped = 0
     thin: list = []
