@@ -411,6 +411,31 @@ def test_piston_regionwise_gains_tau_and_convergence(piston, piston_design):
     assert s["converged"] and len(set(s["regions_visited"])) == len(d.regions)
 
 
+def test_piston_initial_region_does_not_depend_on_input_timing(piston, piston_design):
+    """The initial-region selection (paper 004, Sec. 7) on the piston scenario with the jerk
+    sampled at the instants and half a sample later: both start in the region of the true
+    position.  Before the fix the second picked the far end of the stroke, because the model's
+    output slope at an estimate at rest varies by 1e-12 over the grid and was normalised by that."""
+    from hybobs_opt.examples import get_example
+    from hybobs_opt.examples.nonmonotonic import PISTON_PERIOD_S
+    from hybobs_opt.observers.switched_gain import PISTON_POSITION_ERROR_MM, SwitchedGainObserver
+
+    trace = get_example("magnetic_piston").scenario(piston, 0.5)
+    dt = float(trace.t[1] - trace.t[0])
+    w = 2 * math.pi / PISTON_PERIOD_S
+    amp = trace.x[0, 2] / w**2  # a(0) = A w^2
+    assert trace.u[1:6, 0] == pytest.approx(-amp * w**3 * np.sin(w * trace.t[1:6]), rel=1e-9)
+    x_hat0 = np.array([trace.x[0, 0] + PISTON_POSITION_ERROR_MM, 0.0, 0.0])
+    for U in (trace.u, (-amp * w**3 * np.sin(w * (trace.t + 0.5 * dt)))[:, None]):
+        obs = SwitchedGainObserver(piston, piston_design.regions, dt)
+        obs.reset(x_hat0)
+        ot = obs.run(U, trace.y)
+        region = piston_design.regions[obs.selected["region"]].region
+        assert region.lo <= trace.x[0, 0] <= region.hi
+        assert abs(obs.selected["s"] - trace.x[0, 0]) < 1.0  # mm
+        assert np.abs(ot.errors(trace.x)[trace.t > 0.25, 0]).max() < 0.05  # mm
+
+
 # --------------------------------------------------------------------------- diagnose / synth commands
 @pytest.fixture
 def lmi_cli():

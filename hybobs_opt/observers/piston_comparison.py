@@ -92,9 +92,8 @@ def piston_pwa_scenario(pwa: PWASystem, t_final: float | None = None) -> Trace:
     moves the stroke's far end by about 0.24 mm; it stays inside the box.
 
     The sample instants (not the mid-sample values) are also what ``piston_scenario`` feeds the
-    observers, and the switched-gain observer's initial-region selection depends on it: with the
-    jerk taken half a sample later its output-slope test (active once the open-loop estimate
-    has a velocity of ~1e-6 mm/s) selects the far end of the stroke, on the smooth plant too.
+    observers.  (The switched-gain observer's initial-region selection once depended on that
+    choice; it no longer does, see ``tests/test_lmi.py::test_piston_initial_region_does_not_depend_on_input_timing``.)
     """
     t_final = PISTON_PERIOD_S if t_final is None else float(t_final)
     lo, hi = pwa.state_bounds.bounding_box()

@@ -37,6 +37,9 @@ from .scenarios import register_scenario
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
+#: Initial-region selection: an output whose model value varies over the grid by less than this
+#: (variance relative to its mean square) does not depend on the coordinate and is ignored.
+INIT_SPREAD_RTOL = 1e-12
 #: RK4 sub-steps are chosen so that (sub-step) x (spectral radius of the frozen error dynamics)
 #: stays below this: well inside RK4's stability interval (2.78 on the negative real axis).
 RK4_STEP_RADIUS = 0.5
@@ -285,12 +288,19 @@ class SwitchedGainObserver(Observer):
 
 
 def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
-    """Sum over outputs of squared residuals, each divided by the output's variance over the grid."""
+    """Sum over outputs of squared residuals, each divided by ``var(model over the grid) + measured^2``.
+
+    The measured value in the denominator keeps an output from deciding when the model cannot
+    reproduce its size anywhere on the grid: the piston's output slope at an estimate that is
+    still at rest (velocity ~1e-6 mm/s) varies by 1e-12 of the measured slope over the grid, and
+    dividing by that variance alone let rounding pick the far end of the stroke.  An output that
+    does not depend on the coordinate (spread below INIT_SPREAD_RTOL of its size) is ignored.
+    """
     out = np.zeros(model.shape[0])
     for j in range(model.shape[1]):
         spread = float(np.var(model[:, j]))
-        if spread > 1e-12 * (1.0 + float(np.mean(model[:, j] ** 2))):
-            out += (model[:, j] - measured[j]) ** 2 / spread
+        if spread > INIT_SPREAD_RTOL * (1.0 + float(np.mean(model[:, j] ** 2))):
+            out += (model[:, j] - measured[j]) ** 2 / (spread + float(measured[j]) ** 2)
     return out
 
 
