@@ -424,7 +424,7 @@ class _PairAlgebra:
         n_cls = len(reps)
         self._screened = np.zeros((n_cls, n_cls), dtype=bool)
         self._screen = np.zeros((n_cls, n_cls), dtype=bool)
-        self._svd: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, int]] = {}
+        self._svd: dict[tuple[int, int], tuple] = {}  # see equality_svd
 
     def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
         r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
