@@ -291,7 +291,7 @@ class ObservabilityAnalysis:
 
         fixed = dict(fixed or {})
         names = self.system.state_names
-        n, T, m = self.system.n, self.T, self.system.m
+        T, m = self.T, self.system.m
         for k in fixed:
             if k not in names:
                 raise ModelError("fixed", f"state names among {names}", repr(k))
