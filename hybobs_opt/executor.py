@@ -15,6 +15,16 @@ from .errors import ModelError
 Progress = Callable[[int, int], None] | None
 
 
+def _gather(futures, progress: Progress) -> list[Any]:
+    """Results of ``futures`` in submission order, reporting progress as each one arrives in turn."""
+    out = []
+    for k, fut in enumerate(futures):
+        out.append(fut.result())
+        if progress:
+            progress(k + 1, len(futures))
+    return out
+
+
 class SerialExecutor:
     """Run everything in this process."""
 
@@ -61,13 +71,7 @@ class ProcessExecutor:
         if len(items) <= 1 or self.n_workers == 1:
             return SerialExecutor().map(fn, items, progress)
         pool = self._get_pool()
-        futures = [pool.submit(fn, item) for item in items]
-        out = []
-        for k, fut in enumerate(futures):
-            out.append(fut.result())
-            if progress:
-                progress(k + 1, len(items))
-        return out
+        return _gather([pool.submit(fn, item) for item in items], progress)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -103,13 +107,7 @@ class DaskExecutor:
 
     def map(self, fn, items, progress: Progress = None) -> list[Any]:
         items = list(items)
-        futures = self._client.map(fn, items, pure=False)
-        out = []
-        for k, fut in enumerate(futures):
-            out.append(fut.result())
-            if progress:
-                progress(k + 1, len(items))
-        return out
+        return _gather(self._client.map(fn, items, pure=False), progress)
 
     def close(self) -> None:
         self._client.close()

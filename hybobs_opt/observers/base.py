@@ -141,6 +141,19 @@ class Observer(ABC):
         return ObserverTrace(xs, modes, flags, secs, self.state_names, self.name)
 
 
+def initial_state(x0, fallback, state_bounds, n: int) -> np.ndarray:
+    """``x0``, else ``fallback``, else the centre of ``state_bounds``, checked to be a finite ``(n,)`` state."""
+    if x0 is None:
+        x0 = fallback
+    if x0 is None:
+        lo, hi = state_bounds.bounding_box()
+        x0 = (lo + hi) / 2.0
+    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    if x0.shape != (n,) or not np.all(np.isfinite(x0)):
+        raise ModelError("x0", f"a finite state of length {n}", f"{x0.tolist()}")
+    return x0
+
+
 def _safe_input(u, m: int) -> np.ndarray | None:
     """The input if it is usable for open-loop prediction, else ``None``."""
     try:

@@ -41,7 +41,7 @@ from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace
+from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace, initial_state
 from .location_observer import (
     AMBIGUOUS,
     SOLVER,
@@ -466,14 +466,7 @@ class ContinuousObserver(Observer):
         self.reset(x0, location=location)
 
     def reset(self, x0: np.ndarray | None = None, location: int | None = None, **kwargs: Any) -> None:
-        if x0 is None:
-            x0 = self._x0
-        if x0 is None:
-            lo, hi = self.automaton.state_bounds.bounding_box()
-            x0 = (lo + hi) / 2.0
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
-            raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
+        x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
         loc = self._loc0 if location is None else int(location)
         if not 0 <= loc < self.automaton.n_locations:
             raise ModelError("location", f"a location index in 0..{self.automaton.n_locations - 1}", repr(location))

@@ -56,7 +56,7 @@ from ..tolerances import (
     OBSERVABILITY_RTOL,
 )
 from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
-from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
+from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state
 
 
 #: Numerical guard on the decay-rate search when no ``max_decay`` is given (1/s): far beyond any
@@ -803,14 +803,7 @@ class LocationObserver(Observer):
 
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, **kwargs: Any) -> None:
         """Restart every generator at ``x0`` and the logic at ``q0`` (``None``: unknown)."""
-        if x0 is None:
-            x0 = self._x0
-        if x0 is None:
-            lo, hi = self.automaton.state_bounds.bounding_box()
-            x0 = (lo + hi) / 2.0
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
-            raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
+        x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
         self._x0 = x0
         self._z = np.tile(x0, self._G)
         self.logic.reset(self._q0 if q0 is None else q0)
