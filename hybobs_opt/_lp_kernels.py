@@ -53,13 +53,23 @@ def slack_lp_data(G, g, zero_tol, cap):
 def slack_bounds(A, bu, x, lam, radius_bound, cap):
     """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
 
+    The rows may have any norm; only the coefficient 1 of ``t`` in every row is assumed.
     ``lower`` is the smallest row slack at the point ``x[:d]`` (a feasible point's value);
     ``upper = (g' lambda + cap mu + R |G' lambda|) / (1' lambda + mu)`` for the clipped
     multipliers, valid for every feasible ``w`` with ``|w| <= R`` (weak duality, with the
-    stationarity residual bounded by Cauchy-Schwarz).  ``upper = inf`` without usable multipliers.
+    stationarity residual bounded by Cauchy-Schwarz).  ``upper = inf`` without usable multipliers;
+    ``(-inf, inf)`` (nothing certified) when the point or a multiplier is not finite.
     """
     k = A.shape[0] - 1
     d = A.shape[1] - 1
+    # A non-finite point or multiplier certifies nothing (every comparison with NaN is false, so
+    # the loops below would keep the cap as a "certified" lower bound): undecided.
+    for c in range(d + 1):
+        if not np.isfinite(x[c]):
+            return -np.inf, np.inf
+    for r in range(k + 1):
+        if not np.isfinite(lam[r]):
+            return -np.inf, np.inf
     lower = cap
     station = np.zeros(d)
     num = 0.0
@@ -119,7 +129,7 @@ def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consiste
     ``E = U diag(s) Vt`` of numerical rank ``r``, so ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``, and
     ``N = Vt[r:]'`` is passed as a contiguous array.
 
-    Returns ``(G, g, |w0|, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
+    Returns ``(G, g, w0, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
     ``consistent = False`` when ``e`` is not in ``range(E)`` (relative residual above
     ``consistency_rtol``), i.e. the outputs can never be equal.
     """
@@ -142,7 +152,7 @@ def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consiste
         resid2 += acc * acc
         enorm2 += e[b] * e[b]
     if np.sqrt(resid2) > consistency_rtol * (1.0 + np.sqrt(enorm2)):
-        return np.zeros((0, q)), np.zeros(0), 0.0, False
+        return np.zeros((0, q)), np.zeros(0), np.zeros(dim), False
     w0 = np.zeros(dim)
     for a in range(r):
         ca = coef[a] / s[a]
@@ -153,7 +163,7 @@ def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consiste
     g = np.empty(nI + nJ)
     _restrict_rows(HxI, HUI, hI, N, w0, 0, 0, G, g)
     _restrict_rows(HxJ, HUJ, hJ, N, w0, n, nI, G, g)
-    return G, g, np.sqrt(np.sum(w0 * w0)), True
+    return G, g, w0, True
 
 
 @njit(cache=True)
@@ -161,9 +171,13 @@ def support_upper_bound(A, b, c, lam, radius_bound):
     """Certified upper bound on ``max c'v`` over ``{A v <= b, |v| <= R}`` from multipliers ``lam``.
 
     For any ``lam >= 0``: ``c'v = lam'A v + (c - A'lam)'v <= lam'b + R |c - A'lam|`` (weak
-    duality, the residual bounded by Cauchy-Schwarz).  ``lam`` is clipped at zero.
+    duality, the residual bounded by Cauchy-Schwarz).  ``lam`` is clipped at zero; a non-finite
+    multiplier certifies nothing (``inf``).
     """
     k, d = A.shape
+    for r in range(k):
+        if not np.isfinite(lam[r]):
+            return np.inf
     resid = c.copy()
     val = 0.0
     for r in range(k):

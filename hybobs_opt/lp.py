@@ -15,6 +15,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from .errors import SolverError
+from .tolerances import LP_POINT_RTOL
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,10 @@ def solve_lp(
     Raises
     ------
     SolverError
-        If HiGHS hits an iteration limit or reports a numerical failure.
+        If HiGHS hits an iteration limit, reports a numerical failure, or returns an "optimal"
+        point that is not finite or violates a constraint by more than
+        :data:`~hybobs_opt.tolerances.LP_POINT_RTOL` (checked here, in numpy, before the status
+        is trusted).
     """
     c = np.asarray(c, dtype=float)
     if bounds is None:
@@ -70,7 +74,12 @@ def solve_lp(
     for method in ("highs", "highs-ipm", "highs-ds"):
         res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method=method)
         if res.status == 0:
-            return LPResult("optimal", np.asarray(res.x, dtype=float), float(res.fun), method)
+            x = np.asarray(res.x, dtype=float)
+            defect = _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x, res.fun)
+            if defect is None:
+                return LPResult("optimal", x, float(res.fun), method)
+            messages.append(f"{method}: status optimal but {defect}")
+            continue
         if res.status == 2:
             return LPResult("infeasible", None, None, method)
         if res.status == 3:
@@ -82,6 +91,35 @@ def solve_lp(
         "; ".join(messages),
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients",
     )
+
+
+def _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray, fun) -> str | None:
+    """What is wrong with an "optimal" point, or ``None``: finite, every row within tolerance.
+
+    A row ``a'x <= b`` may be violated by at most ``LP_POINT_RTOL (1 + |b| + |a| |x|)``: relative
+    to the size of the terms that are summed, so the check is independent of the row's scaling.
+    """
+    if x.shape != (np.size(c),) or not np.all(np.isfinite(x)) or not np.isfinite(fun):
+        return "the returned point or objective is not finite"
+    ax = np.abs(x)
+    for label, A, b, eq in (("inequality", A_ub, b_ub, False), ("equality", A_eq, b_eq, True)):
+        if A is None or np.size(A) == 0:
+            continue
+        A = np.atleast_2d(np.asarray(A, dtype=float))
+        b = np.asarray(b, dtype=float).reshape(-1)
+        r = A @ x - b
+        allowed = LP_POINT_RTOL * (1.0 + np.abs(b) + np.abs(A) @ ax)
+        bad = (np.abs(r) if eq else r) > allowed
+        if np.any(bad):
+            k = int(np.argmax(np.where(bad, r, -np.inf) if not eq else np.where(bad, np.abs(r), -np.inf)))
+            return f"{label} row {k} is violated by {abs(r[k]):.3g} at the returned point"
+    if bounds is not None and not (isinstance(bounds, tuple) and len(bounds) == 2 and bounds[0] is None and bounds[1] is None):
+        pairs = [bounds] * x.size if isinstance(bounds, tuple) and len(bounds) == 2 and not isinstance(bounds[0], (tuple, list)) else list(bounds)
+        for k, (lo, hi) in enumerate(pairs):
+            tol = LP_POINT_RTOL * (1.0 + ax[k])
+            if (lo is not None and x[k] < lo - tol) or (hi is not None and x[k] > hi + tol):
+                return f"variable {k} is outside its bounds ({x[k]:.6g} not in [{lo}, {hi}])"
+    return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -122,13 +160,15 @@ class SlackResult:
 
     ``lower`` is a slack certified by numpy at the returned point ``w`` (a feasible point proves
     the optimum is at least this); ``upper`` is an upper bound certified from the dual multipliers
-    (or ``inf`` when none is available).  ``solver`` is ``"daqp"`` or ``"highs"``.
+    (or ``inf`` when none is available).  ``solver`` is ``"daqp"`` or ``"highs"``; ``lam`` holds
+    DAQP's multipliers of the LP's rows when it answered (for callers that read active sets).
     """
 
     lower: float
     upper: float
     w: np.ndarray | None
     solver: str
+    lam: np.ndarray | None = None
 
 
 def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: float, problem: str = "max-slack LP") -> SlackResult:
@@ -185,18 +225,18 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     for eps_prox in (DAQP_EPS_PROX, None):
         settings = {} if eps_prox is None else {"eps_prox": eps_prox}
         x, _, flag, info = daqp.solve(H, f, A, bu, lower_bounds, sense, **settings)
-        if flag not in _DAQP_OPTIMAL:
+        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(x)):
             continue
         lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
         if lower > threshold or upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp")
+            return SlackResult(lower, upper, w, "daqp", info["lam"])
         # Refine the dual on the rows active at DAQP's point (non-negative least squares on the
         # stationarity conditions): a slack of exactly zero (two regions that only touch) needs
         # multipliers more exact than a proximal solve may return.
         upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
         if upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp+nnls")
+            return SlackResult(lower, upper, w, "daqp+nnls", info["lam"])
         break
     # Undecided (or DAQP failed): the robust solver decides.
     COUNTERS.fast -= 1
@@ -207,7 +247,9 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     if res.status != "optimal":
         raise SolverError(problem, "HiGHS", res.status, hint="the slack LP is capped and cannot be unbounded: check the data for NaN")
     w = res.x[:d]
-    slack = float(res.x[d])
+    # HiGHS's point has passed solve_lp's feasibility check; its certified value is the smallest
+    # row slack at that point (the LP's t may exceed it by the solver's primal tolerance).
+    slack = float(min(res.x[d], np.min(bu[:k] - A[:k, :d] @ w)))
     return SlackResult(slack, slack, w, "highs")
 
 
@@ -230,7 +272,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     for sign in (1.0, -1.0):
         COUNTERS.fast += 1
         v, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
-        if flag not in _DAQP_OPTIMAL:
+        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(v)):
             return False
         if point is not None and sign > 0 and float(c @ (v - point)) > width:
             return False

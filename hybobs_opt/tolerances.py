@@ -44,6 +44,33 @@ SLACK_CAP: float = 1.0
 #: thinner than 1e-6 of the operating range are numerically indistinguishable from boundaries.
 REGION_SLACK_TOL: float = 1e-6
 
+#: A closed set ``{G v <= g}`` (unit rows, scaled) counts as non-empty when relaxing its rows by
+#: this much makes it feasible.  It is the accuracy of the LPs themselves, not a geometric
+#: tolerance: pair sets that only touch (a shared guard face) are exactly feasible, and DAQP's
+#: proximal solves return their points feasible to about 1e-8 (HiGHS's primal tolerance is
+#: 1e-7); at 1e-9, 27 % of the touching pair sets of model 16 at T = 7 could not be decided by
+#: DAQP's certificate and went to HiGHS.  Sets that need more relaxation are empty.
+CLOSED_SET_TOL: float = 1e-7
+
+#: Two states count as different (a pair set ``R_ij`` holds a state ``x^ != x``) when they are
+#: more than this apart in one scaled coordinate.  Ten times REGION_SLACK_TOL: the pair sets are
+#: decided to that tolerance, and a pair whose outputs force ``x^ = x`` computes ``x - x^`` to
+#: about 1e-13; anything closer than this is the same state for every test of the toolbox.
+DISTINCT_STATE_TOL: float = 1e-5
+
+#: Multipliers of a Chebyshev LP with radius <= 0 that are below this fraction of the largest
+#: one are read as zero when the rows they weight are taken as implicit equalities (the affine
+#: hull of a face-confined pair set).  DAQP's multipliers are exact to about 1e-9 relative with
+#: the forced proximal weight; a spurious row at 1e-6 would shrink the hull, so rows are only
+#: taken when clearly active.
+IMPLICIT_EQUALITY_MULTIPLIER_RTOL: float = 1e-6
+
+#: An "optimal" LP point is accepted only if every row ``a'x <= b`` (or ``= b``) holds to
+#: ``LP_POINT_RTOL (1 + |b| + |a| |x|)``, i.e. relative to the terms summed in the row.  HiGHS
+#: certifies a primal feasibility of 1e-7 on its internally scaled problem; ten times that leaves
+#: room for the unscaling, while a point moved by 1e-3 (a corrupted answer) fails by far.
+LP_POINT_RTOL: float = 1e-6
+
 # ---------------------------------------------------------------------- polytope operations
 # (projection, redundancy removal, set difference; paper 002, Sections 2-3).  All of these act in
 # coordinates scaled so that the set's bounding box is [-1, 1]^d.
@@ -334,3 +361,50 @@ PWL_CONTINUITY_RTOL: float = 1e-12
 #: Measured about 4e-11: the acceleration is a second difference of positions 1 ms apart, so the
 #: rounding of ``z`` (~1e-14 mm) becomes ~2e-7 mm/s^2, i.e. 4e-11 of the 5000 mm/s^2 bound.
 PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
+
+# ---------------------------------------------------------------------- MHE uniqueness (paper 002, eq. 10)
+# The MHE flags a window "observable" only when no admissible window-start state at least
+# MHE_UNIQUENESS_DELTA away (inf-norm, coordinates scaled by the half-widths of X) reaches a cost
+# within epsilon of the optimum; see hybobs_opt.mhe.miqp.
+
+#: Separation of an alternative window-start state, inf-norm in units of the half-widths of X.
+#: Model (16) at T = 3: the weakest observable direction moves the engine speed by 1.9e-4 of its
+#: half-range per unit of scaled state, so at 0.05 an alternative costs 8.9e-11 of one sample's
+#: squared output range, about 90 times MHE_UNIQUENESS_COST_RTOL; a smaller separation would make
+#: "unique" undecidable at the solver's accuracy on that model, a larger one would call states
+#: 10 % of the box apart "the same".
+MHE_UNIQUENESS_DELTA: float = 0.05
+
+#: Epsilon of the uniqueness test (norm 2): an alternative counts when its cost is at most
+#: J* + this * S_y, S_y the squared weighted half-range of one output sample (norms 1 / inf: the
+#: square root of both).  Noise-free data give J* ~ 1e-25 S_y; the MIQP's own accuracy
+#: (MHE_ABS_SUBOPT and the proximal bias of MHE_UNIQUENESS_PROX_WEIGHT) is ~1e-13 S_y, ten times
+#: below, and the separated cost of observable windows of model (16) is ~90 times above.
+MHE_UNIQUENESS_COST_RTOL: float = 1e-12
+
+#: Absolute floor of that epsilon (cost units): it only keeps epsilon positive when the output
+#: range vanishes (an output constant over X x U); any output range above 1e-4 units makes the
+#: relative term larger.
+MHE_UNIQUENESS_COST_ATOL: float = 1e-20
+
+#: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  Its worst-case
+#: bias over the box, about 30 variables x range 4 x this, must stay below the epsilon above
+#: (1e-12) so that a separated minimum just above J* + epsilon is still certified; DAQP factorises
+#: the resulting Hessian (condition ~1e14) and its answers are verified like the main MIQP's.
+MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
+
+#: DAQP's ``cycle_tol`` for the MHE's branch-and-bound: iterations without objective progress
+#: before DAQP reports cycling (exit -2).  DAQP's default of 10 stops 1-6 of 36 noisy windows of
+#: 4-mode PWA systems at T = 4-5 (degenerate big-M vertices take longer non-progress streaks);
+#: 20 already cures all of them.  1000 leaves a factor 50 while a node that truly cycles still
+#: ends after ~1000 iterations as "not certified" (a fallback), never as a wrong answer.
+MHE_DAQP_CYCLE_TOL: int = 1000
+
+# ---------------------------------------------------------------------- lookup observer, input bounds
+#: Lookup observer (paper 002, Algorithm 4.1): the rows of a region that only bound an input (the
+#: copies of U for each step) are tested *closed*, ``<= LOOKUP_INPUT_BOUND_TOL`` (unit rows in
+#: scaled coordinates), unlike the strict guard rows: nothing lies beyond U, so an input resting on
+#: its bound (zero engine torque) must not empty chi.  The same tolerance makes a sample *bad* when
+#: its input leaves U by more: 1e-9 of the input's half-range (7e-8 N m for T_m in [0, 140]) is far
+#: above the rounding of an input stored at its bound and far below any real excursion.
+LOOKUP_INPUT_BOUND_TOL: float = 1e-9

@@ -232,6 +232,173 @@ def test_point_query_agrees_with_brute_force_oracle(seed, n, n_modes, T):
         assert analysis.classify(x) == oracle_classify(system, T, x), f"x = {x}"
 
 
+# ------------------------------------------------------------------ pair sets: closed, full, distinct
+def brute_force_pair_pieces(system, T, seqs, full_rank, tol=1e-6, sep=1e-5):
+    """The pieces ``(i, j)`` of B_T by brute force, written from their definition without the toolbox's LP code.
+
+    Regions are rebuilt from the mode sequences (:func:`_oracle_maps`); each closed ``R_ij``
+    (``i`` in ``I``, any ``j != i``) is written on the nullspace of its output equalities
+    (``scipy.linalg.null_space``) and decided with HiGHS: non-empty, a full-dimensional
+    projection on ``x`` (its affine hull grown from support points, one direction orthogonal to
+    the current hull at a time: the hull is full when ``n`` directions each move ``x`` by more
+    than ``tol``), and a point with ``|x - x^| > sep`` (scaled).
+    """
+    from scipy.linalg import lstsq, null_space
+
+    n = system.n
+    half, mid = system.scales()
+    sw = np.concatenate([half[:n], half[:n], np.tile(half[n:], T)])
+    cw = np.concatenate([mid[:n], mid[:n], np.tile(mid[n:], T)])
+    maps = [_oracle_maps(system, s, T) for s in seqs]
+    out = set()
+    for i, (Hi, hi, Ci, Di, fi) in enumerate(maps):
+        if not full_rank[i]:
+            continue
+        for j, (Hj, hj, Cj, Dj, fj) in enumerate(maps):
+            if j == i:
+                continue
+            G = np.vstack([np.hstack([Hi[:, :n], np.zeros((Hi.shape[0], n)), Hi[:, n:]]),
+                           np.hstack([np.zeros((Hj.shape[0], n)), Hj])])
+            g = np.concatenate([hi, hj])
+            E, e = np.hstack([Ci, -Cj, Di - Dj]), fj - fi
+            Gs, gs = G * sw, g - G @ cw
+            nr = np.linalg.norm(Gs, axis=1)
+            Gs, gs = Gs / nr[:, None], gs / nr + 1e-9
+            Es, es = E * sw, e - E @ cw
+            Nn = null_space(Es, rcond=1e-12)
+            w0 = lstsq(Es, es)[0]
+            if np.linalg.norm(Es @ w0 - es) > 1e-7 * (1 + np.linalg.norm(es)):
+                continue
+            Gn, gn = Gs @ Nn, gs - Gs @ w0
+
+            def opt(c):
+                cn = c @ Nn
+                if np.linalg.norm(cn) <= 1e-12 * (1 + np.linalg.norm(c)):  # constant on the set
+                    cn = np.zeros_like(cn)
+                for method in ("highs-ds", "highs-ipm", "highs"):  # HiGHS's methods fail on different degenerate LPs
+                    r = linprog(cn, A_ub=Gn, b_ub=gn, bounds=[(None, None)] * Nn.shape[1], method=method)
+                    if r.status in (0, 2):
+                        break
+                assert r.status in (0, 2), r.message
+                return (w0 + Nn @ r.x) if r.status == 0 else None
+
+            p0 = opt(np.zeros(Gs.shape[1]))
+            if p0 is None:
+                continue
+            pts, full = [p0[:n]], True
+            for k in range(n):
+                if k:
+                    _, sv, Vt = np.linalg.svd(np.array(pts[1:]) - pts[0])
+                    cdir = Vt[k]
+                else:
+                    cdir = np.eye(n)[0]
+                for sgn in (1.0, -1.0):
+                    c = np.zeros(Gs.shape[1])
+                    c[:n] = -sgn * cdir
+                    w = opt(c)
+                    if abs(cdir @ (w[:n] - pts[0])) > tol:
+                        pts.append(w[:n])
+                        break
+                else:
+                    full = False
+                    break
+            if not full:
+                continue
+            for d, sgn in itertools.product(range(n), (1.0, -1.0)):
+                c = np.zeros(Gs.shape[1])
+                c[d], c[n + d] = -sgn, sgn
+                w = opt(c)
+                if sgn * (w[d] - w[n + d]) > sep:
+                    out.add((i, j))
+                    break
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("T, gear_ratio", [(3, 1 / 12), (4, 1 / 12), (4, 1.0), (5, 1 / 12)])
+def test_pair_pieces_agree_with_brute_force(T, gear_ratio):
+    """B_T's pair pieces are exactly the closed, full, two-state pair sets (model 16).
+
+    Measured: 0 / 32 / 32 / 218 pieces at (3, 1/12), (4, 1/12), (4, 1), (5, 1/12), identical
+    lists.  Before the fix the toolbox had 266 pieces at T = 5: 86 in which the outputs force
+    x^ = x on a shared guard face (interior states were called unobservable), and it missed 38
+    face-confined sets whose states are genuinely indistinguishable for an input sequence that
+    steers the trajectory onto the guard (Definition 2.2 quantifies over every input).
+    """
+    system = powertrain3(gear_ratio=gear_ratio)
+    analysis = analyse_observability(system, T)
+    ref = brute_force_pair_pieces(system, T, [r.sequence for r in analysis.regions], analysis.full_rank)
+    assert {(p.i, p.j) for p in analysis.pairs} == ref
+    assert set(analysis.stats["pairs_dropped_same_state"]).isdisjoint(ref)
+
+
+def test_pairs_forcing_the_same_state_are_left_out_and_counted():
+    """Model 16, T = 5: the pair sets whose outputs force x^ = x are reported, not kept in B_T."""
+    analysis = analyse_observability(powertrain3(), 5)
+    same = analysis.stats["pairs_dropped_same_state"]
+    assert analysis.summary()["n_pairs_dropped_same_state"] == len(same) > 0
+    n = 3
+    half, _ = powertrain3().scales()
+    for i, j in same[:: max(1, len(same) // 10)]:
+        ri, rj = analysis.regions[i], analysis.regions[j]
+        # independent check: on every point of the closed R_ij (HiGHS, explicit equalities) x = x^
+        A_ub, b_ub, A_eq, b_eq = _pair_lps_scaled(powertrain3(), 5, ri, rj)
+        for d, sgn in itertools.product(range(n), (1.0, -1.0)):
+            c = np.zeros(A_ub.shape[1])
+            c[d], c[n + d] = -sgn, sgn
+            res = linprog(c, A_ub=A_ub, b_ub=b_ub + 1e-9, A_eq=A_eq, b_eq=b_eq, bounds=(None, None), method="highs")
+            assert res.status == 2 or -res.fun <= 1e-5, (i, j, d, -res.fun)
+
+
+def test_reduced_pairs_all_dimensions_returns_every_nonempty_pair():
+    """Model 16, T = 3: every closed R_ij with i in I and j not in I (48, counted here with HiGHS)."""
+    analysis = analyse_observability(powertrain3(), 3)
+    expected = set()
+    for i in analysis.index_set:
+        for j in analysis.rank_deficient:
+            A_ub, b_ub, A_eq, b_eq = _pair_lps_scaled(powertrain3(), 3, analysis.regions[i], analysis.regions[j])
+            res = linprog(np.zeros(A_ub.shape[1]), A_ub=A_ub, b_ub=b_ub + 1e-9, A_eq=A_eq, b_eq=b_eq,
+                          bounds=(None, None), method="highs")
+            if res.status == 0:
+                expected.add((i, j))
+    assert len(expected) == 48
+    assert {(p.i, p.j) for p in analysis.reduced_pairs_all_dimensions()} == expected
+
+
+def test_nan_solver_answers_are_never_certified(monkeypatch):
+    """A DAQP answer with a NaN point and a success flag (CasADi's bundled copy is known to give
+    them) is not taken: the analysis of model 16 at T = 3 is unchanged (16 regions, 12 pieces)."""
+    import daqp
+
+    from hybobs_opt import lp
+
+    real = daqp.solve
+
+    def nan_solve(*args, **kwargs):
+        x, fval, flag, info = real(*args, **kwargs)
+        return np.full_like(x, np.nan), fval, 1, info
+
+    monkeypatch.setattr(lp.daqp, "solve", nan_solve)
+    analysis = analyse_observability(powertrain3(), 3)
+    assert len(analysis.regions) == 16
+    assert analysis.n_unobservable_pieces == 12
+
+
+def test_solve_lp_checks_the_returned_point(monkeypatch):
+    """An "optimal" point that violates the constraints (moved by 1e-3) or is NaN is a SolverError."""
+    from scipy.optimize import OptimizeResult
+
+    from hybobs_opt import lp
+    from hybobs_opt.errors import SolverError
+
+    good = lp.solve_lp(np.array([1.0, 1.0]), -np.eye(2), np.zeros(2), problem="toy")
+    assert good.optimal and np.allclose(good.x, 0.0)
+    for bad in (np.array([-1e-3, 0.0]), np.array([np.nan, 0.0])):
+        monkeypatch.setattr(lp, "linprog", lambda *a, _x=bad, **k: OptimizeResult(status=0, x=_x, fun=0.0, message="ok"))
+        with pytest.raises(SolverError, match="toy"):
+            lp.solve_lp(np.array([1.0, 1.0]), -np.eye(2), np.zeros(2), problem="toy")
+
+
 # ------------------------------------------------------------------ thin pair sets
 def _pair_lps_scaled(system, T, ri, rj):
     """R_ij over w = (x, x^, U) scaled to [-1, 1] by the bounds: A_ub w <= b_ub, A_eq w = b_eq (built here)."""

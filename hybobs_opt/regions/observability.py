@@ -31,8 +31,9 @@ import numpy as np
 
 from ..errors import ModelError
 from .._lp_kernels import restricted_pair_rows, slack_lp_data
-from ..lp import COUNTERS, _solve_slack_lp, certified_width_below, max_slack
+from ..lp import COUNTERS, _solve_slack_lp, max_slack
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
+from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 
 
@@ -137,12 +138,16 @@ class ObservabilityAnalysis:
         return tuple(p for p in self.pairs if not self.full_rank[p.j])
 
     def reduced_pairs_all_dimensions(self) -> tuple[PairSet, ...]:
-        """Every non-empty ``R_ij`` with ``i`` in ``I``, ``j`` not in ``I``, whatever its projection's dimension.
+        """Every non-empty closed ``R_ij`` with ``i`` in ``I``, ``j`` not in ``I``, whatever its dimension.
 
         Algorithm 3.1 drops pairs whose projection on ``x`` is lower-dimensional (measure zero in
-        the state space).  The lookup observer cannot: the data of a true state in ``P_j`` can
-        force the candidate of ``P_i`` onto exactly such a flat set, for a set of true states of
-        positive measure.  Computed on demand (one LP per pair) and cached.
+        the state space) and pairs that only touch the regions' boundaries.  The lookup observer
+        cannot: the data of a true state in ``P_j`` can force the candidate of ``P_i`` onto
+        exactly such a flat set, for a set of true states of positive measure.  So this keeps
+        every pair whose *closure* is non-empty: the max-margin LP of :func:`_pair_lps` with the
+        threshold ``-REGION_SLACK_TOL`` (a pair is left out only when it is certified empty by
+        more than the region tolerance, the safe side for the observer).  No rank screen either.
+        Computed on demand (one LP per pair) and cached.
         """
         if "_reduced_all" not in self._pair_cache:
             algebra = _PairAlgebra(_scaled_regions(self.enumeration), self.system.n)
@@ -150,7 +155,7 @@ class ObservabilityAnalysis:
             for i in self.index_set:
                 found.extend(_pair_lps(self.enumeration, algebra, i, np.array(self.rank_deficient, dtype=int),
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool),
-                                       thin_filter=False)[0])
+                                       thin_filter=False, min_margin=-REGION_SLACK_TOL)[0])
             found.sort()
             self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
         return self._pair_cache["_reduced_all"]
@@ -200,8 +205,8 @@ class ObservabilityAnalysis:
         near = np.all((x >= boxes[:, 0] - span * REGION_SLACK_TOL) & (x <= boxes[:, 1] + span * REGION_SLACK_TOL), axis=1)
         return [k for k in np.nonzero(near)[0] if self._region_slack_at(int(k), x) > REGION_SLACK_TOL]
 
-    def _pair_slack_at(self, i: int, j: int, x: np.ndarray) -> float:
-        """Largest slack over ``(x^, U)`` of ``R_ij`` at fixed ``x`` (in the equality subspace)."""
+    def _pair_witness_at(self, i: int, j: int, x: np.ndarray) -> bool:
+        """Does the closed slice of ``R_ij`` at this ``x`` hold a state ``x^ != x`` (see :mod:`.pair_geometry`)?"""
         n = self.system.n
         ri, rj = self.regions[i], self.regions[j]
         scale, centre = horizon_scaling(self.system, self.T, copies_of_x=2)
@@ -214,10 +219,10 @@ class ObservabilityAnalysis:
         N, r = _nullspace(Ev)
         w0, *_ = np.linalg.lstsq(Ev, ev, rcond=None)
         if Ev.shape[0] and np.linalg.norm(Ev @ w0 - ev) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(ev)):
-            return -np.inf  # the outputs cannot match
-        res = max_slack(Gv @ N, gv - Gv @ w0, radius_bound=np.sqrt(Gv.shape[1]) + np.linalg.norm(w0),
-                        threshold=REGION_SLACK_TOL, problem=f"R_{i},{j} at fixed x")
-        return res.lower if res.lower > REGION_SLACK_TOL else res.upper
+            return False  # the outputs cannot match
+        x_scaled = (x - centre[:n]) / scale[:n]
+        return fixed_state_witness(Gv @ N, gv - Gv @ w0, N, w0, x_scaled, n,
+                                   radius_bound=np.sqrt(Gv.shape[1]) + np.linalg.norm(w0), problem=f"R_{i},{j} at fixed x")
 
     def is_observable(self, x) -> bool:
         """Exact test of Definition 2.2 (up to measure zero) at one state, by LPs, without projections.
@@ -244,7 +249,7 @@ class ObservabilityAnalysis:
         by_i = self._pairs_by_i()
         for i in inside:
             for j in by_i.get(i, ()):
-                if self._pair_slack_at(i, j, x) > REGION_SLACK_TOL:
+                if self._pair_witness_at(i, j, x):
                     return "unobservable"
         return "observable"
 
@@ -347,6 +352,7 @@ class ObservabilityAnalysis:
             "n_pairs_tested": self.n_pairs_tested,
             "n_pairs_skipped_rank": self.n_pairs_skipped_rank,
             "n_pairs_dropped_thin": self.stats.get("n_pairs_dropped_thin"),
+            "n_pairs_dropped_same_state": self.stats.get("n_pairs_dropped_same_state"),
             "seconds_enumeration": enum.seconds,
             "seconds_algorithm_3_1": self.seconds,
             "seconds": enum.seconds + self.seconds,
@@ -385,8 +391,8 @@ def _scaled_regions(enum: ModeEnumeration):
     for reg in enum.regions:
         Hx, HU = reg.H[:, :n] * sx, reg.H[:, n:] * su
         h = reg.h - reg.H[:, :n] @ cx - reg.H[:, n:] @ cu
-        # Unit rows in the scaled space, so that after restriction to an equality subspace a row
-        # norm below ZERO_ROW_TOL means "constant on the subspace", not "badly scaled".
+        # Unit rows in the scaled space, so that after restriction to an equality subspace the
+        # margin of the max-margin LP is a distance to every original constraint.
         inv = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", Hx, Hx) + np.einsum("ij,ij->i", HU, HU)), np.finfo(float).tiny)
         out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
     return out
@@ -447,25 +453,13 @@ class _PairAlgebra:
             self.screen(int(a), np.array([b]))
         return self._screen[as_, b]
 
-    @staticmethod
-    def _thinnest(Nt: np.ndarray) -> np.ndarray:
-        """For the rows ``Nt = N_y'`` of one state copy ``y`` of a nullspace basis: ``c = N_y' u``.
-
-        ``u`` is the unit direction of ``y`` with the smallest singular value of ``N_y``, so
-        ``c'v = u'y`` on the subspace ``w = w0 + N v``: the direction in which the projection
-        on ``y`` of a ball of ``v`` is thinnest.
-        """
-        if Nt.shape[0] == 0:
-            return np.zeros(0)
-        u = np.linalg.svd(Nt.T)[0][:, -1]
-        return np.ascontiguousarray(Nt @ u)
-
     def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
-        """``(U, s, Vt, rank, N, c_x, c_xhat)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
+        """``(U, s, Vt, rank, N, directions)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
 
-        ``E = U diag(s) Vt`` with numerical rank ``rank`` and nullspace basis ``N = Vt[rank:]'``; ``c_x`` and ``c_xhat`` are the
-        functionals of :meth:`_thinnest` for ``x`` (the state of ``R_ij``) and ``x^`` (the state
-        of ``R_ji``) on the subspace coordinates ``v``, ``w = w0 + Vt[rank:]' v``.
+        ``E = U diag(s) Vt`` with numerical rank ``rank`` and nullspace basis ``N = Vt[rank:]'``;
+        ``directions`` is :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of ``N``
+        (ranks and thinnest functionals of the projections on ``x`` and ``x^``, and whether the
+        subspace moves them together), shared by every region pair of the two classes.
         """
         new = [b for b in np.unique(bs) if (a, int(b)) not in self._svd]
         if new:
@@ -476,13 +470,13 @@ class _PairAlgebra:
             ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
             for k, b in enumerate(new):
                 r = int(ranks[k])
-                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r,
-                                          np.ascontiguousarray(Vt[k][r:].T),
-                                          self._thinnest(Vt[k][r:, : self.n]), self._thinnest(Vt[k][r:, self.n : 2 * self.n]))
+                N = np.ascontiguousarray(Vt[k][r:].T)
+                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r, N,
+                                          SubspaceDirections.of(N, self.n))
         return [self._svd[(a, int(b))] for b in bs]
 
 
-def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list[tuple[int, int]]]:
+def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list, list]:
     r"""Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``.
 
     Pairs are screened before any LP (:meth:`_PairAlgebra.screen`): a pair whose output
@@ -492,12 +486,12 @@ def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int
     both; this task handles such pairs only for ``j > i`` and reports ``R_ji`` too when its own
     rank screen passes.
 
-    Returns ``(pairs_found as (i, j, slack), n_pairs_tested, n_pairs_skipped_by_rank,
-    pairs_dropped_thin)``.
+    Returns ``(pairs_found as (i, j, margin), n_pairs_tested, n_pairs_skipped_by_rank,
+    pairs_dropped_thin, pairs_dropped_same_state)``.
     """
     js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
     if js.size == 0:
-        return [], 0, 0, []
+        return [], 0, 0, [], []
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
     sym = np.array([bool(full_rank[j]) for j in js])
@@ -507,66 +501,67 @@ def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
     sel = np.nonzero(ok)[0]
-    found, thin = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
-    return found, n_tested, n_skipped, thin
+    found, thin, same = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
+    return found, n_tested, n_skipped, thin, same
 
 
 def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
-              report_ji: np.ndarray, thin_filter: bool = True) -> tuple[list[tuple[int, int, float]], int]:
-    """One max-slack LP per pair ``(i, j)``, ``j`` in ``js``: is ``R_ij`` non-empty inside its equality subspace?
+              report_ji: np.ndarray, thin_filter: bool = True,
+              min_margin: float | None = None) -> tuple[list[tuple[int, int, float]], list, list]:
+    """Decide the pair sets ``R_ij``, ``j`` in ``js``, with :func:`~hybobs_opt.regions.pair_geometry.classify_pair`.
 
-    Reports ``(i, j, slack)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
-    (the same LP decides both); :func:`_pair_set` turns a triple into a :class:`PairSet`.
+    Reports ``(i, j, radius)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
+    (the same LPs decide both); :func:`_pair_set` turns a triple into a :class:`PairSet`.  A pair
+    is reported when its closure is non-empty, its projection on the state is full-dimensional
+    (with the thin test when ``thin_filter``) and it holds two different states.
 
-    With ``thin_filter``, a non-empty pair is still dropped when its projection on ``x`` is
-    certified to be at most ``2 REGION_SLACK_TOL`` wide (scaled) in the direction the output
-    equalities pin down most (two more LPs, :func:`~hybobs_opt.lp.certified_width_below`):
-    such a set holds no ``x``-ball of radius ``REGION_SLACK_TOL``, the measure-zero criterion
-    the regions ``P_i`` themselves are held to.  The Chebyshev radius inside the equality
-    subspace alone does not see this: when the equalities barely let ``x`` move (the 44-piece
-    piston at T = 3: smallest singular value of the subspace's ``x``-part 2.7e-9), a ball of
-    radius 3.5e-3 in the subspace projects to a sliver 1e-11 wide.
+    With ``min_margin`` (``reduced_pairs_all_dimensions``) every pair whose closure is not
+    certified empty by more than ``-min_margin`` is reported instead, whatever its dimension.
 
-    Returns ``(found, dropped_thin)``, the latter as ``(i, j)`` pairs.
+    Returns ``(found, dropped_thin, dropped_same_state)``, the latter two as ``(i, j)`` pairs:
+    non-empty pairs left out because their projection is lower-dimensional or thin, and because
+    the outputs force ``x^ = x`` on them.
     """
     found: list[tuple[int, int, float]] = []
     thin: list[tuple[int, int]] = []
+    same: list[tuple[int, int]] = []
     if js.size == 0:
-        return found, thin
+        return found, thin, same
+    n = algebra.n
     HxI, HUI, hI, _, _, fI = algebra.scaled[i]
     svds = algebra.equality_svd(algebra.cls[i], algebra.cls[js])
     radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
     for k, j in enumerate(js):
-        U_, S_, Vt, r, N, c_x, c_xhat = svds[k]
+        U_, S_, Vt, r, N, directions = svds[k]
         HxJ, HUJ, hJ, _, _, fJ = algebra.scaled[j]
         # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
-        Gv, gv, w0_norm, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
-                                                           EQUALITY_CONSISTENCY_RTOL)
+        Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
+                                                      EQUALITY_CONSISTENCY_RTOL)
         if not consistent:
             continue  # the outputs can never be equal
-        A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
-        if not ok:
-            continue
-        centre = None
-        if A.shape[0] == 1:
-            slack = SLACK_CAP
-        else:
-            res = _solve_slack_lp(A, bu, radius0 + w0_norm, REGION_SLACK_TOL, f"R_{i},{j} (Algorithm 3.1, step 3.1.1)")
-            slack = res.lower if res.lower > REGION_SLACK_TOL else res.upper
-            centre = res.w
-        if slack <= REGION_SLACK_TOL:
-            continue
-        # (i, j, slack) only: the constraint arrays are rebuilt where they are needed, so process
-        # and Dask workers do not ship megabytes of matrices back to the parent.
-        for report, c, pair in ((report_ij[k], c_x, (i, int(j))), (report_ji[k], c_xhat, (int(j), i))):
-            if not report:
+        bound = radius0 + float(np.linalg.norm(w0))
+        problem = f"R_{i},{j} (Algorithm 3.1, step 3.1.1)"
+        if min_margin is not None:
+            A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
+            if not ok:
                 continue
-            if thin_filter and A.shape[0] > 1 and certified_width_below(
-                    A[:-1, :-1], bu[:-1], c, radius_bound=radius0 + w0_norm, width=2.0 * REGION_SLACK_TOL, point=centre):
+            if A.shape[0] == 1:
+                found.append((i, int(j), SLACK_CAP))
+                continue
+            res = _solve_slack_lp(A, bu, bound, min_margin, problem)
+            if res.lower > min_margin:
+                found.append((i, int(j), float(res.lower)))
+            continue
+        verdict = classify_pair(Gv, gv, N, w0, n, bound, bool(report_ij[k]), bool(report_ji[k]),
+                                thin_filter=thin_filter, problem=problem, directions=directions)
+        for v, pair in ((verdict.verdict, (i, int(j))), (verdict.verdict_ji, (int(j), i))):
+            if v == PIECE:
+                found.append(pair + (verdict.radius,))
+            elif v == LOWER_DIMENSIONAL:
                 thin.append(pair)
-                continue
-            found.append(pair + (float(slack),))
-    return found, thin
+            elif v == SAME_STATE:
+                same.append(pair)
+    return found, thin, same
 
 
 def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
@@ -575,16 +570,17 @@ def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
     enum = pickle.loads(payload) if isinstance(payload, bytes) else payload
     start = COUNTERS.total
     algebra = _PairAlgebra(_scaled_regions(enum), enum.system.n)
-    found, tested, skipped, thin = [], 0, 0, []
+    found, tested, skipped, thin, same = [], 0, 0, [], []
     for k, i in enumerate(i_list):
-        f, t, s, th = _pairs_for_i(enum, algebra, full_rank, i)
+        f, t, s, th, fc = _pairs_for_i(enum, algebra, full_rank, i)
         found.extend(f)
         tested += t
         skipped += s
         thin.extend(th)
+        same.extend(fc)
         if progress:
             progress(k + 1, len(i_list))
-    return found, COUNTERS.total - start, tested, skipped, thin
+    return found, COUNTERS.total - start, tested, skipped, thin, same
 
 
 def analyse_observability(
@@ -639,14 +635,17 @@ def analyse_observability(
     pairs: list = []
     n_lps = tested = skipped = 0
     thin: list = []
-    for found, lps, n_tested, n_skipped, dropped in results:
+    same: list = []
+    for found, lps, n_tested, n_skipped, dropped, dropped_same in results:
         pairs.extend(found)
         n_lps += lps
         tested += n_tested
         skipped += n_skipped
         thin.extend(dropped)
+        same.extend(dropped_same)
     pairs.sort()  # same order on every executor
     pairs = [_pair_set(enum, *t) for t in pairs]
     return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
                                  {"executor": executor.name if parallel else "serial", "n_pairs_dropped_thin": len(thin),
-                                  "pairs_dropped_thin": tuple(sorted(thin))})
+                                  "pairs_dropped_thin": tuple(sorted(thin)), "n_pairs_dropped_same_state": len(same),
+                                  "pairs_dropped_same_state": tuple(sorted(same))})

@@ -1,0 +1,407 @@
+"""The geometry of one pair set ``R_ij`` of Algorithm 3.1 (paper 002) on its output-equality subspace.
+
+``R_ij = {(x, x^, U) : (x, U) in P_i, (x^, U) in P_j, equal outputs}`` is handled in scaled
+coordinates ``w = (x, x^, U)`` restricted to the equality subspace ``w = w0 + N v``, with the
+constraint rows of ``P_i`` and ``P_j`` unit-norm *before* the restriction.  The regions are
+taken closed: a state on a guard that two modes share may follow either of them.  That is the
+exact reading of Definition 2.2 for PWA maps that are continuous across their guards (the
+powertrains' dead zone) and the safe, unobservable side for discontinuous ones.
+
+Three questions decide whether ``Proj_x(R_ij)`` is a piece of ``B_T`` (up to measure zero):
+
+1. **Is the closed set non-empty?**  A Chebyshev LP in the subspace; radius above
+   ``-CLOSED_SET_TOL`` (the LPs' own accuracy: a set that needs its rows relaxed by more is
+   empty).
+2. **Is its projection on ``x`` full-dimensional?**  Face-confined sets -- a pair whose outputs
+   can only agree when a trajectory sits exactly on a guard, e.g. ``theta(k) = -alpha`` -- have
+   Chebyshev radius 0 in the equality subspace although their ``x``-projection can be
+   full-dimensional (every ``x`` has an input sequence that steers it onto the guard).  Their
+   affine hull is found from the LP's multipliers: rows with positive multipliers in a
+   certificate of radius ``<= 0`` are tight on the whole set (implicit equalities), so they are
+   added to the equalities and the LP is solved again in the smaller subspace, until the set
+   has a ball of radius above ``REGION_SLACK_TOL`` in it.  The projection is then
+   full-dimensional when the subspace's ``x``-part has rank ``n`` and the set is not certified
+   thinner than ``2 REGION_SLACK_TOL`` along the direction the subspace pins down most.
+3. **Does it hold two different states?**  A pair set in which the outputs force ``x^ = x``
+   says nothing about observability (every state is indistinguishable from itself).  It is
+   left out when the subspace forces ``x = x^`` or LPs certify ``|x - x^| <= DISTINCT_STATE_TOL``
+   on the whole set (scaled).  Before this test, 2,522 of the 4,982 pair sets of model (16) at
+   ``T = 7`` were such faces, and interior states were called unobservable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import daqp
+import numpy as np
+
+from .._lp_kernels import slack_lp_data, support_upper_bound
+from ..lp import COUNTERS, _solve_slack_lp, certified_width_below, solve_lp
+from ..tolerances import (
+    CLOSED_SET_TOL,
+    DAQP_EPS_PROX,
+    DISTINCT_STATE_TOL,
+    EQUALITY_CONSISTENCY_RTOL,
+    NEAR_ACTIVE_TOL,
+    RANK_RTOL,
+    REGION_SLACK_TOL,
+    SLACK_CAP,
+    ZERO_ROW_TOL,
+)
+
+#: Verdicts of :func:`classify_pair`.
+EMPTY, LOWER_DIMENSIONAL, SAME_STATE, PIECE = "empty", "lower-dimensional", "same state", "piece"
+
+
+@dataclass(frozen=True)
+class PairVerdict:
+    """What :func:`classify_pair` found for ``R_ij`` (``verdict``) and for ``R_ji`` (``verdict_ji``).
+
+    ``radius`` is the Chebyshev radius of the set inside its affine hull (scaled); ``face`` is
+    True when the hull is smaller than the equality subspace (implicit equalities were found).
+    """
+
+    verdict: str
+    verdict_ji: str
+    radius: float
+    face: bool
+
+
+def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str):
+    """Certified Chebyshev LP of ``{Gs s <= gs}`` (rows renormalised, constant rows checked).
+
+    Returns ``(radius, centre, A, bu, lam, keep)``: the radius decided against ``threshold``, the
+    DAQP data, its multipliers (``None`` if HiGHS answered) and the indices of the rows kept in
+    ``A``; ``radius = -inf`` when a constant row is violated.
+    """
+    A, bu, ok = slack_lp_data(Gs, gs, ZERO_ROW_TOL, SLACK_CAP)
+    if not ok:
+        return -np.inf, None, A, bu, None, None
+    keep = np.nonzero(np.linalg.norm(Gs, axis=1) > ZERO_ROW_TOL)[0]
+    if keep.size != A.shape[0] - 1:  # a row at the zero tolerance rounded the other way
+        keep = None
+    if A.shape[0] == 1:
+        return SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep
+    res = _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    radius = res.lower if res.lower > threshold else res.upper
+    return radius, res.w, A, bu, res.lam, keep
+
+
+def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray, lam, keep, centre,
+                   radius_bound: float):
+    """The implicit equalities certified by the multipliers of a radius-``<= 0`` Chebyshev LP.
+
+    ``A, bu, lam, keep, centre`` are what :func:`_chebyshev` returned for ``{Gs s <= gs}``.
+    Returns ``(M, t0)`` with the affine hull within the current frame ``s = t0 + M t``,
+    ``"empty"`` when the equalities found contradict each other, or ``None`` when no implicit
+    equality is certified (the caller then keeps the set: the safe side).
+    """
+    if keep is None or A.shape[0] <= 1:
+        return None
+    d = Gs.shape[1]
+    G, g = A[:-1, :d], bu[:-1]
+    K = np.zeros(0, dtype=int)
+    if lam is not None and np.all(np.isfinite(lam)):
+        K = _certified_implicit_rows(G, g, np.asarray(lam, dtype=float)[:-1], radius_bound)
+    if K.size == 0 and centre is not None and np.all(np.isfinite(centre)):
+        # DAQP's proximal multipliers too coarse (or HiGHS answered): refit them on the active rows
+        resid = g - G @ centre
+        active = np.nonzero(resid <= float(np.min(resid)) + NEAR_ACTIVE_TOL)[0]
+        lam_fit = _nnls_multipliers(G[active])
+        if lam_fit is not None:
+            full = np.zeros(G.shape[0])
+            full[active] = lam_fit
+            K = _certified_implicit_rows(G, g, full, radius_bound)
+    if K.size == 0:
+        return None
+    E, e = Gs[keep[K]], gs[keep[K]]
+    U_, s, Vt = np.linalg.svd(E, full_matrices=True)
+    r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
+    if r == 0:
+        return None
+    t0 = Vt[:r].T @ ((U_[:, :r].T @ e) / s[:r])
+    if np.linalg.norm(E @ t0 - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e)) + CLOSED_SET_TOL:
+        return "empty"
+    return Vt[r:].T, t0
+
+
+def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radius_bound: float) -> np.ndarray:
+    """Rows certified by the multipliers ``lam >= 0`` to be tight on the whole set ``{G v <= g}``.
+
+    For every feasible ``v`` (``|v| <= R``): ``sum_k lam_k (g_k - G_k v) <= lam'g + R |G'lam|``
+    and every term is non-negative, so the slack of row ``k`` is at most
+    ``(lam'g + R |G'lam|) / lam_k``.  Rows where that bound is below ``REGION_SLACK_TOL`` are
+    implicit equalities to the region tolerance; no other row is taken.
+    """
+    lam = np.where(np.isfinite(lam), np.maximum(lam, 0.0), 0.0)
+    total = float(g @ lam + radius_bound * np.linalg.norm(G.T @ lam))
+    with np.errstate(divide="ignore"):
+        bound = np.where(lam > 0.0, max(total, 0.0) / np.where(lam > 0.0, lam, 1.0), np.inf)
+    return np.nonzero(bound <= REGION_SLACK_TOL)[0]
+
+
+def _nnls_multipliers(GA: np.ndarray) -> np.ndarray | None:
+    """``lam >= 0``, ``sum lam = 1`` minimising ``|GA' lam|`` (non-negative least squares)."""
+    from scipy.optimize import nnls
+
+    M = np.vstack([GA.T, np.ones((1, GA.shape[0]))])
+    rhs = np.zeros(M.shape[0])
+    rhs[-1] = 1.0
+    try:
+        lam, _ = nnls(M, rhs)
+    except RuntimeError:
+        return None
+    return lam if lam.sum() > 0 else None
+
+
+def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: float, bound: float,
+                             radius_bound: float) -> bool:
+    """Is ``|c's + c0| <= bound`` certified on ``{Gs s <= gs}`` (two DAQP LPs and their multipliers)?"""
+    d = Gs.shape[1]
+    H = np.zeros((d, d))
+    lower = np.full(Gs.shape[0], -1e30)
+    sense = np.zeros(Gs.shape[0], dtype=np.int32)
+    for sign in (1.0, -1.0):
+        COUNTERS.fast += 1
+        v, _, flag, info = daqp.solve(H, -sign * c, Gs, gs, lower, sense, eps_prox=DAQP_EPS_PROX)
+        if flag not in (1, 2) or not np.all(np.isfinite(v)):
+            return False
+        if sign * (c @ v + c0) > bound and np.all(Gs @ v <= gs + CLOSED_SET_TOL):
+            return False  # a (nearly) feasible point already has the two states apart
+        if support_upper_bound(Gs, gs, sign * c, info["lam"], radius_bound) + sign * c0 > bound:
+            return False
+    return True
+
+
+@dataclass(frozen=True)
+class SubspaceDirections:
+    """What a basis ``N`` of an affine frame says before any LP (the same for every region pair of a class).
+
+    ``full_rank[k]``: the projection of the frame on ``x`` (``k = 0``) or ``x^`` (``k = 1``) has
+    rank ``n``; ``thinnest[k]``: the functional ``c`` on the frame's coordinates along which
+    that projection of a unit ball is thinnest; ``same_state_directions``: the frame moves ``x``
+    and ``x^`` together (``N_x = N_x^``).
+    """
+
+    full_rank: tuple[bool, bool]
+    thinnest: tuple[np.ndarray, np.ndarray]
+    same_state_directions: bool
+
+    @staticmethod
+    def of(N: np.ndarray, n: int) -> "SubspaceDirections":
+        full, thin = [], []
+        for part in (slice(0, n), slice(n, 2 * n)):
+            P = N[part]
+            if P.shape[1] < n:
+                full.append(False)
+                thin.append(np.zeros(P.shape[1]))
+                continue
+            Uu, sv, _ = np.linalg.svd(P)
+            full.append(bool(sv[-1] > RANK_RTOL))
+            thin.append(np.ascontiguousarray(P.T @ Uu[:, -1]))
+        same = bool(np.max(np.abs(N[:n] - N[n:2 * n]), initial=0.0) <= RANK_RTOL)
+        return SubspaceDirections((full[0], full[1]), (thin[0], thin[1]), same)
+
+
+class _Frame:
+    """An affine frame ``v = s0 + M s`` of the pair set (inside its equality subspace) and its tests."""
+
+    def __init__(self, Gv, gv, N, w0, M, s0, n: int, radius_bound: float, directions: "SubspaceDirections | None" = None):
+        self.n, self.R = n, radius_bound
+        self.M, self.s0 = M, s0
+        self.Nh, self.wh = (N, w0) if M is None else (N @ M, w0 + N @ s0)
+        self.Gs, self.gs = (Gv, gv) if M is None else (Gv @ M, gv - Gv @ s0)
+        self.dim = self.Nh.shape[1]
+        self.directions = directions or SubspaceDirections.of(self.Nh, n)
+        self._lp = None
+        self.centre = None
+
+    @property
+    def lp(self):
+        if self._lp is None:
+            self._lp = slack_lp_data(self.Gs, self.gs, ZERO_ROW_TOL, SLACK_CAP)[:2]
+        return self._lp
+
+    def forces_same_state(self) -> bool:
+        """Does the frame itself force ``x = x^`` (to ``DISTINCT_STATE_TOL``)?"""
+        n = self.n
+        return bool(self.directions.same_state_directions
+                    and np.max(np.abs(self.wh[:n] - self.wh[n:2 * n])) <= DISTINCT_STATE_TOL)
+
+    def projection_thin(self, part: int, thin_filter: bool) -> bool:
+        """Is the projection on ``x`` (``part = 0``) or ``x^`` (``1``) of the set in this frame lower-dimensional or thin?"""
+        if not self.directions.full_rank[part]:
+            return True
+        A, bu = self.lp
+        if not thin_filter or A.shape[0] <= 1:
+            return False
+        c = self.directions.thinnest[part]
+        point = self.centre if self.centre is not None and self.centre.size == self.dim else None
+        return certified_width_below(A[:-1, :-1], bu[:-1], c, radius_bound=self.R, width=2.0 * REGION_SLACK_TOL, point=point)
+
+    def distinct_states(self) -> bool:
+        """Does the set hold a point with ``|x - x^| > DISTINCT_STATE_TOL`` (else certified not)?"""
+        n = self.n
+        Dm = self.Nh[:n] - self.Nh[n:2 * n]
+        d0 = self.wh[:n] - self.wh[n:2 * n]
+        if self.directions.same_state_directions:
+            return bool(np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
+        if self.centre is not None and self.centre.size == self.dim and \
+                np.max(np.abs(Dm @ self.centre + d0)) > DISTINCT_STATE_TOL:
+            return True
+        A, bu = self.lp
+        if A.shape[0] <= 1:
+            return True  # nothing bounds the frame's directions: the states can differ
+        G, g = A[:-1, :-1], bu[:-1]
+        return any(not _max_abs_certified_below(G, g, np.ascontiguousarray(Dm[k]), float(d0[k]), DISTINCT_STATE_TOL, self.R)
+                   for k in range(n) if np.max(np.abs(Dm[k])) > RANK_RTOL or abs(d0[k]) > DISTINCT_STATE_TOL)
+
+
+def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, n: int, radius_bound: float,
+                  want_ij: bool, want_ji: bool, thin_filter: bool = True, problem: str = "R_ij",
+                  directions: SubspaceDirections | None = None) -> PairVerdict:
+    """Questions 1-3 of the module docstring for one pair set on its equality subspace.
+
+    Parameters
+    ----------
+    Gv, gv
+        ``Gv v <= gv``: the rows of ``P_i`` and ``P_j`` (unit-norm in the scaled ``w`` space)
+        restricted to ``w = w0 + N v``.
+    N, w0
+        Orthonormal basis of the equality subspace and a particular solution (scaled ``w``).
+    n
+        Number of states: ``w = (x, x^, U)`` with ``x = w[:n]``, ``x^ = w[n:2n]``.
+    radius_bound
+        Bound on ``|v|`` over the set (for the multiplier certificates).
+    want_ij, want_ji
+        Which of ``R_ij`` (the projection on ``x``) and ``R_ji`` (on ``x^``) is asked for.
+    thin_filter
+        Apply the thin-projection test of question 2.
+    directions
+        :meth:`SubspaceDirections.of` ``(N, n)``, if the caller has it cached.
+
+    Notes
+    -----
+    The tests that only ever shrink with the affine hull run first, in the equality subspace
+    (``x = x^`` forced by the outputs, before any LP; a thin projection), so that only the
+    pairs that survive them pay for the hull.  A pair whose outputs force ``x^ = x`` is
+    reported as such without deciding whether it is empty.
+    """
+    parts = [k if want else None for k, want in enumerate((want_ij, want_ji))]
+    frame = _Frame(Gv, gv, N, w0, None, None, n, radius_bound, directions)
+    if frame.forces_same_state():
+        return PairVerdict(*[EMPTY if p is None else SAME_STATE for p in parts], np.nan, False)
+    # -- 1. non-empty (closed, to the region tolerance)?
+    radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, -CLOSED_SET_TOL, problem)
+    if radius <= -CLOSED_SET_TOL:
+        return PairVerdict(EMPTY, EMPTY, radius, False)
+    frame.centre = centre
+    frame._lp = (A, bu)
+    verdicts = [EMPTY if p is None else "" for p in parts]
+    for k, p in enumerate(parts):
+        if p is not None and frame.projection_thin(p, thin_filter):
+            verdicts[k] = LOWER_DIMENSIONAL
+    if all(v for v in verdicts):
+        return PairVerdict(*verdicts, radius, False)
+    # -- 2. affine hull: add implicit equalities until the set has a ball in its frame
+    face = False
+    if radius <= REGION_SLACK_TOL:
+        # the first LP decided against -tol: decide against +tol before reading multipliers
+        radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, REGION_SLACK_TOL, problem)
+    M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
+    for _ in range(Gv.shape[1]):
+        if radius > REGION_SLACK_TOL:
+            break
+        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound)
+        if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
+            break
+        if isinstance(red, str):
+            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+        face = True
+        M2, t0 = red
+        s0, M = s0 + M @ t0, M @ M2
+        # the hull only shrinks from here: once the wanted projections lose rank, they are lower-dimensional
+        NM = N @ M
+        for k, p in enumerate(parts):
+            if p is not None and not verdicts[k] and (M.shape[1] < n or
+                                                      np.linalg.svd(NM[p * n:(p + 1) * n], compute_uv=False)[-1] <= RANK_RTOL):
+                verdicts[k] = LOWER_DIMENSIONAL
+        if all(v for v in verdicts):
+            return PairVerdict(*verdicts, radius, True)
+        if M.shape[1] == 0:
+            if np.min(gv - Gv @ s0, initial=np.inf) < -CLOSED_SET_TOL:
+                return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+            radius, centre = 0.0, np.zeros(0)
+            break
+        radius, centre, A, bu, lam, keep = _chebyshev(Gv @ M, gv - Gv @ s0, radius_bound, REGION_SLACK_TOL,
+                                                      problem + " (affine hull)")
+        if radius == -np.inf:
+            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+    if face:
+        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound)
+        frame.centre = centre
+        if frame.forces_same_state():
+            return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
+    distinct = None
+    for k, p in enumerate(parts):
+        if verdicts[k]:
+            continue
+        if face and frame.projection_thin(p, thin_filter):
+            verdicts[k] = LOWER_DIMENSIONAL
+            continue
+        if distinct is None:
+            distinct = frame.distinct_states()
+        verdicts[k] = PIECE if distinct else SAME_STATE
+    return PairVerdict(verdicts[0], verdicts[1], float(radius), face)
+
+
+def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, x_scaled_offset: np.ndarray,
+                        n: int, radius_bound: float, problem: str) -> bool:
+    """Is there a point of the closed slice ``{v : Gv v <= gv}`` whose state ``x^`` differs from ``x``?
+
+    For the point query: ``w = (x^, U) = w0 + N v`` in scaled coordinates, ``x_scaled_offset``
+    the fixed state in the same coordinates.  Rows may be violated by ``CLOSED_SET_TOL`` (the
+    closed set to the LPs' accuracy).  "Differs" means by more than ``DISTINCT_STATE_TOL`` in
+    one coordinate.  Two LPs per state coordinate at most; DAQP with certified bounds, HiGHS
+    when they do not decide.
+    """
+    A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
+    if not ok:
+        return False
+    if A.shape[0] > 1:
+        res = _solve_slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
+        if res.lower <= -CLOSED_SET_TOL:
+            return False
+    Gr, gr = A[:-1, :-1], bu[:-1] + CLOSED_SET_TOL
+    Dm = N[:n]
+    d0 = w0[:n] - x_scaled_offset
+    if Gr.shape[0] == 0:
+        return bool(np.max(np.abs(Dm), initial=0.0) > RANK_RTOL or np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
+    d = Gr.shape[1]
+    H = np.zeros((d, d))
+    lower = np.full(Gr.shape[0], -1e30)
+    sense = np.zeros(Gr.shape[0], dtype=np.int32)
+    for k in range(n):
+        c = np.ascontiguousarray(Dm[k])
+        if np.max(np.abs(c)) <= RANK_RTOL:
+            if abs(d0[k]) > DISTINCT_STATE_TOL:
+                return True
+            continue
+        for sign in (1.0, -1.0):
+            COUNTERS.fast += 1
+            v, _, flag, info = daqp.solve(H, -sign * c, Gr, gr, lower, sense, eps_prox=DAQP_EPS_PROX)
+            if flag in (1, 2) and np.all(np.isfinite(v)):
+                if sign * (c @ v + d0[k]) > DISTINCT_STATE_TOL and np.all(Gr @ v <= gr + CLOSED_SET_TOL):
+                    return True
+                if support_upper_bound(Gr, gr, sign * c, info["lam"], radius_bound) + sign * d0[k] <= DISTINCT_STATE_TOL:
+                    continue
+            COUNTERS.fast -= 1
+            COUNTERS.confirmed_by_highs += 1
+            out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
+            if out.status == "optimal" and -out.objective + sign * d0[k] > DISTINCT_STATE_TOL:
+                return True
+    return False
+
+
+__all__ = ["PairVerdict", "SubspaceDirections", "classify_pair", "fixed_state_witness", "EMPTY", "LOWER_DIMENSIONAL", "SAME_STATE", "PIECE"]
