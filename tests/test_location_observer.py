@@ -409,3 +409,21 @@ def test_bad_samples_fall_back_without_raising():
         assert e.flag == FALLBACK and e.mode == -1 and np.all(np.isfinite(e.x))
     e = obs.step([0.0], [0.0])
     assert e.flag != FALLBACK and np.all(np.isfinite(e.x))
+
+
+def test_observe_driveline_names_the_plant_it_runs(fig6, monkeypatch):
+    """`hybobs observe driveline` runs k = 1000 N m/rad while `driveline()` defaults to k = 0:
+    the output says which plant it ran, and that plant is the one the scenario simulated."""
+    import argparse
+
+    from hybobs_opt.observers import hybrid_observer
+
+    monkeypatch.setattr(hybrid_observer, "run_driveline", lambda: fig6)
+    out = hybrid_observer.driveline_scenario(argparse.Namespace(plot=None, json=True))
+    assert out["plant"] == "driveline" and out["plant_params"] == {"k": 1000.0}
+    assert "k = 0" in out["plant_note"]
+    named = driveline(**out["plant_params"])
+    default = driveline()
+    for q in range(3):
+        np.testing.assert_array_equal(fig6.automaton.locations[q].A, named.locations[q].A)
+    assert not np.array_equal(fig6.automaton.locations[1].A, default.locations[1].A)

@@ -757,7 +757,13 @@ def summarise_run(aut: HybridAutomaton, trace, bank: ResidualBank, design: Conti
 def driveline_scenario(args: argparse.Namespace) -> dict[str, Any]:
     """``hybobs observe driveline``: the Fig. 6 scenario of paper 000 with the hybrid observer."""
     res = run_driveline()
-    out = {k: v for k, v in res.summary.items()}
+    # The observer scenario runs the driveline with paper 000's low elasticity in q2, not the
+    # example's default k = 0 (paper 002's dead zone, where q2 is unobservable): say so, so that
+    # `hybobs simulate driveline` and this command are not mistaken for the same plant.
+    out = {"plant": "driveline", "plant_params": {"k": DRIVELINE_K_LOW},
+           "plant_note": (f"driveline(k={DRIVELINE_K_LOW:g}): the low elasticity of paper 000 in q2; the example's "
+                          "default k = 0 (the dead zone of paper 002) makes q2 unobservable, which Proposition 3.3.1 excludes")}
+    out.update(res.summary)
     plot = getattr(args, "plot", None)
     if plot:
         plot_fig6(res, plot)
