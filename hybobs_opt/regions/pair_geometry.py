@@ -132,10 +132,13 @@ def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radi
     For every feasible ``v`` (``|v| <= R``): ``sum_k lam_k (g_k - G_k v) <= lam'g + R |G'lam|``
     and every term is non-negative, so the slack of row ``k`` is at most
     ``(lam'g + R |G'lam|) / lam_k``.  Rows where that bound is below ``REGION_SLACK_TOL`` are
-    implicit equalities to the region tolerance; no other row is taken.
+    implicit equalities to the region tolerance; no other row is taken.  ``g`` is relaxed by
+    ``CLOSED_SET_TOL`` first, the closed set the pair tests decide.
     """
     lam = np.where(np.isfinite(lam), np.maximum(lam, 0.0), 0.0)
-    total = float(g @ lam + radius_bound * np.linalg.norm(G.T @ lam))
+    # the set reasoned about is the closed one relaxed by CLOSED_SET_TOL (non-empty by the LP
+    # that produced lam): an exactly empty set would make every row "tight" vacuously
+    total = float((g + CLOSED_SET_TOL) @ lam + radius_bound * np.linalg.norm(G.T @ lam))
     with np.errstate(divide="ignore"):
         bound = np.where(lam > 0.0, max(total, 0.0) / np.where(lam > 0.0, lam, 1.0), np.inf)
     return np.nonzero(bound <= REGION_SLACK_TOL)[0]
@@ -299,26 +302,31 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     frame.centre = centre
     frame._lp = (A, bu)
     verdicts = [EMPTY if p is None else "" for p in parts]
-    for k, p in enumerate(parts):
-        if p is not None and frame.projection_thin(p, thin_filter):
-            verdicts[k] = LOWER_DIMENSIONAL
-    if all(v for v in verdicts):
-        return PairVerdict(*verdicts, radius, False)
-    # -- 2. affine hull: add implicit equalities until the set has a ball in its frame
-    face = False
-    if radius <= REGION_SLACK_TOL:
-        # the first LP decided against -tol: decide against +tol before reading multipliers
-        radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, REGION_SLACK_TOL, problem)
+    face = radius <= REGION_SLACK_TOL
+    if not face:  # a ball in the equality subspace: its projections only need the thin test
+        for k, p in enumerate(parts):
+            if p is not None and frame.projection_thin(p, thin_filter):
+                verdicts[k] = LOWER_DIMENSIONAL
+        if all(v for v in verdicts):
+            return PairVerdict(*verdicts, radius, False)
+    else:  # rank first: a projection that is flat in the subspace is flat in any smaller hull
+        for k, p in enumerate(parts):
+            if p is not None and not frame.directions.full_rank[p]:
+                verdicts[k] = LOWER_DIMENSIONAL
+        if all(v for v in verdicts):
+            return PairVerdict(*verdicts, radius, False)
+    # -- 2. affine hull: add implicit equalities until the set has a ball in its frame (the
+    # multipliers of the LP above serve the first reduction: it is the same LP)
     M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
     for _ in range(Gv.shape[1]):
         if radius > REGION_SLACK_TOL:
             break
-        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound)
+        # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s)
+        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound + float(np.linalg.norm(s0)))
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
         if isinstance(red, str):
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
-        face = True
         M2, t0 = red
         s0, M = s0 + M @ t0, M @ M2
         # the hull only shrinks from here: once the wanted projections lose rank, they are lower-dimensional
@@ -334,12 +342,12 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
                 return PairVerdict(EMPTY, EMPTY, -np.inf, True)
             radius, centre = 0.0, np.zeros(0)
             break
-        radius, centre, A, bu, lam, keep = _chebyshev(Gv @ M, gv - Gv @ s0, radius_bound, REGION_SLACK_TOL,
-                                                      problem + " (affine hull)")
+        radius, centre, A, bu, lam, keep = _chebyshev(Gv @ M, gv - Gv @ s0, radius_bound + float(np.linalg.norm(s0)),
+                                                      REGION_SLACK_TOL, problem + " (affine hull)")
         if radius == -np.inf:
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
     if face:
-        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound)
+        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + float(np.linalg.norm(s0)))
         frame.centre = centre
         if frame.forces_same_state():
             return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
