@@ -101,9 +101,10 @@ def test_fig5_observable_band_grows_with_gear_ratio():
         a = analyse_observability(powertrain3(gear_ratio=tau), 7, executor=ProcessExecutor(2))
         cut = compute_cut(a, {"omega_l": 25.0}, (9, 25), limits={"theta": (-0.9 * ALPHA, 0.9 * ALPHA), "omega_m": (0.0, 600.0)})
         observable.append(cut.fraction_of_feasible("observable"))
-    # The paper's larger ratios both beat 1/12.  Between 1/2 and 1 the slip tau omega_m - omega_l
-    # covers about the same range inside X*_7, so their shares are close and grid-dependent.
-    assert observable[0] < observable[1] and observable[0] < observable[2]
+    # Monotone, as in the paper, once the pair sets in which the outputs force x^ = x are left out
+    # of B_7 (before, the share at tau = 1 fell below tau = 1/2 on the report's grid: 56.9 % against
+    # 57.9 %; now 58.8 %).
+    assert observable[0] < observable[1] < observable[2], observable
 
 
 # ------------------------------------------------------------------ Fig. 6 (model 17)
@@ -296,7 +297,7 @@ def brute_force_pair_pieces(system, T, seqs, full_rank, tol=1e-6, sep=1e-5):
                     c = np.zeros(Gs.shape[1])
                     c[:n] = -sgn * cdir
                     w = opt(c)
-                    if abs(cdir @ (w[:n] - pts[0])) > tol:
+                    if w is not None and abs(cdir @ (w[:n] - pts[0])) > tol:  # None: HiGHS lost a sliver of a set
                         pts.append(w[:n])
                         break
                 else:
@@ -308,7 +309,7 @@ def brute_force_pair_pieces(system, T, seqs, full_rank, tol=1e-6, sep=1e-5):
                 c = np.zeros(Gs.shape[1])
                 c[d], c[n + d] = -sgn, sgn
                 w = opt(c)
-                if sgn * (w[d] - w[n + d]) > sep:
+                if w is not None and sgn * (w[d] - w[n + d]) > sep:
                     out.add((i, j))
                     break
     return out

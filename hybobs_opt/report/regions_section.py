@@ -207,6 +207,18 @@ def _run_job(spec: dict) -> dict:
     return _model16_job(spec) if spec["model"] == 16 else _model17_job(spec)
 
 
+def _gear_ratio_statement(band_tau: dict[float, float]) -> str:
+    """What the band shares at T = 7 say about the gear ratio, read from the numbers (Fig. 5 of paper 002)."""
+    taus = sorted(band_tau)
+    shares = [band_tau[t] for t in taus]
+    if all(a < b for a, b in zip(shares, shares[1:])):
+        return ("The observable share grows with the gear ratio, as Figs. 4(b) and 5 of the paper show: a larger ratio "
+                "makes the shaft leave the backlash band faster.")
+    return ("The observable share does <b>not</b> grow monotonically with the gear ratio on this grid ("
+            + ", ".join(f"{t:.4g}: {_fmt(100 * v)} %" for t, v in zip(taus, shares))
+            + "), unlike Figs. 4(b) and 5 of the paper.")
+
+
 def _fmt(v, digits=3) -> str:
     if v is None:
         return "-"
@@ -334,7 +346,9 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         + " (for tau = 1/2 and 1 the omega_m axis spans the range of omega_m over X*_7 at omega_l = 25, by LP: "
         + ", ".join(f"tau = {by_fig[k]['spec']['gear_ratio']:g}: [{_fmt(by_fig[k]['omega_m_range'][0])}, "
                     f"{_fmt(by_fig[k]['omega_m_range'][1])}]" for k in ("5a", "5b"))
-        + " rad/s).</p>"
+        + " rad/s). "
+        + _gear_ratio_statement(band_tau)
+        + "</p>"
     )
     dims = by_fig["3b"]["reduced_pair_dimensions"]
     s3 = by_fig["3b"]["summary"]
