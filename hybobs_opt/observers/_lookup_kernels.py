@@ -12,12 +12,36 @@ from numba import njit
 
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 
+#: A unique candidate whose ``B~_T`` test (pair LPs, or the exact variant's LPs) is left to the
+#: caller: window-start state in ``xs0``, its region in ``meta[4]``.
+CANDIDATE_CODE = 4
+
+# Why a step is flagged ``fallback`` (or, for NOTE_*, what else happened); ``meta[5]`` and the
+# ``reasons`` array of :func:`run_table`.  The texts are in ``lookup.REASONS``.
+REASON_NONE = 0
+REASON_NONFINITE = 1  # NaN or Inf in the sample
+REASON_INPUT_OUTSIDE_U = 2  # u outside the input set U beyond LOOKUP_INPUT_BOUND_TOL
+REASON_PREVIOUS_BAD = 3  # not reconstructed, and the previous sample's input cannot be used to predict
+REASON_PREDICTION_OUTSIDE = 4  # not reconstructed, and the open-loop prediction found no mode (X not a box)
+REASON_BAD_SHAPE = 5  # wrong length / not numeric (set by the Python layer only)
+NOTE_CLIPPED = 6  # unobservable step whose open-loop prediction was clipped to the state bounds
+
+# ints = [T, nx, nr, pT, btilde_mode, sample_ok]
+#   btilde_mode: 0 = no B~_T test in the kernel (the caller decides: exact variant),
+#                1 = union of polytopes (bt_A, bt_b, bt_starts), 2 = pair pieces screened here
+# reals = [output_rtol, same_tol, member_tol, input_tol]
+# meta (int64) = [count, mode, has_previous_input, previous_input_good, region, reason, n_survivors]
+
 
 @njit(cache=True)
-def classify_window(z, table, offset, nx, nr, n, pT, mstarts, sx, output_rtol, interior_margin, same_tol, x_out):
+def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, x_out):
     """Index of the unique consistent candidate (eqs. 12-14), or -1 (chi empty or card(chi) > 1).
 
-    Writes the candidate's window-start state into ``x_out``.
+    A membership row ``r`` of region ``k`` passes when its value (unit row in scaled
+    coordinates, ``<= 0`` inside) is below ``mthr[r]``: ``-LOOKUP_INTERIOR_MARGIN`` for the
+    rows that involve the state (strict: the guards' boundaries belong to the neighbouring mode
+    sequence), ``+LOOKUP_INPUT_BOUND_TOL`` for the rows that only bound the inputs (closed: the
+    input set ``U`` has no neighbour).  Writes the candidate's window-start state into ``x_out``.
     """
     R, d = table.shape
     K = mstarts.shape[0] - 1
@@ -38,12 +62,13 @@ def classify_window(z, table, offset, nx, nr, n, pT, mstarts, sx, output_rtol, i
                 break
         if not ok:
             continue
-        # strict membership [x_k; U] in P_k (eq. 14)
-        for r in range(nx + nr + mstarts[k], nx + nr + mstarts[k + 1]):
-            acc = offset[r]
+        # membership [x_k; U] in P_k (eq. 14): strict on state rows, closed on input bounds
+        for r in range(mstarts[k], mstarts[k + 1]):
+            rr = nx + nr + r
+            acc = offset[rr]
             for c in range(d):
-                acc += table[r, c] * z[c]
-            if acc >= -interior_margin:
+                acc += table[rr, c] * z[c]
+            if acc >= mthr[r]:
                 ok = False
                 break
         if not ok:
@@ -85,6 +110,43 @@ def in_union(x, A, b, starts, tol):
 
 
 @njit(cache=True)
+def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
+    """Pieces ``Proj_x(R_ij)`` of ``B~_T`` that the scaled state ``xs`` is not excluded from cheaply.
+
+    Per pair ``q``: the rows ``ex_A[ex_starts[q]:ex_starts[q+1]] xs <= ex_b + tol`` (the rows of
+    ``R_ij`` that only involve ``x`` once ``x`` is fixed, and the output equalities' consistency
+    rows as two inequalities), then the cached cuts ``cut_A[q, c] xs <= cut_b[q, c]`` (valid for
+    every point of the piece, from earlier LPs).  Writes the indices of the pairs that pass both
+    into ``out`` and returns their number; only those need an LP.
+    """
+    P = ex_starts.shape[0] - 1
+    n = xs.shape[0]
+    cnt = 0
+    for q in range(P):
+        inside = True
+        for r in range(ex_starts[q], ex_starts[q + 1]):
+            acc = -ex_b[r]
+            for c in range(n):
+                acc += ex_A[r, c] * xs[c]
+            if acc > tol:
+                inside = False
+                break
+        if not inside:
+            continue
+        for k in range(cut_count[q]):
+            acc = -cut_b[q, k]
+            for c in range(n):
+                acc += cut_A[q, k, c] * xs[c]
+            if acc > 0.0:
+                inside = False
+                break
+        if inside:
+            out[cnt] = q
+            cnt += 1
+    return cnt
+
+
+@njit(cache=True)
 def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out):
     """``x_out = f_pwa(x, u)`` (eq. 1 of paper 002); returns the mode, or -1 outside ``X x U``."""
     n = x.shape[0]
@@ -116,6 +178,20 @@ def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out
 
 
 @njit(cache=True)
+def clip_box(x, lo, hi):
+    """Clip ``x`` into ``[lo, hi]`` in place; True if a coordinate moved."""
+    moved = False
+    for i in range(x.shape[0]):
+        if x[i] < lo[i]:
+            x[i] = lo[i]
+            moved = True
+        elif x[i] > hi[i]:
+            x[i] = hi[i]
+            moved = True
+    return moved
+
+
+@njit(cache=True)
 def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
     """State at the window's last sample from the window-start state (region ``k``'s affine map)."""
     n = x0.shape[0]
@@ -128,53 +204,83 @@ def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
         x_out[i] = acc
 
 
-CANDIDATE_CODE = 4
-
-# meta (int64): [count, mode, has_previous_input, previous_input_good, region]
-
-
 @njit(cache=True)
 def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
-            table, offset, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
-            mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts):
+            table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
+            mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
+            ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors):
     """One step of Algorithm 4.1 on the observer state (buffers, estimate, meta) in place.
 
-    Returns a flag code.  With ``use_btilde`` false (the exact variant) a unique candidate is not
-    tested against ``B~_T``: the code is ``CANDIDATE_CODE`` with the window-start state in ``xs0``
-    and its region in ``meta[4]``; the caller decides and calls :func:`propagate_last`.
+    Returns a flag code and sets ``meta[5]`` to a reason code (``REASON_*``, ``NOTE_CLIPPED``).
+
+    * A sample is bad (``fallback``, the window restarts) when it holds NaN/Inf or when an input
+      lies outside ``U`` (rows ``in_A u <= in_b``, unit in scaled coordinates) by more than
+      ``reals[3]``: the model says nothing about such an input, so no window containing it can
+      be reconstructed.
+    * Step 2.1's open-loop prediction ``f_pwa`` is evaluated at the estimate clipped to the
+      state box ``[x_lo, x_hi]`` (and its result clipped again): ``f_pwa`` is only defined on
+      ``X x U``, an initial guess or a prediction may leave ``X``, and since the true state lies
+      in the box clipping never increases any coordinate's error.
+    * ``B~_T`` (``ints[4]``): 1, a union of polytopes tested here; 2, the pair pieces screened
+      here (:func:`pair_screen` on the state scaled by ``x_c, sx``): with no survivor the
+      candidate is observable, otherwise the code is ``CANDIDATE_CODE`` with the survivors in
+      ``survivors[:meta[6]]``; 0 (the exact variant), always ``CANDIDATE_CODE``.  With
+      ``CANDIDATE_CODE`` the state is in ``xs0`` and its region in ``meta[4]``; the caller
+      decides and calls :func:`propagate_last`.
     """
-    # ints = [T, nx, nr, pT, use_btilde, sample_ok]; reals = [output_rtol, interior, same_tol, member_tol]
-    T, nx, nr, pT, use_btilde = ints[0], ints[1], ints[2], ints[3], ints[4] == 1
-    output_rtol, interior_margin, same_tol, member_tol = reals[0], reals[1], reals[2], reals[3]
+    T, nx, nr, pT, btilde_mode = ints[0], ints[1], ints[2], ints[3], ints[4]
+    output_rtol, same_tol, member_tol, input_tol = reals[0], reals[1], reals[2], reals[3]
     n = xcur.shape[0]
     m = Ubuf.shape[1]
     p = Ybuf.shape[1]
     good = ints[5] == 1
-    for c in range(m):
-        if not np.isfinite(u[c]):
-            good = False
-    for c in range(p):
-        if not np.isfinite(y[c]):
-            good = False
+    reason = REASON_NONE if good else REASON_BAD_SHAPE
+    if good:
+        for c in range(m):
+            if not np.isfinite(u[c]):
+                good = False
+        for c in range(p):
+            if not np.isfinite(y[c]):
+                good = False
+        if not good:
+            reason = REASON_NONFINITE
+    if good:
+        for r in range(in_A.shape[0]):
+            acc = -in_b[r]
+            for c in range(m):
+                acc += in_A[r, c] * u[c]
+            if acc > input_tol:
+                good = False
+                reason = REASON_INPUT_OUTSIDE_U
+                break
     # step 2.1: open-loop prediction x(t) = f_pwa(x(t-1), u(t-1)), used unless reconstructed
     pred_ok = True
+    pred_reason = REASON_NONE
     if meta[2] == 1:
         if meta[3] == 1:
+            clipped = clip_box(xcur, x_lo, x_hi)
             q = pwa_step(xcur, uprev, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, xnew)
             if q >= 0:
                 meta[1] = q
                 for i in range(n):
                     xcur[i] = xnew[i]
+                if clip_box(xcur, x_lo, x_hi):
+                    clipped = True
+                if clipped:
+                    pred_reason = NOTE_CLIPPED
             else:
                 pred_ok = False
+                pred_reason = REASON_PREDICTION_OUTSIDE
         else:
             pred_ok = False
+            pred_reason = REASON_PREVIOUS_BAD
     meta[2] = 1
     meta[3] = 1 if good else 0
     for c in range(m):
-        uprev[c] = u[c]
+        uprev[c] = u[c] if good else np.nan
     if not good:
         meta[0] = 0  # a bad sample breaks the window
+        meta[5] = reason
         return FALLBACK_CODE
     for j in range(T - 1):
         for c in range(p):
@@ -187,6 +293,7 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
         Ubuf[T - 1, c] = u[c]
     if meta[0] < T:
         meta[0] += 1
+    meta[5] = pred_reason
     if meta[0] < T:
         return WARMING_CODE
     for j in range(T):
@@ -194,28 +301,51 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
             z[j * p + c] = Ybuf[j, c]
         for c in range(m):
             z[pT + j * m + c] = Ubuf[j, c]
-    k = classify_window(z, table, offset, nx, nr, n, pT, mstarts, sx, output_rtol, interior_margin, same_tol, xs0)
+    k = classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, xs0)
     if k >= 0:
         meta[4] = k
-        if not use_btilde:
+        if btilde_mode == 0:
             return CANDIDATE_CODE
-        if not in_union(xs0, bt_A, bt_b, bt_starts, member_tol):
+        if btilde_mode == 2:
+            for i in range(n):
+                xnew[i] = (xs0[i] - x_c[i]) / sx[i]
+            cnt = pair_screen(xnew, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, member_tol, survivors)
+            meta[6] = cnt
+            if cnt > 0:
+                return CANDIDATE_CODE
+            inside = False
+        else:
+            inside = in_union(xs0, bt_A, bt_b, bt_starts, member_tol)
+        if not inside:
             propagate_last(k, xs0, z, pT, Pl, Gl, pl, xcur)
             meta[1] = last_mode[k]
+            meta[5] = REASON_NONE
             return OBSERVABLE_CODE
     return UNOBSERVABLE_CODE if pred_ok else FALLBACK_CODE
 
 
 @njit(cache=True)
-def run_table(U, Y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
-              table, offset, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
-              mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, xs, modes, flags):
-    """:func:`advance` over a recorded trace; fills ``xs``, ``modes``, ``flags``."""
+def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
+              table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
+              mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
+              ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, xs, modes, flags, reasons):
+    """:func:`advance` over ``U[start:], Y[start:]``; fills ``xs``, ``modes``, ``flags``, ``reasons``.
+
+    Returns the number of rows done: ``U.shape[0]``, or the index of the first step whose code
+    is ``CANDIDATE_CODE`` (its flag, estimate and mode are then left to the caller, who resumes
+    at the next index).
+    """
     N = U.shape[0]
-    for t in range(N):
-        flags[t] = advance(U[t], Y[t], ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
-                           table, offset, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
-                           mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts)
+    for t in range(start, N):
+        code = advance(U[t], Y[t], ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
+                       table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
+                       mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
+                       ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors)
+        flags[t] = code
+        reasons[t] = meta[5]
+        if code == CANDIDATE_CODE:
+            return t
         for i in range(xcur.shape[0]):
             xs[t, i] = xcur[i]
         modes[t] = meta[1]
+    return N

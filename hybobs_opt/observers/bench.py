@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -20,8 +21,12 @@ from ..errors import ModelError
 from .base import OBSERVABLE, Observer, ObserverTrace
 
 
-def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, params: dict | None = None):
-    """The plant, its regions analysis and the (noisy) trace of the paper's scenario."""
+def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, params: dict | None = None,
+                progress: Callable[[int, int], None] | None = None):
+    """The plant, its regions analysis and the (noisy) trace of the paper's scenario.
+
+    ``progress(done, total)`` follows Algorithm 3.1 (per region of ``I``).
+    """
     from ..examples import get_example
     from ..examples.powertrain import SCENARIO_TORQUES, backlash_scenario
     from ..regions import analyse_observability
@@ -36,7 +41,7 @@ def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, p
     plant = ex.build(**(params or {}))
     trace = backlash_scenario(plant, SCENARIO_TORQUES[example], t_final=steps * plant.Ts)
     y = trace.y + (np.random.default_rng(seed).normal(0.0, noise, trace.y.shape) if noise > 0 else 0.0)
-    analysis = analyse_observability(plant, T)
+    analysis = analyse_observability(plant, T, progress=progress)
     return plant, trace, y, analysis
 
 
@@ -51,14 +56,26 @@ def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
     return out
 
 
-def timed_steps(observer, U: np.ndarray, Y: np.ndarray) -> ObserverTrace:
+def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int, int], None] | None = None,
+                chunk: int = 500) -> ObserverTrace:
     """Run ``observer.step`` sample by sample from a reset state (the online cost).
 
     Calls the base class's :meth:`Observer.run`, which loops ``step``, even for observers whose
-    own ``run`` is a vectorised batch.
+    own ``run`` is a vectorised batch; with ``progress(done, total)``, in chunks of ``chunk``
+    samples (the observer keeps its state between them).
     """
     observer.reset()
-    return Observer.run(observer, U, Y)
+    if progress is None:
+        return Observer.run(observer, U, Y)
+    N = len(U)
+    parts = []
+    for a in range(0, N, chunk):
+        parts.append(Observer.run(observer, U[a : a + chunk], Y[a : a + chunk]))
+        progress(min(N, a + chunk), N)
+    first = parts[0]
+    return ObserverTrace(np.concatenate([q.x_hat for q in parts]), np.concatenate([q.mode for q in parts]),
+                         np.concatenate([q.flags for q in parts]), np.concatenate([q.seconds for q in parts]),
+                         first.state_names, first.observer)
 
 
 def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarray, state_names, solver: str,
@@ -89,11 +106,21 @@ def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarr
 
 
 def run_bench(example: str, T: int, steps: int, noise: float, observers: list[str], mhe_steps: int | None = None,
-              plot: str | None = None, seed: int = 0) -> dict[str, Any]:
-    """Run the comparison and return the JSON-ready summary (see module docstring)."""
+              plot: str | None = None, seed: int = 0,
+              progress: Callable[[str, str, int, int], None] | None = None) -> dict[str, Any]:
+    """Run the comparison and return the JSON-ready summary (see module docstring).
+
+    ``progress(phase, unit, done, total)`` follows the phases (Algorithm 3.1, the lookup tables,
+    the observers' steps); see :func:`progress_bar`.
+    """
     from .lookup import LookupObserver
 
-    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed)
+    def phase(name: str, unit: str):
+        return None if progress is None else (lambda done, total: progress(name, unit, done, total))
+
+    t0 = time.perf_counter()
+    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed, progress=phase("Algorithm 3.1", "region"))
+    analysis_s = time.perf_counter() - t0
     truly = true_window_observable(analysis, trace.q)
     U = trace.u
     results: dict[str, Any] = {}
@@ -102,22 +129,29 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
         if name == "lookup":
             # The exact output tolerance also with noise: accepting noisy windows would hand them to
             # an ill-conditioned pseudo-inverse (omega_l is weakly visible in three engine speeds).
-            obs = LookupObserver(analysis)
+            obs = LookupObserver(analysis, progress=phase("lookup tables", "piece"))
             obs.run(U[: 2 * T], y[: 2 * T])  # load the compiled kernel before timing
             t0 = time.perf_counter()
-            batch = obs.run(U, y)
+            batch = obs.run(U, y, progress=phase("lookup (batch)", "step"))
             batch_s = time.perf_counter() - t0
-            out = timed_steps(obs, U, y)
-            rec = summarise(out, trace.x, truly, plant.state_names, "none (lookup table, numba kernel)", T - 1)
+            out = timed_steps(obs, U, y, progress=phase("lookup (step by step)", "step"))
+            solver = ("none (lookup table, numba kernel)" if obs.btilde_test == "polytopes" else
+                      "numba kernel; certified DAQP LPs for the B~_T pieces the screen leaves" if obs.btilde_test == "pairs"
+                      else "numba kernel; certified DAQP LPs on the data (exact variant)")
+            rec = summarise(out, trace.x, truly, plant.state_names, solver, T - 1)
             rec["batch_steps_per_s"] = steps / batch_s
             rec["batch_equals_steps"] = bool(np.array_equal(batch.flags, out.flags))
+            rec["table_seconds"] = obs.table_seconds
+            rec["btilde_test"] = obs.btilde_test
+            rec["lookup_stats"] = obs.stats()
+            rec["fallback_reasons"] = batch.fallback_reasons()
         elif name in ("miqp", "milp", "milp_inf"):
             from ..mhe import MHEObserver
 
             norm = {"miqp": "2", "milp": "1", "milp_inf": "inf"}[name]
             obs = MHEObserver(plant, T, norm=norm)
             n_mhe = min(steps, mhe_steps or steps)
-            out = timed_steps(obs, U[:n_mhe], y[:n_mhe])
+            out = timed_steps(obs, U[:n_mhe], y[:n_mhe], progress=phase(name, "step"), chunk=10)
             rec = summarise(out, trace.x[:n_mhe], truly[:n_mhe], plant.state_names, obs.solver, T - 1)
         else:
             raise ModelError("--observers", "names among lookup, miqp, milp, milp_inf", repr(name))
@@ -134,6 +168,7 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
         "noise": noise,
         "observers": results,
         "truly_observable_fraction": float(truly[T - 1 :].mean()),
+        "analysis_seconds": analysis_s,
         "paper_seconds_per_step": {"miqp": 3.0, "lookup": 0.031},
     }
     if noise > 0:
@@ -187,7 +222,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from ..cli import _print_json
 
     observers = [s.strip() for s in args.observers.split(",") if s.strip()]
-    summary = run_bench(args.example, args.horizon, args.steps, args.noise, observers, args.mhe_steps, args.plot, args.seed)
+    progress, close = progress_bar(not args.json)
+    try:
+        summary = run_bench(args.example, args.horizon, args.steps, args.noise, observers, args.mhe_steps, args.plot,
+                            args.seed, progress=progress)
+    finally:
+        close()
     if args.json:
         _print_json(summary)
         return 0
@@ -216,10 +256,46 @@ def add_commands(sub) -> None:
     p.set_defaults(func=cmd_bench)
 
 
+def progress_bar(enabled: bool):
+    """``(progress, close)`` for :func:`run_bench`: one tqdm bar per phase, with its unit, on stderr.
+
+    Silent (``progress`` is ``None``) when ``enabled`` is false (``--json``) or stderr is not a
+    terminal (tests, pipes).
+    """
+    import sys
+
+    if not enabled or not sys.stderr.isatty():
+        return None, lambda: None
+    from tqdm import tqdm
+
+    state: dict[str, Any] = {"bar": None, "phase": None}
+
+    def close() -> None:
+        if state["bar"] is not None:
+            state["bar"].close()
+            state["bar"] = None
+
+    def progress(phase: str, unit: str, done: int, total: int) -> None:
+        if state["phase"] != phase:
+            close()
+            state["bar"] = tqdm(total=total, desc=phase, unit=unit, file=sys.stderr, leave=False)
+            state["phase"] = phase
+        bar = state["bar"]
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    return progress, close
+
+
 def _observe_scenario(example: str, horizon: int):
     def scenario(args: argparse.Namespace) -> dict[str, Any]:
         kind = args.observer or "lookup"
-        summary = run_bench(example, horizon, 3000, 0.0, [kind], plot=args.plot)
+        progress, close = progress_bar(not getattr(args, "json", False))
+        try:
+            summary = run_bench(example, horizon, 3000, 0.0, [kind], plot=args.plot, progress=progress)
+        finally:
+            close()
         summary["observer"] = kind
         return summary
 

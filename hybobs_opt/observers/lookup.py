@@ -5,43 +5,125 @@ the pseudo-inverse ``C_i^+`` of eq. (13), and the region's H-representation rewr
 data window ``z = [Y_t; U_t]``.  Because the candidate ``x_i = C_i^+ (Y_t - D_i U_t - f_i)`` is
 affine in ``z``, the candidates of eq. (13), their output residuals (the equality of eq. 12) and
 the membership tests ``[x_i; U_t] in P_i`` of eq. (14) are *one* matrix product with a
-precomputed table followed by reductions: no optimisation solver in the online path.
+precomputed table followed by reductions.
 
 Online, per step: the set ``chi`` of consistent candidates (eq. 14); if it holds exactly one
 state and that state is not in ``B~_T`` (eq. 15), the state at the window start is reconstructed
 (flag ``observable``) and propagated to the current time through the region's affine map;
 otherwise the observer predicts open loop from its previous estimate (step 2.1, flag
-``unobservable``).
+``unobservable``).  ``fallback`` is kept for bad samples (NaN/Inf, wrong length, an input outside
+``U``) and for steps without any prediction; every one carries its reason (``Estimate.info``,
+``LookupTrace.reasons()``).
 
-When is each variant right?  The ``B~_T`` test (``variant="table"``) is the paper's: it is exact
-up to sets of measure zero, needs the projections of ``B~_T`` offline, and costs one more small
-matrix product online.  The ``"exact"`` variant asks the data's own question instead -- is any
-other mode sequence of ``M \\ I`` consistent with these ``U_t, Y_t`` for a different state? -- with
-one small LP per rank-deficient region; it needs no projections and is exact for the data at
-hand (including measure-zero cases), but it runs LPs online, so it is the reference, not the
-1 ms controller.
+Boundaries.  The regions of the paper are not closed: when the true shaft enters the backlash,
+the data force the contact sequence's candidate exactly onto the guard boundary, which belongs to
+the backlash sequence.  The membership test is therefore strict (by ``LOOKUP_INTERIOR_MARGIN``) on
+every row of ``P_i`` that involves the state.  Rows that only bound the inputs (the copies of
+``U`` for each step, zero ``x``-part in scaled coordinates and equal to a row of
+``system.input_bounds``) are closed (``<= LOOKUP_INPUT_BOUND_TOL``): nothing lies beyond ``U``,
+and an input resting on its bound (zero engine torque) is an ordinary sample.  A sample whose
+input leaves ``U`` by more than that tolerance is a bad sample.
+
+The ``B~_T`` test (``variant="table"``).  ``B~_T`` is the union of the projections
+``Proj_x(R_ij)``, ``i`` in ``I``, ``j`` not in ``I``: a *state-based* test (for all inputs, as in
+Definition 2.2).  Two ways to evaluate it, measured on the scenarios of ``hybobs observe``
+(3,000 steps, noise-free; shared 2-core machine, so times are +-50 %):
+
+* ``b_tilde="project"``: exact projections offline (:func:`reduced_unobservable_polytopes`),
+  then a solver-free point-in-union test online (2-5 us per step).  Model (16), T = 3: 48 pieces
+  in 4.5 s.  Model (17), T = 5: the 778 pieces of the pair set of that time took 145 s here and
+  256 s in issue 12, *all* of it in the projections (54,824 HiGHS LPs of 2.5 ms each, 61 s for
+  the images' bounding boxes, 69 s for the iterative hulls); with today's 1,486 pieces one of
+  them even fails (a thin piece whose bounding-box LP HiGHS calls infeasible).  Out of reach.
+* default, ``b_tilde=None`` ("pairs"): each ``R_ij`` is kept as its H-representation
+  (``PairSet.G, g, E, e``), restricted offline to the subspace of its output equalities and
+  parameterised by ``x`` (:class:`_PairPieces`); online, the compiled kernel screens the
+  candidate against every piece without LPs (the rows that involve ``x`` only, the equalities'
+  consistency rows, cuts cached from earlier LPs), and one small certified LP
+  (:func:`_max_margin`, 5 variables at T = 5) decides each piece that survives, stopping at the
+  first piece that holds ``x``.  Every LP that excludes ``x`` also yields a cut valid for the
+  whole piece (weak duality), so the next windows, whose states are close, are screened out
+  without an LP.  Model (16), T = 3: tables in 0.05 s, no LP at all in 3,000 steps (2-5 us per
+  step).  Model (17), T = 5: tables in 0.5-1.6 s (0.4 s of it
+  ``ObservabilityAnalysis.reduced_pairs_all_dimensions``), 976 LPs in 862 of the 1,581 windows
+  with a unique candidate, 114 cuts; 3,000 steps in 0.4-0.7 s.  The flags are those of the exact
+  projections wherever those could be computed (model 16 at T = 3; model 17 at T = 5 with the
+  778-piece pair set) and those of :meth:`ObservabilityAnalysis.classify` on every window.
+
+The ``"exact"`` variant asks the data's own question instead -- is any other mode sequence of
+``M \\ I`` consistent with these ``U_t, Y_t`` for a different state? -- with an output-residual
+screen and one small LP per rank-deficient region that passes it; it needs no ``B~_T``.  Model
+(17), T = 5: tables in 0.1 s, 2,571 LPs, 3,000 steps in 1.5 s, and 717 windows flagged
+observable against the table's 719: its residual screen (``output_rtol`` times ``|Y|``, 3e-6
+rad/s here) lets a backlash sequence whose outputs differ by 4e-7 rad/s count as consistent, so
+the data-based answer is the more conservative one on these data.  The default stays the
+paper's state-based test: cheaper, and its flags say the same thing whatever the input.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import nnls
 
 from ..errors import ModelError
-from ..lp import max_slack
+from ..lp import _solve_slack_lp
 from ..systems.polytope import Polytope
 from ..tolerances import (
+    LOOKUP_INPUT_BOUND_TOL,
     LOOKUP_INTERIOR_MARGIN,
     LOOKUP_MEMBERSHIP_TOL,
     LOOKUP_OUTPUT_RTOL,
     LOOKUP_SAME_STATE_TOL,
+    NEAR_ACTIVE_TOL,
     RANK_RTOL,
-    REGION_SLACK_TOL,
+    SLACK_CAP,
+    ZERO_ROW_TOL,
 )
 from . import _lookup_kernels as K
 from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
+
+#: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
+REASONS = {
+    K.REASON_NONE: "",
+    K.REASON_NONFINITE: "sample with NaN or Inf",
+    K.REASON_INPUT_OUTSIDE_U: "input outside the input set U (beyond LOOKUP_INPUT_BOUND_TOL): the model does not cover it",
+    K.REASON_PREVIOUS_BAD: "not reconstructed, and no open-loop prediction: the previous sample was bad",
+    K.REASON_PREDICTION_OUTSIDE: "not reconstructed, and no open-loop prediction: the estimate lies in no mode's region of X x U",
+    K.REASON_BAD_SHAPE: "sample of the wrong length or not numeric",
+    K.NOTE_CLIPPED: "open-loop prediction clipped to the state bounds",
+}
+
+#: Cuts kept per piece of ``B~_T`` (the most recent ones; see :class:`_PairPieces`).
+PAIR_CUTS_PER_PIECE = 8
+
+
+@dataclass(frozen=True, eq=False)
+class LookupTrace(ObserverTrace):
+    """:class:`ObserverTrace` with the lookup observer's per-step reason codes.
+
+    ``reason_codes[k]`` is a code of :data:`REASONS`: why step ``k`` is ``fallback``, or a note
+    (``"open-loop prediction clipped to the state bounds"``) on an ``unobservable`` step.
+    """
+
+    reason_codes: np.ndarray | None = None
+
+    def reasons(self) -> np.ndarray:
+        """Per step the reason text (``""`` where there is none)."""
+        codes = np.zeros(self.n_steps, dtype=int) if self.reason_codes is None else self.reason_codes
+        return np.array([REASONS[int(c)] for c in codes], dtype=object)
+
+    def fallback_reasons(self) -> dict[str, int]:
+        """How many ``fallback`` steps have each reason."""
+        sel = self.flags == FALLBACK
+        out: dict[str, int] = {}
+        for text in self.reasons()[sel]:
+            out[text] = out.get(text, 0) + 1
+        return out
+
 
 class LookupObserver(Observer):
     """Algorithm 4.1 of paper 002 on the common observer contract.
@@ -50,23 +132,29 @@ class LookupObserver(Observer):
     ----------
     analysis : ObservabilityAnalysis
         Result of Algorithm 3.1 (``hybobs_opt.regions``), e.g. from ``load_analysis(file)``.
-    b_tilde : sequence of Polytope, optional
-        H-representations of the pieces of ``B~_T`` (eq. 15) over ``x``.  By default they are
-        computed from ``analysis`` by exact projection (offline).
+    b_tilde : None, "project" or sequence of Polytope
+        How ``B~_T`` (eq. 15) is tested (``variant="table"``; see the module docstring):
+        ``None``, the pair sets ``R_ij`` with screened certified LPs (offline cost: restrictions
+        only); ``"project"``, exact projections offline and a solver-free test online; or the
+        H-representations over ``x`` of its pieces.
     variant : {"table", "exact"}
         ``"table"``: the paper's test against ``B~_T``; ``"exact"``: LPs on the data (see module).
     output_rtol : float
         Relative tolerance of the output equality of eq. (12) (raise it for noisy data).
+    progress : callable, optional
+        ``progress(done, total)`` while the pieces of ``B~_T`` are prepared.
     """
 
     name = "lookup"
 
-    def __init__(self, analysis, *, b_tilde: Sequence[Polytope] | None = None, variant: str = "table",
-                 output_rtol: float = LOOKUP_OUTPUT_RTOL):
+    def __init__(self, analysis, *, b_tilde: Sequence[Polytope] | str | None = None, variant: str = "table",
+                 output_rtol: float = LOOKUP_OUTPUT_RTOL, progress: Callable[[int, int], None] | None = None):
         if variant not in ("table", "exact"):
             raise ModelError("variant", "'table' or 'exact'", repr(variant))
         if not (np.isfinite(output_rtol) and output_rtol > 0):
             raise ModelError("output_rtol", "a positive tolerance", repr(output_rtol))
+        if isinstance(b_tilde, str) and b_tilde != "project":
+            raise ModelError("b_tilde", "None, 'project' or a sequence of polytopes over x", repr(b_tilde))
         self.analysis = analysis
         self.system = analysis.system
         self.variant = variant
@@ -75,9 +163,23 @@ class LookupObserver(Observer):
         self.n, self.m, self.p = self.system.n, self.system.m, self.system.p
         self.state_names = self.system.state_names
         self.name = "lookup" if variant == "table" else "lookup-exact"
+        t0 = time.perf_counter()
         self._build_tables()
-        pieces = list(b_tilde) if b_tilde is not None else (reduced_unobservable_polytopes(analysis) if variant == "table" else [])
-        self._build_btilde(pieces)
+        self._pairs: _PairPieces | None = None
+        self._exact: _ExactTest | None = None
+        if variant == "exact":
+            self.btilde_test = "none (data LPs)"
+            self._build_btilde([])
+            self._exact = _ExactTest(analysis, self.output_rtol)
+        elif b_tilde is None:
+            self.btilde_test = "pairs"
+            self._build_btilde([])
+            self._pairs = _PairPieces(analysis, progress)
+        else:
+            self.btilde_test = "polytopes"
+            pieces = reduced_unobservable_polytopes(analysis) if isinstance(b_tilde, str) else list(b_tilde)
+            self._build_btilde(pieces)
+        self.table_seconds = time.perf_counter() - t0
         self.reset()
 
     # ------------------------------------------------------------------ offline tables
@@ -88,10 +190,11 @@ class LookupObserver(Observer):
         if self.I.size == 0:
             raise ModelError("analysis", "at least one region with rank C_i = n (the set I of Algorithm 3.1)",
                              "none: no state is observable with this horizon")
-        sx = an.enumeration.scale[:n]
+        scale, centre = an.enumeration.scale, an.enumeration.centre
+        sx = scale[:n]
         self._sx = sx
         d = p * T + m * T
-        blocks_x, blocks_r, blocks_m = [], [], []
+        blocks_x, blocks_r, blocks_m, thr = [], [], [], []
         off_x, off_r, off_m = [], [], []
         starts = []
         row = 0
@@ -107,22 +210,35 @@ class LookupObserver(Observer):
             off_r.append(-Q @ reg.f)
             # [x_i; U] in P_i  <=>  Hx (Cp Y - Cp D U - Cp f) + HU U <= h, rows unit in scaled coordinates
             Hx, HU = reg.H[:, :n], reg.H[:, n:]
-            norm = np.linalg.norm(reg.H * an.enumeration.scale[None, :], axis=1)
+            norm = np.linalg.norm(reg.H * scale[None, :], axis=1)
             norm = np.where(norm > 0, norm, 1.0)
             Mi = np.hstack([Hx @ Cp, HU - Hx @ Cp @ reg.D]) / norm[:, None]
             mi = (reg.h + Hx @ Cp @ reg.f) / norm
             blocks_m.append(Mi)
             off_m.append(-mi)
+            closed = input_bound_rows(reg.H, reg.h, self.system, T, scale, centre)
+            thr.append(np.where(closed, LOOKUP_INPUT_BOUND_TOL, -LOOKUP_INTERIOR_MARGIN))
             starts.append(row)
             row += Mi.shape[0]
             self._last.append((reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1]))
-        K = self.I.size
-        self._K = K
-        self._nx, self._nr = K * n, K * p * T
+        K_ = self.I.size
+        self._K = K_
+        self._nx, self._nr = K_ * n, K_ * p * T
         self._table = np.ascontiguousarray(np.vstack(blocks_x + blocks_r + blocks_m))
         self._offset = np.concatenate(off_x + off_r + off_m)
-        self._mstarts = np.array(starts, dtype=int)
+        self._mthr = np.ascontiguousarray(np.concatenate(thr))
+        self._mstarts = np.array(starts + [row], dtype=np.int64)
         self._d = d
+        # the input set U, rows unit in scaled input coordinates (bad-sample test)
+        if m and self.system.input_bounds is not None:
+            IA, Ib = self.system.input_bounds.A, self.system.input_bounds.b
+            inrm = np.linalg.norm(IA * scale[None, n : n + m], axis=1)
+            inrm = np.where(inrm > 0, inrm, 1.0)
+            self._in_A, self._in_b = np.ascontiguousarray(IA / inrm[:, None]), np.ascontiguousarray(Ib / inrm)
+        else:
+            self._in_A, self._in_b = np.zeros((0, max(m, 1))), np.zeros(0)
+        lo, hi = self.system.state_bounds.bounding_box()
+        self._x_lo, self._x_hi = np.ascontiguousarray(lo, dtype=float), np.ascontiguousarray(hi, dtype=float)
 
     def _build_btilde(self, pieces: Sequence[Polytope]) -> None:
         sx = self._sx
@@ -138,9 +254,9 @@ class LookupObserver(Observer):
             starts.append(r)
             r += P.n_constraints
         self.b_tilde = tuple(pieces)
-        self._bt_A = np.vstack(rows) if rows else np.zeros((0, self.n))
-        self._bt_b = np.concatenate(rhs) if rhs else np.zeros(0)
-        self._bt_starts = np.array(starts, dtype=int)
+        self._bt_A = np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, self.n))
+        self._bt_b = np.ascontiguousarray(np.concatenate(rhs)) if rhs else np.zeros(0)
+        self._bt_starts = np.array(starts + [r], dtype=np.int64)
 
     def _build_kernel_args(self) -> None:
         sysm = self.system
@@ -155,18 +271,18 @@ class LookupObserver(Observer):
         self._Gl = np.ascontiguousarray(np.stack([l[1] for l in self._last]))
         self._pl = np.ascontiguousarray(np.stack([l[2] for l in self._last]))
         self._last_mode = np.array([l[3] for l in self._last], dtype=np.int64)
-        self._mstarts_k = np.append(self._mstarts, self._table.shape[0] - self._nx - self._nr).astype(np.int64)
-        if self.variant != "table":
-            self._bt_A, self._bt_b, self._bt_starts = np.zeros((0, self.n)), np.zeros(0), np.zeros(1, dtype=np.int64)
-        bt_starts = np.append(self._bt_starts, self._bt_A.shape[0]).astype(np.int64) if len(self._bt_starts) and self._bt_A.shape[0] else np.zeros(1, dtype=np.int64)
-        self._bt_starts_k = bt_starts
-        self._ints = np.array([self.T, self._nx, self._nr, self.p * self.T, 1 if self.variant == "table" else 0, 1], dtype=np.int64)
+        mode = {"polytopes": 1, "pairs": 2}.get(self.btilde_test, 0)
+        self._ints = np.array([self.T, self._nx, self._nr, self.p * self.T, mode, 1], dtype=np.int64)
         self._ints_bad = self._ints.copy()
         self._ints_bad[5] = 0
-        self._reals = np.array([self.output_rtol, LOOKUP_INTERIOR_MARGIN, LOOKUP_SAME_STATE_TOL, LOOKUP_MEMBERSHIP_TOL])
-        self._tables = (self._table, self._offset, self._mstarts_k, self._sx, np.ascontiguousarray(self._bt_A),
-                        np.ascontiguousarray(self._bt_b), self._bt_starts_k, self._Pl, self._Gl, self._pl, self._last_mode,
-                        self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts)
+        self._reals = np.array([self.output_rtol, LOOKUP_SAME_STATE_TOL, LOOKUP_MEMBERSHIP_TOL, LOOKUP_INPUT_BOUND_TOL])
+        self._tables = (self._table, self._offset, self._mthr, self._mstarts, self._sx, self._bt_A, self._bt_b,
+                        self._bt_starts, self._Pl, self._Gl, self._pl, self._last_mode,
+                        self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts,
+                        self._in_A, self._in_b, self._x_lo, self._x_hi)
+        pp = self._pairs if self._pairs is not None else _PairPieces.empty(self.n)
+        self._tables += (pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, np.ascontiguousarray(pp.cx),
+                         pp.survivors)
         self._nan_u = np.full(self.m, np.nan)
         self._nan_y = np.full(self.p, np.nan)
 
@@ -181,7 +297,7 @@ class LookupObserver(Observer):
         if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
             raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
         self._xcur = x0.copy()
-        self._meta = np.array([0, -1, 0, 0, -1], dtype=np.int64)
+        self._meta = np.array([0, -1, 0, 0, -1, 0, 0], dtype=np.int64)
         self._Ybuf = np.zeros((self.T, self.p))
         self._Ubuf = np.zeros((self.T, self.m))
         self._uprev = np.zeros(self.m)
@@ -189,48 +305,31 @@ class LookupObserver(Observer):
         self._xs0 = np.zeros(self.n)
         self._xnew = np.zeros(self.n)
 
-    def _other_sequence_consistent(self, x: np.ndarray, z: np.ndarray) -> bool:
-        """Exact variant: does a rank-deficient region admit another state with these data (an LP each)?"""
-        an, n, p, T = self.analysis, self.n, self.p, self.T
-        Y, U = z[: p * T], z[p * T :]
-        sx, cx = an.enumeration.scale[:n], an.enumeration.centre[:n]
-        for j in an.rank_deficient:
-            reg = an.regions[j]
-            # x~ = cx + sx * v; constraints Hx x~ <= h - HU U; C x~ = Y - D U - f
-            E = reg.C * sx[None, :]
-            e = Y - reg.D @ U - reg.f - reg.C @ cx
-            _, s, Vt = np.linalg.svd(E)
-            r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
-            v0 = Vt[:r].T @ ((np.linalg.svd(E)[0][:, :r].T @ e) / s[:r]) if r else np.zeros(n)
-            if np.linalg.norm(E @ v0 - e) > self.output_rtol * max(1.0, np.max(np.abs(Y))):
-                continue
-            N = Vt[r:].T
-            G = reg.H[:, :n] * sx[None, :]
-            g = reg.h - reg.H[:, n:] @ U - reg.H[:, :n] @ cx - G @ v0
-            norm = np.linalg.norm(G, axis=1)
-            norm = np.where(norm > 0, norm, 1.0)
-            res = max_slack((G @ N) / norm[:, None], g / norm, radius_bound=np.sqrt(n) + np.linalg.norm(v0),
-                            threshold=REGION_SLACK_TOL, problem=f"lookup exact test, region {j}")
-            if max(res.lower, res.upper if res.lower <= REGION_SLACK_TOL else res.lower) > REGION_SLACK_TOL:
-                return True
-        return False
-
     # ------------------------------------------------------------------ online
+    def _decide_candidate(self) -> int:
+        """Flag code of a step the kernel left undecided (``CANDIDATE_CODE``): the LP part of the test."""
+        if self._exact is not None:
+            unobservable = self._exact.other_state_consistent(self._z)
+        else:
+            unobservable = self._pairs.decide(self._xs0, int(self._meta[6]))
+        if unobservable:
+            pred_ok = int(self._meta[5]) not in (K.REASON_PREVIOUS_BAD, K.REASON_PREDICTION_OUTSIDE)
+            return K.UNOBSERVABLE_CODE if pred_ok else K.FALLBACK_CODE
+        k = int(self._meta[4])
+        K.propagate_last(k, self._xs0, self._z, self.p * self.T, self._Pl, self._Gl, self._pl, self._xcur)
+        self._meta[1] = self._last_mode[k]
+        self._meta[5] = K.REASON_NONE
+        return K.OBSERVABLE_CODE
+
     def _advance(self, u: np.ndarray, y: np.ndarray, good: bool) -> int:
         code = K.advance(u, y, self._ints if good else self._ints_bad, self._reals, self._Ybuf, self._Ubuf, self._xcur,
                          self._meta, self._uprev, self._z, self._xs0, self._xnew, *self._tables)
-        if code == K.CANDIDATE_CODE:  # exact variant: ask the data with LPs
-            if self._other_sequence_consistent(self._xs0, self._z):
-                code = K.UNOBSERVABLE_CODE
-            else:
-                k = int(self._meta[4])
-                K.propagate_last(k, self._xs0, self._z, self.p * self.T, self._Pl, self._Gl, self._pl, self._xcur)
-                self._meta[1] = self._last_mode[k]
-                code = K.OBSERVABLE_CODE
+        if code == K.CANDIDATE_CODE:
+            code = self._decide_candidate()
         return code
 
     def step(self, u, y) -> Estimate:
-        """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step."""
+        """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step with its reason."""
         t0 = time.perf_counter()
         reason = ""
         try:
@@ -243,23 +342,31 @@ class LookupObserver(Observer):
         if reason:
             uu, yy = self._nan_u, self._nan_y
         code = self._advance(uu, yy, not reason)
-        if code == K.FALLBACK_CODE and not reason and int(self._meta[3]) == 0:
-            reason = "sample with NaN or Inf"
-        info = {"reason": reason} if reason else {}
-        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], time.perf_counter() - t0, info)
+        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], time.perf_counter() - t0,
+                        self._info(code, reason))
+
+    def _info(self, code: int, reason: str = "") -> dict:
+        rc = int(self._meta[5])
+        if code == K.FALLBACK_CODE:
+            return {"reason": reason or REASONS[rc], "reason_code": rc}
+        if rc == K.NOTE_CLIPPED and code == K.UNOBSERVABLE_CODE:
+            return {"note": REASONS[rc]}
+        return {}
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         return self.step(u, y)
 
     def _fallback(self, u, reason: str) -> Estimate:
         code = self._advance(self._nan_u, self._nan_y, False)
-        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], 0.0, {"reason": reason})
+        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], 0.0, self._info(code, reason))
 
-    def run(self, U, Y, x0: np.ndarray | None = None) -> ObserverTrace:
-        """Algorithm 4.1 over a recorded trace, from a reset state (compiled loop for ``"table"``).
+    def run(self, U, Y, x0: np.ndarray | None = None, progress: Callable[[int, int], None] | None = None) -> LookupTrace:
+        """Algorithm 4.1 over a recorded trace, from a reset state (compiled loop).
 
-        Rows with NaN/Inf are bad samples (flag ``fallback``).  ``seconds`` holds the mean time
-        per step of the whole run.
+        Rows with NaN/Inf, or with an input outside ``U``, are bad samples (flag ``fallback``).
+        ``seconds`` holds the mean time per step of the whole run; ``reason_codes`` says why each
+        ``fallback`` step fell back (:meth:`LookupTrace.reasons`).  ``progress(done, total)`` is
+        called every few hundred steps.
         """
         t_start = time.perf_counter()
         U = np.ascontiguousarray(np.asarray(U, dtype=float).reshape(len(U), -1))
@@ -271,20 +378,322 @@ class LookupObserver(Observer):
         xs = np.empty((N, self.n))
         modes = np.empty(N, dtype=np.int64)
         codes = np.empty(N, dtype=np.int64)
-        if self.variant == "table":
-            K.run_table(U, Y, self._ints, self._reals, self._Ybuf, self._Ubuf, self._xcur, self._meta, self._uprev,
-                        self._z, self._xs0, self._xnew, *self._tables, xs, modes, codes)
-        else:
-            for t in range(N):
-                codes[t] = self._advance(U[t], Y[t], True)
+        reasons = np.zeros(N, dtype=np.int64)
+        t = 0
+        chunk = 250 if progress else N
+        while t < N:
+            stop = min(N, t + chunk)
+            t = K.run_table(U[:stop], Y[:stop], t, self._ints, self._reals, self._Ybuf, self._Ubuf, self._xcur,
+                            self._meta, self._uprev, self._z, self._xs0, self._xnew, *self._tables,
+                            xs, modes, codes, reasons)
+            if t < stop:  # a candidate whose B~_T test needs LPs
+                codes[t] = self._decide_candidate()
+                reasons[t] = self._meta[5]
                 xs[t], modes[t] = self._xcur, self._meta[1]
+                t += 1
+            if progress and (t == stop or t == N):
+                progress(t, N)
         per_step = (time.perf_counter() - t_start) / max(N, 1)
         flags = np.array([_FLAGS[c] for c in range(5)], dtype=object)[codes]
-        return ObserverTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name)
+        return LookupTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name, reasons)
+
+    def stats(self) -> dict:
+        """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests."""
+        out = {"table_seconds": self.table_seconds, "btilde_test": self.btilde_test, "n_regions_I": int(self._K)}
+        if self._pairs is not None:
+            out.update(self._pairs.stats())
+        if self._exact is not None:
+            out.update(self._exact.stats())
+        if self.btilde_test == "polytopes":
+            out["n_btilde_pieces"] = len(self.b_tilde)
+        return out
 
 
 _FLAGS = {K.OBSERVABLE_CODE: OBSERVABLE, K.UNOBSERVABLE_CODE: UNOBSERVABLE, K.FALLBACK_CODE: FALLBACK,
           K.WARMING_CODE: WARMING_UP, K.CANDIDATE_CODE: UNOBSERVABLE}
+
+
+def _max_margin(G: np.ndarray, g: np.ndarray, radius_bound: float, threshold: float, problem: str):
+    """Largest uniform margin ``t`` (capped) with ``G v + t <= g``, rows taken as given, certified.
+
+    The rows are those of a set whose constraints were unit-norm in scaled coordinates before the
+    state was fixed and the set restricted to its output equalities, so ``t`` is the margin by
+    which a point lies inside every original constraint (no renormalisation of the restricted
+    rows, which would amplify a row that is nearly constant on the subspace).  Solved by
+    :func:`hybobs_opt.lp._solve_slack_lp` (DAQP, both bounds certified, HiGHS when undecided).
+    Returns ``(value, w)``: ``value`` decides ``t > threshold`` correctly.
+    """
+    k, d = G.shape
+    A = np.zeros((k + 1, d + 1))
+    A[:k, :d] = G
+    A[:, d] = 1.0
+    bu = np.append(g, SLACK_CAP)
+    res = _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    return (res.lower if res.lower > threshold else res.upper), res.w
+
+
+def input_bound_rows(H: np.ndarray, h: np.ndarray, system, T: int, scale: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Which rows of a region ``H [x; U] <= h`` (over ``(x(0), U)``) only bound an input: a row of ``U``.
+
+    A row qualifies when, in scaled coordinates, its ``x``-part is zero (below
+    :data:`~hybobs_opt.tolerances.ZERO_ROW_TOL` of the row's norm), its ``U``-part lives in one
+    step ``k``, and together with its right-hand side it is a positive multiple of a row of
+    ``system.input_bounds`` (the domain rows ``u(k) in U`` that the mode enumeration adds at every
+    step).  A guard row that only involves ``u`` is not one of them unless it coincides with a
+    bound of ``U``; it stays a guard (strict).
+    """
+    n, m = system.n, system.m
+    out = np.zeros(H.shape[0], dtype=bool)
+    if m == 0 or system.input_bounds is None or H.shape[0] == 0:
+        return out
+    Hs = H * scale[None, :]
+    hs = h - H @ centre
+    rn = np.linalg.norm(Hs, axis=1)
+    xn = np.linalg.norm(Hs[:, :n], axis=1)
+    IA, Ib = system.input_bounds.A, system.input_bounds.b
+    su, cu = scale[n : n + m], centre[n : n + m]
+    IAs = IA * su[None, :]
+    inrm = np.maximum(np.linalg.norm(IAs, axis=1), np.finfo(float).tiny)
+    IAs, Ibs = IAs / inrm[:, None], (Ib - IA @ cu) / inrm
+    for r in np.nonzero((rn > 0) & (xn <= ZERO_ROW_TOL * rn))[0]:
+        blocks = Hs[r, n:].reshape(T, m) / rn[r]
+        active = np.nonzero(np.linalg.norm(blocks, axis=1) > ZERO_ROW_TOL)[0]
+        if active.size != 1:
+            continue
+        a, b = blocks[active[0]], hs[r] / rn[r]
+        if np.any((np.linalg.norm(IAs - a[None, :], axis=1) <= ZERO_ROW_TOL * 10) & (np.abs(Ibs - b) <= ZERO_ROW_TOL * 10 * (1 + np.abs(b)))):
+            out[r] = True
+    return out
+
+
+class _PairPieces:
+    r"""The pieces ``Proj_x(R_ij)`` of ``B~_T`` without projections: a point test per piece.
+
+    For a pair set ``R_ij`` over ``w = (x, x^, U)`` (scaled, rows unit) with the output
+    equalities ``E_x x + E_w (x^, U) = e``, fixing ``x`` leaves ``(x^, U) = w_0(x) + N v``
+    (``w_0`` affine in ``x``, ``N`` the nullspace of ``E_w``), the consistency rows
+    ``Q (e - E_x x) = 0`` when ``E_w`` has no full row rank (a flat piece), and rows
+    ``A v <= b_0 + B_1 x``.  Rows with ``A_k = 0`` only involve ``x``.  ``x`` is in the piece
+    (closed, tolerance ``LOOKUP_MEMBERSHIP_TOL``) iff the consistency and ``x``-only rows hold
+    and ``max_v min_k (b_0 + B_1 x - A v)_k >= -tol``: one LP, certified (:func:`_max_margin`).
+
+    When the LP excludes ``x``, multipliers ``lam >= 0, sum lam = 1`` on its active rows (NNLS)
+    bound the margin at *every* ``x'``: ``t(x') <= lam'(b_0 + B_1 x') + R |A' lam|`` (weak
+    duality; ``R`` bounds ``|v|`` on the piece), so ``{x' : lam'(b_0 + B_1 x') + R |A' lam| < -tol}``
+    is outside the piece: a cut, cached and screened without LPs in the next windows.
+    """
+
+    def __init__(self, analysis, progress: Callable[[int, int], None] | None = None):
+        from ..regions.enumeration import horizon_scaling
+
+        system, T = analysis.system, analysis.T
+        n, m = system.n, system.m
+        self.n = n
+        pairs = analysis.reduced_pairs_all_dimensions()
+        scale, centre = horizon_scaling(system, T, copies_of_x=2)
+        self.sx, self.cx = scale[:n], centre[:n]
+        tol = LOOKUP_MEMBERSHIP_TOL
+        # |v| <= |(x^, U)| on the piece (w_0 is orthogonal to N), and (x^, U) is in the box up to tol
+        self.radius = float(np.sqrt(n + m * T) * (1.0 + 10 * tol))
+        ex_rows, ex_rhs, ex_starts = [], [], [0]
+        self.lp = []  # per piece: (A, b0, B1) of the rows that involve v
+        self.ij = []
+        for k, pair in enumerate(pairs):
+            if progress and (k % 50 == 0 or k + 1 == len(pairs)):
+                progress(k + 1, len(pairs))
+            G = pair.G * scale[None, :]
+            g = pair.g - pair.G @ centre
+            gn = np.maximum(np.linalg.norm(G, axis=1), np.finfo(float).tiny)
+            G, g = G / gn[:, None], g / gn
+            E = pair.E * scale[None, :]
+            e = pair.e - pair.E @ centre
+            en = np.maximum(np.linalg.norm(E, axis=1), np.finfo(float).tiny)
+            E, e = E / en[:, None], e / en
+            Gx, Gw, Ex, Ew = G[:, :n], G[:, n:], E[:, :n], E[:, n:]
+            Uu, S, Vt = np.linalg.svd(Ew) if Ew.shape[0] else (np.zeros((0, 0)), np.zeros(0), np.eye(Ew.shape[1]))
+            r = int(np.sum(S > RANK_RTOL * max(S[0], np.finfo(float).tiny))) if S.size else 0
+            # consistency rows  Q (e - Ex x) = 0  (left nullspace of Ew)
+            Q = Uu[:, r:].T
+            Qx, q0 = -Q @ Ex, Q @ e
+            qn = np.linalg.norm(Qx, axis=1)
+            const = qn <= ZERO_ROW_TOL
+            if np.any(np.abs(q0[const]) > tol):
+                continue  # the outputs can never be equal: an empty piece
+            Qx, q0 = Qx[~const] / qn[~const, None], q0[~const] / qn[~const]
+            # particular solution w0(x) = P0 + P1 x, nullspace N
+            Ur, Sr, Vr = Uu[:, :r], S[:r], Vt[:r].T
+            P0 = Vr @ ((Ur.T @ e) / Sr)
+            P1 = -Vr @ ((Ur.T @ Ex) / Sr[:, None])
+            N = Vt[r:].T
+            A = Gw @ N
+            b0 = g - Gw @ P0
+            B1 = -(Gx + Gw @ P1)
+            zero = np.linalg.norm(A, axis=1) <= ZERO_ROW_TOL
+            # screen rows over scaled x:  -B1 x <= b0 (x-only rows),  +-(Qx x + q0) <= 0
+            xa, xb = np.vstack([-B1[zero], Qx, -Qx]), np.concatenate([b0[zero], -q0, q0])
+            # A candidate lies in its region, so in the state box [-1, 1]^n: rows the box implies
+            # screen nothing, and repeated rows (the same guard at several steps) once is enough.
+            keep = np.abs(xa).sum(axis=1) > xb
+            xa, xb = xa[keep], xb[keep]
+            if xa.shape[0]:
+                _, first = np.unique(np.round(np.hstack([xa, xb[:, None]]), 12), axis=0, return_index=True)
+                first = np.sort(first)
+                xa, xb = xa[first], xb[first]
+            ex_rows.append(xa)
+            ex_rhs.append(xb)
+            ex_starts.append(ex_starts[-1] + ex_rows[-1].shape[0])
+            self.lp.append((np.ascontiguousarray(A[~zero]), np.ascontiguousarray(b0[~zero]), np.ascontiguousarray(B1[~zero])))
+            self.ij.append((pair.i, pair.j))
+        P = len(self.lp)
+        self.ex_A = np.ascontiguousarray(np.vstack(ex_rows)) if ex_rows else np.zeros((0, n))
+        self.ex_b = np.ascontiguousarray(np.concatenate(ex_rhs)) if ex_rhs else np.zeros(0)
+        self.ex_starts = np.array(ex_starts, dtype=np.int64)
+        self.cut_A = np.zeros((P, PAIR_CUTS_PER_PIECE, n))
+        self.cut_b = np.zeros((P, PAIR_CUTS_PER_PIECE))
+        self.cut_count = np.zeros(P, dtype=np.int64)
+        self._cut_next = np.zeros(P, dtype=np.int64)
+        self.survivors = np.zeros(max(P, 1), dtype=np.int64)
+        self._last_hit = -1
+        self.n_tests = self.n_lps = self.n_hits = self.n_cuts = 0
+        self.n_pairs = P
+
+    @classmethod
+    def empty(cls, n: int) -> "_PairPieces":
+        """No pieces (the kernel's arguments when another ``B~_T`` test is used)."""
+        self = cls.__new__(cls)
+        self.n, self.sx, self.cx = n, np.ones(n), np.zeros(n)
+        self.ex_A, self.ex_b, self.ex_starts = np.zeros((0, n)), np.zeros(0), np.zeros(1, dtype=np.int64)
+        self.cut_A, self.cut_b = np.zeros((0, PAIR_CUTS_PER_PIECE, n)), np.zeros((0, PAIR_CUTS_PER_PIECE))
+        self.cut_count, self.survivors = np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        return self
+
+    def contains(self, x: np.ndarray) -> bool:
+        """Is ``x`` (original coordinates) in ``B~_T`` (closed, ``LOOKUP_MEMBERSHIP_TOL``)?"""
+        xs = np.ascontiguousarray((x - self.cx) / self.sx)
+        cnt = K.pair_screen(xs, self.ex_A, self.ex_b, self.ex_starts, self.cut_A, self.cut_b, self.cut_count,
+                            LOOKUP_MEMBERSHIP_TOL, self.survivors)
+        return self.decide(x, cnt)
+
+    def decide(self, x: np.ndarray, cnt: int) -> bool:
+        """:meth:`contains` after the screen: ``survivors[:cnt]`` are the pieces left for LPs."""
+        self.n_tests += 1
+        xs = (x - self.cx) / self.sx
+        order = self.survivors[:cnt]
+        if self._last_hit >= 0 and cnt > 1:
+            hit = np.nonzero(order == self._last_hit)[0]
+            if hit.size:
+                order = np.concatenate([[self._last_hit], np.delete(order, hit[0])])
+        tol = LOOKUP_MEMBERSHIP_TOL
+        for q in order:
+            A, b0, B1 = self.lp[q]
+            b = b0 + B1 @ xs
+            self.n_lps += 1
+            if A.shape[0] == 0:
+                inside = True
+            else:
+                value, w = _max_margin(A, b, self.radius, -tol, f"x in Proj_x(R_{self.ij[q]})")
+                inside = value > -tol
+                if not inside:
+                    self._add_cut(int(q), A, b0, B1, b, xs, w)
+            if inside:
+                self._last_hit = int(q)
+                self.n_hits += 1
+                return True
+        return False
+
+    def _add_cut(self, q: int, A, b0, B1, b, xs, w) -> None:
+        """Cache the cut of an LP that excluded ``x`` (see the class docstring), if it certifies."""
+        if w is None or A.shape[1] == 0:
+            return
+        resid = b - A @ w
+        t = float(np.min(resid))
+        active = np.nonzero(resid <= t + NEAR_ACTIVE_TOL)[0]
+        M = np.vstack([A[active].T, np.ones((1, active.size))])
+        rhs = np.zeros(M.shape[0])
+        rhs[-1] = 1.0
+        try:
+            lam, _ = nnls(M, rhs)
+        except RuntimeError:
+            return
+        if lam.sum() <= 0:
+            return
+        lam = lam / lam.sum()
+        slack = self.radius * float(np.linalg.norm(A[active].T @ lam))
+        a_cut = -(lam @ B1[active])
+        b_cut = float(lam @ b0[active]) + slack + LOOKUP_MEMBERSHIP_TOL
+        if not float(a_cut @ xs) > b_cut:
+            return  # the multipliers do not certify the exclusion of xs itself: no use as a cut
+        c = int(self._cut_next[q])
+        self.cut_A[q, c] = a_cut
+        self.cut_b[q, c] = b_cut
+        self._cut_next[q] = (c + 1) % PAIR_CUTS_PER_PIECE
+        self.cut_count[q] = min(PAIR_CUTS_PER_PIECE, int(self.cut_count[q]) + 1)
+        self.n_cuts += 1
+
+    def stats(self) -> dict:
+        return {"n_btilde_pieces": self.n_pairs, "n_btilde_windows_with_lps": self.n_tests, "n_btilde_lps": self.n_lps,
+                "n_btilde_hits": self.n_hits, "n_btilde_cuts": self.n_cuts}
+
+
+class _ExactTest:
+    """The ``"exact"`` variant: is another state of a rank-deficient region consistent with the data?
+
+    Per region ``P_j``, ``j`` not in ``I``, precomputed in scaled state coordinates: the SVD of
+    ``C_j``, the nullspace ``N_j``, and the rows of ``P_j`` split into those that involve ``x``
+    and those that only involve ``U`` (which the data decide: closed, ``LOOKUP_MEMBERSHIP_TOL``).
+    Online: the output residual of ``Y - D_j U - f_j`` outside ``range(C_j)`` screens most
+    regions without an LP; for the others one certified LP over ``v`` (``x = x_0 + N_j v``) asks
+    whether a state of ``P_j`` (closed, the same tolerance) has these outputs.
+    """
+
+    def __init__(self, analysis, output_rtol: float):
+        n, T, p = analysis.system.n, analysis.T, analysis.system.p
+        self.n, self.pT = n, p * T
+        self.output_rtol = output_rtol
+        scale, centre = analysis.enumeration.scale, analysis.enumeration.centre
+        sx, cx = scale[:n], centre[:n]
+        self.data = []
+        for j in analysis.rank_deficient:
+            reg = analysis.regions[j]
+            E = reg.C * sx[None, :]
+            Uu, s, Vt = np.linalg.svd(E)
+            r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
+            rn = np.maximum(np.linalg.norm(reg.H * scale[None, :], axis=1), np.finfo(float).tiny)
+            Gx = reg.H[:, :n] * sx[None, :] / rn[:, None]
+            HU = reg.H[:, n:] / rn[:, None]
+            h = (reg.h - reg.H[:, :n] @ cx) / rn
+            xrow = np.linalg.norm(Gx, axis=1) > ZERO_ROW_TOL
+            N = Vt[r:].T
+            self.data.append((j, reg.D, reg.f + reg.C @ cx, Uu[:, :r], s[:r], Vt[:r].T, N, Gx[xrow], HU[xrow], h[xrow],
+                              HU[~xrow], h[~xrow], float(np.sqrt(n) * (1.0 + 10 * LOOKUP_MEMBERSHIP_TOL))))
+        self.n_tests = self.n_lps = 0
+
+    def other_state_consistent(self, z: np.ndarray) -> bool:
+        self.n_tests += 1
+        Y, U = z[: self.pT], z[self.pT :]
+        ytol = self.output_rtol * max(1.0, float(np.max(np.abs(Y))))
+        tol = LOOKUP_MEMBERSHIP_TOL
+        for (j, D, f, Ur, sr, Vr, N, Gx, HUx, hx, HU0, h0, radius) in self.data:
+            if HU0.shape[0] and np.any(HU0 @ U - h0 > tol):
+                continue  # the inputs themselves leave P_j
+            e = Y - D @ U - f
+            coef = Ur.T @ e
+            if np.linalg.norm(e - Ur @ coef) > ytol:
+                continue  # no state of P_j has these outputs
+            v0 = Vr @ (coef / sr)
+            b = hx - HUx @ U - Gx @ v0
+            self.n_lps += 1
+            if N.shape[1] == 0:
+                if np.all(b >= -tol):
+                    return True
+                continue
+            value, _ = _max_margin(Gx @ N, b, radius + float(np.linalg.norm(v0)), -tol, f"lookup exact test, region {j}")
+            if value > -tol:
+                return True
+        return False
+
+    def stats(self) -> dict:
+        return {"n_exact_tests": self.n_tests, "n_exact_lps": self.n_lps}
 
 
 def reduced_unobservable_polytopes(analysis) -> list[Polytope]:
@@ -292,7 +701,9 @@ def reduced_unobservable_polytopes(analysis) -> list[Polytope]:
 
     All non-empty ``R_ij`` (``i`` in ``I``, ``j`` not in ``I``) are used, including those whose
     projection is lower-dimensional (returned with their affine hull as paired rows): the data of
-    a true state in ``P_j`` can force the candidate of ``P_i`` onto such a flat piece.
+    a true state in ``P_j`` can force the candidate of ``P_i`` onto such a flat piece.  Costly for
+    many pieces (model 17, T = 5: 778 pieces, minutes); the observer's default tests the pieces
+    with LPs instead (:class:`_PairPieces`).
     """
     pieces = []
     n = analysis.system.n
