@@ -57,7 +57,11 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         _table(clean),
         f"<p>Lookup batch throughput: {lk.get('batch_steps_per_s', 0):,.0f} steps/s "
         f"(the step-by-step and batch paths give identical flags: {lk.get('batch_equals_steps')}). "
-        f"Fraction of windows whose true mode sequence is observable: {clean['truly_observable_fraction']:.3f}. "
+        f"Share of windows whose window-start state is observable (exact point queries of Definition 2.2 on "
+        f"{clean['truly_observable_windows_classified']} evenly spaced windows): {clean['truly_observable_fraction']:.3f} "
+        f"(95 % interval {clean['truly_observable_fraction_ci95'][0]:.3f}-{clean['truly_observable_fraction_ci95'][1]:.3f}); "
+        f"windows whose true mode sequence has a full-rank output map (necessary only): "
+        f"{clean['full_rank_sequence_fraction']:.3f}. "
         "In unobservable windows the lookup observer predicts open loop from its last reconstruction and says so "
         "(exact here: no model error). The MIQP/MILP observers are warm-started with the previous trajectory shifted "
         "by one sample; on noise-free data that continuation is one of the zero-cost minimisers, so they also stay "
