@@ -261,6 +261,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     multipliers (:func:`~hybobs_opt._lp_kernels.support_upper_bound`, valid for every feasible
     ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  ``False`` means "not
     certified" (wider, or a solve that did not finish): callers must treat it as the safe answer.
+    When DAQP fails (or returns non-finite numbers), HiGHS's duals are used for the same bound.
     With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
     is already more than ``width`` away from it along ``c``.
     """
@@ -272,11 +273,18 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     for sign in (1.0, -1.0):
         COUNTERS.fast += 1
         v, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
-        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(v)):
-            return False
+        lam = info["lam"]
+        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(v)) or not np.all(np.isfinite(lam)):
+            # DAQP failed: HiGHS's duals give the same kind of certificate
+            COUNTERS.fast -= 1
+            COUNTERS.confirmed_by_highs += 1
+            res = linprog(-sign * c, A_ub=A, b_ub=b, bounds=(None, None), method="highs")
+            if res.status != 0 or res.ineqlin is None or not np.all(np.isfinite(res.ineqlin.marginals)):
+                return False
+            v, lam = np.asarray(res.x, dtype=float), -np.asarray(res.ineqlin.marginals, dtype=float)
         if point is not None and sign > 0 and float(c @ (v - point)) > width:
             return False
-        total += support_upper_bound(A, b, sign * c, info["lam"], radius_bound)
+        total += support_upper_bound(A, b, sign * c, np.ascontiguousarray(lam, dtype=float), radius_bound)
     return total <= width
 
 

@@ -52,6 +52,13 @@ REGION_SLACK_TOL: float = 1e-6
 #: DAQP's certificate and went to HiGHS.  Sets that need more relaxation are empty.
 CLOSED_SET_TOL: float = 1e-7
 
+#: Implicit equalities of a face-confined pair set are added only along directions whose singular
+#: value (unit rows) exceeds this fraction of the largest: two tight rows with opposite normals
+#: differ by rounding (about 1e-8 on model 16 at T = 7) and would otherwise pin a second,
+#: spurious direction, making full projections look flat.  Any dimension drop the reduction
+#: proposes is then confirmed by a width certificate on the original set.
+IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
+
 #: Two states count as different (a pair set ``R_ij`` holds a state ``x^ != x``) when they are
 #: more than this apart in one scaled coordinate.  Ten times REGION_SLACK_TOL: the pair sets are
 #: decided to that tolerance, and a pair whose outputs force ``x^ = x`` computes ``x - x^`` to
@@ -369,35 +376,41 @@ PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
 
 #: Separation of an alternative window-start state, inf-norm in units of the half-widths of X.
 #: Model (16) at T = 3: the weakest observable direction moves the engine speed by 1.9e-4 of its
-#: half-range per unit of scaled state, so at 0.05 an alternative costs 8.9e-11 of one sample's
-#: squared output range, about 90 times MHE_UNIQUENESS_COST_RTOL; a smaller separation would make
-#: "unique" undecidable at the solver's accuracy on that model, a larger one would call states
-#: 10 % of the box apart "the same".
+#: half-range per unit of scaled state, so an alternative 0.05 away costs 8.9e-11 of one sample's
+#: squared output half-range, 90 times MHE_UNIQUENESS_COST_RTOL and 15 times the MIQP's bias
+#: band; at 0.01 it would be 3.5e-12, inside that band ("unique" then rarely provable), and a
+#: larger value would call states 10 % of the box apart "the same".
 MHE_UNIQUENESS_DELTA: float = 0.05
 
 #: Epsilon of the uniqueness test (norm 2): an alternative counts when its cost is at most
-#: J* + this * S_y, S_y the squared weighted half-range of one output sample (norms 1 / inf: the
-#: square root of both).  Noise-free data give J* ~ 1e-25 S_y; the MIQP's own accuracy
-#: (MHE_ABS_SUBOPT and the proximal bias of MHE_UNIQUENESS_PROX_WEIGHT) is ~1e-13 S_y, ten times
-#: below, and the separated cost of observable windows of model (16) is ~90 times above.
+#: J* + this * S_y, S_y one sample's squared weighted output half-range (norms 1 / inf: the square
+#: roots).  Noise-free data give J* ~ 1e-30 S_y.  It sits above DAQP's accuracy on the MLD
+#: encoding once the proximal term no longer hides it (~1e-13 S_y) and below the separated cost
+#: of model (16)'s observable windows (8.9e-11 S_y, see MHE_UNIQUENESS_DELTA): the output of an
+#: alternative then differs by at least 1e-6 of the output half-range.
 MHE_UNIQUENESS_COST_RTOL: float = 1e-12
 
 #: Absolute floor of that epsilon (cost units): it only keeps epsilon positive when the output
-#: range vanishes (an output constant over X x U); any output range above 1e-4 units makes the
-#: relative term larger.
+#: range vanishes (an output constant over X x U); any output half-range above 1e-4 units makes
+#: the relative term larger.
 MHE_UNIQUENESS_COST_ATOL: float = 1e-20
 
-#: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  Its worst-case
-#: bias over the box, about 30 variables x range 4 x this, must stay below the epsilon above
-#: (1e-12) so that a separated minimum just above J* + epsilon is still certified; DAQP factorises
-#: the resulting Hessian (condition ~1e14) and its answers are verified like the main MIQP's.
+#: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  The cutoff
+#: J* + epsilon is widened by the term's largest value at an integral point of the box (sum of
+#: the squared box ranges ~50 on model 16: 5e-12 S_y, five times epsilon); a minimum in that band
+#: is resolved by excluding its mode sequence exactly (QP) and searching the rest again.  It is
+#: the first rung of a ladder (x3, x10, ...): the observer takes the first whose Hessian DAQP
+#: factorises with zero_tol a tenth of it (1e-13 on model 16 at T = 3; 3e-13 from ~40 variables,
+#: DAQP's own factorisation losing ~nv * 1e-16 on the pivots; 1e-14 never passes).
 MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
 
 #: DAQP's ``cycle_tol`` for the MHE's branch-and-bound: iterations without objective progress
 #: before DAQP reports cycling (exit -2).  DAQP's default of 10 stops 1-6 of 36 noisy windows of
-#: 4-mode PWA systems at T = 4-5 (degenerate big-M vertices take longer non-progress streaks);
-#: 20 already cures all of them.  1000 leaves a factor 50 while a node that truly cycles still
-#: ends after ~1000 iterations as "not certified" (a fallback), never as a wrong answer.
+#: 4-mode PWA systems at T = 4-5 in the MIQP of eq. (10) (degenerate big-M vertices take longer
+#: non-progress streaks; 20 already cures them) and 13-36 of 36 once the uniqueness MIQP runs
+#: too.  With 1000: none on 5 such systems at T = 4 and 5 (a rare true cycle of a warm-started
+#: solve is retried on a fresh workspace, see hybobs_opt.mhe.miqp); a node that truly cycles
+#: still ends after ~1000 iterations as "not certified" (a fallback), never as a wrong answer.
 MHE_DAQP_CYCLE_TOL: int = 1000
 
 # ---------------------------------------------------------------------- lookup observer, input bounds

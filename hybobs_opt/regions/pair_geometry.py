@@ -43,6 +43,7 @@ from ..tolerances import (
     DAQP_EPS_PROX,
     DISTINCT_STATE_TOL,
     EQUALITY_CONSISTENCY_RTOL,
+    IMPLICIT_EQUALITY_RANK_RTOL,
     NEAR_ACTIVE_TOL,
     RANK_RTOL,
     REGION_SLACK_TOL,
@@ -116,8 +117,11 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     if K.size == 0:
         return None
     E, e = Gs[keep[K]], gs[keep[K]]
+    E, e = E / np.linalg.norm(E, axis=1)[:, None], e / np.linalg.norm(E, axis=1)
     U_, s, Vt = np.linalg.svd(E, full_matrices=True)
-    r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
+    # Two tight rows with opposite normals pin one direction, not two: their normals differ by
+    # rounding (1e-8), and that sliver of a singular value pins nothing (see the tolerance).
+    r = int(np.sum(s > IMPLICIT_EQUALITY_RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
     if r == 0:
         return None
     t0 = Vt[:r].T @ ((U_[:, :r].T @ e) / s[:r])
@@ -317,6 +321,27 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
             return PairVerdict(*verdicts, radius, False)
     # -- 2. affine hull: add implicit equalities until the set has a ball in its frame (the
     # multipliers of the LP above serve the first reduction: it is the same LP)
+    relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
+    checked: dict[int, bool] = {}
+
+    def confirmed_thin(p: int, NM: np.ndarray) -> bool:
+        """Does the frame ``NM`` flatten projection ``p``, and is the original set certified thin there?"""
+        P = NM[p * n:(p + 1) * n]
+        if P.shape[1] >= n:
+            Uu, sv, _ = np.linalg.svd(P)
+            if sv[-1] > RANK_RTOL:
+                return False
+            u = Uu[:, -1]
+        else:
+            u = np.linalg.svd(P)[0][:, -1] if P.shape[1] else np.eye(n)[0]
+        if p in checked:
+            return checked[p]
+        c = np.ascontiguousarray(N[p * n:(p + 1) * n].T @ u)  # u'x in the coordinates of the first LP
+        thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
+                                                             width=2.0 * REGION_SLACK_TOL)
+        checked[p] = thin
+        return thin
+
     M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
     for _ in range(Gv.shape[1]):
         if radius > REGION_SLACK_TOL:
@@ -329,11 +354,11 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
         M2, t0 = red
         s0, M = s0 + M @ t0, M @ M2
-        # the hull only shrinks from here: once the wanted projections lose rank, they are lower-dimensional
+        # the hull only shrinks from here: once a wanted projection loses rank it is lower-dimensional,
+        # which a width certificate on the original set confirms (the reduction only proposes)
         NM = N @ M
         for k, p in enumerate(parts):
-            if p is not None and not verdicts[k] and (M.shape[1] < n or
-                                                      np.linalg.svd(NM[p * n:(p + 1) * n], compute_uv=False)[-1] <= RANK_RTOL):
+            if p is not None and not verdicts[k] and confirmed_thin(p, NM):
                 verdicts[k] = LOWER_DIMENSIONAL
         if all(v for v in verdicts):
             return PairVerdict(*verdicts, radius, True)
@@ -355,7 +380,7 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     for k, p in enumerate(parts):
         if verdicts[k]:
             continue
-        if face and frame.projection_thin(p, thin_filter):
+        if face and (confirmed_thin(p, frame.Nh) if not frame.directions.full_rank[p] else frame.projection_thin(p, thin_filter)):
             verdicts[k] = LOWER_DIMENSIONAL
             continue
         if distinct is None:
