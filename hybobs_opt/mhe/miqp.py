@@ -19,21 +19,37 @@ Mignone & Morari (2002), "Moving horizon estimation for hybrid systems", IEEE TA
 
 Flags (the runtime contract of :mod:`hybobs_opt.observers.base`):
 
-* ``observable`` -- a certified global optimum of (10): either the solver's status says optimal and
-  the answer passes a numpy re-check (integral binaries, one mode per step, every constraint row
-  within tolerance), or a warm start of zero cost (the cost is nonnegative); ``x`` is that
-  minimiser propagated to ``t``; ``info["cost"]`` is its cost, ``info["gap_bound"]`` an upper
-  bound on ``cost - optimum`` and ``info["solved_by"]`` says how it was certified.  The flag does **not** claim the minimiser is unique: as
-  Section 4.1 of paper 002 explains, a single minimiser cannot tell whether ``x(t-T+1)`` is
-  observable.  It equals the true state when that state is observable in ``T`` steps
-  (noise-free data); use :mod:`hybobs_opt.regions` or the lookup observer to decide observability.
-* ``unobservable`` -- the solver certified that the window has *no* model trajectory in ``X``
-  (infeasible): the data cannot tell the state; open-loop prediction is used.
+* ``observable`` -- the window-start state is *unique*: a certified global optimum of (10) (see
+  below) and no other admissible window-start state at least ``delta`` away (inf-norm, in units
+  of the half-widths of ``X``, :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a
+  cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
+  one sample's squared weighted output half-range, with the floor
+  :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`; norms 1 / inf: the square roots),
+  proven by a second, separated mixed-integer program (Notes of :class:`MHEObserver`); ``x`` is
+  the minimiser propagated to ``t``.  As Section 4.1 of paper 002 explains, a single minimiser
+  cannot tell whether ``x(t-T+1)`` is observable: this second program is what does.  With an
+  ``analysis`` (:class:`~hybobs_opt.regions.ObservabilityAnalysis`) its point query at the
+  estimate decides instead (Definition 2.2: distinguishable for *every* input sequence, a
+  stronger statement than the data-based one).  With ``check_uniqueness=False`` and no analysis
+  the flag has the old meaning: a certified optimum only, not a unique one.
+* ``unobservable`` -- either the solver certified that the window has *no* model trajectory in
+  ``X`` (infeasible), or the optimum is not unique: ``info["alternative"]`` holds another
+  window-start state (``x_start``, ``cost``, ``modes``, ``distance``) at least ``delta`` away
+  whose cost is within ``epsilon`` of the optimum, re-checked in numpy (or the analysis says the
+  estimate is unobservable).  The data cannot tell the state: open-loop prediction is used.
 * ``fallback`` -- a bad sample, an input outside ``U`` (where the big-M constants are not valid),
-  or a solve that was not certified (iteration/time limit, numerical failure, failed
-  verification, solver exception): open-loop prediction, ``info["reason"]`` says why.  Never an
-  exception in the loop.
+  a solve that was not certified (iteration/time limit, numerical failure, failed
+  verification, solver exception), or a uniqueness answer that was not certified:
+  open-loop prediction, ``info["reason"]`` says why.  Never an exception in the loop.
 * ``warming_up`` -- fewer than ``T`` samples so far.
+
+Certified optimum: either the solver's status says optimal and the answer passes a numpy re-check
+(finite, integral binaries, one mode per step, every constraint row within tolerance), or a warm
+start of zero cost (the cost is nonnegative).  ``info["certified_optimum"]`` says whether the
+step had one (the old meaning of ``observable``), ``info["cost"]`` is its cost,
+``info["gap_bound"]`` an upper bound on ``cost - optimum`` and ``info["solved_by"]`` says how it
+was certified; ``info["uniqueness"]`` reports the uniqueness test (``status``, ``decided_by``,
+``separated_cost``, ``separated_cost_bound``, ``threshold = J* + epsilon``, ``seconds``).
 
 Solvers.  Norm 2: ``"daqp"`` (default) is DAQP's branch-and-bound on its persistent workspace
 (:class:`daqp.Model`, set up once, re-solved with new linear term and bounds each step);
@@ -49,6 +65,7 @@ and the arrival prior entering only the linear term and the constraint bounds.
 from __future__ import annotations
 
 import sys
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,11 +79,16 @@ from ..tolerances import (
     MEMBERSHIP_RTOL,
     MHE_ABS_SUBOPT,
     MHE_BINARY_PROX_WEIGHT,
+    MHE_DAQP_CYCLE_TOL,
     MHE_FEASIBILITY_TOL,
     MHE_INTEGRALITY_TOL,
     MHE_MILP_FEASIBILITY_TOL,
     MHE_POLISH_SKIP_TOL,
     MHE_PROX_WEIGHT,
+    MHE_UNIQUENESS_COST_ATOL,
+    MHE_UNIQUENESS_COST_RTOL,
+    MHE_UNIQUENESS_DELTA,
+    MHE_UNIQUENESS_PROX_WEIGHT,
     MHE_ZERO_COST_RTOL,
 )
 from .mld import BigMConstants, MLDEncoding, encode_mld
@@ -81,9 +103,14 @@ SOLVERS = {"2": ("daqp", "casadi-daqp", "bonmin"), "1": ("highs", "cbc", "casadi
 #: data a second pass always lands on the zero-cost sequence in the tests, a third is a margin.
 DEFAULT_PROX_PASSES = 3
 
+#: Largest number of solves of the separated MIQP per window (norm 2): the first, plus the parts
+#: searched again after a point within the proximal bias of the threshold (see
+#: :meth:`MHEObserver._uniqueness`); beyond it the step is a fallback.
+UNIQUENESS_MAX_SOLVES = 128
+
 #: DAQP's value for an infinite bound.
 _DAQP_INF = 1e30
-_DAQP_OPTIMAL, _DAQP_INFEASIBLE = 1, -1
+_DAQP_OPTIMAL, _DAQP_INFEASIBLE, _DAQP_CYCLING, _DAQP_ITERLIMIT = 1, -1, -2, -4
 
 
 class _Null:
@@ -204,21 +231,48 @@ class _DaqpBackend:
         self._Linv = solve_triangular(L, np.eye(L.shape[0]), lower=True)
         self._ready = False
         # eps_prox = 0: the Hessian is positive definite by construction (the proximal term), and
-        # DAQP's automatic proximal iterations do not certify branch-and-bound nodes
-        self._settings = {"abs_subopt": MHE_ABS_SUBOPT, "eps_prox": 0.0, **options}
+        # DAQP's automatic proximal iterations do not certify branch-and-bound nodes.  cycle_tol:
+        # DAQP's default (10 iterations without progress) stops the branch-and-bound with exit -2
+        # on degenerate big-M vertices (see MHE_DAQP_CYCLE_TOL)
+        self._settings = {"abs_subopt": MHE_ABS_SUBOPT, "eps_prox": 0.0, "cycle_tol": MHE_DAQP_CYCLE_TOL, **options}
 
-    def solve(self, f, lo, hi, centre, cutoff: float | None = None) -> _Outcome:
+    def probe(self) -> bool:
+        """Set the workspace up now (zero linear term, the variable bounds); ``False`` if DAQP
+        refuses the Hessian (exit -5: its factorisation does not find it positive definite)."""
+        import daqp
+
+        nr = self._A.shape[0]
+        self._model.settings = self._settings
+        flag = self._model.setup(self._H, np.zeros(self._nv), self._A,
+                                 np.concatenate([self._ub, np.full(nr, _DAQP_INF)]),
+                                 np.concatenate([self._lb, np.full(nr, -_DAQP_INF)]), self._sense)
+        flag = flag[0] if isinstance(flag, tuple) else flag
+        if flag < 0:
+            self._model = daqp.Model()
+            return False
+        self._model.settings = self._settings
+        self._ready = True
+        return True
+
+    def solve(self, f, lo, hi, centre, cutoff: float | None = None, ub: np.ndarray | None = None) -> _Outcome:
         """Solve in the displacement ``d = v - centre`` from the warm start.
 
         ``f`` is the linear term of the objective in ``d`` (``H centre + g``) and ``cutoff`` an
         upper bound of ``0.5 d'Hd + f'd`` (an incumbent's value).  Working relative to the warm
         start keeps the objective values near zero: in absolute form they sit on a constant of
         the order of the output energy, and cost differences of 1e-10 between mode sequences
-        drown in the rounding of the active-set updates.
+        drown in the rounding of the active-set updates.  ``ub`` replaces the variable upper
+        bounds of this solve (e.g. to fix binaries to zero).
         """
-        bu = np.concatenate([self._ub - centre, np.minimum(hi - self._A @ centre, _DAQP_INF)])
+        ubv = self._ub if ub is None else np.minimum(ub, _DAQP_INF)
+        bu = np.concatenate([ubv - centre, np.minimum(hi - self._A @ centre, _DAQP_INF)])
         bl = np.concatenate([self._lb - centre, np.maximum(lo - self._A @ centre, -_DAQP_INF)])
+        warm = self._ready
         if not self._ready:
+            # the settings go in before the setup too: the factorisation of H at setup uses
+            # zero_tol (pivots below it count as singular) and, without eps_prox = 0, DAQP would
+            # silently switch a nearly singular H to proximal iterations
+            self._model.settings = self._settings
             flag = self._model.setup(self._H, f, self._A, bu, bl, self._sense)
             flag = flag[0] if isinstance(flag, tuple) else flag
             if flag < 0:
@@ -237,8 +291,28 @@ class _DaqpBackend:
         self._model.settings = {"fval_bound": bound}
         x, fval, flag, info = self._model.solve()
         detail = {"status": int(flag), "nodes": int(info.get("nodes", -1)), "iterations": int(info.get("iterations", -1))}
+        if flag in (_DAQP_CYCLING, _DAQP_ITERLIMIT) and warm:
+            # the state kept from the previous solves can lead the active-set iterations into a
+            # cycle (seen on the ill-conditioned uniqueness MIQP, 1 window in 40 of 4-mode
+            # systems; an update with the sense flags does not clear it): once more on a
+            # workspace set up afresh, the only case where the workspace is rebuilt
+            self._model = type(self._model)()
+            self._model.settings = self._settings
+            setup = self._model.setup(self._H, f, self._A, bu, bl, self._sense)
+            if (setup[0] if isinstance(setup, tuple) else setup) < 0:
+                self._ready = False
+                return _Outcome("not certified", None, {**detail, "status": f"daqp setup failed ({setup})"})
+            self._model.settings = {**self._settings, "fval_bound": bound}
+            x, fval, flag, info = self._model.solve()
+            detail = {"status": int(flag), "nodes": int(info.get("nodes", -1)),
+                      "iterations": int(info.get("iterations", -1)), "cold_retry": True}
         if flag == _DAQP_OPTIMAL:
-            return _Outcome("optimal", centre + np.array(x, dtype=float), detail)
+            x = np.array(x, dtype=float)
+            lam = np.asarray(info.get("lam", ()), dtype=float)
+            if not (np.all(np.isfinite(x)) and np.isfinite(fval) and np.all(np.isfinite(lam))):
+                detail["status"] = f"{int(flag)} with a NaN/Inf point, objective or multiplier"
+                return _Outcome("not certified", None, detail)
+            return _Outcome("optimal", centre + x, detail)
         if flag == _DAQP_INFEASIBLE:
             return _Outcome("infeasible", None, detail)
         return _Outcome("not certified", None, detail)
@@ -390,23 +464,46 @@ class _HighspyBackend:
         if h.passModel(lp) != highspy.HighsStatus.kOk:
             raise ModelError("MILP of eq. (10)", "a model HiGHS accepts", "passModel failed")
         self._h, self._rows, self._inf = h, np.arange(nr, dtype=np.int32), inf
+        self._cols = np.arange(nc, dtype=np.int32)
 
-    def solve(self, lo, hi, start: np.ndarray | None = None) -> _Outcome:
+    def solve(self, lo, hi, start: np.ndarray | None = None, cutoff: float | None = None,
+              target: float | None = None, col_bounds: tuple | None = None) -> _Outcome:
+        """Solve with row bounds ``lo, hi``.
+
+        ``cutoff`` (HiGHS ``objective_bound``): only points of objective below it are searched
+        for, and "infeasible" then means that none exists.  ``target`` (``objective_target``):
+        stop at the first incumbent below it; such a point comes back with status
+        ``"feasible"`` (not claimed optimal), to be verified by the caller.  ``col_bounds`` =
+        ``(index, lower, upper)`` replaces some column bounds for this solve.
+        """
         h, hs = self._h, self._hs
         h.changeRowsBounds(self._rows.size, self._rows, np.maximum(lo, -self._inf), np.minimum(hi, self._inf))
+        if col_bounds is not None:
+            idx, cl, cu = col_bounds
+            h.changeColsBounds(len(idx), np.asarray(idx, dtype=np.int32), np.asarray(cl, dtype=float),
+                               np.asarray(cu, dtype=float))
+        h.setOptionValue("objective_bound", self._inf if cutoff is None else float(cutoff))
+        h.setOptionValue("objective_target", -self._inf if target is None else float(target))
         if start is not None:
             sol = hs.HighsSolution()
             sol.col_value = list(start)
             h.setSolution(sol)
         h.run()
         status = h.getModelStatus()
-        detail = {"status": h.modelStatusToString(status)}
+        info = h.getInfo()
+        detail = {"status": h.modelStatusToString(status), "objective": float(info.objective_function_value),
+                  "dual_bound": float(info.mip_dual_bound), "nodes": int(info.mip_node_count)}
+        sol = h.getSolution()
+        x = np.array(sol.col_value, dtype=float) if sol.value_valid else None
+        finite = x is not None and x.size == len(self._cols) and bool(np.all(np.isfinite(x)))
         if status == hs.HighsModelStatus.kOptimal:
-            x = np.array(h.getSolution().col_value, dtype=float)
-            if np.all(np.isfinite(x)):
+            if finite:
                 return _Outcome("optimal", x, detail)
-        if status == hs.HighsModelStatus.kInfeasible:
+            detail["status"] += " with a NaN/Inf or missing point"
+        elif status == hs.HighsModelStatus.kInfeasible:
             return _Outcome("infeasible", None, detail)
+        elif target is not None and finite:
+            return _Outcome("feasible", x, detail)
         return _Outcome("not certified", None, detail)
 
 
@@ -446,7 +543,7 @@ class _MilpBackend:
         st = self._solver.stats()
         status = str(st.get("return_status", ""))
         secondary = str(st.get("secondary_return_status", ""))
-        detail = {"status": status if not secondary else f"{status}: {secondary}"}
+        detail = {"status": status if not secondary else f"{status}: {secondary}", "objective": float(r["cost"])}
         x = np.array(r["x"], dtype=float).reshape(-1)
         if self.name == "highs":
             optimal, infeasible = status == "Optimal", status == "Infeasible"
@@ -482,7 +579,12 @@ class MHEObserver(Observer):
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
     solver_options : dict, optional
         Passed to the solver (DAQP settings, HiGHS/CBC/Bonmin options), e.g.
-        ``{"iter_limit": 1}`` or ``{"time_limit": 1e-6}``.
+        ``{"iter_limit": 1}`` or ``{"time_limit": 1e-6}``; they override the defaults, which for
+        DAQP are ``abs_subopt = MHE_ABS_SUBOPT``, ``eps_prox = 0`` and ``cycle_tol =``
+        :data:`~hybobs_opt.tolerances.MHE_DAQP_CYCLE_TOL` (1000 iterations without progress
+        before DAQP gives up with exit -2, "cycling"; DAQP's own default of 10 ends the
+        branch-and-bound on degenerate big-M vertices of 4-mode systems at T = 4-5 with noisy
+        data).  With the DAQP solver they apply to the uniqueness MIQP too.
     polish : bool
         Norm 2: re-solve the continuous QP of the optimal mode sequence exactly (removes the
         proximal term's bias from the estimate; see Notes).
@@ -499,9 +601,67 @@ class MHEObserver(Observer):
         Largest number of proximal-point passes per window (norm 2; see Notes).
     big_m : BigMConstants, optional
         Precomputed constants (share them between observers of the same system).
+    check_uniqueness : bool
+        ``True`` (default): flag ``observable`` only when the window-start state is unique (the
+        separated program, see Notes).  ``False``: no second program; ``observable`` then means
+        only "certified optimum" (the flag's old meaning), unless ``analysis`` decides.
+    uniqueness_delta : float
+        Separation ``delta`` of an alternative window-start state (inf-norm, units of the
+        half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
+    analysis : ObservabilityAnalysis, optional
+        A saved analysis of Algorithm 3.1 for this system and ``T``
+        (:func:`hybobs_opt.regions.analyse_observability`).  Its point query
+        ``classify(x(t-T+1))`` at the estimate decides the flag: ``"observable"`` /
+        ``"unobservable"`` answer Definition 2.2, i.e. for every input sequence, which is
+        stronger than the data-based question of the separated program (an ``unobservable``
+        state may still be unique for the input actually applied).  For noisy data it
+        classifies the estimate, not the data.  When it answers ``"infeasible"`` (the estimate
+        lies outside ``X*_T``) the separated program decides (``fallback`` if
+        ``check_uniqueness=False``).
 
     Notes
     -----
+    Uniqueness (the flag ``observable``).  After the optimum ``J*`` with window-start state
+    ``xi0*`` (scaled), a second mixed-integer program on the same MLD rows asks for the least
+    cost of a window-start state with ``||xi0 - xi0*||_inf >= delta``: ``2 n`` direction
+    binaries with ``sum = 1`` and big-M rows choose the coordinate and side (the box of ``X``
+    bounds ``M``).  It is built once at construction and re-solved per step:
+
+    1. a cheap sufficient test for an *alternative* first: when the optimal mode sequence's own
+       least-squares map has a direction whose cost over ``delta`` is below ``epsilon`` (the
+       backlash of model (16)), the QP of that sequence with the separation row, one per
+       admissible direction; it can never prove uniqueness, which needs every mode sequence;
+    2. the norm-2 MIQP (DAQP, its own workspace, proximal weight
+       :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`) with the objective cutoff
+       ``J* + epsilon`` widened by the proximal term's largest value over the box (and
+       ``abs_subopt``): "infeasible" (every node pruned) proves that each separated state costs
+       more than ``J* + epsilon``, so the state is unique; a returned point is re-checked in
+       numpy and the QP of its mode sequence and direction re-solved exactly: at most
+       ``J* + epsilon`` makes it an ``alternative``; above (within the proximal bias of the
+       threshold) that combination is excluded exactly and the rest searched again, by bounds
+       on the binaries only, in ``T + 1`` disjoint parts (at most ``UNIQUENESS_MAX_SOLVES``
+       solves, else "not certified").  DAQP's settings are applied before its setup, with
+       ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
+       as singular and silently switches to proximal iterations, whose answers were measured
+       to be wrong by 1e-11 of the output scale, ten times epsilon;
+    3. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
+       ``J_inf >= ||r||_2 / sqrt(N)`` (``N`` residual entries): if no separated state has
+       ``||r||_2^2 <= thr^2`` (``N thr^2``) the state is unique without the MILP.  Otherwise the
+       separated MILP (HiGHS with ``objective_bound`` and ``objective_target`` at
+       ``J* + epsilon``) decides: "infeasible", or an optimum whose dual bound exceeds the
+       threshold, proves uniqueness; a verified point below it is an alternative.
+
+    A DAQP solve that ends in cycling (exit -2) or at its iteration limit after warm-started
+    solves is repeated once on a workspace set up afresh (the only rebuild, never a per-step
+    one): the state kept from earlier solves was seen to cycle where a fresh one does not.
+
+    Every point a solver returns passes the same check as the optimum's before it is trusted:
+    finite point (and, for DAQP, finite objective and multipliers), integral binaries, one mode
+    per step and one direction, every MLD row within tolerance, the separation satisfied; the
+    alternative reported is then a model trajectory rebuilt from its window-start state and
+    modes, re-checked and costed in numpy.  With an arrival cost the prior is part of the cost:
+    "unique" then refers to the regularised problem.
+
     Warm start and certification, every step (every norm):
 
     1. The warm start is the previous window's solution shifted by one sample (its last state
@@ -542,7 +702,8 @@ class MHEObserver(Observer):
                  disturbance_weight=None, arrival_weight=None, *, x0=None, solver_options: dict | None = None,
                  polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
                  binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
-                 prox_passes: int = DEFAULT_PROX_PASSES, big_m: BigMConstants | None = None):
+                 prox_passes: int = DEFAULT_PROX_PASSES, big_m: BigMConstants | None = None,
+                 check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -563,6 +724,22 @@ class MHEObserver(Observer):
             raise ModelError("prox_passes", "an integer >= 1", repr(prox_passes))
         self.prox_passes = int(prox_passes)
         self.zero_cost_certificate = bool(zero_cost_certificate)
+        if not isinstance(check_uniqueness, (bool, np.bool_)):
+            raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
+        self.check_uniqueness = bool(check_uniqueness)
+        if not (isinstance(uniqueness_delta, (int, float, np.floating)) and not isinstance(uniqueness_delta, bool)
+                and np.isfinite(uniqueness_delta) and uniqueness_delta > 0):
+            raise ModelError("uniqueness_delta", "a positive finite separation (units of the half-widths of X)",
+                             repr(uniqueness_delta))
+        self.uniqueness_delta = float(uniqueness_delta)
+        if analysis is not None:
+            if not callable(getattr(analysis, "classify", None)):
+                raise ModelError("analysis", "an ObservabilityAnalysis (hybobs_opt.regions) with classify(x)",
+                                 type(analysis).__name__)
+            if getattr(analysis, "T", None) != int(T) or not _same_pwa(getattr(analysis, "system", None), system):
+                raise ModelError("analysis", f"an analysis of this system at T = {int(T)}",
+                                 f"T = {getattr(analysis, 'T', None)} of {getattr(analysis, 'system', None)!r}")
+        self.analysis = analysis
         self.system = system
         self.T = int(T)
         self.norm = norm
@@ -596,6 +773,7 @@ class MHEObserver(Observer):
         half, centre = system.scales()
         self._hx, self._cx = half[: self.n], centre[: self.n]
         self._x_default = centre[: self.n].copy()
+        self._build_uniqueness(dict(solver_options or {}))
         self.reset(x0)
 
     # ------------------------------------------------------------------ offline
@@ -640,6 +818,7 @@ class MHEObserver(Observer):
         lb = np.concatenate([enc.lb, np.zeros(ns)])
         ub = np.concatenate([enc.ub, np.full(ns, np.inf)])
         disc = np.concatenate([enc.discrete, np.zeros(ns, dtype=bool)])
+        self._milp = (c, A, lb, ub, disc)
         if self.solver == "highs":
             self._backend = _HighspyBackend(c, A, lb, ub, disc, options)
             return
@@ -722,7 +901,8 @@ class MHEObserver(Observer):
         return X, modes
 
     # ------------------------------------------------------------------ one solve
-    def solve_window(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray | None = None) -> dict:
+    def solve_window(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray | None = None,
+                     uniqueness: bool = False) -> dict:
         """Solve eq. (10) on one window (no observer state is changed).
 
         Parameters
@@ -732,6 +912,11 @@ class MHEObserver(Observer):
         x_start : (n,) array, optional
             Warm start and arrival prior for the window-start state (default: centre of ``X``);
             the warm-start mode sequence is simulated from it through the guards.
+        uniqueness : bool
+            Also run the separated program of the observer's flag on an optimal answer (needs
+            ``check_uniqueness=True`` at construction; a saved ``analysis`` is not consulted):
+            ``out["uniqueness"]`` (and ``out["alternative"]`` when one is found), as in
+            :meth:`step`'s ``info``.
 
         Returns
         -------
@@ -745,7 +930,15 @@ class MHEObserver(Observer):
         Y = np.asarray(Y, dtype=float).reshape(self.T, self.p)
         xs = self._x_default if x_start is None else np.asarray(x_start, dtype=float).reshape(self.n)
         Xg, mg = self._simulate(xs, U)
-        return self._solve(U, Y, xs, Xg, mg, cold=True)
+        out = self._solve(U, Y, xs, Xg, mg, cold=True)
+        if uniqueness and out["status"] == "optimal":
+            if not self.check_uniqueness:
+                raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
+            uq = self._uniqueness(U, Y, xs, out)
+            if uq["status"] == "alternative":
+                out["alternative"] = uq.pop("alternative")
+            out["uniqueness"] = uq
+        return out
 
     def _solve(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray, Xg: np.ndarray, mg: np.ndarray,
                cold: bool = False) -> dict:
@@ -992,33 +1185,430 @@ class MHEObserver(Observer):
         keep = norm > 0
         return np.vstack(Rrows), np.concatenate(rvec), G[keep] / norm[keep, None], gg[keep] / norm[keep], dist
 
-    def _polish(self, modes, U, Y, xbar, x0, W):
+    def _polish(self, modes, U, Y, xbar, x0, W, extra: tuple[np.ndarray, np.ndarray] | None = None,
+                problem: tuple | None = None, bound: bool = False):
         """Least-squares problem of the mode sequence ``modes``, warm-started at ``(x0, W)``.
 
         The QP of eq. (10) with the modes fixed, solved by DAQP (proximal iterations when the
         sequence leaves directions of the state unobserved).  For norm 2 it is exact; for norms
         1 / inf it gives a feasible point of the sequence (an incumbent), optimal when it fits
-        the data exactly.  Returns ``(x0, W, states)`` or ``None`` if not certified.
+        the data exactly.  ``extra = (G_e, g_e)`` adds rows ``G_e xi0 <= g_e`` on the scaled
+        window-start state (the separation of the uniqueness test); ``problem`` is
+        :meth:`_sequence_problem` of the same arguments, when already built.  Returns
+        ``(x0, W, states)`` or ``None`` if not certified.
+
+        ``bound=True`` (the uniqueness test): the proximal iterations run to convergence
+        (``eta_prox`` 1e-20: DAQP's default stops them early, 30 times above the minimum on a
+        sequence of model (16) with an unobserved direction) and a fourth element is returned, a
+        lower bound of the least cost of the sequence proven in numpy from the multipliers:
+        for every feasible ``theta``, by convexity and ``lam >= 0``,
+        ``q(theta) >= q(theta^) - lam' (g - G theta^) - sum_j |rho_j| D_j`` with
+        ``rho = H theta^ + f + G' lam`` and ``D_j`` the range of ``theta_j`` over its bounds.
         """
         import daqp
 
         T, n = self.T, self.n
         hx, cx = self._hx, self._cx
-        R, r, G, gg, dist = self._sequence_problem(modes, U, Y, xbar)
+        R, r, G, gg, dist = self._sequence_problem(modes, U, Y, xbar) if problem is None else problem
+        if extra is not None:
+            Ge = np.zeros((extra[0].shape[0], G.shape[1]))
+            Ge[:, :n] = extra[0]
+            G, gg = np.vstack([G, Ge]), np.concatenate([gg, extra[1]])
         # a QP for every norm: for norm 2 it is the exact problem; for norms 1 / inf its minimiser
         # is a feasible point (an upper bound, the incumbent) and an exact fit when one exists
         scale = float(np.max(np.einsum("ij,ij->j", R, R))) or 1.0
         H = 2.0 * R.T @ R / scale
         f = 2.0 * R.T @ r / scale
         theta0 = np.concatenate([(x0 - cx) / hx] + ([(W / hx).reshape(-1)] if dist else []))
-        theta, _, flag, _ = daqp.solve(H, f, G, gg, np.full(gg.size, -_DAQP_INF), primal_start=theta0)
-        if flag != _DAQP_OPTIMAL or not np.all(np.isfinite(theta)):
+        settings = {"eta_prox": 1e-20} if bound else {}
+        theta, fval, flag, info = daqp.solve(H, f, G, gg, np.full(gg.size, -_DAQP_INF), primal_start=theta0, **settings)
+        lam = np.asarray(info.get("lam", ()), dtype=float)
+        if flag != _DAQP_OPTIMAL or not (np.all(np.isfinite(theta)) and np.isfinite(fval) and np.all(np.isfinite(lam))):
             return None
         if np.max(G @ theta - gg, initial=0.0) > MHE_FEASIBILITY_TOL:
             return None
         x0p = cx + hx * theta[:n]
         Wp = (theta[n:].reshape(T - 1, n) * hx) if dist else np.zeros((max(T - 1, 0), n))
-        return x0p, Wp, self._trajectory(x0p, modes, U, Wp)
+        states = self._trajectory(x0p, modes, U, Wp)
+        if not bound:
+            return x0p, Wp, states
+        enc = self.enc
+        lo_t = np.concatenate([enc.lb[enc.slices["xi0"]]] + ([enc.lb[enc.slices["omega"]]] if dist else []))
+        hi_t = np.concatenate([enc.ub[enc.slices["xi0"]]] + ([enc.ub[enc.slices["omega"]]] if dist else []))
+        D = np.maximum(np.abs(hi_t - theta), np.abs(theta - lo_t))
+        lam = np.maximum(lam, 0.0) if lam.size == gg.size else np.zeros(gg.size)
+        rho = H @ theta + f + G.T @ lam
+        res = R @ theta + r
+        lower = float(res @ res - scale * (lam @ (gg - G @ theta) + np.abs(rho) @ D))
+        return x0p, Wp, states, lower
+
+    # ------------------------------------------------------------------ uniqueness
+    def _build_uniqueness(self, options: dict) -> None:
+        """The separated program: eq. (10) on the same MLD rows plus ``||xi0 - xi0*||_inf >= delta``.
+
+        Direction binaries ``b = (b_1+, b_1-, ..., b_n+, b_n-)`` with ``sum b = 1`` choose the
+        coordinate and side of the separation, through the big-M rows
+        ``+-(xi0_j - xi0*_j) >= delta - M (1 - b_j+-)`` with ``M = delta + max_j (ub_j - lb_j)``
+        (``xi0*`` is clipped to the box of ``X``, so ``M`` is valid wherever ``b = 0``).  The rows'
+        matrix is fixed; ``xi0*`` enters only their bounds, so every program is built once here
+        and re-solved each step.  Every norm gets the norm-2 MIQP for DAQP (its own workspace,
+        proximal weight :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`): for norm 2
+        it decides, for norms 1 / inf it is a sufficient bound (see :meth:`_uniqueness`); norms
+        1 / inf also get the MILP with the slacks of :meth:`_build`, which decides.
+        """
+        enc, res = self.enc, self._res
+        n, nv = self.n, enc.n_vars
+        xi = enc.slices["xi0"]
+        self._u_lbx, self._u_ubx = enc.lb[xi].copy(), enc.ub[xi].copy()
+        delta = self.uniqueness_delta
+        M = delta + float(np.max(self._u_ubx - self._u_lbx))
+        self._u_M = M
+        nb = 2 * n
+        self._u_nb = nb
+        # output scale of epsilon: one sample's squared weighted half-range of the outputs
+        rng = enc.big_m.output_range
+        hy = 0.5 * (rng[:, 1] - rng[:, 0])
+        Wh = self._Wy * hy[None, :]
+        S_y = float(np.max(np.einsum("ij,ij->j", Wh, Wh)))
+        eps2 = MHE_UNIQUENESS_COST_RTOL * S_y + MHE_UNIQUENESS_COST_ATOL
+        self.uniqueness_epsilon = eps2 if self.norm == "2" else float(np.sqrt(eps2))
+        self._u_eps2 = eps2
+        self._u_miqp = self._u_milp = None
+        if not self.check_uniqueness:
+            return
+        # separation rows (scaled by 1 / M: largest coefficient one) and the one-hot row of b
+        Sx = np.zeros((nb, nv))
+        Sb = np.zeros((nb, nb))
+        for j in range(n):
+            Sx[2 * j, xi.start + j], Sb[2 * j, 2 * j] = 1.0 / M, -1.0
+            Sx[2 * j + 1, xi.start + j], Sb[2 * j + 1, 2 * j + 1] = -1.0 / M, -1.0
+        one = np.concatenate([np.zeros(nv), np.ones(nb)])[None, :]
+        A = np.vstack([np.hstack([enc.A, np.zeros((enc.n_constraints, nb))]), np.hstack([Sx, Sb]), one])
+        eq = np.concatenate([self._eq_rows, np.zeros(nb, dtype=bool), [True]])
+        RtR = res.R.T @ res.R
+        d = np.diag(RtR)
+        self._u_Js = self._Js if self.norm == "2" else (float(d.max()) if d.max() > 0 else 1.0)
+        H0 = np.zeros((nv + nb, nv + nb))
+        H0[:nv, :nv] = 2.0 * RtR / self._u_Js
+        lb = np.concatenate([enc.lb, np.zeros(nb)])
+        ub = np.concatenate([enc.ub, np.ones(nb)])
+        disc = np.concatenate([enc.discrete, np.ones(nb, dtype=bool)])
+        self._u_lb, self._u_ub, self._u_disc = lb, ub, disc
+        # The DAQP package whatever the observer's solver: casadi-daqp's bundled DAQP mishandles
+        # equality rows and Bonmin has no cutoff (see the class Notes); the user's options are
+        # passed on only when they are DAQP's.  The proximal weight is the smallest of a ladder
+        # from MHE_UNIQUENESS_PROX_WEIGHT whose Hessian DAQP factorises (its own factorisation
+        # loses ~nv * 1e-16 on the pivots: 1e-13 passes on model 16, 3e-13 is needed with 46
+        # variables), with zero_tol a tenth of it so that the smallest pivots count as nonzero.
+        # abs_subopt = 0: there is no incumbent to prune against, only the cutoff, and any
+        # suboptimality allowance would widen the band of undecided windows.
+        self._u_miqp = None
+        for w in MHE_UNIQUENESS_PROX_WEIGHT * np.array([1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0]):
+            opts = {"zero_tol": 0.1 * w, "abs_subopt": 0.0, **(options if self.solver == "daqp" else {})}
+            backend = _DaqpBackend(H0 + 2.0 * w * np.eye(nv + nb), A, lb, ub, disc, eq, opts)
+            if backend.probe():
+                self._u_miqp, self.uniqueness_prox_weight = backend, float(w)
+                self._u_eps = np.full(nv + nb, float(w))
+                break
+        if self._u_miqp is None:
+            raise SolverError("uniqueness MIQP of the MHE observer", "daqp", "Hessian not factorised (exit -5)",
+                              hint="check_uniqueness=False (the flag then only means a certified optimum)")
+        if self.norm == "2":
+            return
+        c, A0, lb0, ub0, disc0 = self._milp
+        ns = self._nslack
+        A = np.vstack([np.hstack([A0, np.zeros((A0.shape[0], nb))]),
+                       np.hstack([Sx, np.zeros((nb, ns)), Sb]),
+                       np.concatenate([np.zeros(nv + ns), np.ones(nb)])[None, :]])
+        c = np.concatenate([c, np.zeros(nb)])
+        lb = np.concatenate([lb0, np.zeros(nb)])
+        ub = np.concatenate([ub0, np.ones(nb)])
+        disc = np.concatenate([disc0, np.ones(nb, dtype=bool)])
+        if self.solver == "highs":
+            self._u_milp = _HighspyBackend(c, A, lb, ub, disc, options)
+        else:
+            self._u_milp = _MilpBackend(self.solver.replace("casadi-", ""), c, A, lb, ub, disc, options)
+
+    def _uniqueness(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: dict) -> dict:
+        """Is the window-start state of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?
+
+        Returns a dict with ``status`` ``"unique"`` (no admissible window-start state at least
+        ``delta`` away, inf-norm in units of the half-widths of ``X``, has cost ``<= J* +
+        epsilon``), ``"alternative"`` (one has: ``alternative`` holds it, verified in numpy) or
+        ``"not certified"`` (``reason``); ``decided_by``, ``separated_cost`` (exact cost of the
+        alternative found, else ``None``), ``separated_cost_bound`` (a proven lower bound of the
+        separated minimum), ``threshold = J* + epsilon`` and ``seconds``.
+        """
+        t0 = time.perf_counter()
+        try:
+            out = self._uniqueness_inner(U, Y, xbar, opt)
+        except Exception as exc:  # a crashing solver must not stop the observer loop
+            out = {"status": "not certified", "reason": f"{type(exc).__name__}: {exc}"}
+        out["seconds"] = time.perf_counter() - t0
+        return out
+
+    def _separation_rows(self, xi_s: np.ndarray, j: int, sign: int) -> tuple[np.ndarray, np.ndarray]:
+        """``sign (xi0_j - xi_s_j) >= delta`` as a row ``G xi0 <= g``."""
+        G = np.zeros((1, self.n))
+        G[0, j] = -float(sign)
+        return G, np.array([-float(sign) * xi_s[j] - self.uniqueness_delta])
+
+    def _alternative(self, x0, modes, U, Y, xbar, W, xi_s) -> dict | None:
+        """A verified alternative: a model trajectory from ``x0`` with ``modes`` (and ``W``) that
+        satisfies the MLD rows to :data:`MHE_FEASIBILITY_TOL`, is ``delta`` away from the
+        optimum's window-start state (to the same tolerance) and has its exact cost; else ``None``."""
+        if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(W))):
+            return None
+        modes = np.asarray(modes, dtype=int)
+        states = self._trajectory(x0, modes, U, W)
+        if not np.all(np.isfinite(states)):
+            return None
+        v = self.enc.pack(states, modes, U, W if self.enc.disturbances else None)
+        if not (self.enc.violation(v, U.reshape(-1)) <= MHE_FEASIBILITY_TOL):
+            return None
+        dist = float(np.max(np.abs((x0 - self._cx) / self._hx - xi_s)))
+        if not (dist >= self.uniqueness_delta - MHE_FEASIBILITY_TOL):
+            return None
+        cost = self._cost(states, modes, U, Y, W, xbar)
+        if not np.isfinite(cost):
+            return None
+        return {"x_start": x0.copy(), "cost": cost, "modes": modes.copy(), "states": states, "w": W,
+                "distance": dist}
+
+    def _uniqueness_inner(self, U, Y, xbar, opt) -> dict:
+        enc, res = self.enc, self._res
+        n, nv, nb, T = self.n, enc.n_vars, self._u_nb, self.T
+        delta, eps = self.uniqueness_delta, self.uniqueness_epsilon
+        J = float(opt["cost"])
+        thr = J + eps
+        base = {"delta": delta, "epsilon": eps, "threshold": thr, "separated_cost": None, "separated_cost_bound": None}
+        xi_s = np.clip((opt["x_start"] - self._cx) / self._hx, self._u_lbx, self._u_ubx)
+        allowed = np.zeros(nb, dtype=bool)
+        allowed[0::2] = xi_s + delta <= self._u_ubx
+        allowed[1::2] = xi_s - delta >= self._u_lbx
+        if not allowed.any():
+            return {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
+                    "separated_cost_bound": np.inf}
+        # 1. a cheap sufficient test for an alternative (it can never prove uniqueness, which
+        #    needs every mode sequence): when the optimal sequence's own least-squares map has a
+        #    direction whose cost over delta stays below epsilon (the backlash of model (16)),
+        #    one QP per admissible direction along it, with that sequence's guards
+        cands: list[dict] = []
+        prob = self._sequence_problem(opt["modes"], U, Y, xbar)
+        _, sv, Vt = np.linalg.svd(prob[0], full_matrices=True)
+        sv = np.concatenate([sv, np.zeros(Vt.shape[0] - sv.size)])
+        weak = sv * delta <= np.sqrt(self._u_eps2)
+        if weak.any():
+            reach = np.max(np.abs(Vt[weak][:, :n]), axis=0)
+            order = [k for k in np.argsort(-np.repeat(reach, 2), kind="stable") if allowed[k] and reach[k // 2] > 0]
+            for k in order:
+                j, sign = int(k // 2), (1 if k % 2 == 0 else -1)
+                pol = self._polish(opt["modes"], U, Y, xbar, opt["x_start"], opt["w"],
+                                   extra=self._separation_rows(xi_s, j, sign), problem=prob, bound=True)
+                alt = None if pol is None else self._alternative(pol[0], opt["modes"], U, Y, xbar, pol[1], xi_s)
+                if alt is not None:
+                    cands.append(alt)
+                    if alt["cost"] <= thr:
+                        return {**base, "status": "alternative", "decided_by": "optimal mode sequence",
+                                "separated_cost": alt["cost"], "alternative": alt}
+        # 2. the separated mixed-integer programs over every mode sequence
+        Uf, Yf = U.reshape(-1), Y.reshape(-1)
+        lo, hi = enc.bounds(Uf)
+        rp = res.offset(Yf, Uf, xbar)
+        M = self._u_M
+        sep_lo = np.empty(nb)
+        sep_lo[0::2] = (xi_s + delta - M) / M
+        sep_lo[1::2] = (-xi_s + delta - M) / M
+        vstar = enc.pack(opt["states"], opt["modes"], U, opt["w"] if enc.disturbances else None)
+        detail: dict = {}
+        # 2a. the norm-2 MIQP with a cutoff: for norm 2 the decision; for norms 1 / inf a bound,
+        #     since J_1 >= ||r||_2 and J_inf >= ||r||_inf >= ||r||_2 / sqrt(N) (N residual
+        #     entries): no separated point with ||r||_2^2 <= thr2 proves J > thr
+        nres = res.R.shape[0]
+        thr2 = thr if self.norm == "2" else (thr**2 if self.norm == "1" else nres * thr**2)
+        lo_u = np.concatenate([lo, sep_lo, [1.0]])
+        hi_u = np.concatenate([hi, np.full(nb, np.inf), [1.0]])
+        rstar = res.R @ vstar + rp
+        Jv = float(rstar @ rstar)
+        Js = self._u_Js
+        f = np.concatenate([2.0 * res.R.T @ rstar / Js, np.zeros(nb)])
+        wbar = np.concatenate([vstar, np.zeros(nb)])
+        ub0 = self._u_ub.copy()
+        ub0[nv:][~allowed] = 0.0
+        cont = ~self._u_disc
+        sub = float(self._u_miqp._settings.get("abs_subopt", 0.0))
+        dstart, s_modes = enc.slices["delta"].start, self.system.n_modes
+        # The proximal term biases the cutoff test by at most its largest value at an integral
+        # point (below), so a returned point may cost a little more than thr.  For norm 2 such a
+        # point's mode sequence and direction (a "combination") are then excluded *exactly* by
+        # the QP of that combination (its minimum is the polished cost, > thr), and the rest is
+        # searched again by bounds only, in T + 1 disjoint parts: the other directions, and for
+        # k = 0 .. T-1 this direction with the sequence's modes before step k and another mode
+        # at step k.
+        stack, solves, why, decided = [ub0], 0, None, True
+        while stack:
+            ub = stack.pop()
+            if solves >= UNIQUENESS_MAX_SOLVES:
+                why, decided = f"no decision within {UNIQUENESS_MAX_SOLVES} solves of the separated MIQP", False
+                break
+            # largest proximal term at an integral point of the box: the continuous variables'
+            # box ranges around the centre, two binaries per step for the modes (the centre is
+            # one-hot) and one direction binary (the centre is zero)
+            span = np.maximum((self._u_lb[cont] - wbar[cont]) ** 2, (ub[cont] - wbar[cont]) ** 2)
+            bias = float(self._u_eps[cont] @ span)
+            bias += float(self.uniqueness_prox_weight * (2 * T + 1))
+            out = self._u_miqp.solve(f, lo_u, hi_u, wbar, cutoff=(thr2 - Jv) / Js + bias + sub, ub=ub)
+            solves += 1
+            detail.update({f"solver_{k}": v for k, v in out.detail.items()})
+            if out.status == "infeasible":
+                # every node was pruned: each separated point of this part has J2 / Js + prox >
+                # cutoff, hence J2 > thr2
+                continue
+            if out.status != "optimal":
+                why, decided = f"solver status {out.detail.get('status')!r}", False
+                break
+            alt, why, combo, lower = self._verified_separated(out.v, U, Y, xbar, xi_s, allowed, lo, hi, polish=True)
+            if alt is not None:
+                cands.append(alt)
+            if alt is None or alt["cost"] <= thr or self.norm != "2" or lower is None or not lower > thr:
+                decided = False
+                break
+            modes, kd = combo
+            if np.any(ub[nv:][np.arange(nb) != kd] > 0):
+                child = ub.copy()
+                child[nv + kd] = 0.0
+                stack.append(child)
+            for k in range(T):
+                # disjoint parts: the sequence's modes up to step k - 1, another mode at step k
+                child = ub.copy()
+                child[nv:] = 0.0
+                child[nv + kd] = 1.0
+                for j in range(k):
+                    keep = child[dstart + j * s_modes + int(modes[j])]
+                    child[dstart + j * s_modes: dstart + (j + 1) * s_modes] = 0.0
+                    child[dstart + j * s_modes + int(modes[j])] = keep
+                child[dstart + k * s_modes + int(modes[k])] = 0.0
+                stack.append(child)
+        detail["solver_solves"] = solves
+        if decided:
+            by = "branch-and-bound" if self.norm == "2" else "norm-2 bound (MIQP)"
+            return {**base, **detail, "status": "unique", "decided_by": by, "separated_cost_bound": thr,
+                    "separated_cost": min((c["cost"] for c in cands), default=None)}
+        if self.norm != "2" and not any(c["cost"] <= thr for c in cands):
+            # 2b. norms 1 / inf: the MILP decides
+            rps = rp / self._Js
+            lo_m = np.concatenate([lo, np.full(2 * nres, -np.inf), sep_lo, [1.0]])
+            hi_m = np.concatenate([hi, -rps, rps, np.full(nb, np.inf), [1.0]])
+            ncol = nv + self._nslack
+            bound = thr / self._Js
+            if self.solver == "highs":
+                out = self._u_milp.solve(lo_m, hi_m, cutoff=bound, target=bound,
+                                         col_bounds=(ncol + np.arange(nb), np.zeros(nb), allowed.astype(float)))
+            else:
+                out = self._u_milp.solve(lo_m, hi_m)
+            detail = {**detail, **{f"milp_{k}": v for k, v in out.detail.items()}}
+            if out.status == "infeasible":
+                return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
+                        "separated_cost_bound": thr}
+            if out.status in ("optimal", "feasible"):
+                alt, why, _, _ = self._verified_separated(np.concatenate([out.v[:nv], out.v[ncol:]]), U, Y, xbar,
+                                                          xi_s, allowed, lo, hi, polish=False)
+                if alt is not None:
+                    cands.append(alt)
+                if out.status == "optimal" and not any(c["cost"] <= thr for c in cands):
+                    # a MILP optimum (zero gap, no proximal bias): its bound is the separated
+                    # minimum (HiGHS's dual bound, else its optimal objective)
+                    lb = self._Js * float(out.detail.get("dual_bound", out.detail.get("objective", -np.inf)))
+                    if lb > thr:
+                        return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
+                                "separated_cost": min((c["cost"] for c in cands), default=None),
+                                "separated_cost_bound": lb}
+            else:
+                why = f"MILP status {out.detail.get('status')!r}"
+        if cands:
+            alt = min(cands, key=lambda c: c["cost"])
+            base["separated_cost"] = alt["cost"]
+            if alt["cost"] <= thr:
+                if alt["cost"] < J - max(opt.get("gap_bound", 0.0), 0.0) - eps:
+                    return {**base, **detail, "status": "not certified",
+                            "reason": "a separated state beats the certified optimum (optimum not global)"}
+                return {**base, **detail, "status": "alternative", "decided_by": "branch-and-bound", "alternative": alt}
+        return {**base, **detail, "status": "not certified",
+                "reason": why or "separated minimum within the solver's accuracy of J* + epsilon"}
+
+    def _verified_separated(self, w, U, Y, xbar, xi_s, allowed, lo, hi, polish: bool) -> tuple:
+        """Check a solver's point ``w = [v; b]`` of the separated program before trusting it.
+
+        Finite, every MLD row within :data:`MHE_FEASIBILITY_TOL`, integral binaries (one mode per
+        step, one admissible direction), the chosen separation row satisfied; then the model
+        trajectory of its window-start state and modes (and, with ``polish``, the exact QP of
+        that sequence and direction), verified by :meth:`_alternative`.  Returns
+        ``(alternative or None, reason or None, (modes, direction index) or None, bound)``,
+        ``bound`` a proven lower bound of the least cost over that sequence and direction (from
+        the exact QP, :meth:`_polish` with ``bound=True``) or ``None``.
+        """
+        enc, T, nv = self.enc, self.T, self.enc.n_vars
+        v, b = w[:nv], w[nv:]
+        if not np.all(np.isfinite(w)):
+            return None, "separated solution with NaN/Inf", None, None
+        viol = enc.violation(v, U.reshape(-1), bounds=(lo, hi))
+        bviol = float(np.max(np.abs(b - np.round(b))))
+        if not (viol <= max(MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL) and bviol <= MHE_INTEGRALITY_TOL):
+            return None, f"separated solution failed verification (violation {max(viol, bviol):.3g})", None, None
+        v = v.copy()
+        v[enc.discrete] = np.round(v[enc.discrete])
+        b = np.round(b)
+        if not ((v[enc.discrete].reshape(T, -1).sum(axis=1) == 1).all() and b.sum() == 1 and allowed[b == 1].all()):
+            return None, "separated solution: binaries not one-hot", None, None
+        k = int(np.argmax(b))
+        j, sign = k // 2, (1 if k % 2 == 0 else -1)
+        if not (sign * (v[enc.slices["xi0"]][j] - xi_s[j]) >= self.uniqueness_delta - MHE_FEASIBILITY_TOL):
+            return None, "separated solution is not delta away", None, None
+        modes = enc.modes(v)
+        x0, W = enc.states(v)[0], enc.disturbance(v)
+        cands = [self._alternative(x0, modes, U, Y, xbar, W, xi_s)]
+        exact = None
+        if polish:
+            # the solver's point carries the (tiny) proximal bias: the exact QP of its sequence
+            # and direction, with a lower bound of its minimum proven from the multipliers
+            pol = self._polish(modes, U, Y, xbar, x0, W, extra=self._separation_rows(xi_s, j, sign), bound=True)
+            if pol is not None:
+                cands.append(self._alternative(pol[0], modes, U, Y, xbar, pol[1], xi_s))
+                exact = pol[3]
+        cands = [c for c in cands if c is not None]
+        if not cands:
+            return None, "separated solution: no verified model trajectory", (modes, k), exact
+        return min(cands, key=lambda c: c["cost"]), None, (modes, k), exact
+
+    def _decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, info: dict) -> str:
+        """Flag of a certified optimum ``info``: the analysis's point query, else the separated program."""
+        if self.analysis is not None:
+            t0 = time.perf_counter()
+            try:
+                label = str(self.analysis.classify(info["x_start"]))
+            except Exception as exc:  # an LP failure must not stop the observer loop
+                label = f"failed ({type(exc).__name__}: {exc})"
+            info["analysis_label"] = label
+            if label in (OBSERVABLE, UNOBSERVABLE):
+                info["uniqueness"] = {"status": "unique" if label == OBSERVABLE else "not unique for every input",
+                                      "decided_by": "analysis (Definition 2.2, every input sequence)",
+                                      "seconds": time.perf_counter() - t0}
+                return label
+        if not self.check_uniqueness:
+            if self.analysis is not None:
+                info["reason"] = f"analysis label {info['analysis_label']!r} at the estimate and check_uniqueness=False"
+                return FALLBACK
+            return OBSERVABLE
+        uq = self._uniqueness(U, Y, xbar, info)
+        if uq["status"] == "alternative":
+            info["alternative"] = uq.pop("alternative")
+        info["uniqueness"] = uq
+        if uq["status"] == "unique":
+            return OBSERVABLE
+        if uq["status"] == "alternative":
+            return UNOBSERVABLE
+        info["reason"] = f"uniqueness not certified: {uq.get('reason', '?')}"
+        return FALLBACK
 
     # ------------------------------------------------------------------ runtime
     def _in_U(self, U: np.ndarray) -> bool:
@@ -1034,7 +1624,7 @@ class MHEObserver(Observer):
         self._u_prev = u
         if self._count < self.T:
             self._x, self._mode = x_pred, q_pred
-            return Estimate(self._x.copy(), self._mode, WARMING_UP, 0.0, {})
+            return Estimate(self._x.copy(), self._mode, WARMING_UP, 0.0, {"certified_optimum": False})
         # warm start: the previous window's trajectory shifted by one sample (or, for the first
         # window after a reset, the model simulated from the initial guess)
         if self._prev is not None:
@@ -1045,11 +1635,18 @@ class MHEObserver(Observer):
             info = {"status": "not certified", "reason": "input outside U: the big-M constants do not hold there"}
         else:
             info = self._solve(self._U, self._Y, Xg[0], Xg, mg, cold=self._prev is None)
+        info["certified_optimum"] = info["status"] == "optimal"
         if info["status"] == "optimal":
             states, modes = info["states"], info["modes"]
+            # the optimum fits the data whatever the flag: it warm-starts the next window
             self._prev = (states, modes, self._U[-1].copy())
-            self._x, self._mode = states[-1].copy(), int(modes[-1])
-            return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
+            flag = self._decide(self._U, self._Y, Xg[0], info)
+            if flag == OBSERVABLE:
+                self._x, self._mode = states[-1].copy(), int(modes[-1])
+                return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
+            # not unique (or not certified unique): open-loop prediction
+            self._x, self._mode = x_pred, q_pred
+            return Estimate(self._x.copy(), self._mode, flag, 0.0, info)
         # no estimate from the data: the warm start (open-loop prediction) carries on
         self._prev = (Xg, mg, self._U[-1].copy())
         self._x, self._mode = x_pred, q_pred
@@ -1066,4 +1663,27 @@ class MHEObserver(Observer):
         self._prev = None
         nxt, _, ok = self._open_loop(u)
         self._start = nxt.copy() if ok else self._x.copy()
-        return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason})
+        return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason, "certified_optimum": False})
+
+
+def _same_pwa(a, b) -> bool:
+    """Whether two PWA systems have the same modes, guards and bounds (array for array)."""
+    if a is b:
+        return True
+    if not (isinstance(a, PWASystem) and isinstance(b, PWASystem)) or a.n_modes != b.n_modes:
+        return False
+    if (a.n, a.m, a.p) != (b.n, b.m, b.p):
+        return False
+
+    def same(x, y) -> bool:
+        return np.shape(x) == np.shape(y) and np.array_equal(x, y)
+
+    for ma, mb in zip(a.modes, b.modes):
+        if not all(same(getattr(ma, k), getattr(mb, k)) for k in ("A", "B", "a", "C", "D", "c")):
+            return False
+        if not (same(ma.guard.A, mb.guard.A) and same(ma.guard.b, mb.guard.b)):
+            return False
+    for Pa, Pb in ((a.state_bounds, b.state_bounds), (a.input_bounds, b.input_bounds)):
+        if (Pa is None) != (Pb is None) or (Pa is not None and not (same(Pa.A, Pb.A) and same(Pa.b, Pb.b))):
+            return False
+    return True
