@@ -64,10 +64,11 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         f"{clean['full_rank_sequence_fraction']:.3f}. "
         "In unobservable windows the lookup observer predicts open loop from its last reconstruction and says so "
         "(exact here: no model error). The MIQP/MILP observers are warm-started with the previous trajectory shifted "
-        "by one sample; on noise-free data that continuation is one of the zero-cost minimisers, so they also stay "
-        "exact through the backlash here, but they cannot tell that the minimiser is not unique: a cold-started "
-        "solve may return any other state with the same outputs (the paper's Fig. 8), with the same 'optimal' "
-        "status.</p>",
+        "by one sample; on noise-free data that continuation is one of the zero-cost minimisers. A minimiser alone "
+        "cannot tell whether it is unique (the paper's Fig. 8: a cold-started solve may return any other state with "
+        "the same outputs), so after each optimum a second mixed-integer program searches for a window-start state "
+        "at least MHE_UNIQUENESS_DELTA away (scaled) within epsilon of the optimal cost: 'observable' means it "
+        "proved there is none; 'unobservable' means it found one (info['alternative']).</p>",
         "<img src='observers_fig7_9.png' alt='Figs. 7-9'>",
         f"<h3>With output noise (sigma = {NOISE} rad/s)</h3>",
         _table(noisy),
