@@ -6,13 +6,32 @@ system matrices; see that module).  A disagreement is a toolbox label outside th
 ``allowed`` set; states whose answer depends on the boundary convention or on the tolerances
 (``len(allowed) > 1``, "ambiguous") are counted separately and must stay under 2 %.
 
-Samples per configuration: a third within 1 % (scaled) of the backlash guards
-``theta = +-alpha``, a sixth uniform in the state box, the rest with a slowly varying shaft twist
-(so that most states lie in ``X*_T``), some of them along the paper's backlash scenario.
+Samples per configuration (:func:`sample_states`): a third whose shaft twist is within 1 % (scaled)
+of a backlash guard ``theta = +-alpha`` at some step of the window (the boundaries of the regions
+of eq. 4), a sixth uniform in the state box, a tenth along the paper's backlash scenario, the rest
+with a slowly varying shaft twist (so that most states lie in ``X*_T``).
 
-Measured figures (oracle counts observable / unobservable / infeasible / ambiguous and the number
-of disagreements) are printed by each test (``pytest -s``); the ones recorded in the report of
-the change that added this file are in its docstring table below.
+Each agreement test prints its figures (``pytest -s``).  Measured when this file was added
+(oracle counts; disagreements of the toolbox before the fix of the pair sets, commit 15e8b9f, and
+after it, 9b439ee; every one of the former was toolbox "unobservable" / oracle "observable", and
+the ones checked with :func:`exact_oracle.pair_search_lp` had no state at >= 1e-5 with the same
+outputs)::
+
+    configuration        N   observable unobservable infeasible ambiguous | before after
+    (16) tau=1/12 T=3   300     164        119          17          0     |   0      0
+    (16) tau=1/12 T=5   300     184         77          39          0     |   0      0
+    (16) tau=1/12 T=7   300     191         45          64          0     |   2      0
+    (16) tau=1/2  T=3   300     129        128          43          0     |   0      0
+    (16) tau=1/2  T=5   300     154         83          63          0     |   2      0
+    (16) tau=1/2  T=7   300     175         54          71          0     |   9      0
+    (16) tau=1    T=3   300     123        121          56          0     |   0      0
+    (16) tau=1    T=5   300     146         80          73          1     |   4      0
+    (16) tau=1    T=7   300     186         42          72          0     |  14      0
+    (17)          T=5   200      93         63          44          0     |   0      0
+    (17)          T=7   200     127         18          55          0     |   1      0
+
+Oracle cost (one core, machine load 2-4): model (16) 20-45 ms per state, model (17) 170 ms at
+T = 5 and 270 ms at T = 7; the whole file ~4.5 min serially, ~2.5 min with ``-n 2``.
 """
 
 from __future__ import annotations
@@ -155,16 +174,18 @@ def test_model17_agrees_with_exact_oracle(T):
 
 
 def test_known_spurious_unobservable_states():
-    """Gear ratio 1, T = 7: states that an audit found called unobservable.  The oracle says no state
-    at scaled distance >= delta/100 has the same outputs (closed sets), confirmed by the MILP-free
-    enumeration of mode-sequence pairs; so "unobservable" is wrong under any boundary convention."""
+    """Gear ratio 1, T = 7: states that an audit found called unobservable.  The oracle finds no state
+    at scaled distance >= 1e-5 with the same outputs (closed sets), and the MILP-free enumeration of
+    mode-sequence pairs none at >= 1e-6: "unobservable" is wrong under any boundary convention.
+    (The second state lies on the bound theta = -0.2 of X: feasible in the closed sense only, so
+    the oracle allows "observable" or "infeasible".)"""
     system = powertrain3(1.0)
     T = 7
     analysis = analyse_observability(system, T)
     for x in ([-0.16, 73.74, 25.0], [-0.2, 82.41, 25.0]):
         v = analyse_state(system, T, x)
         assert "unobservable" not in v.allowed, v
-        xh, _, n_lps = pair_search_lp(system, T, x, 1e-6, 1e-7)
+        xh, _, _ = pair_search_lp(system, T, x, 1e-6, 1e-7)
         assert xh is None
         assert analysis.classify(x) in v.allowed, (x, analysis.classify(x), v.reason)
 
@@ -205,11 +226,11 @@ def test_random_pwa_agrees_with_exact_oracle(seed, n, n_modes, extra):
         n_modes = 2
     system = random_pwa(seed, n, n_modes)
     analysis = analyse_observability(system, T)
-    rng = np.random.default_rng(seed)
-    X = rng.uniform(-1, 1, size=(4, n)) * 0.6
+    rng = np.random.default_rng([seed, 1])  # not random_pwa's stream: its first draw is a guard cut
+    X = rng.uniform(-1, 1, size=(3, n)) * 0.6
     for x in X:
         v = analyse_state(system, T, x)
-        assert len(v.allowed) == 1 or v.label == "ambiguous"
+        assert (v.label == "ambiguous") == (len(v.allowed) > 1) and (v.label in v.allowed or v.label == "ambiguous")
         if len(v.allowed) > 1:
             continue  # measure-zero band, counted in the powertrain tests
         assert analysis.classify(x) in v.allowed, (x.tolist(), analysis.classify(x), v.label, v.reason)
@@ -295,7 +316,7 @@ def test_oracle_milp_agrees_with_lp_enumeration(seed):
     """The MILP + cuts answers against the MILP-free enumeration of mode-sequence pairs."""
     system = random_pwa(seed, 2, 3)
     T = 3
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng([seed, 1])
     seen = collections.Counter()
     for x in rng.uniform(-0.7, 0.7, size=(6, 2)):
         v = analyse_state(system, T, x)
@@ -305,7 +326,7 @@ def test_oracle_milp_agrees_with_lp_enumeration(seed):
         elif v.label == "unobservable":
             xh, U, _ = pair_search_lp(system, T, x, 1e-4, -1e-5)
             assert xh is not None
-    assert seen["observable"] + seen["unobservable"] > 0, seen
+    assert seen["observable"] > 0 or seen["unobservable"] > 0, seen
 
 
 def test_window_labels_consistent_with_state_labels():
