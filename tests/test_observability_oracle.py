@@ -30,8 +30,9 @@ outputs)::
     (17)          T=5   200      93         63          44          0     |   0      0
     (17)          T=7   200     127         18          55          0     |   1      0
 
-Oracle cost (one core, machine load 2-4): model (16) 20-45 ms per state, model (17) 170 ms at
-T = 5 and 270 ms at T = 7; the whole file ~4.5 min serially, ~2.5 min with ``-n 2``.
+Oracle cost (one core, machine load 1-4): model (16) 20-45 ms per state, model (17) 170 ms at
+T = 5 and 270 ms at T = 7.  The whole file: 261 s serially at load 1-2 (model 17 at T = 7 alone
+69 s, the random systems 31 s); ``-n 2`` gains little while other jobs share the two cores.
 """
 
 from __future__ import annotations
