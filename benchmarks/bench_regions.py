@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import statistics
 import sys
@@ -31,6 +30,7 @@ from hybobs_opt.errors import SolverError
 from hybobs_opt.examples.powertrain import TABLE2, powertrain3, powertrain5
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
 from hybobs_opt.lp import COUNTERS, solve_lp
+from hybobs_opt.observers.bench import wilson_interval
 from hybobs_opt.regions import Cut, analyse_observability, compute_cut, plot_cut
 from hybobs_opt.report.regions_section import PAPER_002, fig6_planes
 
@@ -57,15 +57,7 @@ def _versions() -> dict:
     return versions(("hybobs_opt", "numpy", "scipy", "daqp", "highspy", "matplotlib", "dask", "distributed"))
 
 
-def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
-    """95 % Wilson score interval of a binomial proportion ``k / n``."""
-    if n == 0:
-        return None
-    p = k / n
-    den = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / den
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return (max(0.0, centre - half), min(1.0, centre + half))
+wilson = wilson_interval
 
 
 def _median(xs):

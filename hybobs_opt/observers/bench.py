@@ -202,7 +202,7 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
         # the rank condition of the true mode sequence (necessary only); the exact share follows
         "full_rank_sequence_fraction": float(truly[T - 1 :].mean()),
         "truly_observable_fraction": exact_share,
-        "truly_observable_fraction_ci95": _wilson(n_obs, len(labels)),
+        "truly_observable_fraction_ci95": wilson_interval(n_obs, len(labels)),
         "truly_observable_windows_classified": int(len(labels)),
         "analysis_seconds": analysis_s,
         "paper_seconds_per_step": {"miqp": 3.0, "lookup": 0.031},
@@ -222,15 +222,15 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
     return summary
 
 
-def _wilson(k: int, n: int, z: float = 1.959963984540054) -> list[float] | None:
-    """95 % Wilson score interval of a proportion ``k / n``."""
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
+    """95 % Wilson score interval of a binomial proportion ``k / n`` (``None`` when ``n = 0``)."""
     if n == 0:
         return None
     p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return [float(c - h), float(c + h)]
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * float(np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))) / den
+    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def plot_bench(trace, outs: dict[str, ObserverTrace], path: str) -> str:
