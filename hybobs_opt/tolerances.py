@@ -65,13 +65,6 @@ IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
 #: about 1e-13; anything closer than this is the same state for every test of the toolbox.
 DISTINCT_STATE_TOL: float = 1e-5
 
-#: Multipliers of a Chebyshev LP with radius <= 0 that are below this fraction of the largest
-#: one are read as zero when the rows they weight are taken as implicit equalities (the affine
-#: hull of a face-confined pair set).  DAQP's multipliers are exact to about 1e-9 relative with
-#: the forced proximal weight; a spurious row at 1e-6 would shrink the hull, so rows are only
-#: taken when clearly active.
-IMPLICIT_EQUALITY_MULTIPLIER_RTOL: float = 1e-6
-
 #: An "optimal" LP point is accepted only if every row ``a'x <= b`` (or ``= b``) holds to
 #: ``LP_POINT_RTOL (1 + |b| + |a| |x|)``, i.e. relative to the terms summed in the row.  HiGHS
 #: certifies a primal feasibility of 1e-7 on its internally scaled problem; ten times that leaves

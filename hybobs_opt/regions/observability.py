@@ -9,15 +9,13 @@ Notation: regions ``P_i`` of eq. (4) over ``(x, U)`` with outputs ``Y = C_i x + 
   ``R_ij = {(x, x^, U) : (x, U) in P_i, (x^, U) in P_j, C_i x + D_i U + f_i = C_j x^ + D_j U + f_j}``.
 * ``B~_T`` (eq. 15): the ``R_ij`` with ``i`` in ``I`` and ``j`` not in ``I``.
 
-Like the paper, the sets are computed up to sets of zero measure: a pair set counts when it has
-a Chebyshev ball of radius above :data:`~hybobs_opt.tolerances.REGION_SLACK_TOL` inside the
-affine subspace of its output equalities (scaled coordinates), its projection onto ``x`` is
-full-dimensional (the projected nullspace of the equalities has rank ``n``), *and* that
-projection is not certified to be thinner than ``2 REGION_SLACK_TOL`` in the direction of ``x``
-the equalities pin down most (the tolerance the regions ``P_i`` are held to; see
-:func:`_pair_lps`).  Working with the interiors is what makes ``x != x^`` automatic, as the
-paper's "not necessarily closed, disjoint" regions do: the interiors of different ``P_i`` are
-disjoint.
+Like the paper, the sets are computed up to sets of zero measure.  A pair set is a piece of
+``B_T`` when its closure is non-empty, its projection onto ``x`` is full-dimensional and not
+thinner than ``2 REGION_SLACK_TOL`` (scaled), and it holds two different states ``x^ != x``
+(:mod:`~hybobs_opt.regions.pair_geometry` decides all three, with the regions taken closed:
+exact for PWA maps continuous across their guards, the unobservable side otherwise).  Pairs in
+which the outputs force ``x^ = x`` are left out and counted (``n_pairs_dropped_same_state``),
+like the thin ones (``n_pairs_dropped_thin``).
 """
 
 from __future__ import annotations
