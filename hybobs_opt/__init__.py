@@ -6,7 +6,10 @@ pose the design questions as optimisation problems; ``observers`` and ``sim`` ru
 """
 
 from .errors import HybobsError, InfeasibleError, ModelError, SolverError
+from .results import Certificate, SolveResult
+from .status import Status, is_infeasible, is_optimal, map_status
 
 __version__ = "0.1.0"
 
-__all__ = ["HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__"]
+__all__ = ["Certificate", "HybobsError", "InfeasibleError", "ModelError", "SolveResult", "SolverError", "Status",
+           "__version__", "is_infeasible", "is_optimal", "map_status"]

@@ -79,6 +79,9 @@ class Status(enum.StrEnum):
     INCUMBENT_OPTIMAL = "incumbent optimal"
     SOLVER_ERROR = "solver_error"
     UNKNOWN = "unknown"
+    #: the solver said optimal but the point failed the package's numpy re-check (an LMI point
+    #: whose matrix is not negative semidefinite, say): never accepted
+    RECHECK_FAILED = "optimal (numpy re-check failed)"
 
 
 def map_status(table: Mapping[Any, Status], raw: Any, *, solver: str) -> Status:
