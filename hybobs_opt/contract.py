@@ -3,6 +3,13 @@
 An observer has ``reset(...)``, ``step(u, y) -> Estimate`` and ``run(U, Y) -> ObserverTrace``.
 A runtime observer never raises on a bad sample (NaN, wrong length): it falls back to open-loop
 prediction and flags the step (DESIGN.md, "Conventions").
+
+The contract sits in the core below both :mod:`hybobs_opt.mhe` and :mod:`hybobs_opt.observers`
+(DESIGN.md draws ``mhe -> observers``): the moving-horizon observer implements it without
+importing the package of the other runtime observers.  :mod:`hybobs_opt.observers.base` is the
+same module under its old name.
+
+The initial mode or location of every ``reset()`` is the keyword ``q0``.
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelError
+from .errors import ModelError
 
 #: Flags an estimate can carry.
 OBSERVABLE = "observable"  #: reconstructed from the data (e.g. a unique consistent state)

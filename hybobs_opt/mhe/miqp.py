@@ -17,7 +17,7 @@ Mignone & Morari (2002), "Moving horizon estimation for hybrid systems", IEEE TA
 * an arrival cost ``||W_a (x(t-T+1) - x_bar)||`` where ``x_bar`` is the previous window's estimate
   of the new window-start state (or the ``x0`` of :meth:`MHEObserver.reset` for the first window).
 
-Flags (the runtime contract of :mod:`hybobs_opt.observers.base`):
+Flags (the runtime contract of :mod:`hybobs_opt.contract`):
 
 * ``observable`` -- the window-start state is *unique*: a certified global optimum of (10) (see
   below) and no other admissible window-start state at least ``delta`` away (inf-norm, in units
@@ -73,7 +73,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from ..errors import ModelError, SolverError
-from ..observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer
+from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer
 from ..systems.pwa import PWASystem
 from ..tolerances import (
     MEMBERSHIP_RTOL,
