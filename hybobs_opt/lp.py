@@ -9,27 +9,42 @@ of this robust one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linprog
 
-from .errors import SolverError
+from .errors import ModelError, SolverError
+from .status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
 from .tolerances import LP_POINT_RTOL
 
 
 @dataclass(frozen=True)
 class LPResult:
-    """Outcome of one LP: ``status`` is ``"optimal"``, ``"infeasible"`` or ``"unbounded"``."""
+    """Outcome of one LP (a :class:`~hybobs_opt.results.SolveResult`).
 
-    status: str
+    ``status`` is :attr:`~hybobs_opt.status.Status.OPTIMAL`, ``INFEASIBLE`` or ``UNBOUNDED``
+    (equal to the strings ``"optimal"``, ``"infeasible"``, ``"unbounded"``); ``residuals`` holds
+    the largest violation of the inequality rows, the equality rows and the variable bounds at
+    ``x`` (empty without a point); ``seconds`` the wall time of the solve, retries included.
+    """
+
+    status: Status
     x: np.ndarray | None
     objective: float | None
     solver: str = "highs"
+    seconds: float = 0.0
+    residuals: dict[str, float] = field(default_factory=dict)
 
     @property
     def optimal(self) -> bool:
-        return self.status == "optimal"
+        return is_optimal(self.status)
+
+    def to_dict(self) -> dict:
+        return {"status": self.status, "x": None if self.x is None else self.x.tolist(), "objective": self.objective,
+                "solver": self.solver, "seconds": self.seconds, "residuals": dict(self.residuals)}
 
 
 def solve_lp(
@@ -69,21 +84,22 @@ def solve_lp(
     if bounds is None:
         bounds = (None, None)
     messages = []
+    t0 = time.perf_counter()
     # HiGHS's automatic choice first; on a numerical failure its interior-point and dual simplex
     # solvers are tried before giving up (they fail on different degenerate instances).
     for method in ("highs", "highs-ipm", "highs-ds"):
         res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method=method)
-        if res.status == 0:
+        status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
+        if is_optimal(status):
             x = np.asarray(res.x, dtype=float)
             defect = _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x, res.fun)
             if defect is None:
-                return LPResult("optimal", x, float(res.fun), method)
+                return LPResult(Status.OPTIMAL, x, float(res.fun), method, time.perf_counter() - t0,
+                                _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x))
             messages.append(f"{method}: status optimal but {defect}")
             continue
-        if res.status == 2:
-            return LPResult("infeasible", None, None, method)
-        if res.status == 3:
-            return LPResult("unbounded", None, None, method)
+        if status in (Status.INFEASIBLE, Status.UNBOUNDED):
+            return LPResult(status, None, None, method, time.perf_counter() - t0)
         messages.append(f"{method}: {res.status} {res.message}")
     raise SolverError(
         problem,
@@ -91,6 +107,30 @@ def solve_lp(
         "; ".join(messages),
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients",
     )
+
+
+def _bound_pairs(bounds, size: int) -> list:
+    if isinstance(bounds, tuple) and len(bounds) == 2 and not isinstance(bounds[0], (tuple, list)):
+        return [bounds] * size
+    return list(bounds)
+
+
+def _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray) -> dict[str, float]:
+    """Largest violation (absolute, 0 when satisfied) of each constraint family at ``x``."""
+    out: dict[str, float] = {}
+    for label, A, b, eq in (("inequality", A_ub, b_ub, False), ("equality", A_eq, b_eq, True)):
+        if A is None or np.size(A) == 0:
+            continue
+        r = np.atleast_2d(np.asarray(A, dtype=float)) @ x - np.asarray(b, dtype=float).reshape(-1)
+        out[label] = float(np.max(np.abs(r) if eq else np.maximum(r, 0.0), initial=0.0))
+    worst = 0.0
+    for k, (lo, hi) in enumerate(_bound_pairs(bounds, x.size)):
+        if lo is not None:
+            worst = max(worst, float(lo - x[k]))
+        if hi is not None:
+            worst = max(worst, float(x[k] - hi))
+    out["bounds"] = worst
+    return out
 
 
 def _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray, fun) -> str | None:
@@ -114,12 +154,78 @@ def _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray, fun) -> str 
             k = int(np.argmax(np.where(bad, r, -np.inf) if not eq else np.where(bad, np.abs(r), -np.inf)))
             return f"{label} row {k} is violated by {abs(r[k]):.3g} at the returned point"
     if bounds is not None and not (isinstance(bounds, tuple) and len(bounds) == 2 and bounds[0] is None and bounds[1] is None):
-        pairs = [bounds] * x.size if isinstance(bounds, tuple) and len(bounds) == 2 and not isinstance(bounds[0], (tuple, list)) else list(bounds)
-        for k, (lo, hi) in enumerate(pairs):
+        for k, (lo, hi) in enumerate(_bound_pairs(bounds, x.size)):
             tol = LP_POINT_RTOL * (1.0 + ax[k])
             if (lo is not None and x[k] < lo - tol) or (hi is not None and x[k] > hi + tol):
                 return f"variable {k} is outside its bounds ({x[k]:.6g} not in [{lo}, {hi}])"
     return None
+
+
+def row_range(
+    A: np.ndarray,
+    b: np.ndarray,
+    rows: np.ndarray,
+    *,
+    E: np.ndarray | None = None,
+    e: np.ndarray | None = None,
+    problem: str = "row range",
+    field: str = "polytope",
+    labels: Sequence[str] | None = None,
+) -> np.ndarray:
+    """``[min, max]`` of each ``row . z`` over ``{z : A z <= b, E z = e}``: two LPs per row.
+
+    The one implementation of the interval of a linear functional over a polytope (bounding boxes,
+    argument intervals of the sector bounds of paper 004, big-M constants of paper 002's MLD
+    form, ...).  Every LP goes through :func:`solve_lp` (status mapped, point re-checked).
+
+    Parameters
+    ----------
+    A, b : arrays
+        Inequalities ``A z <= b`` (``m x d`` and ``m``).
+    rows : array
+        The functionals, ``k x d`` (a single row ``d`` is read as ``1 x d``).
+    E, e : arrays, optional
+        Equalities ``E z = e``.
+    problem : str
+        Name of the LPs in error messages (``"{problem}: min/max of row {label}"``).
+    field : str
+        The model field an empty set is reported against (``ModelError``).
+    labels : sequence of str, optional
+        Names of the rows for messages (default ``"0"``, ``"1"``...).
+
+    Returns
+    -------
+    array
+        ``k x 2``: column 0 the minimum, column 1 the maximum.
+
+    Raises
+    ------
+    ModelError
+        If the set is empty (``field``: "a non-empty set") or a row is unbounded on it
+        (``"bounds of {label}"``: "a bounded set").
+    SolverError
+        If HiGHS cannot answer an LP (see :func:`solve_lp`).
+    """
+    A = np.atleast_2d(np.asarray(A, dtype=float))
+    b = np.asarray(b, dtype=float).reshape(-1)
+    R = np.atleast_2d(np.asarray(rows, dtype=float))
+    if R.ndim != 2 or R.shape[1] != A.shape[1]:
+        raise ModelError("rows", f"an array of functionals with {A.shape[1]} columns", f"shape {np.shape(rows)}")
+    if labels is not None and len(labels) != R.shape[0]:
+        raise ModelError("labels", f"{R.shape[0]} row names", f"{len(labels)} names")
+    has_eq = E is not None and np.size(E) > 0
+    out = np.empty((R.shape[0], 2))
+    for i, row in enumerate(R):
+        label = str(i) if labels is None else labels[i]
+        for col, sign, what in ((0, 1.0, "min"), (1, -1.0, "max")):
+            res = solve_lp(sign * row, A, b, E if has_eq else None, e if has_eq else None,
+                           problem=f"{problem}: {what} of row {label}")
+            if res.status == Status.INFEASIBLE:
+                raise ModelError(field, "a non-empty set", "an empty set")
+            if res.status == Status.UNBOUNDED:
+                raise ModelError(f"bounds of {label}", "a bounded set", f"unbounded along this row ({what})")
+            out[i, col] = sign * res.objective
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -131,7 +237,10 @@ import daqp  # noqa: E402
 from ._lp_kernels import slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
 from .tolerances import DAQP_EPS_PROX, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
 
-_DAQP_OPTIMAL = (1, 2)
+
+def _daqp_optimal(flag: int) -> bool:
+    """DAQP's exit flag through the one status map and the one acceptance policy."""
+    return is_optimal(map_status(DAQP_STATUS, int(flag), solver="daqp"))
 
 
 @dataclass
@@ -162,6 +271,11 @@ class SlackResult:
     the optimum is at least this); ``upper`` is an upper bound certified from the dual multipliers
     (or ``inf`` when none is available).  ``solver`` is ``"daqp"`` or ``"highs"``; ``lam`` holds
     DAQP's multipliers of the LP's rows when it answered (for callers that read active sets).
+
+    A :class:`~hybobs_opt.results.SolveResult`: ``status`` is ``INFEASIBLE`` when the polytope is
+    empty (``lower = upper = -inf``) and ``OPTIMAL`` otherwise (the LP's optimum is certified to lie
+    in ``[lower, upper]``, which decides the caller's threshold); ``residuals`` reports that
+    bracket's width (the point itself satisfies every row at ``t = lower`` by construction).
     """
 
     lower: float
@@ -169,6 +283,20 @@ class SlackResult:
     w: np.ndarray | None
     solver: str
     lam: np.ndarray | None = None
+    seconds: float = 0.0
+
+    @property
+    def status(self) -> Status:
+        return Status.INFEASIBLE if self.w is None and self.lower == -np.inf else Status.OPTIMAL
+
+    @property
+    def residuals(self) -> dict[str, float]:
+        return {} if self.w is None else {"certified_gap": float(self.upper - self.lower)}
+
+    def to_dict(self) -> dict:
+        return {"status": self.status, "lower": self.lower, "upper": self.upper, "solver": self.solver,
+                "w": None if self.w is None else np.asarray(self.w).tolist(), "seconds": self.seconds,
+                "residuals": self.residuals}
 
 
 def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: float, problem: str = "max-slack LP") -> SlackResult:
@@ -209,11 +337,17 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
         return SlackResult(-np.inf, -np.inf, None, "numpy")
     if A.shape[0] == 1:
         return SlackResult(SLACK_CAP, SLACK_CAP, np.zeros(d), "numpy")
-    return _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    return solve_slack_lp(A, bu, radius_bound, threshold, problem)
 
 
-def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str) -> SlackResult:
-    """DAQP on the data of :func:`~hybobs_opt._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback."""
+def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str) -> SlackResult:
+    """DAQP on the data of :func:`~hybobs_opt._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback.
+
+    The LP of :func:`max_slack` after its constant rows were handled: ``A`` is ``(k + 1) x (d + 1)``
+    (the last row caps ``t``), ``bu`` its right-hand side.  ``threshold`` is the decision the
+    caller will take (``slack > threshold``); see :func:`max_slack` for the certificates.
+    """
+    t0 = time.perf_counter()
     k = A.shape[0] - 1
     d = A.shape[1] - 1
     f = np.zeros(d + 1)
@@ -225,32 +359,32 @@ def _solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshol
     for eps_prox in (DAQP_EPS_PROX, None):
         settings = {} if eps_prox is None else {"eps_prox": eps_prox}
         x, _, flag, info = daqp.solve(H, f, A, bu, lower_bounds, sense, **settings)
-        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(x)):
+        if not _daqp_optimal(flag) or not np.all(np.isfinite(x)):
             continue
         lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
         if lower > threshold or upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp", info["lam"])
+            return SlackResult(lower, upper, w, "daqp", info["lam"], time.perf_counter() - t0)
         # Refine the dual on the rows active at DAQP's point (non-negative least squares on the
         # stationarity conditions): a slack of exactly zero (two regions that only touch) needs
         # multipliers more exact than a proximal solve may return.
         upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
         if upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp+nnls", info["lam"])
+            return SlackResult(lower, upper, w, "daqp+nnls", info["lam"], time.perf_counter() - t0)
         break
     # Undecided (or DAQP failed): the robust solver decides.
     COUNTERS.fast -= 1
     COUNTERS.confirmed_by_highs += 1
     res = solve_lp(f, A, bu, problem=problem)
-    if res.status == "infeasible":
-        return SlackResult(-np.inf, -np.inf, None, "highs")
-    if res.status != "optimal":
+    if res.status == Status.INFEASIBLE:
+        return SlackResult(-np.inf, -np.inf, None, "highs", seconds=time.perf_counter() - t0)
+    if not is_optimal(res.status):
         raise SolverError(problem, "HiGHS", res.status, hint="the slack LP is capped and cannot be unbounded: check the data for NaN")
     w = res.x[:d]
     # HiGHS's point has passed solve_lp's feasibility check; its certified value is the smallest
     # row slack at that point (the LP's t may exceed it by the solver's primal tolerance).
     slack = float(min(res.x[d], np.min(bu[:k] - A[:k, :d] @ w)))
-    return SlackResult(slack, slack, w, "highs")
+    return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
 
 
 def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float,
@@ -274,12 +408,13 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         COUNTERS.fast += 1
         v, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
         lam = info["lam"]
-        if flag not in _DAQP_OPTIMAL or not np.all(np.isfinite(v)) or not np.all(np.isfinite(lam)):
+        if not _daqp_optimal(flag) or not np.all(np.isfinite(v)) or not np.all(np.isfinite(lam)):
             # DAQP failed: HiGHS's duals give the same kind of certificate
             COUNTERS.fast -= 1
             COUNTERS.confirmed_by_highs += 1
             res = linprog(-sign * c, A_ub=A, b_ub=b, bounds=(None, None), method="highs")
-            if res.status != 0 or res.ineqlin is None or not np.all(np.isfinite(res.ineqlin.marginals)):
+            if (not is_optimal(map_status(LINPROG_STATUS, res.status, solver="linprog/highs")) or res.ineqlin is None
+                    or not np.all(np.isfinite(res.ineqlin.marginals))):
                 return False
             v, lam = np.asarray(res.x, dtype=float), -np.asarray(res.ineqlin.marginals, dtype=float)
         if point is not None and sign > 0 and float(c @ (v - point)) > width:
@@ -316,3 +451,7 @@ def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver
         return np.inf
     lam = lam / total
     return float(gn[active] @ lam + radius_bound * np.linalg.norm(GA.T @ lam))
+
+
+#: Former private name of :func:`solve_slack_lp` (kept: ``regions`` and ``observers`` import it).
+_solve_slack_lp = solve_slack_lp

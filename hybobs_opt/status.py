@@ -83,6 +83,11 @@ class Status(enum.StrEnum):
     #: whose matrix is not negative semidefinite, say): never accepted
     RECHECK_FAILED = "optimal (numpy re-check failed)"
 
+    def __repr__(self) -> str:
+        # Messages format statuses with ``!r`` (``SolverError``, the MHE's "solver status 'x'"):
+        # they keep reading ``'optimal'`` as they did when statuses were plain strings.
+        return repr(self.value)
+
 
 def map_status(table: Mapping[Any, Status], raw: Any, *, solver: str) -> Status:
     """Translate a solver's raw answer through one adapter table.

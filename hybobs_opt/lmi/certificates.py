@@ -176,6 +176,12 @@ class DualCertificate:
         self._check.append(res)
         return res
 
+    @property
+    def reason(self) -> str:
+        """What the multiplier proves (the :class:`~hybobs_opt.results.Certificate` protocol)."""
+        return (f"a dual PSD multiplier Z ({self.source}) of the observer LMI at decay rate {self.sigma:.6g}: "
+                "<Z, B(P, PL, eps)> >= 0 for every P > 0, eps > 0 and every gain L, so B <= 0 has no solution")
+
     def verify(self) -> bool:
         """True when the numpy re-check confirms the certificate (no solver involved)."""
         return self.check().ok

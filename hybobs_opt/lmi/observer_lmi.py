@@ -47,6 +47,7 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds, jacobian_bounds
 from .schedule import SchedulingRegion
+from ..status import Status
 from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem
 
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
@@ -249,15 +250,17 @@ def lmi_expression(data: LMIData, P, Y_lin, Y_nl, eps, par: LMIParameters) -> cp
 # ---------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class LMISolution:
-    """One solve of an observer LMI for one region.
+    """One solve of an observer LMI for one region (a :class:`~hybobs_opt.results.SolveResult`).
 
     Attributes
     ----------
     feasible : bool
         True only for an ``optimal`` solver status whose point passes the numpy re-check
         (``lmi_max_eig <= 0``, ``P`` positive definite).
-    status : str
-        The cvxpy status (``optimal``, ``infeasible``, ``optimal_inaccurate``, ``solver_error``...).
+    status : Status
+        The cvxpy status in the one vocabulary (``optimal``, ``infeasible``, ``optimal_inaccurate``,
+        ``solver_error``...), or :attr:`~hybobs_opt.status.Status.RECHECK_FAILED` when Clarabel said
+        optimal but the point failed the numpy re-check.
     form : str
         ``"(8)"``, ``"(22)"`` or ``"(23)"``.
     sigma : float
@@ -292,6 +295,26 @@ class LMISolution:
     farkas: np.ndarray | None = field(default=None, repr=False)
     P_scaled: np.ndarray | None = field(default=None, repr=False)
     Y_scaled: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def seconds(self) -> float:
+        """Wall time of the solve (0 when the solution was not produced by a solve)."""
+        return 0.0 if self.outcome is None else self.outcome.seconds
+
+    @property
+    def residuals(self) -> dict[str, float]:
+        """Constraint residuals at the returned point.
+
+        With a point: the numpy re-check in scaled coordinates, ``lmi_max_eig`` (must be ``<= 0``)
+        and ``p_min_eig`` (must be ``> 0``), next to the solver-side violations of
+        :attr:`SolveOutcome.residuals` (prefixed ``solver_``); without a point, empty.
+        """
+        out = {} if self.outcome is None else {f"solver_{k}": v for k, v in self.outcome.residuals.items()}
+        if self.lmi_max_eig is not None:
+            out["lmi_max_eig"] = self.lmi_max_eig
+        if self.p_min_eig is not None:
+            out["p_min_eig"] = self.p_min_eig
+        return out
 
     def to_dict(self) -> dict:
         return {"feasible": self.feasible, "status": self.status, "form": self.form, "sigma": self.sigma,
@@ -444,7 +467,7 @@ class ObserverLMI:
         gain = float(np.linalg.norm(L, 2))
         if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
             ok = False
-        status = out.status if ok else f"{out.status} (numpy re-check failed)"
+        status = out.status if ok else Status.RECHECK_FAILED
         return LMISolution(ok, status, self.form, sigma, region, bounds, L, P, eps, max_eig, p_min, gain, out,
                            P_scaled=Pb, Y_scaled=np.hstack([Yl, Yn]))
 

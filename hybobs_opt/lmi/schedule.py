@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import solve_lp
+from ..lp import row_range
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 
 
@@ -131,13 +131,7 @@ def argument_intervals(system: ScalarNonlinearSystem, rows: np.ndarray, region: 
         e[region.coordinate] = 1.0
         A = np.vstack([A, e, -e])
         b = np.concatenate([b, [region.hi, -region.lo]])
-    for i, row in enumerate(rows):
-        for col, sign in ((0, 1.0), (1, -1.0)):
-            res = solve_lp(sign * row, A, b, problem=f"range of row {i} over the region")
-            if res.status != "optimal":
-                raise ModelError("region", "a non-empty part of the operating box", f"LP status {res.status}")
-            out[i, col] = sign * res.objective
-    return out
+    return row_range(A, b, rows, problem="range over the region", field="region")
 
 
 def regions_from_switch_points(

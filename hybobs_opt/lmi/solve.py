@@ -13,12 +13,16 @@ import warnings
 from dataclasses import dataclass, field
 
 import cvxpy as cp
+import numpy as np
 
-#: cvxpy statuses.  Only ``OPTIMAL`` (and ``INFEASIBLE`` with a checked certificate) are ever
-#: turned into an answer; the ``*_INACCURATE`` ones are never reported as feasible.
-OPTIMAL = cp.OPTIMAL
-INFEASIBLE = cp.INFEASIBLE
-SOLVER_ERROR = "solver_error"
+from ..status import CVXPY_STATUS, Status, map_status
+
+#: cvxpy statuses in the one vocabulary (:mod:`hybobs_opt.status`).  Only ``OPTIMAL`` (and
+#: ``INFEASIBLE`` with a checked certificate) are ever turned into an answer; the ``*_INACCURATE``
+#: ones are never reported as feasible.
+OPTIMAL = Status.OPTIMAL
+INFEASIBLE = Status.INFEASIBLE
+SOLVER_ERROR = Status.SOLVER_ERROR
 
 SOLVER = "CLARABEL"
 
@@ -54,17 +58,53 @@ COUNTERS = SolveCounters()
 
 @dataclass(frozen=True)
 class SolveOutcome:
-    """Status of one solve and where its time went (seconds)."""
+    """Status of one solve and where its time went (seconds); a :class:`~hybobs_opt.results.SolveResult`.
 
-    status: str
+    ``residuals`` holds, per cvxpy constraint class (``"PSD"``, ``"Inequality"``, ``"Equality"``,
+    ``"SOC"``...), the largest violation at the solver's point (cvxpy's ``violation()``: the
+    most negative eigenvalue for a PSD constraint); it is empty when the solver returned no point.
+    """
+
+    status: Status
     seconds: float
     compile_seconds: float
     solver_seconds: float
     message: str = ""
+    residuals: dict[str, float] = field(default_factory=dict)
 
     @property
     def optimal(self) -> bool:
         return self.status == OPTIMAL
+
+    def to_dict(self) -> dict:
+        return {"status": self.status, "seconds": self.seconds, "compile_seconds": self.compile_seconds,
+                "solver_seconds": self.solver_seconds, "message": self.message, "residuals": dict(self.residuals)}
+
+
+def cvxpy_status(problem: cp.Problem) -> Status:
+    """The status of the last solve of ``problem`` in the one vocabulary.
+
+    cvxpy's strings go through :data:`~hybobs_opt.status.CVXPY_STATUS`; an unsolved problem (status
+    ``None``) or a string cvxpy may add later is :attr:`~hybobs_opt.status.Status.UNKNOWN`.  Accept
+    the point only when :func:`~hybobs_opt.status.is_optimal` holds (never ``optimal_inaccurate``).
+    """
+    return map_status(CVXPY_STATUS, problem.status, solver=f"cvxpy/{SOLVER}")
+
+
+def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
+    """Largest violation per constraint class at the current variable values (empty without a point)."""
+    out: dict[str, float] = {}
+    for con in problem.constraints:
+        try:
+            v = con.violation()
+        except (ValueError, TypeError):  # a variable without a value: the solver returned no point
+            return {}
+        if v is None:
+            return {}
+        worst = float(np.max(v)) if np.size(v) else 0.0
+        key = type(con).__name__
+        out[key] = max(out.get(key, 0.0), worst)
+    return out
 
 
 def solve_problem(problem: cp.Problem) -> SolveOutcome:
@@ -77,7 +117,7 @@ def solve_problem(problem: cp.Problem) -> SolveOutcome:
         warnings.simplefilter("ignore", UserWarning)
         try:
             problem.solve(solver=SOLVER)
-            status = str(problem.status)
+            status = cvxpy_status(problem)
         except cp.error.SolverError as exc:
             status, message = SOLVER_ERROR, str(exc)
     seconds = time.perf_counter() - t0
@@ -91,4 +131,5 @@ def solve_problem(problem: cp.Problem) -> SolveOutcome:
     if first:
         COUNTERS.first_compile_seconds += compile_s
     COUNTERS.statuses[status] = COUNTERS.statuses.get(status, 0) + 1
-    return SolveOutcome(status, seconds, compile_s, solver_s, message)
+    residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
+    return SolveOutcome(status, seconds, compile_s, solver_s, message, residuals)

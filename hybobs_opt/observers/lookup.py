@@ -70,7 +70,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from ..errors import ModelError
-from ..lp import _solve_slack_lp
+from ..lp import solve_slack_lp
 from ..systems.polytope import Polytope
 from ..tolerances import (
     LOOKUP_INPUT_BOUND_TOL,
@@ -420,7 +420,7 @@ def _max_margin(G: np.ndarray, g: np.ndarray, radius_bound: float, threshold: fl
     state was fixed and the set restricted to its output equalities, so ``t`` is the margin by
     which a point lies inside every original constraint (no renormalisation of the restricted
     rows, which would amplify a row that is nearly constant on the subspace).  Solved by
-    :func:`hybobs_opt.lp._solve_slack_lp` (DAQP, both bounds certified, HiGHS when undecided).
+    :func:`hybobs_opt.lp.solve_slack_lp` (DAQP, both bounds certified, HiGHS when undecided).
     Returns ``(value, w)``: ``value`` decides ``t > threshold`` correctly.
     """
     k, d = G.shape
@@ -428,7 +428,7 @@ def _max_margin(G: np.ndarray, g: np.ndarray, radius_bound: float, threshold: fl
     A[:k, :d] = G
     A[:, d] = 1.0
     bu = np.append(g, SLACK_CAP)
-    res = _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    res = solve_slack_lp(A, bu, radius_bound, threshold, problem)
     return (res.lower if res.lower > threshold else res.upper), res.w
 
 

@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InfeasibleError, ModelError, SolverError
+from ..status import Status, is_optimal
 from ..systems.event_sampled import PeriodicSystem
 from ..tolerances import (
     DEADBEAT_RTOL,
@@ -536,6 +537,11 @@ class CopositiveCertificate:
     p: np.ndarray
     rate: float
 
+    @property
+    def reason(self) -> str:
+        return (f"V_j(e) = p_j' |e| with p > 0 decreases by the factor {self.rate:.6g} < 1 at every step of the "
+                "positive observer (16) (p_(j+1)' M_j <= rate p_j', M_j = A_j - L_j C_j >= 0): the error converges")
+
     def check(self) -> dict:
         """The numpy re-check: positivity margins, ``min p`` and the rate recomputed from ``p``."""
         V = self.A.shape[0]
@@ -630,9 +636,9 @@ def positive_observer(ps: PeriodicSystem, rate: float | None = None, *, kappa: f
     def attempt(rho: float) -> bool:
         out = lp.solve(rho)
         history.append((rho, out.status))
-        if out.status == "optimal":
+        if is_optimal(out.status):
             return True
-        if out.status in ("infeasible", "optimal_inaccurate", "infeasible_inaccurate"):
+        if out.status in (Status.INFEASIBLE, Status.OPTIMAL_INACCURATE, Status.INFEASIBLE_INACCURATE):
             return False  # inaccurate answers are never taken as feasible
         raise SolverError("positive observer LP (Remark 4.4)", "CLARABEL", out.status, "check the periodic system's scaling")
 
@@ -665,9 +671,9 @@ def positive_observer(ps: PeriodicSystem, rate: float | None = None, *, kappa: f
     certified = cert0.check()["rate"]
     cert = CopositiveCertificate(ps.A, ps.C, L, p, certified)
     if not cert.verify():
-        raise SolverError("positive observer LP (Remark 4.4)", "CLARABEL", "optimal",
+        raise SolverError("positive observer LP (Remark 4.4)", "CLARABEL", Status.RECHECK_FAILED,
                           f"the recovered gains fail the numpy re-check (rate {certified:.6g}); try another rate")
-    return analyse_gains(ps, L, "positive LP", rate=certified, certificate=cert, status="optimal",
+    return analyse_gains(ps, L, "positive LP", rate=certified, certificate=cert, status=Status.OPTIMAL,
                          seconds=time.perf_counter() - t0, residuals={"lyapunov_recheck": cert.check()},
                          info={"lp_solves": len(history), "bisection": history, "kappa": kappa,
                                "box_corner_U": U.tolist()})

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .._lp_kernels import restricted_pair_rows, slack_lp_data
-from ..lp import COUNTERS, _solve_slack_lp, max_slack
+from ..lp import COUNTERS, max_slack, row_range, solve_slack_lp
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
@@ -179,19 +179,11 @@ class ObservabilityAnalysis:
     def _x_boxes(self) -> np.ndarray:
         """Bounding boxes of ``Proj_x(P_k)`` for a cheap pre-filter of point queries (computed once)."""
         if self._xboxes is None:
-            from ..lp import solve_lp
-
             n = self.system.n
             boxes = np.empty((len(self.regions), 2, n))
             for k, reg in enumerate(self.regions):
-                for d in range(n):
-                    for side, sign in ((0, 1.0), (1, -1.0)):
-                        c = np.zeros(reg.H.shape[1])
-                        c[d] = sign
-                        res = solve_lp(c, reg.H, reg.h, problem=f"bounding box of Proj_x(P_{k})")
-                        if res.status != "optimal":
-                            raise ModelError(f"region {k}", "a bounded non-empty polytope", res.status)
-                        boxes[k, side, d] = sign * res.objective
+                rows = np.eye(n, reg.H.shape[1])
+                boxes[k] = row_range(reg.H, reg.h, rows, problem=f"bounding box of Proj_x(P_{k})", field=f"region {k}").T
             self._xboxes = boxes
         return self._xboxes
 
@@ -546,7 +538,7 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
             if A.shape[0] == 1:
                 found.append((i, int(j), SLACK_CAP))
                 continue
-            res = _solve_slack_lp(A, bu, bound, min_margin, problem)
+            res = solve_slack_lp(A, bu, bound, min_margin, problem)
             if res.lower > min_margin:
                 found.append((i, int(j), float(res.lower)))
             continue

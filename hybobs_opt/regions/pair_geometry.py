@@ -37,7 +37,8 @@ import daqp
 import numpy as np
 
 from .._lp_kernels import slack_lp_data, support_upper_bound
-from ..lp import COUNTERS, _solve_slack_lp, certified_width_below, solve_lp
+from ..lp import COUNTERS, certified_width_below, solve_lp, solve_slack_lp
+from ..status import DAQP_STATUS, Status, is_optimal, map_status
 from ..tolerances import (
     CLOSED_SET_TOL,
     DAQP_EPS_PROX,
@@ -84,7 +85,7 @@ def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: f
         keep = None
     if A.shape[0] == 1:
         return SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep
-    res = _solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    res = solve_slack_lp(A, bu, radius_bound, threshold, problem)
     radius = res.lower if res.lower > threshold else res.upper
     return radius, res.w, A, bu, res.lam, keep
 
@@ -172,7 +173,7 @@ def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: 
     for sign in (1.0, -1.0):
         COUNTERS.fast += 1
         v, _, flag, info = daqp.solve(H, -sign * c, Gs, gs, lower, sense, eps_prox=DAQP_EPS_PROX)
-        if flag not in (1, 2) or not np.all(np.isfinite(v)):
+        if not is_optimal(map_status(DAQP_STATUS, flag, solver="daqp")) or not np.all(np.isfinite(v)):
             return False
         if sign * (c @ v + c0) > bound and np.all(Gs @ v <= gs + CLOSED_SET_TOL):
             return False  # a (nearly) feasible point already has the two states apart
@@ -403,7 +404,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
     if not ok:
         return False
     if A.shape[0] > 1:
-        res = _solve_slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
+        res = solve_slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
         if res.lower <= -CLOSED_SET_TOL:
             return False
     Gr, gr = A[:-1, :-1], bu[:-1] + CLOSED_SET_TOL
@@ -424,7 +425,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
         for sign in (1.0, -1.0):
             COUNTERS.fast += 1
             v, _, flag, info = daqp.solve(H, -sign * c, Gr, gr, lower, sense, eps_prox=DAQP_EPS_PROX)
-            if flag in (1, 2) and np.all(np.isfinite(v)):
+            if is_optimal(map_status(DAQP_STATUS, flag, solver="daqp")) and np.all(np.isfinite(v)):
                 if sign * (c @ v + d0[k]) > DISTINCT_STATE_TOL and np.all(Gr @ v <= gr + CLOSED_SET_TOL):
                     return True
                 if support_upper_bound(Gr, gr, sign * c, info["lam"], radius_bound) + sign * d0[k] <= DISTINCT_STATE_TOL:
@@ -432,7 +433,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
             COUNTERS.fast -= 1
             COUNTERS.confirmed_by_highs += 1
             out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
-            if out.status == "optimal" and -out.objective + sign * d0[k] > DISTINCT_STATE_TOL:
+            if out.status == Status.OPTIMAL and -out.objective + sign * d0[k] > DISTINCT_STATE_TOL:
                 return True
     return False
 

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import ModelError, SolverError
-from ..lp import solve_lp
+from ..lp import row_range, solve_lp
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     EQUALITY_CONSISTENCY_RTOL,
@@ -181,20 +181,8 @@ class Polytope:
         ModelError
             If the polytope is empty or unbounded in some coordinate (named in the message).
         """
-        d = self.dim
-        lo = np.empty(d)
-        hi = np.empty(d)
-        for i in range(d):
-            for sign, out in ((1.0, lo), (-1.0, hi)):
-                c = np.zeros(d)
-                c[i] = sign
-                res = solve_lp(c, self.A, self.b, problem=f"bounding box of {self.names[i]}")
-                if res.status == "infeasible":
-                    raise ModelError("polytope", "a non-empty set", "an empty set")
-                if res.status == "unbounded":
-                    raise ModelError(f"bounds of {self.names[i]}", "a bounded set", "unbounded in this coordinate")
-                out[i] = sign * res.objective
-        return lo, hi
+        r = row_range(self.A, self.b, np.eye(self.dim), problem="bounding box", field="polytope", labels=self.names)
+        return r[:, 0].copy(), r[:, 1].copy()
 
     def is_bounded(self) -> bool:
         """True when every coordinate is bounded above and below (and the set is non-empty)."""

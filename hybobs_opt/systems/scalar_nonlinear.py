@@ -31,7 +31,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import solve_lp
+from ..lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
 from ._validate import as_matrix, as_names
 from .polytope import Polytope
@@ -455,13 +455,8 @@ def _default_names(names: tuple[str, ...], prefix: str) -> bool:
 
 def _ranges(box: Polytope, rows: np.ndarray, label: str) -> np.ndarray:
     """``[min, max]`` of ``row . x`` over ``box`` for each row (two LPs per row), read-only ``(k, 2)``."""
-    out = np.empty((rows.shape[0], 2))
-    for i, row in enumerate(rows):
-        for col, sign in ((0, 1.0), (1, -1.0)):
-            res = solve_lp(sign * row, box.A, box.b, problem=f"range of {label}[{i}] x over the box")
-            if res.status != "optimal":
-                raise ModelError("box", "a bounded, non-empty Polytope over x", f"LP status {res.status}")
-            out[i, col] = sign * res.objective
+    out = row_range(box.A, box.b, rows, problem=f"range of {label} x over the box", field="box",
+                    labels=[f"{label}[{i}]" for i in range(rows.shape[0])])
     out.setflags(write=False)
     return out
 
