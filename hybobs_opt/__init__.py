@@ -1,15 +1,63 @@
 """hybobs_opt: optimization-based state observers for hybrid systems.
 
-Layers (DESIGN.md): ``systems`` and ``examples`` describe plants; ``regions``, ``lmi`` and ``mhe``
-pose the design questions as optimisation problems; ``observers`` and ``sim`` run them;
-``report`` and :mod:`hybobs_opt.cli` present the results.
+Three tiers (DESIGN.md; a test checks that every import points down):
+
+* **core** -- ``geometry`` (polytopes, LPs), ``systems``, ``sim``, ``regions`` (observability of
+  PWA systems, paper 002), ``lmi`` (observer LMIs and certificates, paper 004), ``mhe``
+  (MIQP/MILP moving-horizon observers) and ``observers`` (the runtime observers, one contract);
+* **studies** -- ``studies.paper000_driveline`` ... ``studies.paper004_nonmonotonic``: the seed
+  papers' systems, scenarios, published settings and comparisons (the example registry);
+* **application** -- ``cli`` (``hybobs``), ``report``.
+
+The main objects are re-exported here and imported on first use, so ``import hybobs_opt`` is
+cheap::
+
+    from hybobs_opt import PWASystem, analyse_observability, LookupObserver, MHEObserver
 """
 
+from . import _compat
+from ._lazy import lazy_exports
 from .errors import HybobsError, InfeasibleError, ModelError, SolverError
-from .results import Certificate, SolveResult
-from .status import Status, is_infeasible, is_optimal, map_status
+
+_compat.install()
+
+# The example catalogue (cheap: no factory is imported) registers its names with
+# hybobs_opt.systems.resolve, so a saved result that names an example can be loaded anywhere.
+from . import studies as _studies  # noqa: E402,F401
 
 __version__ = "0.1.0"
 
-__all__ = ["Certificate", "HybobsError", "InfeasibleError", "ModelError", "SolveResult", "SolverError", "Status",
-           "__version__", "is_infeasible", "is_optimal", "map_status"]
+_EXPORTS: dict[str, str] = {
+    # vocabulary of every solve
+    **dict.fromkeys(("Status", "is_infeasible", "is_optimal", "map_status"), "hybobs_opt.status"),
+    **dict.fromkeys(("Certificate", "SolveResult"), "hybobs_opt.results"),
+    # systems
+    **dict.fromkeys(("ConstantDriftSystem", "Edge", "HybridAutomaton", "Location", "PWAMode", "PWASystem", "Polytope",
+                     "ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems"),
+    **dict.fromkeys(("PeriodicSystem", "periodic_system"), "hybobs_opt.systems.event_sampled"),
+    "observability_form": "hybobs_opt.systems.canonical_form",
+    # simulators
+    **dict.fromkeys(("Trace", "simulate_constant_drift", "simulate_hybrid", "simulate_hybrid_fixed_step",
+                     "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch"), "hybobs_opt.sim"),
+    # observability regions (paper 002)
+    **dict.fromkeys(("ObservabilityAnalysis", "analyse_observability", "compute_cut", "enumerate_modes",
+                     "load_analysis", "save_analysis"), "hybobs_opt.regions"),
+    # LMI design (paper 004)
+    **dict.fromkeys(("Diagnosis", "ObserverLMI", "SwitchedDesign", "diagnose", "dwell_time_fixed", "grow_regions",
+                     "jacobian_bounds", "make_region", "synthesize_switched", "theorem5_check"), "hybobs_opt.lmi"),
+    # runtime observers
+    **dict.fromkeys(("Estimate", "Observer", "ObserverTrace"), "hybobs_opt.contract"),
+    "MHEObserver": "hybobs_opt.mhe",
+    **dict.fromkeys(("ContinuousObserver", "DriftObserver", "HybridObserver", "LocationObserver", "LookupObserver",
+                     "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver", "deadbeat_gains",
+                     "design_continuous_observer", "design_gains", "design_residual_bank", "positive_observer"),
+                    "hybobs_opt.observers"),
+    # running work
+    **dict.fromkeys(("DaskExecutor", "ProcessExecutor", "SerialExecutor", "make_executor"), "hybobs_opt.executor"),
+    # the seed papers' examples
+    **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.studies"),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = ["HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__", *sorted(_EXPORTS)]

@@ -171,12 +171,13 @@ def test_driveline_error_enters_and_stays_within_M0(fig6):
 def test_driveline_summary_has_the_cli_keys(fig6):
     import json
 
-    from hybobs_opt.observers import scenarios
+    from hybobs_opt.studies import scenarios
 
     keys = {"delta_design", "detection_delays", "M0", "max_error_after_convergence", "ambiguous_steps"}
     assert keys <= set(fig6.summary)
     assert len(fig6.summary["detection_delays"]) == len(fig6.trace.events)
     json.dumps(fig6.summary)
+    assert callable(scenarios.get_scenario("driveline"))
     assert "driveline" in scenarios._SCENARIOS
 
 
@@ -416,10 +417,10 @@ def test_observe_driveline_names_the_plant_it_runs(fig6, monkeypatch):
     the output says which plant it ran, and that plant is the one the scenario simulated."""
     import argparse
 
-    from hybobs_opt.observers import hybrid_observer
+    from hybobs_opt.studies.paper000_driveline import scenario as driveline_study
 
-    monkeypatch.setattr(hybrid_observer, "run_driveline", lambda: fig6)
-    out = hybrid_observer.driveline_scenario(argparse.Namespace(plot=None, json=True))
+    monkeypatch.setattr(driveline_study, "run_driveline", lambda: fig6)
+    out = driveline_study.driveline_scenario(argparse.Namespace(plot=None, json=True))
     assert out["plant"] == "driveline" and out["plant_params"] == {"k": 1000.0}
     assert "k = 0" in out["plant_note"]
     named = driveline(**out["plant_params"])

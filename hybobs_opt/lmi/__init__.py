@@ -9,8 +9,10 @@ Modules, one concept each:
 * :mod:`.subtraction` -- Theorem 5 (linear subtraction does not help);
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
-* :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
-* :mod:`.presets` -- the examples' scheduling settings; :mod:`.commands` -- ``hybobs diagnose/synth``.
+* :mod:`.diagnose` -- the verdict, certificate and remedy for one range.
+
+The paper examples' scheduling settings are the study :mod:`hybobs_opt.studies.paper004_nonmonotonic.presets`;
+the commands ``hybobs diagnose`` / ``hybobs synth`` live in :mod:`hybobs_opt.cli`.
 """
 
 from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points

@@ -1,1 +1,43 @@
-"""Runtime observers with one contract: ``reset(...)``, ``step(u, y) -> Estimate``, ``run(U, Y)``."""
+"""Runtime observers with one contract (:mod:`hybobs_opt.contract`): ``reset(x0, q0=...)``,
+``step(u, y) -> Estimate``, ``run(U, Y) -> ObserverTrace``.
+
+==============================  ===========================================================
+observer                        paper, module
+==============================  ===========================================================
+``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`)
+``MHEObserver``                 002, MIQP/MILP moving horizon (:mod:`hybobs_opt.mhe`)
+``LocationObserver``            000, residual-bank location observer (:mod:`.location_observer`)
+``HybridObserver``              000, location + continuous observer (:mod:`.hybrid_observer`)
+``SlidingModeObserver``         001, step-by-step sliding modes (:mod:`.sliding_mode`)
+``DriftObserver``               003, constant-drift observer (18) (:mod:`.drift_observer`)
+``PeriodicObserver``            003, event-sampled periodic observer (:mod:`.periodic`)
+``SwitchedGainObserver``        004, switched gains with hysteresis (:mod:`.switched_gain`)
+==============================  ===========================================================
+
+Names are imported on first use (``from hybobs_opt.observers import LookupObserver``).
+"""
+
+from .._lazy import lazy_exports
+
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("FALLBACK", "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "ObserverTrace"),
+                    "hybobs_opt.contract"),
+    **dict.fromkeys(("LookupObserver", "LookupTrace", "REASONS", "input_bound_rows"), "hybobs_opt.observers.lookup"),
+    "MHEObserver": "hybobs_opt.mhe",
+    **dict.fromkeys(("LocationObserver", "ResidualBank", "design_residual_bank", "detection_delays"),
+                    "hybobs_opt.observers.location_observer"),
+    **dict.fromkeys(("ContinuousDesign", "ContinuousObserver", "ConvergenceBound", "HybridObserver", "convergence_bound",
+                     "design_continuous_observer"), "hybobs_opt.observers.hybrid_observer"),
+    **dict.fromkeys(("GainRule", "SlidingModeObserver", "design_gains", "discretization_band"),
+                    "hybobs_opt.observers.sliding_mode"),
+    **dict.fromkeys(("DriftObserver", "DriftRun"), "hybobs_opt.observers.drift_observer"),
+    **dict.fromkeys(("PeriodicGains", "PeriodicObserver", "deadbeat_gains", "positive_deadbeat_gains",
+                     "positive_observer"), "hybobs_opt.observers.periodic"),
+    **dict.fromkeys(("SwitchedGainObserver", "convergence_time"), "hybobs_opt.observers.switched_gain"),
+    **dict.fromkeys(("exact_window_labels", "summarise", "timed_steps", "true_window_observable", "wilson_interval"),
+                    "hybobs_opt.observers.comparison"),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

@@ -16,24 +16,22 @@ the ordered pair").  Until then the observer predicts open loop (flag ``warming_
 Between samples the continuous observer is integrated by RK4 (input held, output interpolated
 linearly between the two samples), with enough sub-steps for the fastest frozen error dynamics.
 
-This module also registers the ``hybobs observe`` scenarios of ``vehicle_tracking`` and
-``magnetic_piston``.
+The scenarios of ``vehicle_tracking`` and ``magnetic_piston`` are the study
+:mod:`hybobs_opt.studies.paper004_nonmonotonic.scenarios`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from functools import lru_cache
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from .. import _compat
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
-from .scenarios import register_scenario
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -304,29 +302,6 @@ def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
     return out
 
 
-# ---------------------------------------------------------------------------- scenarios
-#: Initial estimates of the scenarios.  Vehicle: paper 004 Sec. 6.2 ("the vehicle estimates are
-#: located at (0,0) and oriented with 0 degree yaw angle").  Piston: no scenario in the paper; the
-#: estimate starts 4 mm off in position and at rest (an assumption).
-VEHICLE_X_HAT0 = (0.0, 0.0, 0.0, 0.0)
-PISTON_POSITION_ERROR_MM = 4.0
-
-#: Convergence thresholds of the summaries (per state, model units): the error must stay below
-#: them from the convergence time on.  Vehicle: 0.1 m and 0.5 deg; piston: 0.5 mm and 5 mm/s.
-CONVERGENCE_TOL = {
-    "vehicle_tracking": {"X": 0.1, "Y": 0.1, "psi": math.radians(0.5)},
-    "magnetic_piston": {"z": 0.5, "v": 5.0},
-}
-
-
-@lru_cache(maxsize=4)
-def cached_design(example: str):
-    """The preset design of an example (synthesised once per process)."""
-    from ..lmi.presets import preset_design
-
-    return preset_design(example)
-
-
 def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float | None:
     """First time from which ``|err[:, i]| <= tol[i]`` for every later sample (``None`` if never)."""
     bad = np.any(np.abs(err) > tol[None, :], axis=1)
@@ -336,110 +311,6 @@ def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float |
     return None if last == t.size - 1 else float(t[last + 1])
 
 
-def run_example(example: str, kind: str = "switched", *, design=None, x_hat0: Sequence[float] | None = None,
-                t_final: float | None = None) -> tuple[Any, ObserverTrace, dict]:
-    """Simulate the example's scenario and run the observer on it.
-
-    Parameters
-    ----------
-    example : str
-        ``"vehicle_tracking"`` or ``"magnetic_piston"``.
-    kind : {"switched", "single"}
-        The switched-gain observer, or the first region's gain alone (Fig. 4 of paper 004).
-    design : SwitchedDesign, optional
-        Default: :func:`cached_design`.
-    x_hat0 : array, optional
-        Initial estimate (defaults: :data:`VEHICLE_X_HAT0`, the piston's true start + 4 mm).
-
-    Returns
-    -------
-    (Trace, ObserverTrace, dict)
-        The true trace, the estimates and the JSON summary.
-    """
-    from ..examples import get_example
-
-    if kind not in ("switched", "single"):
-        raise ModelError("--observer", "'switched' or 'single'", repr(kind))
-    ex = get_example(example)
-    if ex.name not in CONVERGENCE_TOL:
-        raise ModelError("example", f"one of {sorted(CONVERGENCE_TOL)}", repr(example))
-    design = design if design is not None else cached_design(ex.name)
-    system = design.system
-    trace = ex.scenario(system, t_final)
-    if x_hat0 is None:
-        if ex.name == "vehicle_tracking":
-            x_hat0 = VEHICLE_X_HAT0
-        else:
-            x_hat0 = trace.x[0] * np.array([1.0, 0.0, 0.0]) + np.array([PISTON_POSITION_ERROR_MM, 0.0, 0.0])
-    gains = design.regions if kind == "switched" else design.regions[:1]
-    dt = float(trace.t[1] - trace.t[0])
-    obs = SwitchedGainObserver(system, gains, dt)
-    obs.reset(np.asarray(x_hat0, dtype=float))
-    if kind == "single":
-        obs.name = "single-gain"
-    ot = obs.run(trace.u, trace.y)
-    summary = summarize(ex.name, trace, ot, obs, design, kind)
-    return trace, ot, summary
-
-
-def summarize(example: str, trace, ot: ObserverTrace, obs: SwitchedGainObserver, design, kind: str) -> dict:
-    """The JSON summary of a run: error metrics, convergence time, regions visited, step times."""
-    err = ot.errors(trace.x)
-    names = trace.state_names
-    tol_map = CONVERGENCE_TOL[example]
-    idx = [names.index(k) for k in tol_map]
-    tol = np.array([tol_map[k] for k in tol_map])
-    t = trace.t
-    conv = convergence_time(t, err[:, idx], tol)
-    modes = ot.mode
-    visited = [int(m) for i, m in enumerate(modes) if m >= 0 and (i == 0 or m != modes[i - 1])]
-    switches = [{"t": float(t[i]), "from": int(modes[i - 1]), "to": int(modes[i])}
-                for i in range(1, modes.size) if modes[i] != modes[i - 1] and modes[i - 1] >= 0]
-    half = t >= 0.5 * t[-1]
-    from ..lmi.presets import get_preset
-
-    k = obs.k
-    preset = get_preset(example)
-    factor, unit = preset.factor, preset.unit
-    out = {
-        "example": example,
-        "observer": "switched-gain" if kind == "switched" else "single-gain (first region's gain)",
-        "regions": [[r.lo / factor, r.hi / factor] for r in obs.regions],
-        "coordinate": names[k], "unit": unit,
-        "rms_error": {n: float(np.sqrt(np.mean(err[:, i] ** 2))) for i, n in enumerate(names)},
-        "rms_error_second_half": {n: float(np.sqrt(np.mean(err[half, i] ** 2))) for i, n in enumerate(names)},
-        "max_abs_error_second_half": {n: float(np.max(np.abs(err[half, i]))) for i, n in enumerate(names)},
-        "final_abs_error": {n: float(abs(err[-1, i])) for i, n in enumerate(names)},
-        "convergence_tolerance": dict(tol_map),
-        "convergence_time": conv,
-        "converged": conv is not None,
-        "regions_visited": visited,
-        "n_switches": len(switches),
-        "switches": switches,
-        "initial_selection": obs.selected,
-        "flags": ot.flag_counts(),
-        "timing": ot.timing(),
-        "substeps": obs.substeps,
-        "tau": design.tau,
-        "samples": int(t.size),
-    }
-    return out
-
-
-def _scenario(example: str):
-    def scenario(args) -> dict:
-        kind = getattr(args, "observer", None) or "switched"
-        trace, ot, summary = run_example(example, kind)
-        plot = getattr(args, "plot", None)
-        if plot:
-            from .plots import plot_observer_run
-
-            plot_observer_run(trace, [ot], plot, title=f"{example}: {summary['observer']}")
-            summary["plot"] = str(plot)
-        return summary
-
-    return scenario
-
-
-register_scenario("vehicle_tracking", _scenario("vehicle_tracking"))
-register_scenario("magnetic_piston", _scenario("magnetic_piston"))
+def __getattr__(name: str):
+    # Paper 004's scenarios moved to hybobs_opt.studies.paper004_nonmonotonic.scenarios (issue 13).
+    return _compat.moved_attribute(__name__, name)

@@ -130,10 +130,9 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
 
     ``stretch`` multiplies an axis for display (the paper multiplies the theta axis by 10).
     """
-    import matplotlib
+    from ..plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.colors import ListedColormap
 
     code = np.vectorize({"observable": 0, "unobservable": 1, "infeasible": 2}.get)(cut.labels)

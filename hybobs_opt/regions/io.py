@@ -62,7 +62,7 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
     path : path-like
     system : PWASystem, optional
         The system the file was computed for; by default it is rebuilt from the stored example
-        name and parameters.
+        name and parameters (:func:`hybobs_opt.systems.resolve.resolve_system`).
 
     Raises
     ------
@@ -80,9 +80,9 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
     if system is None:
         if not data.get("example"):
             raise ModelError("system", "a PWASystem (the file names no example to rebuild it from)", "None")
-        from ..examples import get_example
+        from ..systems.resolve import resolve_system
 
-        system = get_example(data["example"]).build(**data.get("params", {}))
+        system = resolve_system(data["example"], data.get("params", {}))
     if list(system.state_names) != data["state_names"]:
         raise ModelError("system", f"states {data['state_names']}", f"{list(system.state_names)}")
     regions = tuple(

@@ -16,10 +16,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import matplotlib
+from ..plotting import pyplot
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+plt = pyplot()
 import numpy as np  # noqa: E402
 
 from ..observers.plots import plot_observer_run
@@ -188,10 +187,10 @@ def _design_table(design, unit: str, factor: float) -> str:
 
 def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """Paper 004 on the vehicle tracker and the magnetic piston (see the module docstring)."""
-    from ..examples import get_example
+    from ..studies import get_example
     from ..lmi.diagnose import diagnose
-    from ..lmi.presets import get_preset, preset_design, scaling_for
-    from ..observers.switched_gain import run_example
+    from ..studies.paper004_nonmonotonic.presets import get_preset, preset_design, scaling_for
+    from ..studies.paper004_nonmonotonic.scenarios import run_example
 
     parts, figs, summary = [], [], {}
     for name in ("vehicle_tracking", "magnetic_piston"):
@@ -267,7 +266,7 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
 
     Built by :func:`hybobs_opt.observers.piston_comparison.compare_piston` (issue 5's comparison).
     """
-    from ..observers.piston_comparison import compare_piston, comparison_summary, plot_piston_comparison
+    from ..studies.paper004_nonmonotonic.piston_comparison import compare_piston, comparison_summary, plot_piston_comparison
 
     t0 = time.perf_counter()
     progress("piston_comparison")

@@ -7,7 +7,7 @@ import html
 from collections.abc import Callable
 from pathlib import Path
 
-from ..observers.bench import run_bench
+from ..studies.paper002_powertrain.bench import run_bench
 from .html import ReportSection, register_section
 
 #: Steps of the scenario (1 ms each) and of the MHE runs (they cost milliseconds per step).

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..examples.powertrain import TABLE1, TABLE2, powertrain3, powertrain5
+from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
 from ..lp import solve_lp
 from ..regions import Cut, analyse_observability, compute_cut, plot_cut
 from ..regions.enumeration import horizon_scaling

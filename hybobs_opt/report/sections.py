@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..examples import PAPERS, list_examples
+from ..studies import PAPERS, list_examples
 from .html import ReportSection, register_section
 from .plots import plot_trace
 

@@ -17,15 +17,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from ..plotting import pyplot
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+plt = pyplot()
 import numpy as np  # noqa: E402
 from scipy.linalg import expm  # noqa: E402
 
-from ..examples.sliding_mode import P_DERIVED, P_PRINTED, SIGMA1, SIGMA2, double_scroll  # noqa: E402
-from ..observers.sliding_mode import (  # noqa: E402
+from ..studies.paper001_sliding_mode.systems import P_DERIVED, P_PRINTED, SIGMA1, SIGMA2, double_scroll  # noqa: E402
+from ..studies.paper001_sliding_mode.scenarios import (  # noqa: E402
     SCENARIOS,
     TRADEOFF_NOISE_REL,
     ScenarioResult,
@@ -212,7 +211,7 @@ def _fig_indicator(out: Path, raw: ScenarioResult, filt: ScenarioResult, sigma_i
 
 
 def _fig_phase(out: Path, ds: ScenarioResult, figs: list[str]) -> None:
-    from ..examples.sliding_mode import DOUBLE_SCROLL_X0
+    from ..studies.paper001_sliding_mode.systems import DOUBLE_SCROLL_X0
     from ..sim.hybrid import simulate_hybrid
 
     tr = simulate_hybrid(double_scroll(), np.array(DOUBLE_SCROLL_X0), 50.0, dt=1e-2)

@@ -1,29 +1,31 @@
-"""The scenarios behind ``hybobs observe NAME``: one function per example, registered by the
-observer modules (each paper's observer issue adds its own).
+"""The scenarios behind ``hybobs observe NAME``: one function per example, defined by the studies.
 
-A scenario takes the parsed CLI arguments (``observer``, ``filter``, ``plot``, ``json``) and
+A scenario takes the parsed CLI options (``observer``, ``filter``, ``plot``, ``json``) and
 returns a JSON-ready summary dict (the contract of each issue's "machine-readable output").
+Each module of :data:`SCENARIO_MODULES` defines ``register_scenarios(register)``; they are
+imported only when a scenario is asked for (they import the solvers).
 """
 
 from __future__ import annotations
 
-import argparse
+import importlib
 from collections.abc import Callable
 from typing import Any
 
-from ..errors import ModelError
+from hybobs_opt.errors import ModelError
 
-Scenario = Callable[[argparse.Namespace], dict[str, Any]]
+Scenario = Callable[[Any], dict[str, Any]]
 
 _SCENARIOS: dict[str, Scenario] = {}
+_LOADED: set[str] = set()
 
-#: Modules that register scenarios on import (each calls :func:`register_scenario`).
+#: Study modules with observer scenarios (each defines ``register_scenarios(register)``).
 SCENARIO_MODULES: list[str] = [
-    "hybobs_opt.observers.bench",
-    "hybobs_opt.observers.switched_gain",
-    "hybobs_opt.observers.hybrid_observer",
-    "hybobs_opt.observers.drift_observer",
-    "hybobs_opt.observers.sliding_mode",
+    "hybobs_opt.studies.paper000_driveline.scenario",
+    "hybobs_opt.studies.paper001_sliding_mode.scenarios",
+    "hybobs_opt.studies.paper002_powertrain.bench",
+    "hybobs_opt.studies.paper003_switching.scenarios",
+    "hybobs_opt.studies.paper004_nonmonotonic.scenarios",
 ]
 
 
@@ -32,12 +34,16 @@ def register_scenario(example: str, scenario: Scenario) -> None:
     _SCENARIOS[example] = scenario
 
 
+def _load() -> None:
+    for module in SCENARIO_MODULES:
+        if module not in _LOADED:
+            importlib.import_module(module).register_scenarios(register_scenario)
+            _LOADED.add(module)
+
+
 def get_scenario(example: str) -> Scenario:
     """The registered scenario; the error says which examples have one."""
-    import importlib
-
-    for module in SCENARIO_MODULES:
-        importlib.import_module(module)
+    _load()
     try:
         return _SCENARIOS[example]
     except KeyError:

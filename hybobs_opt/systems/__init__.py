@@ -1,9 +1,18 @@
-"""The nouns a user describes: PWA systems, hybrid automata, constant-drift and scalar-nonlinear systems."""
+"""The nouns a user describes: PWA systems, hybrid automata, constant-drift and scalar-nonlinear
+systems, and the polytopes they are built of.  Names are imported on first use.
+"""
 
-from .constant_drift import ConstantDriftSystem
-from .hybrid import Edge, HybridAutomaton, Location
-from .polytope import Polytope
-from .pwa import PWAMode, PWASystem
-from .scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
+from .._lazy import lazy_exports
 
-__all__ = ["ConstantDriftSystem", "Edge", "HybridAutomaton", "Location", "PWAMode", "PWASystem", "Polytope", "ScalarFunction", "ScalarNonlinearSystem"]
+_EXPORTS: dict[str, str] = {
+    "ConstantDriftSystem": "hybobs_opt.systems.constant_drift",
+    **dict.fromkeys(("Edge", "HybridAutomaton", "Location"), "hybobs_opt.systems.hybrid"),
+    "Polytope": "hybobs_opt.systems.polytope",
+    **dict.fromkeys(("PWAMode", "PWASystem"), "hybobs_opt.systems.pwa"),
+    **dict.fromkeys(("ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems.scalar_nonlinear"),
+    **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError
-from ..sim.hybrid import simulate_hybrid
-from ..sim.trace import Trace
-from ..systems.hybrid import Edge, HybridAutomaton, Location
-from ..systems.polytope import Polytope
-from .registry import Example, register
+from hybobs_opt.errors import ModelError
+from hybobs_opt.sim.hybrid import simulate_hybrid
+from hybobs_opt.sim.trace import Trace
+from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
+from hybobs_opt.systems.polytope import Polytope
 
 #: Operating point of Section 2 of paper 000: "2000 rpm (i.e. omega_c0 = (pi/30) 2000 rad/sec)".
 OMEGA_C0 = np.pi / 30.0 * 2000.0
@@ -206,17 +205,3 @@ def scenario(system: HybridAutomaton, t_final: float | None = None) -> Trace:
     if not (np.isfinite(t_final) and t_final > 0):
         raise ModelError("t_final", "a positive finite time", repr(t_final))
     return simulate_hybrid(system, np.zeros(system.n), t_final, u=torque_step, breakpoints=(STEP_TIME,), dt=1e-3)
-
-register(
-    Example(
-        name="driveline",
-        kind="hybrid_automaton",
-        paper="000",
-        summary="driveline with discontinuous elasticity (backlash), 3 locations, -10 N m torque step at 2 s (Fig. 6)",
-        state_names=STATE_NAMES,
-        build=driveline,
-        scenario=scenario,
-        default_t_final=DEFAULT_T_FINAL,
-        params=dict(TABLE1),
-    )
-)

@@ -19,12 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
-from ..sim.trace import Trace
-from ..systems.hybrid import Edge, HybridAutomaton, Location
-from ..systems.polytope import Polytope
-from ..sim.hybrid import simulate_hybrid
-from .registry import Example, register
+from hybobs_opt.errors import ModelError
+from hybobs_opt.sim.trace import Trace
+from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
+from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.sim.hybrid import simulate_hybrid
 
 # ---------------------------------------------------------------------------------- Example 1
 
@@ -372,46 +371,3 @@ def _horizon(t_final: float | None, default: float) -> float:
     if not (np.isfinite(t_final) and t_final > 0):
         raise ModelError("t_final", "a positive finite time", repr(t_final))
     return t_final
-
-
-register(
-    Example(
-        name="switched_unstable",
-        kind="hybrid_automaton",
-        paper="001",
-        summary="Example 1: two stable linear centres switched by sign(x1 x2) into an unstable system (Fig. 3)",
-        state_names=("x1", "x2"),
-        build=switched_unstable,
-        scenario=_scenario_switched_unstable,
-        default_t_final=10.0,
-        params={"as_printed": False, "bound": 100.0},
-    )
-)
-
-register(
-    Example(
-        name="triangular",
-        kind="hybrid_automaton",
-        paper="001",
-        summary="Example 2: triangular 3rd-order system (6), x3' = F1 if x2 < 0 else F2, y = x1 (Fig. 4-6)",
-        state_names=("x1", "x2", "x3"),
-        build=triangular,
-        scenario=_scenario_triangular,
-        default_t_final=3.0,
-        params={"bound_x1": 10.0, "bound_x2": 1.0, "bound_x3": 1.0},
-    )
-)
-
-register(
-    Example(
-        name="double_scroll",
-        kind="hybrid_automaton",
-        paper="001",
-        summary="Example 3: double-scroll PWA system (Chua), 3 locations split at x1 = +-1, y = x3 (Fig. 7)",
-        state_names=("x1", "x2", "x3"),
-        build=double_scroll,
-        scenario=_scenario_double_scroll,
-        default_t_final=50.0,
-        params={"bounds": (3.0, 1.0, 5.0)},
-    )
-)

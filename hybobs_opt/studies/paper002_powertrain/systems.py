@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ModelError
-from ..sim.pwa import simulate_pwa
-from ..systems.polytope import Polytope
-from ..systems.pwa import PWAMode, PWASystem
-from .registry import Example, register
+from hybobs_opt.errors import ModelError
+from hybobs_opt.sim.pwa import simulate_pwa
+from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.systems.pwa import PWAMode, PWASystem
 
 #: Sampling period of models (16) and (17), paper 002 Section 5.1 ("Ts = 1 ms").
 TS = 1e-3
@@ -235,32 +234,3 @@ def _scenario3(system: PWASystem, t_final: float | None = None):
 
 def _scenario5(system: PWASystem, t_final: float | None = None):
     return backlash_scenario(system, SCENARIO_TORQUES["powertrain5"], t_final)
-
-
-register(
-    Example(
-        name="powertrain3",
-        kind="pwa",
-        paper="002",
-        summary="3rd-order powertrain with backlash, model (16) + Table 1, Ts = 1 ms, 3 dead-zone modes",
-        state_names=("theta", "omega_m", "omega_l"),
-        build=powertrain3,
-        scenario=_scenario3,
-        default_t_final=3.0,
-        params={"gear_ratio": TABLE1["gear_ratio"]},
-    )
-)
-
-register(
-    Example(
-        name="powertrain5",
-        kind="pwa",
-        paper="002",
-        summary="5th-order powertrain with flexible clutch and backlash, model (17) + Table 2, Ts = 1 ms",
-        state_names=("theta_mc", "theta_cl", "omega_m", "omega_c", "omega_l"),
-        build=powertrain5,
-        scenario=_scenario5,
-        default_t_final=3.0,
-        params={"gear_ratio": TABLE2["gear_ratio"]},
-    )
-)

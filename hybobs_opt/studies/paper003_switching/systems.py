@@ -13,12 +13,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..errors import ModelError
-from ..sim.constant_drift import simulate_constant_drift
-from ..sim.trace import Trace
-from ..systems._validate import as_vector
-from ..systems.constant_drift import ConstantDriftSystem
-from .registry import Example, register
+from hybobs_opt.errors import ModelError
+from hybobs_opt.sim.constant_drift import simulate_constant_drift
+from hybobs_opt.sim.trace import Trace
+from hybobs_opt.systems._validate import as_vector
+from hybobs_opt.systems.constant_drift import ConstantDriftSystem
 
 # ---------------------------------------------------------------------------- switching server
 
@@ -215,32 +214,3 @@ def _scalar(value, name: str) -> float:
     if isinstance(value, bool):
         raise ModelError(name, "a finite real number", f"{value!r}")
     return float(as_vector(value, name, 1)[0])
-
-
-register(
-    Example(
-        name="switching_server",
-        kind="constant_drift",
-        paper="003",
-        summary="Two-product switching server with setup times; only 'serving type 2' is visible (Sec. 2.1)",
-        state_names=("x0", "x1", "x2"),
-        build=switching_server,
-        scenario=switching_server_scenario,
-        default_t_final=SERVER_T_FINAL,
-        params={"lam1": 1.0, "mu1": 3.0, "mu2": 4.0, "gamma1": 2.0, "gamma2": 1.0},
-    )
-)
-
-register(
-    Example(
-        name="traffic_junction",
-        kind="constant_drift",
-        paper="003",
-        summary="Signalized 3-flow T-junction, clearing policy; sensor on lane 1 only (Sec. 5)",
-        state_names=("x0", "x1", "x2", "x3"),
-        build=traffic_junction,
-        scenario=traffic_junction_scenario,
-        default_t_final=JUNCTION_T_FINAL,
-        params={"lam": (1.0, 2.0, 3.0), "mu": (8.0, 10.0, 12.0), "gamma": (5.0, 10.0, 15.0)},
-    )
-)

@@ -1,7 +1,7 @@
 """Switched-gain observer (paper 004) against the lookup-table deadbeat observer (paper 002).
 
 The plant is the magnetic piston of paper 004 (eq. 63) with its two sensor curves replaced by a
-continuous piecewise-linear fit in the position (:func:`~hybobs_opt.examples.piston_pwa.magnetic_piston_pwa`),
+continuous piecewise-linear fit in the position (:func:`~hybobs_opt.studies.paper004_nonmonotonic.piston_pwa.magnetic_piston_pwa`),
 so it is a PWA system and both observers apply to the same data:
 
 * **lookup** (paper 002, Algorithm 4.1): designed on the PWA plant itself -- mode enumeration and
@@ -16,7 +16,7 @@ so it is a PWA system and both observers apply to the same data:
 
 Both observers start from the same estimate (the true initial position plus
 :data:`~hybobs_opt.observers.switched_gain.PISTON_POSITION_ERROR_MM`, at rest) and run sample by
-sample through :func:`~hybobs_opt.observers.bench.timed_steps`, which gives the per-step times.
+sample through :func:`~hybobs_opt.observers.comparison.timed_steps`, which gives the per-step times.
 """
 
 from __future__ import annotations
@@ -30,15 +30,17 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelError
-from ..examples.nonmonotonic import PISTON_DT, PISTON_MARGIN, PISTON_PERIOD_S
-from ..examples.piston_pwa import magnetic_piston_pwa, piston_sensor_fit
-from ..sim.pwa import simulate_pwa
-from ..sim.trace import Trace
-from ..systems.pwa import PWASystem
-from .base import OBSERVABLE, ObserverTrace
-from .bench import timed_steps
-from .switched_gain import CONVERGENCE_TOL, PISTON_POSITION_ERROR_MM, SwitchedGainObserver, convergence_time
+from hybobs_opt.errors import ModelError
+from hybobs_opt.studies.paper004_nonmonotonic.systems import PISTON_DT, PISTON_MARGIN, PISTON_PERIOD_S
+from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import magnetic_piston_pwa, piston_sensor_fit
+from hybobs_opt.sim.pwa import simulate_pwa
+from hybobs_opt.sim.trace import Trace
+from hybobs_opt.systems.pwa import PWASystem
+from hybobs_opt.observers.base import OBSERVABLE, ObserverTrace
+from hybobs_opt.observers.comparison import timed_steps
+from hybobs_opt.observers.switched_gain import SwitchedGainObserver, convergence_time
+
+from .scenarios import CONVERGENCE_TOL, PISTON_POSITION_ERROR_MM
 
 #: Pieces of the sensor fit used by the comparison: the 11 monotonic pieces split further (greedy,
 #: see :func:`piston_sensor_fit`) until the fit is within 0.075 mT of the smooth curves, 1.6 % of
@@ -87,7 +89,7 @@ def piston_pwa_scenario(pwa: PWASystem, t_final: float | None = None) -> Trace:
     """One extend-retract stroke of the PWA piston: the scenario of ``piston_scenario``, sampled.
 
     ``x0 = [z_c - A, 0, A w^2]`` and the jerk ``u(t) = -A w^3 sin(w t)`` of
-    :func:`~hybobs_opt.examples.nonmonotonic.piston_scenario`, taken at the sample instants and held
+    :func:`~hybobs_opt.studies.paper004_nonmonotonic.systems.piston_scenario`, taken at the sample instants and held
     over each sample (the ZOH the PWA model is exact for).  Holding instead of integrating the sine
     moves the stroke's far end by about 0.24 mm; it stays inside the box.
 
@@ -123,8 +125,8 @@ def lookup_for(pwa: PWASystem, max_horizon: int = MAX_HORIZON) -> tuple[Any, Any
     ModelError
         If no horizon up to ``max_horizon`` has a region of full rank.
     """
-    from ..regions import analyse_observability
-    from .lookup import LookupObserver
+    from hybobs_opt.regions import analyse_observability
+    from hybobs_opt.observers.lookup import LookupObserver
 
     tried = []
     for T in range(max(1, math.ceil(pwa.n / pwa.p)), int(max_horizon) + 1):
@@ -156,7 +158,7 @@ def compare_piston(
     Parameters
     ----------
     n_pieces : int or None
-        Pieces of the sensor fit (:func:`~hybobs_opt.examples.piston_pwa.piston_sensor_fit`;
+        Pieces of the sensor fit (:func:`~hybobs_opt.studies.paper004_nonmonotonic.piston_pwa.piston_sensor_fit`;
         ``None``: the 11 monotonic pieces).
     Ts : float
         Sampling period (default: that of the smooth piston scenario, 1 ms).
@@ -208,7 +210,7 @@ def compare_piston(
         lk = timed_steps(lookup, trace.u, trace.y)
 
     if design is None:
-        from ..lmi.presets import preset_design
+        from hybobs_opt.studies.paper004_nonmonotonic.presets import preset_design
 
         t0 = time.perf_counter()
         design = preset_design("magnetic_piston")
@@ -273,12 +275,11 @@ def plot_piston_comparison(result: Mapping[str, Any], path: str | Path) -> Path:
     -------
     Path
     """
-    import matplotlib
+    from hybobs_opt.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
-    from ..examples.nonmonotonic import magnetic_piston
+    from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston
 
     path = Path(path)
     tr = result["traces"]

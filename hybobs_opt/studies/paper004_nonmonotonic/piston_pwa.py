@@ -4,7 +4,7 @@ The piston's integrator chain is linear; only its two sensor curves ``h_1(z)``, 
 nonlinear.  Replacing each curve by a continuous piecewise-linear interpolant in the position
 ``z`` makes the plant a PWA system (paper 002, eq. 1) with one mode per ``z``-interval, so the
 lookup-table deadbeat observer of paper 002 applies to it and can be compared with the
-switched-gain observer of paper 004 (:mod:`hybobs_opt.observers.piston_comparison`).
+switched-gain observer of paper 004 (:mod:`.piston_comparison`).
 
 This module is not registered in the example registry: it is a derived model used by that
 comparison, not a system of the seed papers.
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from ..errors import ModelError
-from ..systems.hybrid import Edge, HybridAutomaton, Location
-from ..systems.polytope import Polytope
-from ..systems.pwa import PWASystem
-from .nonmonotonic import PISTON_A_MAX, PISTON_DT, PISTON_STROKE_MM, PISTON_V_MAX, magnetic_piston
+from hybobs_opt.errors import ModelError
+from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
+from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.systems.pwa import PWASystem
+from hybobs_opt.studies.paper004_nonmonotonic.systems import PISTON_A_MAX, PISTON_DT, PISTON_STROKE_MM, PISTON_V_MAX, magnetic_piston
 
 #: Bound of the jerk input (mm/s^3) of the PWA model's input set ``U``.  NOT in paper 004 (its
 #: model has no input bound); it reaches the acceleration bound from rest in 0.5 s and is 27 times
@@ -129,7 +129,7 @@ def piston_sensor_fit(n_pieces: int | None = None, stroke: float = PISTON_STROKE
         handed out one at a time to the monotonic piece whose current maximum fit error is the
         largest (greedy; the result is deterministic).
     stroke : float
-        Position range (mm), as in :func:`~hybobs_opt.examples.nonmonotonic.magnetic_piston`.
+        Position range (mm), as in :func:`~hybobs_opt.studies.paper004_nonmonotonic.systems.magnetic_piston`.
 
     Returns
     -------
@@ -187,7 +187,7 @@ def magnetic_piston_pwa(
     """The magnetic piston of paper 004, eq. (63), with piecewise-linear sensor curves: a PWA system.
 
     States ``x = [z, v, a]`` (mm, mm/s, mm/s^2), input the jerk ``u`` (mm/s^3), outputs the two
-    magnetic readings (mT), as in :func:`~hybobs_opt.examples.nonmonotonic.magnetic_piston`.
+    magnetic readings (mT), as in :func:`~hybobs_opt.studies.paper004_nonmonotonic.systems.magnetic_piston`.
 
     * **Dynamics**: the chain of integrators of eq. (63) (``A`` with ones above the diagonal,
       ``B = e_3``), discretised exactly by zero-order hold with period ``Ts``

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
-from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from hybobs_opt.errors import ModelError
+from hybobs_opt.systems.scalar_nonlinear import ScalarNonlinearSystem
 
 
 @dataclass(frozen=True)
@@ -146,8 +146,8 @@ def preset_regions(preset: SchedulePreset, system: ScalarNonlinearSystem, lo: fl
     The paper's switching points when the preset has them and they fall inside the range,
     otherwise regions grown automatically (:func:`.switched.grow_regions`).
     """
-    from .schedule import regions_from_switch_points
-    from .switched import grow_regions
+    from hybobs_opt.lmi.schedule import regions_from_switch_points
+    from hybobs_opt.lmi.switched import grow_regions
 
     lo = preset.synth_range[0] if lo is None else float(lo)
     hi = preset.synth_range[1] if hi is None else float(hi)
@@ -179,8 +179,8 @@ def preset_design(example: str, system: ScalarNonlinearSystem | None = None, lo:
     regions : sequence of SchedulingRegion, optional
         Use these regions instead of the preset's.
     """
-    from ..examples import get_example
-    from .switched import synthesize_switched
+    from hybobs_opt.studies import get_example
+    from hybobs_opt.lmi.switched import synthesize_switched
 
     preset = get_preset(example)
     if system is None:

@@ -5,7 +5,7 @@
 * ``magnetic_piston`` -- Section 7: piston position of an electro-hydraulic actuator, eq. (63),
   linear process dynamics and two non-monotonic magnetic-sensor outputs.
 
-Both are registered in :mod:`hybobs_opt.examples.registry` with their simulation scenario.
+Both are registered in :mod:`hybobs_opt.studies.registry` (by this study's package) with their simulation scenario.
 Where the text extraction of the paper garbled a formula, or the paper gives no number, the
 docstrings below say what was assumed and why.
 """
@@ -20,12 +20,11 @@ import numpy as np
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from ..errors import ModelError
-from ..sim.nonlinear import simulate_nonlinear
-from ..sim.trace import Trace
-from ..systems.polytope import Polytope
-from ..systems.scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
-from .registry import Example, register
+from hybobs_opt.errors import ModelError
+from hybobs_opt.sim.nonlinear import simulate_nonlinear
+from hybobs_opt.sim.trace import Trace
+from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.systems.scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
 
 # ---------------------------------------------------------------------------------------------
 # Vehicle tracking, paper 004 Section 6
@@ -305,33 +304,3 @@ def piston_scenario(system: ScalarNonlinearSystem, t_final: float | None = None)
     w = 2 * math.pi / PISTON_PERIOD_S
     x0 = [zc - amp, 0.0, amp * w**2]
     return simulate_nonlinear(system, x0, lambda t: np.array([-amp * w**3 * math.sin(w * t)]), t_final, PISTON_DT)
-
-
-register(
-    Example(
-        name="vehicle_tracking",
-        kind="scalar_nonlinear",
-        paper="004",
-        summary="Bicycle model of a radar-tracked vehicle (eqs. 56-59): non-monotonic V cos/sin(psi) dynamics",
-        state_names=("X", "Y", "psi", "delta_f"),
-        build=vehicle_tracking,
-        scenario=vehicle_scenario,
-        default_t_final=VEHICLE_T_FINAL,
-        params={"V": VEHICLE_SPEED, "l_f": VEHICLE_LF, "l_r": VEHICLE_LR,
-                "delta_max_deg": VEHICLE_DELTA_MAX_DEG, "position_range": VEHICLE_POSITION_RANGE},
-    )
-)
-
-register(
-    Example(
-        name="magnetic_piston",
-        kind="scalar_nonlinear",
-        paper="004",
-        summary="Piston position from two non-monotonic magnetic sensors (eq. 63), synthetic sensor curves",
-        state_names=("z", "v", "a"),
-        build=magnetic_piston,
-        scenario=piston_scenario,
-        default_t_final=PISTON_PERIOD_S,
-        params={"stroke": PISTON_STROKE_MM, "v_max": PISTON_V_MAX, "a_max": PISTON_A_MAX},
-    )
-)

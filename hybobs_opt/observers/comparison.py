@@ -1,0 +1,119 @@
+"""Comparing observers on one trace: timing of the ``step`` loop, errors where each flags
+``observable``, and the exact observability labels of the true window-start states.
+
+Every observer of the package is compared against the lookup-table deadbeat observer this way
+(paper 002, Section 7); the study modules (``studies.paper002_powertrain.bench``,
+``studies.paper004_nonmonotonic.piston_comparison``) build their comparisons from these pieces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from .base import OBSERVABLE, Observer, ObserverTrace
+
+
+def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
+    """Per time ``t``: is the true mode sequence of the window ``t-T+1 .. t`` a region of ``I``?
+
+    A necessary condition for the window-start state to be observable (its output map has full
+    rank), not a sufficient one: another mode sequence may explain the same data.  For the
+    exact answer see :func:`exact_window_labels`.
+    """
+    seqs = {r.sequence: k for k, r in enumerate(analysis.regions)}
+    T = analysis.T
+    out = np.zeros(q.size, dtype=bool)
+    for t in range(T - 1, q.size):
+        k = seqs.get(tuple(int(v) for v in q[t - T + 1 : t + 1]))
+        out[t] = k is not None and analysis.full_rank[k]
+    return out
+
+
+#: At most this many window-start states are classified exactly per bench run (point queries of
+#: Definition 2.2, about 1 ms each on model 16 at T = 3 and 17 ms on model 17 at T = 5).
+EXACT_LABEL_SAMPLES = 300
+
+
+def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMPLES,
+                        progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Exact labels (``classify``, Definition 2.2) of the window-start states ``x[t - T + 1]``, on an even stride.
+
+    Returns ``(times, labels)``: the window end times ``t`` that were classified (every
+    ``k``-th one, at most ``samples``) and their labels.
+    """
+    T = analysis.T
+    ends = np.arange(T - 1, x.shape[0])
+    if ends.size > samples:
+        ends = ends[np.linspace(0, ends.size - 1, samples).round().astype(int)]
+    labels = np.empty(ends.size, dtype=object)
+    for k, t in enumerate(ends):
+        labels[k] = analysis.classify(x[t - T + 1])
+        if progress:
+            progress(k + 1, ends.size)
+    return ends, labels
+
+
+def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int, int], None] | None = None,
+                chunk: int = 500) -> ObserverTrace:
+    """Run ``observer.step`` sample by sample from a reset state (the online cost).
+
+    Calls the base class's :meth:`Observer.run`, which loops ``step``, even for observers whose
+    own ``run`` is a vectorised batch; with ``progress(done, total)``, in chunks of ``chunk``
+    samples (the observer keeps its state between them).
+    """
+    observer.reset()
+    if progress is None:
+        return Observer.run(observer, U, Y)
+    N = len(U)
+    parts = []
+    for a in range(0, N, chunk):
+        parts.append(Observer.run(observer, U[a : a + chunk], Y[a : a + chunk]))
+        progress(min(N, a + chunk), N)
+    first = parts[0]
+    return ObserverTrace(np.concatenate([q.x_hat for q in parts]), np.concatenate([q.mode for q in parts]),
+                         np.concatenate([q.flags for q in parts]), np.concatenate([q.seconds for q in parts]),
+                         first.state_names, first.observer)
+
+
+def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarray, state_names, solver: str,
+              warmup: int = 0, interval_states: Sequence[str] = ()) -> dict[str, Any]:
+    """The record of one observer in a comparison (``observers.<name>`` of ``hybobs bench --json``).
+
+    Timing (``out.timing()``), the largest error over the steps flagged observable (absolute per
+    state, and relative to ``max(1, |x|)`` over all states), the flag counts, and for each state
+    named in ``interval_states`` the RMS error on the samples where ``truly_observable`` holds and
+    where it does not.  The interval errors leave out the first ``warmup`` samples (``T - 1``: no
+    window yet, every observer shows its initial guess there).
+    """
+    err = np.abs(out.x_hat - x_true)
+    flagged = out.flags == OBSERVABLE
+    rec: dict[str, Any] = dict(out.timing())
+    rec["solver"] = solver
+    rec["n_steps"] = out.n_steps
+    rec["max_abs_error_observable"] = err[flagged].max(axis=0).tolist() if flagged.any() else None
+    rec["max_abs_error_observable_all"] = float(np.max(err[flagged] / np.maximum(1.0, np.abs(x_true[flagged])))) if flagged.any() else None
+    rec["n_flagged_observable"] = int(flagged.sum())
+    rec["n_flagged_unobservable"] = int(np.count_nonzero(out.flags == "unobservable"))
+    rec["n_fallback"] = int(np.count_nonzero(out.flags == "fallback"))
+    for name in interval_states:
+        if name in state_names:
+            i = state_names.index(name)
+            after = np.arange(err.shape[0]) >= warmup
+            for label, mask in (("observable", truly_observable), ("unobservable", ~truly_observable)):
+                sel = mask & after & np.isfinite(err[:, i])
+                rec[f"rms_error_{name}_{label}_intervals"] = float(np.sqrt(np.mean(err[sel, i] ** 2))) if sel.any() else None
+    return rec
+
+
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
+    """95 % Wilson score interval of a binomial proportion ``k / n`` (``None`` when ``n = 0``)."""
+    if n == 0:
+        return None
+    p = k / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * float(np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))) / den
+    return (max(0.0, centre - half), min(1.0, centre + half))

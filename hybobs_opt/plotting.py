@@ -1,0 +1,27 @@
+"""The one place that chooses matplotlib's backend (DESIGN.md: "plotting, the only place that
+calls ``matplotlib.use``").
+
+Every figure function of the package gets ``pyplot`` from :func:`pyplot`.  Figures are written
+to files, so without a backend chosen by the user the non-interactive ``Agg`` is selected (no
+window opens on a desktop, nothing fails on a headless machine).  A backend the user or a
+notebook has already chosen (``MPLBACKEND``, ``matplotlib.use``, ``%matplotlib inline``) is kept,
+so figures still display inline in Jupyter.  A leaf module (it imports nothing of the package),
+so figure functions of any tier may use it.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+
+def pyplot():
+    """``matplotlib.pyplot``, with ``Agg`` selected unless a backend was chosen already."""
+    import matplotlib
+
+    chosen = "matplotlib.pyplot" in sys.modules or os.environ.get("MPLBACKEND") or "ipykernel" in sys.modules
+    if not chosen:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
