@@ -1,0 +1,67 @@
+"""Solver backends of the moving-horizon problem (10) of paper 002, one module per solver family,
+all behind the one signature of :class:`~hybobs_opt.mhe.backends.base.Backend`.
+
+=====================  =========================================================================
+module                 backends
+=====================  =========================================================================
+``daqp_backend``       ``"daqp"``: the ``daqp`` package's branch-and-bound (MIQP, default norm 2)
+``highs_backend``      ``"highs"``: HiGHS through ``highspy`` (MILP, default norms 1 / inf)
+``casadi_backend``     ``"casadi-daqp"``, ``"bonmin"`` (MIQP); ``"cbc"``, ``"casadi-highs"`` (MILP)
+=====================  =========================================================================
+
+:func:`miqp_backend` and :func:`milp_backend` build the one a solver name asks for.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from ...errors import ModelError, SolverError
+from ..mld import MLDEncoding
+from .base import Backend, BackendOutcome, quiet_stdout
+from .casadi_backend import BonminBackend, CasadiDaqpBackend, CasadiMilpBackend
+from .daqp_backend import DAQP_INF, DaqpBackend, daqp_flag
+from .highs_backend import HIGHS_BASE_OPTIONS, HighspyBackend
+
+__all__ = ["Backend", "BackendOutcome", "BonminBackend", "CasadiDaqpBackend", "CasadiMilpBackend", "DAQP_INF",
+           "DaqpBackend", "HIGHS_BASE_OPTIONS", "HighspyBackend", "MIQP_SOLVERS", "MILP_SOLVERS", "daqp_flag",
+           "miqp_backend", "milp_backend", "quiet_stdout"]
+
+#: Solvers of the MIQP (norm 2) and of the MILP (norms 1 / inf); the first one is the default.
+MIQP_SOLVERS = ("daqp", "casadi-daqp", "bonmin")
+MILP_SOLVERS = ("highs", "cbc", "casadi-highs")
+
+
+def miqp_backend(solver: str, H: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: np.ndarray, discrete: np.ndarray,
+                 eq_rows: np.ndarray, enc: MLDEncoding, options: dict) -> Backend:
+    """The MIQP ``min 0.5 v'Hv + f'v, lo <= A v <= hi, lb <= v <= ub`` on the named solver."""
+    if solver == "daqp":
+        return DaqpBackend(H, A, lb, ub, discrete, eq_rows, options)
+    if solver == "casadi-daqp":
+        return CasadiDaqpBackend(H, A, lb, ub, discrete, enc, eq_rows, options)
+    if solver == "bonmin":
+        return BonminBackend(H, A, lb, ub, discrete, options)
+    raise ModelError("solver", f"one of {MIQP_SOLVERS}", repr(solver))
+
+
+def milp_backend(solver: str, c: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: np.ndarray, discrete: np.ndarray,
+                 options: dict, *, problem: str = "MILP of eq. (10)") -> Backend:
+    """The MILP ``min c'v, lo <= A v <= hi, lb <= v <= ub`` on the named solver.
+
+    Raises
+    ------
+    SolverError
+        ``"casadi-highs"`` in a process that has loaded ``highspy`` (see
+        :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`).
+    """
+    if solver == "highs":
+        return HighspyBackend(c, A, lb, ub, discrete, options)
+    if solver == "casadi-highs" and "highspy" in sys.modules:
+        raise SolverError(problem, "casadi-highs", "highspy already loaded",
+                          hint="solver='highs' (highspy and CasADi's HiGHS plugin share the soname "
+                               "libhighs.so.1 with different versions: one process cannot use both)")
+    if solver in ("cbc", "casadi-highs"):
+        return CasadiMilpBackend(solver.replace("casadi-", ""), c, A, lb, ub, discrete, options)
+    raise ModelError("solver", f"one of {MILP_SOLVERS}", repr(solver))

@@ -1,0 +1,196 @@
+"""The CasADi backends of eq. (10), paper 002: ``casadi-daqp`` and ``bonmin`` (norm 2, MIQP),
+``cbc`` and ``casadi-highs`` (norms 1 / inf, MILP).
+
+Each is a CasADi function built once (``conic`` with ``discrete`` variables, or ``nlpsol``) and
+called with the window's linear term and bounds.  None of them takes a cutoff
+(:attr:`~hybobs_opt.mhe.backends.base.Backend.cutoff_applied` is false).  Their statuses go
+through :data:`~hybobs_opt.status.DAQP_STATUS`, :data:`~hybobs_opt.status.CASADI_BONMIN_STATUS`,
+:data:`~hybobs_opt.status.CASADI_CBC_STATUS` and :data:`~hybobs_opt.status.CASADI_HIGHS_STATUS`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...status import CASADI_BONMIN_STATUS, CASADI_CBC_STATUS, CASADI_HIGHS_STATUS, DAQP_STATUS, Status, map_status
+from ..mld import MLDEncoding
+from .base import BackendOutcome, quiet_stdout
+from .highs_backend import HIGHS_BASE_OPTIONS
+
+__all__ = ["CasadiDaqpBackend", "BonminBackend", "CasadiMilpBackend"]
+
+
+def _outcome(mapped: Status, x: np.ndarray | None, detail: dict, t0: float) -> BackendOutcome:
+    if mapped == Status.OPTIMAL and x is not None and np.all(np.isfinite(x)):
+        return BackendOutcome(Status.OPTIMAL, x, detail, mapped, time.perf_counter() - t0)
+    if mapped == Status.INFEASIBLE:
+        return BackendOutcome(Status.INFEASIBLE, None, detail, mapped, time.perf_counter() - t0)
+    return BackendOutcome(Status.NOT_CERTIFIED, None, detail, mapped, time.perf_counter() - t0)
+
+
+class CasadiDaqpBackend:
+    """DAQP through CasADi's ``conic`` plugin with ``discrete`` variables.
+
+    CasADi 3.8.2 bundles an older DAQP whose branch-and-bound returns NaN (with "success") when
+    equality rows are present, so the one-hot rows ``sum_i delta[k, i] = 1`` are eliminated
+    (``delta[k, s-1] = 1 - sum_{i < s-1} delta[k, i]``, with ``sum_{i < s-1} delta[k, i] <= 1``).
+    """
+
+    name = "casadi-daqp"
+    cutoff_applied = False
+    abs_subopt = 0.0
+
+    def __init__(self, H, A, lb, ub, discrete, enc: MLDEncoding, eq_rows: np.ndarray, options: dict):
+        import casadi as ca
+
+        nv, T, s = H.shape[0], enc.T, enc.system.n_modes
+        dl = enc.slices["delta"]
+        last = [dl.start + k * s + s - 1 for k in range(T)]
+        keep = np.setdiff1d(np.arange(nv), last)
+        P = np.zeros((nv, keep.size))
+        P[keep, np.arange(keep.size)] = 1.0
+        p0 = np.zeros(nv)
+        col = {j: c for c, j in enumerate(keep)}
+        rows = []
+        for k in range(T):
+            p0[last[k]] = 1.0
+            r = np.zeros(keep.size)
+            for i in range(s - 1):
+                P[last[k], col[dl.start + k * s + i]] = -1.0
+                r[col[dl.start + k * s + i]] = 1.0
+            if s > 1:
+                rows.append(r)
+        self._P, self._p0, self._H = P, p0, H
+        self._Hw = P.T @ H @ P
+        ineq = ~eq_rows
+        self._ineq = ineq
+        Aw = A[ineq] @ P
+        self._a0 = A[ineq] @ p0
+        self._extra = len(rows)
+        if rows:
+            Aw = np.vstack([Aw, np.array(rows)])
+        self._Aw = ca.DM(Aw)
+        self._Hdm = ca.DM(self._Hw)
+        self._lbw, self._ubw = lb[keep], ub[keep]
+        opts = {"discrete": [bool(d) for d in discrete[keep]], "error_on_fail": False, "daqp": dict(options)}
+        self._solver = ca.conic("mhe_daqp", "daqp", {"h": self._Hdm.sparsity(), "a": self._Aw.sparsity()}, opts)
+
+    def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
+              start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
+        """The MIQP with linear term ``f`` in the displacement from ``centre`` (as
+        :meth:`~hybobs_opt.mhe.backends.daqp_backend.DaqpBackend.solve`); ``cutoff`` is ignored."""
+        t0 = time.perf_counter()
+        centre = np.zeros(self._H.shape[0]) if centre is None else centre
+        g = f - self._H @ centre  # back from the displacement form
+        gw = self._P.T @ (g + self._H @ self._p0)
+        lo_w = np.concatenate([lo[self._ineq] - self._a0, np.full(self._extra, -np.inf)])
+        hi_w = np.concatenate([hi[self._ineq] - self._a0, np.ones(self._extra)])
+        lbw, ubw = self._lbw, self._ubw
+        if col_bounds is not None:
+            raise NotImplementedError("col_bounds on casadi-daqp (its variables are the reduced ones)")
+        with quiet_stdout():
+            r = self._solver(h=self._Hdm, g=gw, a=self._Aw, lba=lo_w, uba=hi_w, lbx=lbw, ubx=ubw)
+        st = self._solver.stats()
+        raw = st.get("return_status", 0)
+        detail = {"status": int(raw), "nodes": int(st.get("bnb_nodecount", -1))}
+        w = np.array(r["x"], dtype=float).reshape(-1)
+        mapped = map_status(DAQP_STATUS, int(raw), solver="casadi-daqp")
+        return _outcome(mapped, self._P @ w + self._p0 if np.all(np.isfinite(w)) else None, detail, t0)
+
+
+class BonminBackend:
+    """Bonmin (CasADi ``nlpsol``) on the same MIQP; the linear term is the NLP parameter."""
+
+    name = "bonmin"
+    cutoff_applied = False
+    abs_subopt = 0.0
+
+    def __init__(self, H, A, lb, ub, discrete, options: dict):
+        import casadi as ca
+
+        nv = H.shape[0]
+        x = ca.SX.sym("v", nv)
+        gp = ca.SX.sym("g", nv)
+        f = 0.5 * ca.mtimes([x.T, ca.DM(H), x]) + ca.dot(gp, x)
+        con = ca.mtimes(ca.DM(A), x)
+        quiet = {"print_level": 0, "bb_log_level": 0, "nlp_log_level": 0, "lp_log_level": 0,
+                 "milp_log_level": 0, "fp_log_level": 0, "oa_log_level": 0}
+        opts = {"discrete": [bool(d) for d in discrete], "print_time": False, "error_on_fail": False,
+                "bonmin": {**quiet, **options}}
+        self._solver = ca.nlpsol("mhe_bonmin", "bonmin", {"x": x, "p": gp, "f": f, "g": con}, opts)
+        self._lb, self._ub, self._H = lb, ub, H
+
+    def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
+              start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
+        """The MIQP with linear term ``f`` in the displacement from ``centre``; ``cutoff`` is ignored."""
+        t0 = time.perf_counter()
+        centre = np.zeros(self._H.shape[0]) if centre is None else centre
+        g = f - self._H @ centre  # back from the displacement form
+        lb, ub = self._lb, self._ub
+        if col_bounds is not None:
+            idx, cl, cu = col_bounds
+            lb, ub = lb.copy(), ub.copy()
+            lb[idx], ub[idx] = cl, cu
+        with quiet_stdout():
+            r = self._solver(x0=np.clip(centre, lb, ub), p=g, lbg=lo, ubg=hi, lbx=lb, ubx=ub)
+        raw = str(self._solver.stats().get("return_status", ""))
+        mapped = map_status(CASADI_BONMIN_STATUS, raw, solver="bonmin")
+        return _outcome(mapped, np.array(r["x"], dtype=float).reshape(-1), {"status": raw}, t0)
+
+
+class CasadiMilpBackend:
+    """CBC or HiGHS through CasADi's ``conic`` with ``discrete`` variables (norms 1 and inf).
+
+    ``"casadi-highs"`` cannot share a process with the ``highspy`` package (see
+    :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`); the observer refuses it when
+    highspy is already imported.
+
+    Parameters
+    ----------
+    plugin : {"cbc", "highs"}
+        CasADi's plugin name.
+    c, A, lb, ub, discrete, options
+        As for :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`.
+    """
+
+    cutoff_applied = False
+    abs_subopt = 0.0
+
+    def __init__(self, plugin: str, c, A, lb, ub, discrete, options: dict):
+        import casadi as ca
+
+        self.name = plugin
+        self._A = ca.sparsify(ca.DM(A))
+        nx = A.shape[1]
+        if plugin == "highs":
+            opts = {"discrete": [bool(d) for d in discrete], "error_on_fail": False,
+                    "highs": {**HIGHS_BASE_OPTIONS, **options}}
+        else:
+            base = {"loglevel": 0, "allowableGap": 0.0, "ratioGap": 0.0}
+            opts = {"discrete": [bool(d) for d in discrete], "error_on_fail": False, "cbc": {**base, **options}}
+        self._solver = ca.conic(f"mhe_{plugin}", plugin, {"a": self._A.sparsity(), "h": ca.Sparsity(nx, nx)}, opts)
+        self._c, self._lb, self._ub = c, lb, ub
+
+    def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
+              start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
+        """Solve with row bounds ``lo, hi`` (``f`` and ``centre`` unused, ``cutoff``, ``target`` and
+        ``start`` ignored: CasADi's plugins are given none)."""
+        t0 = time.perf_counter()
+        lb, ub = self._lb, self._ub
+        if col_bounds is not None:
+            idx, cl, cu = col_bounds
+            lb, ub = lb.copy(), ub.copy()
+            lb[idx], ub[idx] = cl, cu
+        with quiet_stdout():
+            r = self._solver(g=self._c, a=self._A, lba=lo, uba=hi, lbx=lb, ubx=ub)
+        st = self._solver.stats()
+        status = str(st.get("return_status", ""))
+        secondary = str(st.get("secondary_return_status", ""))
+        detail = {"status": status if not secondary else f"{status}: {secondary}", "objective": float(r["cost"])}
+        if self.name == "highs":
+            mapped = map_status(CASADI_HIGHS_STATUS, status, solver="casadi-highs")
+        else:
+            mapped = map_status(CASADI_CBC_STATUS, (status, secondary), solver="cbc")
+        return _outcome(mapped, np.array(r["x"], dtype=float).reshape(-1), detail, t0)

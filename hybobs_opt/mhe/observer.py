@@ -1,0 +1,769 @@
+"""Moving-horizon observer of eq. (10), paper 002 (Bemporad, Ferrari-Trecate & Morari, 2000).
+
+At time ``t`` the observer solves
+
+``min over x(t-T+1)  ||Y_t - Y^_t||``  subject to the PWA dynamics of eq. (1) over the window,
+
+posed on the mixed-logical-dynamical encoding of :mod:`hybobs_opt.mhe.mld`: with the 2-norm
+squared it is a mixed-integer quadratic program (MIQP), with the 1- or inf-norm a mixed-integer
+linear program (MILP, "Variations of (10) include the use of 1- or inf-norms", Section 4.1).  The
+minimiser's window-start state is propagated through the window to give ``x^(t)``.
+
+For noisy data three optional terms follow the moving-horizon estimator of Ferrari-Trecate,
+Mignone & Morari (2002), "Moving horizon estimation for hybrid systems", IEEE TAC 47(10):
+
+* an output weight ``W_y``: the cost is ``sum_k ||W_y (y(k) - y^(k))||``;
+* state disturbances ``x(k + 1) = f_i(x(k), u(k)) + w(k)`` penalised by ``||W_w w(k)||``;
+* an arrival cost ``||W_a (x(t-T+1) - x_bar)||`` where ``x_bar`` is the previous window's estimate
+  of the new window-start state (or the ``x0`` of :meth:`MHEObserver.reset` for the first window).
+
+Flags (the runtime contract of :mod:`hybobs_opt.contract`):
+
+* ``observable`` -- the window-start state is *unique*: a certified global optimum of (10) (see
+  below) and no other admissible window-start state at least ``delta`` away (inf-norm, in units
+  of the half-widths of ``X``, :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a
+  cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
+  one sample's squared weighted output half-range, with the floor
+  :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`; norms 1 / inf: the square roots),
+  proven by a second, separated mixed-integer program (Notes of :class:`MHEObserver`); ``x`` is
+  the minimiser propagated to ``t``.  As Section 4.1 of paper 002 explains, a single minimiser
+  cannot tell whether ``x(t-T+1)`` is observable: this second program is what does.  With an
+  ``analysis`` (:class:`~hybobs_opt.regions.ObservabilityAnalysis`) its point query at the
+  estimate decides instead (Definition 2.2: distinguishable for *every* input sequence, a
+  stronger statement than the data-based one).  With ``check_uniqueness=False`` and no analysis
+  the flag has the old meaning: a certified optimum only, not a unique one.
+* ``unobservable`` -- either the solver certified that the window has *no* model trajectory in
+  ``X`` (infeasible), or the optimum is not unique: ``info["alternative"]`` holds another
+  window-start state (``x_start``, ``cost``, ``modes``, ``distance``) at least ``delta`` away
+  whose cost is within ``epsilon`` of the optimum, re-checked in numpy (or the analysis says the
+  estimate is unobservable).  The data cannot tell the state: open-loop prediction is used.
+* ``fallback`` -- a bad sample, an input outside ``U`` (where the big-M constants are not valid),
+  a solve that was not certified (iteration/time limit, numerical failure, failed
+  verification, solver exception), or a uniqueness answer that was not certified:
+  open-loop prediction, ``info["reason"]`` says why.  Never an exception in the loop.
+* ``warming_up`` -- fewer than ``T`` samples so far.
+
+Certified optimum: either the solver's status says optimal and the answer passes a numpy re-check
+(finite, integral binaries, one mode per step, every constraint row within tolerance), or a warm
+start of zero cost (the cost is nonnegative).  ``info["certified_optimum"]`` says whether the
+step had one (the old meaning of ``observable``), ``info["cost"]`` is its cost,
+``info["gap_bound"]`` an upper bound on ``cost - optimum`` and ``info["solved_by"]`` says how it
+was certified; ``info["uniqueness"]`` reports the uniqueness test (``status``, ``decided_by``,
+``separated_cost``, ``separated_cost_bound``, ``threshold = J* + epsilon``, ``seconds``).
+
+Solvers.  Norm 2: ``"daqp"`` (default) is DAQP's branch-and-bound on its persistent workspace
+(:class:`daqp.Model`, set up once, re-solved with new linear term and bounds each step);
+``"casadi-daqp"`` is the same solver through CasADi's ``conic("daqp", {"discrete": ...})`` plugin
+(see the Notes of :class:`MHEObserver` for why it is not the default); ``"bonmin"`` is CasADi's
+``nlpsol("bonmin")``.  Norms 1 and inf: ``"highs"`` (default) is HiGHS through ``highspy`` (model
+passed once, row bounds changed each step); ``"cbc"`` and ``"casadi-highs"`` go through CasADi's
+``conic`` with ``discrete`` variables (CasADi's HiGHS plugin and highspy cannot share a process,
+see :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`).  Every problem is built once, with the window data ``U_t, Y_t``
+and the arrival prior entering only the linear term and the constraint bounds.
+
+Layout.  This module holds the runtime object; :mod:`hybobs_opt.mhe.window` the model side of a
+window (dynamics, cost, the exact problem of one mode sequence), :mod:`hybobs_opt.mhe.residual`
+the weights and the stacked residual, :mod:`hybobs_opt.mhe.uniqueness` the separated program,
+:mod:`hybobs_opt.mhe.backends` one module per solver family behind one signature and
+:mod:`hybobs_opt.mhe.result` the typed answer of a window (:class:`WindowResult`).
+``Estimate.info`` is ``WindowResult.to_dict()`` plus the observer's keys (``certified_optimum``,
+``uniqueness``, ``alternative``, ``reason``, ``analysis_label``).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer
+from ..errors import ModelError
+from ..status import Status
+from ..systems.pwa import PWASystem
+from ..tolerances import (
+    MEMBERSHIP_RTOL,
+    MHE_ABS_SUBOPT,
+    MHE_BINARY_PROX_WEIGHT,
+    MHE_FEASIBILITY_TOL,
+    MHE_INTEGRALITY_TOL,
+    MHE_POLISH_SKIP_TOL,
+    MHE_PROX_WEIGHT,
+    MHE_UNIQUENESS_DELTA,
+    MHE_ZERO_COST_RTOL,
+)
+from .backends import MILP_SOLVERS, MIQP_SOLVERS, milp_backend, miqp_backend
+from .mld import BigMConstants, encode_mld
+from .residual import stacked_residual, weight_matrix
+from .result import WindowResult
+from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram
+from .window import WindowModel
+
+__all__ = ["DEFAULT_PROX_PASSES", "MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
+
+NORMS = ("2", "1", "inf")
+#: Solvers per norm; the first one is the default.
+SOLVERS = {"2": MIQP_SOLVERS, "1": MILP_SOLVERS, "inf": MILP_SOLVERS}
+
+#: Proximal-point passes per window (norm 2): a pass is repeated, centred at its minimiser, only
+#: when the minimiser moved away from the warm start (cold starts, mode switches); on noise-free
+#: data a second pass always lands on the zero-cost sequence in the tests, a third is a margin.
+DEFAULT_PROX_PASSES = 3
+
+
+class MHEObserver(Observer):
+    """Moving-horizon observer (10) of paper 002 on the runtime observer contract.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model (eq. 1) with bounded ``X`` and ``U`` (eq. 2).
+    T : int
+        Window length (``T >= 1``); the paper uses ``T = 3`` for model (16).
+    norm : {"2", "1", "inf"}
+        ``"2"``: ``||.||_2^2`` of eq. (10) (MIQP); ``"1"`` / ``"inf"``: the MILP variants.
+    solver : str, optional
+        ``"daqp"`` (default for norm 2), ``"casadi-daqp"``, ``"bonmin"``; ``"highs"`` (default for
+        norms 1/inf, via highspy), ``"cbc"`` or ``"casadi-highs"`` (refused when highspy is loaded).
+    output_weight, disturbance_weight, arrival_weight : scalar, vector or matrix, optional
+        ``W_y`` (default identity: the paper's cost), ``W_w`` (adds disturbances ``w(k)``),
+        ``W_a`` (adds the arrival cost); see the module docstring.
+    x0 : (n,) array, optional
+        Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
+    solver_options : dict, optional
+        Passed to the solver (DAQP settings, HiGHS/CBC/Bonmin options), e.g.
+        ``{"iter_limit": 1}`` or ``{"time_limit": 1e-6}``; they override the defaults, which for
+        DAQP are ``abs_subopt = MHE_ABS_SUBOPT``, ``eps_prox = 0`` and ``cycle_tol =``
+        :data:`~hybobs_opt.tolerances.MHE_DAQP_CYCLE_TOL` (1000 iterations without progress
+        before DAQP gives up with exit -2, "cycling"; DAQP's own default of 10 ends the
+        branch-and-bound on degenerate big-M vertices of 4-mode systems at T = 4-5 with noisy
+        data).  With the DAQP solver they apply to the uniqueness MIQP too.
+    polish : bool
+        Norm 2: re-solve the continuous QP of the optimal mode sequence exactly (removes the
+        proximal term's bias from the estimate; see Notes).
+    prox_weight : float
+        Proximal weight ``eps`` of the MIQP (scaled units), default
+        :data:`~hybobs_opt.tolerances.MHE_PROX_WEIGHT`.
+    binary_prox_weight : float
+        Proximal weight of the binaries, default :data:`~hybobs_opt.tolerances.MHE_BINARY_PROX_WEIGHT`.
+    zero_cost_certificate : bool
+        Accept a warm start of zero cost as the optimum without branch-and-bound (the cost is
+        nonnegative).  ``False`` runs the branch-and-bound at every step (the warm start is then
+        only its incumbent), e.g. to time it.
+    prox_passes : int
+        Largest number of proximal-point passes per window (norm 2; see Notes).
+    big_m : BigMConstants, optional
+        Precomputed constants (share them between MHE instances of the same system).
+    check_uniqueness : bool
+        ``True`` (default): flag ``observable`` only when the window-start state is unique (the
+        separated program, see Notes).  ``False``: no second program; ``observable`` then means
+        only "certified optimum" (the flag's old meaning), unless ``analysis`` decides.
+    uniqueness_delta : float
+        Separation ``delta`` of an alternative window-start state (inf-norm, units of the
+        half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
+    analysis : ObservabilityAnalysis, optional
+        A saved analysis of Algorithm 3.1 for this system and ``T``
+        (:func:`hybobs_opt.regions.analyse_observability`).  Its point query
+        ``classify(x(t-T+1))`` at the estimate decides the flag: ``"observable"`` /
+        ``"unobservable"`` answer Definition 2.2, i.e. for every input sequence, which is
+        stronger than the data-based question of the separated program (an ``unobservable``
+        state may still be unique for the input actually applied).  For noisy data it
+        classifies the estimate, not the data.  When it answers ``"infeasible"`` (the estimate
+        lies outside ``X*_T``) the separated program decides (``fallback`` if
+        ``check_uniqueness=False``).
+
+    Notes
+    -----
+    Uniqueness (the flag ``observable``).  After the optimum ``J*`` with window-start state
+    ``xi0*`` (scaled), a second mixed-integer program on the same MLD rows asks for the least
+    cost of a window-start state with ``||xi0 - xi0*||_inf >= delta``: ``2 n`` direction
+    binaries with ``sum = 1`` and big-M rows choose the coordinate and side (the box of ``X``
+    bounds ``M``).  It is built once at construction and re-solved per step:
+
+    1. a cheap sufficient test for an *alternative* first: when the optimal mode sequence's own
+       least-squares map has a direction whose cost over ``delta`` is below ``epsilon`` (the
+       backlash of model (16)), the QP of that sequence with the separation row, one per
+       admissible direction; it can never prove uniqueness, which needs every mode sequence;
+    2. the norm-2 MIQP (DAQP, its own workspace, proximal weight
+       :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`) with the objective cutoff
+       ``J* + epsilon`` widened by the proximal term's largest value over the box (and
+       ``abs_subopt``): "infeasible" (every node pruned) proves that each separated state costs
+       more than ``J* + epsilon``, so the state is unique; a returned point is re-checked in
+       numpy and the QP of its mode sequence and direction re-solved exactly: at most
+       ``J* + epsilon`` makes it an ``alternative``; above (within the proximal bias of the
+       threshold) that combination is excluded exactly and the rest searched again, by bounds
+       on the binaries only, in ``T + 1`` disjoint parts (at most ``UNIQUENESS_MAX_SOLVES``
+       solves, else "not certified").  DAQP's settings are applied before its setup, with
+       ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
+       as singular and silently switches to proximal iterations, whose answers were measured
+       to be wrong by 1e-11 of the output scale, ten times epsilon;
+    3. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
+       ``J_inf >= ||r||_2 / sqrt(N)`` (``N`` residual entries): if no separated state has
+       ``||r||_2^2 <= thr^2`` (``N thr^2``) the state is unique without the MILP.  Otherwise the
+       separated MILP (HiGHS with ``objective_bound`` and ``objective_target`` at
+       ``J* + epsilon``) decides: "infeasible", or an optimum whose dual bound exceeds the
+       threshold, proves uniqueness; a verified point below it is an alternative.
+
+    A DAQP solve that ends in cycling (exit -2) or at its iteration limit after warm-started
+    solves is repeated once on a workspace set up afresh (the only rebuild, never a per-step
+    one): the state kept from earlier solves was seen to cycle where a fresh one does not.
+
+    Every point a solver returns passes the same check as the optimum's before it is trusted:
+    finite point (and, for DAQP, finite objective and multipliers), integral binaries, one mode
+    per step and one direction, every MLD row within tolerance, the separation satisfied; the
+    alternative reported is then a model trajectory rebuilt from its window-start state and
+    modes, re-checked and costed in numpy.  With an arrival cost the prior is part of the cost:
+    "unique" then refers to the regularised problem.
+
+    Warm start and certification, every step (every norm):
+
+    1. The warm start is the previous window's solution shifted by one sample (its last state
+       propagated through the model, the new last mode from the guards); after a reset, the model
+       simulated from ``x0``.  The problem of its mode sequence is solved exactly (a QP or LP in
+       the window-start state and the disturbances, ``WindowModel.polish``); after a reset every
+       constant mode sequence is tried too.  The best of these is the incumbent.
+    2. If the incumbent's cost is zero (to :data:`~hybobs_opt.tolerances.MHE_ZERO_COST_RTOL`) it
+       is optimal, the cost being nonnegative (``solved_by = "warm start"``, unless
+       ``zero_cost_certificate=False``).  On noise-free data this is nearly every step.
+    3. Otherwise the MIQP/MILP is solved with the incumbent as warm start (DAQP: proximal centre
+       and objective cutoff; HiGHS: MIP start).  ``solved_by`` is ``"branch-and-bound"`` when the
+       solver's point is returned and ``"branch-and-bound (incumbent)"`` when the solver proves
+       that nothing beats the incumbent.
+
+    DAQP needs a positive-definite Hessian; eq. (10) has none in the binaries and the big-M
+    copies.  The MIQP therefore minimises ``J / J_s + eps ||v - v_bar||^2`` with ``v_bar`` the
+    incumbent (or warm start), solved in the displacement ``v - v_bar`` so that the objective
+    values stay near zero (cost differences of 1e-10 of the output energy separate the mode
+    sequences of model (16)).  The returned point's cost exceeds the optimum by at most
+    ``gap_bound = J_s (abs_subopt + sum_j eps_j R_j)``, ``R_j`` the largest ``(v_j - v_bar_j)^2``
+    over the variable bounds; it is reported, and it is what "certified" means for the MIQP.
+    When the minimiser moved away from the centre the MIQP is solved again centred at it
+    (proximal-point passes, at most ``prox_passes``).  With ``polish`` the continuous part is
+    then re-solved exactly for the optimal mode sequence, so the estimate carries no proximal
+    bias.
+
+    ``"casadi-daqp"`` uses the DAQP copy bundled in CasADi 3.8.2, whose branch-and-bound returns
+    NaN with a success status when the problem has equality rows, and wrong points or false
+    "infeasible" answers with small curvature on the binaries (found on this encoding); the one-hot
+    rows are eliminated for it, and its answers are verified like every other solver's.
+    ``"daqp"`` (the ``daqp`` Python package, a newer DAQP) is the default for that reason.
+    """
+
+    name = "mhe"
+
+    def __init__(self, system: PWASystem, T: int, norm: str = "2", solver: str | None = None, output_weight=None,
+                 disturbance_weight=None, arrival_weight=None, *, x0=None, solver_options: dict | None = None,
+                 polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
+                 binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
+                 prox_passes: int = DEFAULT_PROX_PASSES, big_m: BigMConstants | None = None,
+                 check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None):
+        if not isinstance(system, PWASystem):
+            raise ModelError("system", "a PWASystem", type(system).__name__)
+        if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
+            raise ModelError("T", "an integer horizon T >= 1", repr(T))
+        norm = str(norm).lower()
+        if norm not in NORMS:
+            raise ModelError("norm", f"one of {NORMS}", repr(norm))
+        solver = SOLVERS[norm][0] if solver is None else str(solver).lower()
+        if solver not in SOLVERS[norm]:
+            raise ModelError("solver", f"one of {SOLVERS[norm]} for norm {norm!r}", repr(solver))
+        if solver_options is not None and not isinstance(solver_options, dict):
+            raise ModelError("solver_options", "a dict of solver options", type(solver_options).__name__)
+        for label, w in (("prox_weight", prox_weight), ("binary_prox_weight", binary_prox_weight)):
+            if not (isinstance(w, (int, float, np.floating)) and np.isfinite(w) and w > 0):
+                raise ModelError(label, "a positive finite weight", repr(w))
+        self.binary_prox_weight = float(binary_prox_weight)
+        if isinstance(prox_passes, bool) or not isinstance(prox_passes, (int, np.integer)) or prox_passes < 1:
+            raise ModelError("prox_passes", "an integer >= 1", repr(prox_passes))
+        self.prox_passes = int(prox_passes)
+        self.zero_cost_certificate = bool(zero_cost_certificate)
+        if not isinstance(check_uniqueness, (bool, np.bool_)):
+            raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
+        self.check_uniqueness = bool(check_uniqueness)
+        if not (isinstance(uniqueness_delta, (int, float, np.floating)) and not isinstance(uniqueness_delta, bool)
+                and np.isfinite(uniqueness_delta) and uniqueness_delta > 0):
+            raise ModelError("uniqueness_delta", "a positive finite separation (units of the half-widths of X)",
+                             repr(uniqueness_delta))
+        self.uniqueness_delta = float(uniqueness_delta)
+        if analysis is not None:
+            if not callable(getattr(analysis, "classify", None)):
+                raise ModelError("analysis", "an ObservabilityAnalysis (hybobs_opt.regions) with classify(x)",
+                                 type(analysis).__name__)
+            if getattr(analysis, "T", None) != int(T) or not _same_pwa(getattr(analysis, "system", None), system):
+                raise ModelError("analysis", f"an analysis of this system at T = {int(T)}",
+                                 f"T = {getattr(analysis, 'T', None)} of {getattr(analysis, 'system', None)!r}")
+        self.analysis = analysis
+        self.system = system
+        self.T = int(T)
+        self.norm = norm
+        self.solver = solver
+        self.polish = bool(polish)
+        self.prox_weight = float(prox_weight)
+        self.n, self.m, self.p = system.n, system.m, system.p
+        self.state_names = system.state_names
+        self.name = f"mhe-{'miqp' if norm == '2' else 'milp'}-{norm}"
+        self._Wy = weight_matrix(np.eye(self.p) if output_weight is None else output_weight, self.p, "output_weight")
+        self._Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
+        self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
+        self.enc = encode_mld(system, self.T, disturbances=self._Ww is not None and self.T > 1, big_m=big_m)
+        self._theta_idx = np.r_[self.enc.slices["xi0"], self.enc.slices["omega"]]
+        self._res = stacked_residual(self.enc, self._Wy, self._Ww, self._Wa)
+        self._build(dict(solver_options or {}))
+        self.model = WindowModel(system, self.T, norm, self.enc, self._Wy, self._Ww, self._Wa)
+        Ub = system.input_bounds
+        self._U_A = None if Ub is None else Ub.A
+        self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
+        self._x_default = self.model.cx.copy()
+        self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
+                                           Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
+                                           nslack=self._nslack, options=dict(solver_options or {}),
+                                           build=self.check_uniqueness)
+        self.uniqueness_epsilon = self._separated.epsilon
+        if self._separated.prox_weight is not None:
+            self.uniqueness_prox_weight = self._separated.prox_weight
+        self.reset(x0)
+
+    # ------------------------------------------------------------------ offline
+    def _build(self, options: dict) -> None:
+        enc, res = self.enc, self._res
+        nv = enc.n_vars
+        RtR = res.R.T @ res.R
+        self._eq_rows = enc.lo == enc.hi
+        if self.norm == "2":
+            diag = np.diag(RtR)
+            self._Js = float(diag.max()) if diag.max() > 0 else 1.0
+            self._zero_cost = MHE_ZERO_COST_RTOL * self._Js
+            # proximal weights: continuous variables and binaries (see Notes of the class)
+            self._eps = np.where(enc.discrete, self.binary_prox_weight, self.prox_weight)
+            self._H = 2.0 * RtR / self._Js + 2.0 * np.diag(self._eps)
+            self._backend = miqp_backend(self.solver, self._H, enc.A, enc.lb, enc.ub, enc.discrete, self._eq_rows,
+                                         enc, options)
+            self._milp, self._nslack = None, 0
+            return
+        # MILP: slacks e >= |r| / js (norm 1: one per residual entry; inf: one per block)
+        js = float(np.max(np.abs(res.R))) or 1.0
+        self._Js = js
+        nr = res.R.shape[0]
+        if self.norm == "1":
+            ns = nr
+            E = np.eye(nr)
+        else:
+            ns = len(res.blocks)
+            E = np.zeros((nr, ns))
+            for b, (_, sl) in enumerate(res.blocks):
+                E[sl, b] = 1.0
+        Rs = res.R / js
+        A = np.vstack([np.hstack([enc.A, np.zeros((enc.n_constraints, ns))]),
+                       np.hstack([Rs, -E]), np.hstack([-Rs, -E])])
+        self._nslack = ns
+        self._zero_cost = np.sqrt(MHE_ZERO_COST_RTOL) * js
+        c = np.concatenate([np.zeros(nv), np.ones(ns)])
+        lb = np.concatenate([enc.lb, np.zeros(ns)])
+        ub = np.concatenate([enc.ub, np.full(ns, np.inf)])
+        disc = np.concatenate([enc.discrete, np.zeros(ns, dtype=bool)])
+        self._milp = (c, A, lb, ub, disc)
+        self._backend = milp_backend(self.solver, c, A, lb, ub, disc, options, problem=f"MHE observer (norm {self.norm})")
+
+    # ------------------------------------------------------------------ uniqueness programs
+    @property
+    def _u_miqp(self):
+        """The separated MIQP (:attr:`SeparatedProgram.miqp`)."""
+        return self._separated.miqp
+
+    @property
+    def _u_milp(self):
+        """The separated MILP of norms 1 / inf (:attr:`SeparatedProgram.milp`)."""
+        return self._separated.milp
+
+    # ------------------------------------------------------------------ state
+    def reset(self, x0: np.ndarray | None = None, q0: int | None = None, **kwargs: Any) -> None:
+        """Clear the window.
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Seeds open-loop prediction and the first arrival prior (default: centre of ``X``).
+        q0 : int, optional
+            Known initial mode: the mode reported until the first open-loop step or window
+            decides it (default ``-1``, unknown).  The warm start's modes always come from the
+            guards at ``x0``.
+        """
+        x0 = self._x_default if x0 is None else x0
+        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
+            raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
+        if q0 is not None and (isinstance(q0, bool) or not isinstance(q0, (int, np.integer))
+                               or not 0 <= q0 < self.system.n_modes):
+            raise ModelError("q0", f"a mode index in 0..{self.system.n_modes - 1} or None", repr(q0))
+        self._x = x0.copy()
+        self._mode = -1 if q0 is None else int(q0)
+        self._start = x0.copy()  # estimate of the state at the first sample of the coming window
+        self._prev: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (states, modes, last u)
+        self._Y = np.zeros((self.T, self.p))
+        self._U = np.zeros((self.T, self.m))
+        self._count = 0
+        self._u_prev: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ model helpers
+    def _open_loop(self, u: np.ndarray | None) -> tuple[np.ndarray, int, bool]:
+        """``f_pwa(x(t-1), u(t-1))``; keeps the estimate if it has left ``X x U`` (never raises)."""
+        if u is None:
+            return self._x, self._mode, False
+        q = self.model.mode_at(self._x, u) if self.model.in_X(self._x) else -1
+        if q < 0:
+            return self._x, self._mode, False
+        return self.model.f(self._x, u, q), q, True
+
+    def _shifted(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The previous window's trajectory shifted by one sample and extended by the model."""
+        Xp, mp, u_last = self._prev
+        X = np.empty_like(Xp)
+        modes = np.empty_like(mp)
+        X[:-1], modes[:-1] = Xp[1:], mp[1:]
+        X[-1] = self.model.f(Xp[-1], u_last, int(mp[-1]))
+        q = self.model.mode_at(X[-1], U[-1])
+        modes[-1] = mp[-1] if q < 0 else q
+        return X, modes
+
+    # ------------------------------------------------------------------ one solve
+    def solve_window(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray | None = None,
+                     uniqueness: bool = False) -> WindowResult:
+        """Solve eq. (10) on one window (no observer state is changed).
+
+        Parameters
+        ----------
+        U : (T, m) array
+        Y : (T, p) array
+        x_start : (n,) array, optional
+            Warm start and arrival prior for the window-start state (default: centre of ``X``);
+            the warm-start mode sequence is simulated from it through the guards.
+        uniqueness : bool
+            Also run the separated program of the observer's flag on an optimal answer (needs
+            ``check_uniqueness=True`` at construction; a saved ``analysis`` is not consulted):
+            ``uniqueness`` (and ``alternative`` when one is found), as in :meth:`step`'s ``info``.
+
+        Returns
+        -------
+        WindowResult
+            ``status`` (``"optimal"``, ``"infeasible"``, ``"not certified"``), and when optimal:
+            ``x_start`` (window-start estimate), ``states`` (``(T, n)``), ``modes``, ``w``
+            (``(T - 1, n)`` disturbances), ``cost`` and ``gap_bound`` (original units), plus the
+            solver's details, ``seconds`` and ``residuals``.  It reads like the dict this method
+            used to return (``out["status"]``, ``out.get("alternative")``; ``out.to_dict()``).
+        """
+        U = np.asarray(U, dtype=float).reshape(self.T, self.m)
+        Y = np.asarray(Y, dtype=float).reshape(self.T, self.p)
+        xs = self._x_default if x_start is None else np.asarray(x_start, dtype=float).reshape(self.n)
+        Xg, mg = self.model.simulate(xs, U)
+        out = self._solve(U, Y, xs, Xg, mg, cold=True)
+        if uniqueness and out.optimal:
+            if not self.check_uniqueness:
+                raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
+            uq = self._separated.decide(U, Y, xs, out)
+            alt = uq.pop("alternative") if uq["status"] == "alternative" else None
+            out = out.replace(uniqueness=uq, alternative=alt)
+        return out
+
+    def _solve(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray, Xg: np.ndarray, mg: np.ndarray,
+               cold: bool = False) -> WindowResult:
+        """Certified solve of one window; ``(Xg, mg)`` is the warm start (states and modes).
+
+        Norm 2, warm start first: the QP of the warm start's mode sequence is solved exactly
+        (:meth:`~hybobs_opt.mhe.window.WindowModel.polish`).  Its cost is an upper bound of (10); when it is zero (to
+        :data:`~hybobs_opt.tolerances.MHE_ZERO_COST_RTOL`) it is also the optimum, since the cost
+        is a sum of squares, and no branch-and-bound is needed (``solved_by``).  Otherwise it is
+        the incumbent of the branch-and-bound: the proximal term is centred at it and its
+        objective prunes every node that cannot beat it.  When the minimiser moved away from the
+        centre the MIQP is solved again centred at the new minimiser (proximal-point passes).  The
+        lowest-cost certified point is returned, with the MLD residuals at it.
+        """
+        t0 = time.perf_counter()
+        bounds = self.enc.bounds(U.reshape(-1))
+        out = self._solve_certified(U, Y, x_start, Xg, mg, bounds, cold)
+        if not out.optimal:
+            return out.replace(seconds=time.perf_counter() - t0)
+        model, Uc = self.model, U.copy()  # the observer's window buffer changes in place
+
+        def residuals() -> dict[str, float]:
+            return {"mld_rows": model.mld_violation(out.states, out.modes, Uc, out.w, bounds)}
+        return out.replace(residual_source=residuals, seconds=time.perf_counter() - t0)
+
+    def _solve_certified(self, U, Y, x_start, Xg, mg, bounds, cold: bool) -> WindowResult:
+        model, res = self.model, self._res
+        Uf, Yf = U.reshape(-1), Y.reshape(-1)
+        lo, hi = bounds
+        rp = res.offset(Yf, Uf, x_start)
+        best, Wg = None, None
+        Wzero = np.zeros((max(self.T - 1, 0), self.n))
+        candidates = [mg] + ([np.full(self.T, q) for q in range(self.system.n_modes)] if cold else [])
+        if model.feasible(Xg, mg, U):
+            # the warm start itself (a trajectory of the model) may already fit the data exactly
+            cost = model.cost(Xg, mg, U, Y, Wzero, x_start)
+            if cost <= self._zero_cost:
+                # with the zero-cost certificate the optimum is >= 0, so the gap is at most the cost
+                best = WindowResult(Status.OPTIMAL, solver=self.solver, solved_by="warm start", polished=False,
+                                    x_start=Xg[0].copy(), states=Xg, modes=mg.copy(), w=Wzero, cost=cost,
+                                    gap_bound=cost if self.zero_cost_certificate else np.inf, passes=0)
+                if self.zero_cost_certificate:
+                    return best
+                candidates = []
+        # candidate incumbents, solved exactly with their modes fixed: the warm start's mode
+        # sequence; after a reset (no previous window) also every constant sequence, since a
+        # cold guess is often in the wrong mode
+        seen = set()
+        for seq in candidates:
+            key = tuple(int(q) for q in seq)
+            if key in seen:
+                continue
+            seen.add(key)
+            pol = model.polish(seq, U, Y, x_start, Xg[0], np.zeros((max(self.T - 1, 0), self.n)))
+            if pol is None:
+                continue
+            x0i, Wi, Xi = pol
+            cost = model.cost(Xi, seq, U, Y, Wi, x_start)
+            if best is None or cost < best.cost:
+                best = WindowResult(Status.OPTIMAL, solver=self.solver, solved_by="warm start", polished=True,
+                                    x_start=x0i, states=Xi, modes=np.array(seq, dtype=int), w=Wi, cost=cost,
+                                    gap_bound=np.inf, passes=0)
+            if best.cost <= self._zero_cost:
+                break
+        if best is not None:
+            Xg, mg, Wg = best.states, best.modes, best.w
+            if best.cost <= self._zero_cost and self.zero_cost_certificate:
+                return best.replace(gap_bound=best.cost)  # the optimum is >= 0
+        passes = self.prox_passes if self.norm == "2" else 1
+        info = None
+        for k in range(passes):
+            info, moved = self._solve_once(U, Y, x_start, Xg, mg, Wg, lo, hi, rp, incumbent=best)
+            if info.status == Status.INCUMBENT_OPTIMAL:
+                best = best.replace(gap_bound=min(best.gap_bound, info.gap_bound),
+                                    solved_by="branch-and-bound (incumbent)", passes=k + 1)
+                break
+            if not info.optimal:
+                break
+            info = info.replace(passes=k + 1)
+            if best is None or info.cost < best.cost:
+                gap = info.gap_bound if best is None else min(info.gap_bound, best.gap_bound)
+                best = info.replace(gap_bound=gap)
+            else:  # the branch-and-bound found nothing better than the incumbent: it certifies it
+                solved_by = "branch-and-bound (incumbent)" if best.solved_by == "warm start" else best.solved_by
+                best = best.replace(gap_bound=min(best.gap_bound, info.gap_bound), passes=k + 1, solved_by=solved_by)
+            if not moved:
+                break
+            Xg, mg, Wg = info.states, info.modes, info.w
+        if best is None or not np.isfinite(best.gap_bound):
+            # no certified branch-and-bound: an incumbent alone is not an optimum
+            if info is not None and info.status in (Status.INFEASIBLE, Status.NOT_CERTIFIED):
+                return info
+            return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason="no certified solve")
+        return best
+
+    def _solve_once(self, U, Y, x_start, Xg, mg, Wg, lo, hi, rp,
+                    incumbent: WindowResult | None = None) -> tuple[WindowResult, bool]:
+        """One solve of the MIQP/MILP centred at the warm start ``(Xg, mg, Wg)``, verified.
+
+        Returns the result and whether the minimiser moved away from the warm start.  With an
+        ``incumbent`` (norm 2) its objective is the branch-and-bound's cutoff; if nothing beats it
+        the status is ``INCUMBENT_OPTIMAL``.
+        """
+        enc, res = self.enc, self._res
+        Uf = U.reshape(-1)
+        vbar = enc.pack(Xg, mg, U, Wg) if self.norm == "2" else None
+        cutoff = None
+        try:
+            if self.norm == "2":
+                # linear term in the displacement d = v - vbar (the proximal term is centred at
+                # vbar): H vbar + g = 2 R' (R vbar + rp) / J_s, the residual at the warm start
+                f = 2.0 * res.R.T @ (res.R @ vbar + rp) / self._Js
+                if incumbent is not None:
+                    if incumbent.states is Xg:  # the centre is the incumbent: d = 0
+                        obj = 0.0
+                    else:
+                        d = enc.pack(incumbent.states, incumbent.modes, U,
+                                     incumbent.w if enc.disturbances else None) - vbar
+                        obj = 0.5 * d @ self._H @ d + f @ d
+                    cutoff = obj + MHE_ABS_SUBOPT * (1.0 + abs(obj))
+                out = self._backend.solve(f, lo, hi, vbar, cutoff=cutoff)
+                v = out.v
+            else:
+                rps = rp / self._Js
+                start = None
+                if incumbent is not None and self.solver == "highs":
+                    # the incumbent as the MIP start, with its slacks
+                    vi = enc.pack(incumbent.states, incumbent.modes, U, incumbent.w if enc.disturbances else None)
+                    ri = np.abs(res.R @ vi + rp) / self._Js
+                    e = ri if self.norm == "1" else np.array([ri[sl].max() for _, sl in res.blocks])
+                    start = np.concatenate([vi, e])
+                out = self._backend.solve(None, np.concatenate([lo, np.full(2 * rps.size, -np.inf)]),
+                                          np.concatenate([hi, -rps, rps]), start=start)
+                v = None if out.v is None else out.v[: enc.n_vars]
+        except Exception as exc:  # a crashing solver must not stop the observer loop
+            return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason=f"{type(exc).__name__}: {exc}"), False
+        common = {"solver": self.solver, "solved_by": "branch-and-bound", "solver_detail": dict(out.detail)}
+        if out.status == Status.INFEASIBLE and incumbent is not None:
+            if cutoff is not None and self._backend.cutoff_applied:
+                # every node was pruned by the incumbent's objective (the problem is feasible:
+                # the incumbent is a point of it), so the incumbent is optimal
+                return WindowResult(Status.INCUMBENT_OPTIMAL, gap_bound=self._gap_bound(vbar)), False
+            # without a cutoff "infeasible" contradicts the incumbent, a verified point of the window
+            return WindowResult(Status.NOT_CERTIFIED, **common,
+                                reason=f"solver status {out.detail.get('status')!r} (infeasible) "
+                                       "for a window with a feasible incumbent"), False
+        if out.status != Status.OPTIMAL:
+            return WindowResult(out.status, **common, reason=f"solver status {out.detail.get('status')!r}"), False
+        viol = enc.violation(v, Uf, bounds=(lo, hi)) if np.isfinite(v).all() else np.inf
+        if not (viol <= max(MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL)):
+            return WindowResult(Status.NOT_CERTIFIED, **common,
+                                reason=f"solution failed verification (violation {viol:.3g})"), False
+        v = v.copy()
+        v[enc.discrete] = np.round(v[enc.discrete])
+        if not (v[enc.discrete].reshape(self.T, -1).sum(axis=1) == 1).all():
+            return WindowResult(Status.NOT_CERTIFIED, **common, reason="binaries are not one mode per step"), False
+        modes = enc.modes(v)
+        polished = False
+        # The proximal term biases the estimate only where the solution moved away from the warm
+        # start; when it did not, the warm start (a trajectory of the model) is a KKT point of
+        # (10) to ~eps * tol.  Only the window-start state and the disturbances count: the
+        # trajectory is rebuilt from them through the model, the big-M copies (feasible to the
+        # solver's tolerance) are not used.
+        theta = self._theta_idx
+        moved = self.norm != "2" or not (np.array_equal(modes, mg) and np.max(
+            np.abs(v[theta] - vbar[theta]), initial=0.0) <= MHE_POLISH_SKIP_TOL)
+        if not moved:
+            x0, states = Xg[0].copy(), Xg
+            W = np.zeros((max(self.T - 1, 0), self.n)) if Wg is None else Wg
+        else:
+            x0, W = enc.states(v)[0], enc.disturbance(v)
+            states = None
+            if self.norm == "2" and self.polish:
+                pol = self.model.polish(modes, U, Y, x_start, x0, W)
+                if pol is not None:
+                    x0, W, states = pol
+                    polished = True
+            if states is None:
+                states = self.model.trajectory(x0, modes, U, W)
+        result = WindowResult(Status.OPTIMAL, **common, polished=polished, x_start=x0, states=states, modes=modes,
+                              w=W, cost=self.model.cost(states, modes, U, Y, W, x_start),
+                              gap_bound=self._gap_bound(vbar), verified_violation=float(viol))
+        return result, bool(moved)
+
+    def _gap_bound(self, vbar: np.ndarray | None) -> float:
+        """Upper bound on ``cost - optimum`` (original units) of an accepted solution."""
+        if self.norm != "2":
+            return 0.0
+        enc = self.enc
+        sub = self._backend.abs_subopt
+        return float(self._Js * (sub + float(self._eps @ np.maximum((enc.lb - vbar) ** 2, (enc.ub - vbar) ** 2))))
+
+    def _decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, result: WindowResult, info: dict) -> str:
+        """Flag of a certified optimum: the analysis's point query, else the separated program.
+
+        ``info`` (the step's ``Estimate.info``) receives ``analysis_label``, ``uniqueness``,
+        ``alternative`` and ``reason``.
+        """
+        if self.analysis is not None:
+            t0 = time.perf_counter()
+            try:
+                label = str(self.analysis.classify(result.x_start))
+            except Exception as exc:  # an LP failure must not stop the observer loop
+                label = f"failed ({type(exc).__name__}: {exc})"
+            info["analysis_label"] = label
+            if label in (OBSERVABLE, UNOBSERVABLE):
+                info["uniqueness"] = {"status": "unique" if label == OBSERVABLE else "not unique for every input",
+                                      "decided_by": "analysis (Definition 2.2, every input sequence)",
+                                      "seconds": time.perf_counter() - t0}
+                return label
+        if not self.check_uniqueness:
+            if self.analysis is not None:
+                info["reason"] = f"analysis label {info['analysis_label']!r} at the estimate and check_uniqueness=False"
+                return FALLBACK
+            return OBSERVABLE
+        uq = self._separated.decide(U, Y, xbar, result)
+        if uq["status"] == "alternative":
+            info["alternative"] = uq.pop("alternative")
+        info["uniqueness"] = uq
+        if uq["status"] == "unique":
+            return OBSERVABLE
+        if uq["status"] == "alternative":
+            return UNOBSERVABLE
+        info["reason"] = f"uniqueness not certified: {uq.get('reason', '?')}"
+        return FALLBACK
+
+    # ------------------------------------------------------------------ runtime
+    def _in_U(self, U: np.ndarray) -> bool:
+        return self._U_A is None or bool((U @ self._U_A.T <= self._U_b).all())
+
+    def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        x_pred, q_pred, ok_pred = self._open_loop(self._u_prev) if self._count > 0 else (self._x, self._mode, True)
+        self._Y[:-1] = self._Y[1:]
+        self._Y[-1] = y
+        self._U[:-1] = self._U[1:]
+        self._U[-1] = u
+        self._count += 1
+        self._u_prev = u
+        if self._count < self.T:
+            self._x, self._mode = x_pred, q_pred
+            return Estimate(self._x.copy(), self._mode, WARMING_UP, 0.0, {"certified_optimum": False})
+        # warm start: the previous window's trajectory shifted by one sample (or, for the first
+        # window after a reset, the model simulated from the initial guess)
+        if self._prev is not None:
+            Xg, mg = self._shifted(self._U)
+        else:
+            Xg, mg = self.model.simulate(self._start, self._U)
+        if not self._in_U(self._U):
+            result = WindowResult(Status.NOT_CERTIFIED, reason="input outside U: the big-M constants do not hold there")
+        else:
+            result = self._solve(self._U, self._Y, Xg[0], Xg, mg, cold=self._prev is None)
+        info = result.to_dict()
+        info["certified_optimum"] = result.optimal
+        if result.optimal:
+            states, modes = result.states, result.modes
+            # the optimum fits the data whatever the flag: it warm-starts the next window
+            self._prev = (states, modes, self._U[-1].copy())
+            flag = self._decide(self._U, self._Y, Xg[0], result, info)
+            if flag == OBSERVABLE:
+                self._x, self._mode = states[-1].copy(), int(modes[-1])
+                return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
+            # not unique (or not certified unique): open-loop prediction
+            self._x, self._mode = x_pred, q_pred
+            return Estimate(self._x.copy(), self._mode, flag, 0.0, info)
+        # no estimate from the data: the warm start (open-loop prediction) carries on
+        self._prev = (Xg, mg, self._U[-1].copy())
+        self._x, self._mode = x_pred, q_pred
+        flag = UNOBSERVABLE if result.status == Status.INFEASIBLE else FALLBACK
+        return Estimate(self._x.copy(), self._mode, flag, 0.0, info)
+
+    def _fallback(self, u, reason: str) -> Estimate:
+        x_pred, q_pred, _ = self._open_loop(self._u_prev) if self._count > 0 else (self._x, self._mode, True)
+        self._x, self._mode = x_pred, q_pred
+        # a skipped sample breaks the window: gather T new consecutive samples, starting from the
+        # open-loop prediction of the next state
+        self._u_prev = u
+        self._count = 0
+        self._prev = None
+        nxt, _, ok = self._open_loop(u)
+        self._start = nxt.copy() if ok else self._x.copy()
+        return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason, "certified_optimum": False})
+
+
+def _same_pwa(a, b) -> bool:
+    """Whether two PWA systems have the same modes, guards and bounds (array for array)."""
+    if a is b:
+        return True
+    if not (isinstance(a, PWASystem) and isinstance(b, PWASystem)) or a.n_modes != b.n_modes:
+        return False
+    if (a.n, a.m, a.p) != (b.n, b.m, b.p):
+        return False
+
+    def same(x, y) -> bool:
+        return np.shape(x) == np.shape(y) and np.array_equal(x, y)
+
+    for ma, mb in zip(a.modes, b.modes):
+        if not all(same(getattr(ma, k), getattr(mb, k)) for k in ("A", "B", "a", "C", "D", "c")):
+            return False
+        if not (same(ma.guard.A, mb.guard.A) and same(ma.guard.b, mb.guard.b)):
+            return False
+    for Pa, Pb in ((a.state_bounds, b.state_bounds), (a.input_bounds, b.input_bounds)):
+        if (Pa is None) != (Pb is None) or (Pa is not None and not (same(Pa.A, Pb.A) and same(Pa.b, Pb.b))):
+            return False
+    return True

@@ -1,0 +1,232 @@
+"""The model side of one moving-horizon window (paper 002, eq. 10): the PWA dynamics, their guards
+and the cost, evaluated in numpy, and the exact problem of one mode sequence.
+
+A mixed-integer program decides the mode sequence; everything that is then claimed about a
+window (the trajectory, its cost, its feasibility, the polished continuous part) is recomputed
+here from the model of eq. (1) (Bemporad, Ferrari-Trecate & Morari, 2000), with the optional
+terms of Ferrari-Trecate, Mignone & Morari (2002).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..systems.pwa import PWASystem
+from ..status import Status
+from ..tolerances import MEMBERSHIP_RTOL, MHE_FEASIBILITY_TOL
+from .backends.daqp_backend import DAQP_INF, daqp_flag
+from .mld import MLDEncoding
+
+__all__ = ["WindowModel"]
+
+
+class WindowModel:
+    """PWA model, weights and cost of the window of eq. (10), in numpy.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model (eq. 1) with bounded ``X`` and ``U`` (eq. 2).
+    T : int
+        Window length.
+    norm : {"2", "1", "inf"}
+        Norm of the cost.
+    enc : MLDEncoding
+        The window's MLD encoding (its variable bounds bound the disturbances).
+    Wy, Ww, Wa : arrays or None
+        Output, disturbance and arrival weights (``Wy`` required).
+
+    Attributes
+    ----------
+    hx, cx : (n,) arrays
+        Half-widths and centre of the state box (the scaling of the MLD state variables).
+    X : Polytope
+        The state bounds.
+    """
+
+    def __init__(self, system: PWASystem, T: int, norm: str, enc: MLDEncoding, Wy: np.ndarray,
+                 Ww: np.ndarray | None, Wa: np.ndarray | None):
+        self.system, self.T, self.norm, self.enc = system, int(T), norm, enc
+        self.n, self.m, self.p = system.n, system.m, system.p
+        self.Wy, self.Ww, self.Wa = Wy, Ww, Wa
+        self._G_all = np.vstack([md.guard.A for md in system.modes])
+        self._g_all = np.concatenate([md.guard.b + MEMBERSHIP_RTOL * (1.0 + np.abs(md.guard.b)) for md in system.modes])
+        self._g_starts = np.cumsum([0] + [md.guard.A.shape[0] for md in system.modes[:-1]])
+        self.X = system.state_bounds
+        m0 = system.modes[0]
+        self._common_out = all(np.array_equal(md.C, m0.C) and np.array_equal(md.D, m0.D) and np.array_equal(md.c, m0.c)
+                               for md in system.modes)
+        self._Cs = np.array([md.C for md in system.modes])
+        self._Ds = np.array([md.D for md in system.modes])
+        self._cs = np.array([md.c for md in system.modes])
+        self._X_tol = self.X.b + MEMBERSHIP_RTOL * (1.0 + np.abs(self.X.b))
+        half, centre = system.scales()
+        self.hx, self.cx = half[: self.n], centre[: self.n]
+
+    def mode_at(self, x: np.ndarray, u: np.ndarray) -> int:
+        """First mode whose guard contains ``(x, u)`` (``-1`` if none); the domain is not checked."""
+        viol = self._G_all @ np.concatenate([x, u]) - self._g_all
+        hit = np.nonzero(np.maximum.reduceat(viol, self._g_starts) <= 0.0)[0]
+        return int(hit[0]) if hit.size else -1
+
+    def in_X(self, x: np.ndarray) -> bool:
+        return bool((self.X.A @ x <= self._X_tol).all())
+
+    def f(self, x: np.ndarray, u: np.ndarray, q: int) -> np.ndarray:
+        md = self.system.modes[q]
+        return md.A @ x + md.B @ u + md.a
+
+    def feasible(self, X: np.ndarray, modes: np.ndarray, U: np.ndarray) -> bool:
+        """Whether every ``(X[k], U[k])`` lies in ``X`` and in the guard of ``modes[k]``."""
+        viol = np.concatenate([X, U], axis=1) @ self._G_all.T - self._g_all
+        per_mode = np.maximum.reduceat(viol, self._g_starts, axis=1)
+        return bool((per_mode[np.arange(self.T), modes] <= 0.0).all() and (X @ self.X.A.T <= self._X_tol).all())
+
+    def simulate(self, x_start: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Window states and modes simulated from ``x_start`` through the guards (a warm start).
+
+        Where the trajectory leaves every guard the previous mode is kept, so this never fails.
+        """
+        X = np.empty((self.T, self.n))
+        modes = np.zeros(self.T, dtype=int)
+        x, last = np.asarray(x_start, dtype=float), 0
+        for k in range(self.T):
+            q = self.mode_at(x, U[k])
+            q = last if q < 0 else q
+            X[k], modes[k], last = x, q, q
+            if k < self.T - 1:
+                x = self.f(x, U[k], q)
+        return X, modes
+
+    def trajectory(self, x0, modes, U, W) -> np.ndarray:
+        """Window states of the model from ``x0`` with modes ``modes`` and disturbances ``W``."""
+        X = np.empty((self.T, self.n))
+        X[0] = x0
+        for k in range(self.T - 1):
+            X[k + 1] = self.f(X[k], U[k], int(modes[k])) + W[k]
+        return X
+
+    def cost(self, X, modes, U, Y, W, xbar) -> float:
+        """Cost of eq. (10) with the optional terms, of a trajectory (original units)."""
+        if self._common_out:
+            ry = Y - X @ self._Cs[0].T - U @ self._Ds[0].T - self._cs[0]
+        else:
+            ry = (Y - np.einsum("kpn,kn->kp", self._Cs[modes], X) - np.einsum("kpm,km->kp", self._Ds[modes], U)
+                  - self._cs[modes])
+        parts = [(ry @ self.Wy.T).reshape(-1)]
+        if self.Ww is not None and self.T > 1:
+            parts.append((W @ self.Ww.T).reshape(-1))
+        if self.Wa is not None:
+            parts.append(self.Wa @ (X[0] - xbar))
+        if self.norm == "2":
+            return float(sum(np.dot(r, r) for r in parts))
+        if self.norm == "1":
+            return float(sum(np.abs(r).sum() for r in parts))
+        return float(sum(np.abs(r).max() for r in parts))
+
+    def sequence_problem(self, modes, U, Y, xbar):
+        """Condensed problem of one mode sequence: residual ``R theta + r`` and rows ``G theta <= g``.
+
+        ``theta = [xi0; omega]`` are the window-start state and the disturbances, scaled by the
+        state box; the rows are the guards of the sequence and ``X`` at every window step
+        (paper 002, eq. 10 with the modes fixed).
+        """
+        sysm, T, n = self.system, self.T, self.n
+        hx, cx = self.hx, self.cx
+        dist = self.Ww is not None and T > 1
+        nt = n + (n * (T - 1) if dist else 0)
+        Px = np.zeros((n, nt))
+        Px[:, :n] = np.diag(hx)
+        px = cx.copy()
+        Rrows, rvec, Grows, gvec = [], [], [], []
+        XA, Xb = self.X.A, self.X.b
+        for k in range(T):
+            md = sysm.modes[int(modes[k])]
+            Rrows.append(-self.Wy @ md.C @ Px)
+            rvec.append(self.Wy @ (Y[k] - md.C @ px - md.D @ U[k] - md.c))
+            G, g = md.guard.A, md.guard.b
+            Grows.append(G[:, :n] @ Px)
+            gvec.append(g - G[:, n:] @ U[k] - G[:, :n] @ px)
+            Grows.append(XA @ Px)
+            gvec.append(Xb - XA @ px)
+            if k < T - 1:
+                px = md.A @ px + md.B @ U[k] + md.a
+                Px = md.A @ Px
+                if dist:
+                    Px[:, n + k * n: n + (k + 1) * n] += np.diag(hx)
+        if dist:
+            Rw = np.zeros((n * (T - 1), nt))
+            Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
+            Rrows.append(Rw)
+            rvec.append(np.zeros(n * (T - 1)))
+        if self.Wa is not None:
+            Ra = np.zeros((n, nt))
+            Ra[:, :n] = self.Wa @ np.diag(hx)
+            Rrows.append(Ra)
+            rvec.append(self.Wa @ (cx - xbar))
+        G, gg = np.vstack(Grows), np.concatenate(gvec)
+        norm = np.max(np.abs(G), axis=1)
+        keep = norm > 0
+        return np.vstack(Rrows), np.concatenate(rvec), G[keep] / norm[keep, None], gg[keep] / norm[keep], dist
+
+    def polish(self, modes, U, Y, xbar, x0, W, extra: tuple[np.ndarray, np.ndarray] | None = None,
+                problem: tuple | None = None, bound: bool = False):
+        """Least-squares problem of the mode sequence ``modes``, warm-started at ``(x0, W)``.
+
+        The QP of eq. (10) with the modes fixed, solved by DAQP (proximal iterations when the
+        sequence leaves directions of the state unobserved).  For norm 2 it is exact; for norms
+        1 / inf it gives a feasible point of the sequence (an incumbent), optimal when it fits
+        the data exactly.  ``extra = (G_e, g_e)`` adds rows ``G_e xi0 <= g_e`` on the scaled
+        window-start state (the separation of the uniqueness test); ``problem`` is
+        :meth:`sequence_problem` of the same arguments, when already built.  Returns
+        ``(x0, W, states)`` or ``None`` if not certified.
+
+        ``bound=True`` (the uniqueness test): the proximal iterations run to convergence
+        (``eta_prox`` 1e-20: DAQP's default stops them early, 30 times above the minimum on a
+        sequence of model (16) with an unobserved direction) and a fourth element is returned, a
+        lower bound of the least cost of the sequence proven in numpy from the multipliers:
+        for every feasible ``theta``, by convexity and ``lam >= 0``,
+        ``q(theta) >= q(theta^) - lam' (g - G theta^) - sum_j |rho_j| D_j`` with
+        ``rho = H theta^ + f + G' lam`` and ``D_j`` the range of ``theta_j`` over its bounds.
+        """
+        import daqp
+
+        T, n = self.T, self.n
+        hx, cx = self.hx, self.cx
+        R, r, G, gg, dist = self.sequence_problem(modes, U, Y, xbar) if problem is None else problem
+        if extra is not None:
+            Ge = np.zeros((extra[0].shape[0], G.shape[1]))
+            Ge[:, :n] = extra[0]
+            G, gg = np.vstack([G, Ge]), np.concatenate([gg, extra[1]])
+        # a QP for every norm: for norm 2 it is the exact problem; for norms 1 / inf its minimiser
+        # is a feasible point (an upper bound, the incumbent) and an exact fit when one exists
+        scale = float(np.max(np.einsum("ij,ij->j", R, R))) or 1.0
+        H = 2.0 * R.T @ R / scale
+        f = 2.0 * R.T @ r / scale
+        theta0 = np.concatenate([(x0 - cx) / hx] + ([(W / hx).reshape(-1)] if dist else []))
+        settings = {"eta_prox": 1e-20} if bound else {}
+        theta, fval, flag, info = daqp.solve(H, f, G, gg, np.full(gg.size, -DAQP_INF), primal_start=theta0, **settings)
+        lam = np.asarray(info.get("lam", ()), dtype=float)
+        if daqp_flag(flag) != Status.OPTIMAL or not (np.all(np.isfinite(theta)) and np.isfinite(fval) and np.all(np.isfinite(lam))):
+            return None
+        if np.max(G @ theta - gg, initial=0.0) > MHE_FEASIBILITY_TOL:
+            return None
+        x0p = cx + hx * theta[:n]
+        Wp = (theta[n:].reshape(T - 1, n) * hx) if dist else np.zeros((max(T - 1, 0), n))
+        states = self.trajectory(x0p, modes, U, Wp)
+        if not bound:
+            return x0p, Wp, states
+        enc = self.enc
+        lo_t = np.concatenate([enc.lb[enc.slices["xi0"]]] + ([enc.lb[enc.slices["omega"]]] if dist else []))
+        hi_t = np.concatenate([enc.ub[enc.slices["xi0"]]] + ([enc.ub[enc.slices["omega"]]] if dist else []))
+        D = np.maximum(np.abs(hi_t - theta), np.abs(theta - lo_t))
+        lam = np.maximum(lam, 0.0) if lam.size == gg.size else np.zeros(gg.size)
+        rho = H @ theta + f + G.T @ lam
+        res = R @ theta + r
+        lower = float(res @ res - scale * (lam @ (gg - G @ theta) + np.abs(rho) @ D))
+        return x0p, Wp, states, lower
+
+    def mld_violation(self, states, modes, U, W, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+        """Largest violation of the MLD rows, bounds and integrality at the trajectory ``(states, modes, W)``."""
+        v = self.enc.pack(states, modes, U, W if self.enc.disturbances else None)
+        return self.enc.violation(v, np.asarray(U).reshape(-1), bounds=bounds)
