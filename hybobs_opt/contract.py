@@ -168,3 +168,23 @@ def _safe_input(u, m: int) -> np.ndarray | None:
     except (TypeError, ValueError):
         return None
     return uu if uu.size == m and np.all(np.isfinite(uu)) else None
+
+
+def initial_mode(q0, old_value, old_name: str):
+    """The initial mode of a ``reset()``: ``q0``, or the value of its older keyword ``old_name``.
+
+    Every observer takes the initial mode or location as ``q0``; the keywords some observers used
+    before (``mode``, ``location``, ``region``) keep working.  Both given and different is an error.
+
+    Raises
+    ------
+    ModelError
+        ``q0`` and ``old_name`` are both given with different values.
+    """
+    if old_value is None:
+        return q0
+    if q0 is not None and q0 != old_value:
+        from .errors import ModelError
+
+        raise ModelError("q0", f"one initial mode (q0 and its old name {old_name!r} disagree)", f"q0={q0!r}, {old_name}={old_value!r}")
+    return old_value

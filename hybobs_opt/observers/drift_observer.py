@@ -51,7 +51,7 @@ from .. import _compat
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_mode
 from .periodic import PeriodicGains, analyse_gains, deadbeat_gains
 
 
@@ -165,9 +165,9 @@ class DriftObserver(Observer):
         self.reset()
 
     # ------------------------------------------------------------------ set-up
-    def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, mode: int = 1, y0: float | None = None,
-              **kwargs: Any) -> None:
-        """Initialise ``x^(t0) = x0`` in mode ``mode`` (paper: ``x0^(0) = alpha_Q``, ``q^(0) = 1``).
+    def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, q0: int | None = None, y0: float | None = None,
+              mode: int | None = None, **kwargs: Any) -> None:
+        """Initialise ``x^(t0) = x0`` in mode ``q0`` (paper: ``x0^(0) = alpha_Q``, ``q^(0) = 1``).
 
         Parameters
         ----------
@@ -176,11 +176,13 @@ class DriftObserver(Observer):
             mode, zeros otherwise.
         t0 : float
             Start time.
-        mode : int
+        q0 : int, default 1
             Initial estimated mode ``q^(t0)``.
         y0 : float, optional
             Output just before ``t0``; by default the first sample's output is taken as the
             reference (no visible event at the first sample).
+        mode : int, optional
+            Old name of ``q0``.
 
         Raises
         ------
@@ -189,13 +191,15 @@ class DriftObserver(Observer):
             timer mode, wrong length), ``t0`` is not finite or ``y0`` is not an output.
         """
         sysm = self.system
-        sysm._check_mode(mode, "mode")
+        mode = initial_mode(q0, mode, "mode")
+        mode = 1 if mode is None else mode
+        sysm._check_mode(mode, "q0")
         if x0 is None:
             x = np.zeros(self.n)
             if sysm.is_timer_mode(mode):
                 x[0] = sysm.alpha[sysm.predecessor(mode) - 1]
         else:
-            x = np.array(sysm.validate_state(x0, mode, field_name="x0", mode_field="mode"), dtype=float)
+            x = np.array(sysm.validate_state(x0, mode, field_name="x0", mode_field="q0"), dtype=float)
         if not np.isfinite(t0):
             raise ModelError("t0", "a finite time", repr(t0))
         if y0 is not None and y0 not in self._outputs:

@@ -42,7 +42,7 @@ from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace, initial_state
+from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace, initial_mode, initial_state
 from .location_observer import (
     AMBIGUOUS,
     SOLVER,
@@ -462,13 +462,16 @@ class ContinuousObserver(Observer):
             self._ol.append(sampled_observer(A, B, E, C, D, c, np.zeros_like(G), self.Ts)[:2])
         self._loc0 = int(location)
         self._x0 = x0
-        self.reset(x0, location=location)
+        self.reset(x0, q0=location)
 
-    def reset(self, x0: np.ndarray | None = None, location: int | None = None, **kwargs: Any) -> None:
+    def reset(self, x0: np.ndarray | None = None, q0: int | None = None, location: int | None = None,
+              **kwargs: Any) -> None:
+        """Restart at ``x0`` in location ``q0`` (``location`` is its old name; default: the constructor's)."""
+        q0 = initial_mode(q0, location, "location")
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
-        loc = self._loc0 if location is None else int(location)
+        loc = self._loc0 if q0 is None else int(q0)
         if not 0 <= loc < self.automaton.n_locations:
-            raise ModelError("location", f"a location index in 0..{self.automaton.n_locations - 1}", repr(location))
+            raise ModelError("q0", f"a location index in 0..{self.automaton.n_locations - 1}", repr(q0))
         self._x0 = x0
         self.x = x0.copy()
         self.location = loc
@@ -499,7 +502,7 @@ class ContinuousObserver(Observer):
         Q = np.asarray(Q, dtype=int).reshape(-1)
         if not (U.shape[0] == Y.shape[0] == Q.shape[0]):
             raise ModelError("U, Y, Q", "the same number of samples", f"{U.shape[0]}, {Y.shape[0]}, {Q.shape[0]}")
-        self.reset(location=int(Q[0]))
+        self.reset(q0=int(Q[0]))
         N = U.shape[0]
         xs, modes, flags, secs = np.zeros((N, self.n)), np.zeros(N, int), np.empty(N, dtype=object), np.zeros(N)
         for k in range(N):
@@ -569,7 +572,7 @@ class HybridObserver(Observer):
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, **kwargs: Any) -> None:
         self.locobs.reset(x0, q0)
         q = self._q0 if q0 is None else q0
-        self.contobs.reset(self.locobs._x0, location=self._start_location(self.locobs._x0, q))
+        self.contobs.reset(self.locobs._x0, q0=self._start_location(self.locobs._x0, q))
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         xc = self.contobs._step(u, y)

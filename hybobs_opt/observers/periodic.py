@@ -62,7 +62,7 @@ from ..tolerances import (
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,
 )
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, initial_mode
 
 
 # ---------------------------------------------------------------------------- properties of gains
@@ -719,14 +719,17 @@ class PeriodicObserver(Observer):
         self.state_names = self.ps.state_names
         self.reset()
 
-    def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, mode: int | None = None, **kwargs: Any) -> None:
-        """Start at a visible event: estimate ``x0`` of ``x-bar`` there, its time ``t0``, and ``mode`` = the mode it left.
+    def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, q0: int | None = None, mode: int | None = None,
+              **kwargs: Any) -> None:
+        """Start at a visible event: estimate ``x0`` of ``x-bar`` there, its time ``t0``, and ``q0`` = the mode it left
+        (``mode`` is its old name).
 
         Raises
         ------
         ModelError
-            For a wrong length / non-finite ``x0`` or ``t0``, or a ``mode`` not in ``V``.
+            For a wrong length / non-finite ``x0`` or ``t0``, or a ``q0`` not in ``V``.
         """
+        mode = initial_mode(q0, mode, "mode")
         x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         if x.shape != (self.n,) or not np.all(np.isfinite(x)):
             raise ModelError("x0", f"a finite estimate of the {self.n} queues", f"{np.asarray(x0).tolist()}")

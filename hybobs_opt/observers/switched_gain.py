@@ -31,7 +31,7 @@ import numpy as np
 from .. import _compat
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, initial_mode
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -147,14 +147,17 @@ class SwitchedGainObserver(Observer):
                 rho = max(rho, float(np.max(np.abs(np.linalg.eigvals(J)))))
         return max(1, int(math.ceil(self.dt * rho / RK4_STEP_RADIUS)))
 
-    def reset(self, x0: np.ndarray | None = None, region: int | None = None, **kwargs: Any) -> None:
-        """Restart from ``x0`` (default: the centre of the box); ``region`` skips the selection."""
+    def reset(self, x0: np.ndarray | None = None, q0: int | None = None, region: int | None = None,
+              **kwargs: Any) -> None:
+        """Restart from ``x0`` (default: the centre of the box); a region index ``q0`` skips the
+        selection (``region`` is its old name)."""
+        region = initial_mode(q0, region, "region")
         sysm = self.system
         x = 0.5 * (sysm.box_lower + sysm.box_upper) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         if x.shape != (self.n,) or not np.all(np.isfinite(x)):
             raise ModelError("x0", f"a finite state of length {self.n}", repr(x0))
         if region is not None and not 0 <= int(region) < len(self.regions):
-            raise ModelError("region", f"a region index in [0, {len(self.regions)})", repr(region))
+            raise ModelError("q0", f"a region index in [0, {len(self.regions)})", repr(region))
         self.x = x.copy()
         self.q: int | None = None if region is None else int(region)
         if self.q is None and (self.init_samples <= 1 or len(self.regions) == 1):

@@ -160,6 +160,15 @@ def plot_fig6(res: DrivelineResult, path: str, lookup: Any = None) -> str:
     return path
 
 
+def run_scenario(example: str = "driveline", **options: Any) -> DrivelineResult:
+    """The study's scenario runner under the name every study uses (:func:`run_driveline`'s options)."""
+    if example != "driveline":
+        from hybobs_opt.errors import ModelError
+
+        raise ModelError("example", "'driveline' (the example of paper 000)", repr(example))
+    return run_driveline(**options)
+
+
 def register_scenarios(register) -> None:
     """``hybobs observe driveline``."""
     register("driveline", driveline_scenario)

@@ -201,6 +201,10 @@ def _observe_scenario(example: str, horizon: int):
     return scenario
 
 
+#: The study's scenario runner under the name every study uses.
+run_scenario = run_bench
+
+
 def register_scenarios(register) -> None:
     """``hybobs observe powertrain3`` / ``powertrain5``: the lookup observer (or ``--observer``) on the scenario."""
     register("powertrain3", _observe_scenario("powertrain3", 3))

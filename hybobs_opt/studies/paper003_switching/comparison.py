@@ -104,7 +104,7 @@ def compare_observers(name: str, designs: dict[str, Any], trials: int = COMPARIS
         obs = PeriodicObserver(ps, gains)
         steps, mins, secs = [], [], []
         for s, g in zip(starts, guesses):
-            obs.reset(g, t0=t[s], mode=int(v[s]))
+            obs.reset(g, t0=t[s], q0=int(v[s]))
             est = [g]
             for k in range(s + 1, t.size):
                 e = obs.step([t[k]], [v[k]])

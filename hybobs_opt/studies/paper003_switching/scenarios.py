@@ -104,7 +104,7 @@ def run_drift_scenario(example: str, kind: str | None = None, *, project: bool =
     ps = periodic_system(system)
     gains = scenario_gains(kind, ps, example)
     obs = DriftObserver(system, gains, project=project)
-    obs.reset(x0, t0=t0, mode=q0)
+    obs.reset(x0, t0=t0, q0=q0)
     keep = trace.t >= t0
     out = obs.run_trace(trace, t0)
     x_true = trace.x[keep]
@@ -180,6 +180,10 @@ def _cli_scenario(example: str):
         return out
 
     return scenario
+
+
+#: The study's scenario runner under the name every study uses.
+run_scenario = run_drift_scenario
 
 
 def register_scenarios(register) -> None:

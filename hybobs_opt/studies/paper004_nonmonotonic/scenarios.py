@@ -142,6 +142,10 @@ def _scenario(example: str):
     return scenario
 
 
+#: The study's scenario runner under the name every study uses.
+run_scenario = run_example
+
+
 def register_scenarios(register) -> None:
     """``hybobs observe vehicle_tracking / magnetic_piston``."""
     register("vehicle_tracking", _scenario("vehicle_tracking"))
