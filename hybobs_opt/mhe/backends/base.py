@@ -74,7 +74,7 @@ class BackendOutcome:
 
     def to_dict(self) -> dict[str, Any]:
         return {"status": self.status, "solver_status": self.solver_status, "seconds": self.seconds,
-                **{f"solver_{k}": v for k, v in self.detail.items()}}
+                "detail": dict(self.detail)}
 
 
 @runtime_checkable

@@ -1,0 +1,132 @@
+"""Layout of the moving-horizon package after the split of issue 13: old import paths, the tier
+rule (mhe below observers), the typed window result and the one backend signature."""
+
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hybobs_opt.examples.registry import get_example
+from hybobs_opt.mhe import MHEObserver, WindowResult
+from hybobs_opt.mhe.backends import Backend, BackendOutcome
+from hybobs_opt.results import SolveResult
+from hybobs_opt.status import Status
+
+MHE_DIR = Path(__file__).resolve().parents[1] / "hybobs_opt" / "mhe"
+
+#: Every module-level name of hybobs_opt/mhe/miqp.py before the split.
+OLD_MIQP_NAMES = [
+    "sys", "time", "dataclass", "Any", "np", "solve_triangular", "ModelError", "SolverError", "FALLBACK",
+    "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "PWASystem", "MEMBERSHIP_RTOL",
+    "MHE_ABS_SUBOPT", "MHE_BINARY_PROX_WEIGHT", "MHE_DAQP_CYCLE_TOL", "MHE_FEASIBILITY_TOL", "MHE_INTEGRALITY_TOL",
+    "MHE_MILP_FEASIBILITY_TOL", "MHE_POLISH_SKIP_TOL", "MHE_PROX_WEIGHT", "MHE_UNIQUENESS_COST_ATOL",
+    "MHE_UNIQUENESS_COST_RTOL", "MHE_UNIQUENESS_DELTA", "MHE_UNIQUENESS_PROX_WEIGHT", "MHE_ZERO_COST_RTOL",
+    "BigMConstants", "MLDEncoding", "encode_mld", "NORMS", "SOLVERS", "DEFAULT_PROX_PASSES",
+    "UNIQUENESS_MAX_SOLVES", "_DAQP_INF", "_DAQP_OPTIMAL", "_DAQP_INFEASIBLE", "_DAQP_CYCLING", "_DAQP_ITERLIMIT",
+    "_Null", "_NULL", "_Outcome", "_weight", "_Residual", "_residual", "_DaqpBackend", "_CasadiDaqpBackend",
+    "_BonminBackend", "_HighspyBackend", "_MilpBackend", "MHEObserver", "_same_pwa",
+]
+
+
+@pytest.fixture(scope="module")
+def window():
+    ex = get_example("powertrain3")
+    plant = ex.build()
+    tr = ex.scenario(plant)
+    k = 995
+    return plant, tr, k
+
+
+def test_old_import_paths_keep_working():
+    from hybobs_opt.mhe import miqp
+
+    missing = [n for n in OLD_MIQP_NAMES if not hasattr(miqp, n)]
+    assert not missing
+    assert miqp.MHEObserver is MHEObserver
+    assert miqp._Outcome is BackendOutcome
+    assert miqp._DAQP_OPTIMAL == 1 and miqp._DAQP_INFEASIBLE == -1
+    assert miqp.SOLVERS["2"][0] == "daqp" and miqp.SOLVERS["1"][0] == "highs"
+
+    import hybobs_opt.contract as contract
+    import hybobs_opt.observers.base as base
+
+    assert base is contract
+    from hybobs_opt.observers.base import FALLBACK, Observer, initial_state  # noqa: F401
+
+
+def test_mhe_never_imports_the_observers_package():
+    """DESIGN.md draws mhe -> observers (arrows point down): mhe uses the contract module."""
+    offenders = []
+    for path in MHE_DIR.rglob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                mod = ("." * node.level) + (node.module or "")
+                if "observers" in mod:
+                    offenders.append(f"{path.name}: from {mod}")
+            elif isinstance(node, ast.Import):
+                offenders += [f"{path.name}: import {a.name}" for a in node.names if "observers" in a.name]
+    assert not offenders
+
+
+@pytest.mark.parametrize("norm", ["2", "1"])
+def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
+    plant, tr, k = window
+    obs = MHEObserver(plant, 3, norm=norm, zero_cost_certificate=False)
+    out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k] * 1.01, uniqueness=True)
+    assert isinstance(out, WindowResult) and isinstance(out, SolveResult)
+    assert out.status is Status.OPTIMAL and out["status"] == "optimal" and out.optimal
+    assert out.seconds > 0 and np.isfinite(out.seconds)
+    assert 0.0 <= out.residuals["mld_rows"] <= 1e-7
+    d = out.to_dict()
+    assert {"status", "solver", "solved_by", "polished", "x_start", "states", "modes", "w", "cost", "gap_bound",
+            "passes", "uniqueness"} <= set(d)
+    assert "seconds" not in d and "residuals" not in d  # the old keys, exactly
+    assert "reason" not in out and out.get("reason") is None and out.get("alternative", 7) == 7
+    assert dict(out) == d and out["uniqueness"]["status"] == "unique"
+    assert json.dumps(str(out.status)) == '"optimal"'
+    with pytest.raises(KeyError):
+        out["no such key"]
+    with pytest.raises(TypeError):
+        out.replace(no_such_field=1)
+
+
+def test_not_certified_window_keeps_the_old_keys(window):
+    plant, tr, k = window
+    obs = MHEObserver(plant, 3, solver_options={"iter_limit": 1}, zero_cost_certificate=False)
+    out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k])
+    assert out.status == Status.NOT_CERTIFIED and "reason" in out and out.residuals == {}
+    assert out["solver"] == "daqp" and "solver_status" in out
+
+
+def test_backends_have_one_signature(window):
+    plant, _, _ = window
+    for norm in ("2", "1"):
+        obs = MHEObserver(plant, 3, norm=norm)
+        for backend in (obs._backend, obs._u_miqp, obs._u_milp):
+            if backend is None:
+                continue
+            assert isinstance(backend, Backend)
+            assert isinstance(backend.cutoff_applied, bool) and backend.abs_subopt >= 0
+
+
+def test_backend_outcome_maps_raw_statuses():
+    out = BackendOutcome("not certified", None, {"status": -4}, Status.LIMIT)
+    assert out.status is Status.NOT_CERTIFIED and out.solver_status is Status.LIMIT
+    assert out.to_dict()["solver_status"] == "limit"
+
+
+def test_reset_takes_the_initial_mode_as_q0(window):
+    from hybobs_opt.errors import ModelError
+
+    plant, tr, k = window
+    obs = MHEObserver(plant, 3, x0=tr.x[k])
+    obs.reset(tr.x[k], q0=1)
+    assert obs.step(tr.u[k], tr.y[k]).mode == 1
+    with pytest.raises(ModelError) as err:
+        obs.reset(tr.x[k], q0=plant.n_modes)
+    assert err.value.field == "q0"
