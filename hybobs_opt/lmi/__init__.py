@@ -9,12 +9,14 @@ Modules, one concept each:
 * :mod:`.subtraction` -- Theorem 5 (linear subtraction does not help);
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
-* :mod:`.diagnose` -- the verdict, certificate and remedy for one range.
+* :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
+* :mod:`.plots` -- figures of the results (the Jacobian bounds of a diagnosis; loads matplotlib on first use).
 
 The paper examples' scheduling settings are the study :mod:`hybobs_opt.studies.paper004_nonmonotonic.presets`;
 the commands ``hybobs diagnose`` / ``hybobs synth`` live in :mod:`hybobs_opt.cli`.
 """
 
+from .._lazy import lazy_exports
 from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points
 from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
 from .diagnose import Diagnosis, diagnose
@@ -25,10 +27,13 @@ from .solve import COUNTERS
 from .subtraction import SubtractionCheck, theorem5_check
 from .switched import RegionGain, SwitchedDesign, grow_regions, synthesize_switched
 
+# Figures import matplotlib: imported on first use.
+__getattr__, __dir__ = lazy_exports(__name__, {"plot_jacobian_bounds": "hybobs_opt.lmi.plots"})
+
 __all__ = [
     "COUNTERS", "DerivativeBound", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
     "JacobianBounds", "LMISolution", "ObserverLMI", "RegionGain", "SchedulingRegion", "SubtractionCheck",
     "SwitchedDesign", "adjacent_pairs", "certify_infeasible", "derivative_bound", "diagnose", "dwell_for_hysteresis",
     "dwell_time_fixed", "grow_regions", "hysteresis_for_dwell", "jacobian_bounds", "make_region", "monotonic_pieces",
-    "regions_from_switch_points", "slope_change_points", "synthesize_switched", "theorem5_check",
+    "plot_jacobian_bounds", "regions_from_switch_points", "slope_change_points", "synthesize_switched", "theorem5_check",
 ]

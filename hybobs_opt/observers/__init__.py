@@ -26,16 +26,18 @@ _EXPORTS: dict[str, str] = {
     "MHEObserver": "hybobs_opt.mhe",
     **dict.fromkeys(("LocationObserver", "ResidualBank", "design_residual_bank", "detection_delays"),
                     "hybobs_opt.observers.location_observer"),
-    **dict.fromkeys(("ContinuousDesign", "ContinuousObserver", "ConvergenceBound", "HybridObserver", "convergence_bound",
-                     "design_continuous_observer"), "hybobs_opt.observers.hybrid_observer"),
+    **dict.fromkeys(("ContinuousDesign", "ContinuousObserver", "ConvergenceBound", "HybridObserver", "HybridRun",
+                     "convergence_bound", "design_continuous_observer", "summarise_run"),
+                    "hybobs_opt.observers.hybrid_observer"),
     **dict.fromkeys(("GainRule", "SlidingModeObserver", "design_gains", "discretization_band"),
                     "hybobs_opt.observers.sliding_mode"),
     **dict.fromkeys(("DriftObserver", "DriftRun"), "hybobs_opt.observers.drift_observer"),
     **dict.fromkeys(("PeriodicGains", "PeriodicObserver", "deadbeat_gains", "positive_deadbeat_gains",
-                     "positive_observer"), "hybobs_opt.observers.periodic"),
+                     "positive_gain_bounds", "positive_observer"), "hybobs_opt.observers.periodic"),
     **dict.fromkeys(("SwitchedGainObserver", "convergence_time"), "hybobs_opt.observers.switched_gain"),
     **dict.fromkeys(("exact_window_labels", "summarise", "timed_steps", "true_window_observable", "wilson_interval"),
                     "hybobs_opt.observers.comparison"),
+    "plot_observer_run": "hybobs_opt.observers.plots",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

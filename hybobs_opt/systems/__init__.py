@@ -1,11 +1,18 @@
 """The nouns a user describes: PWA systems, hybrid automata, constant-drift and scalar-nonlinear
-systems, and the polytopes they are built of.  Names are imported on first use.
+systems, and the polytopes they are built of; with the forms derived from them (the observability
+canonical form of a hybrid automaton, paper 001; the event-sampled periodic system of a
+constant-drift system, paper 003).  Names are imported on first use.
 """
 
 from .._lazy import lazy_exports
 
 _EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("LocationTransform", "ObservabilityForm", "SwitchingFunction", "Theorem1Result",
+                     "location_transforms", "observability_form", "observability_matrix", "theorem1", "theorem1_pairs"),
+                    "hybobs_opt.systems.canonical_form"),
     "ConstantDriftSystem": "hybobs_opt.systems.constant_drift",
+    **dict.fromkeys(("EventMaps", "PeriodicSystem", "event_maps", "periodic_system", "phase_augmented_pwa",
+                     "visible_event_set"), "hybobs_opt.systems.event_sampled"),
     **dict.fromkeys(("Edge", "HybridAutomaton", "Location"), "hybobs_opt.systems.hybrid"),
     "Polytope": "hybobs_opt.systems.polytope",
     **dict.fromkeys(("PWAMode", "PWASystem"), "hybobs_opt.systems.pwa"),

@@ -2,7 +2,8 @@
 
 * :mod:`.systems` -- Examples 1-3 (switched unstable centres, the triangular system (6), the
   double scroll) with their scenarios and the canonical-form data of the paper;
-* :mod:`.scenarios` -- the observer runs of Figs. 3-7, the filter trade-off and ``hybobs observe``.
+* :mod:`.scenarios` -- the observer runs of Figs. 3-7, the filter trade-off and ``hybobs observe``;
+* :mod:`.comparison` -- observer (5) against the lookup-table deadbeat observer on the double scroll.
 """
 
 from ..registry import Example, register

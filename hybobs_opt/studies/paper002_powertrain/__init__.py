@@ -2,7 +2,8 @@
 
 * :mod:`.systems` -- models (16) and (17) with Tables 1-2 and the backlash-crossing scenario;
 * :mod:`.bench` -- the lookup observer against the MIQP/MILP moving-horizon observers on the
-  scenario (Section 7, Figs. 7-9; ``hybobs bench`` and ``hybobs observe powertrain3``).
+  scenario (Section 7, Figs. 7-9; ``hybobs bench`` and ``hybobs observe powertrain3``);
+* :mod:`.figures` -- the cut planes and helpers of the region figures (Section 6, Figs. 3-6).
 """
 
 from ..registry import Example, register

@@ -1,0 +1,56 @@
+"""Figures of the LMI results: a :class:`~hybobs_opt.lmi.diagnose.Diagnosis`'s Jacobian bounds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..plotting import pyplot
+
+plt = pyplot()
+import numpy as np  # noqa: E402
+
+
+def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721) -> Path:
+    """Each nonlinear function's derivative over the range with its bounds (eqs. 4-5) and pieces.
+
+    Functions of the scheduling coordinate are drawn against it (display units), with the
+    slope-change points and the suggested switching regions; the others against their own argument.
+    """
+    path = Path(path)
+    system = diag.system
+    k = diag.region.coordinate
+    nl = [(b, system.E[b.index] if b.kind == "f" else system.C[b.index],
+           system.f[b.index] if b.kind == "f" else system.h[b.index])
+          for b in (*diag.bounds.f, *diag.bounds.h) if b.method != "linear"]
+    fig, axes = plt.subplots(len(nl), 1, figsize=(7.5, 1.9 * len(nl) + 0.8), squeeze=False)
+    centre = 0.5 * (system.box_lower + system.box_upper)
+    for ax, (b, row, fn) in zip(axes[:, 0], nl):
+        if row[k] != 0:
+            s = np.linspace(diag.region.lo, diag.region.hi, samples)
+            z = row @ centre - row[k] * centre[k] + row[k] * s
+            xs, xlabel = s / diag.factor, f"{diag.region.name} [{diag.unit}]" if diag.unit else diag.region.name
+            for bp in diag.breakpoints:
+                ax.axvline(bp / diag.factor, color="0.6", lw=0.8, ls=":")
+            for i, r in enumerate(diag.suggested or []):
+                ax.axvspan(r.lo / diag.factor, r.hi / diag.factor, color=f"C{i % 10}", alpha=0.08)
+        else:
+            z = np.linspace(*b.interval, samples)
+            xs, xlabel = z, f"argument of {b.name}"
+        ax.plot(xs, fn.deriv(z), lw=1.2, color="k")
+        ax.axhline(b.lower, color="tab:blue", lw=1, ls="--", label=f"lower {b.lower:.3g}")
+        ax.axhline(b.upper, color="tab:red", lw=1, ls="--", label=f"upper {b.upper:.3g}")
+        ax.axhline(0.0, color="0.3", lw=0.6)
+        ax.set_title(f"{b.kind}[{b.index}] = {b.name}: {b.monotonicity}", fontsize=9)
+        ax.set_xlabel(xlabel, fontsize=8)
+        ax.legend(fontsize=7, loc="best")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{system.name}: Jacobian bounds (eqs. 4-5), {diag.region.name} in "
+                 f"[{diag.region.lo / diag.factor:.4g}, {diag.region.hi / diag.factor:.4g}] {diag.unit}", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+__all__ = ["plot_jacobian_bounds"]
