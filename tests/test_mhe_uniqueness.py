@@ -18,6 +18,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
+from canonical import MIRROR, direction_pwa, mirror_system, slab_pwa
+
 from hybobs_opt.errors import ModelError
 from hybobs_opt.examples.powertrain import SCENARIO_TORQUES, backlash_scenario, powertrain3
 from hybobs_opt.mhe import miqp
@@ -25,29 +27,8 @@ from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe.miqp import MHEObserver
 from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
 from hybobs_opt.regions import analyse_observability
-from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 from hybobs_opt.tolerances import MHE_UNIQUENESS_DELTA
 
-#: Mirror map of the symmetric system: x -> (-x1, x2).
-MIRROR = np.diag([-1.0, 1.0])
-
-
-def mirror_system() -> PWASystem:
-    """Two modes split by ``x1 >= 0`` / ``x1 <= 0`` with mirrored dynamics and ``y = |x1| + x2 / 2``.
-
-    Mode 2 is mode 1 conjugated by the mirror ``M``: ``A_2 = M A_1 M``, ``B_2 = M B_1``,
-    ``a_2 = M a_1``, ``C_2 = C_1 M``.  Hence ``f(M x, u) = M f(x, u)`` and ``h(M x, u) = h(x, u)``
-    for every input: ``x`` and ``M x`` give the same outputs forever, and no window can tell
-    them apart, although each mode alone is observable.
-    """
-    A1 = np.array([[0.6, 0.2], [0.1, 0.6]])
-    B1 = np.array([[0.0], [0.3]])
-    a1 = np.array([0.15, 0.0])
-    C1 = np.array([[1.0, 0.5]])
-    right = PWAMode(A1, B1, a1, C1, Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([0.0])), name="x1>=0")
-    left = PWAMode(MIRROR @ A1 @ MIRROR, MIRROR @ B1, MIRROR @ a1, C1 @ MIRROR,
-                   Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([0.0])), name="x1<=0")
-    return PWASystem((right, left), Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
 
 
 def mirror_data(system, N=30, seed=3):
@@ -102,29 +83,6 @@ def test_without_the_check_the_flag_only_means_certified_optimum():
 
 
 # ------------------------------------------------------------------ DAQP cycling (issue 12, item 5)
-def four_mode_pwa(seed: int) -> PWASystem:
-    """Contractive 4-mode PWA system on [-1, 1]^2 x [-1, 1] (as ``_random_pwa`` of test_regions)."""
-    rng = np.random.default_rng(seed)
-    n, n_modes = 2, 4
-    cuts = np.sort(rng.uniform(-0.6, 0.6, n_modes - 1))
-    edges = np.concatenate([[-np.inf], cuts, [np.inf]])
-    modes = []
-    for i in range(n_modes):
-        rows, rhs = [], []
-        if np.isfinite(edges[i]):
-            rows.append(-np.eye(1, n + 1, 0)[0])
-            rhs.append(-edges[i])
-        if np.isfinite(edges[i + 1]):
-            rows.append(np.eye(1, n + 1, 0)[0])
-            rhs.append(edges[i + 1])
-        A = rng.normal(size=(n, n))
-        A *= 0.8 / max(1e-9, np.max(np.abs(np.linalg.eigvals(A))))
-        modes.append(PWAMode(A, rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1, rng.normal(size=(1, n)),
-                             Polytope(np.array(rows), np.array(rhs)), D=rng.normal(size=(1, 1)) * 0.2,
-                             c=rng.normal(size=1) * 0.1))
-    return PWASystem(tuple(modes), Polytope.from_box([-1] * n, [1] * n), Polytope.from_box([-1], [1]))
-
-
 def noisy_run(system, N=39, noise=0.02, seed=101):
     rng = np.random.default_rng(seed)
     U = rng.uniform(-1, 1, size=(N, 1))
@@ -155,7 +113,7 @@ def cycling_steps(obs, U, Y) -> tuple[int, int, int]:
 def test_daqp_defaults_do_not_cycle_on_a_4_mode_system(T):
     """36 noisy windows of a 4-mode system: DAQP's own cycle_tol (10) stops the branch-and-bound
     with exit -2 on some of them; the observer's default (MHE_DAQP_CYCLE_TOL) on none."""
-    system = four_mode_pwa(1)
+    system = slab_pwa(1, 2, 4, blind_probability=None, output_after_dynamics=True)
     U, Y = noisy_run(system, N=35 + T)
     bm = big_m_constants(system)
     cycled, fallbacks, active = cycling_steps(MHEObserver(system, T, big_m=bm), U, Y)
@@ -264,31 +222,6 @@ def test_saved_analysis_decides_the_flag():
 
 
 # ------------------------------------------------------------------ against enumeration
-def random_pwa(seed: int, n_modes: int) -> PWASystem:
-    """Contractive PWA system on [-1, 1]^2 x [-1, 1] with a mode-dependent output."""
-    rng = np.random.default_rng(seed)
-    d = rng.normal(size=2)
-    d /= np.linalg.norm(d, 1)
-    cuts = np.sort(rng.uniform(-0.4, 0.4, size=n_modes - 1))
-    modes = []
-    for i in range(n_modes):
-        A = rng.normal(size=(2, 2))
-        A *= 0.6 / np.abs(A).sum(axis=1).max()
-        rows, rhs = [], []
-        if i > 0:
-            rows.append(np.r_[-d, 0.0])
-            rhs.append(-cuts[i - 1])
-        if i < n_modes - 1:
-            rows.append(np.r_[d, 0.0])
-            rhs.append(cuts[i])
-        C = rng.normal(size=(1, 2))
-        if rng.random() < 0.4:
-            C[0, rng.integers(2)] = 0.0  # sometimes a blind direction
-        modes.append(PWAMode(A, rng.uniform(-0.15, 0.15, size=(2, 1)), rng.uniform(-0.15, 0.15, size=2), C,
-                             Polytope(np.array(rows), np.array(rhs)), c=rng.uniform(-0.2, 0.2, size=1)))
-    return PWASystem(tuple(modes), Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
-
-
 def separated_minimum(system, U, Y, x_ref, delta, norm) -> float:
     """Least cost of eq. (10) over window-start states with ``||(x0 - x_ref) / h||_inf >= delta``,
     by enumeration: every mode sequence and signed direction, a convex QP (Clarabel) or LP (HiGHS)
@@ -335,7 +268,7 @@ def test_uniqueness_verdict_equals_enumeration(seed, n_modes, noise):
     """The separated program's verdict against the enumerated separated minimum: an alternative
     must be found when the minimum is clearly below ``J* + epsilon``, uniqueness claimed only
     when it is clearly above (the enumeration's own accuracy is ~1e-8 relative)."""
-    system = random_pwa(seed, n_modes)
+    system = direction_pwa(seed, n_modes)
     rng = np.random.default_rng(seed + 1)
     T = 3
     x = rng.uniform(-0.9, 0.9, size=2)

@@ -45,6 +45,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from canonical import slab_pwa
 from exact_oracle import (
     OracleError,
     analyse_state,
@@ -192,40 +193,13 @@ def test_known_spurious_unobservable_states():
 
 
 # ------------------------------------------------------------------------------------ random systems
-def random_pwa(seed: int, n: int, n_modes: int) -> PWASystem:
-    """Slab guards on x[0], random stable-ish dynamics, one output (sometimes blind to a state)."""
-    rng = np.random.default_rng(seed)
-    cuts = np.sort(rng.uniform(-0.6, 0.6, n_modes - 1))
-    edges = np.concatenate([[-np.inf], cuts, [np.inf]])
-    modes = []
-    for i in range(n_modes):
-        rows, rhs = [], []
-        e0 = np.zeros(n + 1)
-        e0[0] = 1.0
-        if np.isfinite(edges[i]):
-            rows.append(-e0)
-            rhs.append(-edges[i])
-        if np.isfinite(edges[i + 1]):
-            rows.append(e0)
-            rhs.append(edges[i + 1])
-        A = rng.normal(size=(n, n))
-        A *= 0.8 / max(1e-9, np.max(np.abs(np.linalg.eigvals(A))))
-        C = rng.normal(size=(1, n))
-        if rng.random() < 0.3:
-            C[0, rng.integers(n)] = 0.0
-        modes.append(PWAMode(A, rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1, C,
-                             Polytope(np.array(rows), np.array(rhs)), D=rng.normal(size=(1, 1)) * 0.2,
-                             c=rng.normal(size=1) * 0.1))
-    return PWASystem(tuple(modes), Polytope.from_box([-1] * n, [1] * n), Polytope.from_box([-1], [1]))
-
-
 @settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), n=st.integers(2, 4), n_modes=st.integers(2, 3), extra=st.integers(0, 3))
 def test_random_pwa_agrees_with_exact_oracle(seed, n, n_modes, extra):
     T = n + extra  # eq. (8): T p >= n with p = 1
     if n_modes ** T > 300:  # keep the toolbox's enumeration small
         n_modes = 2
-    system = random_pwa(seed, n, n_modes)
+    system = slab_pwa(seed, n, n_modes)
     analysis = analyse_observability(system, T)
     rng = np.random.default_rng([seed, 1])  # not random_pwa's stream: its first draw is a guard cut
     X = rng.uniform(-1, 1, size=(3, n)) * 0.6
@@ -315,7 +289,7 @@ def test_oracle_witness_is_a_real_pair_of_trajectories():
 @pytest.mark.parametrize("seed", [3, 17, 29])
 def test_oracle_milp_agrees_with_lp_enumeration(seed):
     """The MILP + cuts answers against the MILP-free enumeration of mode-sequence pairs."""
-    system = random_pwa(seed, 2, 3)
+    system = slab_pwa(seed, 2, 3)
     T = 3
     rng = np.random.default_rng([seed, 1])
     seen = collections.Counter()

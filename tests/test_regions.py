@@ -9,12 +9,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
+from canonical import slab_pwa
+
 from hybobs_opt.cli import main
 from hybobs_opt.errors import ModelError
 from hybobs_opt.examples.powertrain import TABLE1, TABLE2, powertrain3, powertrain5
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
 from hybobs_opt.regions import analyse_observability, compute_cut, enumerate_modes, load_analysis, save_analysis
-from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 
 ALPHA = TABLE1["alpha"]
 
@@ -134,29 +135,6 @@ def test_fig6_model17_unobservable_cut_shrinks_with_horizon():
 
 
 # ------------------------------------------------------------------ oracle
-def _random_pwa(seed: int, n: int, n_modes: int) -> PWASystem:
-    rng = np.random.default_rng(seed)
-    cuts = np.sort(rng.uniform(-0.6, 0.6, n_modes - 1))
-    edges = np.concatenate([[-np.inf], cuts, [np.inf]])
-    modes = []
-    for i in range(n_modes):
-        rows, rhs = [], []
-        if np.isfinite(edges[i]):
-            rows.append(np.eye(1, n + 1, 0)[0] * -1)
-            rhs.append(-edges[i])
-        if np.isfinite(edges[i + 1]):
-            rows.append(np.eye(1, n + 1, 0)[0])
-            rhs.append(edges[i + 1])
-        A = rng.normal(size=(n, n))
-        A *= 0.8 / max(1e-9, np.max(np.abs(np.linalg.eigvals(A))))
-        C = rng.normal(size=(1, n))
-        if rng.random() < 0.3:
-            C[0, rng.integers(n)] = 0.0  # sometimes a blind direction
-        modes.append(PWAMode(A, rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1, C, Polytope(np.array(rows), np.array(rhs)),
-                             D=rng.normal(size=(1, 1)) * 0.2, c=rng.normal(size=1) * 0.1))
-    return PWASystem(tuple(modes), Polytope.from_box([-1] * n, [1] * n), Polytope.from_box([-1], [1]))
-
-
 def _oracle_maps(system, seq, T):
     """(x, U) -> constraints and outputs of a mode sequence, composed directly (independent of enumeration)."""
     n, m = system.n, system.m
@@ -226,7 +204,7 @@ def test_point_query_agrees_with_brute_force_oracle(seed, n, n_modes, T):
     T = max(T, n)  # eq. (8): T p >= n with p = 1
     if n_modes ** T > 27:  # keep the brute-force oracle (all pairs of sequences) affordable
         T = 3
-    system = _random_pwa(seed, n, n_modes)
+    system = slab_pwa(seed, n, n_modes)
     analysis = analyse_observability(system, T)
     rng = np.random.default_rng(seed)
     for x in rng.uniform(-1, 1, size=(5, n)):

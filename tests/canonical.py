@@ -1,0 +1,97 @@
+"""Canonical small problems with known answers, shared by the test modules (issue 13).
+
+Each builder keeps the random stream the tests were written against: the same seed gives the
+same system as before the builders were shared.  The exact observability oracle is
+:mod:`exact_oracle` (independent of the package's LP code).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hybobs_opt.systems import Polytope, PWAMode, PWASystem
+
+#: Mirror map of :func:`mirror_system`: x -> (-x1, x2).
+MIRROR = np.diag([-1.0, 1.0])
+
+
+def slab_pwa(seed: int, n: int, n_modes: int, *, blind_probability: float | None = 0.3,
+             output_after_dynamics: bool = False) -> PWASystem:
+    """Slab guards on ``x[0]``, contractive random dynamics (spectral radius 0.8), one output.
+
+    ``n`` states in ``[-1, 1]^n``, one input in ``[-1, 1]``.  With probability
+    ``blind_probability`` one entry of ``C`` of each mode is zeroed (a blind direction); ``None``
+    draws no blind direction at all (and consumes no random number for it).
+    ``output_after_dynamics`` draws ``C`` after ``B`` and ``a`` (the stream of the 4-mode systems
+    of the DAQP cycling tests) instead of before them.
+    """
+    rng = np.random.default_rng(seed)
+    cuts = np.sort(rng.uniform(-0.6, 0.6, n_modes - 1))
+    edges = np.concatenate([[-np.inf], cuts, [np.inf]])
+    modes = []
+    for i in range(n_modes):
+        rows, rhs = [], []
+        e0 = np.zeros(n + 1)
+        e0[0] = 1.0
+        if np.isfinite(edges[i]):
+            rows.append(-e0)
+            rhs.append(-edges[i])
+        if np.isfinite(edges[i + 1]):
+            rows.append(e0)
+            rhs.append(edges[i + 1])
+        A = rng.normal(size=(n, n))
+        A *= 0.8 / max(1e-9, np.max(np.abs(np.linalg.eigvals(A))))
+        if output_after_dynamics:
+            B, a, C = rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1, rng.normal(size=(1, n))
+        else:
+            C = rng.normal(size=(1, n))
+        if blind_probability is not None and rng.random() < blind_probability:
+            C[0, rng.integers(n)] = 0.0
+        if not output_after_dynamics:
+            B, a = rng.normal(size=(n, 1)) * 0.3, rng.normal(size=n) * 0.1
+        modes.append(PWAMode(A, B, a, C, Polytope(np.array(rows), np.array(rhs)), D=rng.normal(size=(1, 1)) * 0.2,
+                             c=rng.normal(size=1) * 0.1))
+    return PWASystem(tuple(modes), Polytope.from_box([-1] * n, [1] * n), Polytope.from_box([-1], [1]))
+
+
+def direction_pwa(seed: int, n_modes: int) -> PWASystem:
+    """Contractive PWA system on ``[-1, 1]^2 x [-1, 1]``, guards across a random direction, mode-dependent output."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=2)
+    d /= np.linalg.norm(d, 1)
+    cuts = np.sort(rng.uniform(-0.4, 0.4, size=n_modes - 1))
+    modes = []
+    for i in range(n_modes):
+        A = rng.normal(size=(2, 2))
+        A *= 0.6 / np.abs(A).sum(axis=1).max()
+        rows, rhs = [], []
+        if i > 0:
+            rows.append(np.r_[-d, 0.0])
+            rhs.append(-cuts[i - 1])
+        if i < n_modes - 1:
+            rows.append(np.r_[d, 0.0])
+            rhs.append(cuts[i])
+        C = rng.normal(size=(1, 2))
+        if rng.random() < 0.4:
+            C[0, rng.integers(2)] = 0.0  # sometimes a blind direction
+        modes.append(PWAMode(A, rng.uniform(-0.15, 0.15, size=(2, 1)), rng.uniform(-0.15, 0.15, size=2), C,
+                             Polytope(np.array(rows), np.array(rhs)), c=rng.uniform(-0.2, 0.2, size=1)))
+    return PWASystem(tuple(modes), Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
+
+
+def mirror_system() -> PWASystem:
+    """Two modes split by ``x1 >= 0`` / ``x1 <= 0`` with mirrored dynamics and ``y = |x1| + x2 / 2``.
+
+    Known answer: *no* state with ``x1 != 0`` is observable, for any horizon.  Mode 2 is mode 1
+    conjugated by the mirror ``M``: ``A_2 = M A_1 M``, ``B_2 = M B_1``, ``a_2 = M a_1``,
+    ``C_2 = C_1 M``.  Hence ``f(M x, u) = M f(x, u)`` and ``h(M x, u) = h(x, u)`` for every input:
+    ``x`` and ``M x`` give the same outputs forever, although each mode alone is observable.
+    """
+    A1 = np.array([[0.6, 0.2], [0.1, 0.6]])
+    B1 = np.array([[0.0], [0.3]])
+    a1 = np.array([0.15, 0.0])
+    C1 = np.array([[1.0, 0.5]])
+    right = PWAMode(A1, B1, a1, C1, Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([0.0])), name="x1>=0")
+    left = PWAMode(MIRROR @ A1 @ MIRROR, MIRROR @ B1, MIRROR @ a1, C1 @ MIRROR,
+                   Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([0.0])), name="x1<=0")
+    return PWASystem((right, left), Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
