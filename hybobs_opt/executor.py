@@ -99,7 +99,7 @@ class DaskExecutor:
             self._client = Client(scheduler)
         else:
             if local_workers < 1:
-                raise ModelError("--dask-local", "a positive number of workers", repr(local_workers))
+                raise ModelError("local_workers", "a positive number of workers", repr(local_workers))
             self._cluster = LocalCluster(n_workers=int(local_workers), threads_per_worker=1, processes=True,
                                          host="127.0.0.1", dashboard_address=None)
             self._client = Client(self._cluster)

@@ -89,6 +89,30 @@ def test_every_import_points_down():
     assert violations() == []
 
 
+def cli_flags_in_core_errors() -> list[str]:
+    """Core ``ModelError``/``SolverError`` calls whose field names a command-line flag (``"--cut"``)."""
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if tier(module_name(path)) != "core":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if not (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", "")) in
+                    ("ModelError", "SolverError", "InfeasibleError") and node.args):
+                continue
+            first = node.args[0]
+            text = first.value if isinstance(first, ast.Constant) else (
+                first.values[0].value if isinstance(first, ast.JoinedStr) and first.values
+                and isinstance(first.values[0], ast.Constant) else "")
+            if isinstance(text, str) and text.startswith("--"):
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno}: {text!r}")
+    return bad
+
+
+def test_core_errors_never_name_a_cli_flag():
+    """A core error names the argument of the function the user called; the CLI names its flags."""
+    assert cli_flags_in_core_errors() == []
+
+
 def test_the_walker_sees_upward_imports(tmp_path, monkeypatch):
     """The checker itself: a core module with a function-level relative import of a study is caught."""
     fake = PACKAGE / "regions" / "_architecture_probe.py"

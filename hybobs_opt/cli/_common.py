@@ -63,4 +63,6 @@ def executor_from_args(args: argparse.Namespace):
 
     if args.workers is not None and args.workers < 1:
         raise ModelError("--workers", "a positive number of processes", repr(args.workers))
+    if args.dask_local is not None and args.dask_local < 1:
+        raise ModelError("--dask-local", "a positive number of workers", repr(args.dask_local))
     return make_executor(args.executor, args.workers, args.scheduler, args.dask_local)

@@ -38,7 +38,10 @@ def run(args: argparse.Namespace) -> int:
                          f"{example.name!r} of kind {example.kind!r}")
     params = parse_params(args.param)
     system = example.build(**params)
-    fixed = parse_assignments(args.cut, system.state_names)
+    fixed = parse_assignments(args.cut, system.state_names, "--cut")
+    if fixed and len(fixed) != system.n - 2:
+        raise ModelError("--cut", f"values for exactly {system.n - 2} of the states {list(system.state_names)} (two stay free)",
+                         f"{sorted(fixed)}")
     executor = executor_from_args(args)
     update, close = counter_bar(not args.json, "Algorithm 3.1")
     try:

@@ -65,8 +65,8 @@ class Cut:
         }
 
 
-def parse_assignments(items: list[str] | None, state_names: tuple[str, ...], option: str = "--cut") -> dict[str, float]:
-    """Parse ``["omega_l=25", ...]`` into ``{name: value}`` with the names checked."""
+def parse_assignments(items: list[str] | None, state_names: tuple[str, ...], option: str = "fixed") -> dict[str, float]:
+    """Parse ``["omega_l=25", ...]`` into ``{name: value}`` with the names checked (errors name ``option``)."""
     out: dict[str, float] = {}
     for item in items or []:
         if "=" not in item:
@@ -104,7 +104,7 @@ def compute_cut(
     names = system.state_names
     free = [k for k, nm in enumerate(names) if nm not in fixed]
     if len(free) != 2:
-        raise ModelError("--cut", f"values for exactly {system.n - 2} of the states {names} (two stay free)",
+        raise ModelError("fixed", f"values for exactly {system.n - 2} of the states {names} (two stay free)",
                          f"{sorted(fixed)}")
     nx, ny = resolution
     if nx < 2 or ny < 2:
