@@ -1,0 +1,21 @@
+"""Geometry, the lowest core layer: H-polytopes and the LPs every set computation goes through.
+
+:mod:`~hybobs_opt.geometry.lp` (the checked LP layer: :func:`solve_lp`, :func:`row_range`, the
+certified max-slack LPs), :mod:`~hybobs_opt.geometry.polytope` (the :class:`Polytope` type),
+:mod:`~hybobs_opt.geometry.redundancy`, :mod:`~hybobs_opt.geometry.projection` and
+:mod:`~hybobs_opt.geometry.volume`.  The old paths ``hybobs_opt.systems.polytope`` and
+``hybobs_opt.lp`` serve the same objects.  Names are imported on first use.
+"""
+
+from .._lazy import lazy_exports
+
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("LPResult", "SlackResult", "certified_width_below", "max_slack", "row_range", "solve_lp",
+                     "solve_slack_lp"), "hybobs_opt.geometry.lp"),
+    "Polytope": "hybobs_opt.geometry.polytope",
+    **dict.fromkeys(("VolumeEstimate", "monte_carlo_volume"), "hybobs_opt.geometry.volume"),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

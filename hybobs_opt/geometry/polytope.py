@@ -1,0 +1,610 @@
+"""A small H-polytope type ``{z : A z <= b}`` with coordinate names, and its geometry.
+
+Used for guards, invariants and state/input bounds, and for the sets of paper 002 (Sections 2-3):
+the unobservable set ``B_T`` is a union of projections ``Proj_x(R_ij)`` of higher-dimensional
+polytopes (e.g. 9-D -> 3-D, 17-D -> 5-D), cut at fixed coordinates for figures.  The class
+offers redundancy removal (:mod:`~hybobs_opt.geometry.redundancy`), affine images and preimages,
+slices, exact projections (:mod:`~hybobs_opt.geometry.projection`: iterative hull for small target
+dimensions, Fourier-Motzkin otherwise), vertices and volumes (:mod:`~hybobs_opt.geometry.volume`).  Unions and
+set differences live in :mod:`hybobs_opt.regions.union`.
+
+Every LP goes through :func:`hybobs_opt.geometry.lp.solve_lp`; tolerances are the named, relative ones of
+:mod:`hybobs_opt.tolerances`, applied in coordinates scaled by the bounding box.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from .._validate import as_matrix, as_names, as_vector
+from ..errors import ModelError
+from ..tolerances import (
+    AFFINE_HULL_RTOL,
+    FULL_DIMENSION_RTOL,
+    MEMBERSHIP_RTOL,
+    RANK_RTOL,
+    ZERO_ROW_TOL,
+)
+from ._common import (
+    _box,
+    _check_method,
+    _lp,
+    _nullspace,
+    _positive_scale,
+    _resolve,
+    _resolve_list,
+    _unit_box_map,
+    _unit_rows,
+)
+from .lp import row_range, solve_lp
+from .projection import _image_of
+from .redundancy import _irredundant
+from .volume import VolumeEstimate, monte_carlo_volume
+
+#: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
+#: (qhull on the vertices) are offered; above it the volume is estimated by Monte Carlo.
+VERTEX_MAX_DIM: int = 4
+
+
+@dataclass(frozen=True, eq=False)
+class Polytope:
+    """H-representation ``{z in R^d : A z <= b}``.
+
+    Parameters
+    ----------
+    A : (k, d) array
+        Constraint matrix.
+    b : (k,) array
+        Right-hand side.
+    names : sequence of str, optional
+        Names of the ``d`` coordinates (``z1 ... zd`` by default).
+
+    Notes
+    -----
+    Strict and non-strict inequalities are not distinguished: the paper's regions are "not
+    necessarily closed" (paper 002, eq. 1), and membership ties are broken by mode order.
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    names: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        A = as_matrix(self.A, "Polytope.A", (None, None))
+        b = as_vector(self.b, "Polytope.b", A.shape[0])
+        if A.shape[1] == 0:
+            raise ModelError("Polytope.A", "at least one column (dimension >= 1)", f"shape {A.shape}")
+        object.__setattr__(self, "A", A)
+        object.__setattr__(self, "b", b)
+        object.__setattr__(self, "names", as_names(self.names, "Polytope.names", A.shape[1], "z"))
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_box(cls, lower: Sequence[float], upper: Sequence[float], names: Sequence[str] | None = None) -> "Polytope":
+        """Axis-aligned box ``lower <= z <= upper``; raises if a lower bound exceeds its upper bound."""
+        lo = as_vector(lower, "lower", None)
+        hi = as_vector(upper, "upper", lo.size)
+        bad = np.nonzero(lo > hi)[0]
+        if bad.size:
+            i = int(bad[0])
+            label = names[i] if names else f"z{i + 1}"
+            raise ModelError(f"bounds of {label}", "lower <= upper", f"[{lo[i]}, {hi[i]}]")
+        d = lo.size
+        A = np.vstack([np.eye(d), -np.eye(d)])
+        b = np.concatenate([hi, -lo])
+        return cls(A, b, tuple(names) if names else ())
+
+    @classmethod
+    def empty(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
+        """The empty set of ``R^dim``, written as the rows ``z1 <= -1`` and ``-z1 <= 0``."""
+        A = np.zeros((2, dim))
+        A[0, 0], A[1, 0] = 1.0, -1.0
+        return cls(A, np.array([-1.0, 0.0]), tuple(names) if names else ())
+
+    @classmethod
+    def whole_space(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
+        """The unconstrained set ``R^dim`` (no rows)."""
+        return cls(np.zeros((0, dim)), np.zeros(0), tuple(names) if names else ())
+
+    # ------------------------------------------------------------------ basic queries
+    @property
+    def dim(self) -> int:
+        return self.A.shape[1]
+
+    @property
+    def n_constraints(self) -> int:
+        return self.A.shape[0]
+
+    def contains(self, points: np.ndarray, rtol: float = MEMBERSHIP_RTOL) -> np.ndarray | bool:
+        """Membership of one point ``(d,)`` (returns bool) or many points ``(N, d)`` (returns array).
+
+        A point is inside when ``A z <= b + rtol * (1 + |b|)`` row-wise.
+        """
+        z = np.asarray(points, dtype=float)
+        single = z.ndim == 1
+        Z = z.reshape(1, -1) if single else z
+        if Z.shape[1] != self.dim:
+            raise ModelError("points", f"points of dimension {self.dim}", f"shape {z.shape}")
+        slack = self.b + rtol * (1.0 + np.abs(self.b))
+        inside = np.all(Z @ self.A.T <= slack, axis=1)
+        return bool(inside[0]) if single else inside
+
+    def normalized(self) -> "Polytope":
+        """Rows scaled to unit 2-norm; all-zero rows are dropped (or flagged if they make the set empty)."""
+        norms = np.linalg.norm(self.A, axis=1)
+        zero = norms <= ZERO_ROW_TOL
+        if np.any(zero & (self.b < 0)):
+            # 0 <= negative: the set is empty; keep one infeasible row so emptiness is preserved.
+            return Polytope(np.vstack([np.eye(1, self.dim), -np.eye(1, self.dim)]), np.array([-1.0, 0.0]), self.names)
+        keep = ~zero
+        return Polytope(self.A[keep] / norms[keep, None], self.b[keep] / norms[keep], self.names)
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tightest axis-aligned box ``(lower, upper)`` by 2d LPs.
+
+        Raises
+        ------
+        ModelError
+            If the polytope is empty or unbounded in some coordinate (named in the message).
+        """
+        r = row_range(self.A, self.b, np.eye(self.dim), problem="bounding box", field="polytope", labels=self.names)
+        return r[:, 0].copy(), r[:, 1].copy()
+
+    def is_bounded(self) -> bool:
+        """True when every coordinate is bounded above and below (and the set is non-empty)."""
+        try:
+            self.bounding_box()
+        except ModelError:
+            return False
+        return True
+
+    def chebyshev_ball(self, scale: np.ndarray | None = None) -> tuple[np.ndarray | None, float]:
+        """Centre and radius of the largest inscribed ball, optionally in coordinates ``z / scale``.
+
+        Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.
+        """
+        A = self.A if scale is None else self.A * np.asarray(scale, dtype=float)[None, :]
+        norms = np.linalg.norm(A, axis=1)
+        d = self.dim
+        c = np.zeros(d + 1)
+        c[-1] = -1.0
+        A_ub = np.hstack([A, norms[:, None]])
+        res = solve_lp(c, A_ub, self.b, bounds=[(None, None)] * d + [(None, None)], problem="Chebyshev ball")
+        if res.status == "infeasible":
+            return None, -np.inf
+        if res.status == "unbounded":
+            return None, np.inf
+        centre = res.x[:d] if scale is None else res.x[:d] * np.asarray(scale, dtype=float)
+        return centre, float(res.x[-1])
+
+    def is_empty(self) -> bool:
+        """True when no point satisfies ``A z <= b``."""
+        res = solve_lp(np.zeros(self.dim), self.A, self.b, problem="emptiness test")
+        return res.status == "infeasible"
+
+    def is_full_dimensional(self, scale: np.ndarray | None = None, rtol: float = FULL_DIMENSION_RTOL) -> bool:
+        """True when the Chebyshev radius in coordinates ``z / scale`` exceeds ``rtol``.
+
+        ``scale`` defaults to the bounding-box widths, so the test is relative to the set's size
+        in every coordinate (DESIGN.md: tolerances are relative).
+        """
+        if scale is None:
+            try:
+                lo, hi = self.bounding_box()
+            except ModelError:
+                _, r = self.chebyshev_ball()
+                return r > rtol
+            scale = np.where(hi - lo > 0, hi - lo, 1.0)
+        _, r = self.chebyshev_ball(scale)
+        return r > rtol
+
+    # ------------------------------------------------------------------ combinations
+    def intersect(self, other: "Polytope") -> "Polytope":
+        """Intersection with a polytope of the same dimension."""
+        if other.dim != self.dim:
+            raise ModelError("other", f"a polytope of dimension {self.dim}", f"dimension {other.dim}")
+        return Polytope(np.vstack([self.A, other.A]), np.concatenate([self.b, other.b]), self.names)
+
+    def product(self, other: "Polytope") -> "Polytope":
+        """Cartesian product ``self x other`` (coordinates concatenated)."""
+        A = np.block(
+            [
+                [self.A, np.zeros((self.n_constraints, other.dim))],
+                [np.zeros((other.n_constraints, self.dim)), other.A],
+            ]
+        )
+        names = self.names + other.names
+        if len(set(names)) != len(names):
+            names = ()
+        return Polytope(A, np.concatenate([self.b, other.b]), names)
+
+    def lift(self, dim: int, coords: Sequence[int], names: Sequence[str] | None = None) -> "Polytope":
+        """Embed into ``R^dim``: the constraint acts on ``coords`` of the larger space only."""
+        coords = list(coords)
+        if len(coords) != self.dim:
+            raise ModelError("coords", f"{self.dim} coordinate indices", f"{len(coords)}")
+        A = np.zeros((self.n_constraints, dim))
+        A[:, coords] = self.A
+        return Polytope(A, self.b.copy(), tuple(names) if names else ())
+
+    # ------------------------------------------------------------------ coordinates, cuts, maps
+    def index_of(self, coord: int | str) -> int:
+        """Index of a coordinate given by its index or its name.
+
+        Raises
+        ------
+        ModelError
+            If the name is unknown or the index is out of range.
+        """
+        return _resolve(coord, self.names)
+
+    def slice(self, fixed: Mapping[int | str, float]) -> "Polytope":
+        """Cut at fixed coordinates: ``{z_free : (z_free, z_fixed) in P}``.
+
+        Used to draw 2-D figures of higher-dimensional sets, e.g. the powertrain's unobservable
+        set cut at ``omega_l = 25`` (paper 002, Section 6).
+
+        Parameters
+        ----------
+        fixed : mapping of int or str to float
+            Coordinates (by index or name) and the values they are fixed at.
+
+        Returns
+        -------
+        Polytope
+            A polytope in the remaining coordinates, in their original order, names kept.
+        """
+        idx: dict[int, float] = {}
+        for key, val in fixed.items():
+            i = _resolve(key, self.names)
+            if i in idx:
+                raise ModelError("fixed", "each coordinate fixed once", f"{self.names[i]} twice")
+            value = float(val)
+            if not np.isfinite(value):
+                raise ModelError(f"fixed[{self.names[i]}]", "a finite value", str(value))
+            idx[i] = value
+        keep = [i for i in range(self.dim) if i not in idx]
+        if not keep:
+            raise ModelError("fixed", "at least one coordinate left free", f"all {self.dim} fixed")
+        cols = list(idx)
+        b = self.b - self.A[:, cols] @ np.array([idx[i] for i in cols])
+        return Polytope(self.A[:, keep], b, tuple(self.names[i] for i in keep))
+
+    def affine_preimage(self, M: np.ndarray, v: np.ndarray | None = None, names: Sequence[str] | None = None) -> "Polytope":
+        """Preimage ``{w : M w + v in P}`` under an affine map.
+
+        Parameters
+        ----------
+        M : (d, k) array
+            Linear part; ``d`` is the dimension of this polytope, ``k`` that of the result.
+        v : (d,) array, optional
+            Offset (zero by default).
+        names : sequence of str, optional
+            Names of the ``k`` coordinates of the result.
+
+        Returns
+        -------
+        Polytope
+            ``{w in R^k : (A M) w <= b - A v}`` -- exact, no LP needed.
+        """
+        M = as_matrix(M, "M", (self.dim, None))
+        v = np.zeros(self.dim) if v is None else as_vector(v, "v", self.dim)
+        return Polytope(self.A @ M, self.b - self.A @ v, tuple(names) if names else ())
+
+    def affine_image(
+        self,
+        M: np.ndarray,
+        v: np.ndarray | None = None,
+        names: Sequence[str] | None = None,
+        method: str = "auto",
+        hull_max_dim: int | None = None,
+    ) -> "Polytope":
+        """Image ``{M z + v : z in P}`` under an affine map.
+
+        Parameters
+        ----------
+        M : (k, d) array
+            Linear part.
+        v : (k,) array, optional
+            Offset (zero by default).
+        names : sequence of str, optional
+            Names of the ``k`` coordinates of the result.
+        method, hull_max_dim
+            As in :meth:`project` (used only when ``M`` is not square and invertible).
+
+        Returns
+        -------
+        Polytope
+            For square invertible ``M``: ``{x : A M^{-1} (x - v) <= b}`` directly.  Otherwise the
+            projection onto ``x`` of the graph ``{(x, z) : x = M z + v, z in P}``; the graph's
+            equality is eliminated by parametrising it with ``z`` (scaled), and the image may be
+            lower-dimensional (then returned with its equalities as paired inequalities).
+        """
+        M = as_matrix(M, "M", (None, self.dim))
+        k = M.shape[0]
+        v = np.zeros(k) if v is None else as_vector(v, "v", k)
+        out_names = tuple(names) if names else ()
+        _check_method(method)
+        if k == self.dim:
+            sv = np.linalg.svd(M, compute_uv=False)
+            if sv[0] > 0 and sv[-1] > RANK_RTOL * sv[0]:
+                H = np.linalg.solve(M.T, self.A.T).T
+                H, h = _unit_rows(H, self.b + H @ v)
+                return Polytope(H, h, out_names)
+        img = _image_of(self.A, self.b, None, None, M, v, method, hull_max_dim)
+        if img is None:
+            return Polytope.empty(k, out_names)
+        return Polytope(img.H, img.h, out_names)
+
+    # ------------------------------------------------------------------ redundancy, projection
+    def remove_redundant(self, scale: np.ndarray | None = None) -> "Polytope":
+        """Drop every row implied by the others (one LP per row).
+
+        Rows are normalised; parallel duplicates are removed first without LPs (the tightest is
+        kept); then each remaining row ``a_i z <= b_i`` is dropped when ``max a_i z`` over the
+        other kept rows (and ``a_i z <= b_i + 1``, which keeps the LP bounded) does not exceed
+        ``b_i`` by more than ``REDUNDANCY_RTOL``.  The tests run in coordinates scaled so the
+        bounding box is ``[-1, 1]^d`` (or by ``scale`` when given), so the tolerance is relative.
+        Rows proved to be facets by ray shooting from the Chebyshev centre skip their LP, and the
+        LPs use only rows already proved to be facets (Clarkson's algorithm), so they stay small.
+
+        Parameters
+        ----------
+        scale : (d,) array, optional
+            Use coordinates ``z / scale`` instead of the bounding box (saves its ``2 d`` LPs when
+            the caller knows the size of the set, e.g. a union's bounding box).
+
+        Returns
+        -------
+        Polytope
+            Same set, a subset of the (normalised) rows; :meth:`empty` if the set is empty.
+        """
+        if self.n_constraints == 0:
+            return self
+        if scale is None:
+            box = _box(self.A, self.b)
+            if box is None:
+                return Polytope.empty(self.dim, self.names)
+            mid, half = _unit_box_map(*box)
+        else:
+            half = _positive_scale(scale, self.dim)
+            mid = np.zeros(self.dim)
+            if self.is_empty():
+                return Polytope.empty(self.dim, self.names)
+        As = self.A * half
+        bs = self.b - self.A @ mid
+        norms = np.linalg.norm(As, axis=1)
+        rows = np.nonzero(norms > ZERO_ROW_TOL)[0]  # zero rows read 0 <= b_i, true on a non-empty set
+        keep = _irredundant(As[rows] / norms[rows, None], bs[rows] / norms[rows])
+        rows = rows[keep]
+        A, b = _unit_rows(self.A[rows], self.b[rows])
+        return Polytope(A, b, self.names)
+
+    def project(
+        self,
+        coords: Sequence[int | str],
+        method: str = "auto",
+        hull_max_dim: int | None = None,
+    ) -> "Polytope":
+        """Exact projection ``Proj_coords(P) = {z_S : exists z_rest, z in P}``.
+
+        Computes the ``Proj_x(P_i)`` and ``Proj_x(R_ij)`` of Algorithm 3.1 (paper 002,
+        Section 3, eq. (5)).  Equivalent to :meth:`project_with_equalities` with no equalities.
+
+        Parameters
+        ----------
+        coords : sequence of int or str
+            Target coordinates (indices or names), in the order wanted in the result.
+        method : {"auto", "hull", "fm"}
+            ``"hull"``: iterative convex hull of support points (bounded images only);
+            ``"fm"``: Fourier-Motzkin elimination with LP redundancy removal after each step;
+            ``"auto"``: ``"hull"`` when the target dimension is ``<= hull_max_dim`` and the image
+            is bounded, ``"fm"`` otherwise.
+        hull_max_dim : int, optional
+            Threshold of ``"auto"`` (default: :data:`hybobs_opt.geometry.projection.HULL_PROJECTION_MAX_DIM`).
+
+        Returns
+        -------
+        Polytope
+            The projection, names of the chosen coordinates kept.  An empty polytope gives
+            :meth:`empty`.  A lower-dimensional projection is returned as a polytope whose
+            affine hull ``N x = n`` appears as paired rows ``N x <= n, -N x <= -n``.
+
+        Notes
+        -----
+        Hull method: LPs maximise along ``+-e_i`` (the image's bounding box, which also fixes the
+        scaling), the affine hull of the support points is checked (directions normal to it are
+        probed; if none moves, the image is flat and the method recurses inside its affine hull),
+        then qhull builds the hull of the points and each facet is pushed by one LP along its
+        outward normal; a point beyond the facet by more than ``PROJECTION_HULL_RTOL`` (scaled
+        coordinates) is added and the hull rebuilt, until no facet moves.  Cost: about one LP per
+        facet and per vertex of the image, independent of the source dimension.  A 1-D target is
+        an interval from two LPs.
+        """
+        return self.project_with_equalities(np.zeros((0, self.dim)), np.zeros(0), coords, method, hull_max_dim)
+
+    def project_with_equalities(
+        self,
+        E: np.ndarray,
+        e: np.ndarray,
+        coords: Sequence[int | str],
+        method: str = "auto",
+        hull_max_dim: int | None = None,
+    ) -> "Polytope":
+        """Projection of ``{z : A z <= b, E z = e}`` onto ``coords``.
+
+        The sets ``R_ij`` of paper 002 (Algorithm 3.1, step 3.1.1) carry the indistinguishability
+        equalities ``Y(x, U) = Y(x_hat, U)``.  Passing them as paired inequalities makes the set
+        flat, so Chebyshev and full-dimension tests degenerate; here they are eliminated first:
+        coordinates are scaled by the bounding box, ``E`` is factorised by SVD, and ``z = z0 + N w``
+        with ``N`` an orthonormal basis of its null space; then the full-dimensional polytope in
+        ``w`` is projected through the affine map ``w -> z_coords``.
+
+        Parameters
+        ----------
+        E : (m, d) array
+            Equality rows (``m = 0`` allowed).
+        e : (m,) array
+            Equality right-hand side.
+        coords, method, hull_max_dim
+            As in :meth:`project`.
+
+        Returns
+        -------
+        Polytope
+            The projection (see :meth:`project`); :meth:`empty` when the set is empty or the
+            equalities are inconsistent.
+        """
+        d = self.dim
+        E = as_matrix(E, "E", (None, d)) if np.size(E) else np.zeros((0, d))
+        e = as_vector(e, "e", E.shape[0]) if np.size(e) else np.zeros(0)
+        if E.shape[0] != e.shape[0]:
+            raise ModelError("e", f"a vector of length {E.shape[0]}", f"length {e.shape[0]}")
+        idx = _resolve_list(coords, self.names)
+        _check_method(method)
+        S = np.eye(d)[idx]
+        names = tuple(self.names[i] for i in idx)
+        img = _image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
+        if img is None:
+            return Polytope.empty(len(idx), names)
+        return Polytope(img.H, img.h, names)
+
+    def vertices(self) -> np.ndarray:
+        """Vertices of a bounded polytope of dimension ``<= VERTEX_MAX_DIM`` (4).
+
+        Computed with the iterative-hull machinery of :meth:`project` (identity map): LP support
+        points whose hull is the polytope, reduced to the hull's vertices.
+
+        Returns
+        -------
+        (n_v, d) array
+            The vertices; counter-clockwise for ``d = 2``; ``(0, d)`` for an empty set.  A
+            lower-dimensional polytope returns the vertices of its relative hull.
+
+        Raises
+        ------
+        ModelError
+            If ``d > VERTEX_MAX_DIM`` or the polytope is unbounded.
+        """
+        d = self.dim
+        if d > VERTEX_MAX_DIM:
+            raise ModelError("polytope", f"dimension <= {VERTEX_MAX_DIM} for vertex enumeration", f"dimension {d}")
+        img = _image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
+        if img is None:
+            return np.zeros((0, d))
+        V = np.asarray(img.points, dtype=float)
+        if d == 2 and len(V) > 2:
+            c = V.mean(axis=0)
+            V = V[np.argsort(np.arctan2(V[:, 1] - c[1], V[:, 0] - c[0]))]
+        return V
+
+    def volume(self, method: str = "auto", n_samples: int = 200_000, rng: np.random.Generator | int | None = None) -> VolumeEstimate:
+        """Lebesgue volume.
+
+        Parameters
+        ----------
+        method : {"auto", "exact", "monte-carlo"}
+            ``"exact"``: qhull volume of the vertices (``d <= VERTEX_MAX_DIM``);
+            ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
+            ``"auto"``: exact when possible.
+        n_samples : int
+            Monte Carlo sample size.
+        rng : numpy Generator or seed, optional
+            Random source of the Monte Carlo method.
+
+        Returns
+        -------
+        VolumeEstimate
+            ``value`` and ``stderr`` (``0`` when exact; ``V_box sqrt(p (1 - p) / n)`` for Monte
+            Carlo with hit fraction ``p``).  Empty or lower-dimensional sets have volume 0.
+
+        Raises
+        ------
+        ModelError
+            For an unbounded polytope or an unknown ``method``.
+        """
+        if method not in ("auto", "exact", "monte-carlo"):
+            raise ModelError("method", "'auto', 'exact' or 'monte-carlo'", repr(method))
+        d = self.dim
+        if method == "auto":
+            method = "exact" if d <= VERTEX_MAX_DIM else "monte-carlo"
+        if method == "exact":
+            V = self.vertices()
+            if len(V) <= d:
+                return VolumeEstimate(0.0, 0.0, "exact")
+            lo, hi = V.min(axis=0), V.max(axis=0)
+            half = np.where(hi > lo, (hi - lo) / 2, 1.0)
+            Y = (V - (lo + hi) / 2) / half
+            if d == 1:
+                return VolumeEstimate(float(hi[0] - lo[0]), 0.0, "exact")
+            sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
+            if np.sum(sv > AFFINE_HULL_RTOL) < d:
+                return VolumeEstimate(0.0, 0.0, "exact")
+            return VolumeEstimate(float(ConvexHull(Y).volume * np.prod(half)), 0.0, "exact")
+        box = _box(self.A, self.b)
+        if box is None:
+            return VolumeEstimate(0.0, 0.0, "monte-carlo", int(n_samples))
+        lo, hi = box
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            raise ModelError("polytope", "a bounded set for the volume", "an unbounded set")
+        value, stderr = monte_carlo_volume(self.contains, lo, hi, n_samples, rng)
+        return VolumeEstimate(value, stderr, "monte-carlo", int(n_samples))
+
+    def chebyshev_ball_in_subspace(
+        self, E: np.ndarray, e: np.ndarray, scale: np.ndarray | None = None
+    ) -> tuple[np.ndarray | None, float]:
+        """Largest ball of ``{z : A z <= b, E z = e}`` inside the affine hull ``E z = e``.
+
+        The plain :meth:`chebyshev_ball` of a set with equalities written as paired inequalities
+        has radius 0; here ``E z = e`` is parametrised as ``z = z0 + N w`` (SVD, ``N``
+        orthonormal in the coordinates ``z / scale``), and the ball is the Chebyshev ball of the
+        polytope in ``w``: its radius is measured inside the subspace.
+
+        Parameters
+        ----------
+        E : (m, d) array
+            Equality rows.
+        e : (m,) array
+            Right-hand side.
+        scale : (d,) array, optional
+            Measure distances in coordinates ``z / scale`` (as in :meth:`chebyshev_ball`).
+
+        Returns
+        -------
+        centre : (d,) array or None
+            Centre in the original coordinates (``None`` if empty or unbounded).
+        radius : float
+            ``-inf`` for inconsistent equalities, ``inf`` when unbounded inside the subspace, ``<= 0``
+            when there is no relative interior; ``0`` when the equalities leave a single point.
+        """
+        d = self.dim
+        E = as_matrix(E, "E", (None, d))
+        e = as_vector(e, "e", E.shape[0])
+        s = np.ones(d) if scale is None else _positive_scale(scale, d)
+        As = self.A * s
+        ns = _nullspace(E * s, e)
+        if ns is None:
+            return None, -np.inf
+        y0, N = ns
+        Aw = As @ N
+        bw = self.b - As @ y0
+        if N.shape[1] == 0:
+            ok = np.all(bw >= -MEMBERSHIP_RTOL * (1.0 + np.abs(self.b)))
+            return (s * y0, 0.0) if ok else (None, -np.inf)
+        k = N.shape[1]
+        c = np.zeros(k + 1)
+        c[-1] = -1.0
+        A_ub = np.hstack([Aw, np.linalg.norm(Aw, axis=1)[:, None]])
+        res = _lp(c, A_ub, bw, problem="Chebyshev ball inside the affine hull")
+        if res.status == "infeasible":
+            return None, -np.inf
+        if res.status == "unbounded":
+            return None, np.inf
+        return s * (y0 + N @ res.x[:k]), float(res.x[-1])
+
+    def __repr__(self) -> str:
+        return f"Polytope(dim={self.dim}, n_constraints={self.n_constraints}, names={self.names})"
