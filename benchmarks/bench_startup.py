@@ -60,10 +60,14 @@ def measure(argv: list[str] | None, repeats: int) -> dict:
         else:
             subprocess.run([*_hybobs(), *argv], check=True, capture_output=True)
         times.append(time.perf_counter() - t0)
-    heavy = ""
-    if argv is not None:
-        heavy = subprocess.run([sys.executable, "-c", _probe(argv)], check=True, capture_output=True, text=True).stdout.strip()
-    return {"median_s": statistics.median(times), "times_s": times, "heavy_modules_imported": heavy.split(",") if heavy else []}
+    heavy = [] if argv is None else heavy_modules_imported(argv)
+    return {"median_s": statistics.median(times), "times_s": times, "heavy_modules_imported": heavy}
+
+
+def heavy_modules_imported(argv: list[str]) -> list[str]:
+    """The modules of :data:`HEAVY` that ``hybobs ARGV`` imports (run in a fresh interpreter)."""
+    out = subprocess.run([sys.executable, "-c", _probe(argv)], check=True, capture_output=True, text=True).stdout.strip()
+    return out.split(",") if out else []
 
 
 def main(argv: list[str] | None = None) -> int:

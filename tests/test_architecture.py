@@ -10,8 +10,6 @@ as imports too, except in :mod:`hybobs_opt._compat`, the table of old import pat
 from __future__ import annotations
 
 import ast
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -137,14 +135,7 @@ def test_compat_imports_nothing_of_the_package():
 
 @pytest.mark.parametrize("argv", [["--help"], ["examples", "--json"]])
 def test_cli_start_imports_no_solver(argv):
-    """``hybobs --help`` and ``hybobs examples`` load neither cvxpy, CasADi, numba nor scipy."""
-    code = ("import sys, contextlib, io\n"
-            "from hybobs_opt.cli import main\n"
-            "with contextlib.redirect_stdout(io.StringIO()):\n"
-            "    try:\n"
-            f"        main({argv!r})\n"
-            "    except SystemExit:\n"
-            "        pass\n"
-            "print(sorted(m for m in ('cvxpy', 'casadi', 'numba', 'scipy', 'matplotlib', 'daqp', 'highspy') if m in sys.modules))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+    """``hybobs --help`` and ``hybobs examples`` load neither cvxpy, CasADi, numba, scipy nor numpy."""
+    from benchmarks.bench_startup import heavy_modules_imported
+
+    assert heavy_modules_imported(argv) == []
