@@ -17,7 +17,7 @@ from hybobs_opt.systems.polytope import Polytope
 from hybobs_opt.systems.pwa import PWAMode, PWASystem
 from hybobs_opt.tolerances import LOOKUP_INPUT_BOUND_TOL, LOOKUP_INTERIOR_MARGIN
 
-from test_regions import _random_pwa
+from canonical import slab_pwa
 
 #: "Exact" reconstruction: |x_hat - x| / max(1, |x|) at every step flagged observable (noise-free data).
 EXACT_RTOL = 1e-9
@@ -105,7 +105,7 @@ def test_saved_regions_file_drives_the_observer(setup, tmp_path):
 @given(seed=st.integers(0, 10_000), n_modes=st.integers(2, 3), T=st.integers(2, 3))
 def test_never_flags_observable_a_wrong_state(seed, n_modes, T):
     """Random small PWA systems: every step flagged observable carries the true state."""
-    system = _random_pwa(seed, 2, n_modes)
+    system = slab_pwa(seed, 2, n_modes)
     analysis = analyse_observability(system, T)
     if not analysis.index_set:
         return

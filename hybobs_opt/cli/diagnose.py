@@ -57,7 +57,7 @@ def parse_range(text: str, preset, state_names: tuple[str, ...]) -> tuple[float,
     return lo, hi
 
 
-def _example_and_preset(name: str):
+def example_and_preset(name: str):
     from ..studies import get_example
     from ..studies.paper004_nonmonotonic.presets import get_preset
 
@@ -81,7 +81,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..report.lmi_section import write_diagnosis_report
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
-    example, preset = _example_and_preset(args.example)
+    example, preset = example_and_preset(args.example)
     system = example.build()
     lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.diagnose_range
     diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
@@ -129,3 +129,7 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser("synth", help=synth.HELP)
     synth.add_arguments(p)
     p.set_defaults(func=synth.run)
+
+
+#: Old private name (``hybobs_opt.lmi.commands._example_and_preset``).
+_example_and_preset = example_and_preset

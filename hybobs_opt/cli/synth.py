@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ._common import json_default, print_json
-from .diagnose import _example_and_preset, parse_range
+from .diagnose import example_and_preset, parse_range
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
 
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     """``hybobs synth``: switched gains, dwell time and hysteresis, written to ``--out``."""
     from ..studies.paper004_nonmonotonic.presets import preset_design
 
-    example, preset = _example_and_preset(args.example)
+    example, preset = example_and_preset(args.example)
     system = example.build()
     lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.synth_range
     if args.max_rate is not None and not (math.isfinite(args.max_rate) and args.max_rate > 0):

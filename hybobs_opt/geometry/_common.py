@@ -25,7 +25,7 @@ from .lp import row_range, solve_lp
 _METHODS = ("auto", "hull", "fm")
 
 
-def _resolve(coord: int | str, names: tuple[str, ...]) -> int:
+def resolve_coordinate(coord: int | str, names: tuple[str, ...]) -> int:
     """Index of ``coord`` (an index or a name) among ``names``."""
     if isinstance(coord, str):
         try:
@@ -114,3 +114,6 @@ def _nullspace(E: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray] | 
     if np.linalg.norm(E @ y0 - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e)):
         return None
     return y0, Vt[r:].T
+
+
+_resolve = resolve_coordinate  # old private name

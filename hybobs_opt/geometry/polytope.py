@@ -35,14 +35,14 @@ from ._common import (
     _lp,
     _nullspace,
     _positive_scale,
-    _resolve,
+    resolve_coordinate,
     _resolve_list,
     _unit_box_map,
     _unit_rows,
 )
 from .lp import row_range, solve_lp
-from .projection import _image_of
-from .redundancy import _irredundant
+from .projection import image_of
+from .redundancy import irredundant
 from .volume import VolumeEstimate, monte_carlo_volume
 
 #: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
@@ -240,7 +240,7 @@ class Polytope:
         ModelError
             If the name is unknown or the index is out of range.
         """
-        return _resolve(coord, self.names)
+        return resolve_coordinate(coord, self.names)
 
     def slice(self, fixed: Mapping[int | str, float]) -> "Polytope":
         """Cut at fixed coordinates: ``{z_free : (z_free, z_fixed) in P}``.
@@ -260,7 +260,7 @@ class Polytope:
         """
         idx: dict[int, float] = {}
         for key, val in fixed.items():
-            i = _resolve(key, self.names)
+            i = resolve_coordinate(key, self.names)
             if i in idx:
                 raise ModelError("fixed", "each coordinate fixed once", f"{self.names[i]} twice")
             value = float(val)
@@ -335,7 +335,7 @@ class Polytope:
                 H = np.linalg.solve(M.T, self.A.T).T
                 H, h = _unit_rows(H, self.b + H @ v)
                 return Polytope(H, h, out_names)
-        img = _image_of(self.A, self.b, None, None, M, v, method, hull_max_dim)
+        img = image_of(self.A, self.b, None, None, M, v, method, hull_max_dim)
         if img is None:
             return Polytope.empty(k, out_names)
         return Polytope(img.H, img.h, out_names)
@@ -379,7 +379,7 @@ class Polytope:
         bs = self.b - self.A @ mid
         norms = np.linalg.norm(As, axis=1)
         rows = np.nonzero(norms > ZERO_ROW_TOL)[0]  # zero rows read 0 <= b_i, true on a non-empty set
-        keep = _irredundant(As[rows] / norms[rows, None], bs[rows] / norms[rows])
+        keep = irredundant(As[rows] / norms[rows, None], bs[rows] / norms[rows])
         rows = rows[keep]
         A, b = _unit_rows(self.A[rows], self.b[rows])
         return Polytope(A, b, self.names)
@@ -468,7 +468,7 @@ class Polytope:
         _check_method(method)
         S = np.eye(d)[idx]
         names = tuple(self.names[i] for i in idx)
-        img = _image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
+        img = image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
         if img is None:
             return Polytope.empty(len(idx), names)
         return Polytope(img.H, img.h, names)
@@ -493,7 +493,7 @@ class Polytope:
         d = self.dim
         if d > VERTEX_MAX_DIM:
             raise ModelError("polytope", f"dimension <= {VERTEX_MAX_DIM} for vertex enumeration", f"dimension {d}")
-        img = _image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
+        img = image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
         if img is None:
             return np.zeros((0, d))
         V = np.asarray(img.points, dtype=float)

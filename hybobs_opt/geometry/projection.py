@@ -22,7 +22,7 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from ._common import _box, _lp, _nullspace, _unit_box_map, _unit_rows
-from .redundancy import _irredundant
+from .redundancy import irredundant
 
 #: Target dimension up to which :meth:`Polytope.project` (``method="auto"``) uses the iterative
 #: convex-hull method; above it, Fourier-Motzkin elimination.  Qhull's cost grows quickly with the
@@ -49,7 +49,7 @@ def _point_image(c: np.ndarray) -> _Image:
     return _Image(np.vstack([np.eye(k), -np.eye(k)]), np.concatenate([c, -c]), c[None, :].copy())
 
 
-def _image_of(A, b, E, e, M, v, method: str, hull_max_dim: int | None) -> _Image | None:
+def image_of(A, b, E, e, M, v, method: str, hull_max_dim: int | None) -> _Image | None:
     """``{M z + v : A z <= b, E z = e}`` or ``None`` when empty.
 
     Scales ``z`` by its bounding box, eliminates the equalities by an orthonormal null-space
@@ -283,7 +283,7 @@ def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
     others are eliminated one at a time (cheapest first).  After each step, rows built from more
     than ``s + 1`` rows of the starting system (``s`` = variables eliminated so far) are dropped
     (Chernikov's rule: such rows are always redundant), then the LP redundancy removal of
-    :func:`_irredundant` runs, with its qhull polar prefilter.
+    :func:`irredundant` runs, with its qhull polar prefilter.
     """
     k, r = Ls.shape
     _, _, Vt = np.linalg.svd(Ls, full_matrices=True)
@@ -291,7 +291,7 @@ def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
     Au = np.linalg.solve(T.T, Aw.T).T
     bu = bw + Au @ np.concatenate([cs, np.zeros(r - k)])
     Au, bu, nz = _unit_rows_mask(Au, bu)
-    keep = _irredundant(Au, bu, polar_prefilter=True)
+    keep = irredundant(Au, bu, polar_prefilter=True)
     Au, bu = Au[keep], bu[keep]
     anc = np.eye(Au.shape[0], dtype=bool)  # ancestors of each row among the starting rows
     labels = list(range(r))
@@ -313,7 +313,7 @@ def _fm_image(Aw, bw, Ls, cs) -> tuple[np.ndarray, np.ndarray]:
         Au, bu, anc = Au[few], bu[few], anc[few]
         Au, bu, nz = _unit_rows_mask(Au, bu)
         anc = anc[nz]
-        keep = _irredundant(Au, bu, polar_prefilter=True)
+        keep = irredundant(Au, bu, polar_prefilter=True)
         Au, bu, anc = Au[keep], bu[keep], anc[keep]
     return Au, bu
 
@@ -344,3 +344,7 @@ def _fm_step(A: np.ndarray, b: np.ndarray, j: int, anc: np.ndarray) -> tuple[np.
     A2 = np.vstack([A[zer], newA])
     b2 = np.concatenate([b[zer], newb])
     return np.delete(A2, j, axis=1), b2, np.vstack([anc[zer], newanc])
+
+
+#: Old private name (kept for scripts that reached it).
+_image_of = image_of

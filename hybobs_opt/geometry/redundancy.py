@@ -29,7 +29,7 @@ from .lp import solve_lp
 FM_QHULL_MAX_DIM: int = 6
 
 
-def _irredundant(A: np.ndarray, b: np.ndarray, polar_prefilter: bool = False) -> np.ndarray:
+def irredundant(A: np.ndarray, b: np.ndarray, polar_prefilter: bool = False) -> np.ndarray:
     """Mask of the rows of the non-empty ``{A z <= b}`` (unit rows, unit-box scaled) that are kept.
 
     A row is dropped when its maximum over the other kept rows exceeds ``b_i`` by at most
@@ -175,3 +175,7 @@ def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) ->
 _RAYS_PER_ROW = 20  # random rays per row for the non-redundancy certificates (cheap numpy work)
 _RAY_BUDGET = 4_000_000  # cap on rays x rows (~32 MB per array) for sets with thousands of rows
 _RAY_CAP = 1.0  # the LP test relaxes a row by 1 in unit-box coordinates: same cap for the rays
+
+
+#: Old private name (kept for scripts that reached it).
+_irredundant = irredundant

@@ -35,9 +35,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModelError, SolverError
-from ..lp import solve_lp
-from ..systems.polytope import Polytope
+from ..errors import ModelError
+from ..geometry.lp import row_range
+from ..geometry.polytope import Polytope
 from ..systems.pwa import PWASystem
 from ..tolerances import BIGM_IMPLIED_RTOL
 
@@ -87,15 +87,10 @@ class _Support:
         b = P.b - P.A @ self.centre
         cs = c * self.half
         base = float(c @ self.centre + c0)
-        out = []
-        for sign in (1.0, -1.0):
-            res = solve_lp(sign * cs, A, b, problem=f"big-M constant: {what}")
-            self.n_lps += 1
-            if res.status != "optimal":
-                raise SolverError(f"big-M constant: {what}", res.solver, res.status,
-                                  hint="the guard or the state/input bounds are empty or unbounded")
-            out.append(sign * res.objective + base)
-        return out[0], out[1]
+        # an empty or unbounded guard is a model error (ModelError names it), a failed LP a SolverError
+        r = row_range(A, b, cs, problem=f"big-M constant: {what}", field=f"guard / state and input bounds of {what}")
+        self.n_lps += 2
+        return float(r[0, 0] + base), float(r[0, 1] + base)
 
 
 def big_m_constants(system: PWASystem) -> BigMConstants:

@@ -191,15 +191,16 @@ class DriftObserver(Observer):
             timer mode, wrong length), ``t0`` is not finite or ``y0`` is not an output.
         """
         sysm = self.system
+        field = "mode" if mode is not None else "q0"  # errors name the keyword the caller used
         mode = initial_mode(q0, mode, "mode")
         mode = 1 if mode is None else mode
-        sysm._check_mode(mode, "q0")
+        sysm._check_mode(mode, field)
         if x0 is None:
             x = np.zeros(self.n)
             if sysm.is_timer_mode(mode):
                 x[0] = sysm.alpha[sysm.predecessor(mode) - 1]
         else:
-            x = np.array(sysm.validate_state(x0, mode, field_name="x0", mode_field="q0"), dtype=float)
+            x = np.array(sysm.validate_state(x0, mode, field_name="x0", mode_field=field), dtype=float)
         if not np.isfinite(t0):
             raise ModelError("t0", "a finite time", repr(t0))
         if y0 is not None and y0 not in self._outputs:

@@ -40,16 +40,16 @@ import numpy as np
 from .. import _compat
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER_ERROR, solve_problem
+from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
 from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace, initial_mode, initial_state
+from .location_design import affine_key, sqrt_psd
 from .location_observer import (
     AMBIGUOUS,
     SOLVER,
     LocationObserver,
     ResidualBank,
-    _affine_key,
-    _sqrt_psd,
     certified_decay,
     check_observable,
     detection_delays,
@@ -180,7 +180,7 @@ class ContinuousObserverLMI:
         else:
             self.input_box = (np.zeros(0), np.zeros(0))
         self.gain_bound = gain_bound
-        data = [_affine_key(aut, g[0]) for g in self.groups]
+        data = [affine_key(aut, g[0]) for g in self.groups]
         self._data = data
         self.scale = max(max(float(np.linalg.norm(d[0], 2)) for d in data), 1.0)
 
@@ -227,8 +227,8 @@ class ContinuousObserverLMI:
     # ------------------------------------------------------------------ mismatch data
     def _w_terms(self, i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
         """``v = Wa z - G_j Wc z`` with ``z = [x; u; 1]`` (eq. 17 with the output offsets)."""
-        Ai, Bi, Ei, Ci, Di, ci = _affine_key(self.automaton, i)
-        Aj, Bj, Ej, Cj, Dj, cj = _affine_key(self.automaton, j)
+        Ai, Bi, Ei, Ci, Di, ci = affine_key(self.automaton, i)
+        Aj, Bj, Ej, Cj, Dj, cj = affine_key(self.automaton, j)
         Wa = np.hstack([Aj - Ai, Bj - Bi, (Ej - Ei)[:, None]])
         Wc = np.hstack([Cj - Ci, Dj - Di, (cj - ci)[:, None]])
         return Wa, Wc
@@ -266,7 +266,6 @@ class ContinuousObserverLMI:
         SolverError
             Clarabel failed or returned an unusable point.
         """
-        import cvxpy as cp
 
         if not (np.isfinite(decay) and decay > 0):
             raise ModelError("decay", "a positive decay rate (1/s)", repr(decay))
@@ -279,13 +278,14 @@ class ContinuousObserverLMI:
         if outcome.status == SOLVER_ERROR:
             raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate ({outcome.message})")
         seconds, status = outcome.seconds, outcome.status
-        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+        if is_infeasible(status):
             raise InfeasibleError(what, None, self._diagnose(decay))
-        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or self.P.value is None:
-            raise SolverError(what, SOLVER, str(status), "a smaller decay rate")
+        if not is_optimal(status) or self.P.value is None:
+            # inaccurate answers are not accepted (hybobs_opt.status): the bounds built from P need an optimum
+            raise SolverError(what, SOLVER, str(status), "a smaller decay rate, or a larger gain bound")
         P = 0.5 * (self.P.value + self.P.value.T)
         G = tuple(self.scale * np.linalg.solve(P, Y.value) for Y in self.Y)
-        Ph, _, w = _sqrt_psd(P)
+        Ph, _, w = sqrt_psd(P)
         F = [d[0] - Gk @ d[3] for d, Gk in zip(self._data, G)]
         decays = [certified_decay(Fk, P) for Fk in F]
         pairs = []
@@ -409,7 +409,7 @@ def convergence_bound(design: ContinuousDesign, delta: float, dwell_time: float)
     a = design.decay
     if a <= 0:
         raise ModelError("design", "a design with a positive certified decay", f"decay {a:g}")
-    Ph, Pmh, w = _sqrt_psd(design.P)
+    Ph, Pmh, w = sqrt_psd(design.P)
     sigma = design.sigma
     M0_P = sigma * (1.0 - math.exp(-a * delta)) / a / (1.0 - math.exp(-a * dwell_time))
     n = design.automaton.n
@@ -456,7 +456,7 @@ class ContinuousObserver(Observer):
         self._mats = []
         self._ol = []
         for q in range(aut.n_locations):
-            A, B, E, C, D, c = _affine_key(aut, q)
+            A, B, E, C, D, c = affine_key(aut, q)
             G = design.gain(q)
             self._mats.append(sampled_observer(A, B, E, C, D, c, G, self.Ts))
             self._ol.append(sampled_observer(A, B, E, C, D, c, np.zeros_like(G), self.Ts)[:2])
@@ -467,11 +467,12 @@ class ContinuousObserver(Observer):
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, location: int | None = None,
               **kwargs: Any) -> None:
         """Restart at ``x0`` in location ``q0`` (``location`` is its old name; default: the constructor's)."""
+        field = "location" if location is not None else "q0"  # errors name the keyword the caller used
         q0 = initial_mode(q0, location, "location")
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
         loc = self._loc0 if q0 is None else int(q0)
         if not 0 <= loc < self.automaton.n_locations:
-            raise ModelError("q0", f"a location index in 0..{self.automaton.n_locations - 1}", repr(q0))
+            raise ModelError(field, f"a location index in 0..{self.automaton.n_locations - 1}", repr(q0))
         self._x0 = x0
         self.x = x0.copy()
         self.location = loc

@@ -151,13 +151,14 @@ class SwitchedGainObserver(Observer):
               **kwargs: Any) -> None:
         """Restart from ``x0`` (default: the centre of the box); a region index ``q0`` skips the
         selection (``region`` is its old name)."""
+        field = "region" if region is not None else "q0"  # errors name the keyword the caller used
         region = initial_mode(q0, region, "region")
         sysm = self.system
         x = 0.5 * (sysm.box_lower + sysm.box_upper) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
         if x.shape != (self.n,) or not np.all(np.isfinite(x)):
             raise ModelError("x0", f"a finite state of length {self.n}", repr(x0))
         if region is not None and not 0 <= int(region) < len(self.regions):
-            raise ModelError("q0", f"a region index in [0, {len(self.regions)})", repr(region))
+            raise ModelError(field, f"a region index in [0, {len(self.regions)})", repr(region))
         self.x = x.copy()
         self.q: int | None = None if region is None else int(region)
         if self.q is None and (self.init_samples <= 1 or len(self.regions) == 1):

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
-from ..systems import polytope as _poly
+from ..geometry.polytope import VERTEX_MAX_DIM, resolve_coordinate
 from ..systems._validate import as_names
 from ..systems.polytope import Polytope, VolumeEstimate, monte_carlo_volume
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
@@ -215,7 +215,7 @@ class PolytopeUnion:
         if method not in ("auto", "exact", "monte-carlo"):
             raise ModelError("method", "'auto', 'exact' or 'monte-carlo'", repr(method))
         if method == "auto":
-            method = "exact" if self.dim <= _poly.VERTEX_MAX_DIM else "monte-carlo"
+            method = "exact" if self.dim <= VERTEX_MAX_DIM else "monte-carlo"
         pieces = [p for p in self.pieces if not p.is_empty()]
         if not pieces:
             return VolumeEstimate(0.0, 0.0, method, 0 if method == "exact" else int(n_samples))
@@ -314,7 +314,7 @@ class PolytopeUnion:
 
     # ------------------------------------------------------------------ helpers
     def _index(self, coord: int | str) -> int:
-        return _poly._resolve(coord, self.names)
+        return resolve_coordinate(coord, self.names)
 
 
 def _region_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Polytope]:

@@ -19,7 +19,7 @@ package                  paper
 
 from hybobs_opt.systems.resolve import register_resolver
 
-from .registry import PAPERS, Example, LazyCallable, _resolve_example, get_example, list_examples, register
+from .registry import PAPERS, Example, LazyCallable, resolve_example, get_example, list_examples, register
 
 # Registration order = paper order (000 ... 004); each package calls register() at import.
 from . import paper000_driveline  # noqa: E402,F401
@@ -29,6 +29,6 @@ from . import paper003_switching  # noqa: E402,F401
 from . import paper004_nonmonotonic  # noqa: E402,F401
 
 # Saved results that name an example (``hybobs regions --save``) are rebuilt through this resolver.
-register_resolver("examples", _resolve_example)
+register_resolver("examples", resolve_example)
 
 __all__ = ["PAPERS", "Example", "LazyCallable", "get_example", "list_examples", "register"]

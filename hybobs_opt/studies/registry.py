@@ -154,7 +154,7 @@ def list_examples() -> list[Example]:
     return list(_REGISTRY.values())
 
 
-def _resolve_example(name: str, params: dict[str, Any]):
+def resolve_example(name: str, params: dict[str, Any]):
     """Resolver of example names for :mod:`hybobs_opt.systems.resolve` (``None`` for other names)."""
     if name not in _REGISTRY:
         return None

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hybobs_opt.lp import solve_lp
+from hybobs_opt.geometry.lp import row_range, solve_lp
 from hybobs_opt.regions import Cut
 from hybobs_opt.regions.enumeration import horizon_scaling
 from hybobs_opt.tolerances import REGION_SLACK_TOL
@@ -27,7 +27,7 @@ FIG6_PLANE = {"theta_mc": 0.0, "omega_m": 90.0, "omega_l": 30.0}
 def feasible_interval(analysis, state: str, fixed: dict[str, float]) -> tuple[float, float] | None:
     """Range of ``state`` over ``X*_T`` (eq. 5) intersected with ``fixed``; ``None`` if empty.
 
-    Two LPs (HiGHS, coordinates scaled by the bounds) per region ``P_k`` of eq. (4).
+    Two LPs (:func:`hybobs_opt.lp.row_range`, coordinates scaled by the bounds) per region ``P_k`` of eq. (4).
     """
     enum = analysis.enumeration
     names = analysis.system.state_names
@@ -44,15 +44,12 @@ def feasible_interval(analysis, state: str, fixed: dict[str, float]) -> tuple[fl
     for idx_r, reg in enumerate(enum.regions):
         G = reg.H * scale[None, :]
         g = reg.h - reg.H @ centre
-        for sign in (1.0, -1.0):
-            c = np.zeros(d)
-            c[k] = sign
-            res = solve_lp(c, G, g, A_eq if len(fixed) else None, b_eq if len(fixed) else None,
-                           problem=f"range of {state} over P_{idx_r}")
-            if res.status != "optimal":
-                break
-            v = centre[k] + scale[k] * res.x[k]
-            lo, hi = min(lo, v), max(hi, v)
+        r = row_range(G, g, np.eye(1, d, k), E=A_eq if len(fixed) else None, e=b_eq if len(fixed) else None,
+                      problem=f"range of {state} over P_{idx_r}", allow_empty=True, allow_unbounded=True)
+        if r is None or not np.all(np.isfinite(r)):
+            continue
+        lo = min(lo, centre[k] + scale[k] * r[0, 0])
+        hi = max(hi, centre[k] + scale[k] * r[0, 1])
     return None if lo > hi else (float(lo), float(hi))
 
 
