@@ -139,3 +139,42 @@ def test_cli_start_imports_no_solver(argv):
     from benchmarks.bench_startup import heavy_modules_imported
 
     assert heavy_modules_imported(argv) == []
+
+
+# ------------------------------------------------------------------ the range of a row over a polytope, once
+#: Loops over the two signs of an objective that call an LP solver but are not a range:
+#: ``certified_width_below`` bounds the width from DAQP's multipliers (a certificate, with an
+#: early exit), ``fixed_state_witness`` searches for a second state and stops at the first, and
+#: the dimension search of the paper 002 figures stops at the first direction that moves.
+NOT_A_RANGE = {"hybobs_opt/geometry/lp.py:certified_width_below",
+               "hybobs_opt/regions/pair_geometry.py:fixed_state_witness",
+               "hybobs_opt/studies/paper002_powertrain/figures.py:reduced_pair_dimensions"}
+LP_CALLS = {"solve_lp", "linprog"}
+
+
+def sign_loops_calling_an_lp() -> set[str]:
+    """``file:function`` of every ``for`` over a literal tuple holding both signs whose body calls an LP."""
+    found = set()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for fn in ast.walk(tree):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for loop in ast.walk(fn):
+                if not (isinstance(loop, ast.For) and isinstance(loop.iter, ast.Tuple)):
+                    continue
+                consts = {c.value for c in ast.walk(loop.iter) if isinstance(c, ast.Constant) and isinstance(c.value, float)}
+                signs = {c.operand.value for c in ast.walk(loop.iter) if isinstance(c, ast.UnaryOp)
+                         and isinstance(c.op, ast.USub) and isinstance(c.operand, ast.Constant)}
+                if not (1.0 in consts and 1.0 in signs):
+                    continue
+                calls = {getattr(c.func, "id", getattr(c.func, "attr", "")) for s in loop.body for c in ast.walk(s)
+                         if isinstance(c, ast.Call)}
+                if calls & LP_CALLS:
+                    found.add(f"{path.relative_to(PACKAGE.parent)}:{fn.name}")
+    return found
+
+
+def test_the_range_of_a_row_over_a_polytope_is_written_once():
+    """Two LPs per row (min and max) live in geometry.lp.row_range; everything else calls it."""
+    assert sign_loops_calling_an_lp() - NOT_A_RANGE == {"hybobs_opt/geometry/lp.py:row_range"}
