@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[1] / "hybobs_opt"
+PACKAGE = Path(__file__).resolve().parents[2] / "hybobs_opt"
 
 UPPER = {"core": ("hybobs_opt.studies", "hybobs_opt.cli", "hybobs_opt.report", "hybobs_opt.examples"),
          "studies": ("hybobs_opt.cli", "hybobs_opt.report")}

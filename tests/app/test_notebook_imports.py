@@ -26,7 +26,7 @@ import pytest
 
 from hybobs_opt import _compat
 
-NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+NOTEBOOKS = sorted((Path(__file__).resolve().parents[2] / "notebooks").glob("*.ipynb"))
 
 #: Core sub-packages whose ``__init__`` is a public face (names in ``__all__``).
 CORE_PACKAGES = ("hybobs_opt.systems", "hybobs_opt.sim", "hybobs_opt.regions", "hybobs_opt.lmi", "hybobs_opt.mhe",

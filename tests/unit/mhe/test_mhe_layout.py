@@ -16,7 +16,7 @@ from hybobs_opt.mhe.backends import Backend, BackendOutcome
 from hybobs_opt.results import SolveResult
 from hybobs_opt.status import Status
 
-MHE_DIR = Path(__file__).resolve().parents[1] / "hybobs_opt" / "mhe"
+MHE_DIR = Path(__file__).resolve().parents[3] / "hybobs_opt" / "mhe"
 
 #: Every module-level name of hybobs_opt/mhe/miqp.py before the split.
 OLD_MIQP_NAMES = [
