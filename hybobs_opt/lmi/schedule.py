@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import row_range
+from ..geometry.lp import row_range
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 
 

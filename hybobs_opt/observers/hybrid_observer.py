@@ -240,7 +240,7 @@ class ContinuousObserverLMI:
         inv = aut.locations[i].invariant
         lo, hi = self.state_box
         ulo, uhi = self.input_box
-        from ..systems.polytope import Polytope
+        from ..geometry.polytope import Polytope
 
         box = Polytope.from_box(np.concatenate([lo, ulo]), np.concatenate([hi, uhi]))
         region = inv if inv.dim == n + m else inv.lift(n + m, range(n))

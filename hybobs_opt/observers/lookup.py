@@ -70,8 +70,8 @@ import numpy as np
 from scipy.optimize import nnls
 
 from ..errors import ModelError
-from ..lp import solve_slack_lp
-from ..systems.polytope import Polytope
+from ..geometry.lp import solve_slack_lp
+from ..geometry.polytope import Polytope
 from ..tolerances import (
     LOOKUP_INPUT_BOUND_TOL,
     LOOKUP_INTERIOR_MARGIN,

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import COUNTERS, max_slack
+from ..geometry.lp import COUNTERS, max_slack
 from ..systems.pwa import PWASystem
 from ..tolerances import BOX_IMPLIED_RTOL, REGION_SLACK_TOL
 

@@ -28,9 +28,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
-from .._lp_kernels import restricted_pair_rows, slack_lp_data
-from ..lp import COUNTERS, max_slack, row_range, solve_slack_lp
+from ..geometry._lp_kernels import restricted_pair_rows, slack_lp_data
+from ..geometry.lp import COUNTERS, max_slack, row_range, solve_slack_lp
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
+from ..status import Status
 from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 
@@ -281,7 +282,7 @@ class ObservabilityAnalysis:
         -------
         (PolytopeUnion, PolytopeUnion, PolytopeUnion)
         """
-        from ..systems.polytope import Polytope
+        from ..geometry.polytope import Polytope
         from .union import PolytopeUnion
 
         fixed = dict(fixed or {})
@@ -323,6 +324,29 @@ class ObservabilityAnalysis:
         X = PolytopeUnion(tuple(xstar), d, tuple(free))
         B = PolytopeUnion(tuple(bt), d, tuple(free))
         return X, B, X.difference(B)
+
+    # ------------------------------------------------------------------ result protocol
+    @property
+    def status(self) -> Status:
+        """``OPTIMAL``: every LP of the enumeration and of steps 1-3 was certified (status mapped,
+        returned point re-checked by :func:`~hybobs_opt.geometry.lp.solve_lp`).  An LP that
+        could not be certified raises :class:`~hybobs_opt.errors.SolverError` instead of
+        returning an analysis, so no other status is ever held here."""
+        return Status.OPTIMAL
+
+    @property
+    def residuals(self) -> dict[str, float]:
+        """Empty: the analysis returns sets, not a point (each LP's point was checked on its own)."""
+        return {}
+
+    @property
+    def total_seconds(self) -> float:
+        """Enumeration and Algorithm 3.1 together."""
+        return self.enumeration.seconds + self.seconds
+
+    def to_dict(self) -> dict:
+        """JSON-ready record (:meth:`summary` with the ``status``) of the result protocol."""
+        return {"status": str(self.status), **self.summary()}
 
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict:

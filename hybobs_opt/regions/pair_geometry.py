@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import daqp
 import numpy as np
 
-from .._lp_kernels import slack_lp_data, support_upper_bound
-from ..lp import COUNTERS, certified_width_below, solve_lp, solve_slack_lp
+from ..geometry._lp_kernels import slack_lp_data, support_upper_bound
+from ..geometry.lp import COUNTERS, certified_width_below, solve_lp, solve_slack_lp
 from ..status import DAQP_STATUS, Status, is_optimal, map_status
 from ..tolerances import (
     CLOSED_SET_TOL,

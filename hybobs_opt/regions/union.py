@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import ModelError
 from ..geometry.polytope import VERTEX_MAX_DIM, resolve_coordinate
 from ..systems._validate import as_names
-from ..systems.polytope import Polytope, VolumeEstimate, monte_carlo_volume
+from ..geometry.polytope import Polytope, VolumeEstimate, monte_carlo_volume
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 
 

@@ -31,7 +31,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ModelError
-from ..lp import row_range
+from ..geometry.lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
 from ._validate import as_matrix, as_names
 from .polytope import Polytope

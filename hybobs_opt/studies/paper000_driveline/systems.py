@@ -21,7 +21,7 @@ from hybobs_opt.errors import ModelError
 from hybobs_opt.sim.hybrid import simulate_hybrid
 from hybobs_opt.sim.trace import Trace
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.geometry.polytope import Polytope
 
 #: Operating point of Section 2 of paper 000: "2000 rpm (i.e. omega_c0 = (pi/30) 2000 rad/sec)".
 OMEGA_C0 = np.pi / 30.0 * 2000.0

@@ -22,7 +22,7 @@ import numpy as np
 from hybobs_opt.errors import ModelError
 from hybobs_opt.sim.trace import Trace
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.sim.hybrid import simulate_hybrid
 
 # ---------------------------------------------------------------------------------- Example 1

@@ -15,7 +15,7 @@ import numpy as np
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.sim.pwa import simulate_pwa
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.systems.pwa import PWAMode, PWASystem
 
 #: Sampling period of models (16) and (17), paper 002 Section 5.1 ("Ts = 1 ms").

@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.systems.pwa import PWASystem
 from hybobs_opt.studies.paper004_nonmonotonic.systems import PISTON_A_MAX, PISTON_DT, PISTON_STROKE_MM, PISTON_V_MAX, magnetic_piston
 

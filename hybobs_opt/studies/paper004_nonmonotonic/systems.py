@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 from hybobs_opt.errors import ModelError
 from hybobs_opt.sim.nonlinear import simulate_nonlinear
 from hybobs_opt.sim.trace import Trace
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.systems.scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
 
 # ---------------------------------------------------------------------------------------------
