@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ._common import json_default, print_json
-from .diagnose import example_and_preset, parse_range
+from ._schedule import example_and_preset, parse_range
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
 

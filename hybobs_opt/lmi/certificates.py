@@ -37,7 +37,7 @@ import numpy as np
 from ..errors import InfeasibleError, SolverError
 from ..tolerances import CERTIFICATE_RTOL
 from .bounds import DerivativeBound, JacobianBounds
-from .observer_lmi import LMI_NAMES, LMIData, LMIParameters, SectorData
+from .lmi_model import LMI_NAMES, LMIData, LMIParameters, SectorData
 from .solve import INFEASIBLE, OPTIMAL, SOLVER, solve_problem
 
 

@@ -26,7 +26,7 @@ from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
-from .observer_lmi import LMIParameters, box_scaling, lmi_data, lmi_expression
+from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
 from .solve import OPTIMAL, solve_problem
 

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
-from .observer_lmi import LMIData, ObserverLMI, SectorData, lmi_data
+from .lmi_model import LMIData, SectorData, lmi_data
+from .observer_lmi import ObserverLMI
 from .schedule import SchedulingRegion
 
 

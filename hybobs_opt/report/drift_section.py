@@ -33,7 +33,7 @@ from ..studies.paper003_switching.comparison import (  # noqa: F401  (old names 
     unserved_buffer_server,
     visible_samples,
 )
-from .html import ReportSection, register_section
+from .section import ReportSection, register_section
 
 #: Paper 003, Section 5: printed numbers of the junction run (observer from t = 50).
 PAPER_003_JUNCTION = {

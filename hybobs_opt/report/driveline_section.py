@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..studies.paper000_driveline.comparison import COMPARE_FROM, LOOKUP_HORIZONS, compare, timed  # noqa: F401
-from .html import ReportSection, register_section
+from .section import ReportSection, register_section
 
 def _fmt(v: Any, digits: int = 3) -> str:
     if v is None:

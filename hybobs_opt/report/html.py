@@ -10,34 +10,11 @@ import html
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ..errors import HybobsError
-
-SectionBuilder = Callable[[Path, Callable[[str], None]], "ReportSection"]
-
-
-@dataclass
-class ReportSection:
-    """One section of the report: a title, an HTML body, and a JSON-ready summary."""
-
-    title: str
-    body_html: str
-    summary: dict[str, Any] = field(default_factory=dict)
-    figures: list[str] = field(default_factory=list)
-
-
-_SECTIONS: list[tuple[str, SectionBuilder]] = []
-
-
-def register_section(key: str, builder: SectionBuilder) -> None:
-    """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``."""
-    if any(k == key for k, _ in _SECTIONS):
-        return
-    _SECTIONS.append((key, builder))
-
+from .section import _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
 
 def section_keys() -> list[str]:
     _load_builtin_sections()

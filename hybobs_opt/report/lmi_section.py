@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 
 from ..lmi.plots import plot_jacobian_bounds  # noqa: F401  (old name of this module)
 from ..observers.plots import plot_observer_run
-from .html import ReportSection, register_section  # noqa: E402
+from .section import ReportSection, register_section  # noqa: E402
 
 
 def _diagnosis_markdown(diag, example: str, fig_name: str) -> str:

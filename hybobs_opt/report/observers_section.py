@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..studies.paper002_powertrain.bench import run_bench
-from .html import ReportSection, register_section
+from .section import ReportSection, register_section
 
 #: Steps of the scenario (1 ms each) and of the MHE runs (they cost milliseconds per step).
 STEPS, MHE_STEPS = 3000, 3000

@@ -35,7 +35,7 @@ from ..studies.paper002_powertrain.figures import (  # noqa: F401  (old names of
 )
 from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
 from ..regions import analyse_observability, compute_cut, plot_cut
-from .html import ReportSection, register_section
+from .section import ReportSection, register_section
 
 #: Published figures of paper 002 (Sections 6-7), quoted for comparison only.
 PAPER_002 = {

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..studies import PAPERS, list_examples
-from .html import ReportSection, register_section
+from .section import ReportSection, register_section
 from .plots import plot_trace
 
 

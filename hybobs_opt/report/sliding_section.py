@@ -40,7 +40,7 @@ from ..studies.paper001_sliding_mode.comparison import (  # noqa: E402,F401  (ol
 )
 from ..systems.canonical_form import theorem1_pairs  # noqa: E402
 from ..tolerances import SMO_FILTER_STEPS  # noqa: E402
-from .html import ReportSection, register_section  # noqa: E402
+from .section import ReportSection, register_section  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------- figures

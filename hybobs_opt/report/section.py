@@ -1,0 +1,34 @@
+"""One section of the report and the registry of section builders.
+
+A section module builds a :class:`ReportSection` and calls :func:`register_section`;
+:func:`hybobs_opt.report.html.build_report` assembles the registered sections into the page.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+SectionBuilder = Callable[[Path, Callable[[str], None]], "ReportSection"]
+
+
+@dataclass
+class ReportSection:
+    """One section of the report: a title, an HTML body, and a JSON-ready summary."""
+
+    title: str
+    body_html: str
+    summary: dict[str, Any] = field(default_factory=dict)
+    figures: list[str] = field(default_factory=list)
+
+
+_SECTIONS: list[tuple[str, SectionBuilder]] = []
+
+
+def register_section(key: str, builder: SectionBuilder) -> None:
+    """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``."""
+    if any(k == key for k, _ in _SECTIONS):
+        return
+    _SECTIONS.append((key, builder))
