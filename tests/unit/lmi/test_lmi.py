@@ -2,19 +2,21 @@
 
 Every claim is checked by an independent numpy computation written here from the paper's
 equations (the LMI (23)/(22) blocks, the frozen-Jacobian Lyapunov inequality, eqs. (47)-(48)),
-never against a number the code under test produced.
+never against a number the code under test produced.  The paper's regions and observer runs
+(Figs. 3-4, the piston's region-wise gains) are in ``tests/studies/test_paper004_nonmonotonic.py``;
+``hybobs diagnose / synth`` and their ``--range`` parsing in ``tests/app/test_cli_lmi.py``.
 """
 
 from __future__ import annotations
 
-import json
 import math
 
 import casadi as ca
 import numpy as np
 import pytest
 
-from hybobs_opt import cli
+from observer_checks import frozen_jacobian_lyapunov
+
 from hybobs_opt.errors import ModelError, SolverError
 from hybobs_opt.examples.nonmonotonic import magnetic_piston, vehicle_tracking
 from hybobs_opt.lmi import (
@@ -31,7 +33,6 @@ from hybobs_opt.lmi import (
 )
 from hybobs_opt.lmi import observer_lmi as olmi
 from hybobs_opt.lmi.certificates import certify_infeasible
-from hybobs_opt.lmi.commands import parse_range
 from hybobs_opt.lmi.presets import get_preset, preset_design, scaling_for
 from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -76,14 +77,6 @@ def lmi23(P, L, C, F, E, U, V_, sigma):
     B11 = -C.T @ L.T @ P - P @ L @ C - E.T @ UV @ E + sigma * P
     B12 = P @ F + E.T @ np.diag((U + V_) / 2)
     return np.block([[B11, B12], [B12.T, -np.eye(F.shape[1])]])
-
-
-def frozen_jacobian_lyapunov(system, L, P, sigma, x):
-    """max eig of J'P + PJ + sigma P with J = A + F diag(f'(Ex)) E - L diag(h'(Cx)) C (eqs. 7, 10)."""
-    fd = np.array([fn.deriv(np.array([z]))[0] for fn, z in zip(system.f, system.E @ x)]) if system.r else np.zeros(0)
-    hd = np.array([fn.deriv(np.array([z]))[0] for fn, z in zip(system.h, system.C @ x)])
-    J = system.A + system.F @ np.diag(fd) @ system.E - L @ np.diag(hd) @ system.C
-    return float(np.linalg.eigvalsh(J.T @ P + P @ J + sigma * P).max()), J
 
 
 # --------------------------------------------------------------------------- Jacobian bounds (eqs. 4-5)
@@ -162,17 +155,6 @@ def test_empty_or_outside_region_is_rejected(vehicle):
         make_region(vehicle, "psi", 7.0, 8.0)
     with pytest.raises(ModelError, match="states"):
         make_region(vehicle, "theta", 0.0, 1.0)
-
-
-def test_range_parsing_errors():
-    p = get_preset("vehicle_tracking")
-    names = ("X", "Y", "psi", "delta_f")
-    assert parse_range("psi=0:360", p, names) == (0.0, 360.0)
-    assert parse_range("psi=0:3.14159265rad", p, names)[1] == pytest.approx(180.0)
-    for bad, msg in (("psi=80:0", "LO < HI"), ("psi=0:nan", "finite"), ("psi:0:1", "NAME=LO:HI"),
-                     ("X=0:1", "scheduling coordinate"), ("q=0:1", "state of the example"), ("psi=a:b", "numbers")):
-        with pytest.raises(ModelError, match=msg):
-            parse_range(bad, p, names)
 
 
 def test_bad_switch_points_and_overlap(vehicle):
@@ -290,13 +272,6 @@ def test_theorem5_on_vehicle_and_piston(vehicle, piston):
 
 
 # --------------------------------------------------------------------------- vehicle: switched gains and tau
-def test_vehicle_paper_regions_and_gains(vehicle_design):
-    regs = [g.region for g in vehicle_design.regions]
-    assert [(round(math.degrees(r.lo), 9), round(math.degrees(r.hi), 9)) for r in regs] == [(0.0, 80.0), (60.0, 140.0)]
-    for g in vehicle_design.regions:
-        assert g.sigma > 0 and g.gain_norm <= 200 * (1 + 1e-6)
-
-
 def test_vehicle_gains_stabilise_frozen_jacobians_on_a_grid(vehicle, vehicle_design):
     for g in vehicle_design.regions:
         for psi in np.linspace(g.region.lo, g.region.hi, 41):
@@ -328,39 +303,7 @@ def test_dwell_time_and_hysteresis_formulas():
         hysteresis_for_dwell(0.2, 0.0)
 
 
-# --------------------------------------------------------------------------- vehicle: observers (Figs. 3-4)
-@pytest.fixture(scope="module")
-def vehicle_runs(vehicle_design):
-    from hybobs_opt.observers.switched_gain import run_example
-
-    sw = run_example("vehicle_tracking", "switched", design=vehicle_design)
-    single = run_example("vehicle_tracking", "single", design=vehicle_design)
-    return sw, single
-
-
-def test_switched_observer_tracks_the_paper_scenario(vehicle_runs):
-    (trace, ot, s), _ = vehicle_runs
-    err = ot.errors(trace.x)
-    late = trace.t >= 10.0
-    assert np.abs(err[late, 2]).max() < deg(0.1)  # yaw error converged and stays small through the turn
-    assert np.abs(err[late, :2]).max() < 0.05
-    assert s["converged"] and s["convergence_time"] < 5.0
-    assert s["regions_visited"] == [0, 1] and s["n_switches"] == 1
-    assert s["initial_selection"]["region"] == 0
-    assert abs(s["initial_selection"]["s"] - deg(30)) < deg(2)  # heading from the first radar samples
-
-
-def test_single_gain_diverges_after_the_yaw_leaves_its_region(vehicle_runs):
-    (trace, _, _), (_, ot1, s1) = vehicle_runs
-    err = ot1.errors(trace.x)
-    psi = trace.state("psi")
-    inside = (trace.t > 3.0) & (psi < deg(75))
-    after = trace.t > trace.t[np.argmax(psi > deg(100))] + 2.0
-    assert np.abs(err[inside, 2]).max() < deg(1)  # fine while the yaw is in 0-80 deg (Fig. 4)
-    assert np.abs(err[after, 2]).max() > deg(20)  # and lost once it has left
-    assert not s1["converged"]
-
-
+# --------------------------------------------------------------------------- vehicle: the observer on bad samples
 def test_observer_never_raises_on_bad_samples(vehicle, vehicle_design):
     from hybobs_opt.observers.switched_gain import SwitchedGainObserver
 
@@ -389,28 +332,6 @@ def test_piston_constant_gain_is_infeasible_with_verified_certificate(piston):
     assert MN < 0
 
 
-@pytest.mark.slow
-def test_piston_regionwise_gains_tau_and_convergence(piston, piston_design):
-    from hybobs_opt.observers.switched_gain import run_example
-
-    d = piston_design
-    assert len(d.regions) >= 5
-    assert d.regions[0].region.lo == 0.0 and d.regions[-1].region.hi == pytest.approx(203.0)
-    for a, b in zip(d.regions[:-1], d.regions[1:]):
-        assert b.region.lo < a.region.hi  # neighbours overlap (hysteresis)
-    assert np.isfinite(d.tau) and d.tau >= 0
-    for g in d.regions:
-        assert g.sigma > 0
-        for zz in np.linspace(g.region.lo, g.region.hi, 25):
-            lyap, _ = frozen_jacobian_lyapunov(piston, g.L, g.P, g.sigma, np.array([zz, 0.0, 0.0]))
-            assert lyap <= 1e-6 * np.abs(g.P).max()
-    trace, ot, s = run_example("magnetic_piston", "switched", design=d)
-    err = ot.errors(trace.x)
-    assert abs(err[0, 0]) == pytest.approx(4.0)  # the initial error
-    assert np.abs(err[trace.t > 1.0, 0]).max() < 0.01  # mm
-    assert s["converged"] and len(set(s["regions_visited"])) == len(d.regions)
-
-
 def test_piston_initial_region_does_not_depend_on_input_timing(piston, piston_design):
     """The initial-region selection (paper 004, Sec. 7) on the piston scenario with the jerk
     sampled at the instants and half a sample later: both start in the region of the true
@@ -436,52 +357,7 @@ def test_piston_initial_region_does_not_depend_on_input_timing(piston, piston_de
         assert np.abs(ot.errors(trace.x)[trace.t > 0.25, 0]).max() < 0.05  # mm
 
 
-# --------------------------------------------------------------------------- diagnose / synth commands
-@pytest.fixture
-def lmi_cli():
-    assert {"diagnose", "synth"} <= set(cli.COMMANDS)  # registered in the CLI
-    return cli
-
-
-def test_diagnose_json_vehicle_full_circle(lmi_cli, tmp_path, capsys):
-    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:360", "--out", str(tmp_path), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["feasible"] is False
-    c = out["certificate"]
-    assert c["verified"] is True and c["theorem"] == "Theorem 4" and "e_psi" in c["reason"]
-    assert (tmp_path / "diagnose_vehicle_tracking.md").exists() and (tmp_path / "diagnose_vehicle_tracking.html").exists()
-    assert (tmp_path / "bounds_vehicle_tracking.png").stat().st_size > 1000
-    assert out["suggested_regions"] and out["suggested_regions"][0][0] == 0.0
-
-
-def test_diagnose_json_vehicle_0_80_is_feasible(lmi_cli, tmp_path, capsys):
-    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:80", "--out", str(tmp_path), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["feasible"] is True and "certificate" not in out and np.array(out["gain"]["L"]).shape == (4, 2)
-
-
-def test_synth_json_writes_the_gains(lmi_cli, tmp_path, capsys):
-    path = tmp_path / "gains.json"
-    assert lmi_cli.main(["synth", "vehicle_tracking", "--out", str(path), "--json"]) == 0
-    printed = json.loads(capsys.readouterr().out)
-    written = json.loads(path.read_text())
-    for out in (printed, written):
-        assert out["tau"] > 0 and len(out["regions"]) == 2
-        assert out["regions"][0]["interval"] == pytest.approx([0.0, 80.0])
-        for r in out["regions"]:
-            assert np.array(r["L"]).shape == (4, 2) and np.array(r["P"]).shape == (4, 4) and r["sigma"] > 0
-
-
-@pytest.mark.parametrize("argv, msg", [
-    (["diagnose", "vehicle_tracking", "--range", "psi=80:0"], "LO < HI"),
-    (["diagnose", "vehicle_tracking", "--range", "psi=400:500"], "empty region"),
-    (["diagnose", "powertrain3"], "scalar-nonlinear"),
-    (["synth", "vehicle_tracking", "--out", "x.json", "--max-rate", "-1"], "--max-rate"),
-])
-def test_commands_reject_bad_input(lmi_cli, argv, msg, capsys, tmp_path):
-    argv = [a if a != "x.json" else str(tmp_path / "x.json") for a in argv]
-    assert lmi_cli.main(argv + (["--out", str(tmp_path)] if argv[0] == "diagnose" else [])) == 2
-    assert msg in capsys.readouterr().err
+# --------------------------------------------------------------------------- the observe scenarios
 
 
 def test_observe_scenarios_are_registered():

@@ -1,17 +1,14 @@
 """Event-sampled models and observers of constant-drift hybrid systems (paper 003, Sections 3-5).
 
-Expected values come from the paper (printed matrices of Sections 3 and 5, the gains (20a-b),
-the numbers of the Section 5 run, to their printed precision) or from hand computations written
-out below with exact fractions; the only other reference is the exact event-time simulator
-(tested in test_constant_drift.py).  Nothing is compared with a number produced by the code
-under test.
+Expected values come from hand computations written out below, from the paper's gains (20a-b)
+or from the exact event-time simulator (tested in test_constant_drift.py).  Nothing is compared
+with a number produced by the code under test.  The paper's printed matrices (Sections 3 and 5),
+the gains (20a-b) and the numbers of the Section 5 run are checked in
+``tests/studies/test_paper003_switching.py``; ``hybobs observe`` in ``tests/app/test_cli_drift.py``
+and the report's section in ``tests/app/test_report_drift.py``.
 """
 
 from __future__ import annotations
-
-import argparse
-import json
-from fractions import Fraction as F
 
 import numpy as np
 import pytest
@@ -19,13 +16,12 @@ import pytest
 from hybobs_opt.errors import InfeasibleError, ModelError
 from hybobs_opt.examples.switching import switching_server, traffic_junction
 from hybobs_opt.observers.base import FALLBACK, OBSERVABLE
-from hybobs_opt.observers.drift_observer import DriftObserver, junction_paper_gains, run_drift_scenario
+from hybobs_opt.observers.drift_observer import DriftObserver, run_drift_scenario
 from hybobs_opt.observers.periodic import (
     CopositiveCertificate,
     NoDeadbeatCertificate,
     PerronCertificate,
     PeriodicObserver,
-    analyse_gains,
     deadbeat_gains,
     positive_deadbeat_gains,
     positive_gain_bounds,
@@ -34,7 +30,7 @@ from hybobs_opt.observers.periodic import (
 from hybobs_opt.report.drift_section import polling_server, unserved_buffer_server, visible_samples
 from hybobs_opt.sim import simulate_constant_drift
 from hybobs_opt.systems import ConstantDriftSystem
-from hybobs_opt.systems.event_sampled import PeriodicSystem, event_maps, periodic_system
+from hybobs_opt.systems.event_sampled import PeriodicSystem, periodic_system
 
 LAM = (1.0, 2.0, 3.0)
 MU = (8.0, 10.0, 12.0)
@@ -50,11 +46,6 @@ def junction():
 
 
 @pytest.fixture(scope="module")
-def junction_run():
-    return run_drift_scenario("traffic_junction", "paper")
-
-
-@pytest.fixture(scope="module")
 def server():
     return switching_server(lam1=L1_, mu1=M1_, mu2=M2_, gamma1=G1_, gamma2=G2_)
 
@@ -65,66 +56,7 @@ def paper_gains_20():
     return np.array([[0.0, l2, l3], [l1, l2 * l3 / MU[2], 0.0]])
 
 
-# ---------------------------------------------------------------------------- Section 3: matrices
-def test_server_all_event_matrices_section_3_1(server):
-    l1, m1, m2, g1, g2 = L1_, M1_, M2_, G1_, G2_
-    At = {1: [[1, 0, 0], [0, 0, 0], [0, m1 / (m1 - l1), 1]], 2: [[0, 0, 0], [l1, 1, 0], [0, 0, 1]],
-          3: [[1, 0, 0], [0, 1, l1 / m2], [0, 0, 0]], 4: [[0, 0, 0], [l1, 1, 0], [0, 0, 1]]}
-    at = {1: [0, 0, 0], 2: [0, g2 * l1, 0], 3: [0, 0, 0], 4: [0, g1 * l1, 0]}
-    Ct = {1: [0, 1 / (m1 - l1), 0], 2: [1, 0, 0], 3: [0, 0, 1 / m2], 4: [1, 0, 0]}
-    ct = {1: 0.0, 2: g2, 3: 0.0, 4: g1}
-    maps = event_maps(server)
-    for q in range(1, 5):
-        np.testing.assert_allclose(maps.A_tilde[q - 1], At[q], rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(maps.a_tilde[q - 1], at[q], rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(maps.C_tilde[q - 1], Ct[q], rtol=1e-14, atol=1e-14)
-        assert maps.c_tilde[q - 1] == pytest.approx(ct[q], abs=1e-14)
-    # Remark 3.1: all non-negative
-    assert (maps.A_tilde >= 0).all() and (maps.a_tilde >= 0).all() and (maps.C_tilde >= 0).all()
-
-
-def test_server_reduced_matrices_section_3_2(server):
-    l1, m1, m2, g1, g2 = L1_, M1_, M2_, G1_, G2_
-    Ab = {1: [[0, 0], [m1 / (m1 - l1), 1]], 2: np.eye(2), 3: [[1, l1 / m2], [0, 0]], 4: np.eye(2)}
-    ab = {1: [0, 0], 2: [g2 * l1, 0], 3: [0, 0], 4: [g1 * l1, 0]}
-    Cb = {1: [1 / (m1 - l1), 0], 2: [0, 0], 3: [0, 1 / m2], 4: [0, 0]}
-    cb = {1: 0.0, 2: g2, 3: 0.0, 4: g1}
-    maps = event_maps(server)
-    for q in range(1, 5):
-        np.testing.assert_allclose(maps.A_bar[q - 1], Ab[q], rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(maps.a_bar[q - 1], ab[q], rtol=1e-14, atol=1e-14)
-        np.testing.assert_allclose(maps.C_bar[q - 1], Cb[q], rtol=1e-14, atol=1e-14)
-        assert maps.c_bar[q - 1] == pytest.approx(cb[q], abs=1e-14)
-
-
-def test_server_two_periodic_system_section_3_3(server):
-    l1, m1, m2, g1, g2 = L1_, M1_, M2_, G1_, G2_
-    ps = periodic_system(server)
-    assert ps.period == 2 and ps.event_modes == (3, 4) and ps.visible_modes == (4,)
-    np.testing.assert_allclose(ps.A[0], [[1, l1 / m2], [0, 0]], rtol=1e-14)
-    np.testing.assert_allclose(ps.a[0], [0, 0], atol=1e-14)
-    np.testing.assert_allclose(ps.C[0], [0, 1 / m2], rtol=1e-14)
-    assert ps.c[0] == pytest.approx(0.0, abs=1e-14)
-    np.testing.assert_allclose(ps.A[1], [[0, 0], [m1 / (m1 - l1), 1]], rtol=1e-14)
-    np.testing.assert_allclose(ps.a[1], [g2 * l1, l1 * m1 * g1 / (m1 - l1)], rtol=1e-14)
-    np.testing.assert_allclose(ps.C[1], [1 / (m1 - l1), 0], rtol=1e-14)
-    assert ps.c[1] == pytest.approx(g1 * m1 / (m1 - l1) + g2, rel=1e-14)
-    assert ps.segments == ((3,), (4, 1, 2))
-
-
-def test_junction_periodic_system_section_5(junction):
-    l1, l2, l3 = LAM
-    m1, m2, m3 = MU
-    d = (m2 - l2) * (m3 - l3)
-    ps = periodic_system(junction)
-    assert ps.event_modes == (1, 2)
-    np.testing.assert_allclose(ps.A[0], [[0, 0, 0], [l2 / (m1 - l1), 1, 0], [l3 / (m1 - l1), 0, 1]], rtol=1e-14, atol=1e-15)
-    np.testing.assert_allclose(ps.C[0], [1 / (m1 - l1), 0, 0], rtol=1e-14, atol=1e-15)
-    np.testing.assert_allclose(ps.A[1], [[1, l1 * m3 / d, l1 / (m3 - l3)], [0, l2 * l3 / d, l2 / (m3 - l3)], [0, 0, 0]],
-                               rtol=1e-14, atol=1e-15)
-    np.testing.assert_allclose(ps.C[1], [0, m3 / d, 1 / (m3 - l3)], rtol=1e-14, atol=1e-15)
-
-
+# ---------------------------------------------------------------------------- event-sampled models
 @pytest.mark.parametrize(
     "factory, visible, V",
     [
@@ -154,29 +86,6 @@ def test_periodic_system_matches_exact_simulation(factory, visible, V, junction,
 
 
 # ---------------------------------------------------------------------------- gains
-def test_sequential_deadbeat_reproduces_gains_20(junction):
-    ps = periodic_system(junction)
-    g = deadbeat_gains(ps)
-    np.testing.assert_allclose(g.L, paper_gains_20(), rtol=1e-12, atol=1e-12)
-    assert g.deadbeat and g.positive
-    np.testing.assert_allclose(junction_paper_gains(LAM, MU), paper_gains_20(), rtol=0, atol=0)
-
-
-def test_paper_gains_20_are_positive_and_deadbeat(junction):
-    # By hand from the Section 5 matrices: A1 - L1 C1 = diag(0, 1, 1) and
-    # A2 - L2 C2 = [[1, 0, 0], [0, 0, lam2/mu3], [0, 0, 0]]; both products of the two are
-    # [[0,0,0],[0,0,lam2/mu3],[0,0,0]], whose square is 0: deadbeat after two periods (4 events).
-    ps = periodic_system(junction)
-    g = analyse_gains(ps, paper_gains_20())
-    np.testing.assert_allclose(g.closed_loop[0], np.diag([0.0, 1.0, 1.0]), atol=1e-15)
-    np.testing.assert_allclose(g.closed_loop[1], [[1, 0, 0], [0, 0, LAM[1] / MU[2]], [0, 0, 0]], atol=1e-15)
-    assert g.positive  # "the matrices A_v - L_v C_v and L_v C_v are positive" (Section 5)
-    assert g.deadbeat_steps == 4
-    assert g.monodromy_radius == pytest.approx(0.0, abs=1e-12)
-    # (20a-b) is the corner of the box of positive gains (see hybobs_opt.observers.periodic)
-    np.testing.assert_allclose(positive_gain_bounds(ps), paper_gains_20(), rtol=1e-14, atol=1e-15)
-
-
 def test_server_deadbeat_gains_by_hand(server):
     # From the Section 3.3 matrices: L1 = [lam1, 0] gives A1 - L1 C1 = [[1, 0], [0, 0]],
     # L2 = [0, mu1] gives A2 - L2 C2 = [[0, 0], [0, 1]]; their product is 0 (deadbeat in 2 events).
@@ -274,92 +183,7 @@ def test_unserved_buffer_has_no_observer_at_all():
     assert isinstance(exc.value.certificate, PerronCertificate) and exc.value.certificate.verify()
 
 
-# ---------------------------------------------------------------------------- Section 5 run
-def _hand_prediction():
-    """Open-loop flow from x^(50) = [0, 70, 20, 30] in mode 4, with exact fractions (Section 5 data)."""
-    l1, l2, l3 = (F(int(v)) for v in LAM)
-    m2, m3 = F(10), F(12)
-    g1, g3 = F(5), F(15)
-    t, x1, x2, x3 = F(50), F(70), F(20), F(30)
-    d = x2 / (m2 - l2)  # mode 4: serve flow 2 until empty
-    t, x1, x2, x3 = t + d, x1 + l1 * d, F(0), x3 + l3 * d
-    d = g3  # mode 5: clear for flow 3
-    t, x1, x2, x3 = t + d, x1 + l1 * d, x2 + l2 * d, x3 + l3 * d
-    d = x3 / (m3 - l3)  # mode 6: serve flow 3 until empty
-    t, x1, x2, x3 = t + d, x1 + l1 * d, x2 + l2 * d, F(0)
-    d = g1  # mode 1: clear for flow 1; its end is the predicted visible event
-    t, x1, x2, x3 = t + d, x1 + l1 * d, x2 + l2 * d, x3 + l3 * d
-    assert (t, x1, x2, x3) == (F(245, 3), F(305, 3), F(175, 3), F(15))
-    return t, (x1, x2, x3)
-
-
-def test_first_visible_event_predicted_at_81_7(junction_run):
-    ev = junction_run["observer"].events[0]
-    t_hand, x_hand = _hand_prediction()
-    assert abs(ev.predicted_t - 81.7) < 0.05  # paper: "predicted at t~ = 81.7"
-    np.testing.assert_allclose(ev.x_predicted, [101.7, 58.3, 15.0], atol=0.05)  # x~(t~) = [101.7 58.3 15]
-    assert ev.predicted_t == pytest.approx(float(t_hand), rel=1e-12)
-    np.testing.assert_allclose(ev.x_predicted, [float(v) for v in x_hand], rtol=1e-12)
-
-
-def test_jump_at_70_7(junction_run):
-    ev = junction_run["observer"].events[0]
-    assert abs(ev.t - 70.7) < 0.05 and ev.kind == "18d" and not ev.waited
-    assert (ev.mode_left, ev.mode_entered) == (1, 2)  # "the estimated mode changes to serving flow 1"
-    # The paper applied (18d) to its rounded numbers: 101.7 + 1 (70.7 - 81.7) = 90.7 and
-    # 58.3 + 0.5 (70.7 - 81.7) = 52.8 -- the gain L2 = [1, 0.5, 0] of (20b) reproduces the print:
-    assert round(101.7 + 1.0 * (70.7 - 81.7), 6) == 90.7 and round(58.3 + 0.5 * (70.7 - 81.7), 6) == 52.8
-    # Unrounded (t = 495/7, the simulator's event, hand-checked in test_constant_drift.py):
-    t_ev = F(495, 7)
-    t_hand, (x1, x2, x3) = _hand_prediction()
-    exact = [float(x1 + (t_ev - t_hand)), float(x2 + F(1, 2) * (t_ev - t_hand)), float(x3)]
-    assert ev.t == pytest.approx(float(t_ev), rel=1e-12)
-    np.testing.assert_allclose(ev.x_after[1:], exact, rtol=1e-12)
-    # within the printed precision, propagated: x2 carries 0.05 + 0.5 * (0.05 + 0.05)
-    assert abs(ev.x_after[1] - 90.7) < 0.05 + 1.0 * 0.1
-    assert abs(ev.x_after[2] - 52.8) < 0.05 + 0.5 * 0.1
-    assert ev.x_after[3] == pytest.approx(15.0, abs=1e-12)
-    assert ev.x_after[0] == 0.0  # alpha_1 = 0: serving starts at once
-
-
-def test_second_event_79_2_and_waiting_until_140_3(junction_run):
-    obs, trace = junction_run["observer"], junction_run["trace"]
-    e2, e3 = obs.events[1], obs.events[2]
-    assert abs(e2.t - 79.2) < 0.05 and e2.kind == "18e" and (e2.mode_left, e2.mode_entered) == (2, 3)
-    assert e2.x_after[1] == 0.0  # "jump (18e) results in x1^(79.2+) = 0"
-    assert e2.x_after[0] == GAMMA[1]  # the clearing time of flow 2 starts
-    x_true = trace.x[np.nonzero(trace.t == e2.t)[0][-1]]
-    assert e2.x_after[3] == pytest.approx(x_true[3], rel=1e-12)  # "x1^ and x3^ correctly estimated"
-    assert e2.x_after[2] < x_true[2]  # "x2^(79.2+) < x2(79.2+)": the next event comes later
-    assert abs(e3.predicted_t - 137.0) < 0.05  # "the observer predicts the next visible event at 137"
-    assert e3.waited and abs(e3.t - 140.3) < 0.05
-    # exact reconstruction at 140.3 (deadbeat)
-    x_true = trace.x[np.nonzero(trace.t == e3.t)[0][-1]]
-    np.testing.assert_allclose(e3.x_after, x_true, rtol=1e-12, atol=1e-10)
-    # afterwards the estimate follows the truth exactly
-    np.testing.assert_allclose(junction_run["out"].x_hat[-1], junction_run["x_true"][-1], atol=1e-9)
-
-
-def test_x1_hat_zero_after_79_2_and_waiting_mode(junction):
-    # event-driven API on the true event log: x1^ stays 0 while flow 1 is not served, and the
-    # observer sits in the waiting mode 1 + 1/2 between the predicted 137 and the actual 140.3.
-    tr = run_drift_scenario("traffic_junction", "paper")["trace"]
-    obs = DriftObserver(junction, paper_gains_20())
-    obs.reset([0.0, 70.0, 20.0, 30.0], t0=50.0, mode=4)
-    log = [e for e in tr.events if e["visible"] and e["t"] > 50.0]
-    run = obs.observe_events(log[:3], grid=[75.0, 85.0, 100.0, 120.0, 136.0, 138.0, 140.0])
-    at = {float(t): (x, q, w) for t, x, q, w in zip(run.t, run.x_hat, run.mode, run.waiting)}
-    for t in (85.0, 100.0):
-        assert at[t][0][1] == pytest.approx(LAM[0] * (t - obs.events[1].t), abs=1e-9)  # only arrivals
-    assert not at[136.0][2] and at[138.0][2] and at[140.0][2] and at[138.0][1] == 1
-    # waiting drift (18b): [0; L2] = [0; 1, 0.5, 0]
-    np.testing.assert_allclose(at[140.0][0] - at[138.0][0], [0.0, 2.0, 1.0, 0.0], atol=1e-9)
-    assert [r.t for r in run.events] == [r.t for r in obs.events]
-    ref = run_drift_scenario("traffic_junction", "paper")["observer"].events
-    for a, b in zip(run.events, ref[:3]):
-        np.testing.assert_allclose(a.x_after, b.x_after, rtol=1e-12, atol=1e-12)
-
-
+# ---------------------------------------------------------------------------- observer runs
 def test_server_observer_exact_after_two_visible_events():
     res = run_drift_scenario("switching_server", "deadbeat")
     evs, tr = res["observer"].events, res["trace"]
@@ -483,37 +307,3 @@ def test_initial_mode_mismatch_then_resync(junction):
     assert abs(obs.events[0].t - 79.2) < 0.05 and obs.events[0].x_after[0] == GAMMA[1]
     # four regular updates after the resync: exact (deadbeat index 4), flagged observable from the fifth
     np.testing.assert_allclose(out.x_hat[-1], tr.x[-1], atol=1e-9)
-
-
-def test_report_section_builds(tmp_path):
-    from hybobs_opt.report.drift_section import drift_section
-
-    sec = drift_section(tmp_path, lambda msg: None)
-    assert (tmp_path / "drift_junction.png").read_bytes()[:4] == b"\x89PNG"
-    cmp_ = sec.summary["comparison"]
-    lookup = cmp_["traffic_junction"]["observers"]["lookup table (paper 002)"]
-    assert lookup["applies"] and lookup["horizon_T"] == 4
-    polling = cmp_["polling_server"]["observers"]
-    assert polling["sequential deadbeat"]["min_estimate"] < 0.0 <= polling["positive LP"]["min_estimate"]
-    assert all(rec["verified"] for rec in sec.summary["infeasible"])
-
-
-# ---------------------------------------------------------------------------- CLI
-def test_observe_json_scenario(capsys):
-    from hybobs_opt.cli import main
-
-    assert main(["observe", "traffic_junction", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    evs = out["visible_events"]
-    assert [round(e["t"], 1) for e in evs[:3]] == [70.7, 79.2, 140.3]
-    assert [round(evs[k]["predicted_t"], 1) for k in (0, 2)] == [81.7, 137.0]
-    for e in evs:
-        assert set(("t", "predicted_t", "x_before", "x_after")) <= set(e) and len(e["x_after"]) == 4
-    assert max(abs(v) for v in out["final_error"]) < 1e-9
-    assert main(["observe", "switching_server", "--json", "--observer", "positive+projection"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["observer"] == "positive+projection" and out["nonnegative"]
-    from hybobs_opt.observers.scenarios import get_scenario
-
-    with pytest.raises(ModelError):
-        get_scenario("switching_server")(argparse.Namespace(observer="paper", plot=None, json=True))

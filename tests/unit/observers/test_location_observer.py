@@ -3,6 +3,8 @@
 Every guarantee is checked against quantities recomputed here from the model matrices and the
 returned gains (Lyapunov inequalities by eigenvalues, residual and M0 bounds from their formulas,
 detection delays from the simulator's event log), never against a number the observer reports.
+The location changes of Fig. 6 and their detection delays are in
+``tests/studies/test_paper000_driveline.py``; ``hybobs observe driveline`` in ``tests/app/test_cli_driveline.py``.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ import math
 import numpy as np
 import pytest
 from scipy.linalg import expm, sqrtm
+
+from observer_checks import delays_from_events
 
 from hybobs_opt.errors import InfeasibleError, ModelError
 from hybobs_opt.examples.driveline import driveline
@@ -81,41 +85,10 @@ def m0_from_model(aut: HybridAutomaton, G: list[np.ndarray], P: np.ndarray, alph
     return m0_p / math.sqrt(lam[0]), math.sqrt(lam[-1] / lam[0]), sigma
 
 
-def delays_from_events(t: np.ndarray, events: list[dict], location: np.ndarray) -> list[float]:
-    """From each true change to the first sample whose estimate is the new location (inf if none)."""
-    out = []
-    for k, e in enumerate(events):
-        t_end = events[k + 1]["t"] if k + 1 < len(events) else np.inf
-        hit = np.nonzero((t >= e["t"]) & (t < t_end) & (location == e["to"]))[0]
-        out.append(float(t[hit[0]] - e["t"]) if hit.size else np.inf)
-    return out
-
-
 # ---------------------------------------------------------------------------- the driveline (Fig. 6)
 @pytest.fixture(scope="module")
 def fig6():
     return run_driveline()
-
-
-def test_driveline_has_the_fig6_location_changes(fig6):
-    aut, tr = fig6.automaton, fig6.trace
-    names = aut.location_names
-    # q3 -> q2 when the torsion deviation falls through -theta_e0 + theta_1 = -0.01 rad, and back
-    assert [(names[e["from"]], names[e["to"]]) for e in tr.events] == [("q3", "q2"), ("q2", "q3")]
-    for e in tr.events:
-        assert e["x"][0] == pytest.approx(-0.025 + 0.015, abs=1e-9)
-    assert tr.events[1]["t"] - tr.events[0]["t"] >= fig6.bound.dwell_time
-
-
-def test_driveline_detection_delay_within_designed_delta(fig6):
-    tr, run, delta = fig6.trace, fig6.run, fig6.bank.delta
-    delays = delays_from_events(tr.t, tr.events, run.location)
-    assert len(delays) == 2
-    assert all(0.0 <= d <= delta for d in delays), delays
-    assert fig6.summary["detection_delays"] == pytest.approx(delays)
-    # never a wrong location: between changes the estimate is the truth or an ambiguity report
-    assert np.all((run.location == tr.q) | (run.location == -1))
-    assert fig6.summary["ambiguous_steps"] == int(np.count_nonzero(run.status == AMBIGUOUS))
 
 
 def test_driveline_residual_design_meets_proposition_3_1_1(fig6):
@@ -410,21 +383,3 @@ def test_bad_samples_fall_back_without_raising():
         assert e.flag == FALLBACK and e.mode == -1 and np.all(np.isfinite(e.x))
     e = obs.step([0.0], [0.0])
     assert e.flag != FALLBACK and np.all(np.isfinite(e.x))
-
-
-def test_observe_driveline_names_the_plant_it_runs(fig6, monkeypatch):
-    """`hybobs observe driveline` runs k = 1000 N m/rad while `driveline()` defaults to k = 0:
-    the output says which plant it ran, and that plant is the one the scenario simulated."""
-    import argparse
-
-    from hybobs_opt.studies.paper000_driveline import scenario as driveline_study
-
-    monkeypatch.setattr(driveline_study, "run_driveline", lambda: fig6)
-    out = driveline_study.driveline_scenario(argparse.Namespace(plot=None, json=True))
-    assert out["plant"] == "driveline" and out["plant_params"] == {"k": 1000.0}
-    assert "k = 0" in out["plant_note"]
-    named = driveline(**out["plant_params"])
-    default = driveline()
-    for q in range(3):
-        np.testing.assert_array_equal(fig6.automaton.locations[q].A, named.locations[q].A)
-    assert not np.array_equal(fig6.automaton.locations[1].A, default.locations[1].A)

@@ -1,4 +1,7 @@
-"""Lookup-table deadbeat observer (paper 002, Algorithm 4.1)."""
+"""Lookup-table deadbeat observer (paper 002, Algorithm 4.1).
+
+``hybobs bench`` / ``hybobs observe powertrain5`` with this observer: ``tests/app/test_cli_lookup.py``.
+"""
 
 import numpy as np
 import pytest
@@ -133,24 +136,6 @@ def test_bad_construction_arguments(setup):
         LookupObserver(analysis, output_rtol=-1.0)
     with pytest.raises(ModelError, match="U, Y"):
         LookupObserver(analysis).run(np.zeros((5, 2)), np.zeros((5, 1)))
-
-
-def test_cli_bench_json_contract(capsys):
-    import json
-
-    from hybobs_opt.cli import main
-
-    code = main(["bench", "powertrain3", "--horizon", "3", "--steps", "1200", "--observers", "lookup", "--json"])
-    out = json.loads(capsys.readouterr().out)
-    assert code == 0
-    rec = out["observers"]["lookup"]
-    for key in ("median_step_s", "p95_step_s", "max_abs_error_observable", "n_flagged_unobservable", "solver"):
-        assert key in rec
-    assert rec["max_abs_error_observable_all"] < 1e-9
-    assert rec["batch_equals_steps"] is True
-    assert main(["bench", "powertrain3", "--steps", "2"]) == 2
-    assert rec["n_fallback"] == 0 and rec["fallback_reasons"] == {}
-    assert rec["btilde_test"] == "pairs" and rec["table_seconds"] >= 0
 
 
 # ---------------------------------------------------------------------- issue 12: input bounds, model (17)
@@ -394,19 +379,3 @@ def test_model17_flags_agree_with_exact_oracle(bench17):
     assert truly.sum() >= 20
     assert np.count_nonzero(flags[truly] == OBSERVABLE) >= 0.95 * truly.sum()
     assert not np.any((flags == OBSERVABLE) & (labels == "unobservable"))
-
-
-def test_model17_cli_observe_contract(capsys):
-    """``hybobs observe powertrain5 --json``: lookup flags, no fallback, no progress bar under --json."""
-    import json
-
-    from hybobs_opt.cli import main
-
-    assert main(["observe", "powertrain5", "--json"]) == 0
-    captured = capsys.readouterr()
-    out = json.loads(captured.out)
-    rec = out["observers"]["lookup"]
-    assert out["observer"] == "lookup" and rec["n_fallback"] == 0
-    assert rec["n_flagged_observable"] > 500 and rec["max_abs_error_observable_all"] < EXACT_RTOL
-    assert rec["batch_equals_steps"] is True
-    assert captured.err == ""

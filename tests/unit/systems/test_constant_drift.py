@@ -1,9 +1,9 @@
-"""Constant-drift hybrid systems of paper 003: model checks, exact simulation, the paper's examples.
+"""Constant-drift hybrid systems of paper 003: model checks, exact simulation, bad input.
 
 The physics checks compute what the queues must do by hand (fractions, from lambda/mu/gamma)
-and compare with the simulator; the paper checks compare with numbers and formulas printed in
-paper 003 (Section 3.2 reduced matrices of the server, Section 5 matrices and event times of the
-T-junction).
+and compare with the simulator.  The checks against numbers and formulas printed in paper 003
+(Section 3.2 reduced matrices of the server, Section 5 matrices and event times of the
+T-junction) are in ``tests/studies/test_paper003_switching.py``.
 """
 
 from __future__ import annotations
@@ -15,13 +15,7 @@ import pytest
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.examples import get_example
-from hybobs_opt.examples.switching import (
-    JUNCTION_OBSERVER_START,
-    JUNCTION_PAPER_VISIBLE_EVENTS,
-    JUNCTION_X0_BAR,
-    switching_server,
-    traffic_junction,
-)
+from hybobs_opt.examples.switching import switching_server, traffic_junction
 from hybobs_opt.sim import Trace, simulate_constant_drift
 from hybobs_opt.systems import ConstantDriftSystem
 
@@ -121,36 +115,6 @@ def test_event_exactly_at_t_final_is_included(junction):
     assert [(e["t"], e["from_mode"], e["to_mode"]) for e in tr.events] == [(5.0, 1, 2)]
     assert tr.t.tolist() == [0.0, 5.0, 5.0] and tr.q.tolist() == [1, 1, 2]
     np.testing.assert_array_equal(tr.x[-1], [0.0, 6.0, 10.0, 15.0])
-
-
-def test_paper_visible_events_at_70_7_79_2_140_3(paper_trace):
-    # Section 5: after the observer starts at t = 50 the true junction starts serving flow 1 at
-    # 70.7, empties queue 1 at 79.2 and starts serving flow 1 again at 140.3 (printed to 0.1 s).
-    after = [e for e in paper_trace.events if e["visible"] and e["t"] > JUNCTION_OBSERVER_START]
-    times = [e["t"] for e in after[:3]]
-    for got, printed in zip(times, JUNCTION_PAPER_VISIBLE_EVENTS):
-        assert abs(got - printed) < 0.05, (times, JUNCTION_PAPER_VISIBLE_EVENTS)
-    assert [(e["from_mode"], e["to_mode"]) for e in after[:3]] == [(1, 2), (2, 3), (1, 2)]
-    assert JUNCTION_PAPER_VISIBLE_EVENTS == (70.7, 79.2, 140.3)
-    # y(50) = y_hat(50) = 0 in the paper: the true system is not serving flow 1 at t = 50.
-    k50 = np.searchsorted(paper_trace.t, JUNCTION_OBSERVER_START)
-    assert paper_trace.y[k50, 0] == 0
-
-
-def test_paper_scenario_initial_state_is_documented_one(paper_trace):
-    assert paper_trace.t[0] == 0.0 and paper_trace.q[0] == 1
-    np.testing.assert_array_equal(paper_trace.x[0], [GAMMA[0], *JUNCTION_X0_BAR])
-
-
-def test_paper_narrative_true_queue2_larger_than_estimate(paper_trace):
-    # Section 5: at 79.2 the estimate of queue 2 is too small, x2_hat(79.2+) = 52.8 + lam2*(79.2 -
-    # 70.7) = 69.8 (paper's printed numbers), so the true next event comes after the predicted
-    # 137; the delay is C2 (x - x_hat) = mu3 / ((mu2 - lam2)(mu3 - lam3)) * (x2 - x2_hat) = 3.3 s.
-    ev = [e for e in paper_trace.events if e["visible"] and e["t"] > 50][1]
-    x2_hat = 52.8 + LAM[1] * (79.2 - 70.7)
-    assert ev["x"][2] > x2_hat
-    delay = MU[2] / ((MU[1] - LAM[1]) * (MU[2] - LAM[2])) * (ev["x"][2] - x2_hat)
-    assert abs((137.0 + delay) - 140.3) < 0.1
 
 
 def test_queues_never_negative(junction):
@@ -268,62 +232,7 @@ def paper_trace_f(q: int) -> np.ndarray:
     }[int(q)]
 
 
-# ---------------------------------------------------------------------------- paper formulas
-
-
-def test_server_event_sampled_matrices_of_section_3_2():
-    # Section 3.2: x_bar(t_{k+1}) = A_bar_q x_bar(t_k) + a_bar_q, t_{k+1} = t_k + C_bar_q x_bar(t_k)
-    # + c_bar_q with q the mode left at t_k; matrices printed for the switching server.
-    lam1, mu1, mu2, g1, g2 = 1.5, 4.0, 5.0, 2.0, 3.0
-    A = {
-        1: np.array([[0, 0], [mu1 / (mu1 - lam1), 1]]),
-        2: np.eye(2),
-        3: np.array([[1, lam1 / mu2], [0, 0]]),
-        4: np.eye(2),
-    }
-    a = {1: [0, 0], 2: [g2 * lam1, 0], 3: [0, 0], 4: [g1 * lam1, 0]}
-    C = {1: [1 / (mu1 - lam1), 0], 2: [0, 0], 3: [0, 1 / mu2], 4: [0, 0]}
-    c = {1: 0.0, 2: g2, 3: 0.0, 4: g1}
-    sys_ = switching_server(lam1=lam1, mu1=mu1, mu2=mu2, gamma1=g1, gamma2=g2)
-    tr = simulate_constant_drift(sys_, [g1, 7.0, 3.0], 1, 0.0, 80.0)
-    assert len(tr.events) > 12
-    for prev, nxt in zip(tr.events[:-1], tr.events[1:]):
-        q = prev["from_mode"]
-        xb = np.asarray(prev["x"])[1:]
-        np.testing.assert_allclose(np.asarray(nxt["x"])[1:], A[q] @ xb + a[q], rtol=1e-12, atol=1e-12)
-        assert nxt["t"] - prev["t"] == pytest.approx(np.dot(C[q], xb) + c[q], abs=1e-12)
-
-
-def test_junction_visible_sampled_matrices_of_section_5(junction):
-    # Section 5 prints A1, C1 (entering "serve flow 1" -> leaving it) and A2, C2 (leaving it ->
-    # entering it again) of the visible-event sampled system (14); a_j, c_j are omitted there, so
-    # check the linear parts with differences of two trajectories.
-    l1, l2, l3 = LAM
-    m1, m2, m3 = MU
-    A1 = np.array([[0, 0, 0], [l2 / (m1 - l1), 1, 0], [l3 / (m1 - l1), 0, 1]])
-    C1 = np.array([1 / (m1 - l1), 0, 0])
-    d = (m2 - l2) * (m3 - l3)
-    A2 = np.array([[1, l1 * m3 / d, l1 / (m3 - l3)], [0, l2 * l3 / d, l2 / (m3 - l3)], [0, 0, 0]])
-    C2 = np.array([0, m3 / d, 1 / (m3 - l3)])
-
-    def visible_pair(x_bar, q0):
-        x0 = 0.0 if q0 == 2 else GAMMA[1]  # q0 = 2: entered serve 1; q0 = 3: just left it
-        tr = simulate_constant_drift(junction, [x0, *x_bar], q0, 0.0, 200.0)
-        e = next(e for e in tr.events if e["visible"])
-        return e["t"], np.asarray(e["x"])[1:]
-
-    base, delta = np.array([30.0, 20.0, 15.0]), np.array([4.0, 3.0, 2.0])
-    t_a, x_a = visible_pair(base, 2)
-    t_b, x_b = visible_pair(base + delta, 2)
-    np.testing.assert_allclose(x_b - x_a, A1 @ delta, atol=1e-9)
-    assert t_b - t_a == pytest.approx(C1 @ delta, abs=1e-9)
-
-    base = np.array([0.0, 50.0, 40.0])
-    delta = np.array([0.0, 6.0, 5.0])  # x1 = 0 when serving flow 1 ends
-    t_a, x_a = visible_pair(base, 3)
-    t_b, x_b = visible_pair(base + delta, 3)
-    np.testing.assert_allclose(x_b - x_a, A2 @ delta, atol=1e-9)
-    assert t_b - t_a == pytest.approx(C2 @ delta, abs=1e-9)
+# ---------------------------------------------------------------------------- the junction's data, the registry
 
 
 def test_junction_data_are_section_5(junction):

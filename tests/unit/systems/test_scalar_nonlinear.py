@@ -1,7 +1,9 @@
 """Scalar-nonlinear systems of paper 004 (Rajamani et al.): model class, simulator and examples.
 
 Physics checks of the vehicle bicycle model (eqs. 56-59) and the magnetic piston (eq. 63), the
-CasADi derivatives against finite differences, and ModelError on bad input.
+CasADi derivatives against finite differences, and ModelError on bad input.  The paper's vehicle
+scenario (Sec. 6.2) and piston sensor features (Sec. 7, Fig. 7) are checked in
+``tests/studies/test_paper004_nonmonotonic.py``.
 """
 
 from __future__ import annotations
@@ -57,16 +59,6 @@ def test_straight_driving_covers_V_t_along_heading(vehicle, psi0_deg):
     assert np.allclose(tr.y, tr.x[:, :2], atol=0)
 
 
-def test_scenario_first_phase_is_straight_at_30_deg(vehicle_trace):
-    tr = vehicle_trace
-    first = tr.t <= 5.0 + 1e-12
-    psi0 = math.radians(30.0)  # Sec. 6.2: true vehicle at (-5, -5) m with 30 deg yaw
-    assert np.allclose(tr.state("psi")[first], psi0, atol=1e-12)
-    dist = np.hypot(tr.state("X")[first] + 5.0, tr.state("Y")[first] + 5.0)
-    assert np.allclose(dist, V * tr.t[first], atol=1e-7)
-    assert np.allclose(np.arctan2(tr.state("Y")[first][1:] + 5, tr.state("X")[first][1:] + 5), psi0, atol=1e-9)
-
-
 def test_yaw_rate_in_turn_is_V_over_l_tan_delta(vehicle_trace):
     tr = vehicle_trace
     t2, t3 = _phase_time(tr, "steady turn"), _phase_time(tr, "steer out")
@@ -79,18 +71,6 @@ def test_yaw_rate_in_turn_is_V_over_l_tan_delta(vehicle_trace):
     # the turn radius of a kinematic bicycle at constant steering is V / yaw rate
     speed = np.hypot(np.gradient(tr.state("X"), tr.t), np.gradient(tr.state("Y"), tr.t))[sel]
     assert np.allclose(speed, V, rtol=1e-5)
-
-
-def test_scenario_yaw_ends_at_120_deg(vehicle_trace):
-    tr = vehicle_trace
-    psi_deg = np.degrees(tr.state("psi"))
-    t4 = _phase_time(tr, "straight")
-    after = tr.t >= t4
-    assert after.sum() > 100, "the scenario must end with straight driving (Sec. 6.2 (iii))"
-    assert np.allclose(psi_deg[after], 120.0, atol=1e-6)  # tolerance: 1e-6 deg
-    assert np.allclose(tr.state("delta_f")[after], 0.0, atol=1e-9)
-    assert np.all(np.diff(psi_deg) >= -1e-9)  # left turn only: yaw never decreases
-    assert psi_deg.max() <= 120.0 + 1e-6
 
 
 # --------------------------------------------------------------------------- derivatives
@@ -149,38 +129,7 @@ def test_symbolic_dynamics_equal_numeric(vehicle):
     assert np.allclose(y, vehicle.output(x0))
 
 
-# --------------------------------------------------------------------------- piston sensors
-def _sign_changes(values: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Positions where the finite-difference slope changes sign (independent of the model code)."""
-    slope = np.sign(np.diff(values))
-    idx = np.nonzero(slope[1:] != slope[:-1])[0]
-    return z[idx + 1]
-
-
-def test_piston_sensors_are_non_monotonic_with_about_11_pieces(piston):
-    z = np.linspace(0.0, STROKE, 40001)
-    Y = piston.h_values(np.column_stack([z, np.zeros_like(z), np.zeros_like(z)]))
-    changes = [_sign_changes(Y[:, j], z) for j in range(2)]
-    for j, c in enumerate(changes):
-        assert c.size >= 2, f"sensor {j + 1} must be non-monotonic"
-        slope = np.diff(Y[:, j])
-        assert slope.max() > 0 and slope.min() < 0
-    # Fig. 7: the slope-change points of y1 and y2 together split 0-203 mm into R_1..R_11
-    all_changes = np.unique(np.round(np.concatenate(changes), 3))
-    assert all_changes.size + 1 == 11
-    # no two slope changes coincide: at every extremum of one sensor the other is monotonic
-    assert np.min(np.diff(all_changes)) > 5.0  # mm
-
-
-def test_piston_sensor_pair_is_one_to_one(piston):
-    # Sec. 7: "there is a one-to-one relationship between the position and the ordered pair (y1, y2)"
-    z = np.linspace(0.0, STROKE, 1201)
-    Y = piston.h_values(np.column_stack([z, np.zeros_like(z), np.zeros_like(z)]))
-    D = np.hypot(Y[:, None, 0] - Y[None, :, 0], Y[:, None, 1] - Y[None, :, 1])
-    far = np.abs(z[:, None] - z[None, :]) > 5.0
-    assert D[far].min() > 0.1  # mT: positions 5 mm apart give readings at least 0.1 mT apart
-
-
+# --------------------------------------------------------------------------- piston
 def test_piston_stroke_follows_triple_integrator(piston):
     tr = piston_scenario(piston)
     z = tr.state("z")

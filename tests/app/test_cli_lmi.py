@@ -1,0 +1,71 @@
+"""``hybobs diagnose`` and ``hybobs synth`` (paper 004's LMIs): the JSON fields, written files, ``--range`` parsing, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from hybobs_opt import cli
+from hybobs_opt.cli.diagnose import parse_range
+from hybobs_opt.errors import ModelError
+from hybobs_opt.studies.paper004_nonmonotonic.presets import get_preset
+
+
+@pytest.fixture
+def lmi_cli():
+    assert {"diagnose", "synth"} <= set(cli.COMMANDS)  # registered in the CLI
+    return cli
+
+
+def test_range_parsing_errors():
+    p = get_preset("vehicle_tracking")
+    names = ("X", "Y", "psi", "delta_f")
+    assert parse_range("psi=0:360", p, names) == (0.0, 360.0)
+    assert parse_range("psi=0:3.14159265rad", p, names)[1] == pytest.approx(180.0)
+    for bad, msg in (("psi=80:0", "LO < HI"), ("psi=0:nan", "finite"), ("psi:0:1", "NAME=LO:HI"),
+                     ("X=0:1", "scheduling coordinate"), ("q=0:1", "state of the example"), ("psi=a:b", "numbers")):
+        with pytest.raises(ModelError, match=msg):
+            parse_range(bad, p, names)
+
+
+def test_diagnose_json_vehicle_full_circle(lmi_cli, tmp_path, capsys):
+    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:360", "--out", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["feasible"] is False
+    c = out["certificate"]
+    assert c["verified"] is True and c["theorem"] == "Theorem 4" and "e_psi" in c["reason"]
+    assert (tmp_path / "diagnose_vehicle_tracking.md").exists() and (tmp_path / "diagnose_vehicle_tracking.html").exists()
+    assert (tmp_path / "bounds_vehicle_tracking.png").stat().st_size > 1000
+    assert out["suggested_regions"] and out["suggested_regions"][0][0] == 0.0
+
+
+def test_diagnose_json_vehicle_0_80_is_feasible(lmi_cli, tmp_path, capsys):
+    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:80", "--out", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["feasible"] is True and "certificate" not in out and np.array(out["gain"]["L"]).shape == (4, 2)
+
+
+def test_synth_json_writes_the_gains(lmi_cli, tmp_path, capsys):
+    path = tmp_path / "gains.json"
+    assert lmi_cli.main(["synth", "vehicle_tracking", "--out", str(path), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    written = json.loads(path.read_text())
+    for out in (printed, written):
+        assert out["tau"] > 0 and len(out["regions"]) == 2
+        assert out["regions"][0]["interval"] == pytest.approx([0.0, 80.0])
+        for r in out["regions"]:
+            assert np.array(r["L"]).shape == (4, 2) and np.array(r["P"]).shape == (4, 4) and r["sigma"] > 0
+
+
+@pytest.mark.parametrize("argv, msg", [
+    (["diagnose", "vehicle_tracking", "--range", "psi=80:0"], "LO < HI"),
+    (["diagnose", "vehicle_tracking", "--range", "psi=400:500"], "empty region"),
+    (["diagnose", "powertrain3"], "scalar-nonlinear"),
+    (["synth", "vehicle_tracking", "--out", "x.json", "--max-rate", "-1"], "--max-rate"),
+])
+def test_commands_reject_bad_input(lmi_cli, argv, msg, capsys, tmp_path):
+    argv = [a if a != "x.json" else str(tmp_path / "x.json") for a in argv]
+    assert lmi_cli.main(argv + (["--out", str(tmp_path)] if argv[0] == "diagnose" else [])) == 2
+    assert msg in capsys.readouterr().err
