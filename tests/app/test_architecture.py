@@ -10,6 +10,7 @@ as imports too, except in :mod:`hybobs_opt._compat`, the table of old import pat
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -178,3 +179,78 @@ def sign_loops_calling_an_lp() -> set[str]:
 def test_the_range_of_a_row_over_a_polytope_is_written_once():
     """Two LPs per row (min and max) live in geometry.lp.row_range; everything else calls it."""
     assert sign_loops_calling_an_lp() - NOT_A_RANGE == {"hybobs_opt/geometry/lp.py:row_range"}
+
+
+# ------------------------------------------------------------------ no import circles
+def _module_edges() -> dict[str, set[str]]:
+    """Module -> the package modules it imports (statements anywhere in the file; names imported
+    from a package count as that package unless they are one of its modules)."""
+    files = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+    edges: dict[str, set[str]] = {}
+    for name, path in files.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        out = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            targets = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")
+                    base = base[: len(base) - (node.level - 1)]
+                    mod = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    mod = node.module or ""
+                subs = [f"{mod}.{a.name}" for a in node.names if f"{mod}.{a.name}" in files]
+                targets = subs if subs and len(subs) == len(node.names) else [mod, *subs]
+            out |= {t for t in targets if t in files and t != name}
+        edges[name] = out
+    return edges
+
+
+def import_circles() -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    edges = _module_edges()
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10_000))
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circles():
+    """Every module can be read bottom-up: no two modules import each other, directly or around a ring."""
+    assert import_circles() == []
+
+
+def test_the_circle_finder_finds_a_circle(monkeypatch):
+    fake = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    monkeypatch.setattr(sys.modules[__name__], "_module_edges", lambda: fake)
+    assert import_circles() == [["a", "b", "c"]]
