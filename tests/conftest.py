@@ -7,3 +7,10 @@ from pathlib import Path
 _TESTS = str(Path(__file__).resolve().parent)
 if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Run the long checks (marked ``slow``) first: with ``pytest -n 2`` a minute-long test that
+    starts last keeps one worker busy while the other idles.  Stable, so every xdist worker sees
+    the same order."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
