@@ -39,6 +39,15 @@ def tier(name: str) -> str:
     return "core"
 
 
+def from_module(node: ast.ImportFrom, package: str) -> str:
+    """The absolute module of ``from X import ...`` written in ``package`` (relative levels resolved)."""
+    if not node.level:
+        return node.module or ""
+    base = package.split(".")
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def imports_of(path: Path) -> list[tuple[int, str]]:
     """``(line, absolute module)`` of every import statement and every ``hybobs_opt.*`` string."""
     name = module_name(path)
@@ -48,12 +57,7 @@ def imports_of(path: Path) -> list[tuple[int, str]]:
         if isinstance(node, ast.Import):
             out += [(node.lineno, a.name) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[: len(base) - (node.level - 1)]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
+            mod = from_module(node, package)
             out.append((node.lineno, mod))
             # ``from . import studies`` names a module through the alias
             out += [(node.lineno, f"{mod}.{a.name}") for a in node.names]
@@ -195,12 +199,7 @@ def _module_edges() -> dict[str, set[str]]:
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package.split(".")
-                    base = base[: len(base) - (node.level - 1)]
-                    mod = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    mod = node.module or ""
+                mod = from_module(node, package)
                 subs = [f"{mod}.{a.name}" for a in node.names if f"{mod}.{a.name}" in files]
                 targets = subs if subs and len(subs) == len(node.names) else [mod, *subs]
             out |= {t for t in targets if t in files and t != name}
