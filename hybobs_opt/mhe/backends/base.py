@@ -123,3 +123,15 @@ def quiet_stdout():
         yield
     finally:
         sys.stdout = old
+
+
+def with_col_bounds(lb: np.ndarray, ub: np.ndarray, col_bounds: tuple | None,
+                    inf: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+    """Variable bounds of one solve: ``lb, ub`` with ``col_bounds = (index, lower, upper)`` applied
+    (copies; the backend's own bounds stay as they are), clipped to ``[-inf, inf]``."""
+    if col_bounds is None:
+        return lb, ub
+    idx, cl, cu = col_bounds
+    lb, ub = lb.copy(), ub.copy()
+    lb[idx], ub[idx] = np.maximum(cl, -inf), np.minimum(cu, inf)
+    return lb, ub

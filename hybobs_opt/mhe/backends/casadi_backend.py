@@ -16,7 +16,7 @@ import numpy as np
 
 from ...status import CASADI_BONMIN_STATUS, CASADI_CBC_STATUS, CASADI_HIGHS_STATUS, DAQP_STATUS, Status, map_status
 from ..mld import MLDEncoding
-from .base import BackendOutcome, quiet_stdout
+from .base import BackendOutcome, quiet_stdout, with_col_bounds
 from .highs_backend import HIGHS_BASE_OPTIONS
 
 __all__ = ["CasadiDaqpBackend", "BonminBackend", "CasadiMilpBackend"]
@@ -128,11 +128,7 @@ class BonminBackend:
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
         g = f - self._H @ centre  # back from the displacement form
-        lb, ub = self._lb, self._ub
-        if col_bounds is not None:
-            idx, cl, cu = col_bounds
-            lb, ub = lb.copy(), ub.copy()
-            lb[idx], ub[idx] = cl, cu
+        lb, ub = with_col_bounds(self._lb, self._ub, col_bounds)
         with quiet_stdout():
             r = self._solver(x0=np.clip(centre, lb, ub), p=g, lbg=lo, ubg=hi, lbx=lb, ubx=ub)
         raw = str(self._solver.stats().get("return_status", ""))
@@ -178,11 +174,7 @@ class CasadiMilpBackend:
         """Solve with row bounds ``lo, hi`` (``f`` and ``centre`` unused, ``cutoff``, ``target`` and
         ``start`` ignored: CasADi's plugins are given none)."""
         t0 = time.perf_counter()
-        lb, ub = self._lb, self._ub
-        if col_bounds is not None:
-            idx, cl, cu = col_bounds
-            lb, ub = lb.copy(), ub.copy()
-            lb[idx], ub[idx] = cl, cu
+        lb, ub = with_col_bounds(self._lb, self._ub, col_bounds)
         with quiet_stdout():
             r = self._solver(g=self._c, a=self._A, lba=lo, uba=hi, lbx=lb, ubx=ub)
         st = self._solver.stats()

@@ -15,7 +15,7 @@ from scipy.linalg import solve_triangular
 
 from ...status import DAQP_EXIT_FLAGS, DAQP_STATUS, Status, map_status
 from ...tolerances import MHE_ABS_SUBOPT, MHE_DAQP_CYCLE_TOL
-from .base import BackendOutcome
+from .base import BackendOutcome, with_col_bounds
 
 __all__ = ["DaqpBackend", "DAQP_INF", "daqp_flag"]
 
@@ -110,11 +110,7 @@ class DaqpBackend:
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._nv) if centre is None else centre
-        lbv, ubv = self._lb, self._ub
-        if col_bounds is not None:
-            idx, cl, cu = col_bounds
-            lbv, ubv = lbv.copy(), ubv.copy()
-            lbv[idx], ubv[idx] = np.maximum(cl, -DAQP_INF), np.minimum(cu, DAQP_INF)
+        lbv, ubv = with_col_bounds(self._lb, self._ub, col_bounds, DAQP_INF)
         bu = np.concatenate([ubv - centre, np.minimum(hi - self._A @ centre, DAQP_INF)])
         bl = np.concatenate([lbv - centre, np.maximum(lo - self._A @ centre, -DAQP_INF)])
         warm = self._ready
