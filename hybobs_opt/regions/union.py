@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
+from ..geometry.difference import polytope_difference
 from ..geometry.polytope import VERTEX_MAX_DIM, resolve_coordinate
 from ..systems._validate import as_names
 from ..geometry.polytope import Polytope, VolumeEstimate, monte_carlo_volume
@@ -188,7 +189,7 @@ class PolytopeUnion:
                 continue
             current = [p.remove_redundant(scale)]
             for q in cutters:
-                current = [piece for r in current for piece in _region_difference(r, q, scale)]
+                current = [piece for r in current for piece in polytope_difference(r, q, scale)]
                 if not current:
                     break
             out.extend(current)
@@ -315,20 +316,6 @@ class PolytopeUnion:
     # ------------------------------------------------------------------ helpers
     def _index(self, coord: int | str) -> int:
         return resolve_coordinate(coord, self.names)
-
-
-def _region_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Polytope]:
-    """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time."""
-    if not R.intersect(Q).is_full_dimensional(scale):
-        return [R]
-    pieces = []
-    for i in range(Q.n_constraints):
-        A = np.vstack([R.A, -Q.A[i : i + 1], Q.A[:i]])
-        b = np.concatenate([R.b, -Q.b[i : i + 1], Q.b[:i]])
-        piece = Polytope(A, b, R.names)
-        if piece.is_full_dimensional(scale):
-            pieces.append(piece.remove_redundant(scale))
-    return pieces
 
 
 def _signed_area(V: np.ndarray) -> float:

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
+from ._model_io import ModelDictMixin
 from ._validate import as_matrix, as_vector
 
 
@@ -94,7 +95,7 @@ def _names(value: Sequence[str] | None, field_name: str, defaults: tuple[str, ..
 
 
 @dataclass(frozen=True, eq=False)
-class ConstantDriftSystem:
+class ConstantDriftSystem(ModelDictMixin):
     """Piecewise affine hybrid system with constant drift, eq. (3) of paper 003.
 
     In mode ``q`` the state flows as ``dx/dt = f_q`` while ``x[trigger_q] >= 0`` (eq. 3a).  When

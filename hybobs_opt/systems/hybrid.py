@@ -16,6 +16,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..errors import ModelError
+from ._model_io import ModelDictMixin
 from ._validate import as_matrix, as_names, as_vector, check_finite
 from .polytope import Polytope
 from .pwa import PWAMode, PWASystem
@@ -109,7 +110,7 @@ class Edge:
 
 
 @dataclass(frozen=True, eq=False)
-class HybridAutomaton:
+class HybridAutomaton(ModelDictMixin):
     """A continuous-time hybrid automaton with polyhedral invariants.
 
     Parameters

@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
-from ..tolerances import MEMBERSHIP_RTOL
+from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
+from ._model_io import ModelDictMixin
 from ._validate import as_matrix, as_names, as_vector
 from .polytope import Polytope
 
@@ -61,8 +62,12 @@ class PWAMode:
         return PWAMode(A, B, a, C, self.guard, D, c, self.name or f"mode{index}")
 
 
+#: Values of ``PWASystem.partition``.
+PARTITION_CHECKS = ("check", "ordered", "none")
+
+
 @dataclass(frozen=True, eq=False)
-class PWASystem:
+class PWASystem(ModelDictMixin):
     """Discrete-time PWA system of eq. (1), paper 002, with bounded state and input sets.
 
     Parameters
@@ -80,11 +85,17 @@ class PWASystem:
         Sampling period in seconds (for time axes); ``None`` means unit steps.
     name : str
         Label of the system.
+    partition : {"check", "ordered", "none"}
+        What construction proves about the guards (:func:`check_partition`, LP tests):
+        ``"check"`` (default): their union covers ``X x U`` and no two overlap (share interior);
+        ``"ordered"``: they cover ``X x U``, overlaps are allowed and resolved by mode order;
+        ``"none"``: no check (a point outside every guard raises in :meth:`mode_of`).
 
     Notes
     -----
-    Overlapping guards are resolved by mode order (the first mode that contains the point wins),
-    which is how the "not necessarily closed" boundaries of eq. (1) are made disjoint.
+    Where guards share only a boundary (the "not necessarily closed" sets of eq. (1)), the first
+    mode that contains the point wins; with ``partition="ordered"`` the same rule resolves
+    overlaps.
     """
 
     modes: tuple[PWAMode, ...]
@@ -95,6 +106,7 @@ class PWASystem:
     output_names: tuple[str, ...] = field(default=())
     Ts: float | None = None
     name: str = "pwa"
+    partition: str = "check"
 
     def __post_init__(self) -> None:
         modes = tuple(self.modes)
@@ -142,6 +154,10 @@ class PWASystem:
                     "a full-dimensional polytope inside X x U (paper 002, eq. 1)",
                     "an empty or lower-dimensional set",
                 )
+        if self.partition not in PARTITION_CHECKS:
+            raise ModelError("partition", f"one of {list(PARTITION_CHECKS)}", repr(self.partition))
+        if self.partition != "none":
+            check_partition(self, overlaps=self.partition == "check")
 
     # ------------------------------------------------------------------ dimensions
     @property
@@ -228,3 +244,49 @@ class PWASystem:
 
     def __repr__(self) -> str:
         return f"PWASystem(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, modes={self.n_modes})"
+
+
+def check_partition(system: PWASystem, overlaps: bool = True) -> None:
+    """Prove that the guards of ``system`` cover ``X x U`` and (``overlaps=True``) do not overlap.
+
+    Every pair of guards is tested for a common interior (a Chebyshev-ball LP on
+    ``Q_i ∩ Q_j ∩ (X x U)``), and ``X x U`` minus the guards, one after the other
+    (:func:`~hybobs_opt.geometry.difference.polytope_difference`), must leave no
+    full-dimensional piece.  Sets thinner than
+    :data:`~hybobs_opt.tolerances.FULL_DIMENSION_RTOL` (relative to ``X x U``) are ignored: a
+    shared boundary is not an overlap.
+
+    Raises
+    ------
+    ModelError
+        Naming the two modes that overlap, or the gap, with a point inside it (``x``, ``u`` by name).
+    """
+    from ..geometry.difference import polytope_difference
+
+    domain = system.domain
+    lo, hi = domain.bounding_box()
+    scale = np.where(hi - lo > 0, hi - lo, 1.0)
+    guards = [mode.guard.intersect(domain) for mode in system.modes]
+    if overlaps:
+        for i in range(len(guards)):
+            for j in range(i + 1, len(guards)):
+                common = guards[i].intersect(guards[j])
+                centre, radius = common.chebyshev_ball(scale)
+                if centre is not None and radius > FULL_DIMENSION_RTOL:
+                    raise ModelError(
+                        f"modes[{i}].guard and modes[{j}].guard ({system.modes[i].name}, {system.modes[j].name})",
+                        "guards that do not overlap (or partition='ordered' to resolve overlaps by mode order)",
+                        f"a common interior around {_point_text(system, centre)}")
+    pieces = [domain]
+    for guard in guards:
+        pieces = [piece for region in pieces for piece in polytope_difference(region, guard, scale)]
+        if not pieces:
+            return
+    centre, _ = pieces[0].chebyshev_ball(scale)
+    raise ModelError("modes[*].guard", "guards whose union covers X x U (or partition='none')",
+                     f"a gap around {_point_text(system, centre)} that no guard contains")
+
+
+def _point_text(system: PWASystem, z: np.ndarray) -> str:
+    names = system.state_names + system.input_names
+    return "(" + ", ".join(f"{nm}={v:.6g}" for nm, v in zip(names, z)) + ")"

@@ -1,20 +1,31 @@
-"""Naming a system: a saved result names the system it was computed for, and this module builds
-it again from that name.
+"""Naming a system: one way for the command line, saved results and scripts.
 
-A name is resolved by the resolvers registered with :func:`register_resolver` (the example
-library of :mod:`hybobs_opt.studies` registers one for its example names when it is imported,
-which ``import hybobs_opt`` does), or, when it has the form ``"package.module:function"``, by
-importing the function and calling it with the stored parameters.  The core never imports the
-studies: they plug in here.
+A name is one of
+
+* a name known to a resolver registered with :func:`register_resolver` (the example library of
+  :mod:`hybobs_opt.studies` registers its example names when it is imported, which
+  ``import hybobs_opt`` does);
+* a model file ``PATH.toml``, ``PATH.yaml``/``.yml`` or ``PATH.json``
+  (:mod:`hybobs_opt.systems.model_file`); parameters are refused, a file has none;
+* ``PATH.py:FUNCTION``: the file is loaded as a module and ``FUNCTION(**params)`` is called;
+* ``package.module:FUNCTION``: the module is imported and ``FUNCTION(**params)`` is called.
+
+Whatever a function returns must be a system object (PWA, hybrid automaton, constant-drift or
+scalar-nonlinear); anything else, an import that fails or a function that raises, is a
+:class:`~hybobs_opt.errors.ModelError` naming the file or module and the function.  The core never
+imports the studies: they plug in here.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
-from ..errors import ModelError
+from ..errors import HybobsError, ModelError
 
 #: ``resolver(name, params) -> system or None`` (``None``: not a name it knows).
 Resolver = Callable[[str, dict[str, Any]], Any]
@@ -28,27 +39,102 @@ def register_resolver(label: str, resolver: Resolver) -> None:
     _RESOLVERS.append((label, resolver))
 
 
+def system_classes() -> tuple[type, ...]:
+    """The classes a named system may be an instance of."""
+    from .constant_drift import ConstantDriftSystem
+    from .hybrid import HybridAutomaton
+    from .pwa import PWASystem
+    from .scalar_nonlinear import ScalarNonlinearSystem
+
+    return (PWASystem, HybridAutomaton, ConstantDriftSystem, ScalarNonlinearSystem)
+
+
 def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
-    """The system called ``name``, built with ``params``.
+    """The system called ``name``, built with ``params`` (see the module docstring for the forms).
 
     Raises
     ------
     ModelError
-        No resolver knows ``name`` and it is not an importable ``"module:function"``.
+        ``name`` is none of the forms, the file or module cannot be loaded, the function raises
+        or returns something that is not a system; the message names the file and entry.
     """
+    from .model_file import is_model_path, load_model
+
     params = dict(params or {})
-    if not isinstance(name, str) or not name:
-        raise ModelError("system name", "a non-empty string (an example name or 'module:function')", repr(name))
+    if not isinstance(name, str) or not name.strip():
+        raise ModelError("system", "a non-empty string (an example name, a model file, PATH.py:FUNCTION or "
+                         "module:FUNCTION)", repr(name))
     for _, resolver in _RESOLVERS:
         system = resolver(name, params)
         if system is not None:
             return system
-    module, sep, function = name.partition(":")
-    if sep and module and function:
-        try:
-            fn = getattr(importlib.import_module(module), function)
-        except (ImportError, AttributeError) as exc:
-            raise ModelError("system name", f"an importable 'module:function' ({exc})", repr(name)) from None
-        return fn(**params)
+    if is_model_path(name):
+        if params:
+            raise ModelError(f"{name}: --param", "no parameters (a model file has fixed values; edit the file)",
+                             f"{sorted(params)}")
+        return load_model(name)
+    target, sep, function = name.rpartition(":")
+    if sep and target and function:
+        if target.endswith(".py") or "/" in target or "\\" in target:
+            fn = _function_from_file(target, function)
+        else:
+            fn = _function_from_module(target, function)
+        return _call_builder(fn, name, params)
     known = ", ".join(label for label, _ in _RESOLVERS) or "none registered"
-    raise ModelError("system name", f"a name known to a resolver ({known}) or 'module:function'", repr(name))
+    hint = " (no such file)" if name.endswith(".py") or "/" in name else ""
+    raise ModelError("system", f"a name known to a resolver ({known}), a model file (.toml, .yaml, .json), "
+                     f"PATH.py:FUNCTION or module:FUNCTION", repr(name) + hint)
+
+
+def _function_from_file(path_text: str, function: str) -> Callable:
+    path = Path(path_text)
+    if path.suffix != ".py":
+        raise ModelError(f"{path_text}:{function}", "PATH.py:FUNCTION (a Python file)", f"the file {path_text!r}")
+    if not path.is_file():
+        raise ModelError(f"{path_text}:{function}", "an existing Python file", f"no file {str(path)!r}")
+    module_name = f"hybobs_user_{abs(hash(str(path.resolve())))}"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module  # dataclasses and pickling look the module up by name
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:  # whatever the user's file raises on import
+        sys.modules.pop(module_name, None)
+        raise ModelError(str(path), "a Python file that imports without error", f"{type(exc).__name__}: {exc}") from None
+    return _attribute(module, function, str(path))
+
+
+def _function_from_module(module_name: str, function: str) -> Callable:
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # ImportError, or whatever the module raises on import
+        raise ModelError(f"{module_name}:{function}", "an importable 'module:FUNCTION'", f"{type(exc).__name__}: {exc}") from None
+    return _attribute(module, function, module_name)
+
+
+def _attribute(module, function: str, where: str) -> Callable:
+    fn = getattr(module, function, None)
+    if fn is None:
+        public = sorted(k for k, v in vars(module).items() if callable(v) and not k.startswith("_"))
+        raise ModelError(f"{where}:{function}", f"a function defined there (found {', '.join(public) or 'none'})", "no such name")
+    if not callable(fn):
+        raise ModelError(f"{where}:{function}", "a function returning a system", type(fn).__name__)
+    return fn
+
+
+def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
+    try:
+        system = fn(**params)
+    except HybobsError as exc:
+        field = getattr(exc, "field", None)
+        if isinstance(exc, ModelError) and field is not None:
+            raise ModelError(f"{name}: {field}", exc.expected, exc.got) from None
+        raise ModelError(name, "a function that builds a system", f"{type(exc).__name__}: {exc}") from None
+    except TypeError as exc:
+        raise ModelError(f"{name} --param", "parameters the function accepts", str(exc)) from None
+    except Exception as exc:  # whatever the user's function raises
+        raise ModelError(name, "a function that builds a system without error", f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(system, system_classes()):
+        raise ModelError(name, "a function returning a PWASystem, HybridAutomaton, ConstantDriftSystem or "
+                         "ScalarNonlinearSystem", f"a {type(system).__name__}")
+    return system

@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import ModelError
 from ..geometry.lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
+from ._model_io import ModelDictMixin
 from ._validate import as_matrix, as_names
 from .polytope import Polytope
 
@@ -137,6 +138,23 @@ class ScalarFunction:
         """``h(z) = z`` (a linear output, ``M_j = N_j = 1`` in eq. (4))."""
         return cls(name, lambda z: z, lambda z: ca.SX(1.0))
 
+    @classmethod
+    def from_text(cls, name: str, expr: str, derivative: str | None = None, variable: str = "z",
+                  field: str | None = None) -> "ScalarFunction":
+        """A function written as text over ``variable`` (``"V*cos(z)"``), as model files hold it.
+
+        The text is parsed by :func:`hybobs_opt.systems.expressions.parse_expression` (no Python is
+        evaluated); ``field`` names the entry in errors (default ``"ScalarFunction NAME"``).
+        """
+        from .expressions import parse_expression
+
+        label = field or f"ScalarFunction {name!r}"
+        parse_expression(expr, {variable: ca.SX.sym(variable)}, f"{label}.expr")  # errors name the entry now
+        if derivative is not None:
+            parse_expression(derivative, {variable: ca.SX.sym(variable)}, f"{label}.derivative")
+        d = None if derivative is None else (lambda z: parse_expression(derivative, {variable: z}, f"{label}.derivative"))
+        return cls(name, lambda z: parse_expression(expr, {variable: z}, f"{label}.expr"), d)
+
     # ------------------------------------------------------------------ numeric evaluation
     @staticmethod
     def _eval(fn: ca.Function, z) -> np.ndarray:
@@ -180,7 +198,7 @@ class ScalarFunction:
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class ScalarNonlinearSystem:
+class ScalarNonlinearSystem(ModelDictMixin):
     """Continuous-time system of eqs. (1)-(3), paper 004, on a bounded operating box.
 
     ``x' = A x + F f(E x) + B u + g(y, u)``, ``y_j = h_j(C_j x)``.

@@ -1,0 +1,28 @@
+"""Set difference of two polytopes, as full-dimensional closed pieces.
+
+``R \\ Q`` is written as the pieces ``R ∩ {q_i z >= b_i} ∩ {q_k z <= b_k, k < i}`` for the rows
+``q_i z <= b_i`` of ``Q`` (each point of ``R`` outside ``Q`` violates a first row ``i``); the
+pieces have disjoint interiors.  Pieces whose Chebyshev radius is at most
+:data:`~hybobs_opt.tolerances.FULL_DIMENSION_RTOL` (in coordinates ``z / scale``) are dropped, so
+the difference is exact up to sets of zero measure, as the unions of paper 002 need it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .polytope import Polytope
+
+
+def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Polytope]:
+    """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time."""
+    if not R.intersect(Q).is_full_dimensional(scale):
+        return [R]
+    pieces = []
+    for i in range(Q.n_constraints):
+        A = np.vstack([R.A, -Q.A[i : i + 1], Q.A[:i]])
+        b = np.concatenate([R.b, -Q.b[i : i + 1], Q.b[:i]])
+        piece = Polytope(A, b, R.names)
+        if piece.is_full_dimensional(scale):
+            pieces.append(piece.remove_redundant(scale))
+    return pieces

@@ -1,0 +1,106 @@
+"""Model files: a system written as JSON, TOML or YAML (the dictionary of :mod:`.model_dict`).
+
+The format is documented by the JSON Schema shipped beside this module
+(``hybobs_opt/systems/model.schema.json``, :func:`model_schema`); ``hybobs model schema`` prints it.
+JSON and TOML need nothing beyond the standard library to read; writing TOML needs ``tomli-w`` and
+YAML needs ``PyYAML`` (the ``models`` extra: ``pip install 'hybobs_opt[models]'``).
+
+Every error names the file and the entry: ``mysys.toml: modes[1].guard.A: expected a matrix of
+shape (any, 3), got shape (2, 4)``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from ..errors import ModelError
+
+#: File suffixes read as model files, and their format.
+MODEL_SUFFIXES: dict[str, str] = {".json": "json", ".toml": "toml", ".yaml": "yaml", ".yml": "yaml"}
+
+SCHEMA_PATH = Path(__file__).with_name("model.schema.json")
+
+
+def is_model_path(text: str) -> bool:
+    """True when ``text`` ends with a model-file suffix (whether or not the file exists)."""
+    return Path(text).suffix.lower() in MODEL_SUFFIXES
+
+
+def read_model_dict(path: str | Path) -> dict[str, Any]:
+    """The raw dictionary in a model file (no system built)."""
+    path = Path(path)
+    kind = MODEL_SUFFIXES.get(path.suffix.lower())
+    if kind is None:
+        raise ModelError(str(path), f"a model file ending in {', '.join(MODEL_SUFFIXES)}", repr(path.suffix))
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ModelError(str(path), "a readable model file", f"{type(exc).__name__}: {exc.strerror or exc}") from None
+    try:
+        if kind == "json":
+            data = json.loads(text)
+        elif kind == "toml":
+            import tomllib
+
+            data = tomllib.loads(text)
+        else:
+            yaml = _optional("yaml", "PyYAML", "read YAML model files")
+            data = yaml.safe_load(text)
+    except ModelError:
+        raise
+    except Exception as exc:  # json/tomllib/yaml each raise their own parse errors
+        raise ModelError(str(path), f"a well-formed {kind.upper()} file", f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(data, dict):
+        raise ModelError(str(path), "a mapping at the top level (the model's entries)", type(data).__name__)
+    return data
+
+
+def load_model(path: str | Path):
+    """Build the system written in a model file.
+
+    Raises
+    ------
+    ModelError
+        The file is missing, malformed, or an entry is wrong; the message starts with the path and
+        names the entry (``modes[1].guard``, ``locations[0].flow[2]``, ...).
+    """
+    from .model_dict import system_from_dict
+
+    data = read_model_dict(path)
+    try:
+        return system_from_dict(data)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc.field}", exc.expected, exc.got) from None
+
+
+def save_model(system, path: str | Path) -> Path:
+    """Write ``system`` as a model file; the format follows the suffix (``.json``, ``.toml``, ``.yaml``)."""
+    path = Path(path)
+    kind = MODEL_SUFFIXES.get(path.suffix.lower())
+    if kind is None:
+        raise ModelError("path", f"a file name ending in {', '.join(MODEL_SUFFIXES)}", repr(str(path)))
+    data = system.to_dict()
+    if kind == "json":
+        text = json.dumps(data, indent=1)
+    elif kind == "toml":
+        text = _optional("tomli_w", "tomli-w", "write TOML model files").dumps(data)
+    else:
+        text = _optional("yaml", "PyYAML", "write YAML model files").safe_dump(data, sort_keys=False)
+    path.write_text(text)
+    return path
+
+
+def model_schema() -> dict[str, Any]:
+    """The JSON Schema of model files (draft 2020-12)."""
+    return json.loads(SCHEMA_PATH.read_text())
+
+
+def _optional(module: str, package: str, what: str):
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ModelError(package, f"installed to {what} (pip install 'hybobs_opt[models]')", "not installed") from None
