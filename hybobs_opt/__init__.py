@@ -36,6 +36,9 @@ _EXPORTS: dict[str, str] = {
                      "ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems"),
     **dict.fromkeys(("PeriodicSystem", "periodic_system"), "hybobs_opt.systems.event_sampled"),
     "observability_form": "hybobs_opt.systems.canonical_form",
+    **dict.fromkeys(("load_model", "save_model", "model_schema"), "hybobs_opt.systems.model_file"),
+    **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
+    "check_partition": "hybobs_opt.systems.pwa",
     # simulators
     **dict.fromkeys(("Trace", "simulate_constant_drift", "simulate_hybrid", "simulate_hybrid_fixed_step",
                      "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch"), "hybobs_opt.sim"),

@@ -15,7 +15,9 @@ _EXPORTS: dict[str, str] = {
                      "visible_event_set"), "hybobs_opt.systems.event_sampled"),
     **dict.fromkeys(("Edge", "HybridAutomaton", "Location"), "hybobs_opt.systems.hybrid"),
     "Polytope": "hybobs_opt.systems.polytope",
-    **dict.fromkeys(("PWAMode", "PWASystem"), "hybobs_opt.systems.pwa"),
+    **dict.fromkeys(("PWAMode", "PWASystem", "check_partition"), "hybobs_opt.systems.pwa"),
+    **dict.fromkeys(("load_model", "model_schema", "read_model_dict", "save_model"), "hybobs_opt.systems.model_file"),
+    **dict.fromkeys(("parse_expression", "expression_text"), "hybobs_opt.systems.expressions"),
     **dict.fromkeys(("ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems.scalar_nonlinear"),
     **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
 }

@@ -33,19 +33,29 @@ VERSION = 1
 CLASSES = ("pwa", "hybrid_automaton", "constant_drift", "scalar_nonlinear")
 
 
+#: Where the classes this module builds live.  They import this module (through ``to_dict``), so
+#: it looks them up by name when it needs them instead of importing them at the top.
+_CLASS_MODULES: dict[str, str] = {
+    "PWASystem": "pwa", "PWAMode": "pwa", "HybridAutomaton": "hybrid", "Location": "hybrid", "Edge": "hybrid",
+    "ConstantDriftSystem": "constant_drift", "ScalarNonlinearSystem": "scalar_nonlinear",
+    "ScalarFunction": "scalar_nonlinear",
+}
+
+
+def _cls(name: str) -> type:
+    import importlib
+
+    return getattr(importlib.import_module(f"{__package__}.{_CLASS_MODULES[name]}"), name)
+
+
 # ---------------------------------------------------------------------------------- entry points
 
 def system_to_dict(system: Any) -> dict[str, Any]:
     """The model dictionary of a PWA system, hybrid automaton, constant-drift or scalar-nonlinear system."""
-    from .constant_drift import ConstantDriftSystem
-    from .hybrid import HybridAutomaton
-    from .pwa import PWASystem
-    from .scalar_nonlinear import ScalarNonlinearSystem
-
-    writers = {PWASystem: _pwa_to_dict, HybridAutomaton: _hybrid_to_dict,
-               ConstantDriftSystem: _drift_to_dict, ScalarNonlinearSystem: _nonlinear_to_dict}
-    for cls, writer in writers.items():
-        if isinstance(system, cls):
+    writers = {"PWASystem": _pwa_to_dict, "HybridAutomaton": _hybrid_to_dict,
+               "ConstantDriftSystem": _drift_to_dict, "ScalarNonlinearSystem": _nonlinear_to_dict}
+    for name, writer in writers.items():
+        if isinstance(system, _cls(name)):
             return {"format": FORMAT, "version": VERSION, **writer(system)}
     raise ModelError("system", "a PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem",
                      type(system).__name__)
@@ -325,8 +335,7 @@ def _pwa_to_dict(s) -> dict[str, Any]:
 
 
 def _pwa_from_dict(r: _Reader):
-    from .pwa import PWAMode, PWASystem
-
+    PWAMode, PWASystem = _cls("PWAMode"), _cls("PWASystem")
     states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
     n, m = len(states), len(inputs)
     if n == 0:
@@ -427,8 +436,7 @@ def _hybrid_to_dict(s) -> dict[str, Any]:
 
 
 def _hybrid_from_dict(r: _Reader):
-    from .hybrid import Edge, HybridAutomaton, Location
-
+    Edge, HybridAutomaton, Location = _cls("Edge"), _cls("HybridAutomaton"), _cls("Location")
     states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
     n, m = len(states), len(inputs)
     if n == 0:
@@ -489,8 +497,7 @@ def _drift_to_dict(s) -> dict[str, Any]:
 
 
 def _drift_from_dict(r: _Reader):
-    from .constant_drift import ConstantDriftSystem
-
+    ConstantDriftSystem = _cls("ConstantDriftSystem")
     def ints(key):
         value = r.raw(key)
         if not isinstance(value, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in value):
@@ -516,8 +523,7 @@ _Z = ca.SX.sym("z")
 
 
 def _function_from_dict(r: _Reader, default_name: str):
-    from .scalar_nonlinear import ScalarFunction
-
+    ScalarFunction = _cls("ScalarFunction")
     name = r.string("name", default_name)
     expr = r.raw("expr")
     deriv = r.raw("derivative", None)
@@ -536,8 +542,7 @@ def _nonlinear_to_dict(s) -> dict[str, Any]:
 
 
 def _nonlinear_from_dict(r: _Reader):
-    from .scalar_nonlinear import ScalarNonlinearSystem
-
+    ScalarNonlinearSystem = _cls("ScalarNonlinearSystem")
     states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
     n, k = len(states), len(inputs)
     if n == 0:

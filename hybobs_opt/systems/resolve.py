@@ -62,7 +62,7 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
 
     params = dict(params or {})
     if not isinstance(name, str) or not name.strip():
-        raise ModelError("system", "a non-empty string (an example name, a model file, PATH.py:FUNCTION or "
+        raise ModelError("system name", "a non-empty string (an example name, a model file, PATH.py:FUNCTION or "
                          "module:FUNCTION)", repr(name))
     for _, resolver in _RESOLVERS:
         system = resolver(name, params)
@@ -82,7 +82,7 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
         return _call_builder(fn, name, params)
     known = ", ".join(label for label, _ in _RESOLVERS) or "none registered"
     hint = " (no such file)" if name.endswith(".py") or "/" in name else ""
-    raise ModelError("system", f"a name known to a resolver ({known}), a model file (.toml, .yaml, .json), "
+    raise ModelError("system name", f"a name known to a resolver ({known}), a model file (.toml, .yaml, .json), "
                      f"PATH.py:FUNCTION or module:FUNCTION", repr(name) + hint)
 
 
