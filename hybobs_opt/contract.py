@@ -58,7 +58,11 @@ class Estimate:
 
 @dataclass(frozen=True, eq=False)
 class ObserverTrace:
-    """The estimates of a whole run: ``x_hat[k]`` is the estimate after the ``k``-th sample."""
+    """The estimates of a whole run: ``x_hat[k]`` is the estimate after the ``k``-th sample.
+
+    ``info[k]`` is the ``Estimate.info`` of step ``k`` (solver status, candidates, reasons) when
+    the run kept it (:meth:`Observer.run` does); empty for vectorised runs that have none.
+    """
 
     x_hat: np.ndarray
     mode: np.ndarray
@@ -66,6 +70,7 @@ class ObserverTrace:
     seconds: np.ndarray
     state_names: tuple[str, ...] = ()
     observer: str = ""
+    info: tuple[dict, ...] = ()
 
     @property
     def n_steps(self) -> int:
@@ -142,10 +147,12 @@ class Observer(ABC):
         modes = np.full(N, -1)
         flags = np.empty(N, dtype=object)
         secs = np.zeros(N)
+        infos = []
         for k in range(N):
             e = self.step(U[k], Y[k])
             xs[k], modes[k], flags[k], secs[k] = e.x, e.mode, e.flag, e.seconds
-        return ObserverTrace(xs, modes, flags, secs, self.state_names, self.name)
+            infos.append(e.info)
+        return ObserverTrace(xs, modes, flags, secs, self.state_names, self.name, tuple(infos))
 
 
 def initial_state(x0, fallback, state_bounds, n: int) -> np.ndarray:

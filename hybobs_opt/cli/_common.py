@@ -66,3 +66,57 @@ def executor_from_args(args: argparse.Namespace):
     if args.dask_local is not None and args.dask_local < 1:
         raise ModelError("--dask-local", "a positive number of workers", repr(args.dask_local))
     return make_executor(args.executor, args.workers, args.scheduler, args.dask_local)
+
+
+#: Help text of the positional system argument of every command.
+SYSTEM_HELP = ("the system: an example name ('hybobs examples'), a model file PATH.toml|.yaml|.json, "
+               "PATH.py:FUNCTION or package.module:FUNCTION (called with the --param values)")
+
+
+def add_system_argument(p: argparse.ArgumentParser, help: str = SYSTEM_HELP) -> None:
+    """The positional ``SYSTEM`` and the repeatable ``--param NAME=VALUE`` of every command."""
+    p.add_argument("system", metavar="SYSTEM", help=help)
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="parameter of an example or of FUNCTION (repeatable), e.g. gear_ratio=1/2")
+
+
+class NamedSystem:
+    """A system named on the command line: ``label`` (what the user typed), the system object,
+    the example (``None`` unless the name is a shipped example) and the parameters."""
+
+    def __init__(self, label: str, system: Any, example: Any, params: dict[str, float]):
+        self.label, self.system, self.example, self.params = label, system, example, params
+
+    @property
+    def kind(self) -> str:
+        """``pwa``, ``hybrid_automaton``, ``constant_drift`` or ``scalar_nonlinear``."""
+        return {
+            "PWASystem": "pwa", "HybridAutomaton": "hybrid_automaton", "ConstantDriftSystem": "constant_drift",
+            "ScalarNonlinearSystem": "scalar_nonlinear"}.get(type(self.system).__name__, type(self.system).__name__)
+
+
+def load_system(args: argparse.Namespace) -> NamedSystem:
+    """Resolve ``args.system`` with ``args.param`` (:func:`hybobs_opt.systems.resolve.resolve_system`)."""
+    from ..studies import list_examples
+    from ..systems.resolve import resolve_system
+
+    from ..systems.model_file import is_model_path
+
+    params = parse_params(getattr(args, "param", None))
+    examples = {ex.name: ex for ex in list_examples()}
+    example = examples.get(args.system)
+    if example is None and ":" not in args.system and not is_model_path(args.system):
+        raise ModelError("SYSTEM", f"one of the examples {sorted(examples)}, a model file (.toml, .yaml, .json), "
+                         "PATH.py:FUNCTION or module:FUNCTION", repr(args.system))
+    if example is not None:
+        unknown = set(params) - set(example.params)
+        if unknown:
+            raise ModelError(f"--param (parameters of example {example.name!r})", f"names among {sorted(example.params) or 'none'}",
+                             f"{sorted(unknown)}")
+    return NamedSystem(args.system, resolve_system(args.system, params), example, params)
+
+
+def require_kind(named: NamedSystem, kinds: tuple[str, ...], why: str) -> None:
+    """``ModelError`` unless the system is of one of ``kinds`` (``why`` says what needs it)."""
+    if named.kind not in kinds:
+        raise ModelError("SYSTEM", f"a {' or '.join(kinds)} system ({why})", f"{named.label!r}, a {named.kind} system")

@@ -1,29 +1,43 @@
-"""``hybobs observe EXAMPLE``: run an observer on an example's scenario (the studies' scenarios)."""
+"""``hybobs observe SYSTEM``: an observer on an example's scenario, or on a recorded CSV log of any
+PWA system (``--data LOG.csv``)."""
 
 from __future__ import annotations
 
 import argparse
 
-from ._common import print_json
+from ..errors import ModelError
+from ._common import add_system_argument, load_system, print_json
 
-HELP = "run an observer on an example's scenario"
+HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("example", help="example name")
-    p.add_argument("--observer", default=None, metavar="KIND", help="observer kind")
+    add_system_argument(p)
+    p.add_argument("--observer", default=None, metavar="KIND",
+                   help="observer kind (with --data: lookup, miqp, milp, milp_inf; default lookup)")
+    p.add_argument("--data", metavar="LOG.csv", help="recorded inputs and outputs, columns named by the system "
+                   "(optional: t or time, the true states)")
+    p.add_argument("--horizon", "-T", type=int, default=None, help="observation horizon T (with --data; default 3)")
+    p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --save') for the lookup observer")
+    p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..studies import get_example
-    from ..studies.scenarios import get_scenario
+    named = load_system(args)
+    if args.data is None:
+        for option in ("horizon", "regions", "out"):
+            if getattr(args, option) is not None:
+                raise ModelError(f"--{option}", "--data LOG.csv as well (it applies to a recorded log)", "no --data")
+        if named.example is None:
+            raise ModelError("--data", f"a CSV log for {named.label!r} (only the shipped examples have scenarios)", "none")
+        from ..studies.scenarios import get_scenario
 
-    example = get_example(args.example)
-    scenario = get_scenario(example.name)
-    summary = scenario(args)
+        summary = get_scenario(named.example.name)(args)
+    else:
+        summary = observe_recorded(named, args)
     if args.json:
         print_json(summary)
     else:
@@ -32,3 +46,48 @@ def run(args: argparse.Namespace) -> int:
                 value = f"{type(value).__name__} of {len(value)} items (use --json)"
             print(f"{key}: {value}")
     return 0
+
+
+def open_log(named, args):
+    """The analysis-ready PWA system, its log and the saved analysis (if ``--regions``)."""
+    from ..sim.log import read_log
+    from ._common import require_kind
+
+    require_kind(named, ("pwa",), "the observers on recorded data are the PWA observers of paper 002")
+    if args.horizon is not None and args.horizon < 1:
+        raise ModelError("--horizon", "a horizon T >= 1", repr(args.horizon))
+    analysis = None
+    if args.regions:
+        from ..regions import load_analysis
+
+        analysis = load_analysis(args.regions, system=named.system)
+        if args.horizon is not None and args.horizon != analysis.T:
+            raise ModelError("--horizon", f"the horizon of {args.regions}, T = {analysis.T}", repr(args.horizon))
+    horizon = analysis.T if analysis is not None else (args.horizon or 3)
+    return read_log(args.data, named.system), horizon, analysis
+
+
+def observe_recorded(named, args) -> dict:
+    from ..observers.recorded import observe_log
+    from ..progress import phase_bars
+    from ..sim.log import write_estimates
+
+    log, horizon, analysis = open_log(named, args)
+    kind = args.observer or "lookup"
+    if args.filter:
+        raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
+    progress, close = phase_bars(not args.json)
+    try:
+        trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress)[kind]
+    finally:
+        close()
+    summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}
+    if args.out:
+        write_estimates(args.out, trace, log.t)
+        summary["out"] = str(args.out)
+    if args.plot:
+        from ..report.plots import plot_estimates
+
+        plot_estimates(trace, log, args.plot, title=f"{named.label}: {kind} on {args.data}")
+        summary["plot"] = str(args.plot)
+    return summary

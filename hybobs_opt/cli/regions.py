@@ -1,4 +1,4 @@
-"""``hybobs regions EXAMPLE -T N``: observability regions of a PWA example (paper 002, Algorithm 3.1).
+"""``hybobs regions SYSTEM -T N``: observability regions of a PWA system (paper 002, Algorithm 3.1).
 
 Optional 2-D cut (``--cut``, ``--plot``), saved result for the lookup observer (``--save``) and
 point queries from a CSV (``--query``).
@@ -9,15 +9,16 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ._common import add_executor_arguments, executor_from_args, parse_params, print_json
+from ._common import add_executor_arguments, add_system_argument, executor_from_args, load_system, print_json
 
-HELP = "observability regions of a PWA example (paper 002, Algorithm 3.1)"
+HELP = "observability regions of a PWA system (paper 002, Algorithm 3.1)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("example", help="a PWA example (powertrain3, powertrain5)")
+    add_system_argument(p)
     p.add_argument("--horizon", "-T", type=int, required=True, help="observation horizon T")
-    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="model parameter, e.g. gear_ratio=1/2")
+    p.add_argument("--ts", type=float, default=None, metavar="SECONDS",
+                   help="sampling period: discretise an affine hybrid automaton exactly (ZOH) first")
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
     p.add_argument("--resolution", default="41x31", metavar="NXxNY", help="grid of the cut (default 41x31)")
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
@@ -30,14 +31,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..progress import counter_bar
     from ..regions import analyse_observability, compute_cut, parse_assignments, plot_cut, save_analysis
-    from ..studies import get_example
-
-    example = get_example(args.example)
-    if example.kind != "pwa":
-        raise ModelError("example", "a PWA example (observability regions need a PWASystem)",
-                         f"{example.name!r} of kind {example.kind!r}")
-    params = parse_params(args.param)
-    system = example.build(**params)
+    named = load_system(args)
+    if named.kind == "hybrid_automaton" and args.ts is not None:
+        system = named.system.discretize(args.ts)
+    elif args.ts is not None:
+        raise ModelError("--ts", "only for a hybrid automaton (a PWA system is already discrete-time)", repr(args.ts))
+    elif named.kind != "pwa":
+        hint = " (an affine hybrid automaton: add --ts SECONDS to discretise it)" if named.kind == "hybrid_automaton" else ""
+        raise ModelError("SYSTEM", "a PWA system (observability regions need a PWASystem)" + hint,
+                         f"{named.label!r}, a {named.kind} system")
+    else:
+        system = named.system
+    params, label = named.params, named.label
     fixed = parse_assignments(args.cut, system.state_names, "--cut")
     if fixed and len(fixed) != system.n - 2:
         raise ModelError("--cut", f"values for exactly {system.n - 2} of the states {list(system.state_names)} (two stay free)",
@@ -50,15 +55,18 @@ def run(args: argparse.Namespace) -> int:
         close()
         executor.close()
     out = analysis.summary()
-    out["example"] = example.name
+    out["example"] = label
+    out["system"] = label
     out["params"] = params
     if args.save:
-        save_analysis(analysis, args.save, example.name, params)
+        save_analysis(analysis, args.save, label if named.example is not None else None, params)
         out["saved"] = str(args.save)
     if args.query:
         out["observable"] = _query_points(analysis, args.query, system.state_names)
     if fixed or args.plot:
-        if not fixed:
+        if system.n < 2:
+            raise ModelError("--plot", "a system with at least 2 states (a cut is a plane)", f"{system.n} state")
+        if not fixed and system.n > 2:
             raise ModelError("--plot", f"a --cut fixing {system.n - 2} states so that a 2-D plane remains", "no --cut")
         nx, ny = _resolution(args.resolution)
         update, close = counter_bar(not args.json, "cut")
@@ -71,12 +79,12 @@ def run(args: argparse.Namespace) -> int:
                       "fraction_unobservable_of_feasible": cut.fraction_of_feasible("unobservable")}
         if args.plot:
             stretch = {"theta": 10.0} if "theta" in cut.axes else None  # as the paper's figures
-            plot_cut(cut, args.plot, title=f"{example.name}, T = {args.horizon}, " + ", ".join(f"{k} = {v:g}" for k, v in fixed.items()), stretch=stretch)
+            plot_cut(cut, args.plot, title=f"{label}, T = {args.horizon}" + "".join(f", {k} = {v:g}" for k, v in fixed.items()), stretch=stretch)
             out["plot"] = str(args.plot)
     if args.json:
         print_json(out)
         return 0
-    print(f"{example.name} (T = {args.horizon}): {out['n_regions']} regions, {out['n_full_rank']} with rank C_i = n, "
+    print(f"{label} (T = {args.horizon}): {out['n_regions']} regions, {out['n_full_rank']} with rank C_i = n, "
           f"{out['n_unobservable_pieces']} polytopes in B_T ({out['n_reduced_pieces']} in B~_T), "
           f"{out['n_lps']} LPs ({out['n_lps_avoided_by_pruning']} avoided by pruning), {out['seconds']:.2f} s [{out['executor']}]")
     if "cut" in out:

@@ -75,7 +75,7 @@ def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int,
     first = parts[0]
     return ObserverTrace(np.concatenate([q.x_hat for q in parts]), np.concatenate([q.mode for q in parts]),
                          np.concatenate([q.flags for q in parts]), np.concatenate([q.seconds for q in parts]),
-                         first.state_names, first.observer)
+                         first.state_names, first.observer, tuple(i for q in parts for i in q.info))
 
 
 def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarray, state_names, solver: str,

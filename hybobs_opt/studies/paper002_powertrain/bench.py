@@ -36,6 +36,9 @@ progress_bar = phase_bars
 #: States whose errors are reported on the observable / unobservable intervals (Figs. 7-9).
 INTERVAL_STATES = ("theta", "omega_l")
 
+#: The examples with a bench scenario (a torque profile through the backlash).
+SCENARIO_EXAMPLES = ("powertrain3", "powertrain5")
+
 
 def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarray, state_names, solver: str,
               warmup: int = 0) -> dict[str, Any]:
@@ -55,8 +58,9 @@ def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, p
     from .systems import SCENARIO_TORQUES, backlash_scenario
 
     ex = get_example(example)
-    if ex.kind != "pwa":
-        raise ModelError("example", "a PWA example (powertrain3, powertrain5)", f"{example!r} of kind {ex.kind!r}")
+    if ex.kind != "pwa" or example not in SCENARIO_TORQUES:
+        raise ModelError("example", f"a PWA example with a bench scenario ({', '.join(sorted(SCENARIO_TORQUES))}; "
+                         "for any other PWA system pass a CSV log with --data)", f"{example!r} of kind {ex.kind!r}")
     if steps < T + 1:
         raise ModelError("--steps", f"more than the horizon T = {T}", repr(steps))
     if not (np.isfinite(noise) and noise >= 0):
@@ -70,7 +74,7 @@ def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, p
 
 def run_bench(example: str, T: int, steps: int, noise: float, observers: list[str], mhe_steps: int | None = None,
               plot: str | None = None, seed: int = 0,
-              progress: Callable[[str, str, int, int], None] | None = None) -> dict[str, Any]:
+              progress: Callable[[str, str, int, int], None] | None = None, params: dict | None = None) -> dict[str, Any]:
     """Run the comparison and return the JSON-ready summary (see module docstring).
 
     ``progress(phase, unit, done, total)`` follows the phases (Algorithm 3.1, the lookup tables,
@@ -82,7 +86,7 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
         return None if progress is None else (lambda done, total: progress(name, unit, done, total))
 
     t0 = time.perf_counter()
-    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed, progress=phase("Algorithm 3.1", "region"))
+    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed, params, progress=phase("Algorithm 3.1", "region"))
     analysis_s = time.perf_counter() - t0
     truly = true_window_observable(analysis, trace.q)
     _, labels = exact_window_labels(analysis, trace.x, progress=phase("exact labels", "state"))

@@ -1,0 +1,136 @@
+"""Recorded data: a CSV log of a plant's inputs and outputs, read against the plant's names.
+
+A log is a CSV file with a header row.  Its columns are named by the system: every input name and
+every output name must be there; a time column (``t`` or ``time``) is optional; the state names
+are optional too (all of them or none): a simulated or instrumented log that holds the true state
+lets the observers' estimates be checked.  Any other column, a missing one, a non-numeric cell or
+a NaN/Inf is a :class:`~hybobs_opt.errors.ModelError` naming the file, the line and the column:
+a log is input data and is checked before any observer sees it (the observers themselves never
+raise on a bad sample; a file is not a sample).
+
+:func:`write_estimates` writes an observer's run in the same style (one row per sample: time,
+estimate per state, mode, flag), numbers with 17 significant digits so that reading the file back
+gives the same doubles.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError
+
+#: Accepted names of the optional time column.
+TIME_COLUMNS = ("t", "time")
+
+
+@dataclass(frozen=True, eq=False)
+class SignalLog:
+    """The samples of a log, as arrays in the system's order.
+
+    Attributes
+    ----------
+    path : str
+    U : (N, m) array
+        Inputs, columns in the order of ``system.input_names``.
+    Y : (N, p) array
+        Outputs, in the order of ``system.output_names``.
+    t : (N,) array or None
+        The time column when the log has one.
+    X : (N, n) array or None
+        The true states when the log has the state columns.
+    """
+
+    path: str
+    U: np.ndarray
+    Y: np.ndarray
+    t: np.ndarray | None
+    X: np.ndarray | None
+
+    @property
+    def n_samples(self) -> int:
+        return self.U.shape[0]
+
+
+def read_log(path: str | Path, system) -> SignalLog:
+    """Read a CSV log of ``system`` (anything with ``input_names``, ``output_names``, ``state_names``).
+
+    Raises
+    ------
+    ModelError
+        The file is unreadable or empty, a column is missing, unknown or repeated, or a cell is
+        not a finite number; the message names the file, the line and the column.
+    """
+    path = Path(path)
+    inputs, outputs, states = tuple(system.input_names), tuple(system.output_names), tuple(system.state_names)
+    try:
+        with path.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ModelError(str(path), "a readable CSV log", f"{type(exc).__name__}: {exc}") from None
+    rows = [r for r in rows if any(cell.strip() for cell in r)]
+    if not rows:
+        raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
+    header = [h.strip() for h in rows[0]]
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise ModelError(f"{path} header", "each column once", f"repeated {repeated}")
+    needed = list(dict.fromkeys(inputs + outputs))
+    missing = [nm for nm in needed if nm not in header]
+    if missing:
+        raise ModelError(f"{path} header", f"the input and output columns {needed} (optional: "
+                         f"{' or '.join(TIME_COLUMNS)}, the states {list(states)})", f"missing {missing}")
+    times = [h for h in header if h in TIME_COLUMNS and h not in needed]
+    if len(times) > 1:
+        raise ModelError(f"{path} header", "one time column", f"{times}")
+    allowed = set(needed) | set(times) | set(states)
+    unknown = [h for h in header if h not in allowed]
+    if unknown:
+        raise ModelError(f"{path} header", f"only the columns {needed}, an optional time column "
+                         f"({', '.join(TIME_COLUMNS)}) and the states {list(states)}", f"unknown {unknown}")
+    state_cols = [s for s in states if s in header]
+    extra_states = [s for s in state_cols if s not in needed]
+    if extra_states and len(state_cols) != len(states):
+        raise ModelError(f"{path} header", f"all the state columns {list(states)} or none",
+                         f"only {state_cols}")
+    data = np.empty((len(rows) - 1, len(header)))
+    for k, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise ModelError(f"{path} line {k}", f"{len(header)} cells (one per column of the header)", f"{len(row)}")
+        for c, cell in enumerate(row):
+            try:
+                value = float(cell)
+            except ValueError:
+                raise ModelError(f"{path} line {k} column {header[c]!r}", "a number", repr(cell)) from None
+            if not math.isfinite(value):
+                raise ModelError(f"{path} line {k} column {header[c]!r}", "a finite number", repr(cell))
+            data[k - 2, c] = value
+    if data.shape[0] == 0:
+        raise ModelError(str(path), "at least one sample after the header", "none")
+
+    def columns(names):
+        return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
+
+    t = data[:, header.index(times[0])] if times else None
+    if t is not None and np.any(np.diff(t) <= 0):
+        k = int(np.argmax(np.diff(t) <= 0)) + 3
+        raise ModelError(f"{path} line {k} column {times[0]!r}", "strictly increasing times", f"{t[k - 2]!r} after {t[k - 3]!r}")
+    X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
+    return SignalLog(str(path), columns(inputs), columns(outputs), t, X)
+
+
+def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Path:
+    """Write an :class:`~hybobs_opt.contract.ObserverTrace` as CSV: ``[t,] states..., mode, flag``."""
+    path = Path(path)
+    names = list(trace.state_names) or [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow((["t"] if t is not None else []) + names + ["mode", "flag"])
+        for k in range(trace.n_steps):
+            head = [repr(float(t[k]))] if t is not None else []
+            w.writerow(head + [repr(float(v)) for v in trace.x_hat[k]] + [int(trace.mode[k]), str(trace.flags[k])])
+    return path
