@@ -119,4 +119,5 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
 def require_kind(named: NamedSystem, kinds: tuple[str, ...], why: str) -> None:
     """``ModelError`` unless the system is of one of ``kinds`` (``why`` says what needs it)."""
     if named.kind not in kinds:
-        raise ModelError("SYSTEM", f"a {' or '.join(kinds)} system ({why})", f"{named.label!r}, a {named.kind} system")
+        show = [k.replace("_", "-") for k in kinds]
+        raise ModelError("SYSTEM", f"a {' or '.join(show)} system ({why})", f"{named.label!r}, a {named.kind.replace('_', '-')} system")

@@ -1,8 +1,10 @@
-"""What ``hybobs diagnose`` and ``hybobs synth`` share: the paper 004 example and its preset, and
-the ``--range NAME=LO:HI[deg|rad]`` option in the preset's display units."""
+"""What ``hybobs diagnose`` and ``hybobs synth`` share: the system, its design settings (the paper
+004 examples' published presets, or settings read from the model for any other scalar-nonlinear
+system) and the ``--range NAME=LO:HI`` option."""
 
 from __future__ import annotations
 
+import argparse
 import math
 import re
 
@@ -22,21 +24,10 @@ def parse_range(text: str, preset, state_names: tuple[str, ...]) -> tuple[float,
         Malformed text, a coordinate other than the preset's scheduling state, non-numbers,
         non-finite values, or ``LO >= HI`` (lower bound above upper bound / an empty range).
     """
-    m = _RANGE.match(text or "")
-    if not m:
-        raise ModelError("--range", f"NAME=LO:HI, e.g. {preset.coordinate}={preset.diagnose_range[0]:g}:{preset.diagnose_range[1]:g}",
-                         repr(text))
-    name, a, b, unit = m.groups()
-    if name not in state_names:
-        raise ModelError("--range", f"a state of the example ({', '.join(state_names)})", repr(name))
+    name, lo, hi, unit = _split_range(text, state_names, f"{preset.coordinate}={preset.diagnose_range[0]:g}:{preset.diagnose_range[1]:g}",
+                                      "example")
     if name != preset.coordinate:
         raise ModelError("--range", f"the scheduling coordinate {preset.coordinate!r} of this example", repr(name))
-    try:
-        lo, hi = float(a), float(b)
-    except ValueError:
-        raise ModelError("--range", "numbers LO:HI", f"{a!r}:{b!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        raise ModelError("--range", "finite bounds", f"{lo}:{hi}")
     if unit == "rad" and preset.unit == "deg":
         lo, hi = math.degrees(lo), math.degrees(hi)
     elif unit == "deg" and preset.unit != "deg":
@@ -46,7 +37,37 @@ def parse_range(text: str, preset, state_names: tuple[str, ...]) -> tuple[float,
     return lo, hi
 
 
+def _split_range(text: str, state_names: tuple[str, ...], example: str, what: str = "system") -> tuple[str, float, float, str | None]:
+    m = _RANGE.match(text or "")
+    if not m:
+        raise ModelError("--range", f"NAME=LO:HI, e.g. {example}", repr(text))
+    name, a, b, unit = m.groups()
+    if name not in state_names:
+        raise ModelError("--range", f"a state of the {what} ({', '.join(state_names)})", repr(name))
+    try:
+        lo, hi = float(a), float(b)
+    except ValueError:
+        raise ModelError("--range", "numbers LO:HI", f"{a!r}:{b!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ModelError("--range", "finite bounds", f"{lo}:{hi}")
+    return name, lo, hi, unit
+
+
+def add_design_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of a design from the model (any scalar-nonlinear system)."""
+    p.add_argument("--range", metavar="NAME=LO:HI", help="range of the scheduling state (examples: in the preset's "
+                   "unit, e.g. psi=0:360 (deg) or z=0:203 (mm); other systems: model units)")
+    p.add_argument("--coordinate", metavar="STATE", help="scheduling state (default: where the non-monotonic functions act)")
+    p.add_argument("--gain-bound", type=float, default=None, help="bound on ||L||_2 (default: from the model, see 'settings')")
+    p.add_argument("--min-decay", type=float, default=None, help="decay rate every grown region must admit (1/s)")
+    p.add_argument("--overlap", type=float, default=None, help="hysteresis epsilon of the regions (model units)")
+    p.add_argument("--settings", choices=("paper", "model"), default=None,
+                   help="paper: an example's published settings (default for vehicle_tracking, magnetic_piston); "
+                        "model: settings read from the model (default for every other system)")
+
+
 def example_and_preset(name: str):
+    """The example ``name`` and its preset (the paper 004 examples)."""
     from ..studies import get_example
     from ..studies.paper004_nonmonotonic.presets import get_preset
 
@@ -55,3 +76,40 @@ def example_and_preset(name: str):
         raise ModelError("example", "a scalar-nonlinear example of paper 004 (vehicle_tracking, magnetic_piston)",
                          f"{example.name!r} of kind {example.kind!r}")
     return example, get_preset(example.name)
+
+
+def design_setup(args: argparse.Namespace):
+    """``(named, preset, settings)``: the preset path (``settings`` None) for a paper example, the model path otherwise."""
+    from ..lmi.auto_design import design_settings
+    from ..studies.paper004_nonmonotonic.presets import PRESETS
+    from ._common import load_system, require_kind
+
+    named = load_system(args)
+    require_kind(named, ("scalar_nonlinear",), "the observer LMIs of paper 004")
+    has_preset = named.example is not None and named.example.name in PRESETS
+    mode = args.settings or ("paper" if has_preset else "model")
+    if mode == "paper":
+        if not has_preset:
+            raise ModelError("--settings", f"'model' for {named.label!r} (only {sorted(PRESETS)} have published settings)", "'paper'")
+        given = [f"--{o.replace('_', '-')}" for o in ("coordinate", "gain_bound", "min_decay", "overlap")
+                 if getattr(args, o) is not None]
+        if given:
+            raise ModelError(given[0], "no value with the paper's settings (add --settings model to choose your own)", "a value")
+        return named, PRESETS[named.example.name], None
+    lo = hi = None
+    coordinate = args.coordinate
+    if args.range:
+        name, lo, hi, unit = _split_range(args.range, named.system.state_names, f"{named.system.state_names[0]}=LO:HI")
+        if unit is not None:
+            raise ModelError("--range", "values in model units (no deg/rad suffix: a model file has one unit per state)", repr(args.range))
+        if not lo < hi:
+            raise ModelError("--range", "LO < HI (a non-empty range)", f"{lo:g}:{hi:g}")
+        if coordinate is not None and coordinate != name:
+            raise ModelError("--range", f"the coordinate given by --coordinate ({coordinate})", repr(name))
+        coordinate = name
+    if coordinate is not None and coordinate not in named.system.state_names:
+        raise ModelError("--coordinate", f"a state of the system ({', '.join(named.system.state_names)})", repr(coordinate))
+    rate = getattr(args, "max_rate", None)
+    settings = design_settings(named.system, coordinate, lo, hi, gain_bound=args.gain_bound, min_decay=args.min_decay,
+                               overlap=args.overlap, rate=rate)
+    return named, None, settings

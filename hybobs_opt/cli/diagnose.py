@@ -1,5 +1,7 @@
-"""``hybobs diagnose EXAMPLE [--range psi=0:360] [--out DIR] [--json]``: is there a constant
-observer gain on the range (paper 004, LMI (8))?
+"""``hybobs diagnose SYSTEM [--range psi=0:360] [--out DIR] [--json]``: is there a constant
+observer gain on the range (paper 004, LMI (8))?  Any scalar-nonlinear system: the paper's
+examples use their published settings, every other system settings read from the model
+(:mod:`hybobs_opt.lmi.auto_design`, reported under ``settings``).
 
 Writes a Markdown and an HTML report (verdict, certificate, Jacobian-bound plots, what to do
 next) into ``DIR`` and prints the verdict; ``--json`` prints ``feasible`` and, when infeasible,
@@ -12,15 +14,15 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import print_json
-from ._schedule import DEFAULT_DIAGNOSE_OUT, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
+from ._common import add_system_argument, print_json
+from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("example", help="vehicle_tracking or magnetic_piston")
-    p.add_argument("--range", metavar="NAME=LO:HI", help="range of the scheduling state, e.g. psi=0:360 (deg) or z=0:203 (mm)")
+    add_system_argument(p)
+    add_design_arguments(p)
     p.add_argument("--out", metavar="DIR", default=None, help=f"report directory (default {DEFAULT_DIAGNOSE_OUT})")
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 
@@ -31,22 +33,31 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..report.lmi_section import write_diagnosis_report
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
-    example, preset = example_and_preset(args.example)
-    system = example.build()
-    lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.diagnose_range
-    diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
-                    factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
-                    overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
-                    scaling=scaling_for(preset, system))
-    paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, example.name)
+    named, preset, settings = design_setup(args)
+    system = named.system
+    if preset is not None:
+        lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.diagnose_range
+        coordinate, unit = preset.coordinate, preset.unit
+        diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
+                        factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
+                        overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
+                        scaling=scaling_for(preset, system))
+    else:
+        lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
+        diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
+                        min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
+                        scaling=settings.scaling)
+    paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, named.label)
     out = diag.to_dict()
-    out["example"] = example.name
+    out["example"] = named.label
+    out["system"] = named.label
+    out["settings"] = {"source": "paper"} if settings is None else {"source": "model", **settings.to_dict()}
     out["report"] = paths
     if args.json:
         print_json(out)
         return 0
     verdict = "FEASIBLE: a constant gain exists" if diag.feasible else "INFEASIBLE: no constant gain exists"
-    print(f"{example.name}, {preset.coordinate} in [{lo:g}, {hi:g}] {preset.unit}: LMI {diag.solution.form} {verdict}")
+    print(f"{named.label}, {coordinate} in [{lo:g}, {hi:g}] {unit}: LMI {diag.solution.form} {verdict}".replace("  ", " "))
     if diag.certificate is not None:
         c = diag.certificate
         print(f"certificate ({c.theorem}): verified in numpy = {c.verify()}; structural = {c.structural_verified}")

@@ -10,6 +10,7 @@ Modules, one concept each:
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
 * :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
+* :mod:`.auto_design` -- design settings (coordinate, scaling, gain bound, decay) read from the model;
 * :mod:`.plots` -- figures of the results (the Jacobian bounds of a diagnosis; loads matplotlib on first use).
 
 The paper examples' scheduling settings are the study :mod:`hybobs_opt.studies.paper004_nonmonotonic.presets`;
@@ -17,6 +18,7 @@ the commands ``hybobs diagnose`` / ``hybobs synth`` live in :mod:`hybobs_opt.cli
 """
 
 from .._lazy import lazy_exports
+from .auto_design import DesignSettings, design_settings, design_switched, scheduling_candidates
 from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points
 from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
 from .diagnose import Diagnosis, diagnose
@@ -31,7 +33,7 @@ from .switched import RegionGain, SwitchedDesign, grow_regions, synthesize_switc
 __getattr__, __dir__ = lazy_exports(__name__, {"plot_jacobian_bounds": "hybobs_opt.lmi.plots"})
 
 __all__ = [
-    "COUNTERS", "DerivativeBound", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
+    "COUNTERS", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
     "JacobianBounds", "LMISolution", "ObserverLMI", "RegionGain", "SchedulingRegion", "SubtractionCheck",
     "SwitchedDesign", "adjacent_pairs", "certify_infeasible", "derivative_bound", "diagnose", "dwell_for_hysteresis",
     "dwell_time_fixed", "grow_regions", "hysteresis_for_dwell", "jacobian_bounds", "make_region", "monotonic_pieces",

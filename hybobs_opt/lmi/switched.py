@@ -15,6 +15,7 @@ decay rate ``min_decay`` exists, and the next one starts ``2 epsilon`` below its
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -125,6 +126,14 @@ class SwitchedDesign:
     def coordinate_name(self) -> str:
         return self.system.state_names[self.coordinate]
 
+    @property
+    def warnings(self) -> list[str]:
+        """What the design does not guarantee (``hybobs synth --json`` field ``warnings``)."""
+        out = []
+        if self.dwell_enforced is False:
+            out.append(dwell_warning_text(self))
+        return out
+
     def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
         """The JSON of ``hybobs synth``; intervals also in display units (``value / factor``)."""
         regs = []
@@ -148,8 +157,19 @@ class SwitchedDesign:
             "epsilon_required": None if self.epsilon_required is None else self.epsilon_required / factor,
             "dwell_guaranteed": self.dwell_guaranteed, "dwell_enforced": self.dwell_enforced,
             "gain_bound": self.gain_bound, "solves": self.solves, "dwell_solves": self.dwell_solves,
-            "min_pair_eig": self.min_pair_eig, "seconds": self.seconds,
+            "min_pair_eig": self.min_pair_eig, "seconds": self.seconds, "warnings": self.warnings,
         }
+
+
+class DwellTimeWarning(UserWarning):
+    """A switched design whose hysteresis does not enforce its dwell time (Theorem 6 not guaranteed)."""
+
+
+def dwell_warning_text(design: "SwitchedDesign") -> str:
+    return (f"the hysteresis does not enforce the dwell time: at the maximum rate {design.max_rate:.4g} of "
+            f"{design.coordinate_name} the overlap of {design.overlap:.4g} guarantees a dwell of "
+            f"{design.dwell_guaranteed:.4g} s < tau = {design.tau:.4g} s, so Theorem 6 does not guarantee convergence; "
+            f"widen the overlap to epsilon >= {design.epsilon_required:.4g} or lower the rate bound")
 
 
 def grow_regions(
@@ -302,5 +322,9 @@ def synthesize_switched(
         eps_req = float(hysteresis_for_dwell(tau, max_rate))
         if overlap is not None:
             dwell_g = float(dwell_for_hysteresis(overlap, max_rate, regions))
-    return SwitchedDesign(system, k, gains, pairs, float(tau), float(tau_fixed), overlap, None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
-                          COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair)
+    design = SwitchedDesign(system, k, gains, pairs, float(tau), float(tau_fixed), overlap,
+                            None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
+                            COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair)
+    for text in design.warnings:
+        warnings.warn(text, DwellTimeWarning, stacklevel=2)
+    return design

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hybobs_opt.errors import ModelError
+from hybobs_opt.lmi.auto_design import max_rate  # noqa: F401  (was defined here; the rule is the model's)
 from hybobs_opt.systems.scalar_nonlinear import ScalarNonlinearSystem
 
 
@@ -117,26 +118,6 @@ def scaling_for(preset: SchedulePreset, system: ScalarNonlinearSystem) -> np.nda
                 out[k] = 1.0
         return out
     raise ModelError("preset.scaling", "'box' or 'vehicle'", repr(preset.scaling))
-
-
-def max_rate(system: ScalarNonlinearSystem, coordinate: int, samples: int = 2001) -> float:
-    """Largest ``|x_k'|`` over the operating box with zero input (model units/s).
-
-    Each state derivative of the class is a sum of terms in single box coordinates or single
-    ``E_i x``, so it is maximised over samples of each coordinate's range separately: for the
-    vehicle ``psi' = V/(l_f + l_r) tan(delta_f)`` peaks at the steering bound, for the piston
-    ``z' = v`` at the velocity bound.
-    """
-    lo, hi = system.box_lower, system.box_upper
-    row_A = system.A[coordinate]
-    rate = float(np.sum(np.abs(row_A) * np.maximum(np.abs(lo), np.abs(hi))))
-    for i, fn in enumerate(system.f):
-        w = abs(system.F[coordinate, i])
-        if w == 0:
-            continue
-        a, b = system.f_ranges[i]
-        rate += w * float(np.max(np.abs(fn.value(np.linspace(a, b, samples)))))
-    return rate
 
 
 def preset_regions(preset: SchedulePreset, system: ScalarNonlinearSystem, lo: float | None = None,

@@ -1,0 +1,236 @@
+"""Switched-gain design settings read from the model, for any scalar-nonlinear system (paper 004).
+
+The paper's two examples come with hand-picked settings (the study
+:mod:`hybobs_opt.studies.paper004_nonmonotonic.presets`); a user's system gets its settings here,
+each from a rule on the model that is written down and reported with the value (``sources``):
+
+* **scheduling coordinate**: the state on which the non-monotonic functions act (the argument
+  ``E_i x`` of an ``f_i`` or ``C_j x`` of an ``h_j`` whose derivative changes sign on the box,
+  eqs. 4-5); several candidates, or a non-monotonic function of a combination of states, need an
+  explicit ``coordinate``;
+* **range**: the coordinate's interval on the operating box;
+* **state scaling** of the LMIs: per state, the distance it can move in one time unit (its largest
+  rate over the box with zero input, :func:`max_rate`), capped by the half-width of its box
+  interval (the half-width alone when the rate is 0).  A box that is much larger than the motion
+  (positions bounded only for modelling) then does not make the LMI badly conditioned;
+* **natural rate** ``rho``: the largest ``||S^-1 J(x) S||_2`` of the scaled Jacobian
+  ``J = A + F diag(f'(E x)) E`` on :data:`RATE_SAMPLES` points of the box -- how fast the plant
+  itself moves, in 1/time unit;
+* **gain bound**: ``||L||_2 <= GAIN_FACTOR * rho * max(S) / min(W)`` with ``W_j = ||C_j S||`` the
+  output scales: the scaled gain at most :data:`GAIN_FACTOR` times the plant's rate (the rule of
+  thumb "observer up to ten times faster than the plant"), so the gains stay of the size of the
+  model's own numbers instead of growing until the decay-rate cap;
+* **minimum decay** of each grown region: ``DECAY_FACTOR * rho``;
+* **hysteresis** ``epsilon``: :data:`OVERLAP_FRACTION` of the range;
+* **maximum rate** of the coordinate (for the dwell-time guarantee): :func:`max_rate`.
+
+Every value can be given instead (``given`` in ``sources``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError
+from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from .bounds import jacobian_bounds
+from .observer_lmi import SIGMA_CAP
+from .schedule import coordinate_index
+
+#: Scaled gain bound as a multiple of the natural rate ``rho``.
+GAIN_FACTOR: float = 10.0
+#: Minimum decay rate of a grown region as a multiple of ``rho``.
+DECAY_FACTOR: float = 0.1
+#: Hysteresis as a fraction of the scheduling range.
+OVERLAP_FRACTION: float = 0.005
+#: Design decay rate as a fraction of each region's largest (as the presets).
+DECAY_FRACTION: float = 0.5
+#: Points of the box where the scaled Jacobian norm is sampled (fixed seed: reproducible).
+RATE_SAMPLES: int = 4000
+#: Points of each function's argument interval in :func:`max_rate`.
+RATE_FUNCTION_SAMPLES: int = 2001
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """The settings of one switched-gain design, each with where it came from.
+
+    Attributes
+    ----------
+    coordinate : str
+        Scheduling state.
+    lo, hi : float
+        Scheduling range (model units).
+    scaling : (n,) array
+        State scaling of the LMIs.
+    natural_rate : float
+        ``rho`` (1/time unit), see the module docstring.
+    gain_bound : float
+        ``||L||_2`` bound (model units).
+    min_decay : float
+        Decay rate each grown region must admit (1/time unit).
+    overlap : float
+        Hysteresis ``epsilon`` (model units of the coordinate).
+    max_rate : float
+        Largest rate of the coordinate (model units per time unit).
+    decay_fraction, sigma_cap : float
+        Design rate as a fraction of the largest; upper end of the decay search.
+    sources : dict
+        Per setting, ``"given"`` or the rule that produced it.
+    """
+
+    coordinate: str
+    lo: float
+    hi: float
+    scaling: np.ndarray
+    natural_rate: float
+    gain_bound: float
+    min_decay: float
+    overlap: float
+    max_rate: float
+    decay_fraction: float = DECAY_FRACTION
+    sigma_cap: float = SIGMA_CAP
+    sources: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``)."""
+        return {"coordinate": self.coordinate, "range": [self.lo, self.hi], "scaling": self.scaling.tolist(),
+                "natural_rate": self.natural_rate, "gain_bound": self.gain_bound, "min_decay": self.min_decay,
+                "overlap": self.overlap, "max_rate": self.max_rate, "decay_fraction": self.decay_fraction,
+                "sigma_cap": self.sigma_cap, "sources": dict(self.sources)}
+
+
+def max_rate(system: ScalarNonlinearSystem, coordinate: int, samples: int = RATE_FUNCTION_SAMPLES) -> float:
+    """Largest ``|x_k'|`` over the operating box with zero input (model units per time unit).
+
+    Each state derivative of the class is a sum of terms in single box coordinates or single
+    ``E_i x``, so it is bounded over samples of each coordinate's range separately (the bound is
+    attained when the terms peak together, as for the paper's vehicle and piston).
+    """
+    lo, hi = system.box_lower, system.box_upper
+    rate = float(np.sum(np.abs(system.A[coordinate]) * np.maximum(np.abs(lo), np.abs(hi))))
+    for i, fn in enumerate(system.f):
+        w = abs(system.F[coordinate, i])
+        if w == 0:
+            continue
+        a, b = system.f_ranges[i]
+        rate += w * float(np.max(np.abs(fn.value(np.linspace(a, b, samples)))))
+    return rate
+
+
+def model_scaling(system: ScalarNonlinearSystem) -> np.ndarray:
+    """Per state ``min(half-width, max_rate * 1 time unit)`` (the half-width when the rate is 0)."""
+    half = 0.5 * (system.box_upper - system.box_lower)
+    half = np.where(half > 0, half, 1.0)
+    rates = np.array([max_rate(system, k) for k in range(system.n)])
+    return np.where(rates > 0, np.minimum(half, rates), half).astype(float)
+
+
+def natural_rate(system: ScalarNonlinearSystem, scaling: np.ndarray, samples: int = RATE_SAMPLES) -> float:
+    """``max ||S^-1 J(x) S||_2`` over ``samples`` seeded random points of the box (and its corners' centre)."""
+    rng = np.random.default_rng(0)
+    lo, hi = system.box_lower, system.box_upper
+    X = np.vstack([(lo + hi) / 2.0, lo + (hi - lo) * rng.random((samples, system.n))])
+    J = system.dynamics_jacobian(X)
+    Js = J / scaling[None, :, None] * scaling[None, None, :]
+    return float(np.linalg.norm(Js, 2, axis=(1, 2)).max())
+
+
+def scheduling_candidates(system: ScalarNonlinearSystem) -> dict[str, list[str]]:
+    """States on which a non-monotonic function acts: ``{state: [function names]}``.
+
+    A function of a combination of several states is listed under ``"<combination>"``.
+    """
+    bounds = jacobian_bounds(system, None)
+    out: dict[str, list[str]] = {}
+    for label, rows, fns, bds in (("f", system.E, system.f, bounds.f), ("h", system.C, system.h, bounds.h)):
+        for i, (fn, b) in enumerate(zip(fns, bds)):
+            if b.monotonic:
+                continue
+            nz = np.flatnonzero(rows[i])
+            key = system.state_names[int(nz[0])] if nz.size == 1 else "<combination>"
+            out.setdefault(key, []).append(f"{label}[{i}] ({fn.name})")
+    return out
+
+
+def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None = None, lo: float | None = None,
+                    hi: float | None = None, *, gain_bound: float | None = None, min_decay: float | None = None,
+                    overlap: float | None = None, rate: float | None = None, scaling=None) -> DesignSettings:
+    """Settings for :func:`design_switched` / :func:`~hybobs_opt.lmi.diagnose.diagnose` from the model (module docstring).
+
+    Raises
+    ------
+    ModelError
+        Not a scalar-nonlinear system; the coordinate cannot be chosen (several candidates, a
+        combination of states) and was not given; a given value out of range.
+    """
+    if not isinstance(system, ScalarNonlinearSystem):
+        raise ModelError("system", "a ScalarNonlinearSystem (the observer LMIs of paper 004)", type(system).__name__)
+    sources: dict[str, str] = {}
+    if coordinate is None:
+        cands = scheduling_candidates(system)
+        single = [k for k in cands if k != "<combination>"]
+        if len(cands) == 1 and single:
+            coordinate = single[0]
+            sources["coordinate"] = f"the state the non-monotonic {', '.join(cands[single[0]])} act on"
+        elif not cands:
+            coordinate = system.state_names[int(np.flatnonzero(system.E[0])[0])] if system.r and np.any(system.E[0]) else system.state_names[0]
+            sources["coordinate"] = "every function is monotonic on the box (one region suffices); the first argument"
+        else:
+            raise ModelError("coordinate", "a scheduling state (several non-monotonic functions act on "
+                             f"{', '.join(f'{k}: {v}' for k, v in cands.items())})", "none given")
+    else:
+        sources["coordinate"] = "given"
+    k = coordinate_index(system, coordinate)
+    name = system.state_names[k]
+    sources["range"] = "the operating box" if lo is None and hi is None else "given"
+    lo = float(system.box_lower[k]) if lo is None else float(lo)
+    hi = float(system.box_upper[k]) if hi is None else float(hi)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ModelError("range", f"finite lo < hi for {name}", f"[{lo}, {hi}]")
+    if scaling is None:
+        S = model_scaling(system)
+        sources["scaling"] = "per state min(box half-width, largest rate x 1 time unit)"
+    else:
+        S = np.asarray(scaling, dtype=float).reshape(-1)
+        if S.shape != (system.n,) or not np.all(np.isfinite(S) & (S > 0)):
+            raise ModelError("scaling", f"{system.n} positive numbers", repr(scaling))
+        sources["scaling"] = "given"
+    rho = max(natural_rate(system, S), 1e-12)
+    W = np.linalg.norm(system.C * S[None, :], axis=1)
+    W = np.where(W > 0, W, 1.0)
+
+    def pick(value, label, default, rule):
+        if value is None:
+            sources[label] = rule
+            return float(default)
+        if not (np.isfinite(value) and value > 0) and not (label == "overlap" and value == 0):
+            raise ModelError(label, "a positive finite number", repr(value))
+        sources[label] = "given"
+        return float(value)
+
+    gb = pick(gain_bound, "gain_bound", GAIN_FACTOR * rho * S.max() / W.min(),
+              f"{GAIN_FACTOR:g} x natural rate x max(scaling) / min(output scale)")
+    md = pick(min_decay, "min_decay", DECAY_FACTOR * rho, f"{DECAY_FACTOR:g} x natural rate")
+    ov = pick(overlap, "overlap", OVERLAP_FRACTION * (hi - lo), f"{OVERLAP_FRACTION:g} x range")
+    mr = pick(rate, "max_rate", max(max_rate(system, k), 1e-12), "largest rate of the coordinate on the box (zero input)")
+    cap = max(SIGMA_CAP, 10.0 * rho)
+    return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources)
+
+
+def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings):
+    """Regions grown on the settings' range and the switched gains with the dwell time (paper 004, Section 5).
+
+    A design whose hysteresis does not enforce its dwell time is returned with a
+    :class:`~hybobs_opt.lmi.switched.DwellTimeWarning` and the text in ``design.warnings``.
+    """
+    from .switched import grow_regions, synthesize_switched
+
+    regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=settings.overlap,
+                           min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling)
+    return synthesize_switched(system, regions, gain_bound=settings.gain_bound, decay_fraction=settings.decay_fraction,
+                               sigma_cap=settings.sigma_cap, scaling=settings.scaling, max_rate=settings.max_rate,
+                               overlap=settings.overlap)
