@@ -121,3 +121,10 @@ def require_kind(named: NamedSystem, kinds: tuple[str, ...], why: str) -> None:
     if named.kind not in kinds:
         show = [k.replace("_", "-") for k in kinds]
         raise ModelError("SYSTEM", f"a {' or '.join(show)} system ({why})", f"{named.label!r}, a {named.kind.replace('_', '-')} system")
+
+
+def file_slug(label: str) -> str:
+    """A file-name-safe form of a system label (``examples/models/robot.toml`` -> ``robot.toml``)."""
+    from pathlib import Path
+
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(label).name) or "system"

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_system_argument, print_json
+from ._common import add_system_argument, file_slug, print_json
 from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
@@ -47,7 +47,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                         min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
                         scaling=settings.scaling)
-    paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, named.label)
+    paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, file_slug(named.label))
     out = diag.to_dict()
     out["example"] = named.label
     out["system"] = named.label

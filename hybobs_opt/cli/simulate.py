@@ -12,10 +12,7 @@ from ._common import add_system_argument, load_system, print_json
 
 HELP = "simulate a system (an example on its paper's scenario, or any system from --x0 under --u)"
 
-#: Samples of a PWA run when neither --steps nor --t-final is given.
-DEFAULT_PWA_STEPS = 100
-#: Final time of a continuous-time run when --t-final is not given (seconds).
-DEFAULT_T_FINAL = 10.0
+from ..sim.any_system import DEFAULT_PWA_STEPS  # noqa: E402
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -73,55 +70,21 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _vector(items, names, field: str, default):
-    import numpy as np
-
-    from ..regions.cuts import parse_assignments
-
-    values = parse_assignments(items, tuple(names), field)
-    out = np.array(default, dtype=float).reshape(len(names))
-    for k, nm in enumerate(names):
-        if nm in values:
-            out[k] = values[nm]
-    return out
-
-
-def _centre(poly, size: int):
-    import numpy as np
-
-    if poly is None or size == 0:
-        return np.zeros(size)
-    lo, hi = poly.bounding_box()
-    return (lo + hi) / 2.0
-
-
 def simulate_system(system, args: argparse.Namespace):
     """Run any system of the four classes from ``--x0`` under the constant input ``--u``."""
-    import numpy as np
+    from ..regions.cuts import parse_assignments
+    from ..sim.any_system import simulate_system as run_system
 
-    from .. import sim
-
-    kind = type(system).__name__
-    if args.steps is not None and (kind != "PWASystem" or args.steps < 1):
+    x0 = parse_assignments(args.x0, tuple(system.state_names), "--x0")
+    u = parse_assignments(args.u, tuple(getattr(system, "input_names", ())), "--u")
+    for option, values in (("--x0", x0), ("--u", u)):
+        for key, value in values.items():
+            if not math.isfinite(value):
+                raise ModelError(f"{option} {key}", "a finite number", repr(value))
+    if args.steps is not None and (type(system).__name__ != "PWASystem" or args.steps < 1):
         raise ModelError("--steps", "a positive number of samples, for a PWA system (others take --t-final)", repr(args.steps))
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ModelError("--dt", "a positive finite sample time", repr(args.dt))
-    if kind == "ConstantDriftSystem":
-        if args.u:
-            raise ModelError("--u", "no input (a constant-drift system has none)", f"{args.u}")
-        x0 = _vector(args.x0, system.state_names, "--x0", np.r_[1.0, np.ones(system.n_states - 1)])
-        return sim.simulate_constant_drift(system, x0, 1 if args.q0 is None else args.q0, 0.0,
-                                           args.t_final or DEFAULT_T_FINAL, args.dt)
-    bounds = system.box if kind == "ScalarNonlinearSystem" else system.state_bounds
-    x0 = _vector(args.x0, system.state_names, "--x0", _centre(bounds, system.n))
-    u = _vector(args.u, system.input_names, "--u", _centre(getattr(system, "input_bounds", None), system.m))
-    if kind == "PWASystem":
-        if args.t_final is not None and system.Ts is None:
-            raise ModelError("--t-final", "--steps for a PWA system without a sampling period Ts", repr(args.t_final))
-        steps = args.steps or (int(round(args.t_final / system.Ts)) if args.t_final else DEFAULT_PWA_STEPS)
-        return sim.simulate_pwa(system, x0, np.tile(u, (steps, 1)), on_blocked="stop")
-    if kind == "HybridAutomaton":
-        return sim.simulate_hybrid(system, x0, args.t_final or DEFAULT_T_FINAL, u=u, q0=args.q0,
-                                   dt=args.dt or 1e-2)
-    t_final = args.t_final or DEFAULT_T_FINAL
-    return sim.simulate_nonlinear(system, x0, (lambda t: u) if system.m else None, t_final, args.dt or t_final / 1000)
+    if args.t_final is not None and type(system).__name__ == "PWASystem" and system.Ts is None:
+        raise ModelError("--t-final", "--steps for a PWA system without a sampling period Ts", repr(args.t_final))
+    return run_system(system, x0=x0, u=u, q0=args.q0, steps=args.steps, t_final=args.t_final, dt=args.dt)

@@ -36,13 +36,17 @@ def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = N
         ``{"index": path, "sections": [{"key", "title", "ok", "summary", "figures", "seconds"}]}``
     """
     _load_builtin_sections()
+    return assemble_report(out_dir, [(k, b) for k, b in _SECTIONS if not only or k in only], progress)
+
+
+def assemble_report(out_dir: str | Path, builders: list[tuple[str, SectionBuilder]],
+                    progress: Callable[[str], None] | None = None, title: str = "hybobs_opt report") -> dict[str, Any]:
+    """Build ``out_dir/index.html`` and ``summary.json`` from ``builders`` (``[(key, builder)]``), in order."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     progress = progress or (lambda msg: None)
     parts, records = [], []
-    for key, builder in _SECTIONS:
-        if only and key not in only:
-            continue
+    for key, builder in builders:
         t0 = time.perf_counter()
         progress(key)
         try:
@@ -59,13 +63,14 @@ def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = N
         )
     index = out / "index.html"
     toc = "".join(f"<li><a href='#{r['key']}'>{html.escape(r['title'])}</a></li>" for r in records)
-    index.write_text(_PAGE.format(toc=toc, body="\n".join(parts), stamp=time.strftime("%Y-%m-%d %H:%M:%S")))
+    index.write_text(_PAGE.format(toc=toc, body="\n".join(parts), stamp=time.strftime("%Y-%m-%d %H:%M:%S"),
+                                  title=html.escape(title)))
     (out / "summary.json").write_text(json.dumps({"sections": records}, indent=2))
     return {"index": str(index), "sections": records}
 
 
 _PAGE = """<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>hybobs_opt report</title>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
 <style>
 body {{ font-family: system-ui, sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
 table {{ border-collapse: collapse; margin: 1em 0; }}
@@ -75,7 +80,7 @@ img {{ max-width: 100%; }}
 .error {{ color: #a00; }}
 code {{ background: #f6f6f6; padding: 0 0.2em; }}
 </style></head><body>
-<h1>hybobs_opt report</h1>
+<h1>{title}</h1>
 <p>Generated {stamp}. Every number below is recomputed from the models by the toolbox.</p>
 <ul>{toc}</ul>
 {body}

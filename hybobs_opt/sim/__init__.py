@@ -1,5 +1,6 @@
 """Simulators for every system class; all return a :class:`~hybobs_opt.sim.trace.Trace`."""
 
+from .any_system import simulate_system
 from .constant_drift import simulate_constant_drift
 from .fixed_step import integrate_fixed_step, simulate_hybrid_fixed_step
 from .hybrid import SimulationError, simulate_hybrid
@@ -17,4 +18,5 @@ __all__ = [
     "simulate_nonlinear",
     "simulate_pwa",
     "simulate_pwa_batch",
+    "simulate_system",
 ]

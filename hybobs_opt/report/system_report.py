@@ -1,0 +1,148 @@
+"""``hybobs report SYSTEM``: the report of one system (a user's model), with the sections that
+apply to its class.
+
+Every class: the model (sizes, names, modes or locations, the model dictionary) and a simulation
+from the centre of the state bounds under the centre input.  PWA systems: the observability
+regions (Algorithm 3.1 of paper 002, a cut plot for two states) and, with a recorded log, the
+lookup observer against the moving-horizon observers on it.  Scalar-nonlinear systems: the
+constant-gain diagnosis (LMI (8) of paper 004) and the switched-gain synthesis with settings read
+from the model.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .html import assemble_report
+from .plots import plot_estimates, plot_trace
+from .section import ReportSection
+
+#: Sections per system class, in page order.
+SECTIONS_BY_CLASS: dict[str, tuple[str, ...]] = {
+    "PWASystem": ("model", "simulation", "regions", "observers"),
+    "HybridAutomaton": ("model", "simulation"),
+    "ConstantDriftSystem": ("model", "simulation"),
+    "ScalarNonlinearSystem": ("model", "simulation", "diagnosis", "synthesis"),
+}
+
+
+def _table(rows: list[tuple[str, Any]]) -> str:
+    return "<table>" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows) + "</table>"
+
+
+def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int = 2, data: str | None = None,
+                        progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Build ``out_dir/index.html`` for ``system`` (named ``label``); returns what :func:`assemble_report` does.
+
+    ``horizon`` is the observation horizon of the PWA sections; ``data`` a CSV log
+    (:func:`hybobs_opt.sim.log.read_log`) for the observers section (skipped without one).
+    """
+    kind = type(system).__name__
+    keys = [k for k in SECTIONS_BY_CLASS.get(kind, ("model", "simulation")) if k != "observers" or data]
+    slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(label).name)
+    shared: dict[str, Any] = {}
+
+    def model(out: Path, progress) -> ReportSection:
+        d = system.to_dict()
+        sizes = [("class", d["class"]), ("name", d.get("name", "")), ("states", ", ".join(d.get("states", []))),
+                 ("inputs", ", ".join(d.get("inputs", [])) or "none"), ("outputs", ", ".join(d.get("outputs", [])))]
+        if "modes" in d and isinstance(d["modes"], list):
+            sizes.append(("modes", ", ".join(m.get("name", "") for m in d["modes"]) if isinstance(d["modes"][0], dict) else len(d["modes"])))
+        if "locations" in d:
+            sizes.append(("locations", ", ".join(loc.get("name", "") for loc in d["locations"])))
+        (out / f"model_{slug}.json").write_text(json.dumps(d, indent=1))
+        body = _table(sizes) + f"<p>Model dictionary: <a href='model_{slug}.json'>model_{slug}.json</a> (load it with <code>hybobs_opt.load_model</code>).</p>"
+        return ReportSection(f"Model {label}", body, {"class": d["class"], "n_states": len(d.get("states", []))})
+
+    def simulation(out: Path, progress) -> ReportSection:
+        from ..sim.any_system import simulate_system
+
+        trace = simulate_system(system)
+        fig = f"simulation_{slug}.png"
+        plot_trace(trace, out / fig, title=f"{label}: from the centre of the state bounds")
+        return ReportSection("Simulation", f"<p>{trace.n_samples} samples; initial state and constant input at the "
+                             f"centre of the bounds.</p><img src='{fig}' alt='simulation'>",
+                             {"samples": trace.n_samples, "final_state": trace.x[-1].tolist()}, [fig])
+
+    def regions(out: Path, progress) -> ReportSection:
+        from ..regions import analyse_observability, compute_cut, plot_cut
+
+        analysis = analyse_observability(system, horizon)
+        shared["analysis"] = analysis
+        s = analysis.summary()
+        body = _table([("horizon T", horizon), ("regions of I", s["n_regions"]), ("with rank C_i = n", s["n_full_rank"]),
+                       ("pieces of B_T", s["n_unobservable_pieces"]), ("pieces of B~_T", s["n_reduced_pieces"]),
+                       ("LPs", s["n_lps"]), ("seconds", f"{s['seconds']:.2f}")])
+        figs = []
+        if system.n == 2:
+            fig = f"regions_{slug}.png"
+            plot_cut(compute_cut(analysis, {}, (41, 31)), out / fig, title=f"{label}, T = {horizon}")
+            figs.append(fig)
+            body += f"<img src='{fig}' alt='observable set'>"
+        else:
+            body += "<p>A cut plot needs fixed values for all but two states: <code>hybobs regions SYSTEM --cut ...</code>.</p>"
+        return ReportSection(f"Observability regions (paper 002, Algorithm 3.1, T = {horizon})", body, s, figs)
+
+    def observers(out: Path, progress) -> ReportSection:
+        from ..observers.recorded import observe_log
+        from ..sim.log import read_log
+
+        log = read_log(data, system)
+        runs = observe_log(system, log, ["lookup", "miqp", "milp"], horizon, shared.get("analysis"))
+        rows, figs, summary = [], [], {}
+        for kind_, (trace, rec) in runs.items():
+            summary[kind_] = rec
+            err = rec.get("max_rel_error_observable")
+            rows.append(f"<tr><td>{kind_}</td><td>{rec['flag_counts']['observable']}</td><td>{rec['flag_counts']['unobservable']}</td>"
+                        f"<td>{rec['flag_counts']['fallback']}</td><td>{1e6 * rec['median_step_s']:.1f}</td>"
+                        f"<td>{'n/a' if err is None else f'{err:.2e}'}</td></tr>")
+            fig = f"observer_{kind_}_{slug}.png"
+            plot_estimates(trace, log, out / fig, title=f"{label}: {kind_} on {Path(data).name}")
+            figs.append(fig)
+        body = ("<table><tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
+                "<th>median step [us]</th><th>max rel. error where observable</th></tr>" + "".join(rows) + "</table>"
+                + "".join(f"<img src='{f}' alt='{f}'>" for f in figs))
+        return ReportSection(f"Observers on {Path(data).name}", body, summary, figs)
+
+    def diagnosis(out: Path, progress) -> ReportSection:
+        from ..lmi.auto_design import design_settings
+        from ..lmi.diagnose import diagnose
+        from ..lmi.plots import plot_jacobian_bounds
+
+        st = design_settings(system)
+        shared["settings"] = st
+        diag = diagnose(system, st.coordinate, st.lo, st.hi, gain_bound=st.gain_bound, min_decay=st.min_decay,
+                        overlap=st.overlap, sigma_cap=st.sigma_cap, scaling=st.scaling)
+        fig = f"bounds_{slug}.png"
+        plot_jacobian_bounds(diag, out / fig)
+        verdict = "feasible: a constant gain exists" if diag.feasible else "infeasible"
+        rows = [("coordinate", st.coordinate), ("range", f"[{st.lo:.4g}, {st.hi:.4g}]"), (f"LMI {diag.solution.form}", verdict)]
+        if diag.certificate is not None:
+            rows.append(("certificate", f"{diag.certificate.theorem}: verified {diag.certificate.verify()}"))
+        rows += [(f"setting {k}", v) for k, v in st.sources.items()]
+        return ReportSection("Constant-gain diagnosis (paper 004)", _table(rows) + f"<img src='{fig}' alt='bounds'>",
+                             {"feasible": diag.feasible, "settings": st.to_dict()}, [fig])
+
+    def synthesis(out: Path, progress) -> ReportSection:
+        from ..lmi.auto_design import design_settings, design_switched
+        from .lmi_section import _design_table
+
+        st = shared.get("settings") or design_settings(system)
+        design = design_switched(system, st)
+        warn = "".join(f"<p class='error'>{html.escape(w)}</p>" for w in design.warnings)
+        body = (_table([("regions", len(design.regions)), ("dwell time tau [s]", f"{design.tau:.4g}"),
+                        ("dwell enforced by the hysteresis", design.dwell_enforced)])
+                + _design_table(design, "", 1.0) + warn)
+        return ReportSection("Switched-gain synthesis (paper 004, Section 5)", body,
+                             {"n_regions": len(design.regions), "tau": design.tau, "warnings": design.warnings,
+                              "gain_norms": [float(np.round(g.gain_norm, 6)) for g in design.regions]})
+
+    builders = {"model": model, "simulation": simulation, "regions": regions, "observers": observers,
+                "diagnosis": diagnosis, "synthesis": synthesis}
+    return assemble_report(out_dir, [(k, builders[k]) for k in keys], progress, title=f"hybobs_opt report: {label}")

@@ -1,0 +1,78 @@
+"""One entry point that simulates a system of any of the four classes from an initial state under a
+constant input (what ``hybobs simulate SYSTEM`` and ``hybobs report SYSTEM`` run for a user's model)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..errors import ModelError
+from .constant_drift import simulate_constant_drift
+from .hybrid import simulate_hybrid
+from .nonlinear import simulate_nonlinear
+from .pwa import simulate_pwa
+from .trace import Trace
+
+#: Samples of a PWA run when neither ``steps`` nor ``t_final`` is given.
+DEFAULT_PWA_STEPS = 100
+#: Final time of a continuous-time run when ``t_final`` is not given (time units of the model).
+DEFAULT_T_FINAL = 10.0
+
+
+def _assign(values: Mapping[str, float] | None, names, default: np.ndarray, field: str) -> np.ndarray:
+    out = np.array(default, dtype=float).reshape(len(names))
+    for key, value in (values or {}).items():
+        if key not in names:
+            raise ModelError(field, f"names among {list(names)}", repr(key))
+        if not math.isfinite(float(value)):
+            raise ModelError(f"{field}[{key}]", "a finite number", repr(value))
+        out[list(names).index(key)] = float(value)
+    return out
+
+
+def _centre(poly, size: int) -> np.ndarray:
+    if poly is None or size == 0:
+        return np.zeros(size)
+    lo, hi = poly.bounding_box()
+    return (lo + hi) / 2.0
+
+
+def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping[str, float] | None = None,
+                    q0: int | None = None, steps: int | None = None, t_final: float | None = None,
+                    dt: float | None = None) -> Trace:
+    """Simulate ``system`` from ``x0`` (by state name; others at the centre of the state bounds)
+    under the constant input ``u`` (by input name; others at the centre of the input bounds).
+
+    PWA systems run ``steps`` samples (or ``t_final / Ts``; default :data:`DEFAULT_PWA_STEPS`) and
+    stop where the trajectory leaves ``X x U``; continuous-time systems run to ``t_final``
+    (default :data:`DEFAULT_T_FINAL`) with output sample time ``dt``.  A constant-drift system
+    starts in mode ``q0`` (default 1) from ``x0`` (default all ones).
+    """
+    kind = type(system).__name__
+    if steps is not None and (kind != "PWASystem" or isinstance(steps, bool) or int(steps) != steps or steps < 1):
+        raise ModelError("steps", "a positive number of samples, for a PWA system (others take t_final)", repr(steps))
+    if dt is not None and not (math.isfinite(dt) and dt > 0):
+        raise ModelError("dt", "a positive finite sample time", repr(dt))
+    if t_final is not None and not (math.isfinite(t_final) and t_final > 0):
+        raise ModelError("t_final", "a positive finite time", repr(t_final))
+    if kind == "ConstantDriftSystem":
+        if u:
+            raise ModelError("u", "no input (a constant-drift system has none)", f"{dict(u)}")
+        xs = _assign(x0, system.state_names, np.ones(system.n_states), "x0")
+        return simulate_constant_drift(system, xs, 1 if q0 is None else q0, 0.0, t_final or DEFAULT_T_FINAL, dt)
+    if kind not in ("PWASystem", "HybridAutomaton", "ScalarNonlinearSystem"):
+        raise ModelError("system", "a PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem", kind)
+    bounds = system.box if kind == "ScalarNonlinearSystem" else system.state_bounds
+    xs = _assign(x0, system.state_names, _centre(bounds, system.n), "x0")
+    us = _assign(u, system.input_names, _centre(getattr(system, "input_bounds", None), system.m), "u")
+    if kind == "PWASystem":
+        if t_final is not None and system.Ts is None:
+            raise ModelError("t_final", "steps for a PWA system without a sampling period Ts", repr(t_final))
+        n = int(steps) if steps is not None else (int(round(t_final / system.Ts)) if t_final else DEFAULT_PWA_STEPS)
+        return simulate_pwa(system, xs, np.tile(us, (n, 1)), on_blocked="stop")
+    if kind == "HybridAutomaton":
+        return simulate_hybrid(system, xs, t_final or DEFAULT_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)
+    horizon = t_final or DEFAULT_T_FINAL
+    return simulate_nonlinear(system, xs, (lambda t: us) if system.m else None, horizon, dt or horizon / 1000)
