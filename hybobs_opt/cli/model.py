@@ -1,0 +1,57 @@
+"""``hybobs model schema|check|export``: the model-file format from the command line.
+
+``schema`` prints the JSON Schema of model files; ``check SYSTEM`` builds the system (every check of
+its class runs, the PWA partition check included) and prints its sizes and names; ``export SYSTEM
+--out FILE.toml|.yaml|.json`` writes any system (an example, ``PATH.py:FUNCTION`` ...) as a model
+file, the starting point for a model of one's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import SYSTEM_HELP, load_system, print_json
+
+HELP = "model files: print the JSON Schema, check a model, export a system as a model file"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("action", choices=("schema", "check", "export"), help="what to do")
+    p.add_argument("system", nargs="?", metavar="SYSTEM", help="for check/export: " + SYSTEM_HELP)
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
+    p.add_argument("--out", metavar="FILE", help="export: the model file to write (.toml, .yaml, .json)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import ModelError
+
+    if args.action == "schema":
+        from ..systems.model_file import model_schema
+
+        print_json(model_schema())
+        return 0
+    if not args.system:
+        raise ModelError("SYSTEM", f"a system to {args.action}", "none")
+    named = load_system(args)
+    if args.action == "export":
+        from ..systems.model_file import save_model
+
+        if not args.out:
+            raise ModelError("--out", "a file name ending in .toml, .yaml or .json", "none")
+        path = save_model(named.system, args.out)
+        out = {"system": named.label, "class": named.kind, "written": str(path)}
+    else:
+        d = named.system.to_dict()
+        out = {"system": named.label, "class": d["class"], "name": d.get("name", ""), "states": d.get("states", []),
+               "inputs": d.get("inputs", []), "outputs": d.get("outputs", []),
+               "n_modes": len(d["modes"]) if d["class"] in ("pwa", "constant_drift") else None,
+               "n_locations": len(d["locations"]) if d["class"] == "hybrid_automaton" else None,
+               "partition": d.get("partition"), "valid": True}
+    if args.json:
+        print_json(out)
+    else:
+        for key, value in out.items():
+            if value is not None:
+                print(f"{key}: {value}")
+    return 0
