@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     elif named.kind != "pwa":
         hint = " (an affine hybrid automaton: add --ts SECONDS to discretise it)" if named.kind == "hybrid_automaton" else ""
         raise ModelError("SYSTEM", "a PWA system (observability regions need a PWASystem)" + hint,
-                         f"{named.label!r}, a {named.kind} system")
+                         f"{named.label!r}, a {named.kind.replace('_', '-')} system")
     else:
         system = named.system
     params, label = named.params, named.label
