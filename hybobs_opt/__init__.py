@@ -41,16 +41,18 @@ _EXPORTS: dict[str, str] = {
     "check_partition": "hybobs_opt.systems.pwa",
     # simulators
     **dict.fromkeys(("Trace", "simulate_constant_drift", "simulate_hybrid", "simulate_hybrid_fixed_step",
-                     "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch"), "hybobs_opt.sim"),
+                     "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch", "simulate_system"), "hybobs_opt.sim"),
+    **dict.fromkeys(("SignalLog", "read_log", "write_estimates"), "hybobs_opt.sim.log"),
     # observability regions (paper 002)
     **dict.fromkeys(("ObservabilityAnalysis", "analyse_observability", "compute_cut", "enumerate_modes",
                      "load_analysis", "save_analysis"), "hybobs_opt.regions"),
     # LMI design (paper 004)
-    **dict.fromkeys(("Diagnosis", "ObserverLMI", "SwitchedDesign", "diagnose", "dwell_time_fixed", "grow_regions",
+    **dict.fromkeys(("DesignSettings", "Diagnosis", "ObserverLMI", "SwitchedDesign", "design_settings", "design_switched", "diagnose", "dwell_time_fixed", "grow_regions",
                      "jacobian_bounds", "make_region", "synthesize_switched", "theorem5_check"), "hybobs_opt.lmi"),
     # runtime observers
     **dict.fromkeys(("Estimate", "Observer", "ObserverTrace"), "hybobs_opt.contract"),
     "MHEObserver": "hybobs_opt.mhe",
+    "observe_log": "hybobs_opt.observers.recorded",
     **dict.fromkeys(("ContinuousObserver", "DriftObserver", "HybridObserver", "LocationObserver", "LookupObserver",
                      "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver", "deadbeat_gains",
                      "design_continuous_observer", "design_gains", "design_residual_bank", "positive_observer"),
