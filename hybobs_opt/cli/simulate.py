@@ -12,9 +12,6 @@ from ._common import add_system_argument, load_system, print_json
 
 HELP = "simulate a system (an example on its paper's scenario, or any system from --x0 under --u)"
 
-from ..sim.any_system import DEFAULT_PWA_STEPS  # noqa: E402
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     p.add_argument("--t-final", type=float, default=None, help="final time in seconds")
@@ -23,7 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--u", action="append", metavar="INPUT=VALUE",
                    help="constant input (repeat; default: centre of the input bounds, or 0). Not for examples")
     p.add_argument("--q0", type=int, default=None, help="initial mode/location (constant-drift: 1..Q, default 1)")
-    p.add_argument("--steps", type=int, default=None, help=f"samples of a PWA run (default {DEFAULT_PWA_STEPS})")
+    p.add_argument("--steps", type=int, default=None, help="samples of a PWA run (default 100: hybobs_opt.sim.any_system.DEFAULT_PWA_STEPS)")
     p.add_argument("--dt", type=float, default=None, help="output sample time of a continuous-time run (s)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG plot of the trace")
     p.add_argument("--csv", metavar="FILE", help="write the trace as CSV (header: t, states, q, inputs, outputs)")
