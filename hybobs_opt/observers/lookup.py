@@ -395,7 +395,7 @@ class LookupObserver(Observer):
                 progress(t, N)
         per_step = (time.perf_counter() - t_start) / max(N, 1)
         flags = np.array([_FLAGS[c] for c in range(5)], dtype=object)[codes]
-        return LookupTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name, reasons)
+        return LookupTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name, reason_codes=reasons)
 
     def stats(self) -> dict:
         """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests."""
