@@ -25,3 +25,17 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save_figure(fig, path, title: str = "", dpi: int = 110):
+    """Give ``fig`` its title, lay it out, write it to ``path`` (parents created) and close it; returns ``path``."""
+    from pathlib import Path
+
+    path = Path(path)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
+    return path

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..plotting import pyplot
+from ..plotting import pyplot, save_figure
 
 plt = pyplot()
 import numpy as np  # noqa: E402
@@ -38,13 +38,7 @@ def plot_observer_run(trace, runs: Sequence, path: str | Path, title: str = "", 
     for a in axes[n]:
         a.set_xlabel("t [s]")
         a.grid(alpha=0.3)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title, dpi=100)
 
 
 # ---------------------------------------------------------------------------- diagnose report

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..plotting import pyplot
+from ..plotting import pyplot, save_figure
 
 plt = pyplot()
 import numpy as np  # noqa: E402
@@ -45,13 +45,7 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
         axes[n].set_yticklabels([trace.location_names[k] if k < len(trace.location_names) else str(k) for k in ticks], fontsize=7)
     axes[n].set_xlabel("t [s]")
     axes[n].grid(alpha=0.3)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)
 
 
 def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: int = 6) -> Path:
@@ -76,10 +70,4 @@ def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: in
     axes[n].set_yticks(sorted(codes.values()))
     axes[n].set_yticklabels(sorted(codes, key=codes.get), fontsize=7)
     axes[n].set_xlabel("t [s]" if log.t is not None else "sample")
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)

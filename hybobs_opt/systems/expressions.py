@@ -149,6 +149,16 @@ _CALLS = {ca.OP_SIN: "sin", ca.OP_COS: "cos", ca.OP_TAN: "tan", ca.OP_ASIN: "asi
           ca.OP_FMOD: "fmod", ca.OP_HYPOT: "hypot", ca.OP_COPYSIGN: "copysign"}
 
 
+#: How each operation that is not a plain function call is written (CasADi's own rewrites
+#: ``2*x -> twice(x)``, ``x**2 -> sq(x)`` read back to the same operations).
+_TEMPLATES = {
+    **{op: "({0} " + sym + " {1})" for op, sym in _INFIX.items()},
+    ca.OP_NEG: "(-{0})", ca.OP_TWICE: "(2.0 * {0})", ca.OP_SQ: "({0} ** 2.0)", ca.OP_POW: "({0} ** {1})",
+    ca.OP_CONSTPOW: "({0} ** {1})", ca.OP_INV: "(1.0 / {0})", ca.OP_NOT: "(not {0})", ca.OP_AND: "({0} and {1})",
+    ca.OP_OR: "({0} or {1})", ca.OP_IF_ELSE_ZERO: "if_else({0}, {1}, 0.0)",
+}
+
+
 def expression_text(expr: ca.SX, field: str) -> str:
     """``expr`` (an ``SX`` scalar) written in the language of :func:`parse_expression`.
 
@@ -179,24 +189,8 @@ def _write(e: ca.SX, field: str, depth: int) -> str:
         return e.name()
     op, d = e.op(), depth + 1
     args = [_write(e.dep(i), field, d) for i in range(e.n_dep())]
-    if op in _INFIX:
-        return f"({args[0]} {_INFIX[op]} {args[1]})"
-    if op == ca.OP_NEG:
-        return f"(-{args[0]})"
-    if op == ca.OP_TWICE:
-        return f"(2.0 * {args[0]})"
-    if op == ca.OP_SQ:
-        return f"({args[0]} ** 2.0)"
-    if op in (ca.OP_POW, ca.OP_CONSTPOW):
-        return f"({args[0]} ** {args[1]})"
-    if op == ca.OP_INV:
-        return f"(1.0 / {args[0]})"
-    if op == ca.OP_NOT:
-        return f"(not {args[0]})"
-    if op in (ca.OP_AND, ca.OP_OR):
-        return f"({args[0]} {'and' if op == ca.OP_AND else 'or'} {args[1]})"
-    if op == ca.OP_IF_ELSE_ZERO:
-        return f"if_else({args[0]}, {args[1]}, 0.0)"
+    if op in _TEMPLATES:
+        return _TEMPLATES[op].format(*args)
     if op in _CALLS:
         return f"{_CALLS[op]}({', '.join(args)})"
     raise ModelError(field, "an expression built from arithmetic and the functions of hybobs_opt.systems.expressions",

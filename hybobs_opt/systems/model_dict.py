@@ -319,6 +319,18 @@ def _inequality(text: Any, variables: dict, symbols: ca.SX, field: str) -> tuple
 
 # ---------------------------------------------------------------------------------- PWA
 
+def _names_and_bounds(r: _Reader):
+    """``states, inputs, outputs, X, U`` of a PWA system or hybrid automaton (``U`` None without inputs)."""
+    states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
+    if not states:
+        raise ModelError("states", "the names of the states (at least one)", "an empty list")
+    X = polytope_from_dict(r.raw("state_bounds"), [states], "state_bounds")
+    U = polytope_from_dict(r.raw("input_bounds"), [inputs], "input_bounds") if r.has("input_bounds") else None
+    if inputs and U is None:
+        raise ModelError("input_bounds", f"a bounded set over the inputs {list(inputs)}", "missing")
+    return states, inputs, outputs, X, U
+
+
 def _pwa_to_dict(s) -> dict[str, Any]:
     out: dict[str, Any] = {"class": "pwa", "name": s.name, "states": list(s.state_names),
                            "inputs": list(s.input_names), "outputs": list(s.output_names)}
@@ -336,14 +348,8 @@ def _pwa_to_dict(s) -> dict[str, Any]:
 
 def _pwa_from_dict(r: _Reader):
     PWAMode, PWASystem = _cls("PWAMode"), _cls("PWASystem")
-    states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
+    states, inputs, outputs, X, U = _names_and_bounds(r)
     n, m = len(states), len(inputs)
-    if n == 0:
-        raise ModelError("states", "the names of the states (at least one)", "an empty list")
-    X = polytope_from_dict(r.raw("state_bounds"), [states], "state_bounds")
-    U = polytope_from_dict(r.raw("input_bounds"), [inputs], "input_bounds") if r.has("input_bounds") else None
-    if m and U is None:
-        raise ModelError("input_bounds", f"a bounded set over the inputs {list(inputs)}", "missing")
     p = len(outputs) if outputs else None
     modes = []
     for i, mr in enumerate(r.items("modes")):
@@ -437,12 +443,8 @@ def _hybrid_to_dict(s) -> dict[str, Any]:
 
 def _hybrid_from_dict(r: _Reader):
     Edge, HybridAutomaton, Location = _cls("Edge"), _cls("HybridAutomaton"), _cls("Location")
-    states, inputs, outputs = r.names("states"), r.names("inputs"), r.names("outputs")
+    states, inputs, outputs, X, U = _names_and_bounds(r)
     n, m = len(states), len(inputs)
-    if n == 0:
-        raise ModelError("states", "the names of the states (at least one)", "an empty list")
-    X = polytope_from_dict(r.raw("state_bounds"), [states], "state_bounds")
-    U = polytope_from_dict(r.raw("input_bounds"), [inputs], "input_bounds") if r.has("input_bounds") else None
     p = len(outputs) if outputs else None
     locs, names = [], []
     readers = r.items("locations")
