@@ -3,8 +3,11 @@
 A log is a CSV file with a header row.  Its columns are named by the system: every input name and
 every output name must be there; a time column (``t`` or ``time``) is optional; the state names
 are optional too (all of them or none): a simulated or instrumented log that holds the true state
-lets the observers' estimates be checked.  Any other column, a missing one, a non-numeric cell or
-a NaN/Inf is a :class:`~hybobs_opt.errors.ModelError` naming the file, the line and the column:
+lets the observers' estimates be checked, and so is a column of the true mode (``q`` or ``mode``).
+The CSV that ``hybobs simulate --csv`` writes is a log.  A column may appear twice only with the
+same values (a trace's output that is also a state).  Any other column, a missing one, a
+non-numeric cell or a NaN/Inf is a :class:`~hybobs_opt.errors.ModelError` naming the file, the
+line and the column:
 a log is input data and is checked before any observer sees it (the observers themselves never
 raise on a bad sample; a file is not a sample).
 
@@ -26,6 +29,8 @@ from ..errors import ModelError
 
 #: Accepted names of the optional time column.
 TIME_COLUMNS = ("t", "time")
+#: Accepted names of the optional column of the true mode (``hybobs simulate --csv`` writes ``q``).
+MODE_COLUMNS = ("q", "mode")
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +48,8 @@ class SignalLog:
         The time column when the log has one.
     X : (N, n) array or None
         The true states when the log has the state columns.
+    Q : (N,) int array or None
+        The true mode when the log has a ``q`` or ``mode`` column.
     """
 
     path: str
@@ -50,6 +57,7 @@ class SignalLog:
     Y: np.ndarray
     t: np.ndarray | None
     X: np.ndarray | None
+    Q: np.ndarray | None = None
 
     @property
     def n_samples(self) -> int:
@@ -76,9 +84,6 @@ def read_log(path: str | Path, system) -> SignalLog:
     if not rows:
         raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
     header = [h.strip() for h in rows[0]]
-    repeated = sorted({h for h in header if header.count(h) > 1})
-    if repeated:
-        raise ModelError(f"{path} header", "each column once", f"repeated {repeated}")
     needed = list(dict.fromkeys(inputs + outputs))
     missing = [nm for nm in needed if nm not in header]
     if missing:
@@ -87,11 +92,15 @@ def read_log(path: str | Path, system) -> SignalLog:
     times = [h for h in header if h in TIME_COLUMNS and h not in needed]
     if len(times) > 1:
         raise ModelError(f"{path} header", "one time column", f"{times}")
-    allowed = set(needed) | set(times) | set(states)
+    modes = [h for h in header if h in MODE_COLUMNS and h not in needed and h not in states]
+    if len(modes) > 1:
+        raise ModelError(f"{path} header", "one mode column", f"{modes}")
+    allowed = set(needed) | set(times) | set(states) | set(modes)
     unknown = [h for h in header if h not in allowed]
     if unknown:
         raise ModelError(f"{path} header", f"only the columns {needed}, an optional time column "
-                         f"({', '.join(TIME_COLUMNS)}) and the states {list(states)}", f"unknown {unknown}")
+                         f"({', '.join(TIME_COLUMNS)}), mode column ({', '.join(MODE_COLUMNS)}) and the states "
+                         f"{list(states)}", f"unknown {unknown}")
     state_cols = [s for s in states if s in header]
     extra_states = [s for s in state_cols if s not in needed]
     if extra_states and len(state_cols) != len(states):
@@ -111,6 +120,12 @@ def read_log(path: str | Path, system) -> SignalLog:
             data[k - 2, c] = value
     if data.shape[0] == 0:
         raise ModelError(str(path), "at least one sample after the header", "none")
+    for name in sorted({h for h in header if header.count(h) > 1}):
+        cols = [c for c, h in enumerate(header) if h == name]
+        differ = np.flatnonzero(np.any(data[:, cols] != data[:, cols[:1]], axis=1))
+        if differ.size:
+            raise ModelError(f"{path} line {int(differ[0]) + 2} column {name!r}", "a column that appears twice to hold the same "
+                             "values (one signal)", "two different values")
 
     def columns(names):
         return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
@@ -120,7 +135,14 @@ def read_log(path: str | Path, system) -> SignalLog:
         k = int(np.argmax(np.diff(t) <= 0)) + 3
         raise ModelError(f"{path} line {k} column {times[0]!r}", "strictly increasing times", f"{t[k - 2]!r} after {t[k - 3]!r}")
     X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
-    return SignalLog(str(path), columns(inputs), columns(outputs), t, X)
+    Q = None
+    if modes:
+        q = data[:, header.index(modes[0])]
+        bad = np.flatnonzero(q != np.round(q))
+        if bad.size:
+            raise ModelError(f"{path} line {int(bad[0]) + 2} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
+        Q = q.astype(int)
+    return SignalLog(str(path), columns(inputs), columns(outputs), t, X, Q)
 
 
 def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Path:

@@ -229,3 +229,20 @@ def test_bad_input_exit_2_one_line_naming_file_and_entry(files, capsys, case):
     assert len(err.strip().splitlines()) == 1, err
     for fragment in fragments:
         assert fragment in err, (fragment, err)
+
+
+def test_a_simulate_csv_is_a_log_and_a_conflicting_duplicate_column_is_refused(capsys, tmp_path):
+    """powertrain3's output is also a state (omega_m): the trace CSV holds that column twice, with the same values."""
+    run_csv = tmp_path / "run.csv"
+    assert run(capsys, "simulate", "powertrain3", "--t-final", "0.05", "--csv", run_csv)[0] == 0
+    code, out, err = run(capsys, "observe", "powertrain3", "--data", run_csv, "--json")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["has_true_states"] and s["n_samples"] == 50 and s["n_flagged_observable_wrong"] == 0
+    rows = list(csv.reader(run_csv.open()))
+    last = rows[0].index("omega_m", rows[0].index("omega_m") + 1)  # the output copy of omega_m
+    rows[7][last] = str(float(rows[7][last]) + 1.0)
+    with run_csv.open("w", newline="") as fh:
+        csv.writer(fh).writerows(rows)
+    code, _, err = run(capsys, "observe", "powertrain3", "--data", run_csv)
+    assert code == 2 and "line 8" in err and "'omega_m'" in err and len(err.strip().splitlines()) == 1
