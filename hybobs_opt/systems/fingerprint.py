@@ -1,0 +1,74 @@
+"""Fingerprints of systems, for saved results that must not be applied to another system.
+
+A fingerprint is the SHA-256 (hex) of the canonical JSON of the model dictionary
+(:func:`hybobs_opt.systems.model_dict.system_to_dict`):
+``json.dumps(d, sort_keys=True, separators=(",", ":"))``.  The model dictionary holds every
+array bit for bit (``repr`` of a float round-trips), the names and the expressions, so two
+systems have the same fingerprint exactly when they have the same model dictionary: a rotation
+angle of pi/3 instead of pi/4, another gear ratio or a renamed mode all change it.
+
+:func:`first_difference` names the first entry in which two model dictionaries differ
+(``"modes[0].A"``), for the error message of a refused saved result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from typing import Any
+
+
+def canonical_json(data: Any) -> str:
+    """``data`` as canonical JSON: sorted keys, no whitespace (the text that is hashed)."""
+    return json.dumps(data, sort_keys=True, separators=(",", ":"))
+
+
+def sha256_of(data: Any) -> str:
+    """SHA-256 (hex) of :func:`canonical_json` of ``data``."""
+    return hashlib.sha256(canonical_json(data).encode("utf-8")).hexdigest()
+
+
+def model_fingerprint(model: Mapping[str, Any]) -> str:
+    """Fingerprint of a model dictionary (as stored in a saved result)."""
+    # Through JSON once so that tuples and lists, numpy floats and floats hash alike.
+    return sha256_of(json.loads(canonical_json(model)))
+
+
+def system_fingerprint(system: Any) -> str:
+    """SHA-256 (hex) of the canonical JSON of ``system.to_dict()``.
+
+    Raises
+    ------
+    ModelError
+        If ``system`` has no model dictionary (not a system class of :mod:`hybobs_opt.systems`).
+    """
+    from .model_dict import system_to_dict
+
+    return model_fingerprint(system_to_dict(system))
+
+
+def first_difference(a: Any, b: Any, path: str = "") -> str | None:
+    """The first entry (``"modes[0].A"``) in which two model dictionaries differ, ``None`` if equal.
+
+    Mappings are compared key by key (in the order of ``a``, then the keys only ``b`` has) and
+    lists of mappings item by item; any other value (a matrix, a list of names, a number) is
+    one entry.  A list of mappings of another length is reported as the list itself.
+    """
+    if isinstance(a, Mapping) and isinstance(b, Mapping):
+        for key in list(a) + [k for k in b if k not in a]:
+            sub = f"{path}.{key}" if path else str(key)
+            if key not in a or key not in b:
+                return sub
+            found = first_difference(a[key], b[key], sub)
+            if found is not None:
+                return found
+        return None
+    if (isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and a
+            and all(isinstance(v, Mapping) for v in a) and all(isinstance(v, Mapping) for v in b)):
+        for i, (u, v) in enumerate(zip(a, b)):
+            found = first_difference(u, v, f"{path}[{i}]")
+            if found is not None:
+                return found
+        return None
+    return None if canonical_json(a) == canonical_json(b) else (path or "(the whole model)")
