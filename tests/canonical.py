@@ -95,3 +95,20 @@ def mirror_system() -> PWASystem:
     left = PWAMode(MIRROR @ A1 @ MIRROR, MIRROR @ B1, MIRROR @ a1, C1 @ MIRROR,
                    Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([0.0])), name="x1<=0")
     return PWASystem((right, left), Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
+
+
+def rotation_pwa(angle: float) -> PWASystem:
+    """Bemporad & Morari (Automatica 35(3), 1999, Sec. 5): ``x+ = 0.8 R(+-angle) x + [0; 1] u`` on
+    ``x1 >= 0`` / ``x1 <= 0``, ``y = x2``, ``|x_i| <= 10``, ``|u| <= 1``.
+
+    Known answer: mirror-symmetric like :func:`mirror_system` (``R(-a) M = M R(a)``, ``M B = B``),
+    so no state with ``x1 != 0`` is observable at any horizon.
+    """
+    def rot(a):
+        return 0.8 * np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+
+    B, C = np.array([[0.0], [1.0]]), np.array([[0.0, 1.0]])
+    modes = (PWAMode(rot(angle), B, np.zeros(2), C, Polytope(np.array([[-1.0, 0.0, 0.0]]), np.zeros(1)), name="right"),
+             PWAMode(rot(-angle), B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0]]), np.zeros(1)), name="left"))
+    return PWASystem(modes, Polytope.from_box([-10, -10], [10, 10]), Polytope.from_box([-1], [1]),
+                     ("x1", "x2"), ("u",), ("y",), name="rotation")

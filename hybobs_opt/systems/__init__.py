@@ -18,6 +18,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("PWAMode", "PWASystem", "check_partition"), "hybobs_opt.systems.pwa"),
     **dict.fromkeys(("load_model", "model_schema", "read_model_dict", "save_model"), "hybobs_opt.systems.model_file"),
     **dict.fromkeys(("parse_expression", "expression_text"), "hybobs_opt.systems.expressions"),
+    "system_fingerprint": "hybobs_opt.systems.fingerprint",
     **dict.fromkeys(("ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems.scalar_nonlinear"),
     **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
 }

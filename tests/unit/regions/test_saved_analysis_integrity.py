@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from canonical import rotation_pwa
+
 from hybobs_opt.errors import ModelError
 from hybobs_opt.executor import SerialExecutor
 from hybobs_opt.regions import analyse_observability, load_analysis, save_analysis
@@ -22,23 +24,13 @@ from hybobs_opt.studies.registry import get_example
 from hybobs_opt.systems.fingerprint import canonical_json, first_difference, system_fingerprint
 from hybobs_opt.systems.model_dict import system_from_dict
 from hybobs_opt.systems.polytope import Polytope
-from hybobs_opt.systems.pwa import PWAMode, PWASystem
 
 #: The entries of a version-1 file: users' scripts read them, so they stay.
 V1_KEYS = {"format", "version", "example", "params", "system_name", "state_names", "horizon", "scale", "centre",
            "regions", "full_rank", "pairs", "enumeration_stats", "analysis_stats", "summary"}
 
 
-def rotation(angle: float) -> PWASystem:
-    """Bemporad-Morari style rotation: x+ = 0.8 R(+-angle) x + B u on the half planes x1 >= 0 / x1 <= 0."""
-    def rot(a):
-        return 0.8 * np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-
-    B, C = np.array([[0.0], [1.0]]), np.array([[0.0, 1.0]])
-    modes = (PWAMode(rot(angle), B, np.zeros(2), C, Polytope(np.array([[-1.0, 0.0, 0.0]]), np.zeros(1)), name="right"),
-             PWAMode(rot(-angle), B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0]]), np.zeros(1)), name="left"))
-    return PWASystem(modes, Polytope.from_box([-10, -10], [10, 10]), Polytope.from_box([-1], [1]),
-                     ("x1", "x2"), ("u",), ("y",), name="rotation")
+rotation = rotation_pwa
 
 
 @pytest.fixture(scope="module")
