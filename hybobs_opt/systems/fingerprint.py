@@ -5,7 +5,10 @@ A fingerprint is the SHA-256 (hex) of the canonical JSON of the model dictionary
 ``json.dumps(d, sort_keys=True, separators=(",", ":"))``.  The model dictionary holds every
 array bit for bit (``repr`` of a float round-trips), the names and the expressions, so two
 systems have the same fingerprint exactly when they have the same model dictionary: a rotation
-angle of pi/3 instead of pi/4, another gear ratio or a renamed mode all change it.
+angle of pi/3 instead of pi/4, another gear ratio or a renamed mode all change it.  The one thing
+left out is the coordinate labels of the sets (the ``names`` of an ``{A, b}`` set): they are
+derived labels (``Polytope.from_box`` without names gives ``z1, z2``), so a box written by hand in
+a model file and the same box built in Python are the same plant (:func:`identity_dict`).
 
 :func:`first_difference` names the first entry in which two model dictionaries differ
 (``"modes[0].A"``), for the error message of a refused saved result.
@@ -29,10 +32,20 @@ def sha256_of(data: Any) -> str:
     return hashlib.sha256(canonical_json(data).encode("utf-8")).hexdigest()
 
 
+def identity_dict(data: Any) -> Any:
+    """``data`` without the coordinate labels of its sets (``names`` of every mapping with ``A`` and ``b``)."""
+    if isinstance(data, Mapping):
+        is_set = "A" in data and "b" in data
+        return {k: identity_dict(v) for k, v in data.items() if not (is_set and k == "names")}
+    if isinstance(data, (list, tuple)):
+        return [identity_dict(v) for v in data]
+    return data
+
+
 def model_fingerprint(model: Mapping[str, Any]) -> str:
-    """Fingerprint of a model dictionary (as stored in a saved result)."""
+    """Fingerprint of a model dictionary (as stored in a saved result), set labels left out."""
     # Through JSON once so that tuples and lists, numpy floats and floats hash alike.
-    return sha256_of(json.loads(canonical_json(model)))
+    return sha256_of(identity_dict(json.loads(canonical_json(model))))
 
 
 def system_fingerprint(system: Any) -> str:
@@ -53,8 +66,11 @@ def first_difference(a: Any, b: Any, path: str = "") -> str | None:
 
     Mappings are compared key by key (in the order of ``a``, then the keys only ``b`` has) and
     lists of mappings item by item; any other value (a matrix, a list of names, a number) is
-    one entry.  A list of mappings of another length is reported as the list itself.
+    one entry.  A list of mappings of another length is reported as the list itself.  The
+    coordinate labels of sets are not compared (see :func:`identity_dict`).
     """
+    if not path:
+        a, b = identity_dict(a), identity_dict(b)
     if isinstance(a, Mapping) and isinstance(b, Mapping):
         for key in list(a) + [k for k in b if k not in a]:
             sub = f"{path}.{key}" if path else str(key)

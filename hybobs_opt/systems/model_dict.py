@@ -264,17 +264,19 @@ def polytope_from_dict(value: Any, spaces: Sequence[tuple[str, ...]], field: str
         rows.append(A)
         rhs.append(_vector(value["b"], f"{field}.b", A.shape[0]))
     if "box" in value:
+        # rows as Polytope.from_box writes them: every upper bound, then every lower bound, in
+        # the order of the variables (so a box written by hand is the same polytope, row for row)
+        bounds = {}
         for name, interval in value["box"].items():
             if name not in space:
                 raise ModelError(f"{field}.box", f"intervals of the variables {list(space)}", f"the unknown name {name!r}")
             lo_hi = _vector(interval, f"{field}.box.{name}", 2)
             if not lo_hi[0] <= lo_hi[1]:
                 raise ModelError(f"{field}.box.{name}", "[lower, upper] with lower <= upper", f"{lo_hi.tolist()}")
-            e = np.zeros((2, d))
-            k = space.index(name)
-            e[0, k], e[1, k] = 1.0, -1.0
-            rows.append(e)
-            rhs.append(np.array([lo_hi[1], -lo_hi[0]]))
+            bounds[space.index(name)] = lo_hi
+        ks = sorted(bounds)
+        rows.append(np.vstack([np.eye(d)[ks], -np.eye(d)[ks]]))
+        rhs.append(np.array([bounds[k][1] for k in ks] + [-bounds[k][0] for k in ks]))
     if texts:
         symbols = ca.vertcat(*[ca.SX.sym(v) for v in space])
         variables = {v: symbols[i] for i, v in enumerate(space)}

@@ -246,3 +246,21 @@ def test_a_simulate_csv_is_a_log_and_a_conflicting_duplicate_column_is_refused(c
         csv.writer(fh).writerows(rows)
     code, _, err = run(capsys, "observe", "powertrain3", "--data", run_csv)
     assert code == 2 and "line 8" in err and "'omega_m'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_saved_regions_feed_the_observer_and_refuse_another_plant(files, capsys):
+    saved = files["dir"] / "regions.json"
+    assert run(capsys, "regions", files["toml"], "-T", "2", "--executor", "serial", "--save", saved)[0] == 0
+    code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--regions", saved, "--json")
+    assert code == 0, err
+    assert json.loads(out)["horizon"] == 2
+    # the same file for the plant with another rotation angle (pi/4): refused, naming the entry that differs
+    code, _, err = run(capsys, "observe", f"{files['py']}:build", "--param", "angle=0.7853981633974483",
+                       "--data", files["log"], "--regions", saved)
+    assert code == 2 and "another system" in err and "modes[0].A" in err and len(err.strip().splitlines()) == 1
+    # one number edited in the file: refused
+    data = json.loads(saved.read_text())
+    data["regions"][0]["H"][0][0] += 1e-9
+    saved.write_text(json.dumps(data))
+    code, _, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--regions", saved)
+    assert code == 2 and "checksum" in err
