@@ -33,12 +33,17 @@ def sha256_of(data: Any) -> str:
 
 
 def identity_dict(data: Any) -> Any:
-    """``data`` without the coordinate labels of its sets (``names`` of every mapping with ``A`` and ``b``)."""
+    """``data`` without what does not change the plant: the coordinate labels of its sets (``names``
+    of every mapping with ``A`` and ``b``), comment keys (``_...``) and the sign of zeros
+    (``-0.0`` and ``0.0`` are one number: ``x1 <= 0`` reads as ``b = -0.0``, ``from_box`` writes ``0.0``)."""
     if isinstance(data, Mapping):
         is_set = "A" in data and "b" in data
-        return {k: identity_dict(v) for k, v in data.items() if not (is_set and k == "names")}
+        return {k: identity_dict(v) for k, v in data.items()
+                if not (is_set and k == "names") and not (isinstance(k, str) and k.startswith("_"))}
     if isinstance(data, (list, tuple)):
         return [identity_dict(v) for v in data]
+    if isinstance(data, float) and data == 0.0:
+        return 0.0
     return data
 
 

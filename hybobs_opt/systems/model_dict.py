@@ -75,7 +75,23 @@ def system_from_dict(data: Mapping[str, Any]) -> Any:
                "constant_drift": _drift_from_dict, "scalar_nonlinear": _nonlinear_from_dict}
     if kind not in readers:
         raise ModelError("class", f"one of {list(CLASSES)}", repr(kind))
-    return readers[kind](_Reader(data))
+    reader = _Reader(data)
+    reader.check_keys(_COMMON_KEYS | _CLASS_KEYS[kind])
+    return readers[kind](reader)
+
+
+_COMMON_KEYS = frozenset({"format", "version", "class", "name", "states", "inputs", "outputs"})
+#: The keys of each class (besides :data:`_COMMON_KEYS`) and of the tables inside.
+_CLASS_KEYS = {
+    "pwa": frozenset({"Ts", "state_bounds", "input_bounds", "partition", "modes"}),
+    "hybrid_automaton": frozenset({"state_bounds", "input_bounds", "locations", "edges"}),
+    "constant_drift": frozenset({"modes", "f", "trigger", "alpha", "h"}),
+    "scalar_nonlinear": frozenset({"box", "A", "B", "F", "E", "f", "C", "h", "g"}),
+}
+_MODE_KEYS = frozenset({"name", "A", "B", "a", "C", "D", "c", "guard"})
+_LOCATION_KEYS = frozenset({"name", "invariant", "A", "B", "E", "flow", "C", "D", "c", "output"})
+_EDGE_KEYS = frozenset({"source", "target", "guard", "reset"})
+_FUNCTION_KEYS = frozenset({"name", "expr", "derivative", "argument"})
 
 
 # ---------------------------------------------------------------------------------- reading helpers
@@ -91,6 +107,14 @@ class _Reader:
 
     def has(self, key: str) -> bool:
         return key in self.data
+
+    def check_keys(self, allowed: set[str] | frozenset[str]) -> None:
+        """Refuse an unknown key (a misspelt ``BB`` would otherwise read as a missing ``B = 0``);
+        keys that begin with ``_`` are comments (JSON has no other kind)."""
+        unknown = sorted(k for k in self.data if not (isinstance(k, str) and k.startswith("_")) and k not in allowed)
+        if unknown:
+            raise ModelError(self.at(unknown[0]), f"one of the keys {sorted(allowed)} (or a comment key starting with '_')",
+                             "an unknown key")
 
     def raw(self, key: str, default: Any = ...) -> Any:
         if key not in self.data:
@@ -151,12 +175,19 @@ class _Reader:
 
 def _numbers(value: Any, field: str) -> np.ndarray:
     def check(v):
+        if isinstance(v, str):
+            # a constant written as an expression ("pi", "0.8*cos(pi/3)", YAML's unquoted "1e-3")
+            c = parse_expression(v, {}, field)
+            if not c.is_constant():
+                raise ModelError(field, "numbers or constant expressions", repr(v))
+            return float(c)
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise ModelError(field, "numbers (nested lists of numbers for a matrix)", repr(v))
+            raise ModelError(field, "numbers or constant expressions such as 'pi/3' (nested lists for a matrix)", repr(v))
         return float(v)
 
+    leaves = _walk(value, check)  # a bad entry raises here, naming itself
     try:
-        arr = np.array(_walk(value, check), dtype=float)
+        arr = np.array(leaves, dtype=float)
     except ValueError:
         raise ModelError(field, "a rectangular nested list of numbers", "rows of different lengths") from None
     if not np.all(np.isfinite(arr)):
@@ -219,7 +250,7 @@ def polytope_from_dict(value: Any, spaces: Sequence[tuple[str, ...]], field: str
     """
     if not isinstance(value, Mapping):
         raise ModelError(field, "a set: a mapping with 'A' and 'b', a 'box' or 'inequalities'", type(value).__name__)
-    unknown = set(value) - {"A", "b", "box", "inequalities", "names", "dim"}
+    unknown = {k for k in value if not str(k).startswith("_")} - {"A", "b", "box", "inequalities", "names", "dim"}
     if unknown:
         raise ModelError(field, "the keys A, b, box, inequalities, names", f"unknown key(s) {sorted(unknown)}")
     if not ({"A", "b", "box", "inequalities"} & set(value)):
@@ -355,6 +386,7 @@ def _pwa_from_dict(r: _Reader):
     p = len(outputs) if outputs else None
     modes = []
     for i, mr in enumerate(r.items("modes")):
+        mr.check_keys(_MODE_KEYS)
         C = mr.matrix("C", (p, n))
         p = C.shape[0]
         modes.append(PWAMode(
@@ -454,6 +486,7 @@ def _hybrid_from_dict(r: _Reader):
         first = next((lr for lr in readers if lr.has("C")), None)
         p = len(first.raw("C")) if first is not None else len(readers[0].raw("output", [])) if readers else 0
     for i, lr in enumerate(readers):
+        lr.check_keys(_LOCATION_KEYS)
         name = lr.string("name", f"location{i}")
         names.append(name)
         inv = polytope_from_dict(lr.raw("invariant"), [states, states + inputs], lr.at("invariant"))
@@ -471,11 +504,13 @@ def _hybrid_from_dict(r: _Reader):
     if r.has("edges"):
         edges = []
         for k, er in enumerate(r.items("edges")):
+            er.check_keys(_EDGE_KEYS)
             ends = [_location_index(er.raw(end), names, er.at(end)) for end in ("source", "target")]
             guard = polytope_from_dict(er.raw("guard"), [states], er.at("guard")) if er.has("guard") else None
             reset = None
             if er.has("reset"):
                 rr = er.sub("reset")
+                rr.check_keys(frozenset({"R", "r"}))
                 reset = (rr.matrix("R", (n, n)), rr.vector("r", n))
             edges.append(Edge(ends[0], ends[1], guard, reset))
         edges = tuple(edges)
@@ -528,6 +563,7 @@ _Z = ca.SX.sym("z")
 
 def _function_from_dict(r: _Reader, default_name: str):
     ScalarFunction = _cls("ScalarFunction")
+    r.check_keys(_FUNCTION_KEYS)
     name = r.string("name", default_name)
     expr = r.raw("expr")
     deriv = r.raw("derivative", None)

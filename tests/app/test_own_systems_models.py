@@ -124,23 +124,13 @@ def test_every_format_is_exercised():
     assert all((BUILDERS / f"{name}.py").is_file() for name in FILES)
 
 
-#: Files whose sets are written as ``inequalities``: their fingerprint differs from the builder's.
-SIGNED_ZERO = pytest.mark.xfail(strict=False, reason=(
-    "system_fingerprint hashes -0.0 and 0.0 apart: the inequality 'x1 <= 0' reads as b = -0.0 and the zero "
-    "coefficients of an inequality as +0.0 (Polytope.from_box and np.zeros give the other signs); to_dict() is equal"))
-FINGERPRINT_CASES = [pytest.param(name, path, id=path.name,
-                                  marks=[SIGNED_ZERO] if path.name in ("bemporad_morari_rotation.toml",
-                                                                       "flexible_joint_robot.yaml") else [])
-                     for name, path in ALL_FILES]
+FINGERPRINT_CASES = [pytest.param(name, path, id=path.name) for name, path in ALL_FILES]
 
 
 @pytest.mark.parametrize("name,path", FINGERPRINT_CASES)
 def test_fingerprint_of_file_and_builder(name, path):
-    """Saved results are keyed by ``system_fingerprint``: a file and its builder should share it.
-
-    Two files miss it because of signed zeros (see ``SIGNED_ZERO``); when that is fixed they pass
-    (reported as XPASS) and the mark can go.
-    """
+    """Saved results are keyed by ``system_fingerprint``: a file and its builder share it (signed
+    zeros and set labels do not count: ``x1 <= 0`` reads as ``b = -0.0``, ``from_box`` writes ``0.0``)."""
     assert system_fingerprint(load_model(path)) == system_fingerprint(builder(name))
 
 
