@@ -63,7 +63,14 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
     def simulation(out: Path, progress) -> ReportSection:
         from ..sim.any_system import simulate_system
 
-        trace = simulate_system(system)
+        from ..errors import HybobsError
+
+        try:
+            trace = simulate_system(system)
+        except HybobsError as exc:  # e.g. a Zeno automaton before the default horizon: say so, keep the page
+            return ReportSection("Simulation", f"<p>The run from the centre of the state bounds under the centre input "
+                                 f"stopped: {html.escape(str(exc))}. Choose the run with <code>hybobs simulate SYSTEM "
+                                 f"--x0 ... --t-final ...</code>.</p>", {"error": str(exc)})
         fig = f"simulation_{slug}.png"
         plot_trace(trace, out / fig, title=f"{label}: from the centre of the state bounds")
         return ReportSection("Simulation", f"<p>{trace.n_samples} samples; initial state and constant input at the "
