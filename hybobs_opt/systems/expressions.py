@@ -76,7 +76,18 @@ def parse_expression(text: str, variables: dict[str, ca.SX], field: str) -> ca.S
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise ModelError(field, "an arithmetic expression", f"{text!r} ({exc.msg} at column {exc.offset})") from None
+    except (RecursionError, MemoryError):  # Python's parser gives up on deep nesting below the length limit
+        raise ModelError(field, f"an expression nested at most {MAX_EXPRESSION_DEPTH} deep", f"{text[:40]!r}... (deeper)") from None
     return _Builder(variables, field, text).build(tree.body, 0)
+
+
+def _source(node: ast.AST) -> str:
+    """The text of ``node`` for a message (short, and safe for deeply nested nodes)."""
+    try:
+        text = ast.unparse(node)
+    except (RecursionError, MemoryError):
+        return type(node).__name__
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 class _Builder:
@@ -128,13 +139,13 @@ class _Builder:
             return out
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-                what = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)
+                what = node.func.id if isinstance(node.func, ast.Name) else _source(node.func)
                 raise self.fail(f"a call of {what!r} (known: {', '.join(sorted(FUNCTIONS))})")
             fn, arity = FUNCTIONS[node.func.id]
             if node.keywords or any(isinstance(a, ast.Starred) for a in node.args) or len(node.args) != arity:
                 raise self.fail(f"{node.func.id}() with other than {arity} positional argument(s)")
             return fn(*(self.build(a, d) for a in node.args))
-        raise self.fail(f"the construct {ast.unparse(node)!r} ({type(node).__name__})")
+        raise self.fail(f"the construct {_source(node)!r} ({type(node).__name__})")
 
 
 # ---------------------------------------------------------------------------------- writing
@@ -170,7 +181,35 @@ def expression_text(expr: ca.SX, field: str) -> str:
     expr = ca.SX(expr)
     if expr.shape != (1, 1):
         raise ModelError(field, "a scalar expression", f"shape {expr.shape}")
-    return _write(expr, field, 0)
+    budget = [MAX_EXPRESSION_CHARS]
+    return _write(expr, field, 0, budget)
+
+
+def _spend(text: str, budget: list[int], field: str, counted: int = 0) -> str:
+    """Charge the new characters of ``text`` to ``budget``; refuse text longer than the reader accepts.
+
+    The text is a tree: a subexpression the CasADi graph shares is written each time it is used,
+    so a flow traced from Python (``y = 0.5*y + sin(y)`` repeated) can grow exponentially.
+    """
+    budget[0] -= len(text) - counted
+    if budget[0] < 0:
+        raise ModelError(field, f"an expression that writes in at most {MAX_EXPRESSION_CHARS} characters (shared "
+                         "subexpressions are written out each time they are used)", "a longer one: give the function "
+                         "as text in the model file, or simplify it")
+    return text
+
+
+def _if_else_parts(e: ca.SX):
+    """``(c, a, b)`` when ``e`` is ``(c ? a : 0) + (!c ? b : 0)`` (how CasADi stores ``if_else``), else ``None``."""
+    if e.op() != ca.OP_ADD:
+        return None
+    left, right = e.dep(0), e.dep(1)
+    if left.is_constant() or right.is_constant() or left.op() != ca.OP_IF_ELSE_ZERO or right.op() != ca.OP_IF_ELSE_ZERO:
+        return None
+    c, nc = left.dep(0), right.dep(0)
+    if nc.is_constant() or nc.is_symbolic() or nc.op() != ca.OP_NOT or not ca.is_equal(nc.dep(0), c, 1):
+        return None
+    return c, left.dep(1), right.dep(1)
 
 
 def _number(value: float, field: str) -> str:
@@ -180,19 +219,23 @@ def _number(value: float, field: str) -> str:
     return f"({text})" if value < 0 or text.startswith("-") else text
 
 
-def _write(e: ca.SX, field: str, depth: int) -> str:
+def _write(e: ca.SX, field: str, depth: int, budget: list[int]) -> str:
     if depth > MAX_EXPRESSION_DEPTH:
         raise ModelError(field, f"an expression nested at most {MAX_EXPRESSION_DEPTH} deep", "a deeper one")
     if e.is_constant():
-        return _number(float(e), field)
+        return _spend(_number(float(e), field), budget, field)
     if e.is_symbolic():
-        return e.name()
+        return _spend(e.name(), budget, field)
     op, d = e.op(), depth + 1
-    args = [_write(e.dep(i), field, d) for i in range(e.n_dep())]
+    branches = _if_else_parts(e)
+    if branches is not None:  # if_else(c, a, b) is stored as (c ? a : 0) + (!c ? b : 0): write c once
+        c, a, b = (_write(part, field, d, budget) for part in branches)
+        return _spend(f"if_else({c}, {a}, {b})", budget, field, len(c) + len(a) + len(b))
+    args = [_write(e.dep(i), field, d, budget) for i in range(e.n_dep())]
     if op in _TEMPLATES:
-        return _TEMPLATES[op].format(*args)
+        return _spend(_TEMPLATES[op].format(*args), budget, field, sum(map(len, args)))
     if op in _CALLS:
-        return f"{_CALLS[op]}({', '.join(args)})"
+        return _spend(f"{_CALLS[op]}({', '.join(args)})", budget, field, sum(map(len, args)))
     raise ModelError(field, "an expression built from arithmetic and the functions of hybobs_opt.systems.expressions",
                      f"the CasADi operation {op} in {str(e)[:80]}")
 
@@ -240,9 +283,31 @@ def vector_texts(expr: ca.SX, field: str) -> list[str]:
 
 def affine_coefficients(expr: ca.SX, symbols: ca.SX, field: str) -> tuple[np.ndarray, float]:
     """``(a, c)`` with ``expr = a . symbols + c`` exactly; ``ModelError`` when ``expr`` is not affine."""
+    if not _is_affine(expr, symbols):
+        raise ModelError(field, "a linear inequality (affine in the variables: sums, and products and quotients "
+                         "by constants)", f"the expression {str(expr)[:80]}")
     jac = ca.jacobian(expr, symbols)
-    if ca.depends_on(jac, symbols):
-        raise ModelError(field, "a linear inequality (affine in the variables)", f"the nonlinear expression {expr}")
     fn = ca.Function("affine", [symbols], [jac, expr])
     a, c = fn(np.zeros(symbols.shape[0]))
     return np.asarray(a, dtype=float).ravel(), float(c)
+
+
+def _is_affine(e: ca.SX, symbols: ca.SX) -> bool:
+    """Structural test: ``e`` is built from the symbols by ``+ -``, and ``* /`` by constants.
+
+    (A Jacobian free of the variables is not enough: ``floor(x)``, ``x > 0`` and ``sign(x)`` have
+    derivative 0 and would read as constants.)
+    """
+    if not ca.depends_on(e, symbols) or e.is_symbolic():
+        return True
+    op = e.op()
+    if op in (ca.OP_ADD, ca.OP_SUB):
+        return _is_affine(e.dep(0), symbols) and _is_affine(e.dep(1), symbols)
+    if op in (ca.OP_NEG, ca.OP_TWICE):
+        return _is_affine(e.dep(0), symbols)
+    if op == ca.OP_MUL:
+        a, b = e.dep(0), e.dep(1)
+        return (not ca.depends_on(a, symbols) and _is_affine(b, symbols)) or (not ca.depends_on(b, symbols) and _is_affine(a, symbols))
+    if op == ca.OP_DIV:
+        return not ca.depends_on(e.dep(1), symbols) and _is_affine(e.dep(0), symbols)
+    return False

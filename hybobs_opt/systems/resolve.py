@@ -70,7 +70,7 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
             return system
     if is_model_path(name):
         if params:
-            raise ModelError(f"{name}: --param", "no parameters (a model file has fixed values; edit the file)",
+            raise ModelError(f"{name}: params", "no parameters (a model file has fixed values; edit the file)",
                              f"{sorted(params)}")
         return load_model(name)
     target, sep, function = name.rpartition(":")
@@ -123,6 +123,14 @@ def _attribute(module, function: str, where: str) -> Callable:
 
 
 def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
+    import inspect
+
+    try:
+        inspect.signature(fn).bind(**params)
+    except TypeError as exc:
+        raise ModelError(f"{name}: params", "parameters the function accepts", str(exc)) from None
+    except ValueError:
+        pass  # no signature to check (a builtin): the call says
     try:
         system = fn(**params)
     except HybobsError as exc:
@@ -130,8 +138,6 @@ def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
         if isinstance(exc, ModelError) and field is not None:
             raise ModelError(f"{name}: {field}", exc.expected, exc.got) from None
         raise ModelError(name, "a function that builds a system", f"{type(exc).__name__}: {exc}") from None
-    except TypeError as exc:
-        raise ModelError(f"{name} --param", "parameters the function accepts", str(exc)) from None
     except Exception as exc:  # whatever the user's function raises
         raise ModelError(name, "a function that builds a system without error", f"{type(exc).__name__}: {exc}") from None
     if not isinstance(system, system_classes()):

@@ -117,17 +117,23 @@ def test_core_errors_never_name_a_cli_flag():
 
 
 def test_the_walker_sees_upward_imports(tmp_path, monkeypatch):
-    """The checker itself: a core module with a function-level relative import of a study is caught."""
-    fake = PACKAGE / "regions" / "_architecture_probe.py"
-    assert not fake.exists()
-    try:
-        fake.write_text("def f():\n    from ..studies import get_example\n    import importlib\n"
-                        "    return importlib.import_module('hybobs_opt.cli.regions')\n")
-        found = [v for v in violations() if "_architecture_probe" in v]
-        assert any("imports hybobs_opt.studies" in v for v in found)
-        assert any("imports hybobs_opt.cli.regions" in v for v in found)
-    finally:
-        fake.unlink()
+    """The checker itself: a core module with a function-level relative import of a study is caught.
+
+    The probe goes into a copy of the package (writing it into the real one raced with the other
+    walkers of this module under pytest-xdist: they listed the file and found it gone)."""
+    import shutil
+
+    real = PACKAGE / "regions" / "_architecture_probe.py"
+    copy = tmp_path / "hybobs_opt"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", copy)
+    (copy / "regions" / "_architecture_probe.py").write_text(
+        "def f():\n    from ..studies import get_example\n    import importlib\n"
+        "    return importlib.import_module('hybobs_opt.cli.regions')\n")
+    found = [v for v in violations() if "_architecture_probe" in v]
+    assert any("imports hybobs_opt.studies" in v for v in found)
+    assert any("imports hybobs_opt.cli.regions" in v for v in found)
+    assert not real.exists()
 
 
 def test_compat_imports_nothing_of_the_package():

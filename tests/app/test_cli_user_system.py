@@ -221,7 +221,7 @@ def test_bad_input_exit_2_one_line_naming_file_and_entry(files, capsys, case):
         "csv extra column": (["observe", files["toml"], "--data", bad_csv(files, "extra.csv", ["u", "y", "speed"], [[0.1, 0.2, 1.0]])], ["extra.csv", "speed"]),
         "csv nan": (["observe", files["toml"], "--data", bad_csv(files, "nan.csv", ["u", "y"], [[0.1, 0.2], [0.1, "nan"]])], ["nan.csv", "line 3", "'y'"]),
         "csv text": (["observe", files["toml"], "--data", bad_csv(files, "text.csv", ["u", "y"], [["fast", 0.2]])], ["text.csv", "line 2", "'u'"]),
-        "param to file": (["simulate", files["toml"], "--param", "angle=1"], ["rotation.toml", "--param"]),
+        "param to file": (["simulate", files["toml"], "--param", "angle=1"], ["rotation.toml", "params"]),
         "wrong class for regions": (["regions", "vehicle_tracking", "-T", "2"], ["PWA", "scalar-nonlinear"]),
     }[case]
     code, _, err = run(capsys, *argv)
