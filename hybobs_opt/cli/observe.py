@@ -14,11 +14,14 @@ HELP = "run an observer on an example's scenario, or on a CSV log (--data) of an
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     p.add_argument("--observer", default=None, metavar="KIND",
-                   help="observer kind (with --data: lookup, miqp, milp, milp_inf; default lookup)")
+                   help="observer kind (with --data: lookup, miqp, milp, milp_inf for a PWA system, default lookup; "
+                        "switched for a scalar-nonlinear one)")
     p.add_argument("--data", metavar="LOG.csv", help="recorded inputs and outputs, columns named by the system "
                    "(optional: t or time, the true states)")
     p.add_argument("--horizon", "-T", type=int, default=None, help="observation horizon T (with --data; default 3)")
     p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --save') for the lookup observer")
+    p.add_argument("--gains", metavar="FILE", help="switched gains ('hybobs synth --out') for a scalar-nonlinear "
+                   "system (default: designed now with the model's settings)")
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
@@ -28,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     named = load_system(args)
     if args.data is None:
-        for option in ("horizon", "regions", "out"):
+        for option in ("horizon", "regions", "out", "gains"):
             if getattr(args, option) is not None:
                 raise ModelError(f"--{option}", "--data LOG.csv as well (it applies to a recorded log)", "no --data")
         if named.example is None:
@@ -36,6 +39,8 @@ def run(args: argparse.Namespace) -> int:
         from ..studies.scenarios import get_scenario
 
         summary = get_scenario(named.example.name)(args)
+    elif named.kind == "scalar_nonlinear":
+        summary = observe_recorded_nonlinear(named, args)
     else:
         summary = observe_recorded(named, args)
     if args.json:
@@ -53,7 +58,9 @@ def open_log(named, args):
     from ..sim.log import read_log
     from ._common import require_kind
 
-    require_kind(named, ("pwa",), "the observers on recorded data are the PWA observers of paper 002")
+    require_kind(named, ("pwa",), "the PWA observers of paper 002 on recorded data")
+    if getattr(args, "gains", None):
+        raise ModelError("--gains", "no value for a PWA system (switched gains belong to scalar-nonlinear systems)", "a file")
     if args.horizon is not None and args.horizon < 1:
         raise ModelError("--horizon", "a horizon T >= 1", repr(args.horizon))
     analysis = None
@@ -65,6 +72,43 @@ def open_log(named, args):
             raise ModelError("--horizon", f"the horizon of {args.regions}, T = {analysis.T}", repr(args.horizon))
     horizon = analysis.T if analysis is not None else (args.horizon or 3)
     return read_log(args.data, named.system), horizon, analysis
+
+
+def observe_recorded_nonlinear(named, args) -> dict:
+    """The switched-gain observer of paper 004 on a log of a scalar-nonlinear system."""
+    import json
+
+    from ..observers.recorded import gains_from_json, observe_nonlinear_log
+    from ..sim.log import read_log, write_estimates
+
+    kind = args.observer or "switched"
+    if kind != "switched":
+        raise ModelError("--observer", "switched (the observer of a scalar-nonlinear system on a log)", repr(kind))
+    for option in ("horizon", "regions", "filter"):
+        if getattr(args, option):
+            raise ModelError(f"--{option}", "no value for a scalar-nonlinear system (it belongs to the PWA observers)", "a value")
+    log = read_log(args.data, named.system)
+    if args.gains:
+        try:
+            data = json.loads(open(args.gains).read())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ModelError(str(args.gains), "a readable gains JSON written by 'hybobs synth --out'", str(exc)) from None
+        gains, source = gains_from_json(named.system, data, str(args.gains)), str(args.gains)
+    else:
+        from ..lmi.auto_design import design_settings, design_switched
+
+        gains, source = design_switched(named.system, design_settings(named.system)), "designed with the model's settings"
+    trace, rec = observe_nonlinear_log(named.system, log, gains)
+    summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "gains": source, **rec}
+    if args.out:
+        write_estimates(args.out, trace, log.t)
+        summary["out"] = str(args.out)
+    if args.plot:
+        from ..report.plots import plot_estimates
+
+        plot_estimates(trace, log, args.plot, title=f"{named.label}: switched-gain observer on {args.data}")
+        summary["plot"] = str(args.plot)
+    return summary
 
 
 def observe_recorded(named, args) -> dict:
