@@ -89,18 +89,17 @@ class NamedSystem:
 
     @property
     def kind(self) -> str:
-        """``pwa``, ``hybrid_automaton``, ``constant_drift`` or ``scalar_nonlinear``."""
-        return {
-            "PWASystem": "pwa", "HybridAutomaton": "hybrid_automaton", "ConstantDriftSystem": "constant_drift",
-            "ScalarNonlinearSystem": "scalar_nonlinear"}.get(type(self.system).__name__, type(self.system).__name__)
+        """``pwa``, ``hybrid_automaton``, ``constant_drift`` or ``scalar_nonlinear`` (the model-file class)."""
+        from ..systems.model_dict import model_class
+
+        return model_class(self.system)
 
 
 def load_system(args: argparse.Namespace) -> NamedSystem:
     """Resolve ``args.system`` with ``args.param`` (:func:`hybobs_opt.systems.resolve.resolve_system`)."""
     from ..studies import list_examples
-    from ..systems.resolve import resolve_system
-
     from ..systems.model_file import is_model_path
+    from ..systems.resolve import resolve_system
 
     params = parse_params(getattr(args, "param", None))
     examples = {ex.name: ex for ex in list_examples()}

@@ -73,7 +73,6 @@ def bench_recorded(named, args, observers: list[str]) -> dict:
     for option, default in (("noise", 0.0), ("mhe_steps", None), ("plot", None)):
         if getattr(args, option) != default:
             raise ModelError(f"--{option.replace('_', '-')}", "no value with --data (the log is the data)", repr(getattr(args, option)))
-    args.observer = None
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:

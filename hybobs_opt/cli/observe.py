@@ -79,7 +79,7 @@ def observe_recorded_nonlinear(named, args) -> dict:
     import json
 
     from ..observers.recorded import gains_from_json, observe_nonlinear_log
-    from ..sim.log import read_log, write_estimates
+    from ..sim.log import read_log
 
     kind = args.observer or "switched"
     if kind != "switched":
@@ -100,13 +100,20 @@ def observe_recorded_nonlinear(named, args) -> dict:
         gains, source = design_switched(named.system, design_settings(named.system)), "designed with the model's settings"
     trace, rec = observe_nonlinear_log(named.system, log, gains)
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "gains": source, **rec}
+    return _write_outputs(summary, trace, log, args, f"{named.label}: switched-gain observer on {args.data}")
+
+
+def _write_outputs(summary: dict, trace, log, args, title: str) -> dict:
+    """``--out`` (estimates CSV) and ``--plot`` of a run on a log, recorded in ``summary``."""
+    from ..sim.log import write_estimates
+
     if args.out:
         write_estimates(args.out, trace, log.t)
         summary["out"] = str(args.out)
     if args.plot:
         from ..report.plots import plot_estimates
 
-        plot_estimates(trace, log, args.plot, title=f"{named.label}: switched-gain observer on {args.data}")
+        plot_estimates(trace, log, args.plot, title=title)
         summary["plot"] = str(args.plot)
     return summary
 
@@ -114,7 +121,6 @@ def observe_recorded_nonlinear(named, args) -> dict:
 def observe_recorded(named, args) -> dict:
     from ..observers.recorded import observe_log
     from ..progress import phase_bars
-    from ..sim.log import write_estimates
 
     log, horizon, analysis = open_log(named, args)
     kind = args.observer or "lookup"
@@ -126,12 +132,4 @@ def observe_recorded(named, args) -> dict:
     finally:
         close()
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}
-    if args.out:
-        write_estimates(args.out, trace, log.t)
-        summary["out"] = str(args.out)
-    if args.plot:
-        from ..report.plots import plot_estimates
-
-        plot_estimates(trace, log, args.plot, title=f"{named.label}: {kind} on {args.data}")
-        summary["plot"] = str(args.plot)
-    return summary
+    return _write_outputs(summary, trace, log, args, f"{named.label}: {kind} on {args.data}")

@@ -52,6 +52,9 @@ DECAY_FRACTION: float = 0.5
 RATE_SAMPLES: int = 4000
 #: Points of each function's argument interval in :func:`max_rate`.
 RATE_FUNCTION_SAMPLES: int = 2001
+#: Floor of the natural rate and of the coordinate's rate (a plant at rest on its whole box would
+#: otherwise give a zero gain bound, decay and rate).
+RATE_FLOOR: float = 1e-12
 
 
 @dataclass(frozen=True)
@@ -199,7 +202,7 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
         if S.shape != (system.n,) or not np.all(np.isfinite(S) & (S > 0)):
             raise ModelError("scaling", f"{system.n} positive numbers", repr(scaling))
         sources["scaling"] = "given"
-    rho = max(natural_rate(system, S), 1e-12)
+    rho = max(natural_rate(system, S), RATE_FLOOR)
     W = np.linalg.norm(system.C * S[None, :], axis=1)
     W = np.where(W > 0, W, 1.0)
 
@@ -216,7 +219,7 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
               f"{GAIN_FACTOR:g} x natural rate x max(scaling) / min(output scale)")
     md = pick(min_decay, "min_decay", DECAY_FACTOR * rho, f"{DECAY_FACTOR:g} x natural rate")
     ov = pick(overlap, "overlap", OVERLAP_FRACTION * (hi - lo), f"{OVERLAP_FRACTION:g} x range")
-    mr = pick(rate, "max_rate", max(max_rate(system, k), 1e-12), "largest rate of the coordinate on the box (zero input)")
+    mr = pick(rate, "max_rate", max(max_rate(system, k), RATE_FLOOR), "largest rate of the coordinate on the box (zero input)")
     cap = max(SIGMA_CAP, 10.0 * rho)
     return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources)
 

@@ -24,6 +24,9 @@ PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1"
 #: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
 #: in a summary against a noise-free log.
 WRONG_ESTIMATE_RTOL = 1e-6
+#: Largest deviation of a log's sample intervals from their median, relative to it, for a
+#: continuous-time observer that needs one sampling period.
+UNIFORM_PERIOD_RTOL = 1e-6
 
 
 def check_observer_kinds(kinds: Sequence[str]) -> list[str]:
@@ -140,13 +143,13 @@ def gains_from_json(system, data: dict, source: str = "gains"):
 
 
 def sample_period(log, field: str = "t") -> float:
-    """The sampling period of a log's time column (uniform to 1e-6 relative), for continuous-time observers."""
+    """The sampling period of a log's time column (uniform to :data:`UNIFORM_PERIOD_RTOL`), for continuous-time observers."""
     if log.t is None or log.t.size < 2:
         raise ModelError(field, "a time column (t or time) with at least two samples: a continuous-time observer "
                          "integrates between samples", "none")
     d = np.diff(log.t)
     dt = float(np.median(d))
-    if np.max(np.abs(d - dt)) > 1e-6 * dt:
+    if np.max(np.abs(d - dt)) > UNIFORM_PERIOD_RTOL * dt:
         k = int(np.argmax(np.abs(d - dt)))
         raise ModelError(f"{field} (sample {k + 1})", f"a uniform sampling period ({dt:.6g})", f"a step of {d[k]:.6g}")
     return dt

@@ -247,7 +247,7 @@ def parse_vector(texts, variables: dict[str, ca.SX], field: str, size: int) -> c
     if isinstance(texts, (str, bytes)) or not isinstance(texts, Sequence):
         raise ModelError(field, f"a list of {size} expressions", type(texts).__name__)
     if len(texts) != size:
-        raise ModelError(field, f"{size} expressions (one per {'state' if size else 'entry'})", f"{len(texts)}")
+        raise ModelError(field, f"{size} expressions", f"{len(texts)}")
     return ca.vertcat(*[parse_expression(t, variables, f"{field}[{i}]") for i, t in enumerate(texts)]) if size else ca.SX.zeros(0, 1)
 
 

@@ -29,8 +29,16 @@ from .polytope import Polytope
 
 FORMAT = "hybobs-model"
 VERSION = 1
-#: ``class`` values and the Python class each names.
-CLASSES = ("pwa", "hybrid_automaton", "constant_drift", "scalar_nonlinear")
+#: The ``class`` value of each system class.
+MODEL_CLASSES: dict[str, str] = {"PWASystem": "pwa", "HybridAutomaton": "hybrid_automaton",
+                                 "ConstantDriftSystem": "constant_drift", "ScalarNonlinearSystem": "scalar_nonlinear"}
+#: ``class`` values.
+CLASSES = tuple(MODEL_CLASSES.values())
+
+
+def model_class(system: Any) -> str:
+    """The model-file ``class`` of ``system`` (``"pwa"``, ...); its type name for anything else."""
+    return MODEL_CLASSES.get(type(system).__name__, type(system).__name__)
 
 
 #: Where the classes this module builds live.  They import this module (through ``to_dict``), so
