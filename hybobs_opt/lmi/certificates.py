@@ -57,10 +57,12 @@ class CertificateCheck:
     g: float
     y_residual: float
     messages: tuple[str, ...] = ()
+    g_components: tuple[float, ...] = ()
 
     def to_dict(self) -> dict:
         return {"ok": self.ok, "min_eig_Z": self.min_eig_Z, "min_eig_W": self.min_eig_W, "trace_W": self.trace_W,
-                "g": self.g, "y_residual": self.y_residual, "messages": list(self.messages)}
+                "g": self.g, "g_components": list(self.g_components), "y_residual": self.y_residual,
+                "messages": list(self.messages)}
 
 
 @dataclass(frozen=True)
@@ -79,6 +81,9 @@ class DualCertificate:
         The multiplier as found (before the projection of the re-check).
     source : str
         ``"Clarabel Farkas ray"``, ``"alternative SDP"`` or ``"structure"``.
+    per_function : bool
+        The LMI has one multiplier per function: condition 3 must hold for each multiplier
+        (``g_k = <Z, B(0, 0, e_k)> >= 0``), not only for their sum.
     """
 
     data: LMIData
@@ -86,6 +91,7 @@ class DualCertificate:
     sigma: float
     Z: np.ndarray
     source: str
+    per_function: bool = False
     _check: list = field(default_factory=list, repr=False, compare=False)
 
     def _B(self, P, Yl, Yn, eps) -> np.ndarray:
@@ -120,9 +126,13 @@ class DualCertificate:
                     W[a, b] = W[b, a] = 0.5 * v
         return W
 
-    def g_of(self, Z: np.ndarray) -> float:
-        n = self.data.n
-        return _inner(Z, self._B(np.zeros((n, n)), np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl)), 1.0))
+    def g_of(self, Z: np.ndarray) -> np.ndarray:
+        """``g_k = <Z, B(0, 0, e_k)>`` for each multiplier (one entry for the paper's single one)."""
+        n, k = self.data.n, self.data.r + self.data.p_nl
+        zeros = (np.zeros((n, n)), np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl)))
+        if not self.per_function or k <= 1:
+            return np.array([_inner(Z, self._B(*zeros, 1.0))])
+        return np.array([_inner(Z, self._B(*zeros, np.eye(k)[i])) for i in range(k)])
 
     def projected(self) -> np.ndarray:
         """``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``."""
@@ -144,15 +154,16 @@ class DualCertificate:
         basis = self._y_basis()
         y_res_raw = max((abs(_inner(Zraw, Bi)) for Bi in basis), default=0.0) / scale_Z
         Z = self.projected()
-        W, g = self.W_of(Z), self.g_of(Z)
-        t = float(np.trace(W)) + g
+        W, gk = self.W_of(Z), self.g_of(Z)
+        t = float(np.trace(W)) + float(gk.sum())
         msgs = []
         if not np.isfinite(t) or t <= 0:
-            res = CertificateCheck(False, float("nan"), float("nan"), float(np.trace(W)), g, y_res_raw,
+            res = CertificateCheck(False, float("nan"), float("nan"), float(np.trace(W)), float(gk.sum()), y_res_raw,
                                    (f"tr W + g = {t:.3g} is not positive",))
             self._check.append(res)
             return res
-        Z, W, g = Z / t, W / t, g / t
+        Z, W, gk = Z / t, W / t, gk / t
+        g = float(gk.sum())
         nZ = float(np.linalg.norm(Z))
         # The adjoint maps ||Z|| to at most this much W (so W's tolerance scales with it).
         opnorm = 2 * np.linalg.norm(self.data.A + self.sector.a_shift, 2) + self.sigma + 2 * np.linalg.norm(self.data.F, 2) + 1.0
@@ -166,13 +177,14 @@ class DualCertificate:
         if ew < -tol_W:
             ok = False
             msgs.append(f"W is not PSD: min eigenvalue {ew:.3g} (tolerance {tol_W:.3g})")
-        if g < -tol_W:
+        if float(gk.min()) < -tol_W:
             ok = False
-            msgs.append(f"g = {g:.3g} is negative")
+            k = int(np.argmin(gk))
+            msgs.append(f"g = {gk[k]:.3g} is negative" if gk.size == 1 else f"g_{k} = {gk[k]:.3g} (multiplier {k}) is negative")
         if y_res_raw > 1e3 * CERTIFICATE_RTOL:
             ok = False
             msgs.append(f"Z does not annihilate the gain variables: residual {y_res_raw:.3g} of ||Z||")
-        res = CertificateCheck(ok, ez, ew, float(np.trace(W)), g, y_res_raw, tuple(msgs))
+        res = CertificateCheck(ok, ez, ew, float(np.trace(W)), g, y_res_raw, tuple(msgs), tuple(float(v) for v in gk))
         self._check.append(res)
         return res
 
@@ -202,8 +214,9 @@ class DualCertificate:
 class AlternativeSDP:
     """Conditions 1-4 as an SDP in ``Z`` (built once, region bounds as ``Parameter``s)."""
 
-    def __init__(self, data: LMIData, shifted: bool = False):
+    def __init__(self, data: LMIData, shifted: bool = False, per_function: bool = False):
         self.data = data
+        self.per_function = per_function
         n, r, pn, pl = data.n, data.r, data.p_nl, data.p_lin
         N = data.size
         self.Z = cp.Variable((N, N), PSD=True, name="Z")
@@ -225,13 +238,17 @@ class AlternativeSDP:
         if par.a_shift is not None:
             W = W + par.a_shift @ Z11 + Z11 @ par.a_shift.T
         W = 0.5 * (W + W.T)
-        g = 0
+        # g_k = <Z, B(0, 0, e_k)>: the S-procedure terms of each function weighed by Z
+        parts = []
         if r:
-            g = g - par.uv @ cp.diag(data.E @ Z11 @ data.E.T) + 2 * par.upv @ cp.diag(data.E @ Z12) - cp.trace(Z[n:n + r, n:n + r])
+            parts.append(-cp.multiply(par.uv, cp.diag(data.E @ Z11 @ data.E.T)) + 2 * cp.multiply(par.upv, cp.diag(data.E @ Z12))
+                         - cp.diag(Z[n:n + r, n:n + r]))
         if pn:
-            g = g - par.mn @ cp.diag(data.C_nl @ Z11 @ data.C_nl.T) + 2 * par.mpn @ cp.diag(data.C_nl @ Z13) \
-                - cp.trace(Z[n + r:, n + r:])
-        cons += [W >> 0, g >= 0, cp.trace(W) + g == 1]
+            parts.append(-cp.multiply(par.mn, cp.diag(data.C_nl @ Z11 @ data.C_nl.T))
+                         + 2 * cp.multiply(par.mpn, cp.diag(data.C_nl @ Z13)) - cp.diag(Z[n + r:, n + r:]))
+        gk = cp.hstack(parts) if len(parts) > 1 else parts[0]
+        g = cp.sum(gk)
+        cons += [W >> 0, (gk >= 0) if per_function else (g >= 0), cp.trace(W) + g == 1]
         self.problem = cp.Problem(cp.Minimize(0), cons)
 
     def solve(self, sector: SectorData, sigma: float) -> np.ndarray | None:
@@ -320,13 +337,14 @@ def structural_obstruction(data: LMIData, sector: SectorData, sigma: float, d: n
     return StructuralObstruction(v_model, v, complex(lam), float(sum(t for _, t in terms)), tuple(terms))
 
 
-def obstruction_certificate(data: LMIData, sector: SectorData, sigma: float, ob: StructuralObstruction) -> DualCertificate:
+def obstruction_certificate(data: LMIData, sector: SectorData, sigma: float, ob: StructuralObstruction,
+                            per_function: bool = False) -> DualCertificate:
     """``Z = Re(v v^*) (+) 0`` from a structural obstruction (scaled coordinates)."""
     v = ob.v_scaled
     Z11 = np.real(np.outer(v, v.conj()))
     Z = np.zeros((data.size, data.size))
     Z[:data.n, :data.n] = Z11
-    return DualCertificate(data, sector, sigma, Z, "structure")
+    return DualCertificate(data, sector, sigma, Z, "structure", per_function)
 
 
 # ---------------------------------------------------------------------------- the certificate
@@ -497,19 +515,20 @@ def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str 
     sdata = lmi.sdata
     sector = sdata.sector(sol.bounds, lmi.shifted)
     sigma = sol.sigma
+    per_function = lmi.eps.size > 1
     dual = None
     if sol.farkas is not None and sol.farkas.shape == (sdata.size, sdata.size):
-        cand = DualCertificate(sdata, sector, sigma, sol.farkas, "Clarabel Farkas ray")
+        cand = DualCertificate(sdata, sector, sigma, sol.farkas, "Clarabel Farkas ray", per_function)
         if cand.verify():
             dual = cand
     if dual is None:
         Z = lmi.alternative().solve(sector, sigma)
         if Z is not None:
-            cand = DualCertificate(sdata, sector, sigma, Z, "alternative SDP")
+            cand = DualCertificate(sdata, sector, sigma, Z, "alternative SDP", per_function)
             if cand.verify():
                 dual = cand
     ob = None if lmi.shifted else structural_obstruction(sdata, sector, sigma, lmi.d)
-    structural = obstruction_certificate(sdata, sector, sigma, ob) if ob is not None else None
+    structural = obstruction_certificate(sdata, sector, sigma, ob, per_function) if ob is not None else None
     if structural is not None and not structural.verify():
         structural = None
     if region_text is None:

@@ -76,30 +76,48 @@ class LMIData:
                               self.F @ np.diag(U) @ self.E if self.r else np.zeros((self.n, self.n)), M.copy())
         return SectorData(U * V, (U + V) / 2, M * N, (M + N) / 2, np.zeros((self.n, self.n)), np.zeros_like(M))
 
-    def matrix(self, P, Y_lin, Y_nl, eps: float, s: SectorData, sigma: float) -> np.ndarray:
-        """The LMI matrix at a point, in plain numpy (the solver-independent re-check)."""
+    def split_multipliers(self, eps) -> tuple[np.ndarray, np.ndarray]:
+        """``(eps_f, eps_h)``: one S-procedure multiplier per ``f_i`` and per nonlinear ``h_j``.
+
+        A scalar ``eps`` is the paper's single multiplier (eq. 21), repeated; a vector of length
+        ``r + p_nl`` gives one multiplier per function (the per-function condition of
+        :mod:`.hierarchy`).
+        """
+        e = np.asarray(eps, dtype=float).reshape(-1)
+        if e.size == 1:
+            return np.full(self.r, e[0]), np.full(self.p_nl, e[0])
+        if e.size != self.r + self.p_nl:
+            raise ValueError(f"eps: 1 or {self.r + self.p_nl} multipliers expected, got {e.size}")
+        return e[:self.r], e[self.r:]
+
+    def matrix(self, P, Y_lin, Y_nl, eps, s: SectorData, sigma: float) -> np.ndarray:
+        """The LMI matrix at a point, in plain numpy (the solver-independent re-check).
+
+        ``eps`` is the single multiplier of the paper or one per function (``r + p_nl`` values).
+        """
         n, r, pn = self.n, self.r, self.p_nl
         P = np.asarray(P, dtype=float)
         Y_lin = np.asarray(Y_lin, dtype=float).reshape(n, self.p_lin)
         Y_nl = np.asarray(Y_nl, dtype=float).reshape(n, pn)
+        ef, eh = self.split_multipliers(eps)
         Aeff = self.A + s.a_shift
         B11 = P @ Aeff + Aeff.T @ P - Y_lin @ self.C_lin - self.C_lin.T @ Y_lin.T + sigma * P
         if pn:
             K = Y_nl @ np.diag(s.m_shift) @ self.C_nl
             B11 = B11 - K - K.T
-        B11 = B11 + eps * (-(self.E.T * s.uv) @ self.E - (self.C_nl.T * s.mn) @ self.C_nl)
+        B11 = B11 - (self.E.T * (ef * s.uv)) @ self.E - (self.C_nl.T * (eh * s.mn)) @ self.C_nl
         out = np.zeros((n + r + pn, n + r + pn))
         out[:n, :n] = B11
         if r:
-            B12 = P @ self.F + eps * self.E.T * s.upv
+            B12 = P @ self.F + self.E.T * (ef * s.upv)
             out[:n, n:n + r] = B12
             out[n:n + r, :n] = B12.T
-            out[n:n + r, n:n + r] = -eps * np.eye(r)
+            out[n:n + r, n:n + r] = -np.diag(ef)
         if pn:
-            B13 = -Y_nl + eps * self.C_nl.T * s.mpn
+            B13 = -Y_nl + self.C_nl.T * (eh * s.mpn)
             out[:n, n + r:] = B13
             out[n + r:, :n] = B13.T
-            out[n + r:, n + r:] = -eps * np.eye(pn)
+            out[n + r:, n + r:] = -np.diag(eh)
         return 0.5 * (out + out.T)
 
 
@@ -168,31 +186,43 @@ class LMIParameters:
         self.sigma.value = float(sigma)
 
 
+def _multiplier_parts(eps, r: int, pn: int):
+    """``(eps_f, eps_h)`` of a cvxpy multiplier: a scalar (the paper's) or one per function."""
+    if eps.size == 1:
+        return eps, eps
+    return eps[:r], eps[r:]
+
+
 def lmi_expression(data: LMIData, P, Y_lin, Y_nl, eps, par: LMIParameters) -> cp.Expression:
-    """The LMI matrix as an affine cvxpy expression (DPP: parameter times variable only)."""
+    """The LMI matrix as an affine cvxpy expression (DPP: parameter times variable only).
+
+    ``eps`` is a scalar variable (the paper's single S-procedure multiplier) or a vector of
+    ``r + p_nl`` (one per function).
+    """
     r, pn, pl = data.r, data.p_nl, data.p_lin
+    ef, eh = _multiplier_parts(eps, r, pn)
     B11 = P @ data.A + data.A.T @ P + par.sigma * P
     if pl:
         B11 = B11 - Y_lin @ data.C_lin - data.C_lin.T @ Y_lin.T
     if par.a_shift is not None:
         B11 = B11 + P @ par.a_shift + par.a_shift.T @ P
     if r:
-        B11 = B11 - data.E.T @ cp.diag(cp.multiply(eps, par.uv)) @ data.E
+        B11 = B11 - data.E.T @ cp.diag(cp.multiply(ef, par.uv)) @ data.E
     if pn:
-        B11 = B11 - data.C_nl.T @ cp.diag(cp.multiply(eps, par.mn)) @ data.C_nl
+        B11 = B11 - data.C_nl.T @ cp.diag(cp.multiply(eh, par.mn)) @ data.C_nl
         if par.m_shift is not None:
             K = Y_nl @ cp.diag(par.m_shift) @ data.C_nl
             B11 = B11 - K - K.T
     row1, blocks = [B11], []
     if r:
-        B12 = P @ data.F + data.E.T @ cp.diag(cp.multiply(eps, par.upv))
+        B12 = P @ data.F + data.E.T @ cp.diag(cp.multiply(ef, par.upv))
         row1.append(B12)
     if pn:
-        B13 = -Y_nl + data.C_nl.T @ cp.diag(cp.multiply(eps, par.mpn))
+        B13 = -Y_nl + data.C_nl.T @ cp.diag(cp.multiply(eh, par.mpn))
         row1.append(B13)
     blocks.append(row1)
     if r:
-        row = [B12.T, -eps * np.eye(r)]
+        row = [B12.T, -ef * np.eye(r) if ef.ndim == 0 else -cp.diag(ef)]
         if pn:
             row.append(np.zeros((r, pn)))
         blocks.append(row)
@@ -200,7 +230,7 @@ def lmi_expression(data: LMIData, P, Y_lin, Y_nl, eps, par: LMIParameters) -> cp
         row = [B13.T]
         if r:
             row.append(np.zeros((pn, r)))
-        row.append(-eps * np.eye(pn))
+        row.append(-eh * np.eye(pn) if eh.ndim == 0 else -cp.diag(eh))
         blocks.append(row)
     M = _bmat(blocks) if len(blocks) > 1 or len(row1) > 1 else B11
     return 0.5 * (M + M.T)

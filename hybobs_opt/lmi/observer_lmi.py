@@ -66,6 +66,9 @@ from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem
 #: search needs a cap; with a gain bound the bound decides.
 SIGMA_CAP: float = 100.0
 
+#: The S-procedure multiplier layouts of :class:`ObserverLMI`.
+MULTIPLIER_MODES = ("single", "per_function")
+
 
 # ---------------------------------------------------------------------------- results
 @dataclass(frozen=True)
@@ -89,8 +92,9 @@ class LMISolution:
         Gain (``n x p``, columns in output order; zero columns for unused outputs) and the
         Lyapunov matrix in the paper's normalisation (the printed LMI holds with ``eps = 1``),
         both in the model's coordinates.
-    multiplier : float or None
-        The S-procedure multiplier ``eps`` at the solver's point (scaled problem).
+    multiplier : float, array or None
+        The S-procedure multiplier ``eps`` at the solver's point (scaled problem); one per
+        function for ``multipliers="per_function"``.
     lmi_max_eig : float or None
         Largest eigenvalue of the LMI matrix at the returned point (scaled coordinates, numpy).
     p_min_eig : float or None
@@ -107,7 +111,7 @@ class LMISolution:
     bounds: JacobianBounds
     L: np.ndarray | None = None
     P: np.ndarray | None = None
-    multiplier: float | None = None
+    multiplier: float | np.ndarray | None = None
     lmi_max_eig: float | None = None
     p_min_eig: float | None = None
     gain_norm: float | None = None
@@ -140,18 +144,109 @@ class LMISolution:
         return {"feasible": self.feasible, "status": self.status, "form": self.form, "sigma": self.sigma,
                 "region": None if self.region is None else self.region.to_dict(),
                 "L": None if self.L is None else self.L.tolist(), "P": None if self.P is None else self.P.tolist(),
-                "multiplier": self.multiplier, "lmi_max_eig": self.lmi_max_eig, "p_min_eig": self.p_min_eig,
+                "multiplier": self.multiplier if np.ndim(self.multiplier) == 0 else np.asarray(self.multiplier).tolist(),
+                "lmi_max_eig": self.lmi_max_eig, "p_min_eig": self.p_min_eig,
                 "gain_norm": self.gain_norm}
 
 
 @dataclass(frozen=True)
 class DecayResult:
-    """Largest decay rate found by bisection and the solution there."""
+    """Largest decay rate found by bisection and the solution there.
+
+    Attributes
+    ----------
+    sigma_max : float
+        The largest rate whose solve was feasible and passed the numpy re-check.
+    capped : bool
+        ``sigma_max`` is the cap of the search.
+    solution : LMISolution or PolytopicSolution
+        The checked solve at ``sigma_max``.
+    solves : int
+    log : tuple of (sigma, feasible, status)
+        Every rate the search tried, in order, with its verdict: each rate accepted passed the
+        re-check; a rate the solver could not decide counts as not feasible.
+    """
 
     sigma_max: float
     capped: bool
     solution: LMISolution
     solves: int
+    log: tuple[tuple[float, bool, str], ...] = ()
+
+    @property
+    def accepted(self) -> list[float]:
+        """The rates the search accepted (each passed the numpy re-check)."""
+        return [s for s, ok, _ in self.log if ok]
+
+    def to_dict(self) -> dict:
+        return {"sigma_max": self.sigma_max, "capped": self.capped, "solves": self.solves,
+                "log": [{"sigma": s, "feasible": ok, "status": str(st)} for s, ok, st in self.log]}
+
+
+def bisect_decay(solve, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL, guess: float | None = None,
+                 on_zero_infeasible=None) -> DecayResult:
+    """Largest decay rate ``sigma`` in ``[0, sigma_cap]`` at which ``solve(sigma)`` is feasible.
+
+    A bracket is found by doubling or halving from ``guess`` (default ``sigma_cap / 8``; a
+    neighbouring region's rate is a good guess), then bisected on a geometric scale to ``rtol``.
+    In exact arithmetic the LMIs are monotone in ``sigma`` (``sigma P >= 0``); numerically they
+    need not be, so nothing is inferred from monotonicity: the reported rate is one whose own
+    solve was feasible and passed the numpy re-check, every rate tried is logged, and a rate the
+    solver cannot decide counts as not feasible (the rate may be underestimated, never overstated).
+
+    Parameters
+    ----------
+    solve : callable
+        ``solve(sigma)`` returning a solution with ``feasible``, ``status``.
+    on_zero_infeasible : callable, optional
+        Called with the solution at ``sigma = 0`` when even that is not feasible (it raises the
+        error with the certificate); without it the zero-rate solution is returned.
+    """
+    if not (np.isfinite(sigma_cap) and sigma_cap > 0):
+        raise ModelError("sigma_cap", "a positive upper end of the decay-rate search", repr(sigma_cap))
+    log: list[tuple[float, bool, str]] = []
+
+    def run(sig: float):
+        out = solve(sig)
+        log.append((float(sig), bool(out.feasible), str(out.status)))
+        return out
+
+    floor = sigma_cap * 1e-6
+    g = sigma_cap / 8.0 if guess is None or not (np.isfinite(guess) and guess > floor) else min(float(guess), sigma_cap)
+    sol = run(g)
+    if sol.feasible:
+        lo, best, hi = g, sol, None
+        while hi is None:
+            if lo >= sigma_cap:
+                return DecayResult(sigma_cap, True, best, len(log), tuple(log))
+            t = min(2.0 * lo, sigma_cap)
+            s = run(t)
+            if s.feasible:
+                lo, best = t, s
+            else:
+                hi = t
+    else:
+        hi, lo, best = g, 0.0, None
+        while best is None:
+            t = 0.5 * hi
+            if t < floor:
+                zero = run(0.0)
+                if not zero.feasible and on_zero_infeasible is not None:
+                    on_zero_infeasible(zero)
+                return DecayResult(0.0, False, zero, len(log), tuple(log))
+            s = run(t)
+            if s.feasible:
+                lo, best = t, s
+            else:
+                hi = t
+    while hi - lo > rtol * hi:
+        mid = float(np.sqrt(lo * hi))
+        s = run(mid)
+        if s.feasible:
+            lo, best = mid, s
+        else:
+            hi = mid
+    return DecayResult(lo, False, best, len(log), tuple(log))
 
 
 # ---------------------------------------------------------------------------- the compiled LMI
@@ -171,10 +266,19 @@ class ObserverLMI:
         lower-bound linear term; see :mod:`.subtraction`).
     scaling : array, optional
         State scaling (default: the box half-widths).
+    multipliers : {"single", "per_function"}
+        ``"single"``: the paper's one S-procedure multiplier ``eps`` for all functions (eq. 21);
+        ``"per_function"``: one multiplier per ``f_i`` and per nonlinear ``h_j`` (each sector
+        condition weighed on its own, a weaker requirement; see :mod:`.hierarchy`).
     """
 
     def __init__(self, system: ScalarNonlinearSystem, *, gain_bound: float | None = None, shifted: bool = False,
-                 scaling: np.ndarray | None = None):
+                 scaling: np.ndarray | None = None, multipliers: str = "single"):
+        if multipliers not in MULTIPLIER_MODES:
+            raise ModelError("multipliers", f"one of {MULTIPLIER_MODES}", repr(multipliers))
+        if shifted and multipliers != "single":
+            raise ModelError("multipliers", "'single' for Theorem 5's transformed LMI", repr(multipliers))
+        self.multipliers = multipliers
         if not isinstance(system, ScalarNonlinearSystem):
             raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
         if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
@@ -196,18 +300,18 @@ class ObserverLMI:
 
     @classmethod
     def compiled(cls, system: ScalarNonlinearSystem, *, gain_bound: float | None = None, shifted: bool = False,
-                 scaling: np.ndarray | None = None) -> "ObserverLMI":
+                 scaling: np.ndarray | None = None, multipliers: str = "single") -> "ObserverLMI":
         """The process-wide compiled LMI for ``system`` (built on first use, then only re-solved).
 
         Keyed by the system object, ``shifted``, whether there is a gain bound and the scaling;
         the bound itself is a ``Parameter`` and is set on every call.
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
-        key = (bool(shifted), gain_bound is None, d.tobytes())
+        key = (bool(shifted), gain_bound is None, d.tobytes(), multipliers)
         per = _COMPILED.setdefault(system, {})
         lmi = per.get(key)
         if lmi is None:
-            lmi = per[key] = cls(system, gain_bound=gain_bound, shifted=shifted, scaling=d)
+            lmi = per[key] = cls(system, gain_bound=gain_bound, shifted=shifted, scaling=d, multipliers=multipliers)
         elif gain_bound is not None:
             lmi.set_gain_bound(gain_bound)
         return lmi
@@ -218,7 +322,9 @@ class ObserverLMI:
         self.P = cp.Variable((n, n), symmetric=True, name="P")
         self.Y_lin = cp.Variable((n, sd.p_lin), name="Y_lin") if sd.p_lin else None
         self.Y_nl = cp.Variable((n, sd.p_nl), name="Y_nl") if sd.p_nl else None
-        self.eps = cp.Variable(nonneg=True, name="eps")
+        k = sd.r + sd.p_nl
+        self.eps = (cp.Variable(k, nonneg=True, name="eps") if self.multipliers == "per_function" and k > 1
+                    else cp.Variable(nonneg=True, name="eps"))
         self.par = LMIParameters.create(sd, self.shifted)
         B = lmi_expression(sd, self.P, self.Y_lin, self.Y_nl, self.eps, self.par)
         self.lmi_constraint = B << -LMI_STRICT_MARGIN * np.eye(sd.size)
@@ -275,15 +381,19 @@ class ObserverLMI:
         n = self.sdata.n
         Yl = np.asarray(self.Y_lin.value, dtype=float) if self.Y_lin is not None else np.zeros((n, 0))
         Yn = np.asarray(self.Y_nl.value, dtype=float) if self.Y_nl is not None else np.zeros((n, 0))
-        eps = float(self.eps.value)
+        eps_v = np.asarray(self.eps.value, dtype=float).reshape(-1)
+        eps = float(eps_v[0]) if eps_v.size == 1 else eps_v
         Bm = self.sdata.matrix(Pb, Yl, Yn, eps, s, sigma)
         max_eig = float(np.linalg.eigvalsh(Bm).max())
         p_min = float(np.linalg.eigvalsh(Pb).min())
-        ok = max_eig <= 0.0 and p_min > 0.0 and eps > 0.0
+        ok = max_eig <= 0.0 and p_min > 0.0 and bool(np.all(eps_v > 0.0))
         Lbar = np.linalg.solve(Pb, np.hstack([Yl, Yn]))
         L = np.zeros((n, self.system.p))
         L[:, np.concatenate([self._lin_idx, self._nl_idx]).astype(int)] = self.d[:, None] * Lbar
-        P = (Pb / self.d[:, None] / self.d[None, :]) / eps if eps > 0 else None
+        # The paper's normalisation (eps absorbed into P) exists only for a single multiplier.
+        P = Pb / self.d[:, None] / self.d[None, :]
+        if eps_v.size == 1:
+            P = P / eps if eps > 0 else None
         gain = float(np.linalg.norm(L, 2))
         if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
             ok = False
@@ -293,68 +403,20 @@ class ObserverLMI:
 
     def max_decay(self, bounds: JacobianBounds, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL,
                   guess: float | None = None) -> DecayResult:
-        """Largest ``sigma`` in ``[0, sigma_cap]`` for which the LMI is feasible (bisection).
-
-        A bracket is found by doubling or halving from ``guess`` (default ``sigma_cap / 8``; a
-        neighbouring region's rate is a good guess), then bisected on a geometric scale to
-        ``rtol``; every step is one re-solve of the same compiled problem.  The LMI is monotone in
-        ``sigma`` (``sigma P >= 0``), so a feasible rate proves every smaller one.  The returned
-        rate is certified by a feasible, numpy-checked solve at that rate; a step the solver
-        cannot decide counts as infeasible (the rate may be underestimated, never overstated).
+        """Largest ``sigma`` in ``[0, sigma_cap]`` for which the LMI is feasible (:func:`bisect_decay`).
 
         Raises
         ------
         InfeasibleError
-            Not even ``sigma = 0`` is feasible (no constant gain on this region); the error
-            carries the certificate.
+            Not even ``sigma = 0`` is feasible (no constant gain satisfies this LMI on the region);
+            the error carries the certificate.
         SolverError
             The solver could not decide at ``sigma = 0`` and no certificate could be verified.
         """
         from .certificates import certify_infeasible
 
-        if not (np.isfinite(sigma_cap) and sigma_cap > 0):
-            raise ModelError("sigma_cap", "a positive upper end of the decay-rate search", repr(sigma_cap))
-        floor = sigma_cap * 1e-6
-        g = sigma_cap / 8.0 if guess is None or not (np.isfinite(guess) and guess > floor) else min(float(guess), sigma_cap)
-        solves = 1
-        sol = self.solve(bounds, g)
-        if sol.feasible:
-            lo, best, hi = g, sol, None
-            while hi is None:
-                if lo >= sigma_cap:
-                    return DecayResult(sigma_cap, True, best, solves)
-                t = min(2.0 * lo, sigma_cap)
-                s = self.solve(bounds, t)
-                solves += 1
-                if s.feasible:
-                    lo, best = t, s
-                else:
-                    hi = t
-        else:
-            hi, lo, best = g, 0.0, None
-            while best is None:
-                t = 0.5 * hi
-                if t < floor:
-                    zero = self.solve(bounds, 0.0)
-                    solves += 1
-                    if not zero.feasible:
-                        certify_infeasible(self, zero, raise_error=True)
-                    return DecayResult(0.0, False, zero, solves)
-                s = self.solve(bounds, t)
-                solves += 1
-                if s.feasible:
-                    lo, best = t, s
-                else:
-                    hi = t
-        while hi - lo > rtol * hi:
-            mid = float(np.sqrt(lo * hi))
-            s = self.solve(bounds, mid)
-            solves += 1
-            if s.feasible:
-                lo, best = mid, s
-            else:
-                hi = mid
-        return DecayResult(lo, False, best, solves)
+        return bisect_decay(lambda sig: self.solve(bounds, sig), sigma_cap, rtol, guess,
+                            lambda zero: certify_infeasible(self, zero, raise_error=True))
 
     # -- certificates
     def alternative(self):
@@ -362,6 +424,6 @@ class ObserverLMI:
         if self._alternative is None:
             from .certificates import AlternativeSDP
 
-            self._alternative = AlternativeSDP(self.sdata, self.shifted)
+            self._alternative = AlternativeSDP(self.sdata, self.shifted, per_function=self.eps.size > 1)
         return self._alternative
 
