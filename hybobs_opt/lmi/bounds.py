@@ -9,7 +9,8 @@ that the operating box (or one region of it) allows:
   samples is refined to a critical point of ``f'`` by ``brentq``, and the bounds are the extreme
   values over the end points, the samples and the critical points.  They are then widened outward
   by :data:`~hybobs_opt.tolerances.JACOBIAN_BOUND_RTOL` times ``max |f'|`` (the margin is stored
-  on the result).  Exact up to rounding unless ``f''`` changes sign twice inside one sampling cell.
+  on the result), except across zero: a derivative whose sampled extremes keep one sign keeps it in
+  the bounds (so a monotonic function never gets a sector with ``U V < 0``).  Exact up to rounding unless ``f''`` changes sign twice inside one sampling cell.
 * **method "user"**: a derivative range supplied by the user (no margin); it is checked against
   the samples and rejected when the derivative leaves it.
 * **method "linear"**: an identity output, ``M_j = N_j = 1``.
@@ -218,7 +219,15 @@ def derivative_bound(
     cz, cd = np.array(cand_z), np.array(cand_d)
     raw_lo, raw_hi = float(cd.min()), float(cd.max())
     margin = JACOBIAN_BOUND_RTOL * max(abs(raw_lo), abs(raw_hi))
-    return DerivativeBound(fn.name, kind, index, interval, raw_lo - margin, raw_hi + margin, raw_lo, raw_hi,
+    lower, upper = raw_lo - margin, raw_hi + margin
+    # The widening never makes a derivative that keeps one sign look sign-changing: cos' = -sin on
+    # [0, pi/2] has the extreme 0 at the end point, and a bound of +1e-6 there would turn the
+    # S-procedure term -U V |E v|^2 positive (a "non-monotonic" obstruction that is not there).
+    if raw_lo >= 0.0 > lower:
+        lower = 0.0
+    if raw_hi <= 0.0 < upper:
+        upper = 0.0
+    return DerivativeBound(fn.name, kind, index, interval, lower, upper, raw_lo, raw_hi,
                            float(cz[np.argmin(cd)]), float(cz[np.argmax(cd)]), "sampled+refined", int(z.size), margin)
 
 

@@ -1,11 +1,15 @@
-"""Does a constant observer gain exist on a range, and if not, why and what to do (paper 004).
+"""Does a constant observer gain exist on a range, and if not, what is proven and what to do (paper 004).
 
 :func:`diagnose` answers, for one system and one range of a scheduling coordinate: the Jacobian
-bounds and monotonicity of every function (eqs. 4-5), the verdict of the observer LMI
-(8)/(22)/(23) at ``sigma = 0`` (no gain bound: infeasibility there rules out every constant gain
-and every decay rate), the certificate when it is infeasible (structural reason + verified dual
-multiplier, Theorems 2-4), Theorem 5's check that subtracting a linear term changes nothing, and
-the remedy: the monotonic pieces and a set of regions on which switched gains exist.
+bounds and monotonicity of every function (eqs. 4-5); the hierarchy of sufficient conditions of
+:mod:`.hierarchy` at ``sigma = 0`` without a gain bound (the paper's LMI (8)/(22)/(23), the same with
+one multiplier per function, the polytopic condition), each feasible with its gain and re-checked
+decay rate or infeasible with a certificate re-checked in numpy; the paper LMI's structural reason
+(Theorems 2-4); the results that hold for every gain (:mod:`.impossibility`: undetectable points of
+the range, mirror states the outputs cannot tell apart); Theorem 5's check that subtracting a linear
+term changes nothing; and the remedy: the monotonic pieces and a set of regions on which switched
+gains exist.  The verdict names exactly what was proven: "no constant gain exists" is said only
+when an undetectable point lies in the range.
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ import numpy as np
 from ..errors import HybobsError, InfeasibleError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
-from .certificates import InfeasibilityCertificate, certify_infeasible
+from .certificates import InfeasibilityCertificate
+from .hierarchy import HierarchyResult, condition_hierarchy, design_lmi, verified_rate
+from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
 from .observer_lmi import LMI_NAMES, SIGMA_CAP, DecayResult, LMISolution, ObserverLMI
 from .schedule import SchedulingRegion, coordinate_index, make_region
 from .subtraction import SubtractionCheck, theorem5_check
@@ -48,6 +54,32 @@ class Diagnosis:
     overlap: float
     next_steps: list[str]
     seconds: float
+    hierarchy: HierarchyResult | None = None
+    undetectable: list[UndetectablePoint] = field(default_factory=list)
+    symmetries: list[OutputSymmetry] = field(default_factory=list)
+    design_condition: str | None = None
+    sigma_verified: float | None = None
+
+    @property
+    def paper_lmi_feasible(self) -> bool:
+        """The paper's LMI (8)/(22)/(23) alone is feasible (``feasible`` is the whole hierarchy's)."""
+        return bool(self.solution.feasible)
+
+    @property
+    def verdict(self) -> str:
+        """What is proven on the range, in one paragraph (the first of :attr:`next_steps`)."""
+        where = f"{self.region.name} in {self.interval_text(self.region)}"
+        parts = []
+        inside = [p for p in self.undetectable if self.region.lo - 1e-12 <= p.s <= self.region.hi + 1e-12]
+        if inside:
+            p = inside[0]
+            parts.append(f"No observer gain (constant, switched or time-varying) satisfies a quadratic Lyapunov "
+                         f"condition on {where}. Proof: {p.claim}")
+        if self.hierarchy is not None:
+            parts.append(self.hierarchy.claim(where))
+        for sym in self.symmetries:
+            parts.append(sym.claim)
+        return " ".join(parts)
 
     def show(self, value: float) -> float:
         return value / self.factor
@@ -63,6 +95,13 @@ class Diagnosis:
             "unit": self.unit,
             "lmi": self.solution.form,
             "feasible": self.feasible,
+            "paper_lmi_feasible": self.paper_lmi_feasible,
+            "feasible_condition": None if self.hierarchy is None else self.hierarchy.feasible_condition,
+            "strongest_infeasible": None if self.hierarchy is None else self.hierarchy.strongest_infeasible,
+            "verdict": self.verdict,
+            "hierarchy": None if self.hierarchy is None else self.hierarchy.to_dict(),
+            "undetectable_points": [p.to_dict() for p in self.undetectable],
+            "indistinguishable": [q.to_dict() for q in self.symmetries],
             "status": self.solution.status,
             "bounds": self.bounds.to_dict(),
             "nonmonotonic": [b.name for b in self.bounds.nonmonotonic],
@@ -77,9 +116,16 @@ class Diagnosis:
         if self.certificate is not None:
             out["certificate"] = self.certificate.to_dict()
         if self.feasible:
-            sol = self.decay.solution if self.decay is not None else self.solution
-            out["gain"] = {"L": sol.L.tolist(), "P": sol.P.tolist(), "sigma": sol.sigma,
+            if self.decay is not None:
+                sol = self.decay.solution
+                L, P, sigma = sol.L, sol.P, sol.sigma
+            else:
+                g = self.hierarchy.gain
+                L, P, sigma = g.L, g.P, 0.0
+            out["gain"] = {"L": L.tolist(), "P": P.tolist(), "sigma": sigma, "condition": self.design_condition,
                            "sigma_max": None if self.decay is None else self.decay.sigma_max,
+                           "sigma_verified": self.sigma_verified,
+                           "decay_search": None if self.decay is None else self.decay.to_dict(),
                            "gain_bound": self.gain_bound}
         return out
 
@@ -129,28 +175,43 @@ def diagnose(
     region = make_region(system, k, lo, hi)
     bounds = jacobian_bounds(system, region)
     lmi = ObserverLMI.compiled(system, scaling=scaling)
-    sol = lmi.solve(bounds, 0.0)
-    cert = None
-    decay = None
-    if not sol.feasible:
-        cert = certify_infeasible(lmi, sol, region_text=f"{region.name} in [{lo / factor:.4g}, {hi / factor:.4g}] {unit}".strip())
+    hier = condition_hierarchy(system, region, bounds=bounds, scaling=lmi.d)
+    paper = hier.get("paper")
+    sol = paper.solution if paper.solution is not None else lmi.solve(bounds, 0.0)
+    cert = paper.certificate if isinstance(paper.certificate, InfeasibilityCertificate) else None
+    if paper.skipped and not hier.feasible and hier.strongest_infeasible is None:
+        from ..errors import SolverError
+        from .solve import SOLVER
+
+        raise SolverError(f"observer LMI {lmi.form} on {region.name} in [{lo:.6g}, {hi:.6g}]", SOLVER, sol.status,
+                          paper.skipped)
+    undetectable = undetectable_points(system, k, lo, hi)
+    symmetries = output_symmetries(system)
     t5 = theorem5_check(system, region, bounds=bounds, original=lmi)
     breakpoints, pieces = monotonic_pieces(system, k, lo, hi)
     suggested, suggest_error = None, ""
-    if sol.feasible:
+    decay, design_key, rate = None, hier.feasible_condition, None
+    if hier.feasible:
         try:
-            design_lmi = ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=lmi.d) if gain_bound is not None else lmi
-            decay = design_lmi.max_decay(bounds, sigma_cap)
+            design = design_lmi(system, design_key, gain_bound=gain_bound, scaling=lmi.d)
+            decay = design.max_decay(bounds, sigma_cap)
+            if not decay.solution.feasible:
+                raise InfeasibleError(f"{design_key} condition with ||L||_2 <= {gain_bound:g}", None,
+                                      "not feasible at decay rate 0")
+            rate = verified_rate(system, bounds, decay.solution.P, decay.solution.L)
         except HybobsError as exc:
-            suggest_error = f"no gain within the bound ||L|| <= {gain_bound:g}: {exc}"
+            decay = None
+            rate = hier.gain.sigma_verified
+            suggest_error = f"no gain within the bound ||L|| <= {gain_bound:g}: {exc}" if gain_bound is not None else str(exc)
     elif suggest:
         try:
             suggested = grow_regions(system, k, lo, hi, overlap=overlap, min_decay=min_decay, gain_bound=gain_bound,
                                      scaling=lmi.d)
         except (InfeasibleError, HybobsError) as exc:
             suggest_error = str(exc)
-    d = Diagnosis(system, region, unit, factor, bounds, sol.feasible, sol, cert, decay, t5, breakpoints, pieces,
-                  suggested, suggest_error, gain_bound, min_decay, overlap, [], 0.0)
+    d = Diagnosis(system, region, unit, factor, bounds, hier.feasible, sol, cert, decay, t5, breakpoints, pieces,
+                  suggested, suggest_error, gain_bound, min_decay, overlap, [], 0.0, hier, undetectable, symmetries,
+                  design_key, rate)
     d.next_steps = _next_steps(d)
     d.seconds = time.perf_counter() - t0
     return d
@@ -159,22 +220,24 @@ def diagnose(
 def _next_steps(d: Diagnosis) -> list[str]:
     u = f" {d.unit}" if d.unit else ""
     name = d.region.name
-    lmi_name = LMI_NAMES.get(d.solution.form, d.solution.form)
-    steps = []
+    steps = [d.verdict]
     if d.feasible:
+        cond = d.design_condition
         if d.decay is not None:
-            steps.append(f"A constant gain exists on {name} in {d.interval_text(d.region)}: {lmi_name} is feasible, "
-                         f"largest decay rate {d.decay.sigma_max:.4g} 1/s"
-                         + (f" with ||L||_2 <= {d.gain_bound:g}" if d.gain_bound is not None else "") + ".")
-        else:
-            steps.append(f"A constant gain exists on {name} in {d.interval_text(d.region)} ({lmi_name} is feasible)"
-                         + (f", but not within the gain bound: {d.suggest_error}" if d.suggest_error else "") + ".")
+            steps.append(f"Design with the {cond} condition: largest decay rate {d.decay.sigma_max:.4g} 1/s"
+                         + (f" with ||L||_2 <= {d.gain_bound:g}" if d.gain_bound is not None else "")
+                         + (f", {d.sigma_verified:.4g} 1/s proven by the returned P and L on every vertex of the "
+                            "Jacobian box" if d.sigma_verified is not None else "") + ".")
+        elif d.suggest_error:
+            steps.append(f"But not within the gain bound: {d.suggest_error}.")
         steps.append("Synthesise it with `hybobs synth` over this range; no switching is needed.")
         return steps
-    nm = ", ".join(b.name for b in d.bounds.nonmonotonic) or "no function"
-    steps.append(f"No constant gain exists on {name} in {d.interval_text(d.region)}: {nm} "
-                 f"{'is' if len(d.bounds.nonmonotonic) == 1 else 'are'} non-monotonic there "
-                 f"({d.certificate.theorem if d.certificate else 'see the certificate'}).")
+    if d.certificate is not None:
+        nm = ", ".join(b.name for b in d.bounds.nonmonotonic)
+        steps.append(f"Why the paper's LMI fails ({d.certificate.theorem}): "
+                     + (f"{nm} {'is' if len(d.bounds.nonmonotonic) == 1 else 'are'} non-monotonic there. " if nm else
+                        "no function is non-monotonic there; the certificate is the solver's dual multiplier. ")
+                     + d.certificate.reason)
     if d.theorem5.equivalent and not d.theorem5.shifted_feasible:
         steps.append("Subtracting a linear term to make the functions monotonic does not help (Theorem 5): the "
                      "transformed LMI is infeasible too.")

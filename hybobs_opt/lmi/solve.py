@@ -37,11 +37,16 @@ class SolveCounters:
     solver_seconds: float = 0.0
     first_compile_seconds: float = 0.0
     statuses: dict[str, int] = field(default_factory=dict)
+    primary_undecided: int = 0
+    undecided: int = 0
+    rescued: dict[str, int] = field(default_factory=dict)
 
     def reset(self) -> None:
         self.calls = 0
         self.seconds = self.compile_seconds = self.solver_seconds = self.first_compile_seconds = 0.0
         self.statuses = {}
+        self.primary_undecided = self.undecided = 0
+        self.rescued = {}
 
     def snapshot(self) -> dict:
         other = self.seconds - self.compile_seconds - self.solver_seconds
@@ -50,7 +55,8 @@ class SolveCounters:
                 "first_compile_seconds": self.first_compile_seconds,
                 "solver_seconds": self.solver_seconds, "other_seconds": other,
                 "compile_share": self.compile_seconds / total, "solver_share": self.solver_seconds / total,
-                "other_share": other / total, "statuses": dict(self.statuses)}
+                "other_share": other / total, "statuses": dict(self.statuses),
+                "primary_undecided": self.primary_undecided, "undecided": self.undecided, "rescued": dict(self.rescued)}
 
 
 COUNTERS = SolveCounters()
@@ -71,6 +77,8 @@ class SolveOutcome:
     solver_seconds: float
     message: str = ""
     residuals: dict[str, float] = field(default_factory=dict)
+    solver: str = SOLVER
+    attempts: tuple[tuple[str, str], ...] = ()
 
     @property
     def optimal(self) -> bool:
@@ -78,7 +86,8 @@ class SolveOutcome:
 
     def to_dict(self) -> dict:
         return {"status": self.status, "seconds": self.seconds, "compile_seconds": self.compile_seconds,
-                "solver_seconds": self.solver_seconds, "message": self.message, "residuals": dict(self.residuals)}
+                "solver_seconds": self.solver_seconds, "message": self.message, "residuals": dict(self.residuals),
+                "solver": self.solver, "attempts": [list(a) for a in self.attempts]}
 
 
 def cvxpy_status(problem: cp.Problem) -> Status:
@@ -107,23 +116,61 @@ def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
     return out
 
 
-def solve_problem(problem: cp.Problem) -> SolveOutcome:
-    """Solve ``problem`` with Clarabel; a crash becomes status :data:`SOLVER_ERROR`, never an exception."""
-    first = problem._cache.param_prog is None if hasattr(problem, "_cache") else False
-    t0 = time.perf_counter()
-    message = ""
+#: Conic solvers tried, in order, when Clarabel cannot decide a problem (a status other than
+#: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...).  CVXOPT (optional extra
+#: ``solvers``) is an interior-point method with its own scaling; SCS (a cvxpy dependency) a
+#: first-order method, run to tight tolerances.  Whatever they return is re-checked like Clarabel's.
+FALLBACK_SOLVERS: tuple[tuple[str, dict], ...] = (
+    ("CVXOPT", {"abstol": 1e-9, "reltol": 1e-9, "feastol": 1e-9, "max_iters": 200}),
+    ("SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}),
+)
+
+
+def _available(name: str) -> bool:
+    return name in _INSTALLED
+
+
+_INSTALLED = frozenset(cp.installed_solvers())
+
+
+def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, str]:
     with warnings.catch_warnings():
         # "Solution may be inaccurate" is carried by the status, which callers check.
         warnings.simplefilter("ignore", UserWarning)
         try:
-            problem.solve(solver=SOLVER)
-            status = cvxpy_status(problem)
-        except cp.error.SolverError as exc:
-            status, message = SOLVER_ERROR, str(exc)
+            problem.solve(solver=solver, **options)
+            return map_status(CVXPY_STATUS, problem.status, solver=f"cvxpy/{solver}"), ""
+        except (cp.error.SolverError, ArithmeticError, ValueError) as exc:
+            return SOLVER_ERROR, f"{solver}: {exc}"
+
+
+def solve_problem(problem: cp.Problem, *, fallback: bool = True) -> SolveOutcome:
+    """Solve ``problem`` with Clarabel, then with :data:`FALLBACK_SOLVERS` while it is undecided.
+
+    A crash becomes status :data:`SOLVER_ERROR`, never an exception.  The outcome names the
+    solver whose answer it carries and every attempt; :data:`COUNTERS` counts Clarabel's own
+    undecided solves (``primary_undecided``) and those no solver decided (``undecided``).
+    """
+    first = problem._cache.param_prog is None if hasattr(problem, "_cache") else False
+    t0 = time.perf_counter()
+    attempts: list[tuple[str, str]] = []
+    messages = []
+    compile_s = solver_s = 0.0
+    chain = [(SOLVER, {})] + ([(n, o) for n, o in FALLBACK_SOLVERS if _available(n)] if fallback else [])
+    status, used = SOLVER_ERROR, SOLVER
+    for name, options in chain:
+        status, message = _run_once(problem, name, options)
+        used = name
+        attempts.append((name, str(status)))
+        if message:
+            messages.append(message)
+        compile_s += float(getattr(problem, "compilation_time", 0.0) or 0.0)
+        stats = getattr(problem, "solver_stats", None)
+        if stats is not None and status != SOLVER_ERROR:
+            solver_s += float(getattr(stats, "solve_time", 0.0) or 0.0)
+        if status in (OPTIMAL, INFEASIBLE):
+            break
     seconds = time.perf_counter() - t0
-    compile_s = float(getattr(problem, "compilation_time", 0.0) or 0.0)
-    stats = getattr(problem, "solver_stats", None)
-    solver_s = float(getattr(stats, "solve_time", 0.0) or 0.0) if stats is not None and status != SOLVER_ERROR else 0.0
     COUNTERS.calls += 1
     COUNTERS.seconds += seconds
     COUNTERS.compile_seconds += compile_s
@@ -131,5 +178,11 @@ def solve_problem(problem: cp.Problem) -> SolveOutcome:
     if first:
         COUNTERS.first_compile_seconds += compile_s
     COUNTERS.statuses[status] = COUNTERS.statuses.get(status, 0) + 1
+    if attempts[0][1] not in (OPTIMAL, INFEASIBLE):
+        COUNTERS.primary_undecided += 1
+        if status in (OPTIMAL, INFEASIBLE):
+            COUNTERS.rescued[used] = COUNTERS.rescued.get(used, 0) + 1
+    if status not in (OPTIMAL, INFEASIBLE):
+        COUNTERS.undecided += 1
     residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
-    return SolveOutcome(status, seconds, compile_s, solver_s, message, residuals)
+    return SolveOutcome(status, seconds, compile_s, solver_s, "; ".join(messages), residuals, used, tuple(attempts))

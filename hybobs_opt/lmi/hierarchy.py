@@ -1,0 +1,283 @@
+"""A hierarchy of sufficient conditions for a constant observer gain, weakest claim first.
+
+For one region of the operating box, three conditions are tried in order; each one's feasible set
+contains the previous one's, so an infeasible condition rules out everything before it:
+
+1. ``"paper"`` -- LMI (8), (22) or (23) of paper 004 with the paper's single S-procedure multiplier
+   (Theorem 1, Corollaries 1.1-1.2);
+2. ``"per_function"`` -- the same LMI with one multiplier per nonlinear function (each sector
+   condition weighed on its own);
+3. ``"polytopic"`` -- one quadratic Lyapunov function ``e^T P e`` for every vertex of the box of
+   Jacobian slopes (:mod:`.polytopic`): the least conservative constant-gain condition with a
+   quadratic Lyapunov function.
+
+A feasible condition comes with its gain ``L`` and the decay rate that ``(P, L)`` proves on every
+vertex of the Jacobian box, recomputed in numpy (:func:`.polytopic.vertex_decay`; every ``(P, L)``
+of conditions 1-2 also satisfies 3).  An infeasible condition comes with a dual certificate that
+``verify()`` re-checks in numpy.  What is proven is named exactly: "no constant gain satisfies
+LMI (8) ... nor the polytopic condition" rules out every constant gain *with a quadratic Lyapunov
+function*, not every constant gain; only :mod:`.impossibility` proves statements about every gain.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import HybobsError, ModelError
+from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from .bounds import JacobianBounds, jacobian_bounds
+from .certificates import certify_infeasible
+from .lmi_model import LMI_NAMES
+from .observer_lmi import ObserverLMI
+from .polytopic import MAX_VERTICES, PolytopicLMI, vertex_decay, vertex_matrices, vertex_slopes
+from .schedule import SchedulingRegion
+
+#: The conditions, in the order of the hierarchy.
+CONDITIONS = ("paper", "per_function", "polytopic")
+
+
+def condition_name(key: str, form: str) -> str:
+    """Human name of a condition (``form`` is ``"(8)"``, ``"(22)"`` or ``"(23)"``)."""
+    lmi = LMI_NAMES.get(form, f"LMI {form}")
+    return {"paper": f"{lmi} (one S-procedure multiplier, as in the paper)",
+            "per_function": f"{lmi} with one S-procedure multiplier per function",
+            "polytopic": "the polytopic condition (one quadratic Lyapunov function on every vertex of the Jacobian box)"}[key]
+
+
+@dataclass(frozen=True)
+class ConditionResult:
+    """The verdict of one condition of the hierarchy on one region.
+
+    Attributes
+    ----------
+    key : str
+        ``"paper"``, ``"per_function"`` or ``"polytopic"``.
+    name : str
+    feasible : bool
+    status : str
+        The solver's status (``"implied"`` when an earlier condition's solution is used).
+    L, P : arrays or None
+        Gain and Lyapunov matrix (model coordinates) of a feasible condition.
+    sigma_verified : float or None
+        Decay rate ``(P, L)`` proves on every vertex of the Jacobian box, recomputed in numpy.
+    certificate : object or None
+        For an infeasible condition: the dual certificate (``verify()`` re-checks it in numpy);
+        :class:`.certificates.InfeasibilityCertificate` for the multiplier LMIs,
+        :class:`.polytopic.PolytopicCertificate` for the polytopic one.
+    implied_by : str or None
+        Feasible because an earlier (stronger) condition is.
+    seconds : float
+    """
+
+    key: str
+    name: str
+    feasible: bool
+    status: str
+    L: np.ndarray | None = None
+    P: np.ndarray | None = None
+    sigma_verified: float | None = None
+    certificate: object | None = field(default=None, repr=False)
+    implied_by: str | None = None
+    seconds: float = 0.0
+    skipped: str = ""
+    solution: object | None = field(default=None, repr=False)
+
+    @property
+    def verified(self) -> bool:
+        """Infeasible with a certificate that passes the numpy re-check."""
+        cert = self.certificate
+        if self.feasible or cert is None:
+            return False
+        return bool(getattr(cert, "structural_verified", False) or cert.verify())
+
+    def to_dict(self) -> dict:
+        out = {"condition": self.key, "name": self.name, "feasible": self.feasible, "status": str(self.status),
+               "implied_by": self.implied_by, "seconds": self.seconds}
+        if self.skipped:
+            out["skipped"] = self.skipped
+        if self.feasible:
+            out.update(L=self.L.tolist(), P=self.P.tolist(), sigma_verified=self.sigma_verified)
+        else:
+            out["certificate_verified"] = self.verified
+            if self.certificate is not None:
+                out["certificate"] = self.certificate.to_dict()
+        return out
+
+
+@dataclass(frozen=True)
+class HierarchyResult:
+    """All conditions of the hierarchy on one region, and what they prove together."""
+
+    system: ScalarNonlinearSystem = field(repr=False)
+    region: SchedulingRegion | None
+    form: str
+    conditions: tuple[ConditionResult, ...]
+    seconds: float
+
+    def get(self, key: str) -> ConditionResult:
+        for c in self.conditions:
+            if c.key == key:
+                return c
+        raise KeyError(key)
+
+    @property
+    def feasible_condition(self) -> str | None:
+        """The first (most conservative) condition that is feasible, or ``None``."""
+        return next((c.key for c in self.conditions if c.feasible), None)
+
+    @property
+    def feasible(self) -> bool:
+        return self.feasible_condition is not None
+
+    @property
+    def strongest_infeasible(self) -> str | None:
+        """The last condition of the leading run of *certified* infeasible ones.
+
+        Infeasibility of a condition with a verified certificate rules out the ones before it;
+        the claim stops at the first condition that is feasible, uncertified or skipped.
+        """
+        out = None
+        for c in self.conditions:
+            if c.verified:
+                out = c.key
+            else:
+                break
+        return out
+
+    @property
+    def gain(self) -> ConditionResult | None:
+        """The feasible condition whose gain is recommended (the first feasible one)."""
+        return next((c for c in self.conditions if c.feasible), None)
+
+    def claim(self, where: str) -> str:
+        """What the hierarchy proves on the region (``where`` names it, e.g. ``"theta in [0, 1]"``)."""
+        strongest = self.strongest_infeasible
+        feas = self.gain
+        parts = []
+        if strongest is not None:
+            keys = CONDITIONS[:CONDITIONS.index(strongest) + 1]
+            names = [condition_name(k, self.form) for k in keys]
+            listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " nor " + names[-1]
+            parts.append(f"No constant gain satisfies {listed} on {where}: "
+                         + ("it is" if len(names) == 1 else "each is") + " proven infeasible by a dual certificate "
+                         "re-checked in numpy.")
+            if strongest == "polytopic":
+                parts.append("This rules out every constant gain with a quadratic Lyapunov function for the Jacobian "
+                             "box; it does not prove that no constant gain makes the error converge.")
+        if feas is not None:
+            how = "" if feas.implied_by is None else f" (implied by {feas.implied_by})"
+            rate = "" if feas.sigma_verified is None else (
+                f", decay rate {feas.sigma_verified:.4g} 1/s proven on every vertex of the Jacobian box (numpy re-check)")
+            parts.append(f"A constant gain exists on {where}: {condition_name(feas.key, self.form)} is feasible{how}"
+                         f"{rate}; L = {np.round(feas.L, 6).tolist()}.")
+        elif strongest != "polytopic":
+            undecided = [c for c in self.conditions if not c.feasible and not c.verified]
+            if undecided:
+                c = undecided[0]
+                parts.append(f"{condition_name(c.key, self.form)} was not decided ({c.skipped or c.status}): no claim "
+                             "beyond it is made.")
+        return " ".join(parts)
+
+    def to_dict(self) -> dict:
+        return {"lmi": self.form, "conditions": [c.to_dict() for c in self.conditions],
+                "feasible_condition": self.feasible_condition, "strongest_infeasible": self.strongest_infeasible,
+                "seconds": self.seconds}
+
+
+def _vertex_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, P, L) -> float:
+    from .lmi_model import lmi_data
+
+    data = lmi_data(system)
+    lin = np.array(system.linear_outputs, dtype=bool)
+    cols = np.concatenate([np.nonzero(lin)[0], np.nonzero(~lin)[0]]).astype(int)
+    As, Cs = vertex_matrices(data, vertex_slopes(bounds))
+    return vertex_decay(P, L[:, cols], As, Cs)
+
+
+def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion | None = None, *,
+                        bounds: JacobianBounds | None = None, scaling: np.ndarray | None = None,
+                        sigma: float = 0.0) -> HierarchyResult:
+    """Run the three conditions of the module docstring on ``region`` (default: the whole box).
+
+    Each condition is solved at decay rate ``sigma`` (default 0: infeasibility there rules out every
+    rate) without a gain bound, so a certificate covers every gain.  Once a condition is feasible,
+    the later ones are feasible by implication (their ``status`` is ``"implied"``, their gain the
+    same).  An undecided solve (no certificate verified, no checked point) ends the claim there.
+    """
+    if not isinstance(system, ScalarNonlinearSystem):
+        raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
+    t0 = time.perf_counter()
+    bounds = bounds if bounds is not None else jacobian_bounds(system, region)
+    results: list[ConditionResult] = []
+    form = ObserverLMI.compiled(system, scaling=scaling).form
+    feasible: ConditionResult | None = None
+    for key in CONDITIONS:
+        name = condition_name(key, form)
+        if feasible is not None:
+            results.append(ConditionResult(key, name, True, "implied", feasible.L, feasible.P, feasible.sigma_verified,
+                                           implied_by=feasible.key))
+            continue
+        t1 = time.perf_counter()
+        if key == "per_function" and system.r + sum(not lin for lin in system.linear_outputs) <= 1:
+            prev = results[-1]
+            results.append(ConditionResult(key, name, prev.feasible, "same as paper (one function)", prev.L, prev.P,
+                                           prev.sigma_verified, prev.certificate, "paper" if prev.feasible else None,
+                                           solution=prev.solution))
+            continue
+        if key == "polytopic":
+            try:
+                lmi = PolytopicLMI.compiled(system, scaling=scaling)
+            except ModelError as exc:
+                results.append(ConditionResult(key, name, False, "skipped", skipped=f"not built: {exc} (at most {MAX_VERTICES} vertices)"))
+                continue
+            sol = lmi.solve(bounds, sigma)
+            if sol.feasible:
+                rate = _vertex_rate(system, bounds, sol.P, sol.L)
+                feasible = ConditionResult(key, name, True, sol.status, sol.L, sol.P, rate, seconds=time.perf_counter() - t1,
+                                           solution=sol)
+                results.append(feasible)
+                continue
+            cert = lmi.certify(sol)
+            results.append(ConditionResult(key, name, False, sol.status, certificate=cert, seconds=time.perf_counter() - t1,
+                                           solution=sol))
+            continue
+        lmi = ObserverLMI.compiled(system, scaling=scaling, multipliers="single" if key == "paper" else "per_function")
+        sol = lmi.solve(bounds, sigma)
+        if sol.feasible:
+            rate = _vertex_rate(system, bounds, sol.P, sol.L)
+            feasible = ConditionResult(key, name, True, sol.status, sol.L, sol.P, rate, seconds=time.perf_counter() - t1,
+                                       solution=sol)
+            results.append(feasible)
+            continue
+        try:
+            cert = certify_infeasible(lmi, sol)
+        except HybobsError as exc:  # undecided: neither a checked point nor a verified certificate
+            results.append(ConditionResult(key, name, False, sol.status, skipped=str(exc), seconds=time.perf_counter() - t1,
+                                           solution=sol))
+            continue
+        if not (cert.verify() or cert.structural_verified):
+            cert_obj = None
+        else:
+            cert_obj = cert
+        results.append(ConditionResult(key, name, False, sol.status, certificate=cert_obj, seconds=time.perf_counter() - t1,
+                                       solution=sol))
+    return HierarchyResult(system, bounds.region, form, tuple(results), time.perf_counter() - t0)
+
+
+def design_lmi(system: ScalarNonlinearSystem, key: str, *, gain_bound: float | None = None,
+               scaling: np.ndarray | None = None):
+    """The compiled problem of condition ``key`` (with the gain bound), for a decay-rate search."""
+    if key not in CONDITIONS:
+        raise ModelError("condition", f"one of {CONDITIONS}", repr(key))
+    if key == "polytopic":
+        return PolytopicLMI.compiled(system, gain_bound=gain_bound, scaling=scaling)
+    return ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=scaling,
+                                multipliers="single" if key == "paper" else "per_function")
+
+
+def verified_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, P: np.ndarray, L: np.ndarray) -> float:
+    """Decay rate ``(P, L)`` proves on every vertex of the Jacobian box ``bounds`` (numpy)."""
+    return _vertex_rate(system, bounds, P, L)
