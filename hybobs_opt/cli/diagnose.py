@@ -4,7 +4,10 @@ examples use their published settings, every other system settings read from the
 (:mod:`hybobs_opt.lmi.auto_design`, reported under ``settings``).
 
 Writes a Markdown and an HTML report (verdict, certificate, Jacobian-bound plots, what to do
-next) into ``DIR`` and prints the verdict; ``--json`` prints ``feasible`` and, when infeasible,
+next) into ``DIR`` and prints the verdict: the hierarchy of conditions (:mod:`hybobs_opt.lmi.hierarchy`),
+undetectable points and indistinguishable mirror states (:mod:`hybobs_opt.lmi.impossibility`).
+``--json`` prints ``feasible`` (some condition gave a gain), ``paper_lmi_feasible``, ``verdict``,
+``hierarchy``, ``undetectable_points``, ``indistinguishable`` and, when the paper LMI is infeasible,
 ``certificate`` with ``verified``, ``reason`` and ``theorem``.  Ranges are in the preset's
 display unit of the coordinate (degrees for ``psi``, mm for ``z``); ``psi=0:6.28rad`` gives
 radians explicitly.  (This module is also the old ``hybobs_opt.lmi.commands``.)
@@ -56,11 +59,29 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
         return 0
-    verdict = "FEASIBLE: a constant gain exists" if diag.feasible else "INFEASIBLE: no constant gain exists"
-    print(f"{named.label}, {coordinate} in [{lo:g}, {hi:g}] {unit}: LMI {diag.solution.form} {verdict}".replace("  ", " "))
+    h = diag.hierarchy
+    if diag.feasible:
+        verdict = f"FEASIBLE: a constant gain exists ({h.feasible_condition} condition)"
+    elif h.strongest_infeasible is not None:
+        verdict = f"INFEASIBLE up to the {h.strongest_infeasible} condition (certified)"
+    else:
+        verdict = "UNDECIDED"
+    print(f"{named.label}, {coordinate} in [{lo:g}, {hi:g}] {unit}: {verdict}".replace("  ", " "))
+    for c in h.conditions:
+        if c.feasible:
+            state = "feasible" + (f" (implied by {c.implied_by})" if c.implied_by else "")
+            if c.sigma_verified is not None:
+                state += f", vertex-checked decay {c.sigma_verified:.4g} 1/s"
+        else:
+            state = "infeasible, certificate verified in numpy" if c.verified else f"not decided ({c.skipped or c.status})"
+        print(f"  {c.name}: {state}")
+    for p_ in diag.undetectable:
+        print(f"  undetectable point: {p_.claim}")
+    for q in diag.symmetries:
+        print(f"  {q.claim}")
     if diag.certificate is not None:
         c = diag.certificate
-        print(f"certificate ({c.theorem}): verified in numpy = {c.verify()}; structural = {c.structural_verified}")
+        print(f"paper LMI certificate ({c.theorem}): verified in numpy = {c.verify()}; structural = {c.structural_verified}")
         print(f"  {c.reason}")
     print(f"Theorem 5 (linear subtraction): original {diag.theorem5.original_feasible}, transformed {diag.theorem5.shifted_feasible}")
     print("next:")

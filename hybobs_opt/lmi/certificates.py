@@ -1,18 +1,23 @@
 """Certificates that an observer LMI of paper 004 has no solution, re-checked in plain numpy.
 
-Write the LMI of :mod:`.observer_lmi` as ``B(P, Y, eps) <= 0``; ``B`` is linear in ``(P, Y, eps)``.
-A symmetric ``Z >= 0`` with
+Write the LMI of :mod:`.observer_lmi` as ``B(P, Y, eps) < 0`` (strict, as in Theorem 1: the error
+must decay); ``B`` is linear in ``(P, Y, eps)``.  A symmetric ``Z >= 0`` with
 
 1. ``<Z, B(0, Y, 0)> = 0`` for every ``Y`` (the gain cannot help: ``Z_11 C_l^T = 0``, ``Z_13 = 0``),
 2. ``W := B_P^*(Z) >= 0``, i.e. ``<Z, B(P, 0, 0)> = <W, P>`` (``W = A Z_11 + Z_11 A^T + sigma Z_11
    + F Z_12^T + Z_12 F^T``),
-3. ``g := <Z, B(0, 0, 1)> >= 0`` (the S-procedure terms of eq. (20) weighed by ``Z``),
-4. ``tr W + g > 0``,
+3. ``g_k := <Z, B(0, 0, e_k)> >= 0`` for each S-procedure multiplier (the terms of eq. (20) weighed by
+   ``Z``; one ``g`` for the paper's single multiplier),
+4. ``tr Z = 1`` (``Z`` is not zero),
 
-proves infeasibility: for every ``P > 0``, every ``L`` (``Y = P L``) and ``eps > 0`` (the paper
-absorbs ``eps`` into ``P``), ``<Z, B> = <W, P> + eps g > 0``, while ``B <= 0`` and ``Z >= 0`` force
-``<Z, B> <= 0``.  That scalar inequality is the certificate; :meth:`DualCertificate.verify`
-re-checks 1-4 with eigenvalues and traces, evaluating ``B`` by its own numpy code.
+proves infeasibility: for every ``P > 0``, every ``L`` (``Y = P L``) and multipliers ``eps_k > 0``,
+``<Z, B> = <W, P> + sum_k eps_k g_k >= 0``, while ``B < 0`` and ``Z >= 0, Z != 0`` force
+``<Z, B> < 0``.  That scalar inequality is the certificate; :meth:`DualCertificate.verify`
+re-checks 1-4 with eigenvalues and traces, evaluating ``B`` by its own numpy code.  The re-check
+accepts violations up to :data:`~hybobs_opt.tolerances.CERTIFICATE_RTOL` (relative), so what is
+proven is that no solution has a margin ``-lambda_max(B) / tr P`` above that tolerance.  (The
+normalisation ``tr Z = 1`` rather than ``tr W + g = 1`` also certifies the boundary cases where no
+strict solution exists but ``B <= 0`` is reachable, e.g. a mode that neither decays nor grows.)
 
 Two sources of ``Z``:
 
@@ -48,7 +53,7 @@ def _inner(X: np.ndarray, Y: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class CertificateCheck:
-    """Numbers of the numpy re-check of a dual certificate (after normalising ``tr W + g = 1``)."""
+    """Numbers of the numpy re-check of a dual certificate (after normalising ``tr Z = 1``)."""
 
     ok: bool
     min_eig_Z: float
@@ -155,11 +160,11 @@ class DualCertificate:
         y_res_raw = max((abs(_inner(Zraw, Bi)) for Bi in basis), default=0.0) / scale_Z
         Z = self.projected()
         W, gk = self.W_of(Z), self.g_of(Z)
-        t = float(np.trace(W)) + float(gk.sum())
+        t = float(np.trace(Z))
         msgs = []
         if not np.isfinite(t) or t <= 0:
             res = CertificateCheck(False, float("nan"), float("nan"), float(np.trace(W)), float(gk.sum()), y_res_raw,
-                                   (f"tr W + g = {t:.3g} is not positive",))
+                                   (f"tr Z = {t:.3g} is not positive",))
             self._check.append(res)
             return res
         Z, W, gk = Z / t, W / t, gk / t
@@ -192,7 +197,7 @@ class DualCertificate:
     def reason(self) -> str:
         """What the multiplier proves (the :class:`~hybobs_opt.results.Certificate` protocol)."""
         return (f"a dual PSD multiplier Z ({self.source}) of the observer LMI at decay rate {self.sigma:.6g}: "
-                "<Z, B(P, PL, eps)> >= 0 for every P > 0, eps > 0 and every gain L, so B <= 0 has no solution")
+                "<Z, B(P, PL, eps)> >= 0 for every P > 0, eps > 0 and every gain L, so B < 0 has no solution")
 
     def verify(self) -> bool:
         """True when the numpy re-check confirms the certificate (no solver involved)."""
@@ -201,9 +206,10 @@ class DualCertificate:
     @property
     def inequality(self) -> str:
         c = self.check()
-        return (f"<Z, B(P, PL, eps)> = <W, P> + eps*g with W >= 0 (min eigenvalue {c.min_eig_W:.3g}), "
-                f"g = {c.g:.4g} >= 0 and tr W + g = 1: positive for every P > 0, eps > 0 and every gain L, "
-                f"whereas B <= 0 and Z >= 0 (min eigenvalue {c.min_eig_Z:.3g}) force <Z, B> <= 0.")
+        return (f"<Z, B(P, PL, eps)> = <W, P> + sum_k eps_k g_k with W >= 0 (min eigenvalue {c.min_eig_W:.3g}), "
+                f"g_k >= 0 (sum {c.g:.4g}) and tr Z = 1: non-negative for every P > 0, eps > 0 and every gain L, "
+                f"whereas B < 0 and Z >= 0 (min eigenvalue {c.min_eig_Z:.3g}), Z != 0 force <Z, B> < 0 "
+                f"(to the re-check tolerance {CERTIFICATE_RTOL:g}).")
 
     def to_dict(self) -> dict:
         c = self.check()
@@ -248,7 +254,7 @@ class AlternativeSDP:
                          + 2 * cp.multiply(par.mpn, cp.diag(data.C_nl @ Z13)) - cp.diag(Z[n + r:, n + r:]))
         gk = cp.hstack(parts) if len(parts) > 1 else parts[0]
         g = cp.sum(gk)
-        cons += [W >> 0, (gk >= 0) if per_function else (g >= 0), cp.trace(W) + g == 1]
+        cons += [W >> 0, (gk >= 0) if per_function else (g >= 0), cp.trace(Z) == 1]
         self.problem = cp.Problem(cp.Minimize(0), cons)
 
     def solve(self, sector: SectorData, sigma: float) -> np.ndarray | None:
@@ -481,7 +487,7 @@ def explain(system, bounds: JacobianBounds, form: str, sigma: float, ob: Structu
     else:
         parts.append(f"v is an eigenvector of A with eigenvalue {lam_text} (Re >= -sigma/2: A is not Hurwitz along v).")
     parts.append(f"Hence v^T (1,1) v = (2 Re(lambda) + sigma) v^T P v + {_fmt(ob.s_term)} > 0 for every P > 0 and every L: "
-                 f"the (1,1) block of {lmi_name} cannot be negative semidefinite and no constant gain exists.")
+                 f"the (1,1) block of {lmi_name} cannot be negative definite: no constant gain satisfies {lmi_name}.")
     all_nonmono = all(not b.monotonic for b in ((*bounds.f,) if form == "(23)" else (*nl_out,) if form == "(22)" else (*bounds.f, *nl_out)))
     if form == "(23)":
         extra = ("" if all_nonmono else

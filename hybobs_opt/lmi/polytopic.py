@@ -21,10 +21,11 @@ This is the least conservative condition of the hierarchy (:mod:`.hierarchy`) fo
 with a quadratic Lyapunov function: every ``(P, L)`` of LMI (8)/(22)/(23), with one multiplier or one
 per function, satisfies it (the sector conditions hold for every slope in the box).
 
-Infeasibility is certified by multipliers ``Z_v >= 0`` with ``sum_v Z_v C_v^T = 0`` and
-``W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v) >= 0``, ``tr W = 1``: then
-``sum_v <Z_v, B_v(P, Y)> = <W, P> > 0`` for every ``P > 0`` and every gain, while ``B_v <= 0``
-forces it to be ``<= 0``.  :meth:`PolytopicCertificate.verify` re-checks this in numpy.
+Infeasibility is certified by multipliers ``Z_v >= 0``, ``sum_v tr Z_v = 1``, with
+``sum_v Z_v C_v^T = 0`` and ``W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v) >= 0``: then
+``sum_v <Z_v, B_v(P, Y)> = <W, P> >= 0`` for every ``P > 0`` and every gain, while the strict
+``B_v < 0`` forces it to be ``< 0``.  :meth:`PolytopicCertificate.verify` re-checks this in numpy (to
+:data:`~hybobs_opt.tolerances.CERTIFICATE_RTOL`: no solution with a larger relative margin).
 """
 
 from __future__ import annotations
@@ -90,7 +91,7 @@ def vertex_decay(P: np.ndarray, L: np.ndarray, As: list[np.ndarray], Cs: list[np
 # ---------------------------------------------------------------------------- certificate
 @dataclass(frozen=True)
 class PolytopicCheck:
-    """Numbers of the numpy re-check of a polytopic certificate (after ``tr W = 1``)."""
+    """Numbers of the numpy re-check of a polytopic certificate (after ``sum_v tr Z_v = 1``)."""
 
     ok: bool
     min_eig_Z: float
@@ -157,7 +158,7 @@ class PolytopicCertificate:
         return 0.5 * (W + W.T)
 
     def check(self) -> PolytopicCheck:
-        """Re-check ``Z_v >= 0``, ``sum Z_v C_v^T = 0``, ``W >= 0``, ``tr W > 0`` in numpy (cached)."""
+        """Re-check ``Z_v >= 0``, ``sum Z_v C_v^T = 0``, ``W >= 0``, ``sum tr Z_v > 0`` in numpy (cached)."""
         if self._check:
             return self._check[0]
         Zraw = [0.5 * (Z + Z.T) for Z in self.Z]
@@ -166,9 +167,9 @@ class PolytopicCertificate:
         y_raw = float(np.abs(self._residual(Zraw)).max()) / (scale * cnorm) if self.Cs[0].size else 0.0
         Zs = self.projected()
         W = self.W_of(Zs)
-        t = float(np.trace(W))
+        t = float(sum(np.trace(Z) for Z in Zs))
         if not np.isfinite(t) or t <= 0:
-            res = PolytopicCheck(False, float("nan"), float("nan"), y_raw, (f"tr W = {t:.3g} is not positive",))
+            res = PolytopicCheck(False, float("nan"), float("nan"), y_raw, (f"sum tr Z_v = {t:.3g} is not positive",))
             self._check.append(res)
             return res
         Zs, W = [Z / t for Z in Zs], W / t
@@ -195,8 +196,8 @@ class PolytopicCertificate:
     @property
     def reason(self) -> str:
         return (f"PSD multipliers Z_v, one per vertex of the Jacobian box ({self.source}), with sum_v Z_v C_v^T = 0 and "
-                f"W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v) >= 0, tr W = 1: sum_v <Z_v, B_v(P, PL)> = <W, P> > 0 "
-                f"for every P > 0 and every gain L, so the vertex LMIs B_v <= 0 have no common solution")
+                f"W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v) >= 0, sum_v tr Z_v = 1: sum_v <Z_v, B_v(P, PL)> = <W, P> >= 0 "
+                f"for every P > 0 and every gain L, so the strict vertex LMIs B_v < 0 have no common solution")
 
     def to_dict(self) -> dict:
         return {"source": self.source, "verified": self.verify(), "check": self.check().to_dict(),
@@ -372,7 +373,7 @@ class PolytopicLMI:
         n = As[0].shape[0]
         Z = [cp.Variable((n, n), PSD=True) for _ in As]
         W = sum(A @ z + z @ A.T + sigma * z for z, A in zip(Z, As))
-        cons = [0.5 * (W + W.T) >> 0, cp.trace(W) == 1]
+        cons = [0.5 * (W + W.T) >> 0, sum(cp.trace(z) for z in Z) == 1]
         if Cs[0].shape[0]:
             cons.append(sum(z @ C.T for z, C in zip(Z, Cs)) == 0)
         prob = cp.Problem(cp.Minimize(0), cons)
