@@ -23,6 +23,7 @@ The scenarios of ``vehicle_tracking`` and ``magnetic_piston`` are the study
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import casadi as ca
@@ -66,12 +67,23 @@ class SwitchedGainObserver(Observer):
         Keep the estimate in the operating box (default).  The Jacobian bounds (4)-(5) behind
         every gain hold only there: a large initial error can otherwise throw the estimate into an
         equivalent state outside the box (the vehicle's ``tan(delta_f)`` repeats every pi).
+    periodic : mapping of state name or index to period, optional
+        Angle-like coordinates (model units, e.g. ``{"psi": 2 pi}`` for the vehicle's yaw):
+        after every RK4 step (and in :meth:`reset`) they are wrapped into
+        ``[box_lower_k, box_lower_k + period)`` instead of clipped to the box, so a yaw estimate
+        that passes 360 deg reappears near 0 deg instead of sticking at the box's edge.  The
+        other coordinates are clipped as before; ``clip_to_box=False`` turns their clipping off
+        but not the wrapping.  If the scheduling coordinate is periodic, the state machine
+        compares the wrapped value with each region through its image nearest to the region
+        (a region ``[-10, 10] deg`` contains ``355 deg``), and the distance to a region is the
+        distance along the circle.  ``None`` (default): no coordinate is periodic.
     """
 
     name = "switched-gain"
 
     def __init__(self, system: ScalarNonlinearSystem, gains, dt: float, *, init_samples: int = 5,
-                 init_state: str = "clip", substeps: int | None = None, clip_to_box: bool = True):
+                 init_state: str = "clip", substeps: int | None = None, clip_to_box: bool = True,
+                 periodic: Mapping[str | int, float] | None = None):
         if not isinstance(system, ScalarNonlinearSystem):
             raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
         regs = list(getattr(gains, "regions", gains))
@@ -101,6 +113,12 @@ class SwitchedGainObserver(Observer):
         if self.substeps < 1:
             raise ModelError("substeps", "at least 1", repr(substeps))
         self.clip_to_box = bool(clip_to_box)
+        self.periodic: dict[int, float] = _periodic_coordinates(periodic, system)
+        self._wrap_idx = np.array(sorted(self.periodic), dtype=int)
+        self._wrap_lo = np.asarray(system.box_lower, dtype=float)[self._wrap_idx]
+        self._wrap_period = np.array([self.periodic[i] for i in self._wrap_idx], dtype=float)
+        self._clip_mask = np.ones(self.n, dtype=bool)
+        self._clip_mask[self._wrap_idx] = False
         self._build_step()
         self.reset()
 
@@ -159,7 +177,7 @@ class SwitchedGainObserver(Observer):
             raise ModelError("x0", f"a finite state of length {self.n}", repr(x0))
         if region is not None and not 0 <= int(region) < len(self.regions):
             raise ModelError(field, f"a region index in [0, {len(self.regions)})", repr(region))
-        self.x = x.copy()
+        self.x = self._wrap(x.copy())
         self.q: int | None = None if region is None else int(region)
         if self.q is None and (self.init_samples <= 1 or len(self.regions) == 1):
             self.q = self._region_of(self.x[self.k], 0)[0]
@@ -170,14 +188,25 @@ class SwitchedGainObserver(Observer):
         self.selected: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ the state machine (Fig. 1)
+    def _image(self, s: float, region) -> float:
+        """``s`` itself, or for a periodic scheduling coordinate its image nearest to ``region``'s centre."""
+        period = self.periodic.get(self.k)
+        if period is None:
+            return s
+        centre = 0.5 * (region.lo + region.hi)
+        return s - period * round((s - centre) / period)
+
     def _region_of(self, s: float, current: int) -> tuple[int, bool]:
         """Region to use for scheduling value ``s`` from region ``current``: ``(index, outside)``."""
-        if self.regions[current].contains(s):
+        if self.regions[current].contains(self._image(s, self.regions[current])):
             return current, False
-        inside = [i for i, r in enumerate(self.regions) if r.contains(s)]
+        inside = [i for i, r in enumerate(self.regions) if r.contains(self._image(s, r))]
         if inside:
             return min(inside, key=lambda i: abs(i - current)), False
-        dist = [min(abs(s - r.lo), abs(s - r.hi)) for r in self.regions]
+        dist = []
+        for r in self.regions:
+            v = self._image(s, r)
+            dist.append(min(abs(v - r.lo), abs(v - r.hi)))
         return int(np.argmin(dist)), True
 
     def select_initial_region(self, Y: np.ndarray, U: np.ndarray | None = None) -> tuple[int, float]:
@@ -231,9 +260,38 @@ class SwitchedGainObserver(Observer):
         return self._clip(self._integrate_numpy(x, u, y0, y1, L))
 
     def _clip(self, x: np.ndarray) -> np.ndarray:
+        """Wrap the periodic coordinates, clip the others to the box (if ``clip_to_box``)."""
+        x = self._wrap(x)
         if not self.clip_to_box:
             return x
-        return np.minimum(np.maximum(x, self.system.box_lower), self.system.box_upper)
+        if self._wrap_idx.size == 0:
+            return np.minimum(np.maximum(x, self.system.box_lower), self.system.box_upper)
+        clipped = np.minimum(np.maximum(x, self.system.box_lower), self.system.box_upper)
+        return np.where(self._clip_mask, clipped, x)
+
+    def _wrap(self, x: np.ndarray) -> np.ndarray:
+        """The periodic coordinates of ``x`` moved into ``[box_lower_k, box_lower_k + period)``."""
+        if self._wrap_idx.size == 0:
+            return x
+        x = np.array(x, dtype=float)
+        v = x[self._wrap_idx]
+        ok = np.isfinite(v)
+        w = self._wrap_lo + np.mod(v - self._wrap_lo, self._wrap_period)
+        # np.mod of a tiny negative offset rounds to the period itself: that point is the lower end.
+        w = np.where(w >= self._wrap_lo + self._wrap_period, self._wrap_lo, w)
+        x[self._wrap_idx] = np.where(ok, w, v)
+        return x
+
+    def difference(self, x_hat: np.ndarray, x_true: np.ndarray) -> np.ndarray:
+        """``x_hat - x_true`` with every periodic coordinate's difference wrapped into
+        ``[-period/2, period/2)`` (the error along the circle); rows are samples."""
+        err = np.asarray(x_hat, dtype=float) - np.asarray(x_true, dtype=float)
+        if self._wrap_idx.size == 0:
+            return err
+        err = np.array(err, dtype=float)
+        half = 0.5 * self._wrap_period
+        err[..., self._wrap_idx] = np.mod(err[..., self._wrap_idx] + half, self._wrap_period) - half
+        return err
 
     def _integrate_numpy(self, x, u, y0, y1, L) -> np.ndarray:
         h = self.dt / self.substeps
@@ -264,7 +322,9 @@ class SwitchedGainObserver(Observer):
                 if self.init_state == "identified":
                     self.x[self.k] = s
                 elif self.init_state == "clip":
-                    self.x[self.k] = min(max(self.x[self.k], reg.lo), reg.hi)
+                    v = self._image(float(self.x[self.k]), reg)
+                    self.x[self.k] = min(max(v, reg.lo), reg.hi)
+                    self.x = self._wrap(self.x)
                 self.selected = {"region": q, "s": s, "samples": len(self._buf_y)}
             return Estimate(self.x.copy(), -1 if self.q is None else self.q, WARMING_UP, 0.0,
                             {"region": self.q, "selected": dict(self.selected)})
@@ -287,6 +347,39 @@ class SwitchedGainObserver(Observer):
             self.x = self._integrate(self.x, self._prev_u, None, None, None)
         self._prev_u, self._prev_y = uu, None
         return Estimate(self.x.copy(), -1 if self.q is None else self.q, FALLBACK, 0.0, {"reason": reason})
+
+
+def _periodic_coordinates(periodic: Mapping[str | int, float] | None,
+                          system: ScalarNonlinearSystem) -> dict[int, float]:
+    """``{state index: period}`` from the ``periodic`` keyword (names or indices), validated."""
+    if periodic is None:
+        return {}
+    if not isinstance(periodic, Mapping):
+        raise ModelError("periodic", "a mapping of state name or index to its period",
+                         type(periodic).__name__)
+    out: dict[int, float] = {}
+    for key, period in periodic.items():
+        if isinstance(key, str):
+            if key not in system.state_names:
+                raise ModelError("periodic", f"state names among {system.state_names}", repr(key))
+            k = system.state_names.index(key)
+        elif isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+            k = int(key)
+            if not 0 <= k < system.n:
+                raise ModelError("periodic", f"state indices in [0, {system.n})", repr(key))
+        else:
+            raise ModelError("periodic", "state names (str) or indices (int) as keys", repr(key))
+        try:
+            value = float(period)
+        except (TypeError, ValueError):
+            raise ModelError("periodic", f"a positive finite period for {system.state_names[k]!r}",
+                             repr(period)) from None
+        if not (math.isfinite(value) and value > 0):
+            raise ModelError("periodic", f"a positive finite period for {system.state_names[k]!r}", repr(period))
+        if k in out:
+            raise ModelError("periodic", f"one period per state ({system.state_names[k]!r} given twice)", repr(key))
+        out[k] = value
+    return out
 
 
 def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
