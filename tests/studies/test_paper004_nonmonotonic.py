@@ -106,7 +106,18 @@ def test_switched_observer_tracks_the_paper_scenario(vehicle_runs):
     assert np.abs(err[late, 2]).max() < deg(0.1)  # yaw error converged and stays small through the turn
     assert np.abs(err[late, :2]).max() < 0.05
     assert s["converged"] and s["convergence_time"] < 5.0
-    assert s["regions_visited"] == [0, 1] and s["n_switches"] == 1
+    # The yaw is wrapped modulo 2 pi (issue 15): in the first samples the large initial error throws the
+    # estimate around the circle and the state machine follows it (measured: 8 switches, all before
+    # t = 0.25 s; clipped to [0, 360] deg the estimate sat at 0 deg instead and did not switch).  After
+    # convergence: exactly one switch, up, when the estimated yaw leaves region 0 = [0, 80] deg (Fig. 3).
+    conv = s["convergence_time"]
+    assert s["periodic"] == {"psi": 2 * math.pi}
+    assert all(w["t"] < 0.3 for w in s["switches"] if w["t"] < conv)
+    turn = [w for w in s["switches"] if w["t"] >= conv]
+    assert [(w["from"], w["to"]) for w in turn] == [(0, 1)]
+    i_turn = int(np.argmin(np.abs(trace.t - turn[0]["t"])))
+    assert ot.x_hat[i_turn - 1, 2] <= deg(80) < ot.x_hat[i_turn, 2] < deg(80.1)
+    assert s["regions_visited"][-1] == 1
     assert s["initial_selection"]["region"] == 0
     assert abs(s["initial_selection"]["s"] - deg(30)) < deg(2)  # heading from the first radar samples
 
