@@ -4,7 +4,8 @@
 * :mod:`.piston_pwa` -- the piston's sensors fitted piecewise-linearly (a PWA system for the lookup observer);
 * :mod:`.presets` -- the published scheduling settings (``hybobs diagnose`` / ``hybobs synth``);
 * :mod:`.scenarios` -- the switched-gain observer runs and ``hybobs observe``;
-* :mod:`.piston_comparison` -- switched gains against the lookup-table deadbeat observer.
+* :mod:`.piston_comparison` -- switched gains against the lookup-table deadbeat observer;
+* :mod:`.paper_design` -- the vehicle's published gains (eqs. 61-62) against the synthesised ones.
 """
 
 from ..registry import Example, register
