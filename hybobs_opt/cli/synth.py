@@ -1,7 +1,10 @@
 """``hybobs synth SYSTEM --out gains.json [--range ...] [--max-rate R] [--json]``: switched
 gains per region, the dwell time ``tau`` and the hysteresis (paper 004); writes and (``--json``)
-prints ``regions`` (each with its ``interval``, ``L``, ``P``, ``sigma``), ``tau``, ``settings``
-and ``warnings`` (a hysteresis that does not enforce the dwell time is one, also printed).
+prints ``regions`` (each with its ``interval``, ``L``, ``P``, ``sigma``, ``sigma_verified`` and the
+``decay_search`` log), ``tau``, ``settings``, ``solver_counts`` and ``verification`` (the frozen error
+dynamics of every region and the switched observer simulated from several initial errors, with
+convergence times: :mod:`hybobs_opt.observers.switched_verification`).  A hysteresis that does not
+enforce the dwell time is an error unless ``--accept-unenforced-dwell`` (then it is in ``warnings``).
 Any scalar-nonlinear system: the paper's examples use their published settings, every other
 system settings read from the model (:mod:`hybobs_opt.lmi.auto_design`).
 """
@@ -28,6 +31,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-rate", type=float, default=None, metavar="R",
                    help="maximum rate of the scheduling state (unit/s) for the hysteresis")
     p.add_argument("--json", action="store_true", help="print the gains JSON")
+    p.add_argument("--accept-unenforced-dwell", action="store_true",
+                   help="return a design whose hysteresis does not enforce the dwell time (Theorem 6 not guaranteed)")
+    p.add_argument("--no-verify", action="store_true", help="skip the simulation and frozen-Jacobian checks")
+    p.add_argument("--periodic", action="append", default=[], metavar="STATE=PERIOD",
+                   help="a periodic state (e.g. psi=6.283185307179586) the verification's observer wraps")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,15 +50,29 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("--max-rate", "a positive rate of the scheduling state (its unit per second)", repr(args.max_rate))
     named, preset, settings = design_setup(args)
     system = named.system
+    periodic = _periodic(args.periodic, system)
+    accept = bool(args.accept_unenforced_dwell)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DwellTimeWarning)  # reported in the JSON and printed below
         if preset is not None:
             lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.synth_range
-            design = preset_design(named.example.name, system, lo, hi, rate=args.max_rate)
+            design = preset_design(named.example.name, system, lo, hi, rate=args.max_rate,
+                                   accept_unenforced_dwell=accept)
             unit, factor = preset.unit, preset.factor
         else:
             lo, hi, unit, factor = settings.lo, settings.hi, "", 1.0
-            design = design_switched(system, settings)
+            design = design_switched(system, settings, accept_unenforced_dwell=accept)
+    if not args.no_verify:
+        from ..observers.switched_verification import verify_switched_design
+
+        scenario, name = None, None
+        if named.example is not None and preset is not None:
+            from ..studies.paper004_nonmonotonic.scenarios import PERIODIC
+
+            scenario, name = named.example.scenario(system), f"the paper's scenario of {named.example.name}"
+            periodic = periodic or PERIODIC.get(named.example.name)
+        object.__setattr__(design, "verification",
+                           verify_switched_design(design, scenario, scenario_name=name, periodic=periodic))
     out = design.to_dict(unit, factor)
     out["example"] = named.label
     out["system_label"] = named.label
@@ -75,5 +97,30 @@ def run(args: argparse.Namespace) -> int:
     if out["epsilon_required"] is not None:
         print(f"hysteresis needed at {out['max_rate']:.4g} {u}/s: epsilon >= {out['epsilon_required']:.4g} {u} "
               f"(regions built with {out['epsilon']:.4g} {u}; dwell enforced: {out['dwell_enforced']})")
+    v = design.verification
+    if v is not None:
+        sim = v.simulation
+        print(f"verification: frozen error dynamics max Re(lambda) = {v.max_real_eig:.4g} 1/s over the regions; "
+              f"{sim.scenario}: converged from {sum(t is not None for t in sim.convergence_times)}/"
+              f"{len(sim.convergence_times)} initial errors"
+              + (f", worst convergence time {sim.worst_convergence_time:.4g} s" if sim.converged else ""))
+        for note in v.notes:
+            print(f"warning: {note}", file=sys.stderr)
     print(f"gains written to {path}")
     return 0
+
+
+def _periodic(items: list[str], system) -> dict[str, float] | None:
+    """``--periodic STATE=PERIOD`` options as a mapping (validated by the observer)."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            period = float(value)
+        except ValueError:
+            period = float("nan")
+        if not sep or name not in system.state_names or not (math.isfinite(period) and period > 0):
+            raise ModelError("--periodic", f"STATE=PERIOD with STATE one of {system.state_names} and a positive period",
+                             repr(item))
+        out[name] = period
+    return out or None

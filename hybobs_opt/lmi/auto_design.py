@@ -224,16 +224,55 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources)
 
 
-def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings):
+#: Design attempts of :func:`design_switched` when the hysteresis does not enforce the dwell time:
+#: the design rate fraction is halved (a common ``P`` gets easier, ``tau`` shorter), then the
+#: overlap widened to the required hysteresis (x 1.2).  Each is reported under ``dwell_attempts``.
+DWELL_RETRY_FRACTIONS: tuple[float, ...] = (0.25, 0.125)
+DWELL_RETRY_WIDEN: float = 1.2
+
+
+def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, accept_unenforced_dwell: bool = False):
     """Regions grown on the settings' range and the switched gains with the dwell time (paper 004, Section 5).
 
-    A design whose hysteresis does not enforce its dwell time is returned with a
-    :class:`~hybobs_opt.lmi.switched.DwellTimeWarning` and the text in ``design.warnings``.
+    When the hysteresis does not enforce the dwell time (Theorem 6 needs it), the design is redone
+    with a smaller design-rate fraction (:data:`DWELL_RETRY_FRACTIONS`) and then, unless the overlap
+    was given, with the overlap widened to the required hysteresis; the attempts are recorded on
+    the design (``design.dwell_attempts``).  If none enforces it, :class:`~hybobs_opt.lmi.switched.DwellTimeError`
+    is raised unless ``accept_unenforced_dwell`` (then the last design comes with a
+    :class:`~hybobs_opt.lmi.switched.DwellTimeWarning` and the text in ``design.warnings``).
     """
-    from .switched import grow_regions, synthesize_switched
+    import warnings
 
-    regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=settings.overlap,
-                           min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling)
-    return synthesize_switched(system, regions, gain_bound=settings.gain_bound, decay_fraction=settings.decay_fraction,
-                               sigma_cap=settings.sigma_cap, scaling=settings.scaling, max_rate=settings.max_rate,
-                               overlap=settings.overlap)
+    from .switched import DwellTimeError, DwellTimeWarning, grow_regions, synthesize_switched
+
+    plans = [(settings.overlap, settings.decay_fraction)]
+    plans += [(settings.overlap, f) for f in DWELL_RETRY_FRACTIONS if f < settings.decay_fraction]
+    attempts: list[dict] = []
+    design = None
+    overlap_given = settings.sources.get("overlap") == "given"
+    i = 0
+    while i < len(plans):
+        overlap, fraction = plans[i]
+        regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=overlap,
+                               min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DwellTimeWarning)
+            design = synthesize_switched(system, regions, gain_bound=settings.gain_bound, decay_fraction=fraction,
+                                         sigma_cap=settings.sigma_cap, scaling=settings.scaling,
+                                         max_rate=settings.max_rate, overlap=overlap, accept_unenforced_dwell=True)
+        attempts.append({"overlap": overlap, "decay_fraction": fraction, "regions": len(design.regions),
+                         "tau": design.tau, "epsilon_required": design.epsilon_required,
+                         "dwell_enforced": design.dwell_enforced})
+        if design.dwell_enforced is not False:
+            break
+        if i == len(plans) - 1 and not overlap_given and len(plans) < len(DWELL_RETRY_FRACTIONS) + 3:
+            plans.append((DWELL_RETRY_WIDEN * float(design.epsilon_required), settings.decay_fraction))
+        i += 1
+    object.__setattr__(design, "dwell_attempts", attempts)
+    object.__setattr__(design, "accepted_unenforced_dwell", bool(accept_unenforced_dwell))
+    if design.dwell_enforced is False:
+        if not accept_unenforced_dwell:
+            raise DwellTimeError(design)
+        for text in design.warnings:
+            warnings.warn(text, DwellTimeWarning, stacklevel=2)
+    return design

@@ -35,6 +35,7 @@ Two sources of ``Z``:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import cvxpy as cp
 import numpy as np
@@ -97,7 +98,6 @@ class DualCertificate:
     Z: np.ndarray
     source: str
     per_function: bool = False
-    _check: list = field(default_factory=list, repr=False, compare=False)
 
     def _B(self, P, Yl, Yn, eps) -> np.ndarray:
         return self.data.matrix(P, Yl, Yn, eps, self.sector, self.sigma)
@@ -151,9 +151,13 @@ class DualCertificate:
         return Z - sum(ci * Bi for ci, Bi in zip(c, basis))
 
     def check(self) -> CertificateCheck:
+        """The numpy re-check (computed once per certificate; a modified copy made with
+        ``dataclasses.replace`` is re-checked from scratch)."""
+        return self._checked
+
+    @cached_property
+    def _checked(self) -> CertificateCheck:
         """Re-check conditions 1-4 of the module docstring in numpy (cached)."""
-        if self._check:
-            return self._check[0]
         Zraw = 0.5 * (self.Z + self.Z.T)
         scale_Z = float(np.linalg.norm(Zraw)) or 1.0
         basis = self._y_basis()
@@ -165,7 +169,6 @@ class DualCertificate:
         if not np.isfinite(t) or t <= 0:
             res = CertificateCheck(False, float("nan"), float("nan"), float(np.trace(W)), float(gk.sum()), y_res_raw,
                                    (f"tr Z = {t:.3g} is not positive",))
-            self._check.append(res)
             return res
         Z, W, gk = Z / t, W / t, gk / t
         g = float(gk.sum())
@@ -190,7 +193,6 @@ class DualCertificate:
             ok = False
             msgs.append(f"Z does not annihilate the gain variables: residual {y_res_raw:.3g} of ||Z||")
         res = CertificateCheck(ok, ez, ew, float(np.trace(W)), g, y_res_raw, tuple(msgs), tuple(float(v) for v in gk))
-        self._check.append(res)
         return res
 
     @property

@@ -33,6 +33,7 @@ from __future__ import annotations
 import itertools
 import weakref
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import cvxpy as cp
 import numpy as np
@@ -124,7 +125,6 @@ class PolytopicCertificate:
     sigma: float
     Z: list[np.ndarray] = field(repr=False)
     source: str
-    _check: list = field(default_factory=list, repr=False, compare=False)
 
     def _residual(self, Zs) -> np.ndarray:
         return sum(Z @ C.T for Z, C in zip(Zs, self.Cs))
@@ -158,9 +158,13 @@ class PolytopicCertificate:
         return 0.5 * (W + W.T)
 
     def check(self) -> PolytopicCheck:
+        """The numpy re-check (computed once per certificate; a modified copy made with
+        ``dataclasses.replace`` is re-checked from scratch)."""
+        return self._checked
+
+    @cached_property
+    def _checked(self) -> PolytopicCheck:
         """Re-check ``Z_v >= 0``, ``sum Z_v C_v^T = 0``, ``W >= 0``, ``sum tr Z_v > 0`` in numpy (cached)."""
-        if self._check:
-            return self._check[0]
         Zraw = [0.5 * (Z + Z.T) for Z in self.Z]
         scale = float(np.sqrt(sum(np.linalg.norm(Z) ** 2 for Z in Zraw))) or 1.0
         cnorm = max(1.0, max(float(np.linalg.norm(C)) for C in self.Cs)) if self.Cs[0].size else 1.0
@@ -170,7 +174,6 @@ class PolytopicCertificate:
         t = float(sum(np.trace(Z) for Z in Zs))
         if not np.isfinite(t) or t <= 0:
             res = PolytopicCheck(False, float("nan"), float("nan"), y_raw, (f"sum tr Z_v = {t:.3g} is not positive",))
-            self._check.append(res)
             return res
         Zs, W = [Z / t for Z in Zs], W / t
         nZ = float(np.sqrt(sum(np.linalg.norm(Z) ** 2 for Z in Zs)))
@@ -186,7 +189,6 @@ class PolytopicCertificate:
         if y_raw > 1e3 * CERTIFICATE_RTOL:
             msgs.append(f"the Z_v do not annihilate the gain: residual {y_raw:.3g}")
         res = PolytopicCheck(not msgs, ez, ew, y_raw, tuple(msgs))
-        self._check.append(res)
         return res
 
     def verify(self) -> bool:

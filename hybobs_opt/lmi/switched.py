@@ -21,14 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InfeasibleError, ModelError
+from ..errors import HybobsError, InfeasibleError, ModelError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
 from .certificates import certify_infeasible
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
 from .observer_lmi import SIGMA_CAP, ObserverLMI
 from .schedule import SchedulingRegion, adjacent_pairs, coordinate_index, make_region
-from .solve import COUNTERS
+from .solve import COUNTERS, SOLVER
 
 
 @dataclass(frozen=True)
@@ -47,11 +47,17 @@ class RegionGain:
         Design decay rate (``V' <= -sigma V`` inside the region).
     sigma_max : float
         Largest rate found for the region (with the gain bound); ``capped`` when it hit the cap.
+        Every rate the search accepted passed the numpy re-check (``decay_log``).
     multiplier : float
         The S-procedure multiplier of the region's LMI at ``P`` (the paper absorbs it into ``P``).
     lmi_max_eig : float
         Largest eigenvalue of the region's LMI at the returned point (numpy, scaled; <= 0).
     bounds : JacobianBounds
+    sigma_verified : float or None
+        Decay rate ``(P, L)`` proves on every vertex of the region's Jacobian box, recomputed in
+        numpy (:func:`.hierarchy.verified_rate`); at least ``sigma`` for a sound design.
+    decay_log : tuple of (sigma, feasible, status)
+        Every rate the decay search tried.
     """
 
     region: SchedulingRegion
@@ -63,6 +69,8 @@ class RegionGain:
     multiplier: float
     lmi_max_eig: float
     bounds: JacobianBounds = field(repr=False)
+    sigma_verified: float | None = None
+    decay_log: tuple = ()
 
     @property
     def gain_norm(self) -> float:
@@ -114,6 +122,10 @@ class SwitchedDesign:
     seconds: float
     dwell_solves: int = 0
     min_pair_eig: float = float("nan")
+    solver_counts: dict = field(default_factory=dict)
+    accepted_unenforced_dwell: bool = False
+    verification: object | None = field(default=None, repr=False)
+    dwell_attempts: list = field(default_factory=list)
 
     @property
     def dwell_enforced(self) -> bool | None:
@@ -144,7 +156,8 @@ class SwitchedDesign:
                 "interval_model": [g.region.lo, g.region.hi],
                 "L": g.L.tolist(), "P": g.P.tolist(), "sigma": g.sigma, "sigma_max": g.sigma_max,
                 "sigma_max_capped": g.capped, "gain_norm": g.gain_norm, "multiplier": g.multiplier,
-                "lmi_max_eig": g.lmi_max_eig,
+                "lmi_max_eig": g.lmi_max_eig, "sigma_verified": g.sigma_verified,
+                "decay_search": [{"sigma": a, "feasible": b, "status": c} for a, b, c in g.decay_log],
                 "monotonicity": {b.name: b.monotonicity for b in (*g.bounds.f, *g.bounds.h) if b.method != "linear"},
             })
         return {
@@ -158,11 +171,26 @@ class SwitchedDesign:
             "dwell_guaranteed": self.dwell_guaranteed, "dwell_enforced": self.dwell_enforced,
             "gain_bound": self.gain_bound, "solves": self.solves, "dwell_solves": self.dwell_solves,
             "min_pair_eig": self.min_pair_eig, "seconds": self.seconds, "warnings": self.warnings,
+            "solver_counts": dict(self.solver_counts), "accepted_unenforced_dwell": self.accepted_unenforced_dwell,
+            "dwell_attempts": list(self.dwell_attempts),
+            "verification": None if self.verification is None else self.verification.to_dict(),
         }
 
 
 class DwellTimeWarning(UserWarning):
     """A switched design whose hysteresis does not enforce its dwell time (Theorem 6 not guaranteed)."""
+
+
+class DwellTimeError(HybobsError):
+    """A switched design whose hysteresis does not enforce its dwell time, not accepted by the caller.
+
+    ``design`` is the design that was rejected (pass ``accept_unenforced_dwell=True`` to get it).
+    """
+
+    def __init__(self, design: "SwitchedDesign"):
+        self.design = design
+        super().__init__(dwell_warning_text(design) + "; pass accept_unenforced_dwell=True "
+                         "(hybobs synth --accept-unenforced-dwell) to accept a design without that guarantee")
 
 
 def dwell_warning_text(design: "SwitchedDesign") -> str:
@@ -221,12 +249,19 @@ def grow_regions(
         b_ok = min(a + min_width, hi)
         first = solve(a, b_ok)
         if not first.feasible:
-            if first.status.startswith("infeasible") or first.farkas is not None:
+            problem = f"region growth from {system.state_names[k]} = {a:.6g}"
+            try:
                 cert = certify_infeasible(lmi, first)
-                raise InfeasibleError(f"region growth from {system.state_names[k]} = {a:.6g}", cert,
-                                      f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]")
-            raise InfeasibleError(f"region growth from {system.state_names[k]} = {a:.6g}", None,
-                                  f"the solver could not confirm a gain on [{a:.6g}, {b_ok:.6g}] ({first.status})")
+            except SolverError as exc:
+                raise SolverError(f"{problem} (observer LMI {lmi.form} on [{a:.6g}, {b_ok:.6g}])", SOLVER, first.status,
+                                  "no gain was confirmed and no certificate verified: " + (exc.hint or "")
+                                  + "; lower min_decay or the resolution, or rescale the model") from None
+            if cert.dual is None and cert.structural is None:
+                detail = (f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} even on "
+                          f"[{a:.6g}, {b_ok:.6g}]: the solver says infeasible; no certificate covers the gain bound")
+            else:
+                detail = f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]"
+            raise InfeasibleError(problem, cert, detail)
         b_bad = float(hi)
         while b_bad - b_ok > res:
             mid = 0.5 * (b_ok + b_bad)
@@ -250,6 +285,7 @@ def synthesize_switched(
     max_rate: float | None = None,
     overlap: float | None = None,
     dwell: bool = True,
+    accept_unenforced_dwell: bool = False,
 ) -> SwitchedDesign:
     """Gains per region and the joint dwell time (paper 004, Section 5, Theorem 6).
 
@@ -273,14 +309,23 @@ def synthesize_switched(
         The hysteresis ``epsilon`` the regions were built with (for the dwell-time guarantee).
     dwell : bool
         Run the joint dwell-time search (else ``tau`` is the fixed-``P`` value).
+    accept_unenforced_dwell : bool
+        Return a design whose hysteresis does not enforce ``tau`` at ``max_rate`` (with a
+        :class:`DwellTimeWarning`) instead of raising :class:`DwellTimeError`.
 
     Raises
     ------
     InfeasibleError
         A region admits no constant gain (carries the certificate).
+    DwellTimeError
+        The overlap does not enforce the dwell time at ``max_rate`` and the caller did not accept it.
     """
+    from .hierarchy import verified_rate
+
     t0 = time.perf_counter()
     calls0 = COUNTERS.calls
+    undecided0, rescued0 = COUNTERS.primary_undecided, dict(COUNTERS.rescued)
+    statuses0 = dict(COUNTERS.statuses)
     if not regions:
         raise ModelError("regions", "at least one region", "none")
     k = regions[0].coordinate
@@ -315,16 +360,24 @@ def synthesize_switched(
         mults = [p[4].multiplier for p in per]
         eigs = [p[4].lmi_max_eig for p in per]
         min_pair = float("nan")
-    gains = tuple(RegionGain(reg, L, P, sigma, dr.sigma_max, dr.capped, float(m), float(e), b)
+    gains = tuple(RegionGain(reg, L, P, sigma, dr.sigma_max, dr.capped, float(np.min(m)), float(e), b,
+                             verified_rate(system, b, P, L), dr.log)
                   for (reg, b, dr, sigma, _), L, P, m, e in zip(per, Ls, Ps, mults, eigs))
     eps_req = dwell_g = None
     if max_rate is not None:
         eps_req = float(hysteresis_for_dwell(tau, max_rate))
         if overlap is not None:
             dwell_g = float(dwell_for_hysteresis(overlap, max_rate, regions))
+    statuses = {st: n - statuses0.get(st, 0) for st, n in COUNTERS.statuses.items() if n - statuses0.get(st, 0)}
+    counts = {"statuses": statuses, "clarabel_undecided": COUNTERS.primary_undecided - undecided0,
+              "rescued_by": {s_: n - rescued0.get(s_, 0) for s_, n in COUNTERS.rescued.items() if n - rescued0.get(s_, 0)},
+              "undecided": sum(n for st, n in statuses.items() if st not in ("optimal", "infeasible"))}
     design = SwitchedDesign(system, k, gains, pairs, float(tau), float(tau_fixed), overlap,
                             None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
-                            COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair)
+                            COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair, counts,
+                            bool(accept_unenforced_dwell))
+    if design.dwell_enforced is False and not accept_unenforced_dwell:
+        raise DwellTimeError(design)
     for text in design.warnings:
         warnings.warn(text, DwellTimeWarning, stacklevel=2)
     return design

@@ -15,8 +15,8 @@ The damped pendulum ``theta'' = -9.81 sin(theta) - 0.5 theta' + u`` measured thr
 * every certificate of an infeasible condition really excludes random (P, L): our own block-by-block
   LMI matrices paired with the certificate's multipliers are positive; flipping the sign of one
   block makes ``verify()`` fail (and our oracle finds a (P, L) that the flipped multiplier does
-  not exclude).  A certificate modified with a plain ``dataclasses.replace`` keeps the original's
-  cached verdict: a package defect, marked ``xfail(strict=True)``.
+  not exclude), also for a certificate modified with a plain ``dataclasses.replace`` (its re-check
+  is cached per instance, so the copy is re-checked).
 """
 
 from __future__ import annotations
@@ -468,23 +468,20 @@ def test_flipped_certificate_is_rejected(item):
         Zs = polytopic_flip(cert)
         v, _, _ = flip_counterexample_polytopic(Zs, cert.As, cert.Cs, cert.sigma)
         assert v < 0, "our oracle found no (P, L) the flipped multipliers miss"
-        fresh = dataclasses.replace(cert, Z=Zs, _check=[])
+        fresh = dataclasses.replace(cert, Z=Zs)
         assert fresh.verify() is False
-        assert dataclasses.replace(cert, Z=list(cert.Z), _check=[]).verify() is True  # unmodified: still valid
+        assert dataclasses.replace(cert, Z=list(cert.Z)).verify() is True  # unmodified: still valid
         return
     for dc in dual_parts(cert):
         Zf = dual_flip(dc)
         v, *_ = flip_counterexample_dual(Zf, O.scaled_data(O.half_widths()), O.slope_box(sensor, lo, hi),
                                          per_function=(key == "per_function"))
         assert v < 0, f"{dc.source}: our oracle found no (P, eps) the flipped multiplier misses"
-        fresh = dataclasses.replace(dc, Z=Zf, _check=[])
+        fresh = dataclasses.replace(dc, Z=Zf)
         assert fresh.verify() is False
-        assert dataclasses.replace(dc, Z=np.array(dc.Z), _check=[]).verify() is True
+        assert dataclasses.replace(dc, Z=np.array(dc.Z)).verify() is True
 
 
-@pytest.mark.xfail(strict=True, reason="package defect: the certificates cache their numpy re-check in a dataclass "
-                   "field (_check) that dataclasses.replace copies by reference, so a certificate modified with "
-                   "replace(cert, Z=...) reports the ORIGINAL's verdict (verify() stays True for a flipped Z)")
 @pytest.mark.parametrize("item", [CERTS[-1], CERTS[-2]], ids=cert_id)
 def test_flipped_certificate_built_with_plain_replace_is_rejected(item):
     case, key = item
