@@ -217,7 +217,7 @@ class PaperComparison:
                                                   else f" (psi {r.true_psi_at_divergence_deg:.1f})"),
                 f(r.max_abs_psi_error_after_deg, "{:.3g}"),
                 f"{fe['X']:.2g}, {fe['Y']:.2g}, {math.degrees(fe['psi']):.2g}",
-                "; ".join(f"{s['t']:.2f} @ {s['psi_hat_deg']:.1f}" for s in r.switches if s["t"] >= 1.0) or "-",
+                "; ".join(f"{s['t']:.2f} @ {s['psi_hat_deg']:.2f}" for s in r.switches if s["t"] >= 1.0) or "-",
                 f"{r.min_pole_distance:.3f}"])
         return out
 
@@ -366,7 +366,7 @@ def _differences(res: PaperComparison) -> list[str]:
 
     def turn_switch(label: str) -> str:
         sw = [s for s in res.record(label).switches if s["t"] >= 1.0]
-        return ", ".join(f"t = {s['t']:.2f} s at psi_hat = {s['psi_hat_deg']:.1f} deg" for s in sw) or "none"
+        return ", ".join(f"t = {s['t']:.2f} s at psi_hat = {s['psi_hat_deg']:.2f} deg" for s in sw) or "none"
 
     out = [
         f"(a) Switching point: the paper switches 'at 60 degrees of the estimated yaw angle' (Sec. 6.2); the toolbox's "
@@ -397,6 +397,7 @@ def _differences(res: PaperComparison) -> list[str]:
             f"orientation exceeds the observer's stable operating regime'. Cause: the turn's yaw rate is not in the "
             f"paper; the scenario assumes {VEHICLE_TURN_RATE_DEG_S:g} deg/s (VEHICLE_TURN_RATE_DEG_S, systems.py), "
             f"chosen so the true yaw leaves 0-80 deg at t = {lv['80']:.2f} s, i.e. at the paper's 15 s. But leaving "
-            f"the gain's design range is not where the error grows: {lim_txt}; after that an unstable mode has to "
-            f"grow from the converged error to the tolerance.")
+            f"the gain's design range is not where the error grows: {lim_txt}"
+            + ("; after that an unstable mode has to grow from the converged error to the tolerance."
+               if r.true_psi_passes_limit_t is not None else ", so in this scenario it has no reason to diverge."))
     return out
