@@ -61,6 +61,9 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gain-bound", type=float, default=None, help="bound on ||L||_2 (default: from the model, see 'settings')")
     p.add_argument("--min-decay", type=float, default=None, help="decay rate every grown region must admit (1/s)")
     p.add_argument("--overlap", type=float, default=None, help="hysteresis epsilon of the regions (model units)")
+    p.add_argument("--condition", choices=("paper", "per_function", "polytopic"), default=None,
+                   help="region condition of the design (default with model settings: polytopic, the least "
+                        "conservative; the paper's settings use the paper's LMI)")
     p.add_argument("--settings", choices=("paper", "model"), default=None,
                    help="paper: an example's published settings (default for vehicle_tracking, magnetic_piston); "
                         "model: settings read from the model (default for every other system)")
@@ -91,8 +94,8 @@ def design_setup(args: argparse.Namespace):
     if mode == "paper":
         if not has_preset:
             raise ModelError("--settings", f"'model' for {named.label!r} (only {sorted(PRESETS)} have published settings)", "'paper'")
-        given = [f"--{o.replace('_', '-')}" for o in ("coordinate", "gain_bound", "min_decay", "overlap")
-                 if getattr(args, o) is not None]
+        given = [f"--{o.replace('_', '-')}" for o in ("coordinate", "gain_bound", "min_decay", "overlap", "condition")
+                 if getattr(args, o, None) is not None]
         if given:
             raise ModelError(given[0], "no value with the paper's settings (add --settings model to choose your own)", "a value")
         return named, PRESETS[named.example.name], None
@@ -111,5 +114,5 @@ def design_setup(args: argparse.Namespace):
         raise ModelError("--coordinate", f"a state of the system ({', '.join(named.system.state_names)})", repr(coordinate))
     rate = getattr(args, "max_rate", None)
     settings = design_settings(named.system, coordinate, lo, hi, gain_bound=args.gain_bound, min_decay=args.min_decay,
-                               overlap=args.overlap, rate=rate)
+                               overlap=args.overlap, rate=rate, condition=getattr(args, "condition", None))
     return named, None, settings

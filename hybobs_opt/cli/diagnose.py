@@ -49,7 +49,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
         diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                         min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
-                        scaling=settings.scaling)
+                        scaling=settings.scaling, condition=settings.condition)
     paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, file_slug(named.label))
     out = diag.to_dict()
     out["example"] = named.label

@@ -22,7 +22,11 @@ each from a rule on the model that is written down and reported with the value (
   model's own numbers instead of growing until the decay-rate cap;
 * **minimum decay** of each grown region: ``DECAY_FACTOR * rho``;
 * **hysteresis** ``epsilon``: :data:`OVERLAP_FRACTION` of the range;
-* **maximum rate** of the coordinate (for the dwell-time guarantee): :func:`max_rate`.
+* **maximum rate** of the coordinate (for the dwell-time guarantee): :func:`max_rate`;
+* **region condition**: the least conservative condition of :mod:`.hierarchy` that can be built
+  (``"polytopic"``, the vertex LMIs of the Jacobian box; ``"per_function"`` beyond
+  :data:`~.polytopic.MAX_VERTICES` vertices): every gain of the paper's LMI satisfies it, so the
+  regions are at least as wide.
 
 Every value can be given instead (``given`` in ``sources``).
 """
@@ -97,13 +101,14 @@ class DesignSettings:
     decay_fraction: float = DECAY_FRACTION
     sigma_cap: float = SIGMA_CAP
     sources: dict[str, str] = field(default_factory=dict)
+    condition: str = "polytopic"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``)."""
         return {"coordinate": self.coordinate, "range": [self.lo, self.hi], "scaling": self.scaling.tolist(),
                 "natural_rate": self.natural_rate, "gain_bound": self.gain_bound, "min_decay": self.min_decay,
                 "overlap": self.overlap, "max_rate": self.max_rate, "decay_fraction": self.decay_fraction,
-                "sigma_cap": self.sigma_cap, "sources": dict(self.sources)}
+                "sigma_cap": self.sigma_cap, "condition": self.condition, "sources": dict(self.sources)}
 
 
 def max_rate(system: ScalarNonlinearSystem, coordinate: int, samples: int = RATE_FUNCTION_SAMPLES) -> float:
@@ -161,7 +166,8 @@ def scheduling_candidates(system: ScalarNonlinearSystem) -> dict[str, list[str]]
 
 def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None = None, lo: float | None = None,
                     hi: float | None = None, *, gain_bound: float | None = None, min_decay: float | None = None,
-                    overlap: float | None = None, rate: float | None = None, scaling=None) -> DesignSettings:
+                    overlap: float | None = None, rate: float | None = None, scaling=None,
+                    condition: str | None = None) -> DesignSettings:
     """Settings for :func:`design_switched` / :func:`~hybobs_opt.lmi.diagnose.diagnose` from the model (module docstring).
 
     Raises
@@ -221,7 +227,18 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     ov = pick(overlap, "overlap", OVERLAP_FRACTION * (hi - lo), f"{OVERLAP_FRACTION:g} x range")
     mr = pick(rate, "max_rate", max(max_rate(system, k), RATE_FLOOR), "largest rate of the coordinate on the box (zero input)")
     cap = max(SIGMA_CAP, 10.0 * rho)
-    return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources)
+    from .hierarchy import CONDITIONS
+    from .polytopic import MAX_VERTICES
+
+    if condition is None:
+        k_fn = system.r + sum(not lin for lin in system.linear_outputs)
+        condition = "polytopic" if 2 ** k_fn <= MAX_VERTICES else "per_function"
+        sources["condition"] = "the least conservative condition that can be built (vertices of the Jacobian box)"
+    elif condition not in CONDITIONS:
+        raise ModelError("condition", f"one of {CONDITIONS}", repr(condition))
+    else:
+        sources["condition"] = "given"
+    return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources, condition)
 
 
 #: Design attempts of :func:`design_switched` when the hysteresis does not enforce the dwell time:
@@ -254,12 +271,14 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     while i < len(plans):
         overlap, fraction = plans[i]
         regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=overlap,
-                               min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling)
+                               min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling,
+                               condition=settings.condition)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DwellTimeWarning)
             design = synthesize_switched(system, regions, gain_bound=settings.gain_bound, decay_fraction=fraction,
                                          sigma_cap=settings.sigma_cap, scaling=settings.scaling,
-                                         max_rate=settings.max_rate, overlap=overlap, accept_unenforced_dwell=True)
+                                         max_rate=settings.max_rate, overlap=overlap, accept_unenforced_dwell=True,
+                                         condition=settings.condition)
         attempts.append({"overlap": overlap, "decay_fraction": fraction, "regions": len(design.regions),
                          "tau": design.tau, "epsilon_required": design.epsilon_required,
                          "dwell_enforced": design.dwell_enforced})

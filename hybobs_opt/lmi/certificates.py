@@ -44,7 +44,7 @@ from ..errors import InfeasibleError, SolverError
 from ..tolerances import CERTIFICATE_RTOL
 from .bounds import DerivativeBound, JacobianBounds
 from .lmi_model import LMI_NAMES, LMIData, LMIParameters, SectorData
-from .solve import INFEASIBLE, OPTIMAL, SOLVER, solve_problem
+from .solve import INFEASIBLE, OPTIMAL, SOLVER, solve_problem, POINT_STATUSES
 
 
 # ---------------------------------------------------------------------------- the numpy re-check
@@ -263,7 +263,7 @@ class AlternativeSDP:
         """A multiplier ``Z`` or ``None`` when the solver finds none (or is not sure)."""
         self.par.assign(sector, sigma)
         out = solve_problem(self.problem)
-        if out.status != OPTIMAL or self.Z.value is None:
+        if out.status not in POINT_STATUSES or self.Z.value is None:
             return None
         return np.asarray(self.Z.value, dtype=float)
 

@@ -144,6 +144,7 @@ def diagnose(
     sigma_cap: float = SIGMA_CAP,
     scaling: np.ndarray | None = None,
     suggest: bool = True,
+    condition: str = "paper",
 ) -> Diagnosis:
     """Diagnose the constant-gain observer LMI of ``system`` on ``coordinate`` in ``[lo, hi]``.
 
@@ -160,6 +161,8 @@ def diagnose(
         Used for the gain when one exists and for the suggested regions when none does.
     suggest : bool
         Grow switching regions when the range is infeasible.
+    condition : {"paper", "per_function", "polytopic"}
+        The region condition (:mod:`.hierarchy`) the suggested regions are grown with.
 
     Raises
     ------
@@ -206,7 +209,7 @@ def diagnose(
     elif suggest:
         try:
             suggested = grow_regions(system, k, lo, hi, overlap=overlap, min_decay=min_decay, gain_bound=gain_bound,
-                                     scaling=lmi.d)
+                                     scaling=lmi.d, condition=condition)
         except (InfeasibleError, HybobsError) as exc:
             suggest_error = str(exc)
     d = Diagnosis(system, region, unit, factor, bounds, hier.feasible, sol, cert, decay, t5, breakpoints, pieces,

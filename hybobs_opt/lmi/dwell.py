@@ -28,7 +28,7 @@ from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
-from .solve import OPTIMAL, solve_problem
+from .solve import OPTIMAL, solve_problem, POINT_STATUSES
 
 
 def dwell_time_fixed(P: Sequence[np.ndarray], sigmas: Sequence[float], pairs: Sequence[tuple[int, int]]) -> float:
@@ -90,8 +90,8 @@ class DwellResult:
     P, L : list of arrays
         Lyapunov matrices (model coordinates, one common scaling so (47)-(48) hold between them)
         and gains at ``tau``.
-    multipliers : list of float
-        The S-procedure multipliers of each region's LMI.
+    multipliers : list of float or array
+        The S-procedure multipliers of each region's LMI (``nan`` for the polytopic condition).
     solves : int
         Joint LMI solves made.
     min_pair_eig : float
@@ -127,10 +127,18 @@ class DwellTimeLMI:
     gain_bound : float, optional
         ``||L_i||_2 <= gain_bound`` in every region (as in :class:`.ObserverLMI`).
     scaling : array, optional
+    condition : {"paper", "per_function", "polytopic"}
+        The region condition of :mod:`.hierarchy`: the paper's LMI with one S-procedure multiplier,
+        one multiplier per function, or the vertex LMIs of the Jacobian box.
     """
 
     def __init__(self, system: ScalarNonlinearSystem, n_regions: int, pairs: Sequence[tuple[int, int]], *,
-                 gain_bound: float | None = None, scaling: np.ndarray | None = None):
+                 gain_bound: float | None = None, scaling: np.ndarray | None = None, condition: str = "paper"):
+        from .hierarchy import CONDITIONS
+
+        if condition not in CONDITIONS:
+            raise ModelError("condition", f"one of {CONDITIONS}", repr(condition))
+        self.condition = condition
         K = int(n_regions)
         if K < 1:
             raise ModelError("n_regions", "at least one region", repr(n_regions))
@@ -146,16 +154,36 @@ class DwellTimeLMI:
         self.P, self.Yl, self.Yn, self.eps, self.par, cons, objective = [], [], [], [], [], [], 0
         dmax = float(self.d.max())
         self.gamma = None if gain_bound is None else cp.Parameter(nonneg=True, name="gamma", value=(gain_bound / dmax) ** 2)
+        n_mult = data.r + data.p_nl
+        self.n_vertices = 2 ** n_mult
+        self.A_par: list[list[cp.Parameter]] = []
+        self.C_par: list[list[cp.Parameter]] = []
+        self.sigma_par: list[cp.Parameter] = []
+        self.Yall: list = []
         for k in range(K):
             P = cp.Variable((n, n), symmetric=True, name=f"P{k}")
-            Yl = cp.Variable((n, data.p_lin), name=f"Yl{k}") if data.p_lin else None
-            Yn = cp.Variable((n, data.p_nl), name=f"Yn{k}") if data.p_nl else None
-            eps = cp.Variable(nonneg=True, name=f"eps{k}")
-            par = LMIParameters.create(data, False)
-            B = lmi_expression(data, P, Yl, Yn, eps, par)
-            cons.append(B << -LMI_STRICT_MARGIN * np.eye(data.size))
-            Ys = [Y for Y in (Yl, Yn) if Y is not None]
-            Yall = cp.hstack(Ys) if len(Ys) > 1 else Ys[0]
+            if condition == "polytopic":
+                Yall = cp.Variable((n, data.p_lin + data.p_nl), name=f"Y{k}")
+                Yl = Yn = eps = par = None
+                As = [cp.Parameter((n, n), name=f"A{k}_{v}") for v in range(self.n_vertices)]
+                Cs = [cp.Parameter((data.p_lin + data.p_nl, n), name=f"C{k}_{v}") for v in range(self.n_vertices)]
+                self.A_par.append(As)
+                self.C_par.append(Cs)
+                self.sigma_par.append(cp.Parameter(nonneg=True, name=f"sigma{k}", value=0.0))
+                for A, C in zip(As, Cs):
+                    B = P @ A + A.T @ P - Yall @ C - C.T @ Yall.T + self.sigma_par[k] * P
+                    cons.append(0.5 * (B + B.T) << -LMI_STRICT_MARGIN * np.eye(n))
+            else:
+                Yl = cp.Variable((n, data.p_lin), name=f"Yl{k}") if data.p_lin else None
+                Yn = cp.Variable((n, data.p_nl), name=f"Yn{k}") if data.p_nl else None
+                eps = (cp.Variable(n_mult, nonneg=True, name=f"eps{k}") if condition == "per_function" and n_mult > 1
+                       else cp.Variable(nonneg=True, name=f"eps{k}"))
+                par = LMIParameters.create(data, False)
+                B = lmi_expression(data, P, Yl, Yn, eps, par)
+                cons.append(B << -LMI_STRICT_MARGIN * np.eye(data.size))
+                Ys = [Y for Y in (Yl, Yn) if Y is not None]
+                Yall = cp.hstack(Ys) if len(Ys) > 1 else Ys[0]
+            self.Yall.append(Yall)
             if self.gamma is None:
                 cons.append(P >> np.eye(n))
             else:
@@ -178,14 +206,15 @@ class DwellTimeLMI:
 
     @classmethod
     def compiled(cls, system: ScalarNonlinearSystem, n_regions: int, pairs: Sequence[tuple[int, int]], *,
-                 gain_bound: float | None = None, scaling: np.ndarray | None = None) -> "DwellTimeLMI":
-        """The process-wide compiled joint LMI for this system and switching graph."""
+                 gain_bound: float | None = None, scaling: np.ndarray | None = None,
+                 condition: str = "paper") -> "DwellTimeLMI":
+        """The process-wide compiled joint LMI for this system, switching graph and condition."""
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
-        key = (int(n_regions), tuple(tuple(p) for p in pairs), gain_bound is None, d.tobytes())
+        key = (int(n_regions), tuple(tuple(p) for p in pairs), gain_bound is None, d.tobytes(), condition)
         per = _COMPILED.setdefault(system, {})
         obj = per.get(key)
         if obj is None:
-            obj = per[key] = cls(system, n_regions, pairs, gain_bound=gain_bound, scaling=d)
+            obj = per[key] = cls(system, n_regions, pairs, gain_bound=gain_bound, scaling=d, condition=condition)
         elif gain_bound is not None:
             obj.gamma.value = (gain_bound / float(obj.d.max())) ** 2
         return obj
@@ -194,8 +223,20 @@ class DwellTimeLMI:
         """Assign each region's Jacobian bounds and decay rate to the parameters."""
         if len(bounds) != self.K or len(sigmas) != self.K:
             raise ModelError("sigmas", f"{self.K} bounds and decay rates (one per region)", f"{len(bounds)}, {len(sigmas)}")
-        self.sectors = [self.data.sector(b) for b in bounds]
         self.sigmas = [float(s) for s in sigmas]
+        if self.condition == "polytopic":
+            from .polytopic import vertex_matrices, vertex_slopes
+
+            self.vertices = [vertex_matrices(self.data, vertex_slopes(b)) for b in bounds]
+            for k, (As, Cs) in enumerate(self.vertices):
+                for par, A in zip(self.A_par[k], As):
+                    par.value = A
+                for par, C in zip(self.C_par[k], Cs):
+                    par.value = C
+                self.sigma_par[k].value = self.sigmas[k]
+            self.sectors = [None] * self.K
+            return self
+        self.sectors = [self.data.sector(b) for b in bounds]
         for par, sec, s in zip(self.par, self.sectors, self.sigmas):
             par.assign(sec, s)
         return self
@@ -205,17 +246,29 @@ class DwellTimeLMI:
         n = self.data.n
         Ps, Ls, eps_l, eigs = [], [], [], []
         for k in range(len(self.P)):
-            if self.P[k].value is None or self.eps[k].value is None:
+            if self.P[k].value is None or self.Yall[k].value is None:
                 return None
             Pb = 0.5 * (self.P[k].value + self.P[k].value.T)
-            Yl = self.Yl[k].value if self.Yl[k] is not None else np.zeros((n, 0))
-            Yn = self.Yn[k].value if self.Yn[k] is not None else np.zeros((n, 0))
-            e = float(self.eps[k].value)
-            lmax = float(np.linalg.eigvalsh(self.data.matrix(Pb, Yl, Yn, e, self.sectors[k], self.sigmas[k])).max())
-            if lmax > 0 or e <= 0 or np.linalg.eigvalsh(Pb).min() <= 0:
+            if self.condition == "polytopic":
+                Yb = np.asarray(self.Yall[k].value, dtype=float)
+                e = float("nan")
+                lmax = max(float(np.linalg.eigvalsh(Pb @ A + A.T @ Pb - Yb @ C - C.T @ Yb.T + self.sigmas[k] * Pb).max())
+                           for A, C in zip(*self.vertices[k]))
+                e_ok = True
+            else:
+                if self.eps[k].value is None:
+                    return None
+                Yl = self.Yl[k].value if self.Yl[k] is not None else np.zeros((n, 0))
+                Yn = self.Yn[k].value if self.Yn[k] is not None else np.zeros((n, 0))
+                ev = np.asarray(self.eps[k].value, dtype=float).reshape(-1)
+                e = float(ev[0]) if ev.size == 1 else ev
+                lmax = float(np.linalg.eigvalsh(self.data.matrix(Pb, Yl, Yn, e, self.sectors[k], self.sigmas[k])).max())
+                e_ok = bool(np.all(ev > 0))
+                Yb = np.hstack([Yl, Yn])
+            if lmax > 0 or not e_ok or np.linalg.eigvalsh(Pb).min() <= 0:
                 return None
             Ps.append(Pb)
-            Lbar = np.linalg.solve(Pb, np.hstack([Yl, Yn]))
+            Lbar = np.linalg.solve(Pb, Yb)
             L = np.zeros((n, self.system.p))
             L[:, self._cols] = self.d[:, None] * Lbar
             Ls.append(L)
@@ -232,7 +285,7 @@ class DwellTimeLMI:
         """Solve at ``tau``; the numpy-checked point or ``None``."""
         self.mu.value = np.exp(-tau * np.array(self.sigmas))
         out = solve_problem(self.problem)
-        if out.status != OPTIMAL:
+        if out.status not in POINT_STATUSES:
             return None
         return self._check(tau)
 

@@ -59,7 +59,7 @@ from .lmi_model import (  # noqa: F401  (also the old home of these names)
     lmi_form,
 )
 from .schedule import SchedulingRegion
-from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem
+from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem, POINT_STATUSES
 
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
 #: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
@@ -78,8 +78,9 @@ class LMISolution:
     Attributes
     ----------
     feasible : bool
-        True only for an ``optimal`` solver status whose point passes the numpy re-check
-        (``lmi_max_eig <= 0``, ``P`` positive definite).
+        True only for a point (status ``optimal`` or ``optimal_inaccurate``, see
+        :data:`~.solve.POINT_STATUSES`) that passes the numpy re-check (``lmi_max_eig <= 0``, ``P``
+        positive definite, the gain bound).
     status : Status
         The cvxpy status in the one vocabulary (``optimal``, ``infeasible``, ``optimal_inaccurate``,
         ``solver_error``...), or :attr:`~hybobs_opt.status.Status.RECHECK_FAILED` when Clarabel said
@@ -360,22 +361,29 @@ class ObserverLMI:
     def solve(self, bounds: JacobianBounds, sigma: float = 0.0) -> LMISolution:
         """One feasibility solve at decay rate ``sigma`` with the given bounds.
 
-        The answer is ``feasible`` only when Clarabel reports ``optimal`` and numpy confirms the
-        point; an inaccurate status or a failed re-check is returned as not feasible (with the
-        solver's status), never as feasible.
+        The answer is ``feasible`` only when the solver returned a point and numpy confirms it;
+        a failed re-check is returned as not feasible (status ``recheck_failed``), never as feasible.
         """
         if not (np.isfinite(sigma) and sigma >= 0):
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
         s = self.sdata.sector(bounds, self.shifted)
         self.par.assign(s, sigma)
-        out = solve_problem(self.problem)
+        # An inaccurate point that passes the re-check ends the solver chain (no fallback needed).
+        out = solve_problem(self.problem, accept=lambda: self._read_point(bounds, s, sigma, None).feasible)
         region = bounds.region
         if out.status == INFEASIBLE:
             Z = self.lmi_constraint.dual_value
             return LMISolution(False, out.status, self.form, sigma, region, bounds, outcome=out,
                                farkas=None if Z is None else np.asarray(Z, dtype=float))
-        if out.status != OPTIMAL or self.P.value is None:
+        if out.status not in POINT_STATUSES or self.P.value is None:
             return LMISolution(False, out.status, self.form, sigma, region, bounds, outcome=out)
+        return self._read_point(bounds, s, sigma, out)
+
+    def _read_point(self, bounds: JacobianBounds, s, sigma: float, out) -> LMISolution:
+        """The solver's current point, re-checked in numpy (``feasible`` only if it passes)."""
+        region = bounds.region
+        if self.P.value is None or self.eps.value is None:
+            return LMISolution(False, Status.RECHECK_FAILED, self.form, sigma, region, bounds, outcome=out)
         Pb = np.asarray(self.P.value, dtype=float)
         Pb = 0.5 * (Pb + Pb.T)
         n = self.sdata.n
@@ -383,10 +391,15 @@ class ObserverLMI:
         Yn = np.asarray(self.Y_nl.value, dtype=float) if self.Y_nl is not None else np.zeros((n, 0))
         eps_v = np.asarray(self.eps.value, dtype=float).reshape(-1)
         eps = float(eps_v[0]) if eps_v.size == 1 else eps_v
+        if not (np.all(np.isfinite(Pb)) and np.all(np.isfinite(Yl)) and np.all(np.isfinite(Yn)) and np.all(np.isfinite(eps_v))):
+            return LMISolution(False, Status.RECHECK_FAILED, self.form, sigma, region, bounds, outcome=out)
         Bm = self.sdata.matrix(Pb, Yl, Yn, eps, s, sigma)
         max_eig = float(np.linalg.eigvalsh(Bm).max())
         p_min = float(np.linalg.eigvalsh(Pb).min())
         ok = max_eig <= 0.0 and p_min > 0.0 and bool(np.all(eps_v > 0.0))
+        if p_min <= 0.0:
+            return LMISolution(False, Status.RECHECK_FAILED, self.form, sigma, region, bounds, outcome=out,
+                               lmi_max_eig=max_eig, p_min_eig=p_min)
         Lbar = np.linalg.solve(Pb, np.hstack([Yl, Yn]))
         L = np.zeros((n, self.system.p))
         L[:, np.concatenate([self._lin_idx, self._nl_idx]).astype(int)] = self.d[:, None] * Lbar
@@ -397,7 +410,7 @@ class ObserverLMI:
         gain = float(np.linalg.norm(L, 2))
         if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
             ok = False
-        status = out.status if ok else Status.RECHECK_FAILED
+        status = (out.status if out is not None else Status.OPTIMAL) if ok else Status.RECHECK_FAILED
         return LMISolution(ok, status, self.form, sigma, region, bounds, L, P, eps, max_eig, p_min, gain, out,
                            P_scaled=Pb, Y_scaled=np.hstack([Yl, Yn]))
 

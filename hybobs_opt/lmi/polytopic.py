@@ -43,7 +43,7 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import CERTIFICATE_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIData, box_scaling, lmi_data
-from .solve import INFEASIBLE, OPTIMAL, solve_problem
+from .solve import INFEASIBLE, OPTIMAL, solve_problem, POINT_STATUSES
 
 #: Largest number of vertices (``2^(r + p_n)``) the condition is built for; beyond it the
 #: problem grows too large to be useful and the hierarchy stops at the multiplier LMIs.
@@ -331,30 +331,41 @@ class PolytopicLMI:
         for par, C in zip(self.C_par, Cs):
             par.value = C
         self.sigma.value = float(sigma)
-        out = solve_problem(self.problem)
+        out = solve_problem(self.problem, accept=lambda: self._read_point(bounds, As, Cs, sigma, None).feasible)
         if out.status == INFEASIBLE:
             duals = [c.dual_value for c in self.vertex_constraints]
             farkas = None if any(z is None for z in duals) else [np.asarray(z, dtype=float) for z in duals]
             return PolytopicSolution(False, out.status, sigma, bounds, outcome=out, farkas=farkas)
-        if out.status != OPTIMAL or self.P.value is None:
+        if out.status not in POINT_STATUSES or self.P.value is None:
             return PolytopicSolution(False, out.status, sigma, bounds, outcome=out)
+        return self._read_point(bounds, As, Cs, sigma, out)
+
+    def _read_point(self, bounds, As, Cs, sigma: float, out) -> PolytopicSolution:
+        """The solver's current point, re-checked at every vertex in numpy."""
+        from ..status import Status
+
+        if self.P.value is None or self.Y.value is None:
+            return PolytopicSolution(False, Status.RECHECK_FAILED, sigma, bounds, outcome=out)
         Pb = 0.5 * (np.asarray(self.P.value, dtype=float) + np.asarray(self.P.value, dtype=float).T)
         Yb = np.asarray(self.Y.value, dtype=float)
+        if not (np.all(np.isfinite(Pb)) and np.all(np.isfinite(Yb))):
+            return PolytopicSolution(False, Status.RECHECK_FAILED, sigma, bounds, outcome=out)
         max_eig = max(float(np.linalg.eigvalsh(Pb @ A + A.T @ Pb - Yb @ C - C.T @ Yb.T + sigma * Pb).max())
                       for A, C in zip(As, Cs))
         p_min = float(np.linalg.eigvalsh(Pb).min())
+        if p_min <= 0.0:
+            return PolytopicSolution(False, Status.RECHECK_FAILED, sigma, bounds, outcome=out, lmi_max_eig=max_eig,
+                                     p_min_eig=p_min)
         Lbar = np.linalg.solve(Pb, Yb)
         L = np.zeros((self.sdata.n, self.system.p))
         L[:, self._cols] = self.d[:, None] * Lbar
         gain = float(np.linalg.norm(L, 2))
-        ok = max_eig <= 0.0 and p_min > 0.0
+        ok = max_eig <= 0.0
         if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
             ok = False
-        from ..status import Status
-
-        return PolytopicSolution(ok, out.status if ok else Status.RECHECK_FAILED, sigma, bounds, L,
-                                 Pb / self.d[:, None] / self.d[None, :], max_eig, p_min, gain, out,
-                                 P_scaled=Pb, Y_scaled=Yb)
+        status = (out.status if out is not None else Status.OPTIMAL) if ok else Status.RECHECK_FAILED
+        return PolytopicSolution(ok, status, sigma, bounds, L, Pb / self.d[:, None] / self.d[None, :], max_eig, p_min,
+                                 gain, out, P_scaled=Pb, Y_scaled=Yb)
 
     def certify(self, sol: PolytopicSolution) -> PolytopicCertificate | None:
         """A verified certificate for an infeasible solve, or ``None`` (none found or none checks)."""
@@ -380,7 +391,7 @@ class PolytopicLMI:
             cons.append(sum(z @ C.T for z, C in zip(Z, Cs)) == 0)
         prob = cp.Problem(cp.Minimize(0), cons)
         out = solve_problem(prob)
-        if out.status != OPTIMAL or any(z.value is None for z in Z):
+        if out.status not in POINT_STATUSES or any(z.value is None for z in Z):
             return None
         return [np.asarray(z.value, dtype=float) for z in Z]
 

@@ -17,12 +17,19 @@ import numpy as np
 
 from ..status import CVXPY_STATUS, Status, map_status
 
-#: cvxpy statuses in the one vocabulary (:mod:`hybobs_opt.status`).  Only ``OPTIMAL`` (and
-#: ``INFEASIBLE`` with a checked certificate) are ever turned into an answer; the ``*_INACCURATE``
-#: ones are never reported as feasible.
+#: cvxpy statuses in the one vocabulary (:mod:`hybobs_opt.status`).  No status is an answer by
+#: itself: a point is feasible only when it passes the numpy re-check of the problem's own
+#: constraints, and infeasibility only with a certificate that passes its re-check.
 OPTIMAL = Status.OPTIMAL
 INFEASIBLE = Status.INFEASIBLE
 SOLVER_ERROR = Status.SOLVER_ERROR
+
+#: Statuses whose point is re-checked (and then used when it passes).  ``optimal_inaccurate`` is
+#: among them because these problems are feasibility questions with a norm objective: the
+#: solvers stall near the degenerate optimum (Clarabel "AlmostSolved" at a relative gap of 1e-8 on
+#: the robot's vertex LMIs) with a point that satisfies the constraints, which the re-check proves
+#: or refutes; the objective's optimality is never claimed.
+POINT_STATUSES = (Status.OPTIMAL, Status.OPTIMAL_INACCURATE)
 
 SOLVER = "CLARABEL"
 
@@ -121,7 +128,7 @@ def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
 #: ``solvers``) is an interior-point method with its own scaling; SCS (a cvxpy dependency) a
 #: first-order method, run to tight tolerances.  Whatever they return is re-checked like Clarabel's.
 FALLBACK_SOLVERS: tuple[tuple[str, dict], ...] = (
-    ("CVXOPT", {"abstol": 1e-9, "reltol": 1e-9, "feastol": 1e-9, "max_iters": 200}),
+    ("CVXOPT", {"max_iters": 200}),
     ("SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}),
 )
 
@@ -144,12 +151,16 @@ def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, 
             return SOLVER_ERROR, f"{solver}: {exc}"
 
 
-def solve_problem(problem: cp.Problem, *, fallback: bool = True) -> SolveOutcome:
+def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) -> SolveOutcome:
     """Solve ``problem`` with Clarabel, then with :data:`FALLBACK_SOLVERS` while it is undecided.
+
+    ``accept()``, when given, is asked after an ``optimal_inaccurate`` solve whether the point
+    passes the caller's re-check; if it does, the chain stops there.
 
     A crash becomes status :data:`SOLVER_ERROR`, never an exception.  The outcome names the
     solver whose answer it carries and every attempt; :data:`COUNTERS` counts Clarabel's own
-    undecided solves (``primary_undecided``) and those no solver decided (``undecided``).
+    undecided solves (``primary_undecided``, an inaccurate point that passed ``accept`` not
+    included) and those no solver decided (``undecided``).
     """
     first = problem._cache.param_prog is None if hasattr(problem, "_cache") else False
     t0 = time.perf_counter()
@@ -157,7 +168,7 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True) -> SolveOutcome
     messages = []
     compile_s = solver_s = 0.0
     chain = [(SOLVER, {})] + ([(n, o) for n, o in FALLBACK_SOLVERS if _available(n)] if fallback else [])
-    status, used = SOLVER_ERROR, SOLVER
+    status, used, accepted = SOLVER_ERROR, SOLVER, False
     for name, options in chain:
         status, message = _run_once(problem, name, options)
         used = name
@@ -170,6 +181,9 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True) -> SolveOutcome
             solver_s += float(getattr(stats, "solve_time", 0.0) or 0.0)
         if status in (OPTIMAL, INFEASIBLE):
             break
+        if status == Status.OPTIMAL_INACCURATE and accept is not None and accept():
+            accepted = True
+            break
     seconds = time.perf_counter() - t0
     COUNTERS.calls += 1
     COUNTERS.seconds += seconds
@@ -178,11 +192,11 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True) -> SolveOutcome
     if first:
         COUNTERS.first_compile_seconds += compile_s
     COUNTERS.statuses[status] = COUNTERS.statuses.get(status, 0) + 1
-    if attempts[0][1] not in (OPTIMAL, INFEASIBLE):
+    if attempts[0][1] not in (OPTIMAL, INFEASIBLE) and not (accepted and len(attempts) == 1):
         COUNTERS.primary_undecided += 1
-        if status in (OPTIMAL, INFEASIBLE):
+        if status in (OPTIMAL, INFEASIBLE) or accepted:
             COUNTERS.rescued[used] = COUNTERS.rescued.get(used, 0) + 1
-    if status not in (OPTIMAL, INFEASIBLE):
+    if status not in (OPTIMAL, INFEASIBLE) and not accepted:
         COUNTERS.undecided += 1
     residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
     return SolveOutcome(status, seconds, compile_s, solver_s, "; ".join(messages), residuals, used, tuple(attempts))

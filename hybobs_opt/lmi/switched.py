@@ -27,6 +27,7 @@ from .bounds import JacobianBounds, jacobian_bounds
 from .certificates import certify_infeasible
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
 from .observer_lmi import SIGMA_CAP, ObserverLMI
+from .polytopic import PolytopicLMI
 from .schedule import SchedulingRegion, adjacent_pairs, coordinate_index, make_region
 from .solve import COUNTERS, SOLVER
 
@@ -212,12 +213,14 @@ def grow_regions(
     scaling: np.ndarray | None = None,
     resolution: float | None = None,
     lmi: ObserverLMI | None = None,
+    condition: str = "paper",
 ) -> list[SchedulingRegion]:
     """Cover ``[lo, hi]`` with regions on which a gain of decay rate ``min_decay`` exists.
 
     Greedy from ``lo``: each region's upper end is the largest (to ``resolution``) for which the
-    LMI is feasible at ``sigma = min_decay`` (with the gain bound); the next region starts ``2 *
-    overlap`` below it, so neighbours overlap by twice the hysteresis.
+    region condition (``condition`` of :mod:`.hierarchy`: ``"paper"``, ``"per_function"`` or
+    ``"polytopic"``) is feasible at ``sigma = min_decay`` (with the gain bound); the next region
+    starts ``2 * overlap`` below it, so neighbours overlap by twice the hysteresis.
 
     Raises
     ------
@@ -234,7 +237,9 @@ def grow_regions(
     if not (np.isfinite(min_decay) and min_decay >= 0):
         raise ModelError("min_decay", "a non-negative decay rate", repr(min_decay))
     res = (hi - lo) / 400.0 if resolution is None else float(resolution)
-    lmi = lmi or ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=scaling)
+    from .hierarchy import design_lmi
+
+    lmi = lmi or design_lmi(system, condition, gain_bound=gain_bound, scaling=scaling)
     min_width = 2.0 * overlap + res
 
     def solve(a: float, b: float):
@@ -250,6 +255,14 @@ def grow_regions(
         first = solve(a, b_ok)
         if not first.feasible:
             problem = f"region growth from {system.state_names[k]} = {a:.6g}"
+            if isinstance(lmi, PolytopicLMI):
+                cert = lmi.certify(first) if lmi.gain_bound is None else None
+                if cert is None and not str(first.status).startswith("infeasible"):
+                    raise SolverError(f"{problem} (polytopic condition on [{a:.6g}, {b_ok:.6g}])", SOLVER, first.status,
+                                      "no gain was confirmed and no certificate verified; lower min_decay or rescale")
+                raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]"
+                                      + ("" if cert is not None else ": the solver says infeasible; no certificate covers "
+                                         "the gain bound"))
             try:
                 cert = certify_infeasible(lmi, first)
             except SolverError as exc:
@@ -286,6 +299,7 @@ def synthesize_switched(
     overlap: float | None = None,
     dwell: bool = True,
     accept_unenforced_dwell: bool = False,
+    condition: str = "paper",
 ) -> SwitchedDesign:
     """Gains per region and the joint dwell time (paper 004, Section 5, Theorem 6).
 
@@ -312,6 +326,8 @@ def synthesize_switched(
     accept_unenforced_dwell : bool
         Return a design whose hysteresis does not enforce ``tau`` at ``max_rate`` (with a
         :class:`DwellTimeWarning`) instead of raising :class:`DwellTimeError`.
+    condition : {"paper", "per_function", "polytopic"}
+        The region condition (:mod:`.hierarchy`), used for the decay rates and the joint dwell LMI.
 
     Raises
     ------
@@ -320,11 +336,11 @@ def synthesize_switched(
     DwellTimeError
         The overlap does not enforce the dwell time at ``max_rate`` and the caller did not accept it.
     """
-    from .hierarchy import verified_rate
+    from .hierarchy import design_lmi, verified_rate
 
     t0 = time.perf_counter()
     calls0 = COUNTERS.calls
-    undecided0, rescued0 = COUNTERS.primary_undecided, dict(COUNTERS.rescued)
+    undecided0, rescued0, none0 = COUNTERS.primary_undecided, dict(COUNTERS.rescued), COUNTERS.undecided
     statuses0 = dict(COUNTERS.statuses)
     if not regions:
         raise ModelError("regions", "at least one region", "none")
@@ -334,12 +350,17 @@ def synthesize_switched(
     if not (0 < decay_fraction <= 1):
         raise ModelError("decay_fraction", "a number in (0, 1]", repr(decay_fraction))
     regions = [SchedulingRegion(r.coordinate, r.name, r.lo, r.hi, i) for i, r in enumerate(regions)]
-    lmi = ObserverLMI.compiled(system, gain_bound=gain_bound, scaling=scaling)
+    lmi = design_lmi(system, condition, gain_bound=gain_bound, scaling=scaling)
     per = []
     guess = None
     for reg in regions:
         b = jacobian_bounds(system, reg)
         dr = lmi.max_decay(b, sigma_cap, guess=guess)
+        if not dr.solution.feasible:  # the polytopic search returns the failed zero-rate solve
+            cert = lmi.certify(dr.solution) if lmi.gain_bound is None else None
+            raise InfeasibleError(f"polytopic condition on {reg.name} in [{reg.lo:.6g}, {reg.hi:.6g}]", cert,
+                                  "no constant gain with a quadratic Lyapunov function on this region"
+                                  + ("" if lmi.gain_bound is None else f" within ||L||_2 <= {lmi.gain_bound:.4g}"))
         guess = dr.sigma_max if dr.sigma_max > 0 else None
         # the solution at sigma_max also satisfies the LMI at the smaller design rate
         per.append((reg, b, dr, decay_fraction * dr.sigma_max, dr.solution))
@@ -349,7 +370,8 @@ def synthesize_switched(
     tau_fixed = dwell_time_fixed(P_scaled, sigmas, pairs)
     dwell_solves = 0
     if dwell and len(regions) > 1:
-        search = DwellTimeLMI.compiled(system, len(regions), pairs, gain_bound=gain_bound, scaling=lmi.d)
+        search = DwellTimeLMI.compiled(system, len(regions), pairs, gain_bound=gain_bound, scaling=lmi.d,
+                                       condition=condition)
         res = search.set_regions([p[1] for p in per], sigmas).search(tau_fixed, tau_fixed=tau_fixed)
         tau, Ps, Ls, mults, eigs = res.tau, res.P, res.L, res.multipliers, res.lmi_max_eig
         dwell_solves, min_pair = res.solves, res.min_pair_eig
@@ -357,10 +379,11 @@ def synthesize_switched(
         tau = tau_fixed
         Ps = [p[4].P_scaled / lmi.d[:, None] / lmi.d[None, :] for p in per]
         Ls = [p[4].L for p in per]
-        mults = [p[4].multiplier for p in per]
+        mults = [getattr(p[4], "multiplier", None) for p in per]
         eigs = [p[4].lmi_max_eig for p in per]
         min_pair = float("nan")
-    gains = tuple(RegionGain(reg, L, P, sigma, dr.sigma_max, dr.capped, float(np.min(m)), float(e), b,
+    gains = tuple(RegionGain(reg, L, P, sigma, dr.sigma_max, dr.capped, float("nan") if m is None else float(np.min(m)),
+                             float(e), b,
                              verified_rate(system, b, P, L), dr.log)
                   for (reg, b, dr, sigma, _), L, P, m, e in zip(per, Ls, Ps, mults, eigs))
     eps_req = dwell_g = None
@@ -371,7 +394,7 @@ def synthesize_switched(
     statuses = {st: n - statuses0.get(st, 0) for st, n in COUNTERS.statuses.items() if n - statuses0.get(st, 0)}
     counts = {"statuses": statuses, "clarabel_undecided": COUNTERS.primary_undecided - undecided0,
               "rescued_by": {s_: n - rescued0.get(s_, 0) for s_, n in COUNTERS.rescued.items() if n - rescued0.get(s_, 0)},
-              "undecided": sum(n for st, n in statuses.items() if st not in ("optimal", "infeasible"))}
+              "undecided": COUNTERS.undecided - none0}
     design = SwitchedDesign(system, k, gains, pairs, float(tau), float(tau_fixed), overlap,
                             None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
                             COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair, counts,

@@ -164,20 +164,39 @@ def test_bad_switch_points_and_overlap(vehicle):
         regions_from_switch_points(vehicle, "psi", 0.0, 2.0, [1.0], 0.8)
 
 
-def test_inaccurate_status_is_never_feasible(vehicle, vehicle_lmi, monkeypatch):
+def test_inaccurate_status_is_feasible_only_with_a_point_that_passes_the_recheck(vehicle, vehicle_lmi, monkeypatch):
+    """An 'optimal_inaccurate' status proves nothing by itself: its point is used only when the numpy
+    re-check of the LMI passes (a norm objective stalls near its degenerate optimum with a feasible
+    point); a tampered point under the same status is refused, and with no point at all the decay
+    search raises SolverError instead of answering."""
     b = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, deg(80)))
     assert vehicle_lmi.solve(b, 0.0).feasible  # the honest answer
     real = olmi.solve_problem
 
-    def inaccurate(problem):
+    def inaccurate(problem, **kw):
         out = real(problem)
         return type(out)("optimal_inaccurate", out.seconds, out.compile_seconds, out.solver_seconds)
 
     monkeypatch.setattr(olmi, "solve_problem", inaccurate)
     sol = vehicle_lmi.solve(b, 0.0)
-    assert not sol.feasible and sol.status == "optimal_inaccurate" and sol.L is None
-    monkeypatch.setattr("hybobs_opt.lmi.certificates.solve_problem", inaccurate)
-    with pytest.raises(SolverError, match="optimal_inaccurate"):
+    assert sol.feasible and sol.status == "optimal_inaccurate" and sol.lmi_max_eig <= 0.0
+
+    def inaccurate_and_wrong(problem, **kw):
+        out = inaccurate(problem)
+        vehicle_lmi.P.value = vehicle_lmi.P.value * 0.0 + np.eye(4) * 1e-3  # violates the LMI
+        return out
+
+    monkeypatch.setattr(olmi, "solve_problem", inaccurate_and_wrong)
+    sol = vehicle_lmi.solve(b, 0.0)
+    assert not sol.feasible and "re-check failed" in sol.status
+
+    def no_point(problem, **kw):
+        out = real(problem)
+        return type(out)("solver_error", out.seconds, out.compile_seconds, out.solver_seconds)
+
+    monkeypatch.setattr(olmi, "solve_problem", no_point)
+    monkeypatch.setattr("hybobs_opt.lmi.certificates.solve_problem", no_point)
+    with pytest.raises(SolverError, match="solver_error"):
         vehicle_lmi.max_decay(b)
 
 
@@ -185,7 +204,7 @@ def test_point_failing_the_numpy_recheck_is_not_feasible(vehicle, vehicle_lmi, m
     b = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, deg(80)))
     real = olmi.solve_problem
 
-    def tampered(problem):
+    def tampered(problem, **kw):
         out = real(problem)
         vehicle_lmi.P.value = vehicle_lmi.P.value * 0.0 + np.eye(4) * 1e-3  # a point that violates the LMI
         return out
