@@ -6,6 +6,9 @@ Modules, one concept each:
 * :mod:`.bounds` -- Jacobian bounds (eqs. 4-5), monotonicity, slope changes, monotonic pieces;
 * :mod:`.observer_lmi` -- LMIs (8), (22), (23) compiled once with cvxpy ``Parameter``s;
 * :mod:`.certificates` -- infeasibility certificates (structural reason, dual multiplier, numpy re-check);
+* :mod:`.polytopic` -- the polytopic condition (one ``P`` on every vertex of the Jacobian box) and its certificate;
+* :mod:`.hierarchy` -- the conditions weakest claim first (paper LMI, one multiplier per function, polytopic);
+* :mod:`.impossibility` -- results for every gain: undetectable points, indistinguishable mirror states;
 * :mod:`.subtraction` -- Theorem 5 (linear subtraction does not help);
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
@@ -22,18 +25,23 @@ from .auto_design import DesignSettings, design_settings, design_switched, sched
 from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points
 from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
 from .diagnose import Diagnosis, diagnose
+from .hierarchy import CONDITIONS, ConditionResult, HierarchyResult, condition_hierarchy
+from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
+from .polytopic import PolytopicCertificate, PolytopicLMI
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
 from .observer_lmi import LMISolution, ObserverLMI
 from .schedule import SchedulingRegion, adjacent_pairs, make_region, regions_from_switch_points
 from .solve import COUNTERS
 from .subtraction import SubtractionCheck, theorem5_check
-from .switched import RegionGain, SwitchedDesign, grow_regions, synthesize_switched
+from .switched import DwellTimeError, DwellTimeWarning, RegionGain, SwitchedDesign, grow_regions, synthesize_switched
 
 # Figures import matplotlib: imported on first use.
 __getattr__, __dir__ = lazy_exports(__name__, {"plot_jacobian_bounds": "hybobs_opt.lmi.plots"})
 
 __all__ = [
-    "COUNTERS", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
+    "COUNTERS", "CONDITIONS", "ConditionResult", "DwellTimeError", "DwellTimeWarning", "HierarchyResult", "OutputSymmetry",
+    "PolytopicCertificate", "PolytopicLMI", "UndetectablePoint", "condition_hierarchy", "output_symmetries",
+    "undetectable_points", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
     "JacobianBounds", "LMISolution", "ObserverLMI", "RegionGain", "SchedulingRegion", "SubtractionCheck",
     "SwitchedDesign", "adjacent_pairs", "certify_infeasible", "derivative_bound", "diagnose", "dwell_for_hysteresis",
     "dwell_time_fixed", "grow_regions", "hysteresis_for_dwell", "jacobian_bounds", "make_region", "monotonic_pieces",

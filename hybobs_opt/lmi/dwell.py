@@ -110,6 +110,10 @@ class DwellResult:
 
 _COMPILED: "weakref.WeakKeyDictionary[ScalarNonlinearSystem, dict]" = weakref.WeakKeyDictionary()
 
+#: The dwell-time bisection stops once ``tau * max_j sigma_j`` is below this (``exp(-tau sigma)``
+#: within 1e-4 of 1: the pair constraints are then at the strict margin's resolution).
+TAU_RATE_FLOOR: float = 1e-4
+
 
 class DwellTimeLMI:
     """Joint LMI over all regions: each region's LMI (sigma_i fixed) plus eqs. (47)-(48).
@@ -284,7 +288,7 @@ class DwellTimeLMI:
     def feasible(self, tau: float):
         """Solve at ``tau``; the numpy-checked point or ``None``."""
         self.mu.value = np.exp(-tau * np.array(self.sigmas))
-        out = solve_problem(self.problem)
+        out = solve_problem(self.problem, accept=lambda: self._check(tau) is not None)
         if out.status not in POINT_STATUSES:
             return None
         return self._check(tau)
@@ -319,7 +323,10 @@ class DwellTimeLMI:
         if best is None:
             raise ModelError("regions", "a dwell time making the joint LMI (47)-(48) feasible", f"none up to tau = {hi:.4g}")
         lo = 0.0
-        while hi - lo > rtol * hi:
+        # Below tau * max(sigma_j) = TAU_RATE_FLOOR, mu_j = exp(-tau sigma_j) differs from 1 by less
+        # than the LMIs' strict margin resolves: the search stops (its tau is still a checked one).
+        smax = max(self.sigmas) if self.sigmas else 0.0
+        while hi - lo > rtol * hi and hi * smax > TAU_RATE_FLOOR:
             mid = 0.5 * (lo + hi)
             sol = self.feasible(mid)
             solves += 1

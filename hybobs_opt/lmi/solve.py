@@ -124,12 +124,17 @@ def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
 
 
 #: Conic solvers tried, in order, when Clarabel cannot decide a problem (a status other than
-#: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...).  CVXOPT (optional extra
-#: ``solvers``) is an interior-point method with its own scaling; SCS (a cvxpy dependency) a
-#: first-order method, run to tight tolerances.  Whatever they return is re-checked like Clarabel's.
-FALLBACK_SOLVERS: tuple[tuple[str, dict], ...] = (
-    ("CVXOPT", {"max_iters": 200}),
-    ("SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}),
+#: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...): Clarabel again with ten
+#: times its static KKT regularisation (the vehicle's LMIs at the decay-rate cap fail in the
+#: factorisation with the default 1e-8 and are decided with 1e-7), then CVXOPT (optional extra
+#: ``solvers``), an interior-point method with its own scaling, then SCS (a cvxpy dependency), a
+#: first-order method run to tight tolerances, only when no solver returned a point at all (a point
+#: that failed the re-check lies near the boundary, where SCS's accuracy does not help).  Whatever
+#: they return is re-checked like Clarabel's.  Entries are ``(label, cvxpy solver, options)``.
+FALLBACK_SOLVERS: tuple[tuple[str, str, dict], ...] = (
+    ("CLARABEL(reg=1e-7)", "CLARABEL", {"static_regularization_constant": 1e-7}),
+    ("CVXOPT", "CVXOPT", {"max_iters": 200}),
+    ("SCS", "SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}),
 )
 
 
@@ -154,8 +159,9 @@ def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, 
 def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) -> SolveOutcome:
     """Solve ``problem`` with Clarabel, then with :data:`FALLBACK_SOLVERS` while it is undecided.
 
-    ``accept()``, when given, is asked after an ``optimal_inaccurate`` solve whether the point
-    passes the caller's re-check; if it does, the chain stops there.
+    ``accept()``, when given, is asked after every solve that returned a point (``optimal`` or
+    ``optimal_inaccurate``) whether it passes the caller's re-check: the chain stops at the first
+    point that does, and goes on past one that does not.
 
     A crash becomes status :data:`SOLVER_ERROR`, never an exception.  The outcome names the
     solver whose answer it carries and every attempt; :data:`COUNTERS` counts Clarabel's own
@@ -167,22 +173,28 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
     attempts: list[tuple[str, str]] = []
     messages = []
     compile_s = solver_s = 0.0
-    chain = [(SOLVER, {})] + ([(n, o) for n, o in FALLBACK_SOLVERS if _available(n)] if fallback else [])
-    status, used, accepted = SOLVER_ERROR, SOLVER, False
-    for name, options in chain:
+    chain = [(SOLVER, SOLVER, {})] + ([e for e in FALLBACK_SOLVERS if _available(e[1])] if fallback else [])
+    status, used, accepted, had_point = SOLVER_ERROR, SOLVER, False, False
+    for label, name, options in chain:
+        if name == "SCS" and had_point:
+            # a point near the boundary failed the re-check: a first-order method will not do better
+            break
         status, message = _run_once(problem, name, options)
-        used = name
-        attempts.append((name, str(status)))
+        used = label
+        attempts.append((label, str(status)))
         if message:
             messages.append(message)
         compile_s += float(getattr(problem, "compilation_time", 0.0) or 0.0)
         stats = getattr(problem, "solver_stats", None)
         if stats is not None and status != SOLVER_ERROR:
             solver_s += float(getattr(stats, "solve_time", 0.0) or 0.0)
+        if status in POINT_STATUSES and accept is not None:
+            had_point = True
+            if accept():
+                accepted = True
+                break
+            continue  # a point that fails the caller's re-check: the next solver may return a better one
         if status in (OPTIMAL, INFEASIBLE):
-            break
-        if status == Status.OPTIMAL_INACCURATE and accept is not None and accept():
-            accepted = True
             break
     seconds = time.perf_counter() - t0
     COUNTERS.calls += 1
@@ -192,11 +204,11 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
     if first:
         COUNTERS.first_compile_seconds += compile_s
     COUNTERS.statuses[status] = COUNTERS.statuses.get(status, 0) + 1
-    if attempts[0][1] not in (OPTIMAL, INFEASIBLE) and not (accepted and len(attempts) == 1):
+    if len(attempts) > 1:
         COUNTERS.primary_undecided += 1
-        if status in (OPTIMAL, INFEASIBLE) or accepted:
+        if status == INFEASIBLE or accepted or (status == OPTIMAL and accept is None):
             COUNTERS.rescued[used] = COUNTERS.rescued.get(used, 0) + 1
-    if status not in (OPTIMAL, INFEASIBLE) and not accepted:
+    if not (status == INFEASIBLE or accepted or (status == OPTIMAL and accept is None)):
         COUNTERS.undecided += 1
     residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
     return SolveOutcome(status, seconds, compile_s, solver_s, "; ".join(messages), residuals, used, tuple(attempts))
