@@ -15,6 +15,13 @@ Measured (medians over the stated repeats; targets are recorded, never asserted)
 (b) ``resolve_n4``: one re-solve of the compiled n = 4 observer LMI (23) through cvxpy Parameters
     (new bounds and sigma each time), split into cvxpy compilation and Clarabel time.
 (c) ``piston_synthesis``: region growth plus synthesis for the piston (10 regions), once.
+(d) ``diagnose_hierarchy``: :func:`hybobs_opt.lmi.diagnose` as ``hybobs diagnose`` runs it on the
+    vehicle (psi in [0, 360] deg) and the piston (z in [0, 203] mm): the three conditions of the
+    hierarchy with their certificates, undetectable points, mirror-state search, Theorem 5 and the
+    suggested regions.  Median over repeats after one warm-up call.  Target (issue 15): under 2 s each.
+(e) ``synth_verified``: the preset synthesis plus :func:`~hybobs_opt.observers.switched_verification.verify_switched_design`
+    on the paper's scenario (frozen error dynamics of every region, the switched observer from 4
+    initial errors), as ``hybobs synth`` runs it.  Target (issue 15): under 10 s each.
 """
 
 from __future__ import annotations
@@ -36,6 +43,9 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 #: Target of the issue for (a), seconds (checked in the JSON, never asserted).
 TARGET_VEHICLE_SYNTHESIS = 0.5
+#: Targets of issue 15 for (d) and (e), seconds.
+TARGET_DIAGNOSE = 2.0
+TARGET_SYNTH_VERIFIED = 10.0
 
 
 def log(msg: str) -> None:
@@ -132,6 +142,71 @@ def bench_piston() -> dict:
             "sigmas": [g.sigma for g in d.regions]}
 
 
+def bench_diagnose(repeats: int) -> dict:
+    from hybobs_opt.lmi import diagnose
+    from hybobs_opt.studies import get_example
+    from hybobs_opt.studies.paper004_nonmonotonic.presets import get_preset, scaling_for
+
+    out = {}
+    for name in ("vehicle_tracking", "magnetic_piston"):
+        system = get_example(name).build()
+        pr = get_preset(name)
+        lo, hi = pr.diagnose_range
+
+        def call():
+            return diagnose(system, pr.coordinate, pr.to_model(lo), pr.to_model(hi), unit=pr.unit, factor=pr.factor,
+                            gain_bound=pr.gain_bound, min_decay=pr.min_decay, overlap=pr.to_model(pr.overlap),
+                            sigma_cap=pr.sigma_cap, scaling=scaling_for(pr, system))
+
+        t0 = time.perf_counter()
+        d = call()
+        cold = time.perf_counter() - t0
+        walls = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            d = call()
+            walls.append(time.perf_counter() - t0)
+        med = statistics.median(walls)
+        out[name] = {"repeats": repeats, "median_seconds": med, "cold_seconds": cold, "target_seconds": TARGET_DIAGNOSE,
+                     "meets_target": med < TARGET_DIAGNOSE, "strongest_infeasible": d.hierarchy.strongest_infeasible,
+                     "conditions": {c.key: {"feasible": c.feasible, "certificate_verified": c.verified,
+                                            "seconds": c.seconds} for c in d.hierarchy.conditions},
+                     "undetectable_points": len(d.undetectable), "indistinguishable": len(d.symmetries),
+                     "suggested_regions": None if d.suggested is None else len(d.suggested)}
+    return out
+
+
+def bench_synth_verified(repeats: int) -> dict:
+    from hybobs_opt.lmi.solve import COUNTERS
+    from hybobs_opt.observers.switched_verification import verify_switched_design
+    from hybobs_opt.studies import get_example
+    from hybobs_opt.studies.paper004_nonmonotonic.presets import preset_design
+    from hybobs_opt.studies.paper004_nonmonotonic.scenarios import PERIODIC
+
+    out = {}
+    for name in ("vehicle_tracking", "magnetic_piston"):
+        ex = get_example(name)
+        walls, synth, ver = [], [], []
+        for _ in range(repeats):
+            system = ex.build()  # a fresh system: nothing compiled, as in one `hybobs synth` call
+            COUNTERS.reset()
+            t0 = time.perf_counter()
+            design = preset_design(name, system)
+            t1 = time.perf_counter()
+            v = verify_switched_design(design, ex.scenario(system), periodic=PERIODIC.get(name))
+            t2 = time.perf_counter()
+            walls.append(t2 - t0)
+            synth.append(t1 - t0)
+            ver.append(t2 - t1)
+        med = statistics.median(walls)
+        out[name] = {"repeats": repeats, "median_seconds": med, "median_synthesis_seconds": statistics.median(synth),
+                     "median_verification_seconds": statistics.median(ver), "target_seconds": TARGET_SYNTH_VERIFIED,
+                     "meets_target": med < TARGET_SYNTH_VERIFIED, "verification_ok": v.ok,
+                     "worst_convergence_time": v.simulation.worst_convergence_time, "max_real_eig": v.max_real_eig,
+                     "solver_counts": design.solver_counts, "tau": design.tau}
+    return out
+
+
 def _json_default(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
@@ -149,7 +224,9 @@ def main(argv: list[str] | None = None) -> int:
     record: dict = {"machine": _machine(), "load_start": _load(), "quick": args.quick}
     for key, fn in (("vehicle_synthesis", lambda: bench_vehicle_synthesis(2 if args.quick else 10)),
                     ("resolve_n4", lambda: bench_resolve(10 if args.quick else 100)),
-                    ("piston_synthesis", bench_piston)):
+                    ("piston_synthesis", bench_piston),
+                    ("diagnose_hierarchy", lambda: bench_diagnose(1 if args.quick else 5)),
+                    ("synth_verified", lambda: bench_synth_verified(1 if args.quick else 3))):
         log(key)
         try:
             record[key] = fn()
@@ -163,6 +240,12 @@ def main(argv: list[str] | None = None) -> int:
         log(f"vehicle synthesis + tau: median {v['median_seconds']:.3f} s (target {TARGET_VEHICLE_SYNTHESIS} s), "
             f"{v['solver_calls']} solves, compile {100 * v['median_compile_share']:.0f} %, "
             f"Clarabel {100 * v['median_clarabel_share']:.0f} %")
+    for name, rec in record.get("diagnose_hierarchy", {}).items():
+        if isinstance(rec, dict) and "median_seconds" in rec:
+            log(f"diagnose {name}: median {rec['median_seconds']:.3f} s (target {TARGET_DIAGNOSE} s)")
+    for name, rec in record.get("synth_verified", {}).items():
+        if isinstance(rec, dict) and "median_seconds" in rec:
+            log(f"synth + verification {name}: median {rec['median_seconds']:.3f} s (target {TARGET_SYNTH_VERIFIED} s)")
     log(f"written {path}")
     return 0
 
