@@ -125,29 +125,52 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         st = design_settings(system)
         shared["settings"] = st
         diag = diagnose(system, st.coordinate, st.lo, st.hi, gain_bound=st.gain_bound, min_decay=st.min_decay,
-                        overlap=st.overlap, sigma_cap=st.sigma_cap, scaling=st.scaling)
+                        overlap=st.overlap, sigma_cap=st.sigma_cap, scaling=st.scaling, condition=st.condition)
         fig = f"bounds_{slug}.png"
         plot_jacobian_bounds(diag, out / fig)
-        verdict = "feasible: a constant gain exists" if diag.feasible else "infeasible"
-        rows = [("coordinate", st.coordinate), ("range", f"[{st.lo:.4g}, {st.hi:.4g}]"), (f"LMI {diag.solution.form}", verdict)]
+        verdict = (f"feasible ({diag.hierarchy.feasible_condition} condition): a constant gain exists" if diag.feasible
+                   else f"infeasible up to the {diag.hierarchy.strongest_infeasible} condition (certified)"
+                   if diag.hierarchy.strongest_infeasible else "not decided")
+        rows = [("coordinate", st.coordinate), ("range", f"[{st.lo:.4g}, {st.hi:.4g}]"), ("verdict", verdict)]
+        for c in diag.hierarchy.conditions:
+            rows.append((c.name, "feasible" if c.feasible else ("infeasible, certificate verified" if c.verified
+                                                                 else f"not decided ({c.skipped or c.status})")))
+        rows += [("undetectable point", p.claim) for p in diag.undetectable]
+        rows += [("indistinguishable states", q.claim) for q in diag.symmetries]
         if diag.certificate is not None:
             rows.append(("certificate", f"{diag.certificate.theorem}: verified {diag.certificate.verify()}"))
         rows += [(f"setting {k}", v) for k, v in st.sources.items()]
-        return ReportSection("Constant-gain diagnosis (paper 004)", _table(rows) + f"<img src='{fig}' alt='bounds'>",
-                             {"feasible": diag.feasible, "settings": st.to_dict()}, [fig])
+        return ReportSection("Constant-gain diagnosis (paper 004)",
+                             f"<p>{html.escape(diag.verdict)}</p>" + _table(rows) + f"<img src='{fig}' alt='bounds'>",
+                             {"feasible": diag.feasible, "strongest_infeasible": diag.hierarchy.strongest_infeasible,
+                              "settings": st.to_dict()}, [fig])
 
     def synthesis(out: Path, progress) -> ReportSection:
         from ..lmi.auto_design import design_settings, design_switched
         from .lmi_section import _design_table
 
+        from ..lmi.switched import DwellTimeError
+        from ..observers.switched_verification import verify_switched_design
+
         st = shared.get("settings") or design_settings(system)
-        design = design_switched(system, st)
-        warn = "".join(f"<p class='error'>{html.escape(w)}</p>" for w in design.warnings)
+        try:
+            design = design_switched(system, st)
+        except DwellTimeError as exc:  # the page shows the rejected design with the reason
+            design = exc.design
+            object.__setattr__(design, "accepted_unenforced_dwell", False)
+        verification = verify_switched_design(design)
+        object.__setattr__(design, "verification", verification)
+        warn = "".join(f"<p class='error'>{html.escape(w)}</p>" for w in design.warnings + verification.notes)
+        sim = verification.simulation
+        warn += (f"<p>Checked on the system: frozen error dynamics max Re(lambda) = {verification.max_real_eig:.4g}; "
+                 f"{html.escape(sim.scenario)}: converged from {sum(t is not None for t in sim.convergence_times)}/"
+                 f"{len(sim.convergence_times)} initial errors.</p>")
         body = (_table([("regions", len(design.regions)), ("dwell time tau [s]", f"{design.tau:.4g}"),
                         ("dwell enforced by the hysteresis", design.dwell_enforced)])
                 + _design_table(design, "", 1.0) + warn)
         return ReportSection("Switched-gain synthesis (paper 004, Section 5)", body,
                              {"n_regions": len(design.regions), "tau": design.tau, "warnings": design.warnings,
+                              "verification_ok": verification.ok,
                               "gain_norms": [float(np.round(g.gain_norm, 6)) for g in design.regions]})
 
     builders = {"model": model, "simulation": simulation, "regions": regions, "observers": observers,
