@@ -182,7 +182,7 @@ def diagnose(
     paper = hier.get("paper")
     sol = paper.solution if paper.solution is not None else lmi.solve(bounds, 0.0)
     cert = paper.certificate if isinstance(paper.certificate, InfeasibilityCertificate) else None
-    if paper.skipped and not hier.feasible and hier.strongest_infeasible is None:
+    if paper.skipped and str(paper.status) != "infeasible" and not hier.feasible and hier.strongest_infeasible is None:
         from ..errors import SolverError
         from .solve import SOLVER
 

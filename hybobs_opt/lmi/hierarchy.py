@@ -197,6 +197,20 @@ def _vertex_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, P, L) ->
     return vertex_decay(P, L[:, cols], As, Cs)
 
 
+def _certificate(lmi, sol) -> tuple[object | None, str]:
+    """``(certificate or None, reason it is missing)`` for a solve that was not feasible."""
+    if isinstance(lmi, PolytopicLMI):
+        cert = lmi.certify(sol)
+        return cert, "" if cert is not None else f"no certificate verified ({sol.status})"
+    try:
+        cert = certify_infeasible(lmi, sol)
+    except HybobsError as exc:  # undecided: neither a checked point nor a verified certificate
+        return None, str(exc)
+    if cert.verify() or cert.structural_verified:
+        return cert, ""
+    return None, f"no certificate verified ({sol.status})"
+
+
 def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion | None = None, *,
                         bounds: JacobianBounds | None = None, scaling: np.ndarray | None = None,
                         sigma: float = 0.0) -> HierarchyResult:
@@ -227,24 +241,11 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
                                            prev.sigma_verified, prev.certificate, "paper" if prev.feasible else None,
                                            solution=prev.solution))
             continue
-        if key == "polytopic":
-            try:
-                lmi = PolytopicLMI.compiled(system, scaling=scaling)
-            except ModelError as exc:
-                results.append(ConditionResult(key, name, False, "skipped", skipped=f"not built: {exc} (at most {MAX_VERTICES} vertices)"))
-                continue
-            sol = lmi.solve(bounds, sigma)
-            if sol.feasible:
-                rate = _vertex_rate(system, bounds, sol.P, sol.L)
-                feasible = ConditionResult(key, name, True, sol.status, sol.L, sol.P, rate, seconds=time.perf_counter() - t1,
-                                           solution=sol)
-                results.append(feasible)
-                continue
-            cert = lmi.certify(sol)
-            results.append(ConditionResult(key, name, False, sol.status, certificate=cert, seconds=time.perf_counter() - t1,
-                                           solution=sol))
+        try:
+            lmi = design_lmi(system, key, scaling=scaling)
+        except ModelError as exc:  # the polytopic condition beyond MAX_VERTICES vertices
+            results.append(ConditionResult(key, name, False, "skipped", skipped=f"not built: {exc} (at most {MAX_VERTICES} vertices)"))
             continue
-        lmi = ObserverLMI.compiled(system, scaling=scaling, multipliers="single" if key == "paper" else "per_function")
         sol = lmi.solve(bounds, sigma)
         if sol.feasible:
             rate = _vertex_rate(system, bounds, sol.P, sol.L)
@@ -252,18 +253,9 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
                                        solution=sol)
             results.append(feasible)
             continue
-        try:
-            cert = certify_infeasible(lmi, sol)
-        except HybobsError as exc:  # undecided: neither a checked point nor a verified certificate
-            results.append(ConditionResult(key, name, False, sol.status, skipped=str(exc), seconds=time.perf_counter() - t1,
-                                           solution=sol))
-            continue
-        if not (cert.verify() or cert.structural_verified):
-            cert_obj = None
-        else:
-            cert_obj = cert
-        results.append(ConditionResult(key, name, False, sol.status, certificate=cert_obj, seconds=time.perf_counter() - t1,
-                                       solution=sol))
+        cert, skipped = _certificate(lmi, sol)
+        results.append(ConditionResult(key, name, False, sol.status, certificate=cert, skipped=skipped,
+                                       seconds=time.perf_counter() - t1, solution=sol))
     return HierarchyResult(system, bounds.region, form, tuple(results), time.perf_counter() - t0)
 
 

@@ -195,6 +195,9 @@ class PolytopicCertificate:
         """True when the numpy re-check confirms the certificate (no solver involved)."""
         return self.check().ok
 
+    #: Which result the certificate stands for (the attribute of every certificate of the package).
+    theorem = "polytopic condition (dual certificate)"
+
     @property
     def reason(self) -> str:
         return (f"PSD multipliers Z_v, one per vertex of the Jacobian box ({self.source}), with sum_v Z_v C_v^T = 0 and "

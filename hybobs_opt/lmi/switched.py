@@ -24,7 +24,6 @@ import numpy as np
 from ..errors import HybobsError, InfeasibleError, ModelError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
-from .certificates import certify_infeasible
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
 from .observer_lmi import SIGMA_CAP, ObserverLMI
 from .polytopic import PolytopicLMI
@@ -254,27 +253,7 @@ def grow_regions(
         b_ok = min(a + min_width, hi)
         first = solve(a, b_ok)
         if not first.feasible:
-            problem = f"region growth from {system.state_names[k]} = {a:.6g}"
-            if isinstance(lmi, PolytopicLMI):
-                cert = lmi.certify(first) if lmi.gain_bound is None else None
-                if cert is None and not str(first.status).startswith("infeasible"):
-                    raise SolverError(f"{problem} (polytopic condition on [{a:.6g}, {b_ok:.6g}])", SOLVER, first.status,
-                                      "no gain was confirmed and no certificate verified; lower min_decay or rescale")
-                raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]"
-                                      + ("" if cert is not None else ": the solver says infeasible; no certificate covers "
-                                         "the gain bound"))
-            try:
-                cert = certify_infeasible(lmi, first)
-            except SolverError as exc:
-                raise SolverError(f"{problem} (observer LMI {lmi.form} on [{a:.6g}, {b_ok:.6g}])", SOLVER, first.status,
-                                  "no gain was confirmed and no certificate verified: " + (exc.hint or "")
-                                  + "; lower min_decay or the resolution, or rescale the model") from None
-            if cert.dual is None and cert.structural is None:
-                detail = (f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} even on "
-                          f"[{a:.6g}, {b_ok:.6g}]: the solver says infeasible; no certificate covers the gain bound")
-            else:
-                detail = f"no gain with decay rate {min_decay:g} even on [{a:.6g}, {b_ok:.6g}]"
-            raise InfeasibleError(problem, cert, detail)
+            _growth_failure(system, lmi, k, a, b_ok, min_decay, first, condition)
         b_bad = float(hi)
         while b_bad - b_ok > res:
             mid = 0.5 * (b_ok + b_bad)
@@ -285,6 +264,42 @@ def grow_regions(
         spans.append((a, b_ok))
         a = b_ok - 2.0 * overlap
     return [make_region(system, k, s0, s1, i) for i, (s0, s1) in enumerate(spans)]
+
+
+def _growth_failure(system, lmi, k: int, a: float, b: float, min_decay: float, sol, condition: str):
+    """Raise the error of a region growth that found no gain even on ``[a, b]``, with what is proven.
+
+    The certificate covers every gain only without a gain bound, so under a bound the same
+    condition is re-solved without it: infeasible there (with a verified certificate) is proven for
+    every gain, feasible there means the bound is what fails.  Undetectable points of ``[a, b]``
+    (:mod:`.impossibility`) are named: they rule out every gain on any region containing them.
+    """
+    from .hierarchy import _certificate, design_lmi
+    from .impossibility import undetectable_points
+
+    name = system.state_names[k]
+    problem = f"region growth from {name} = {a:.6g}"
+    where = f"[{a:.6g}, {b:.6g}]"
+    points = undetectable_points(system, k, a, b)
+    proof = (" " + points[0].claim) if points else ""
+    cert, missing = _certificate(lmi, sol)
+    if cert is None and not str(sol.status).startswith("infeasible"):
+        raise SolverError(f"{problem} ({condition} condition on {where})", SOLVER, sol.status,
+                          f"no gain was confirmed and no certificate verified ({missing}); lower min_decay or the "
+                          f"resolution, or rescale the model.{proof}")
+    if lmi.gain_bound is None:
+        raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} satisfies the {condition} condition "
+                              f"even on {where}" + ("" if cert is not None else f" ({missing})") + "." + proof)
+    free = design_lmi(system, condition, gain_bound=None, scaling=lmi.d)
+    fsol = free.solve(sol.bounds, min_decay)
+    if fsol.feasible:
+        raise InfeasibleError(problem, None, f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} "
+                              f"on {where} (the solver's verdict; no certificate covers a gain bound), but without the "
+                              f"bound the {condition} condition is feasible there (||L||_2 = {fsol.gain_norm:.4g}): raise "
+                              f"--gain-bound or lower --min-decay.{proof}")
+    fcert, fmissing = _certificate(free, fsol)
+    raise InfeasibleError(problem, fcert, f"no gain with decay rate {min_decay:g} satisfies the {condition} condition on "
+                          f"{where}, whatever the gain bound" + ("" if fcert is not None else f" ({fmissing})") + "." + proof)
 
 
 def synthesize_switched(
