@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import HybobsError, ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import jacobian_bounds
 from .observer_lmi import SIGMA_CAP
@@ -270,15 +270,22 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     i = 0
     while i < len(plans):
         overlap, fraction = plans[i]
-        regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=overlap,
-                               min_decay=settings.min_decay, gain_bound=settings.gain_bound, scaling=settings.scaling,
-                               condition=settings.condition)
+        try:
+            regions = grow_regions(system, settings.coordinate, settings.lo, settings.hi, overlap=overlap,
+                                   min_decay=settings.min_decay, gain_bound=settings.gain_bound,
+                                   scaling=settings.scaling, condition=settings.condition)
+        except HybobsError as exc:
+            if design is None:
+                raise
+            # a retry with a wider overlap found no regions: keep the last design
+            attempts.append({"overlap": overlap, "decay_fraction": fraction, "error": str(exc)})
+            break
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DwellTimeWarning)
             design = synthesize_switched(system, regions, gain_bound=settings.gain_bound, decay_fraction=fraction,
                                          sigma_cap=settings.sigma_cap, scaling=settings.scaling,
                                          max_rate=settings.max_rate, overlap=overlap, accept_unenforced_dwell=True,
-                                         condition=settings.condition)
+                                         condition=settings.condition, min_decay=settings.min_decay)
         attempts.append({"overlap": overlap, "decay_fraction": fraction, "regions": len(design.regions),
                          "tau": design.tau, "epsilon_required": design.epsilon_required,
                          "dwell_enforced": design.dwell_enforced})

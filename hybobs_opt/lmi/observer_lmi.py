@@ -185,7 +185,7 @@ class DecayResult:
 
 
 def bisect_decay(solve, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL, guess: float | None = None,
-                 on_zero_infeasible=None) -> DecayResult:
+                 on_zero_infeasible=None, known: float | None = None) -> DecayResult:
     """Largest decay rate ``sigma`` in ``[0, sigma_cap]`` at which ``solve(sigma)`` is feasible.
 
     A bracket is found by doubling or halving from ``guess`` (default ``sigma_cap / 8``; a
@@ -202,6 +202,9 @@ def bisect_decay(solve, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RT
     on_zero_infeasible : callable, optional
         Called with the solution at ``sigma = 0`` when even that is not feasible (it raises the
         error with the certificate); without it the zero-rate solution is returned.
+    known : float, optional
+        A rate believed feasible (a region grown for it): tried when it falls inside the final
+        bracket, so the result is not below it by the bisection's tolerance.
     """
     if not (np.isfinite(sigma_cap) and sigma_cap > 0):
         raise ModelError("sigma_cap", "a positive upper end of the decay-rate search", repr(sigma_cap))
@@ -247,6 +250,10 @@ def bisect_decay(solve, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RT
             lo, best = mid, s
         else:
             hi = mid
+    if known is not None and lo < known < hi:
+        s = run(float(known))
+        if s.feasible:
+            lo, best = float(known), s
     return DecayResult(lo, False, best, len(log), tuple(log))
 
 
@@ -415,7 +422,7 @@ class ObserverLMI:
                            P_scaled=Pb, Y_scaled=np.hstack([Yl, Yn]))
 
     def max_decay(self, bounds: JacobianBounds, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL,
-                  guess: float | None = None) -> DecayResult:
+                  guess: float | None = None, known: float | None = None) -> DecayResult:
         """Largest ``sigma`` in ``[0, sigma_cap]`` for which the LMI is feasible (:func:`bisect_decay`).
 
         Raises
@@ -429,7 +436,7 @@ class ObserverLMI:
         from .certificates import certify_infeasible
 
         return bisect_decay(lambda sig: self.solve(bounds, sig), sigma_cap, rtol, guess,
-                            lambda zero: certify_infeasible(self, zero, raise_error=True))
+                            lambda zero: certify_infeasible(self, zero, raise_error=True), known)
 
     # -- certificates
     def alternative(self):

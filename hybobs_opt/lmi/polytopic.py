@@ -399,10 +399,10 @@ class PolytopicLMI:
         return [np.asarray(z.value, dtype=float) for z in Z]
 
     def max_decay(self, bounds: JacobianBounds, sigma_cap: float | None = None, rtol: float | None = None,
-                  guess: float | None = None):
+                  guess: float | None = None, known: float | None = None):
         """Largest decay rate of the polytopic condition (:func:`.observer_lmi.bisect_decay`)."""
         from ..tolerances import BISECTION_RTOL
         from .observer_lmi import SIGMA_CAP, bisect_decay
 
         return bisect_decay(lambda sig: self.solve(bounds, sig), SIGMA_CAP if sigma_cap is None else sigma_cap,
-                            BISECTION_RTOL if rtol is None else rtol, guess)
+                            BISECTION_RTOL if rtol is None else rtol, guess, known=known)

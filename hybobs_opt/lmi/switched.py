@@ -315,6 +315,7 @@ def synthesize_switched(
     dwell: bool = True,
     accept_unenforced_dwell: bool = False,
     condition: str = "paper",
+    min_decay: float | None = None,
 ) -> SwitchedDesign:
     """Gains per region and the joint dwell time (paper 004, Section 5, Theorem 6).
 
@@ -343,6 +344,9 @@ def synthesize_switched(
         :class:`DwellTimeWarning`) instead of raising :class:`DwellTimeError`.
     condition : {"paper", "per_function", "polytopic"}
         The region condition (:mod:`.hierarchy`), used for the decay rates and the joint dwell LMI.
+    min_decay : float, optional
+        The rate the regions were grown for: the decay search tries it, so ``sigma_max`` is not
+        reported below it by the bisection's tolerance.
 
     Raises
     ------
@@ -370,7 +374,7 @@ def synthesize_switched(
     guess = None
     for reg in regions:
         b = jacobian_bounds(system, reg)
-        dr = lmi.max_decay(b, sigma_cap, guess=guess)
+        dr = lmi.max_decay(b, sigma_cap, guess=guess, known=min_decay)
         if not dr.solution.feasible:  # the polytopic search returns the failed zero-rate solve
             cert = lmi.certify(dr.solution) if lmi.gain_bound is None else None
             raise InfeasibleError(f"polytopic condition on {reg.name} in [{reg.lo:.6g}, {reg.hi:.6g}]", cert,

@@ -184,4 +184,5 @@ def preset_design(example: str, system: ScalarNonlinearSystem | None = None, lo:
         rate_model = preset.to_model(rate)
     return synthesize_switched(system, regions, gain_bound=preset.gain_bound, decay_fraction=preset.decay_fraction,
                                sigma_cap=preset.sigma_cap, scaling=scaling_for(preset, system), max_rate=rate_model,
-                               overlap=preset.to_model(preset.overlap), accept_unenforced_dwell=accept_unenforced_dwell)
+                               overlap=preset.to_model(preset.overlap), accept_unenforced_dwell=accept_unenforced_dwell,
+                               min_decay=preset.min_decay if preset.switch_points is None else None)
