@@ -450,7 +450,7 @@ def explain(system, bounds: JacobianBounds, form: str, sigma: float, ob: Structu
     theorem = {"(22)": "Theorem 3", "(23)": "Theorem 4"}.get(form, "Theorem 2")
     if ob is None:
         nm = ", ".join(b.name for b in nonmono) or "none"
-        reason = (f"{lmi_name} is infeasible {region_text}. Non-monotonic functions: {nm}. No single direction "
+        reason = (f"{lmi_name} is infeasible on {region_text}. Non-monotonic functions: {nm}. No single direction "
                   f"of the kind of Theorems 2-4 was found; the infeasibility rests on the solver's dual multiplier Z, "
                   f"re-checked in numpy.")
         return reason, "Theorem 1 (dual certificate)"

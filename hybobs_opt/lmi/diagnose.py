@@ -25,7 +25,7 @@ from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
 from .certificates import InfeasibilityCertificate
 from .hierarchy import HierarchyResult, condition_hierarchy, design_lmi, verified_rate
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
-from .observer_lmi import LMI_NAMES, SIGMA_CAP, DecayResult, LMISolution, ObserverLMI
+from .observer_lmi import SIGMA_CAP, DecayResult, LMISolution, ObserverLMI
 from .schedule import SchedulingRegion, coordinate_index, make_region
 from .subtraction import SubtractionCheck, theorem5_check
 from .switched import grow_regions
@@ -178,7 +178,8 @@ def diagnose(
     region = make_region(system, k, lo, hi)
     bounds = jacobian_bounds(system, region)
     lmi = ObserverLMI.compiled(system, scaling=scaling)
-    hier = condition_hierarchy(system, region, bounds=bounds, scaling=lmi.d)
+    hier = condition_hierarchy(system, region, bounds=bounds, scaling=lmi.d,
+                               region_text=f"{region.name} in [{lo / factor:.4g}, {hi / factor:.4g}] {unit}".strip())
     paper = hier.get("paper")
     sol = paper.solution if paper.solution is not None else lmi.solve(bounds, 0.0)
     cert = paper.certificate if isinstance(paper.certificate, InfeasibilityCertificate) else None

@@ -197,13 +197,13 @@ def _vertex_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, P, L) ->
     return vertex_decay(P, L[:, cols], As, Cs)
 
 
-def _certificate(lmi, sol) -> tuple[object | None, str]:
+def _certificate(lmi, sol, region_text: str | None = None) -> tuple[object | None, str]:
     """``(certificate or None, reason it is missing)`` for a solve that was not feasible."""
     if isinstance(lmi, PolytopicLMI):
         cert = lmi.certify(sol)
         return cert, "" if cert is not None else f"no certificate verified ({sol.status})"
     try:
-        cert = certify_infeasible(lmi, sol)
+        cert = certify_infeasible(lmi, sol, region_text=region_text)
     except HybobsError as exc:  # undecided: neither a checked point nor a verified certificate
         return None, str(exc)
     if cert.verify() or cert.structural_verified:
@@ -213,7 +213,7 @@ def _certificate(lmi, sol) -> tuple[object | None, str]:
 
 def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion | None = None, *,
                         bounds: JacobianBounds | None = None, scaling: np.ndarray | None = None,
-                        sigma: float = 0.0) -> HierarchyResult:
+                        sigma: float = 0.0, region_text: str | None = None) -> HierarchyResult:
     """Run the three conditions of the module docstring on ``region`` (default: the whole box).
 
     Each condition is solved at decay rate ``sigma`` (default 0: infeasibility there rules out every
@@ -253,7 +253,7 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
                                        solution=sol)
             results.append(feasible)
             continue
-        cert, skipped = _certificate(lmi, sol)
+        cert, skipped = _certificate(lmi, sol, region_text)
         results.append(ConditionResult(key, name, False, sol.status, certificate=cert, skipped=skipped,
                                        seconds=time.perf_counter() - t1, solution=sol))
     return HierarchyResult(system, bounds.region, form, tuple(results), time.perf_counter() - t0)
