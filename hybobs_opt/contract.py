@@ -94,9 +94,20 @@ class ObserverTrace:
         return {"median_step_s": float(np.median(s)), "p95_step_s": float(np.percentile(s, 95)), "max_step_s": float(s.max())}
 
 
+#: A sample whose output lies outside the range the model can produce (``output_range`` of an
+#: observer) by more than this fraction of the range's width is not used: it is flagged
+#: ``fallback`` and the step is open loop.  Half the width leaves room for sensor noise and offsets
+#: while a sensor fault (``y = 1e12``) never enters the state.
+OUTPUT_RANGE_MARGIN: float = 0.5
+
+
 class Observer(ABC):
     """Base class: subclasses implement :meth:`reset` and :meth:`_step`; :meth:`step` times it
-    and turns any exception on a sample into a flagged open-loop step."""
+    and turns any exception on a sample into a flagged open-loop step.
+
+    An observer that sets ``output_range = (lo, hi)`` (arrays over the outputs: what the model can
+    produce on its state set) has samples outside it by more than :data:`OUTPUT_RANGE_MARGIN`
+    refused like NaN samples."""
 
     name = "observer"
     n: int
@@ -124,6 +135,17 @@ class Observer(ABC):
             return f"sample of length (u={uu.size}, y={yy.size}), expected (u={self.m}, y={self.p})"
         if not (np.all(np.isfinite(uu)) and np.all(np.isfinite(yy))):
             return "sample with NaN or Inf"
+        rng = getattr(self, "output_range", None)
+        if rng is not None:
+            lo, hi = rng
+            pad = OUTPUT_RANGE_MARGIN * (hi - lo) + 1e-9 * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
+            bad = np.nonzero((yy < lo - pad) | (yy > hi + pad))[0]
+            if bad.size:
+                j = int(bad[0])
+                names = getattr(self, "output_names", ())
+                label = names[j] if j < len(names) else f"y[{j}]"
+                return (f"output {label} = {yy[j]:.6g} outside the model's range [{lo[j]:.6g}, {hi[j]:.6g}] "
+                        f"by more than {OUTPUT_RANGE_MARGIN:g} of its width")
         return uu, yy
 
     def step(self, u, y) -> Estimate:

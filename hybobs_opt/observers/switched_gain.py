@@ -113,6 +113,8 @@ class SwitchedGainObserver(Observer):
         if self.substeps < 1:
             raise ModelError("substeps", "at least 1", repr(substeps))
         self.clip_to_box = bool(clip_to_box)
+        self.output_names = system.output_names
+        self.output_range = _output_range(system)
         self.periodic: dict[int, float] = _periodic_coordinates(periodic, system)
         self._wrap_idx = np.array(sorted(self.periodic), dtype=int)
         self._wrap_lo = np.asarray(system.box_lower, dtype=float)[self._wrap_idx]
@@ -380,6 +382,31 @@ def _periodic_coordinates(periodic: Mapping[str | int, float] | None,
             raise ModelError("periodic", f"one period per state ({system.state_names[k]!r} given twice)", repr(key))
         out[k] = value
     return out
+
+
+def _output_range(system: ScalarNonlinearSystem) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)`` of every output ``h_j(C_j x)`` over the operating box (sampled on its argument
+    interval): samples far outside it are sensor faults (:data:`~hybobs_opt.contract.OUTPUT_RANGE_MARGIN`)."""
+    from scipy.optimize import minimize_scalar
+
+    lo, hi = [], []
+    for fn, (a, b) in zip(system.h, system.h_ranges):
+        z = np.linspace(a, b, 1025)
+        v = fn.value(z)
+        ext = []
+        for sign, k in ((1.0, int(np.argmin(v))), (-1.0, int(np.argmax(v)))):
+            # refine the sampled extreme inside its two neighbouring cells
+            za, zb = z[max(k - 1, 0)], z[min(k + 1, z.size - 1)]
+            best = float(v[k])
+            if zb > za:
+                r = minimize_scalar(lambda t: sign * float(fn.value(np.array([t]))[0]), bounds=(za, zb), method="bounded",
+                                    options={"xatol": 1e-12 * max(1.0, abs(za), abs(zb))})
+                if np.isfinite(r.fun):
+                    best = min(best, sign * r.fun) if sign > 0 else max(best, -r.fun)
+            ext.append(best)
+        lo.append(ext[0])
+        hi.append(ext[1])
+    return np.array(lo), np.array(hi)
 
 
 def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
