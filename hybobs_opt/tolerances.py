@@ -414,3 +414,12 @@ MHE_DAQP_CYCLE_TOL: int = 1000
 #: its input leaves U by more: 1e-9 of the input's half-range (7e-8 N m for T_m in [0, 140]) is far
 #: above the rounding of an input stored at its bound and far below any real excursion.
 LOOKUP_INPUT_BOUND_TOL: float = 1e-9
+
+#: A gain returned by an observer LMI with ``||L||_2 <= l`` counts as within the bound when
+#: ``||L||_2 <= l (1 + GAIN_BOUND_RTOL)``: the bound is imposed through a Schur complement solved to
+#: ~1e-8, so the recomputed norm can exceed it by rounding only.
+GAIN_BOUND_RTOL: float = 1e-6
+
+#: A state counts as an equilibrium (``lmi.impossibility``) when ``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)``
+#: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
+EQUILIBRIUM_RTOL: float = 1e-9

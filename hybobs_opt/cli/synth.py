@@ -12,6 +12,7 @@ system settings read from the model (:mod:`hybobs_opt.lmi.auto_design`).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -71,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
 
             scenario, name = named.example.scenario(system), f"the paper's scenario of {named.example.name}"
             periodic = periodic or PERIODIC.get(named.example.name)
-        object.__setattr__(design, "verification",
-                           verify_switched_design(design, scenario, scenario_name=name, periodic=periodic))
+        design = dataclasses.replace(design, verification=verify_switched_design(design, scenario, scenario_name=name,
+                                                                                  periodic=periodic))
     out = design.to_dict(unit, factor)
     out["example"] = named.label
     out["system_label"] = named.label

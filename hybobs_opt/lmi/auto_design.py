@@ -33,6 +33,7 @@ Every value can be given instead (``given`` in ``sources``).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -294,8 +295,7 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
         if i == len(plans) - 1 and not overlap_given and len(plans) < len(DWELL_RETRY_FRACTIONS) + 3:
             plans.append((DWELL_RETRY_WIDEN * float(design.epsilon_required), settings.decay_fraction))
         i += 1
-    object.__setattr__(design, "dwell_attempts", attempts)
-    object.__setattr__(design, "accepted_unenforced_dwell", bool(accept_unenforced_dwell))
+    design = dataclasses.replace(design, dwell_attempts=attempts, accepted_unenforced_dwell=bool(accept_unenforced_dwell))
     if design.dwell_enforced is False:
         if not accept_unenforced_dwell:
             raise DwellTimeError(design)

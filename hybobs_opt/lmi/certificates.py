@@ -34,7 +34,7 @@ Two sources of ``Z``:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import cvxpy as cp
@@ -44,7 +44,7 @@ from ..errors import InfeasibleError, SolverError
 from ..tolerances import CERTIFICATE_RTOL
 from .bounds import DerivativeBound, JacobianBounds
 from .lmi_model import LMI_NAMES, LMIData, LMIParameters, SectorData
-from .solve import INFEASIBLE, OPTIMAL, SOLVER, solve_problem, POINT_STATUSES
+from .solve import INFEASIBLE, POINT_STATUSES, SOLVER, solve_problem
 
 
 # ---------------------------------------------------------------------------- the numpy re-check

@@ -28,7 +28,7 @@ from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
-from .solve import OPTIMAL, solve_problem, POINT_STATUSES
+from .solve import POINT_STATUSES, solve_problem
 
 
 def dwell_time_fixed(P: Sequence[np.ndarray], sigmas: Sequence[float], pairs: Sequence[tuple[int, int]]) -> float:

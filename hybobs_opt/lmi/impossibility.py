@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from ..tolerances import EQUILIBRIUM_RTOL
 from .bounds import slope_change_points
 from .schedule import coordinate_index, make_region
 
@@ -68,7 +69,7 @@ class UndetectablePoint:
     mode : array
         Its eigenvector ``v`` (unit norm).
     equilibrium : bool
-        ``x`` is an equilibrium of the unforced system (``||x'|| <= 1e-9 (1 + ||x||)`` at ``u = 0``).
+        ``x`` is an equilibrium of the unforced system (``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)`` at ``u = 0``).
     pbh_residual : float
         ``sigma_min([J - lambda I; C])`` relative to ``1 + ||J|| + ||C||``.
     """
@@ -162,7 +163,7 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
         if any(abs(p.s - s) <= 1e-9 * max(1.0, abs(s)) for p in out):
             continue
         xdot = system.rhs(x, np.zeros(system.m))
-        eq = bool(np.linalg.norm(xdot) <= 1e-9 * (1.0 + np.linalg.norm(x)))
+        eq = bool(np.linalg.norm(xdot) <= EQUILIBRIUM_RTOL * (1.0 + np.linalg.norm(x)))
         k_big = int(np.argmax(np.abs(v)))
         v = v * np.exp(-1j * np.angle(v[k_big]))
         v = v / np.linalg.norm(v)

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
+from ..tolerances import BISECTION_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from ..status import Status
 from .bounds import JacobianBounds, jacobian_bounds
 from .lmi_model import (  # noqa: F401  (also the old home of these names)
@@ -59,7 +59,7 @@ from .lmi_model import (  # noqa: F401  (also the old home of these names)
     lmi_form,
 )
 from .schedule import SchedulingRegion
-from .solve import INFEASIBLE, OPTIMAL, SolveOutcome, solve_problem, POINT_STATUSES
+from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_problem
 
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
 #: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
@@ -415,7 +415,7 @@ class ObserverLMI:
         if eps_v.size == 1:
             P = P / eps if eps > 0 else None
         gain = float(np.linalg.norm(L, 2))
-        if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
+        if self.gain_bound is not None and gain > self.gain_bound * (1 + GAIN_BOUND_RTOL):
             ok = False
         status = (out.status if out is not None else Status.OPTIMAL) if ok else Status.RECHECK_FAILED
         return LMISolution(ok, status, self.form, sigma, region, bounds, L, P, eps, max_eig, p_min, gain, out,

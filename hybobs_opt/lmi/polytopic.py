@@ -40,10 +40,10 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import CERTIFICATE_RTOL, LMI_STRICT_MARGIN
+from ..tolerances import CERTIFICATE_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIData, box_scaling, lmi_data
-from .solve import INFEASIBLE, OPTIMAL, solve_problem, POINT_STATUSES
+from .solve import INFEASIBLE, POINT_STATUSES, solve_problem
 
 #: Largest number of vertices (``2^(r + p_n)``) the condition is built for; beyond it the
 #: problem grows too large to be useful and the hierarchy stops at the multiplier LMIs.
@@ -298,7 +298,7 @@ class PolytopicLMI:
         return obj
 
     def _build(self) -> None:
-        sd, n, p = self.sdata, self.sdata.n, self.system.p
+        n, p = self.sdata.n, self.system.p
         self.P = cp.Variable((n, n), symmetric=True, name="P")
         self.Y = cp.Variable((n, p), name="Y")
         self.sigma = cp.Parameter(nonneg=True, name="sigma", value=0.0)
@@ -364,7 +364,7 @@ class PolytopicLMI:
         L[:, self._cols] = self.d[:, None] * Lbar
         gain = float(np.linalg.norm(L, 2))
         ok = max_eig <= 0.0
-        if self.gain_bound is not None and gain > self.gain_bound * (1 + 1e-6):
+        if self.gain_bound is not None and gain > self.gain_bound * (1 + GAIN_BOUND_RTOL):
             ok = False
         status = (out.status if out is not None else Status.OPTIMAL) if ok else Status.RECHECK_FAILED
         return PolytopicSolution(ok, status, sigma, bounds, L, Pb / self.d[:, None] / self.d[None, :], max_eig, p_min,

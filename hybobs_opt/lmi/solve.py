@@ -127,15 +127,16 @@ def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
 #: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...): Clarabel again with ten
 #: times its static KKT regularisation (the vehicle's LMIs at the decay-rate cap fail in the
 #: factorisation with the default 1e-8 and are decided with 1e-7), then CVXOPT (optional extra
-#: ``solvers``), an interior-point method with its own scaling (3 steps of iterative refinement: at the
-#: degenerate optimum of the norm objective its KKT system turns singular without them), then SCS (a cvxpy dependency), a
-#: first-order method run to tight tolerances, only when no solver returned a point at all (a point
-#: that failed the re-check lies near the boundary, where SCS's accuracy does not help).  Whatever
-#: they return is re-checked like Clarabel's.  Entries are ``(label, cvxpy solver, options)``.
-FALLBACK_SOLVERS: tuple[tuple[str, str, dict], ...] = (
-    ("CLARABEL(reg=1e-7)", "CLARABEL", {"static_regularization_constant": 1e-7}),
-    ("CVXOPT", "CVXOPT", {"max_iters": 200, "refinement": 3}),
-    ("SCS", "SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}),
+#: ``solvers``), an interior-point method with its own scaling (3 steps of iterative refinement: at
+#: the degenerate optimum of the norm objective its KKT system turns singular without them), then
+#: SCS (a cvxpy dependency), a first-order method run to tight tolerances, only when no solver
+#: returned a point at all (a point that failed the re-check lies near the boundary, where SCS's
+#: accuracy does not help).  Whatever they return is re-checked like Clarabel's.  Entries are
+#: ``(label, cvxpy solver, options, only_without_point)``.
+FALLBACK_SOLVERS: tuple[tuple[str, str, dict, bool], ...] = (
+    ("CLARABEL(reg=1e-7)", "CLARABEL", {"static_regularization_constant": 1e-7}, False),
+    ("CVXOPT", "CVXOPT", {"max_iters": 200, "refinement": 3}, False),
+    ("SCS", "SCS", {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}, True),
 )
 
 
@@ -174,10 +175,10 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
     attempts: list[tuple[str, str]] = []
     messages = []
     compile_s = solver_s = 0.0
-    chain = [(SOLVER, SOLVER, {})] + ([e for e in FALLBACK_SOLVERS if _available(e[1])] if fallback else [])
+    chain = [(SOLVER, SOLVER, {}, False)] + ([e for e in FALLBACK_SOLVERS if _available(e[1])] if fallback else [])
     status, used, accepted, had_point = SOLVER_ERROR, SOLVER, False, False
-    for label, name, options in chain:
-        if name == "SCS" and had_point:
+    for label, name, options, only_without_point in chain:
+        if only_without_point and had_point:
             # a point near the boundary failed the re-check: a first-order method will not do better
             break
         status, message = _run_once(problem, name, options)

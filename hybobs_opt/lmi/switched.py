@@ -26,7 +26,6 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
 from .observer_lmi import SIGMA_CAP, ObserverLMI
-from .polytopic import PolytopicLMI
 from .schedule import SchedulingRegion, adjacent_pairs, coordinate_index, make_region
 from .solve import COUNTERS, SOLVER
 

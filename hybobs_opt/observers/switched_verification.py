@@ -203,8 +203,8 @@ def verify_switched_design(design, scenario=None, *, scenario_name: str | None =
     if tol.shape != (n,) or not np.all(tol > 0):
         raise ModelError("tolerance", f"{n} positive per-state tolerances", repr(tolerance))
     times, finals, switches = [], [], []
+    obs = SwitchedGainObserver(system, design.regions, dt, periodic=periodic)  # built once, reset per error
     for e0 in E0:
-        obs = SwitchedGainObserver(system, design.regions, dt, periodic=periodic)
         x_hat0 = np.clip(scenario.x[0] + e0, system.box_lower, system.box_upper)
         obs.reset(x_hat0)
         ot = obs.run(scenario.u, scenario.y)

@@ -11,6 +11,7 @@ from the model.
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import json
 from collections.abc import Callable
@@ -157,9 +158,8 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
             design = design_switched(system, st)
         except DwellTimeError as exc:  # the page shows the rejected design with the reason
             design = exc.design
-            object.__setattr__(design, "accepted_unenforced_dwell", False)
         verification = verify_switched_design(design)
-        object.__setattr__(design, "verification", verification)
+        design = dataclasses.replace(design, verification=verification)
         warn = "".join(f"<p class='error'>{html.escape(w)}</p>" for w in design.warnings + verification.notes)
         sim = verification.simulation
         warn += (f"<p>Checked on the system: frozen error dynamics max Re(lambda) = {verification.max_real_eig:.4g}; "
