@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 from ..errors import ModelError
@@ -28,25 +31,60 @@ def json_default(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def parse_params(items: list[str] | None) -> dict[str, float]:
-    """``--param NAME=VALUE`` (repeatable) -> ``{NAME: float}``; fractions like ``1/12`` allowed."""
-    params: dict[str, float] = {}
+def parse_params(items: list[str] | None, vectors: dict[str, int] | None = None) -> dict[str, Any]:
+    """``--param NAME=VALUE`` (repeatable) -> ``{NAME: float}``; fractions like ``1/12`` allowed.
+
+    ``vectors`` names the parameters that are vectors (name -> length): their value is a
+    comma-separated list of that many numbers (``lam=1,2,3``) and becomes a tuple.
+    """
+    params: dict[str, Any] = {}
+    vectors = vectors or {}
     for item in items or []:
         if "=" not in item:
             raise ModelError("--param", "NAME=VALUE (e.g. gear_ratio=0.5)", repr(item))
         key, value = item.split("=", 1)
+        if key.strip() in vectors:
+            params[key.strip()] = _vector(key.strip(), value, vectors[key.strip()])
+            continue
+        if not key.strip():
+            raise ModelError("--param", "NAME=VALUE with a parameter name before '='", repr(item))
         try:
             params[key.strip()] = number(value)
         except ValueError:
-            raise ModelError(f"--param {key}", "a number (fractions like 1/12 allowed)", repr(value)) from None
+            why = " (division by zero)" if "/" in value and _zero_denominator(value) else ""
+            raise ModelError(f"--param {key}", "a number (fractions like 1/12 allowed, with a non-zero denominator)",
+                             repr(value) + why) from None
     return params
 
 
+def _vector(key: str, text: str, size: int) -> tuple[float, ...]:
+    parts = [p for p in text.split(",")]
+    try:
+        values = tuple(number(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != size:
+        raise ModelError(f"--param {key}", f"{size} comma-separated numbers (a vector parameter, e.g. "
+                         f"{key}={','.join(['1'] * size)})", repr(text))
+    return values
+
+
+def _zero_denominator(text: str) -> bool:
+    try:
+        return float(text.split("/", 1)[1]) == 0
+    except ValueError:
+        return False
+
+
 def number(text: str) -> float:
+    """``"0.5"``, ``"1e-3"`` or a fraction ``"1/12"`` -> float; ``ValueError`` otherwise (also ``"1/0"``)."""
     text = text.strip()
     if "/" in text:
         num, den = text.split("/", 1)
-        return float(num) / float(den)
+        den_value = float(den)
+        if den_value == 0:
+            raise ValueError(f"division by zero in {text!r}")
+        return float(num) / den_value
     return float(text)
 
 
@@ -75,7 +113,7 @@ SYSTEM_HELP = ("the system: an example name ('hybobs examples'), a model file PA
 
 def add_system_argument(p: argparse.ArgumentParser, help: str = SYSTEM_HELP) -> None:
     """The positional ``SYSTEM`` and the repeatable ``--param NAME=VALUE`` of every command."""
-    p.add_argument("system", metavar="SYSTEM", help=help)
+    p.add_argument("system", metavar="SYSTEM", help=(lambda: help + f"; the examples: {examples_help()}"))
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="parameter of an example or of FUNCTION (repeatable), e.g. gear_ratio=1/2")
 
@@ -101,9 +139,10 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
     from ..systems.model_file import is_model_path
     from ..systems.resolve import resolve_system
 
-    params = parse_params(getattr(args, "param", None))
     examples = {ex.name: ex for ex in list_examples()}
     example = examples.get(args.system)
+    vectors = {k: len(v) for k, v in example.params.items() if isinstance(v, (tuple, list))} if example else {}
+    params = parse_params(getattr(args, "param", None), vectors)
     if example is None and ":" not in args.system and not is_model_path(args.system):
         raise ModelError("SYSTEM", f"one of the examples {sorted(examples)}, a model file (.toml, .yaml, .json), "
                          "PATH.py:FUNCTION or module:FUNCTION", repr(args.system))
@@ -112,6 +151,11 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
         if unknown:
             raise ModelError(f"--param (parameters of example {example.name!r})", f"names among {sorted(example.params) or 'none'}",
                              f"{sorted(unknown)}")
+        for key, value in list(params.items()):
+            if isinstance(example.params[key], bool):
+                if value not in (0.0, 1.0):
+                    raise ModelError(f"--param {key}", f"0 or 1 (a yes/no parameter of example {example.name!r})", repr(value))
+                params[key] = bool(value)
     return NamedSystem(args.system, resolve_system(args.system, params), example, params)
 
 
@@ -127,3 +171,66 @@ def file_slug(label: str) -> str:
     from pathlib import Path
 
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(label).name) or "system"
+
+
+def examples_help() -> str:
+    """The names of the examples (for a lazily computed ``--help`` text)."""
+    from ..studies import list_examples
+
+    return ", ".join(ex.name for ex in list_examples())
+
+
+def system_help() -> str:
+    """:data:`SYSTEM_HELP` with the example names (computed when ``--help`` is shown)."""
+    return SYSTEM_HELP + f"; the examples: {examples_help()}"
+
+
+def check_figure_path(option: str, path: Any) -> None:
+    """``ModelError`` unless ``path`` names a figure file matplotlib can write (checked before any work).
+
+    The extension chooses the format (``.png``, ``.pdf``, ``.svg`` ...): a name without one would be
+    written under another name (matplotlib appends ``.png``), an unknown one fails after the run.
+    """
+    if path is None:
+        return
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    p = Path(str(path))
+    suffix = p.suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise ModelError(option, f"a figure file name ending in one of {', '.join('.' + f for f in formats)}", repr(str(path)))
+    if p.is_dir():
+        raise ModelError(option, "a file name (not a directory)", repr(str(path)))
+
+
+def check_output_path(option: str, path: Any) -> None:
+    """``ModelError`` if ``path`` (a file to write) is an existing directory."""
+    if path is not None and Path(str(path)).is_dir():
+        raise ModelError(option, "a file name (not a directory)", repr(str(path)))
+
+
+def reject_given(args: argparse.Namespace, options: Mapping[str, Any], expected: str) -> None:
+    """``ModelError`` for the first option of ``options`` (attribute -> its default) that was given.
+
+    ``expected`` says why the option does not apply (e.g. "no value for an example (it runs its
+    paper's scenario)").
+    """
+    for attr, default in options.items():
+        value = getattr(args, attr, default)
+        if value != default:
+            raise ModelError(f"--{attr.replace('_', '-')}", expected, repr(value) if not isinstance(value, bool) else "given")
+
+
+@contextmanager
+def as_options(fields: Mapping[str, str]) -> Iterator[None]:
+    """Re-raise a core ``ModelError`` about a parameter (``t_final``, ``horizon T`` ...) as one about the
+    command-line option it came from (``fields``: parameter -> option).  Core messages never name a
+    flag (DESIGN.md); the CLI translates, and only around calls whose parameters the user gave."""
+    try:
+        yield
+    except ModelError as exc:
+        option = fields.get(exc.field)
+        if option is None:
+            raise
+        raise ModelError(option, exc.expected, exc.got) from exc
