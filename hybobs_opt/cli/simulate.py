@@ -8,20 +8,23 @@ import math
 import time
 
 from ..errors import ModelError
-from ._common import add_system_argument, load_system, print_json
+from ._common import add_system_argument, as_options, check_figure_path, check_output_path, load_system, print_json
 
 HELP = "simulate a system (an example on its paper's scenario, or any system from --x0 under --u)"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--t-final", type=float, default=None, help="final time in seconds")
+    p.add_argument("--t-final", type=float, default=None,
+                   help="final time in seconds (at most hybobs_opt.limits.MAX_SAMPLES = 10,000,000 samples)")
     p.add_argument("--x0", action="append", metavar="STATE=VALUE",
                    help="initial state (repeat; default: centre of the state bounds). Not for examples")
     p.add_argument("--u", action="append", metavar="INPUT=VALUE",
                    help="constant input (repeat; default: centre of the input bounds, or 0). Not for examples")
-    p.add_argument("--q0", type=int, default=None, help="initial mode/location (constant-drift: 1..Q, default 1)")
+    p.add_argument("--q0", type=int, default=None, help="initial mode/location of a hybrid automaton (0..N-1) or "
+                   "constant-drift system (1..Q, default 1)")
     p.add_argument("--steps", type=int, default=None, help="samples of a PWA run (default 100: hybobs_opt.sim.any_system.DEFAULT_PWA_STEPS)")
-    p.add_argument("--dt", type=float, default=None, help="output sample time of a continuous-time run (s)")
+    p.add_argument("--dt", type=float, default=None, help="output sample time of a continuous-time run (s; not for a "
+                   "PWA system, whose sample time is Ts)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG plot of the trace")
     p.add_argument("--csv", metavar="FILE", help="write the trace as CSV (header: t, states, q, inputs, outputs)")
     p.add_argument("--json", action="store_true", help="print t, x, q, u, y arrays as JSON")
@@ -32,6 +35,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.t_final is not None and not (math.isfinite(args.t_final) and args.t_final > 0):
         raise ModelError("--t-final", "a positive finite time in seconds", repr(args.t_final))
+    check_figure_path("--plot", args.plot)
+    check_output_path("--csv", args.csv)
     named = load_system(args)
     t0 = time.perf_counter()
     if named.example is not None:
@@ -39,7 +44,10 @@ def run(args: argparse.Namespace) -> int:
             if getattr(args, option) is not None:
                 raise ModelError(f"--{option.replace('_', '-')}", f"no value for the example {named.label!r} "
                                  "(it runs its paper's scenario; pass a model file or PATH.py:FUNCTION to choose)", "a value")
-        trace = named.example.scenario(named.system, t_final=named.example.default_t_final if args.t_final is None else args.t_final)
+        t_final = named.example.default_t_final if args.t_final is None else args.t_final
+        with as_options({"t_final": "--t-final"}):
+            named.example.check_t_final(t_final)
+        trace = named.example.scenario(named.system, t_final=t_final)
         title = f"{named.label} (paper {named.example.paper})"
     else:
         trace = simulate_system(named.system, args)
@@ -72,16 +80,36 @@ def simulate_system(system, args: argparse.Namespace):
     from ..regions.cuts import parse_assignments
     from ..sim.any_system import simulate_system as run_system
 
+    if args.u and not tuple(getattr(system, "input_names", ())):
+        raise ModelError("--u", "no value (the system has no inputs)", repr(args.u[0]))
     x0 = parse_assignments(args.x0, tuple(system.state_names), "--x0")
     u = parse_assignments(args.u, tuple(getattr(system, "input_names", ())), "--u")
     for option, values in (("--x0", x0), ("--u", u)):
         for key, value in values.items():
             if not math.isfinite(value):
                 raise ModelError(f"{option} {key}", "a finite number", repr(value))
-    if args.steps is not None and (type(system).__name__ != "PWASystem" or args.steps < 1):
+    kind = type(system).__name__
+    if args.steps is not None and (kind != "PWASystem" or args.steps < 1):
         raise ModelError("--steps", "a positive number of samples, for a PWA system (others take --t-final)", repr(args.steps))
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ModelError("--dt", "a positive finite sample time", repr(args.dt))
-    if args.t_final is not None and type(system).__name__ == "PWASystem" and system.Ts is None:
-        raise ModelError("--t-final", "--steps for a PWA system without a sampling period Ts", repr(args.t_final))
-    return run_system(system, x0=x0, u=u, q0=args.q0, steps=args.steps, t_final=args.t_final, dt=args.dt)
+    if kind == "PWASystem":
+        if args.t_final is not None and system.Ts is None:
+            raise ModelError("--t-final", "--steps for a PWA system without a sampling period Ts", repr(args.t_final))
+        if args.t_final is not None and args.steps is not None:
+            raise ModelError("--t-final", "either --steps or --t-final for a PWA system (both give the length of the run)", "both")
+        for option in ("dt", "q0"):
+            if getattr(args, option) is not None:
+                raise ModelError(f"--{option}", "no value for a PWA system (its sample time is Ts and the mode follows "
+                                 "from the state)", repr(getattr(args, option)))
+    if kind == "ScalarNonlinearSystem" and args.q0 is not None:
+        raise ModelError("--q0", "no value for a scalar-nonlinear system (it has no modes)", repr(args.q0))
+    if kind in ("HybridAutomaton", "ConstantDriftSystem") and args.q0 is not None:
+        count = len(system.locations) if kind == "HybridAutomaton" else system.n_modes
+        first = 0 if kind == "HybridAutomaton" else 1
+        if not first <= args.q0 < first + count:
+            raise ModelError("--q0", f"a {'location' if first == 0 else 'mode'} index in {first}..{first + count - 1}",
+                             repr(args.q0))
+    with as_options({"t_final": "--t-final", "t_final / dt": "--t-final / --dt", "steps": "--steps", "dt": "--dt",
+                     "q0": "--q0", "x0": "--x0", "u": "--u"}):
+        return run_system(system, x0=x0, u=u, q0=args.q0, steps=args.steps, t_final=args.t_final, dt=args.dt)

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..errors import ModelError
+from ..limits import check_samples
 from .constant_drift import simulate_constant_drift
 from .hybrid import simulate_hybrid
 from .nonlinear import simulate_nonlinear
@@ -70,7 +71,16 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     if kind == "PWASystem":
         if t_final is not None and system.Ts is None:
             raise ModelError("t_final", "steps for a PWA system without a sampling period Ts", repr(t_final))
-        n = int(steps) if steps is not None else (int(round(t_final / system.Ts)) if t_final else DEFAULT_PWA_STEPS)
+        if steps is not None:
+            check_samples(steps, "steps")
+            n = int(steps)
+        elif t_final:
+            check_samples(t_final / system.Ts, "t_final", f"t_final = {t_final:g} at Ts = {system.Ts:g}")
+            n = int(round(t_final / system.Ts))
+            if n < 1:
+                raise ModelError("t_final", f"at least one sampling period Ts = {system.Ts:g}", repr(t_final))
+        else:
+            n = DEFAULT_PWA_STEPS
         return simulate_pwa(system, xs, np.tile(us, (n, 1)), on_blocked="stop")
     if kind == "HybridAutomaton":
         return simulate_hybrid(system, xs, t_final or DEFAULT_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)

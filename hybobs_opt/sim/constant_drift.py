@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
+from ..limits import MAX_SAMPLES, check_samples, sample_count
 from ..systems._validate import as_vector
 from ..systems.constant_drift import ConstantDriftSystem
 from .trace import Trace
@@ -91,6 +92,7 @@ def simulate_constant_drift(
         step = _scalar(dt, "dt")
         if not step > 0:
             raise ModelError("dt", "a positive step", f"{step}")
+        check_samples(sample_count(t_end, step, t), "t_final / dt", f"t_final - t0 = {t_end - t:g} at dt = {step:g}")
         m = math.floor((t_end - t) / step)
         grid = t + step * np.arange(1, m + 1)
     gi = 0  # next grid point not yet emitted
@@ -101,6 +103,8 @@ def simulate_constant_drift(
     events: list[dict[str, Any]] = []
     f = system.f
     while True:
+        if len(ts) > MAX_SAMPLES:  # the events alone (their number is known only by running)
+            check_samples(len(ts), "t_final", f"events and grid points up to t = {t:g} of t_final = {t_end:g}")
         ev = system._next_event(x, q)
         t_ev = t + ev.dwell
         stop = min(t_ev, t_end)

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import HybobsError, ModelError
+from ..limits import check_samples, sample_count
 from ..systems.hybrid import HybridAutomaton
 from .trace import Trace
 
@@ -111,6 +112,7 @@ def simulate_hybrid(
     if not 0 <= q < automaton.n_locations:
         raise ModelError("q0", f"a location index in 0..{automaton.n_locations - 1}", repr(q0))
 
+    check_samples(sample_count(t_final, dt, t0), "t_final / dt", f"t_final - t0 = {t_final - t0:g} at dt = {dt:g}")
     grid = t0 + dt * np.arange(int(np.floor((t_final - t0) / dt + 1e-9)) + 1)
     stops = sorted({float(b) for b in breakpoints if t0 < b < t_final} | {float(t_final)})
     xs = np.full((grid.size, automaton.n), np.nan)

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import ModelError
+from ..limits import check_samples, sample_count
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import NONLINEAR_ODE_ATOL, NONLINEAR_ODE_RTOL
 from .hybrid import SimulationError
@@ -87,6 +88,7 @@ def simulate_nonlinear(
     else:
         raise ModelError("u_fn", "a callable u_fn(t) -> (m,) or None", type(u_fn).__name__)
 
+    check_samples(sample_count(t_final, dt, t0), "t_final / dt", f"t_final - t0 = {t_final - t0:g} at dt = {dt:g}")
     # The 1e-9 guards against t_final/dt landing a rounding error short of an integer.
     grid = t0 + dt * np.arange(int(np.floor((t_final - t0) / dt + 1e-9)) + 1)
     stops = [float(t0)] + sorted({float(b) for b in breakpoints if t0 < b < grid[-1]}) + [float(grid[-1])]

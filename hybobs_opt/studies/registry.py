@@ -79,6 +79,15 @@ class Example:
         Horizon of the scenario when ``t_final`` is not given (seconds).
     params : dict
         Default keyword parameters of ``build`` (e.g. ``{"gear_ratio": 1/12}``).
+    sample_time : float, optional
+        Sample period of the scenario's trace (seconds; events may add samples): the scenario up
+        to ``t_final`` has about ``t_final / sample_time`` samples (checked against
+        :data:`hybobs_opt.limits.MAX_SAMPLES` before it runs).  ``None``: not declared.
+    observers : tuple of str
+        The observer kinds of the example's observer scenario (``hybobs observe NAME``), the
+        default first; empty: not declared (the scenario checks the kind itself).
+    observer_filter : bool
+        Whether the observer scenario has a low-pass filtered variant (paper 001's observers).
     """
 
     name: str
@@ -90,6 +99,9 @@ class Example:
     scenario: Callable[..., Any]
     default_t_final: float
     params: dict[str, Any] = field(default_factory=dict)
+    sample_time: float | None = None
+    observers: tuple[str, ...] = ()
+    observer_filter: bool = False
 
     def __post_init__(self) -> None:
         for name in ("build", "scenario"):
@@ -103,6 +115,23 @@ class Example:
     def n_states(self) -> int:
         return len(self.state_names)
 
+    def check_t_final(self, t_final: float) -> None:
+        """``ModelError("t_final")`` unless the scenario up to ``t_final`` has at least one sample period
+        and at most :data:`hybobs_opt.limits.MAX_SAMPLES` samples (checked before anything runs)."""
+        import math
+
+        from hybobs_opt.limits import check_samples
+
+        if not (isinstance(t_final, (int, float)) and math.isfinite(t_final) and t_final > 0):
+            raise ModelError("t_final", "a positive finite time in seconds", repr(t_final))
+        if self.sample_time is None:
+            return
+        if t_final < self.sample_time:
+            raise ModelError("t_final", f"at least one sample period of the scenario of {self.name!r} "
+                             f"({self.sample_time:g} s)", repr(t_final))
+        check_samples(t_final / self.sample_time + 1, "t_final",
+                      f"t_final = {t_final:g} s at the scenario's sample period {self.sample_time:g} s")
+
     def simulate(self, t_final: float | None = None, **params: Any):
         """Build the system with ``params`` and run the paper's scenario up to ``t_final``."""
         unknown = set(params) - set(self.params)
@@ -112,6 +141,8 @@ class Example:
                 f"names among {sorted(self.params) or 'none'}",
                 f"{sorted(unknown)}",
             )
+        if t_final is not None:
+            self.check_t_final(t_final)
         system = self.build(**params)
         return self.scenario(system, t_final=self.default_t_final if t_final is None else t_final)
 
@@ -127,6 +158,8 @@ class Example:
             "state_names": list(self.state_names),
             "params": {k: v for k, v in self.params.items()},
             "default_t_final": self.default_t_final,
+            "sample_time": self.sample_time,
+            "observers": list(self.observers),
         }
 
 

@@ -17,6 +17,8 @@ register(Example(
     build=f"{__name__}.systems:driveline",
     scenario=f"{__name__}.systems:scenario",
     default_t_final=4.0,
+    sample_time=1e-3,
+    observers=("hybrid",),  # location observer + continuous observer (Fig. 6)
     # TABLE1 of :mod:`.systems` (tests check the two agree)
     params={"alpha": 1.0 / 12.0, "Je": 0.30, "Jv": 140.0, "Be": 2.0, "bsm": 0.0, "k": 0.0, "k1": 1e4,
             "theta1": 0.015, "theta_e0": 0.025},

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from hybobs_opt.errors import ModelError
+from hybobs_opt.limits import check_samples
 from hybobs_opt.sim.pwa import simulate_pwa
 from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.systems.pwa import PWAMode, PWASystem
@@ -222,7 +223,10 @@ def backlash_scenario(system: PWASystem, levels: tuple[float, float, float], t_f
     t_final = 3.0 if t_final is None else float(t_final)
     if not (np.isfinite(t_final) and t_final > 0):
         raise ModelError("t_final", "a positive finite time", repr(t_final))
+    check_samples(t_final / system.Ts, "t_final", f"t_final = {t_final:g} s at Ts = {system.Ts:g} s")
     steps = int(round(t_final / system.Ts))
+    if steps < 1:
+        raise ModelError("t_final", f"at least one sampling period Ts = {system.Ts:g} s", repr(t_final))
     t = np.arange(steps) * system.Ts
     U = backlash_torque_profile(t, levels)[:, None]
     return simulate_pwa(system, steady_state(system, float(U[0, 0])), U)

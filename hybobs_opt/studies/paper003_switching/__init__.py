@@ -10,12 +10,19 @@ from ..registry import Example, register
 
 _SYSTEMS = f"{__name__}.systems"
 
+
+def _kinds(kinds: tuple[str, ...]) -> tuple[str, ...]:
+    """The observer kinds of :func:`.scenarios.scenario_gains`, each also with Remark 4.4's ``+projection``."""
+    return kinds + tuple(f"{k}+projection" for k in kinds)
+
+
 register(Example(
     name="switching_server", kind="constant_drift", paper="003",
     summary="Two-product switching server with setup times; only 'serving type 2' is visible (Sec. 2.1)",
     state_names=("x0", "x1", "x2"), build=f"{_SYSTEMS}:switching_server", scenario=f"{_SYSTEMS}:switching_server_scenario",
     default_t_final=60.0,  # SERVER_T_FINAL
     params={"lam1": 1.0, "mu1": 3.0, "mu2": 4.0, "gamma1": 2.0, "gamma2": 1.0},
+    sample_time=0.1, observers=_kinds(("deadbeat", "positive", "positive-deadbeat")),
 ))
 register(Example(
     name="traffic_junction", kind="constant_drift", paper="003",
@@ -23,4 +30,5 @@ register(Example(
     state_names=("x0", "x1", "x2", "x3"), build=f"{_SYSTEMS}:traffic_junction", scenario=f"{_SYSTEMS}:traffic_junction_scenario",
     default_t_final=200.0,  # JUNCTION_T_FINAL
     params={"lam": (1.0, 2.0, 3.0), "mu": (8.0, 10.0, 12.0), "gamma": (5.0, 10.0, 15.0)},
+    sample_time=0.1, observers=_kinds(("paper", "deadbeat", "positive", "positive-deadbeat")),
 ))

@@ -1,0 +1,63 @@
+"""Named resource limits: requests beyond them are refused before any memory is allocated.
+
+Like :mod:`hybobs_opt.tolerances`, every limit is defined here with the reason for its size.  A
+limit is far above what any study or sensible use needs; it exists so that a typing error
+(``t_final = 1e12`` instead of ``1e2``) is a :class:`~hybobs_opt.errors.ModelError` naming the
+request and the limit, not a ``MemoryError`` (or a machine swapping) minutes later.  The messages
+name the function parameter; the CLI translates it into its option.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .errors import ModelError
+
+#: Samples of one simulated trace (the time grid of a run).  A trace keeps ``t``, the states, the
+#: mode, the inputs and the outputs of every sample as float64 (about 100 bytes per sample for the
+#: examples, plus the solver's dense output while it runs): 10^7 samples are about 1 GB, the most a
+#: workstation holds comfortably.  The papers' scenarios have at most 5 001 samples.
+MAX_SAMPLES: int = 10_000_000
+
+#: Observation horizon ``T`` (samples of a window) of the regions, lookup and moving-horizon
+#: observers.  The enumeration visits up to ``n_modes ** T`` mode sequences and each LP has ``O(T)``
+#: rows and columns: beyond 100 steps nothing finishes (the papers use ``T <= 5``).
+MAX_HORIZON: int = 100
+
+#: Points of a 2-D grid (a region cut ``NX x NY``): each is a membership test over every region
+#: and three floats per state; 10^6 points is a 1000 x 1000 image, finer than any figure shows.
+MAX_GRID_POINTS: int = 1_000_000
+
+#: Local worker processes per core: each forked worker holds a copy of the package and the
+#: problem; more than a few per core only adds start-up time and memory.
+MAX_WORKERS_PER_CORE: int = 4
+
+
+def sample_count(t_final: float, dt: float, t0: float = 0.0) -> float:
+    """Number of samples of the grid ``t0, t0 + dt, ... <= t_final`` (a float: may be astronomically large)."""
+    return math.floor((t_final - t0) / dt + 1e-9) + 1.0
+
+
+def check_samples(n: float, field: str, detail: str = "") -> None:
+    """``ModelError(field)`` if a run of ``n`` samples exceeds :data:`MAX_SAMPLES`.
+
+    ``detail`` says how ``n`` came about (e.g. ``"t_final = 1e+12 s at dt = 0.001 s"``).
+    """
+    if n > MAX_SAMPLES:
+        asked = f"{n:.4g}" if n >= 1e15 else f"{int(n):,}"
+        raise ModelError(field, f"a run of at most {MAX_SAMPLES:,} samples (hybobs_opt.limits.MAX_SAMPLES, about 1 GB)",
+                         f"{asked} samples" + (f" ({detail})" if detail else ""))
+
+
+def check_horizon_limit(T: int, field: str = "horizon T") -> None:
+    """``ModelError(field)`` if the horizon ``T`` exceeds :data:`MAX_HORIZON`."""
+    if T > MAX_HORIZON:
+        raise ModelError(field, f"a horizon of at most {MAX_HORIZON} samples (hybobs_opt.limits.MAX_HORIZON: up to "
+                         "n_modes ** T mode sequences to enumerate)", f"T = {T}")
+
+
+def max_workers() -> int:
+    """The most local worker processes accepted: :data:`MAX_WORKERS_PER_CORE` per core."""
+    import os
+
+    return MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
