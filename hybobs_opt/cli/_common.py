@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from ..errors import ModelError
+from ..limits import MAX_WORKERS_PER_CORE
 
 
 def print_json(obj: Any) -> None:
@@ -88,22 +90,60 @@ def number(text: str) -> float:
     return float(text)
 
 
+#: Address schemes of a Dask scheduler (``--scheduler SCHEME://HOST:PORT``), as ``distributed`` names them.
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+
+_SCHEDULER = re.compile(r"^(?:(?P<scheme>[a-z]+)://)?(?P<host>\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]+)$")
+
+
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """``--executor``, ``--workers``, ``--scheduler``, ``--dask-local``: where the LPs run."""
-    p.add_argument("--executor", choices=("serial", "processes"), default="processes", help="where the LPs run")
-    p.add_argument("--workers", type=int, default=None, help="number of local processes (default: all cores)")
-    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on a Dask distributed scheduler")
+    p.add_argument("--executor", choices=("serial", "processes"), default=None,
+                   help="where the LPs run: serial or processes (default processes)")
+    p.add_argument("--workers", type=int, default=None,
+                   help=f"number of local processes (default: all cores; at most {MAX_WORKERS_PER_CORE} per core)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help=f"run on a Dask distributed scheduler (address schemes: {', '.join(SCHEDULER_SCHEMES)})")
     p.add_argument("--dask-local", type=int, metavar="N", help="start a Dask LocalCluster with N workers")
+
+
+def check_scheduler(address: str) -> None:
+    """``ModelError("--scheduler")`` unless ``address`` is ``[SCHEME://]HOST:PORT`` with a known scheme and a port."""
+    m = _SCHEDULER.match(address or "")
+    scheme = m and m.group("scheme")
+    if not m or (scheme is not None and scheme not in SCHEDULER_SCHEMES) or not 0 < int(m.group("port")) < 65536:
+        raise ModelError("--scheduler", f"a scheduler address SCHEME://HOST:PORT (SCHEME one of {', '.join(SCHEDULER_SCHEMES)}; "
+                         "PORT in 1..65535), e.g. tcp://127.0.0.1:8786", repr(address))
 
 
 def executor_from_args(args: argparse.Namespace):
     from ..executor import make_executor
+    from ..limits import max_workers
 
-    if args.workers is not None and args.workers < 1:
-        raise ModelError("--workers", "a positive number of processes", repr(args.workers))
-    if args.dask_local is not None and args.dask_local < 1:
-        raise ModelError("--dask-local", "a positive number of workers", repr(args.dask_local))
-    return make_executor(args.executor, args.workers, args.scheduler, args.dask_local)
+    dask = [o for o, v in (("--scheduler", args.scheduler), ("--dask-local", args.dask_local)) if v is not None]
+    if len(dask) == 2:
+        raise ModelError("--scheduler", "either --scheduler or --dask-local (one Dask cluster)", "both")
+    if dask and args.executor is not None:
+        raise ModelError("--executor", f"no value with {dask[0]} (the Dask cluster runs the LPs)", repr(args.executor))
+    if args.workers is not None:
+        if dask:
+            raise ModelError("--workers", f"no value with {dask[0]} (the cluster has its own workers)", repr(args.workers))
+        if args.executor == "serial":
+            raise ModelError("--workers", "no value with --executor serial (one process)", repr(args.workers))
+        if args.workers < 1:
+            raise ModelError("--workers", "a positive number of processes", repr(args.workers))
+        if args.workers > max_workers():
+            raise ModelError("--workers", f"at most {max_workers()} processes (hybobs_opt.limits.MAX_WORKERS_PER_CORE = "
+                             f"{MAX_WORKERS_PER_CORE} per core)", repr(args.workers))
+    if args.dask_local is not None:
+        if args.dask_local < 1:
+            raise ModelError("--dask-local", "a positive number of workers", repr(args.dask_local))
+        if args.dask_local > max_workers():
+            raise ModelError("--dask-local", f"at most {max_workers()} local workers (hybobs_opt.limits.MAX_WORKERS_PER_CORE "
+                             f"= {MAX_WORKERS_PER_CORE} per core)", repr(args.dask_local))
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    return make_executor(args.executor or "processes", args.workers, args.scheduler, args.dask_local)
 
 
 #: Help text of the positional system argument of every command.

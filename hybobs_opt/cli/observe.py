@@ -90,8 +90,9 @@ def observe_recorded_nonlinear(named, args) -> dict:
     log = read_log(args.data, named.system)
     if args.gains:
         try:
-            data = json.loads(open(args.gains).read())
-        except (OSError, json.JSONDecodeError) as exc:
+            with open(args.gains, encoding="utf-8") as fh:
+                data = json.loads(fh.read())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ModelError(str(args.gains), "a readable gains JSON written by 'hybobs synth --out'", str(exc)) from None
         gains, source = gains_from_json(named.system, data, str(args.gains)), str(args.gains)
     else:

@@ -7,20 +7,28 @@ point queries from a CSV (``--query``).
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..errors import ModelError
-from ._common import add_executor_arguments, add_system_argument, executor_from_args, load_system, print_json
+from ..limits import MAX_GRID_POINTS, MAX_HORIZON
+from ._common import (add_executor_arguments, add_system_argument, as_options, check_figure_path, check_output_path,
+                      executor_from_args, load_system, print_json)
+
+#: Grid of a cut when --resolution is not given.
+DEFAULT_RESOLUTION = "41x31"
 
 HELP = "observability regions of a PWA system (paper 002, Algorithm 3.1)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, required=True, help="observation horizon T")
+    p.add_argument("--horizon", "-T", type=int, required=True,
+                   help=f"observation horizon T (1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
     p.add_argument("--ts", type=float, default=None, metavar="SECONDS",
                    help="sampling period: discretise an affine hybrid automaton exactly (ZOH) first")
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
-    p.add_argument("--resolution", default="41x31", metavar="NXxNY", help="grid of the cut (default 41x31)")
+    p.add_argument("--resolution", default=DEFAULT_RESOLUTION, metavar="NXxNY",
+                   help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
     p.add_argument("--save", metavar="FILE", help="save the result (JSON) for the lookup observer")
     p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
@@ -29,11 +37,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..limits import check_horizon_limit
     from ..progress import counter_bar
     from ..regions import analyse_observability, compute_cut, parse_assignments, plot_cut, save_analysis
+
+    check_horizon_limit(args.horizon, "--horizon")
+    check_figure_path("--plot", args.plot)
+    check_output_path("--save", args.save)
     named = load_system(args)
     if named.kind == "hybrid_automaton" and args.ts is not None:
-        system = named.system.discretize(args.ts)
+        with as_options({"Ts": "--ts"}):
+            system = named.system.discretize(args.ts)
     elif args.ts is not None:
         raise ModelError("--ts", "only for a hybrid automaton (a PWA system is already discrete-time)", repr(args.ts))
     elif named.kind != "pwa":
@@ -44,13 +58,27 @@ def run(args: argparse.Namespace) -> int:
         system = named.system
     params, label = named.params, named.label
     fixed = parse_assignments(args.cut, system.state_names, "--cut")
+    for key, value in fixed.items():
+        if not math.isfinite(value):
+            raise ModelError(f"--cut {key}", "a finite number", repr(value))
     if fixed and len(fixed) != system.n - 2:
         raise ModelError("--cut", f"values for exactly {system.n - 2} of the states {list(system.state_names)} (two stay free)",
                          f"{sorted(fixed)}")
+    cut_wanted = bool(fixed or args.plot)
+    if cut_wanted:
+        if system.n < 2:
+            raise ModelError("--plot", "a system with at least 2 states (a cut is a plane)", f"{system.n} state")
+        if not fixed and system.n > 2:
+            raise ModelError("--plot", f"a --cut fixing {system.n - 2} states so that a 2-D plane remains", "no --cut")
+        nx, ny = _resolution(args.resolution)
+    elif args.resolution != DEFAULT_RESOLUTION:
+        raise ModelError("--resolution", "--cut or --plot as well (it is the grid of the cut)", repr(args.resolution))
+    points = _read_query(args.query, system.state_names) if args.query else None
     executor = executor_from_args(args)
     update, close = counter_bar(not args.json, "Algorithm 3.1")
     try:
-        analysis = analyse_observability(system, args.horizon, executor=executor, progress=update)
+        with as_options({"horizon T": "--horizon"}):
+            analysis = analyse_observability(system, args.horizon, executor=executor, progress=update)
     finally:
         close()
         executor.close()
@@ -61,14 +89,9 @@ def run(args: argparse.Namespace) -> int:
     if args.save:
         save_analysis(analysis, args.save, label if named.example is not None else None, params)
         out["saved"] = str(args.save)
-    if args.query:
-        out["observable"] = _query_points(analysis, args.query, system.state_names)
-    if fixed or args.plot:
-        if system.n < 2:
-            raise ModelError("--plot", "a system with at least 2 states (a cut is a plane)", f"{system.n} state")
-        if not fixed and system.n > 2:
-            raise ModelError("--plot", f"a --cut fixing {system.n - 2} states so that a 2-D plane remains", "no --cut")
-        nx, ny = _resolution(args.resolution)
+    if points is not None:
+        out["observable"] = [analysis.is_observable(p) for p in points]
+    if cut_wanted:
         update, close = counter_bar(not args.json, "cut")
         try:
             cut = compute_cut(analysis, fixed, (nx, ny), progress=update)
@@ -105,14 +128,28 @@ def _resolution(text: str) -> tuple[int, int]:
         raise ModelError("--resolution", "NXxNY, e.g. 41x31", repr(text)) from None
     if nx < 2 or ny < 2:
         raise ModelError("--resolution", "at least 2 points per axis", repr(text))
+    if nx * ny > MAX_GRID_POINTS:
+        raise ModelError("--resolution", f"at most {MAX_GRID_POINTS:,} grid points (hybobs_opt.limits.MAX_GRID_POINTS)",
+                         f"{text!r}, {nx * ny:,} points")
     return nx, ny
 
 
 def _query_points(analysis, path: str, state_names: tuple[str, ...]) -> list[bool]:
-    import csv
+    """Whether each state of the ``--query`` file is observable (old helper: read, then test)."""
+    return [analysis.is_observable(p) for p in _read_query(path, state_names)]
 
-    with open(path, newline="") as fh:
-        rows = list(csv.reader(fh))
+
+def _read_query(path: str, state_names: tuple[str, ...]) -> list[list[float]]:
+    import csv
+    import math
+
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ModelError(f"--query {path}", "a CSV text file (UTF-8) of states", f"{type(exc).__name__}: {exc}") from None
+    except OSError as exc:
+        raise ModelError(f"--query {path}", "a readable CSV file of states", f"{type(exc).__name__}: {exc.strerror or exc}") from None
     if not rows:
         raise ModelError(f"--query {path}", "a header row naming the states", "an empty file")
     header = [h.strip() for h in rows[0]]
@@ -127,5 +164,7 @@ def _query_points(analysis, path: str, state_names: tuple[str, ...]) -> list[boo
             values = [float(row[c]) for c in order]
         except (ValueError, IndexError):
             raise ModelError(f"--query {path} line {k}", f"{len(state_names)} numbers", repr(row)) from None
+        if len(row) != len(header) or not all(math.isfinite(v) for v in values):
+            raise ModelError(f"--query {path} line {k}", f"{len(header)} finite numbers (one per column of the header)", repr(row))
         points.append(values)
-    return [analysis.is_observable(p) for p in points]
+    return points

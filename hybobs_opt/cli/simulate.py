@@ -8,6 +8,7 @@ import math
 import time
 
 from ..errors import ModelError
+from ..limits import MAX_SAMPLES
 from ._common import add_system_argument, as_options, check_figure_path, check_output_path, load_system, print_json
 
 HELP = "simulate a system (an example on its paper's scenario, or any system from --x0 under --u)"
@@ -15,7 +16,7 @@ HELP = "simulate a system (an example on its paper's scenario, or any system fro
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     p.add_argument("--t-final", type=float, default=None,
-                   help="final time in seconds (at most hybobs_opt.limits.MAX_SAMPLES = 10,000,000 samples)")
+                   help=f"final time in seconds (a run of at most {MAX_SAMPLES:,} samples: hybobs_opt.limits.MAX_SAMPLES)")
     p.add_argument("--x0", action="append", metavar="STATE=VALUE",
                    help="initial state (repeat; default: centre of the state bounds). Not for examples")
     p.add_argument("--u", action="append", metavar="INPUT=VALUE",

@@ -35,9 +35,12 @@ def read_model_dict(path: str | Path) -> dict[str, Any]:
     if kind is None:
         raise ModelError(str(path), f"a model file ending in {', '.join(MODEL_SUFFIXES)}", repr(path.suffix))
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ModelError(str(path), "a readable model file", f"{type(exc).__name__}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:  # a binary file, or text in another encoding
+        raise ModelError(str(path), f"a {kind.upper()} text file in UTF-8",
+                         f"undecodable byte 0x{exc.object[exc.start]:02x} at offset {exc.start} (a binary file?)") from None
     try:
         if kind == "json":
             data = json.loads(text)
