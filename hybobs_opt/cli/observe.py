@@ -6,16 +6,15 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ._common import add_system_argument, load_system, print_json
+from ._common import (add_system_argument, as_options, check_figure_path, check_output_path, load_system,
+                      print_json)
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--observer", default=None, metavar="KIND",
-                   help="observer kind (with --data: lookup, miqp, milp, milp_inf for a PWA system, default lookup; "
-                        "switched for a scalar-nonlinear one)")
+    p.add_argument("--observer", default=None, metavar="KIND", help=_observer_help)
     p.add_argument("--data", metavar="LOG.csv", help="recorded inputs and outputs, columns named by the system "
                    "(optional: t or time, the true states)")
     p.add_argument("--horizon", "-T", type=int, default=None, help="observation horizon T (with --data; default 3)")
@@ -28,7 +27,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
+def _observer_help() -> str:
+    """The ``--observer`` help: the kinds of every example's scenario and of a log (shown by ``--help`` only)."""
+    from ..studies import list_examples
+
+    per_example = "; ".join(f"{ex.name}: {', '.join(ex.observers)}" for ex in list_examples() if ex.observers)
+    return ("observer kind, the first listed is the default. On an example's scenario: " + per_example
+            + ". With --data: lookup, miqp, milp, milp_inf for a PWA system (default lookup); switched for a "
+            "scalar-nonlinear one")
+
+
+def check_scenario_options(example, args: argparse.Namespace) -> None:
+    """The options of ``hybobs observe EXAMPLE`` (no --data) against what the example's scenario runs."""
+    if args.param:
+        raise ModelError("--param", f"no value for the observer scenario of {example.name!r} (it runs the paper's plant; "
+                         "simulate another one and pass it with --data LOG.csv)", repr(args.param[0]))
+    if example.observers and args.observer is not None and args.observer not in example.observers:
+        raise ModelError("--observer", f"one of {', '.join(example.observers)} (the observers of the scenario of "
+                         f"{example.name!r})", repr(args.observer))
+    if example.observers and args.filter and not example.observer_filter:
+        raise ModelError("--filter", f"no --filter for {example.name!r} (the filtered variant belongs to the sliding-mode "
+                         "observers of paper 001: switched_unstable, triangular, double_scroll)", "--filter")
+
+
 def run(args: argparse.Namespace) -> int:
+    check_figure_path("--plot", args.plot)
+    check_output_path("--out", args.out)
     named = load_system(args)
     if args.data is None:
         for option in ("horizon", "regions", "out", "gains"):
@@ -38,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--data", f"a CSV log for {named.label!r} (only the shipped examples have scenarios)", "none")
         from ..studies.scenarios import get_scenario
 
+        check_scenario_options(named.example, args)
         summary = get_scenario(named.example.name)(args)
     elif named.kind == "scalar_nonlinear":
         summary = observe_recorded_nonlinear(named, args)
@@ -58,11 +83,15 @@ def open_log(named, args):
     from ..sim.log import read_log
     from ._common import require_kind
 
+    from ..limits import check_horizon_limit
+
     require_kind(named, ("pwa",), "the PWA observers of paper 002 on recorded data")
     if getattr(args, "gains", None):
         raise ModelError("--gains", "no value for a PWA system (switched gains belong to scalar-nonlinear systems)", "a file")
     if args.horizon is not None and args.horizon < 1:
         raise ModelError("--horizon", "a horizon T >= 1", repr(args.horizon))
+    if args.horizon is not None:
+        check_horizon_limit(args.horizon, "--horizon")
     analysis = None
     if args.regions:
         from ..regions import load_analysis
@@ -84,16 +113,18 @@ def observe_recorded_nonlinear(named, args) -> dict:
     kind = args.observer or "switched"
     if kind != "switched":
         raise ModelError("--observer", "switched (the observer of a scalar-nonlinear system on a log)", repr(kind))
-    for option in ("horizon", "regions", "filter"):
+    for option in ("horizon", "regions"):
         if getattr(args, option):
             raise ModelError(f"--{option}", "no value for a scalar-nonlinear system (it belongs to the PWA observers)", "a value")
+    if args.filter:
+        raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
     log = read_log(args.data, named.system)
     if args.gains:
         try:
             with open(args.gains, encoding="utf-8") as fh:
                 data = json.loads(fh.read())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ModelError(str(args.gains), "a readable gains JSON written by 'hybobs synth --out'", str(exc)) from None
+            raise ModelError(f"--gains {args.gains}", "a readable gains JSON written by 'hybobs synth --out'", str(exc)) from None
         gains, source = gains_from_json(named.system, data, str(args.gains)), str(args.gains)
     else:
         from ..lmi.auto_design import design_settings, design_switched
@@ -120,13 +151,15 @@ def _write_outputs(summary: dict, trace, log, args, title: str) -> dict:
 
 
 def observe_recorded(named, args) -> dict:
-    from ..observers.recorded import observe_log
+    from ..observers.recorded import check_observer_kinds, observe_log
     from ..progress import phase_bars
 
-    log, horizon, analysis = open_log(named, args)
     kind = args.observer or "lookup"
     if args.filter:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
+    with as_options({"observer": "--observer"}):
+        check_observer_kinds([kind])
+    log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
         trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress)[kind]
