@@ -9,21 +9,31 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ._common import add_system_argument, load_system, print_json
+from ..limits import MAX_HORIZON, MAX_SAMPLES
+from ._common import add_system_argument, as_options, check_figure_path, load_system, print_json
+
+#: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
+OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf")
+DEFAULT_OBSERVERS = "lookup,miqp,milp"
+#: Samples of the bench scenario when --steps is not given (3 s at 1 ms).
+DEFAULT_STEPS = 3000
 
 HELP = "lookup observer vs MIQP/MILP moving-horizon observers on one scenario or CSV log (paper 002, Section 7)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, default=3, help="observation horizon T (default 3)")
+    p.add_argument("--horizon", "-T", type=int, default=3, help=f"observation horizon T (default 3, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="compare the observers on this recorded log (any PWA system)")
     p.add_argument("--regions", metavar="FILE", help="with --data: saved analysis for the lookup observer")
-    p.add_argument("--steps", type=int, default=3000, help="number of samples of the scenario (1 ms each)")
+    p.add_argument("--steps", type=int, default=None,
+                   help=f"number of samples of the scenario (1 ms each; default {DEFAULT_STEPS}, at most {MAX_SAMPLES:,})")
     p.add_argument("--noise", type=float, default=0.0, help="standard deviation of output noise (rad/s)")
-    p.add_argument("--observers", default="lookup,miqp,milp", help="comma-separated: lookup, miqp, milp, milp_inf")
-    p.add_argument("--mhe-steps", type=int, default=None, help="run the MHE observers on the first N steps only")
-    p.add_argument("--seed", type=int, default=0, help="noise seed")
+    p.add_argument("--observers", default=DEFAULT_OBSERVERS,
+                   help=f"comma-separated, among: {', '.join(OBSERVER_NAMES)} (default {DEFAULT_OBSERVERS})")
+    p.add_argument("--mhe-steps", type=int, default=None,
+                   help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
+    p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
     p.add_argument("--plot", metavar="FILE", help="PNG like the paper's Figs. 7-9")
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
@@ -31,7 +41,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..progress import phase_bars
 
-    observers = [s.strip() for s in args.observers.split(",") if s.strip()]
+    observers = parse_observers(args.observers)
+    check_figure_path("--plot", args.plot)
+    if args.horizon < 1 or args.horizon > MAX_HORIZON:
+        raise ModelError("--horizon", f"a horizon T in 1..{MAX_HORIZON} (hybobs_opt.limits.MAX_HORIZON)", repr(args.horizon))
+    if args.mhe_steps is not None:
+        if args.mhe_steps < 1:
+            raise ModelError("--mhe-steps", "a positive number of steps", repr(args.mhe_steps))
+        if not set(observers) & {"miqp", "milp", "milp_inf"}:
+            raise ModelError("--mhe-steps", "a moving-horizon observer (miqp, milp, milp_inf) in --observers as well",
+                             repr(args.observers))
+    if args.seed is not None:
+        if args.seed < 0:
+            raise ModelError("--seed", "a non-negative integer (numpy's random generator)", repr(args.seed))
+        if args.data is None and not args.noise:
+            raise ModelError("--seed", "--noise as well (the seed draws the output noise)", "no --noise")
     named = load_system(args)
     if args.data is not None:
         summary = bench_recorded(named, args, observers)
@@ -43,10 +67,14 @@ def run(args: argparse.Namespace) -> int:
                              f"have a bench scenario)", f"none for {named.label!r}")
         if args.regions:
             raise ModelError("--regions", "--data as well (the scenario computes its own analysis)", "no --data")
+        steps = DEFAULT_STEPS if args.steps is None else args.steps
+        if steps > MAX_SAMPLES:
+            raise ModelError("--steps", f"at most {MAX_SAMPLES:,} samples (hybobs_opt.limits.MAX_SAMPLES)", repr(steps))
         progress, close = phase_bars(not args.json)
         try:
-            summary = run_bench(named.example.name, args.horizon, args.steps, args.noise, observers, args.mhe_steps,
-                                args.plot, args.seed, progress=progress, params=named.params)
+            with as_options({"horizon T": "--horizon"}):
+                summary = run_bench(named.example.name, args.horizon, steps, args.noise, observers, args.mhe_steps,
+                                    args.plot, args.seed or 0, progress=progress, params=named.params)
         finally:
             close()
     summary.setdefault("system", named.label)
@@ -64,13 +92,28 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def parse_observers(text: str) -> list[str]:
+    """``--observers a,b`` -> ``[a, b]``: at least one, each known, none twice."""
+    names = [s.strip() for s in text.split(",")]
+    if not any(names):
+        raise ModelError("--observers", f"at least one of {', '.join(OBSERVER_NAMES)} (comma-separated)", repr(text))
+    for name in names:
+        if name not in OBSERVER_NAMES:
+            raise ModelError("--observers", f"comma-separated names among {', '.join(OBSERVER_NAMES)}",
+                             repr(name) if name else f"an empty name in {text!r}")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ModelError("--observers", "each observer once", f"{', '.join(twice)} twice in {text!r}")
+    return names
+
+
 def bench_recorded(named, args, observers: list[str]) -> dict:
     """Every observer of ``observers`` on the log ``args.data`` (same data, same analysis)."""
     from ..observers.recorded import observe_log
     from ..progress import phase_bars
     from .observe import open_log
 
-    for option, default in (("noise", 0.0), ("mhe_steps", None), ("plot", None)):
+    for option, default in (("noise", 0.0), ("mhe_steps", None), ("plot", None), ("steps", None), ("seed", None)):
         if getattr(args, option) != default:
             raise ModelError(f"--{option.replace('_', '-')}", "no value with --data (the log is the data)", repr(getattr(args, option)))
     log, horizon, analysis = open_log(named, args)
