@@ -4,50 +4,93 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ._common import SYSTEM_HELP, load_system, print_json
+from ..limits import MAX_HORIZON
+from ._common import SYSTEM_HELP, as_options, examples_help, load_system, print_json
+
+#: Horizon of the PWA sections of ``report SYSTEM`` when --horizon is not given.
+DEFAULT_HORIZON = 2
+
+
+def _section_help() -> str:
+    from ..report.html import section_keys
+
+    return f"build only these sections of the report of every result (repeatable), among: {', '.join(section_keys())}"
 
 HELP = "build the HTML report of every result, or of one system"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("system", nargs="?", default=None, metavar="SYSTEM", help="optional: " + SYSTEM_HELP)
+    p.add_argument("system", nargs="?", default=None, metavar="SYSTEM",
+                   help=lambda: f"optional: {SYSTEM_HELP}; the examples: {examples_help()}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument("--section", action="append", metavar="KEY", help="build only these sections (report of every result)")
-    p.add_argument("--horizon", "-T", type=int, default=2, help="with SYSTEM: horizon of the PWA sections (default 2)")
-    p.add_argument("--data", metavar="LOG.csv", help="with SYSTEM (PWA): compare the observers on this log")
+    p.add_argument("--section", action="append", metavar="KEY", help=_section_help)
+    p.add_argument("--horizon", "-T", type=int, default=None,
+                   help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
+    p.add_argument("--data", metavar="LOG.csv", help="with a PWA SYSTEM: compare the observers on this log")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..progress import status_line
 
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ModelError("--out", "a directory (it receives index.html and the figures)", f"{args.out!r}, an existing file")
+    named = None
     if args.system is None:
-        for option in ("param", "data"):
-            if getattr(args, option):
+        for option in ("param", "data", "horizon"):
+            if getattr(args, option) is not None:
                 raise ModelError(f"--{option}", "a SYSTEM as well (it applies to the report of one system)", "no SYSTEM")
-    elif args.section:
-        raise ModelError("--section", "no --section with SYSTEM (the sections follow the system's class)", f"{args.section}")
-    if args.horizon < 1:
-        raise ModelError("--horizon", "a horizon T >= 1", repr(args.horizon))
+        if args.section:
+            from ..report.html import section_keys
+
+            keys = section_keys()
+            unknown = [k for k in args.section if k not in keys]
+            if unknown:
+                raise ModelError("--section", f"section keys among {', '.join(keys)}", repr(unknown[0]))
+    else:
+        if args.section:
+            raise ModelError("--section", "no --section with SYSTEM (the sections follow the system's class)", f"{args.section}")
+        if args.horizon is not None and not 1 <= args.horizon <= MAX_HORIZON:
+            raise ModelError("--horizon", f"a horizon T in 1..{MAX_HORIZON} (hybobs_opt.limits.MAX_HORIZON)", repr(args.horizon))
+        named = load_system(args)
+        if named.kind != "pwa":
+            for option in ("horizon", "data"):
+                if getattr(args, option) is not None:
+                    raise ModelError(f"--{option}", f"no value for a {named.kind.replace('_', '-')} system (it applies to "
+                                     "the PWA sections: regions, observers)", repr(getattr(args, option)))
+        elif args.horizon is not None:
+            from ..regions.enumeration import check_horizon
+
+            with as_options({"horizon T": "--horizon"}):
+                check_horizon(named.system, args.horizon)
+        if args.data is not None:
+            from ..sim.log import read_log
+
+            read_log(args.data, named.system)  # a bad log is bad input, not a failed section
     update, close = status_line(not args.json)
     try:
-        if args.system is None:
+        if named is None:
             from ..report import build_report
 
             result = build_report(args.out, progress=update, only=args.section)
         else:
             from ..report.system_report import build_system_report
 
-            named = load_system(args)
-            result = build_system_report(named.system, named.label, args.out, horizon=args.horizon, data=args.data,
+            horizon = DEFAULT_HORIZON if args.horizon is None else args.horizon
+            result = build_system_report(named.system, named.label, args.out, horizon=horizon, data=args.data,
                                          progress=update)
             result["system"] = named.label
     finally:
         close()
+    failed = [r for r in result["sections"] if not r["ok"]]
+    if failed:
+        result["error"] = (f"{len(failed)} of {len(result['sections'])} sections failed: "
+                           + "; ".join(f"{r['key']} ({r['error']})" for r in failed))
     if args.json:
         print_json(result)
     else:
@@ -55,4 +98,6 @@ def run(args: argparse.Namespace) -> int:
             status = "ok" if rec["ok"] else f"FAILED: {rec['error']}"
             print(f"  {rec['title']}: {status} ({rec['seconds']:.1f} s)")
         print(f"report written to {Path(result['index']).resolve()}")
-    return 0 if all(r["ok"] for r in result["sections"]) else 2
+        if failed:
+            print(f"hybobs report: error: {' '.join(result['error'].split())}", file=sys.stderr)
+    return 0 if not failed else 2
