@@ -15,14 +15,35 @@ DEFAULT_DIAGNOSE_OUT = "out/diagnose"
 _RANGE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:]+):([^:]+?)\s*(deg|rad)?\s*$")
 
 
-def parse_range(text: str, preset, state_names: tuple[str, ...]) -> tuple[float, float]:
+#: Options of a design from the model -> the parameter of :func:`hybobs_opt.lmi.auto_design.design_settings`
+#: they are passed as (core errors name the parameter; the CLI names the option).
+DESIGN_OPTIONS = {"gain_bound": "--gain-bound", "min_decay": "--min-decay", "overlap": "--overlap",
+                  "max_rate": "--max-rate", "range": "--range", "coordinate": "--coordinate",
+                  "scheduling coordinate": "--coordinate", "condition": "--condition"}
+
+
+def check_range_in_box(system, name: str, lo: float, hi: float, unit: str = "", factor: float = 1.0) -> None:
+    """``ModelError("--range")`` unless ``[lo, hi]`` (display units: model units / ``factor``) lies in the
+    system's operating box of the state ``name`` (outside it a grown region is empty; checked before any LMI)."""
+    from ..tolerances import MEMBERSHIP_RTOL
+
+    k = list(system.state_names).index(name)
+    blo, bhi = float(system.box_lower[k]) / factor, float(system.box_upper[k]) / factor
+    if lo < blo - MEMBERSHIP_RTOL * (1 + abs(blo)) or hi > bhi + MEMBERSHIP_RTOL * (1 + abs(bhi)):
+        show = f"[{blo:g}, {bhi:g}]" + (f" {unit}" if unit else "")
+        raise ModelError("--range", f"a range inside the operating range of {name}, {show} (beyond it a region of the "
+                         "design would be an empty region)", f"{lo:g}:{hi:g}")
+
+
+def parse_range(text: str, preset, state_names: tuple[str, ...], system=None) -> tuple[float, float]:
     """``NAME=LO:HI[deg|rad]`` -> ``(lo, hi)`` in the preset's display units.
 
     Raises
     ------
     ModelError
         Malformed text, a coordinate other than the preset's scheduling state, non-numbers,
-        non-finite values, or ``LO >= HI`` (lower bound above upper bound / an empty range).
+        non-finite values, or ``LO >= HI`` (lower bound above upper bound / an empty range);
+        with ``system``, a range beyond its operating box.
     """
     name, lo, hi, unit = _split_range(text, state_names, f"{preset.coordinate}={preset.diagnose_range[0]:g}:{preset.diagnose_range[1]:g}",
                                       "example")
@@ -34,6 +55,8 @@ def parse_range(text: str, preset, state_names: tuple[str, ...]) -> tuple[float,
         raise ModelError("--range", f"values in {preset.unit or 'model units'} (no deg suffix)", repr(text))
     if not lo < hi:
         raise ModelError("--range", "LO < HI (a lower bound below the upper bound; a non-empty range)", f"{lo:g}:{hi:g}")
+    if system is not None:
+        check_range_in_box(system, name, lo, hi, preset.unit, preset.factor)
     return lo, hi
 
 
@@ -85,7 +108,7 @@ def design_setup(args: argparse.Namespace):
     """``(named, preset, settings)``: the preset path (``settings`` None) for a paper example, the model path otherwise."""
     from ..lmi.auto_design import design_settings
     from ..studies.paper004_nonmonotonic.presets import PRESETS
-    from ._common import load_system, require_kind
+    from ._common import as_options, load_system, require_kind
 
     named = load_system(args)
     require_kind(named, ("scalar_nonlinear",), "the observer LMIs of paper 004")
@@ -109,10 +132,15 @@ def design_setup(args: argparse.Namespace):
             raise ModelError("--range", "LO < HI (a non-empty range)", f"{lo:g}:{hi:g}")
         if coordinate is not None and coordinate != name:
             raise ModelError("--range", f"the coordinate given by --coordinate ({coordinate})", repr(name))
+        check_range_in_box(named.system, name, lo, hi)
         coordinate = name
     if coordinate is not None and coordinate not in named.system.state_names:
         raise ModelError("--coordinate", f"a state of the system ({', '.join(named.system.state_names)})", repr(coordinate))
     rate = getattr(args, "max_rate", None)
-    settings = design_settings(named.system, coordinate, lo, hi, gain_bound=args.gain_bound, min_decay=args.min_decay,
-                               overlap=args.overlap, rate=rate, condition=getattr(args, "condition", None))
+    with as_options(DESIGN_OPTIONS):
+        settings = design_settings(named.system, coordinate, lo, hi, gain_bound=args.gain_bound, min_decay=args.min_decay,
+                                   overlap=args.overlap, rate=rate, condition=getattr(args, "condition", None))
+    if args.overlap is not None and not settings.overlap < settings.hi - settings.lo:
+        raise ModelError("--overlap", f"a hysteresis smaller than the range of {settings.coordinate}, "
+                         f"{settings.hi - settings.lo:g} (model units)", repr(args.overlap))
     return named, None, settings

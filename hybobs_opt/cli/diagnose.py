@@ -16,7 +16,9 @@ radians explicitly.  (This module is also the old ``hybobs_opt.lmi.commands``.)
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
+from ..errors import ModelError
 from ._common import add_system_argument, file_slug, print_json
 from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
 
@@ -36,10 +38,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..report.lmi_section import write_diagnosis_report
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
+    out_dir = Path(args.out or DEFAULT_DIAGNOSE_OUT)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ModelError("--out", "a directory (it receives the Markdown and HTML reports)", f"{str(out_dir)!r}, an existing file")
     named, preset, settings = design_setup(args)
     system = named.system
     if preset is not None:
-        lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.diagnose_range
+        lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.diagnose_range
         coordinate, unit = preset.coordinate, preset.unit
         diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
                         factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ._common import add_system_argument, json_default, print_json
+from ._common import add_system_argument, check_output_path, json_default, print_json
 from ._schedule import add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
@@ -49,6 +49,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.max_rate is not None and not (math.isfinite(args.max_rate) and args.max_rate > 0):
         raise ModelError("--max-rate", "a positive rate of the scheduling state (its unit per second)", repr(args.max_rate))
+    if args.periodic and args.no_verify:
+        raise ModelError("--periodic", "no value with --no-verify (the verification's observer wraps the periodic states)",
+                         repr(args.periodic[0]))
+    check_output_path("--out", args.out)
     named, preset, settings = design_setup(args)
     system = named.system
     periodic = _periodic(args.periodic, system)
@@ -56,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DwellTimeWarning)  # reported in the JSON and printed below
         if preset is not None:
-            lo, hi = parse_range(args.range, preset, system.state_names) if args.range else preset.synth_range
+            lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.synth_range
             design = preset_design(named.example.name, system, lo, hi, rate=args.max_rate,
                                    accept_unenforced_dwell=accept)
             unit, factor = preset.unit, preset.factor
@@ -123,5 +127,7 @@ def _periodic(items: list[str], system) -> dict[str, float] | None:
         if not sep or name not in system.state_names or not (math.isfinite(period) and period > 0):
             raise ModelError("--periodic", f"STATE=PERIOD with STATE one of {system.state_names} and a positive period",
                              repr(item))
+        if name in out:
+            raise ModelError("--periodic", f"each state once ({name} is given twice)", repr(item))
         out[name] = period
     return out or None
