@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import SYSTEM_HELP, load_system, print_json
+from ._common import SYSTEM_HELP, check_output_path, examples_help, load_system, print_json
 
 HELP = "model files: print the JSON Schema, check a model, export a system as a model file"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("action", choices=("schema", "check", "export"), help="what to do")
-    p.add_argument("system", nargs="?", metavar="SYSTEM", help="for check/export: " + SYSTEM_HELP)
+    p.add_argument("system", nargs="?", metavar="SYSTEM",
+                   help=lambda: f"for check/export: {SYSTEM_HELP}; the examples: {examples_help()}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
     p.add_argument("--out", metavar="FILE", help="export: the model file to write (.toml, .yaml, .json)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -29,10 +30,18 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "schema":
         from ..systems.model_file import model_schema
 
+        for option, value in (("SYSTEM", args.system), ("--param", args.param), ("--out", args.out)):
+            if value:
+                raise ModelError(option, "no value for 'model schema' (it prints the JSON Schema of model files)",
+                                 repr(value if isinstance(value, str) else value[0]))
+
         print_json(model_schema())
         return 0
     if not args.system:
         raise ModelError("SYSTEM", f"a system to {args.action}", "none")
+    if args.action == "check" and args.out:
+        raise ModelError("--out", "no value for 'model check' (export writes a model file)", repr(args.out))
+    check_output_path("--out", args.out)
     named = load_system(args)
     if args.action == "export":
         from ..systems.model_file import save_model
