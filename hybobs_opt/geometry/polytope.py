@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from .._validate import as_matrix, as_names, as_vector
+from .._validate import as_int, as_items, as_matrix, as_names, as_vector
 from ..errors import ModelError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
@@ -48,6 +48,11 @@ from .volume import VolumeEstimate, monte_carlo_volume
 #: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
 #: (qhull on the vertices) are offered; above it the volume is estimated by Monte Carlo.
 VERTEX_MAX_DIM: int = 4
+
+
+def _check_polytope(value, field: str) -> None:
+    if not isinstance(value, Polytope):
+        raise ModelError(field, "a Polytope", type(value).__name__)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,27 +93,29 @@ class Polytope:
         """Axis-aligned box ``lower <= z <= upper``; raises if a lower bound exceeds its upper bound."""
         lo = as_vector(lower, "lower", None)
         hi = as_vector(upper, "upper", lo.size)
+        names = as_names(names, "names", lo.size, "z")
         bad = np.nonzero(lo > hi)[0]
         if bad.size:
             i = int(bad[0])
-            label = names[i] if names else f"z{i + 1}"
-            raise ModelError(f"bounds of {label}", "lower <= upper", f"[{lo[i]}, {hi[i]}]")
+            raise ModelError(f"bounds of {names[i]}", "lower <= upper", f"[{lo[i]}, {hi[i]}]")
         d = lo.size
         A = np.vstack([np.eye(d), -np.eye(d)])
         b = np.concatenate([hi, -lo])
-        return cls(A, b, tuple(names) if names else ())
+        return cls(A, b, names)
 
     @classmethod
     def empty(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
         """The empty set of ``R^dim``, written as the rows ``z1 <= -1`` and ``-z1 <= 0``."""
+        dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         A = np.zeros((2, dim))
         A[0, 0], A[1, 0] = 1.0, -1.0
-        return cls(A, np.array([-1.0, 0.0]), tuple(names) if names else ())
+        return cls(A, np.array([-1.0, 0.0]), as_names(names, "names", dim, "z"))
 
     @classmethod
     def whole_space(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
         """The unconstrained set ``R^dim`` (no rows)."""
-        return cls(np.zeros((0, dim)), np.zeros(0), tuple(names) if names else ())
+        dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
+        return cls(np.zeros((0, dim)), np.zeros(0), as_names(names, "names", dim, "z"))
 
     # ------------------------------------------------------------------ basic queries
     @property
@@ -205,12 +212,14 @@ class Polytope:
     # ------------------------------------------------------------------ combinations
     def intersect(self, other: "Polytope") -> "Polytope":
         """Intersection with a polytope of the same dimension."""
+        _check_polytope(other, "other")
         if other.dim != self.dim:
             raise ModelError("other", f"a polytope of dimension {self.dim}", f"dimension {other.dim}")
         return Polytope(np.vstack([self.A, other.A]), np.concatenate([self.b, other.b]), self.names)
 
     def product(self, other: "Polytope") -> "Polytope":
         """Cartesian product ``self x other`` (coordinates concatenated)."""
+        _check_polytope(other, "other")
         A = np.block(
             [
                 [self.A, np.zeros((self.n_constraints, other.dim))],
@@ -224,12 +233,17 @@ class Polytope:
 
     def lift(self, dim: int, coords: Sequence[int], names: Sequence[str] | None = None) -> "Polytope":
         """Embed into ``R^dim``: the constraint acts on ``coords`` of the larger space only."""
-        coords = list(coords)
+        dim = as_int(dim, "dim", self.dim, f"a dimension (an integer >= {self.dim}, this polytope's)")
+        coords = [as_int(c, f"coords[{i}]", 0, f"a coordinate index in 0..{dim - 1}")
+                  for i, c in enumerate(as_items(coords, "coords", (int, np.integer), "coordinate indices"))]
         if len(coords) != self.dim:
             raise ModelError("coords", f"{self.dim} coordinate indices", f"{len(coords)}")
+        for i, c in enumerate(coords):
+            if c >= dim or coords.index(c) != i:
+                raise ModelError(f"coords[{i}]", f"distinct coordinate indices in 0..{dim - 1}", repr(c))
         A = np.zeros((self.n_constraints, dim))
         A[:, coords] = self.A
-        return Polytope(A, self.b.copy(), tuple(names) if names else ())
+        return Polytope(A, self.b.copy(), as_names(names, "names", dim, "z"))
 
     # ------------------------------------------------------------------ coordinates, cuts, maps
     def index_of(self, coord: int | str) -> int:
