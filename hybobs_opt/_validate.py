@@ -1,12 +1,17 @@
-"""Shape and finiteness checks shared by every model dataclass.
+"""Type, shape and finiteness checks shared by every model dataclass.
 
-Each function converts its input to a float numpy array, checks it, and raises a
-:class:`~hybobs_opt.errors.ModelError` that names the field and the expected shape.
+Each function checks its input *before* it is used and raises a
+:class:`~hybobs_opt.errors.ModelError` that names the field and what was expected.  Nothing is
+coerced silently (issue 16): complex entries are refused (``float()`` would drop the imaginary
+part), and so are booleans, strings and ``None`` where numbers are expected; names must be
+non-empty strings, distinct, and given as a list (a plain string is not split into characters);
+an integer is an ``int``, not ``2.0``, ``"2"`` or ``True``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import numbers
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -17,12 +22,45 @@ def _describe(arr: np.ndarray) -> str:
     return f"shape {arr.shape}"
 
 
+def _short(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def real_array(value, field: str, what: str = "numbers") -> np.ndarray:
+    """``value`` as a new float array, refusing what a float conversion would change or invent.
+
+    Refused: ``None``, strings and bytes (``np.array("1", dtype=float)`` reads them), complex
+    entries (the imaginary part would be dropped), booleans, ragged nested lists and entries
+    that are not real numbers (``None`` inside a list, objects).  Finiteness is not checked here.
+    """
+    if value is None or isinstance(value, (str, bytes)):
+        raise ModelError(field, what, _short(value))
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # ragged nested lists, objects numpy cannot read
+        raise ModelError(field, what, f"{type(value).__name__} ({exc})") from None
+    kind = arr.dtype.kind
+    if kind == "c":
+        raise ModelError(field, f"{what} with real entries", f"complex entries (dtype {arr.dtype}; the imaginary part "
+                         "would be dropped)")
+    if kind == "b":
+        raise ModelError(field, what, f"booleans ({_short(arr.tolist())})")
+    if kind == "O":
+        for v in arr.flat:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+                raise ModelError(field, what, f"an entry {_short(v)} of type {type(v).__name__}")
+    elif kind not in "iuf":
+        raise ModelError(field, what, f"entries of dtype {arr.dtype} ({_short(value)})")
+    try:
+        return np.array(arr, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ModelError(field, what, f"{type(value).__name__} ({exc})") from None
+
+
 def as_matrix(value, field: str, shape: tuple[int | None, int | None]) -> np.ndarray:
     """Return ``value`` as a finite, read-only float matrix of ``shape`` (``None`` = any size)."""
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(field, "a numeric matrix", f"{type(value).__name__} ({exc})") from None
+    arr = real_array(value, field, f"a numeric matrix of shape {_fmt(shape)}")
     if arr.ndim == 1 and shape[1] == 1:
         arr = arr.reshape(-1, 1)
     if arr.ndim != 2:
@@ -37,10 +75,7 @@ def as_matrix(value, field: str, shape: tuple[int | None, int | None]) -> np.nda
 
 def as_vector(value, field: str, size: int | None) -> np.ndarray:
     """Return ``value`` as a finite, read-only 1-D float vector of length ``size``."""
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(field, "a numeric vector", f"{type(value).__name__} ({exc})") from None
+    arr = real_array(value, field, "a numeric vector" + ("" if size is None else f" of length {size}"))
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim == 2 and 1 in arr.shape:
@@ -61,16 +96,100 @@ def check_finite(arr: np.ndarray, field: str) -> None:
         raise ModelError(field, "finite entries", f"{arr[tuple(bad)]} at index {tuple(int(i) for i in bad)}")
 
 
-def as_names(value: Sequence[str] | None, field: str, size: int, default_prefix: str) -> tuple[str, ...]:
-    """Return a tuple of ``size`` distinct identifier-like names (``x1, x2, ...`` by default)."""
-    if value is None or len(value) == 0:
-        return tuple(f"{default_prefix}{i + 1}" for i in range(size))
-    names = tuple(str(v) for v in value)
+def as_real(value, field: str, what: str = "a real number") -> float:
+    """A real scalar (``int``, ``float``, numpy real): not a bool, string, complex or ``None``; may be inf/NaN."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ModelError(field, what, f"{_short(value)} of type {type(value).__name__}")
+    return float(value)
+
+
+def as_int(value, field: str, minimum: int | None = None, what: str | None = None) -> int:
+    """An integer (``int`` or numpy integer; not a bool, ``2.0`` or ``"2"``), at least ``minimum``."""
+    what = what or ("an integer" if minimum is None else f"an integer >= {minimum}")
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ModelError(field, what, f"{_short(value)} of type {type(value).__name__}")
+    if minimum is not None and int(value) < minimum:
+        raise ModelError(field, what, repr(int(value)))
+    return int(value)
+
+
+def as_text(value, field: str, allow_empty: bool = False) -> str:
+    """A string (non-empty unless ``allow_empty``; whitespace alone counts as empty)."""
+    if not isinstance(value, str):
+        raise ModelError(field, "a string" if allow_empty else "a non-empty string",
+                         f"{_short(value)} of type {type(value).__name__}")
+    if not allow_empty and not value.strip():
+        raise ModelError(field, "a non-empty string", repr(value))
+    return str(value)
+
+
+def names_or_default(value, field: str, defaults: tuple[str, ...]) -> tuple[str, ...]:
+    """``len(defaults)`` distinct non-empty names from a list or tuple, or ``defaults`` for ``None``/empty.
+
+    A plain string is refused (it is not split into characters), and so is any entry that is
+    not a string (``None``, ints: they are not turned into ``"None"``, ``"1"``).
+    """
+    size = len(defaults)
+    if value is None:
+        return defaults
+    if isinstance(value, (str, bytes)):
+        raise ModelError(field, f"a list of {size} names", f"the single string {_short(value)} (write [{_short(value)}])")
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
+    if not isinstance(value, Sequence):
+        raise ModelError(field, f"a list or tuple of {size} names", f"{_short(value)} of type {type(value).__name__}")
+    if len(value) == 0:
+        return defaults
+    names = tuple(as_text(v, f"{field}[{i}]") for i, v in enumerate(value))
     if len(names) != size:
         raise ModelError(field, f"{size} names", f"{len(names)} names {names}")
     if len(set(names)) != len(names):
-        raise ModelError(field, "distinct names", f"{names}")
+        dup = next(nm for nm in names if names.count(nm) > 1)
+        raise ModelError(field, "distinct names", f"{names} ({dup!r} twice)")
     return names
+
+
+def as_names(value: Sequence[str] | None, field: str, size: int, default_prefix: str) -> tuple[str, ...]:
+    """Return a tuple of ``size`` distinct non-empty names (``x1, x2, ...`` by default)."""
+    return names_or_default(value, field, tuple(f"{default_prefix}{i + 1}" for i in range(size)))
+
+
+def as_items(value, field: str, cls: type | tuple[type, ...], what: str) -> tuple:
+    """``value`` (a list, tuple or other iterable) as a tuple whose every item is a ``cls``."""
+    single = cls if isinstance(cls, tuple) else (cls,)
+    if isinstance(value, single) and not isinstance(value, (list, tuple)):
+        raise ModelError(field, f"a sequence of {what}", f"a single {type(value).__name__} (wrap it in a tuple)")
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+        raise ModelError(field, f"a sequence (list or tuple) of {what}", f"{_short(value)} of type {type(value).__name__}")
+    items = tuple(value)
+    for i, item in enumerate(items):
+        if not isinstance(item, single):
+            raise ModelError(f"{field}[{i}]", what, f"{_short(item)} of type {type(item).__name__}")
+    return items
+
+
+def probe_callable(fn: Callable, args: tuple, field: str, size: int | None, what: str, at: str,
+                   flat: bool = False) -> np.ndarray:
+    """Call ``fn(*args)`` once and check it returns ``size`` finite real numbers.
+
+    ``what`` describes the callable (``"flow(x, u) -> dx"``), ``at`` the probe point (for the
+    message).  A callable that raises, returns ``None``, complex numbers, another length or
+    NaN/Inf there is refused at construction instead of failing in the first simulation step.
+    ``flat`` requires the shape ``(size,)`` itself (not ``(size, 1)``), for callers that stack
+    the values without reshaping them.
+    """
+    try:
+        out = fn(*args)
+    except Exception as exc:
+        raise ModelError(field, f"a callable {what} that can be evaluated at {at}", f"{type(exc).__name__}: {exc}") from None
+    try:
+        vec = as_vector(out, field, size)
+    except ModelError as exc:
+        raise ModelError(field, f"{what} returning {exc.expected} (evaluated at {at})", exc.got) from None
+    if flat and np.shape(out) != vec.shape:
+        raise ModelError(field, f"{what} returning a flat vector of shape {vec.shape} (evaluated at {at})",
+                         f"shape {np.shape(out)}")
+    return vec
 
 
 def _fmt(shape: tuple[int | None, int | None]) -> str:
