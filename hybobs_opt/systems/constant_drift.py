@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_vector
+from ._validate import as_matrix, as_vector, names_or_default
 
 
 class NextEvent(NamedTuple):
@@ -64,7 +64,12 @@ class NextEvent(NamedTuple):
 
 def _as_int_vector(value, field_name: str, size: int) -> np.ndarray:
     """Return ``value`` as a read-only 1-D int array of length ``size``; floats and bools are refused."""
-    arr = np.array(value)
+    if value is None or isinstance(value, (str, bytes)):
+        raise ModelError(field_name, f"a vector of {size} integers", repr(value))
+    try:
+        arr = np.array(value)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise ModelError(field_name, f"a vector of {size} integers", f"{type(value).__name__} ({exc})") from None
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim != 1:
@@ -80,18 +85,7 @@ def _as_int_vector(value, field_name: str, size: int) -> np.ndarray:
 
 
 def _names(value: Sequence[str] | None, field_name: str, defaults: tuple[str, ...]) -> tuple[str, ...]:
-    if value is None or len(value) == 0:
-        return defaults
-    if isinstance(value, str):
-        raise ModelError(field_name, f"a sequence of {len(defaults)} names", f"the string {value!r}")
-    names = tuple(value)
-    if not all(isinstance(v, str) for v in names):
-        raise ModelError(field_name, "strings", f"{names}")
-    if len(names) != len(defaults):
-        raise ModelError(field_name, f"{len(defaults)} names", f"{len(names)} names {names}")
-    if len(set(names)) != len(names):
-        raise ModelError(field_name, "distinct names", f"{names}")
-    return names
+    return names_or_default(value, field_name, defaults)
 
 
 @dataclass(frozen=True, eq=False)

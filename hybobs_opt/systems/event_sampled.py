@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
-from ._validate import as_vector
+from ._validate import as_int, as_items, as_vector, names_or_default, real_array
 from .constant_drift import ConstantDriftSystem
 
 
@@ -186,29 +186,37 @@ class PeriodicSystem:
     state_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        A = np.array(self.A, dtype=float)
-        if A.ndim != 3 or A.shape[1] != A.shape[2] or A.shape[0] < 1:
+        A = real_array(self.A, "A", "an array of V square matrices, shape (V, N, N)")
+        if A.ndim != 3 or A.shape[1] != A.shape[2] or A.shape[0] < 1 or A.shape[1] < 1:
             raise ModelError("A", "an array of V square matrices, shape (V, N, N)", f"shape {A.shape}")
         V, N, _ = A.shape
-        a = np.array(self.a, dtype=float)
-        C = np.array(self.C, dtype=float)
-        c = np.array(self.c, dtype=float).reshape(-1)
+        a = real_array(self.a, "a", f"an array of shape ({V}, {N})")
+        C = real_array(self.C, "C", f"an array of shape ({V}, {N})")
+        c = real_array(self.c, "c", f"a vector of length {V}").reshape(-1)
         for name, arr, shape in (("a", a, (V, N)), ("C", C, (V, N)), ("c", c, (V,))):
             if arr.shape != shape:
                 raise ModelError(name, f"shape {shape}", f"shape {arr.shape}")
         for name, arr in (("A", A), ("a", a), ("C", C), ("c", c)):
             if not np.all(np.isfinite(arr)):
                 raise ModelError(name, "finite entries", "NaN or Inf")
-        if len(self.event_modes) != V:
-            raise ModelError("event_modes", f"{V} modes (one per phase)", f"{len(self.event_modes)}")
-        names = tuple(self.state_names) or tuple(f"x{i}" for i in range(1, N + 1))
-        if len(names) != N:
-            raise ModelError("state_names", f"{N} names", f"{len(names)}")
+        event_modes = tuple(as_int(v, f"event_modes[{i}]", 1, "a mode number (an integer >= 1)")
+                            for i, v in enumerate(as_items(self.event_modes, "event_modes", (int, np.integer), "mode numbers")))
+        if len(event_modes) != V:
+            raise ModelError("event_modes", f"{V} modes (one per phase)", f"{len(event_modes)}")
+        segments = []
+        for k, seg in enumerate(as_items(self.segments, "segments", (tuple, list), "sequences of mode numbers")):
+            segments.append(tuple(as_int(q, f"segments[{k}][{i}]", 1, "a mode number (an integer >= 1)")
+                                  for i, q in enumerate(as_items(seg, f"segments[{k}]", (int, np.integer), "mode numbers"))))
+        visible = tuple(as_int(q, f"visible_modes[{i}]", 1, "a mode number (an integer >= 1)")
+                        for i, q in enumerate(as_items(self.visible_modes, "visible_modes", (int, np.integer), "mode numbers")))
+        if self.system is not None and not isinstance(self.system, ConstantDriftSystem):
+            raise ModelError("system", "the ConstantDriftSystem it was sampled from, or None", type(self.system).__name__)
+        names = names_or_default(self.state_names, "state_names", tuple(f"x{i}" for i in range(1, N + 1)))
         for name, arr in (("A", A), ("a", a), ("C", C), ("c", c)):
             object.__setattr__(self, name, _ro(arr))
-        object.__setattr__(self, "event_modes", tuple(int(v) for v in self.event_modes))
-        object.__setattr__(self, "segments", tuple(tuple(int(q) for q in s) for s in self.segments))
-        object.__setattr__(self, "visible_modes", tuple(int(q) for q in self.visible_modes))
+        object.__setattr__(self, "event_modes", event_modes)
+        object.__setattr__(self, "segments", tuple(segments))
+        object.__setattr__(self, "visible_modes", visible)
         object.__setattr__(self, "state_names", names)
 
     # ------------------------------------------------------------------ sizes
@@ -311,12 +319,14 @@ def visible_event_set(system: ConstantDriftSystem, visible_modes: Sequence[int] 
     ModelError
         If ``visible_modes`` is empty (Assumption 2.6) or names a mode outside ``1 ... Q``.
     """
+    if not isinstance(system, ConstantDriftSystem):
+        raise ModelError("system", "a ConstantDriftSystem (paper 003, eq. 3)", type(system).__name__)
     if visible_modes is None:
         return system.visible_modes, system.visible_event_modes
-    try:
-        qv = sorted({int(q) for q in visible_modes})
-    except (TypeError, ValueError):
-        raise ModelError("visible_modes", "a collection of mode numbers", repr(visible_modes)) from None
+    if isinstance(visible_modes, (set, frozenset)):
+        visible_modes = sorted(visible_modes, key=lambda q: (not isinstance(q, (int, np.integer)), str(q)))
+    items = as_items(visible_modes, "visible_modes", (int, np.integer), "mode numbers")
+    qv = sorted({as_int(q, f"visible_modes[{i}]", None, "a mode number (an integer)") for i, q in enumerate(items)})
     if not qv:
         raise ModelError("Assumption 2.6", "at least one visible mode (h_q = q)", "an empty set of visible modes")
     for q in qv:
@@ -415,6 +425,8 @@ def phase_augmented_pwa(ps: PeriodicSystem, upper: ArrayLike, lower: ArrayLike |
     from .polytope import Polytope
     from .pwa import PWAMode, PWASystem
 
+    if not isinstance(ps, PeriodicSystem):
+        raise ModelError("ps", "a PeriodicSystem (periodic_system(...), eq. 14 of paper 003)", type(ps).__name__)
     V, N = ps.period, ps.n
     hi = as_vector(upper, "upper", N)
     lo = -0.05 * hi if lower is None else as_vector(lower, "lower", N)

@@ -16,10 +16,11 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..errors import ModelError
+from ..tolerances import FULL_DIMENSION_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_names, as_vector, check_finite
+from ._validate import as_int, as_items, as_matrix, as_names, as_text, as_vector, check_finite, probe_callable, real_array
 from .polytope import Polytope
-from .pwa import PWAMode, PWASystem
+from .pwa import PWAMode, PWASystem, _or_given, check_coordinate_names
 
 FlowFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -63,29 +64,65 @@ class Location:
         """True when both the flow and the output are affine (so :meth:`HybridAutomaton.discretize` applies)."""
         return self.A is not None and self.C is not None
 
-    def validated(self, index: int, n: int, m: int, p: int) -> "Location":
-        f = f"locations[{index}] ({self.name})"
-        if not isinstance(self.invariant, Polytope) or self.invariant.dim not in (n, n + m):
-            got = type(self.invariant).__name__ if not isinstance(self.invariant, Polytope) else f"dimension {self.invariant.dim}"
-            raise ModelError(f"{f}.invariant", f"a Polytope over x (dim {n}) or over (x, u) (dim {n + m})", got)
+    def __post_init__(self) -> None:
+        # Types only: the shapes are checked against the automaton's (n, m, p) by validated().
+        as_text(self.name, "Location.name")
+        label = f"Location {self.name!r}"
+        if not isinstance(self.invariant, Polytope):
+            raise ModelError(f"{label}.invariant", "a Polytope over x or over (x, u)", type(self.invariant).__name__)
         if (self.A is None) == (self.flow is None):
-            raise ModelError(f"{f}.flow", "exactly one of an affine flow (A, B, E) or a callable flow", "both or neither")
+            raise ModelError(f"{label}.flow", "exactly one of an affine flow (A, B, E) or a callable flow", "both or neither")
         if (self.C is None) == (self.output is None):
-            raise ModelError(f"{f}.output", "exactly one of an affine output (C, D, c) or a callable output", "both or neither")
+            raise ModelError(f"{label}.output", "exactly one of an affine output (C, D, c) or a callable output",
+                             "both or neither")
+        for key, fn, what in (("flow", self.flow, "flow(x, u) -> dx"), ("output", self.output, "output(x, u) -> y")):
+            if fn is not None and not callable(fn):
+                raise ModelError(f"{label}.{key}", f"a callable {what}", type(fn).__name__)
+        for key in ("A", "B", "E", "C", "D", "c"):
+            value = getattr(self, key)
+            if value is not None:
+                arr = real_array(value, f"{label}.{key}", "a numeric matrix" if key in "ABCD" else "a numeric vector")
+                arr.setflags(write=False)
+                object.__setattr__(self, key, arr)
+        if self.A is None and (self.B is not None or self.E is not None):
+            raise ModelError(f"{label}.B", "no B or E with a callable flow (they belong to the affine flow)", "a matrix")
+        if self.C is None and (self.D is not None or self.c is not None):
+            raise ModelError(f"{label}.D", "no D or c with a callable output (they belong to the affine output)", "a matrix")
+
+    def validated(self, index: int, n: int, m: int, p: int, probe: tuple[np.ndarray, np.ndarray] | None = None) -> "Location":
+        """A copy checked against ``(n, m, p)``; callables are evaluated once at ``probe = (x, u)``."""
+        f = f"locations[{index}] ({self.name})"
+        if self.invariant.dim not in (n, n + m):
+            raise ModelError(f"{f}.invariant", f"a Polytope over x (dim {n}) or over (x, u) (dim {n + m})",
+                             f"dimension {self.invariant.dim}")
         A = B = E = C = D = c = None
+        at = "" if probe is None else f"x = {probe[0].tolist()}, u = {probe[1].tolist()} (inside the invariant)"
         if self.A is not None:
             A = as_matrix(self.A, f"{f}.A", (n, n))
-            B = as_matrix(np.zeros((n, m)) if self.B is None else self.B, f"{f}.B", (n, m))
+            B = _input_matrix(self.B, f"{f}.B", n, m)
             E = as_vector(np.zeros(n) if self.E is None else self.E, f"{f}.E", n)
-        elif not callable(self.flow):
-            raise ModelError(f"{f}.flow", "a callable flow(x, u) -> dx", type(self.flow).__name__)
+        elif probe is not None:
+            probe_callable(self.flow, probe, f"{f}.flow", n, "flow(x, u) -> dx", at)
         if self.C is not None:
             C = as_matrix(self.C, f"{f}.C", (p, n))
-            D = as_matrix(np.zeros((p, m)) if self.D is None else self.D, f"{f}.D", (p, m))
+            D = as_matrix(np.zeros((p, m)) if self.D is None or (self.D.size == 0 and p * m == 0) else self.D,
+                          f"{f}.D", (p, m))
             c = as_vector(np.zeros(p) if self.c is None else self.c, f"{f}.c", p)
-        elif not callable(self.output):
-            raise ModelError(f"{f}.output", "a callable output(x, u) -> y", type(self.output).__name__)
+        elif probe is not None:
+            probe_callable(self.output, probe, f"{f}.output", p, "output(x, u) -> y", at)
         return Location(self.name, self.invariant, A, B, E, C, D, c, self.flow, self.output)
+
+
+def _input_matrix(value, field: str, n: int, m: int) -> np.ndarray:
+    """``B`` of shape ``(n, m)``; ``None`` means zeros, an empty array stands for "no inputs" only."""
+    if value is None:
+        return as_matrix(np.zeros((n, m)), field, (n, m))
+    if np.size(value) == 0:
+        if m > 0:
+            raise ModelError(field, f"an (n, m) = ({n}, {m}) input matrix or None (the system has {m} input(s))",
+                             f"an empty array of shape {np.shape(value)}")
+        return as_matrix(np.zeros((n, 0)), field, (n, 0))
+    return as_matrix(value, field, (n, m))
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,6 +144,19 @@ class Edge:
     target: int
     guard: Polytope | None = None
     reset: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        # Types only: the automaton checks the indices against its locations and the dimensions.
+        for end in ("source", "target"):
+            as_int(getattr(self, end), f"Edge.{end}", 0, "a location index (an integer >= 0)")
+        if self.guard is not None and not isinstance(self.guard, Polytope):
+            raise ModelError("Edge.guard", "a Polytope over x or None", type(self.guard).__name__)
+        if self.reset is not None:
+            if isinstance(self.reset, (str, bytes, np.ndarray)) or not isinstance(self.reset, (tuple, list)) or len(self.reset) != 2:
+                raise ModelError("Edge.reset", "a pair (R, r) of the affine reset x+ = R x + r, or None", repr(self.reset)[:60])
+            R = real_array(self.reset[0], "Edge.reset[0]", "a numeric matrix R")
+            r = real_array(self.reset[1], "Edge.reset[1]", "a numeric vector r")
+            object.__setattr__(self, "reset", (R, r))
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,52 +187,93 @@ class HybridAutomaton(ModelDictMixin):
     p: int | None = None
 
     def __post_init__(self) -> None:
-        locs = tuple(self.locations)
+        locs = as_items(self.locations, "locations", Location, "Location")
         if not locs:
             raise ModelError("locations", "at least one Location", "an empty sequence")
         if not isinstance(self.state_bounds, Polytope):
             raise ModelError("state_bounds", "a bounded Polytope over x", type(self.state_bounds).__name__)
+        if self.input_bounds is not None and not isinstance(self.input_bounds, Polytope):
+            raise ModelError("input_bounds", "a bounded Polytope over u, or None", type(self.input_bounds).__name__)
+        as_text(self.name, "name")
         n = self.state_bounds.dim
         m = 0 if self.input_bounds is None else self.input_bounds.dim
-        p = self.p
-        if p is None:
-            first = next((loc for loc in locs if loc.C is not None), None)
-            if first is not None:
-                p = np.atleast_2d(np.asarray(first.C, dtype=float)).shape[0]
-            else:
-                probe = np.asarray(locs[0].output(np.zeros(n), np.zeros(m)), dtype=float)
-                p = int(np.atleast_1d(probe).size)
-        object.__setattr__(self, "p", int(p))
-        locs = tuple(loc.validated(i, n, m, p) for i, loc in enumerate(locs))
-        object.__setattr__(self, "locations", locs)
-        object.__setattr__(self, "state_names", as_names(self.state_names, "state_names", n, "x"))
-        object.__setattr__(self, "input_names", as_names(self.input_names, "input_names", m, "u"))
-        object.__setattr__(self, "output_names", as_names(self.output_names, "output_names", p, "y"))
+        names = [loc.name for loc in locs]
+        for i, nm in enumerate(names):
+            if names.index(nm) != i:
+                raise ModelError(f"locations[{i}].name", f"a name no other location has (locations[{names.index(nm)}] "
+                                 f"is {nm!r} too; edges may name their locations)", repr(nm))
+        edges = self.edges
+        if edges is not None:
+            edges = as_items(edges, "edges", Edge, "Edge")
         if not self.state_bounds.is_bounded():
             raise ModelError("state_bounds", "a bounded, non-empty polytope", "an unbounded or empty set")
         if self.input_bounds is not None and not self.input_bounds.is_bounded():
             raise ModelError("input_bounds", "a bounded, non-empty polytope", "an unbounded or empty set")
         lo, hi = self.state_bounds.bounding_box()
         scale = np.where(hi - lo > 0, hi - lo, 1.0)
+        u_probe = np.zeros(0)
+        if self.input_bounds is not None:
+            ulo, uhi = self.input_bounds.bounding_box()
+            u_probe = 0.5 * (ulo + uhi)
+        # One point inside each location's invariant (the centre of its largest ball in X), where
+        # callable flows and outputs are evaluated once; the same LP proves the invariant is
+        # full-dimensional in X.
+        probes = []
         for i, loc in enumerate(locs):
-            inv_x = loc.invariant if loc.invariant.dim == n else None
-            if inv_x is not None and not inv_x.intersect(self.state_bounds).is_full_dimensional(scale):
-                raise ModelError(
-                    f"locations[{i}] ({loc.name}).invariant",
-                    "a full-dimensional region inside state_bounds",
-                    "an empty or lower-dimensional set",
-                )
-        edges = self.edges
+            f = f"locations[{i}] ({loc.name}).invariant"
+            if loc.invariant.dim not in (n, n + m):
+                raise ModelError(f, f"a Polytope over x (dim {n}) or over (x, u) (dim {n + m})",
+                                 f"dimension {loc.invariant.dim}")
+            if loc.invariant.dim == n:
+                centre, radius = loc.invariant.intersect(self.state_bounds).chebyshev_ball(scale)
+                if centre is None or not radius > FULL_DIMENSION_RTOL:
+                    raise ModelError(f, "a full-dimensional region inside state_bounds", "an empty or lower-dimensional set")
+                probes.append((centre + 0.0, u_probe + 0.0))
+            elif loc.A is None or loc.C is None:
+                domain = self.state_bounds if self.input_bounds is None else self.state_bounds.product(self.input_bounds)
+                centre, _ = loc.invariant.intersect(domain).chebyshev_ball(np.concatenate([scale, np.ones(m)]))
+                if centre is None:
+                    raise ModelError(f, "a non-empty region inside state_bounds x input_bounds", "an empty set")
+                probes.append((centre[:n] + 0.0, centre[n:] + 0.0))
+            else:
+                probes.append(None)
+        p = self.p
+        if p is not None:
+            p = as_int(p, "p", 0, "the number of outputs (an integer >= 0) or None")
+        else:
+            first = next((i for i, loc in enumerate(locs) if loc.C is not None), None)
+            if first is not None:
+                C0 = locs[first].C
+                if not (C0.ndim == 2 and C0.shape[1] == n) and not (C0.ndim == 1 and n == 1):
+                    raise ModelError(f"locations[{first}] ({locs[first].name}).C",
+                                     f"an output matrix of shape (p, n) with n = {n} columns", f"shape {C0.shape}")
+                p = C0.shape[0]
+            else:
+                at = f"x = {probes[0][0].tolist()}, u = {probes[0][1].tolist()} (inside the invariant)"
+                p = int(probe_callable(locs[0].output, probes[0], f"locations[0] ({locs[0].name}).output", None,
+                                       "output(x, u) -> y", at).size)
+        object.__setattr__(self, "p", int(p))
+        locs = tuple(loc.validated(i, n, m, p, probes[i]) for i, loc in enumerate(locs))
+        object.__setattr__(self, "locations", locs)
+        state_names = as_names(_or_given(self.state_names, self.state_bounds), "state_names", n, "x")
+        input_names = as_names(_or_given(self.input_names, self.input_bounds), "input_names", m, "u")
+        object.__setattr__(self, "state_names", state_names)
+        object.__setattr__(self, "input_names", input_names)
+        object.__setattr__(self, "output_names", as_names(self.output_names, "output_names", p, "y"))
+        check_coordinate_names(state_names, input_names,
+                               [("state_bounds", self.state_bounds, False), ("input_bounds", self.input_bounds, True)]
+                               + [(f"locations[{i}] ({loc.name}).invariant", loc.invariant, None) for i, loc in enumerate(locs)]
+                               + [(f"edges[{k}].guard", e.guard, False) for k, e in enumerate(edges or ()) if e.guard is not None])
         if edges is None:
             edges = tuple(Edge(i, j) for i in range(len(locs)) for j in range(len(locs)) if i != j)
         checked = []
         for k, e in enumerate(edges):
             for end in ("source", "target"):
                 v = getattr(e, end)
-                if not isinstance(v, (int, np.integer)) or not 0 <= v < len(locs):
+                if not 0 <= v < len(locs):
                     raise ModelError(f"edges[{k}].{end}", f"a location index in 0..{len(locs) - 1}", repr(v))
-            if e.guard is not None and (not isinstance(e.guard, Polytope) or e.guard.dim != n):
-                raise ModelError(f"edges[{k}].guard", f"a Polytope over x (dim {n}) or None", repr(e.guard))
+            if e.guard is not None and e.guard.dim != n:
+                raise ModelError(f"edges[{k}].guard", f"a Polytope over x (dim {n}) or None", f"dimension {e.guard.dim}")
             reset = None
             if e.reset is not None:
                 R, r = e.reset

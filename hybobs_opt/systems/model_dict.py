@@ -81,7 +81,7 @@ def system_from_dict(data: Mapping[str, Any]) -> Any:
     kind = data.get("class")
     readers = {"pwa": _pwa_from_dict, "hybrid_automaton": _hybrid_from_dict,
                "constant_drift": _drift_from_dict, "scalar_nonlinear": _nonlinear_from_dict}
-    if kind not in readers:
+    if not isinstance(kind, str) or kind not in readers:
         raise ModelError("class", f"one of {list(CLASSES)}", repr(kind))
     reader = _Reader(data)
     reader.check_keys(_COMMON_KEYS | _CLASS_KEYS[kind])
@@ -295,7 +295,9 @@ def polytope_from_dict(value: Any, spaces: Sequence[tuple[str, ...]], field: str
                 break
         if space is None:
             space = spaces[-1]
-    names = tuple(value.get("names", space if len(set(space)) == len(space) else ()))
+    names = value.get("names", space if len(set(space)) == len(space) else ())
+    if isinstance(names, (str, bytes)) or not isinstance(names, (list, tuple)):
+        raise ModelError(f"{field}.names", "a list of coordinate names", repr(names))
     d = len(space)
     rows, rhs = [], []
     if "A" in value:
@@ -492,7 +494,15 @@ def _hybrid_from_dict(r: _Reader):
     readers = r.items("locations")
     if p is None:
         first = next((lr for lr in readers if lr.has("C")), None)
-        p = len(first.raw("C")) if first is not None else len(readers[0].raw("output", [])) if readers else 0
+        if first is not None:
+            p = first.matrix("C", (None, n)).shape[0]
+        elif readers:
+            texts = readers[0].raw("output", [])
+            if isinstance(texts, (str, bytes)) or not isinstance(texts, Sequence):
+                raise ModelError(readers[0].at("output"), "a list of expressions, one per output", type(texts).__name__)
+            p = len(texts)
+        else:
+            p = 0
     for i, lr in enumerate(readers):
         lr.check_keys(_LOCATION_KEYS)
         name = lr.string("name", f"location{i}")

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import ModelError
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_names, as_vector
+from ._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, real_array
 from .polytope import Polytope
 
 
@@ -46,17 +46,36 @@ class PWAMode:
     c: np.ndarray | None = None
     name: str = ""
 
+    def __post_init__(self) -> None:
+        # Types only: the shapes are checked against the system's (n, m, p) by validated().
+        label = "PWAMode" + (f" {self.name!r}" if isinstance(self.name, str) and self.name else "")
+        as_text(self.name, f"{label}.name", allow_empty=True)
+        for key in ("A", "B", "a", "C", "D", "c"):
+            value = getattr(self, key)
+            if value is None and key in ("B", "D", "c"):
+                continue
+            arr = real_array(value, f"{label}.{key}", "a numeric matrix" if key.isupper() else "a numeric vector")
+            arr.setflags(write=False)
+            object.__setattr__(self, key, arr)
+        if not isinstance(self.guard, Polytope):
+            raise ModelError(f"{label}.guard", "a Polytope over (x, u)", type(self.guard).__name__)
+
     def validated(self, index: int, n: int, m: int, p: int) -> "PWAMode":
         """Return a copy whose arrays are checked against ``(n, m, p)``; fields named ``modes[index].X``."""
         f = f"modes[{index}]"
         A = as_matrix(self.A, f"{f}.A", (n, n))
-        B = as_matrix(self.B if np.size(self.B) else np.zeros((n, m)), f"{f}.B", (n, m))
+        if self.B is None or self.B.size == 0:
+            # An empty B stands for "no inputs" only; with inputs it is a missing matrix, not zeros.
+            if m > 0:
+                raise ModelError(f"{f}.B", f"an (n, m) = ({n}, {m}) input matrix (the system has {m} input(s))",
+                                 "None" if self.B is None else f"an empty array of shape {self.B.shape}")
+            B = as_matrix(np.zeros((n, 0)), f"{f}.B", (n, 0))
+        else:
+            B = as_matrix(self.B, f"{f}.B", (n, m))
         a = as_vector(self.a, f"{f}.a", n)
         C = as_matrix(self.C, f"{f}.C", (p, n))
         D = as_matrix(np.zeros((p, m)) if self.D is None else self.D, f"{f}.D", (p, m))
         c = as_vector(np.zeros(p) if self.c is None else self.c, f"{f}.c", p)
-        if not isinstance(self.guard, Polytope):
-            raise ModelError(f"{f}.guard", "a Polytope over (x, u)", type(self.guard).__name__)
         if self.guard.dim != n + m:
             raise ModelError(f"{f}.guard", f"a polytope of dimension n + m = {n + m}", f"dimension {self.guard.dim}")
         return PWAMode(A, B, a, C, self.guard, D, c, self.name or f"mode{index}")
@@ -109,7 +128,7 @@ class PWASystem(ModelDictMixin):
     partition: str = "check"
 
     def __post_init__(self) -> None:
-        modes = tuple(self.modes)
+        modes = as_items(self.modes, "modes", PWAMode, "PWAMode")
         if not modes:
             raise ModelError("modes", "at least one PWAMode", "an empty sequence")
         if not isinstance(self.state_bounds, Polytope):
@@ -121,14 +140,32 @@ class PWASystem(ModelDictMixin):
             m = self.input_bounds.dim
         else:
             raise ModelError("input_bounds", "a bounded Polytope over u, or None", type(self.input_bounds).__name__)
-        p = np.asarray(modes[0].C, dtype=float).reshape(-1, n).shape[0] if np.size(modes[0].C) else 0
+        as_text(self.name, "name")
+        if not isinstance(self.partition, str) or self.partition not in PARTITION_CHECKS:
+            raise ModelError("partition", f"one of {list(PARTITION_CHECKS)}", repr(self.partition))
+        # The number of outputs is read from the first mode's C, once it is known to be a matrix
+        # with n columns (PWAMode already made it a real array).
+        C0 = modes[0].C
+        if C0.ndim == 2 and C0.shape[1] == n:
+            p = C0.shape[0]
+        elif C0.ndim == 1 and n == 1:
+            p = C0.shape[0]
+        else:
+            raise ModelError("modes[0].C", f"an output matrix of shape (p, n) with n = {n} columns", _shape(C0))
         modes = tuple(mode.validated(i, n, m, p) for i, mode in enumerate(modes))
         object.__setattr__(self, "modes", modes)
-        object.__setattr__(self, "state_names", as_names(self.state_names, "state_names", n, "x"))
-        object.__setattr__(self, "input_names", as_names(self.input_names, "input_names", m, "u"))
+        state_names = as_names(_or_given(self.state_names, self.state_bounds), "state_names", n, "x")
+        input_names = as_names(_or_given(self.input_names, self.input_bounds), "input_names", m, "u")
+        object.__setattr__(self, "state_names", state_names)
+        object.__setattr__(self, "input_names", input_names)
         object.__setattr__(self, "output_names", as_names(self.output_names, "output_names", p, "y"))
-        if self.Ts is not None and not (np.isfinite(self.Ts) and self.Ts > 0):
-            raise ModelError("Ts", "a positive finite sampling period or None", repr(self.Ts))
+        check_coordinate_names(state_names, input_names, [("state_bounds", self.state_bounds, False),
+                                                          ("input_bounds", self.input_bounds, True)]
+                               + [(f"modes[{i}].guard", mode.guard, None) for i, mode in enumerate(modes)])
+        if self.Ts is not None:
+            Ts = as_real(self.Ts, "Ts", "a positive finite sampling period or None")
+            if not (np.isfinite(Ts) and Ts > 0):
+                raise ModelError("Ts", "a positive finite sampling period or None", repr(self.Ts))
         for label, poly in (("state_bounds", self.state_bounds), ("input_bounds", self.input_bounds)):
             if poly is not None and not poly.is_bounded():
                 raise ModelError(label, "a bounded, non-empty polytope (every coordinate bounded)", "an unbounded or empty set")
@@ -154,8 +191,6 @@ class PWASystem(ModelDictMixin):
                     "a full-dimensional polytope inside X x U (paper 002, eq. 1)",
                     "an empty or lower-dimensional set",
                 )
-        if self.partition not in PARTITION_CHECKS:
-            raise ModelError("partition", f"one of {list(PARTITION_CHECKS)}", repr(self.partition))
         if self.partition != "none":
             check_partition(self, overlaps=self.partition == "check")
 
@@ -244,6 +279,49 @@ class PWASystem(ModelDictMixin):
 
     def __repr__(self) -> str:
         return f"PWASystem(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, modes={self.n_modes})"
+
+
+def _shape(arr: np.ndarray) -> str:
+    return f"shape {arr.shape}"
+
+
+def _given_names(poly: Polytope | None) -> tuple[str, ...]:
+    """The coordinate names of a set when they were given (not the default labels ``z1, z2, ...``)."""
+    if poly is None or poly.names == tuple(f"z{i + 1}" for i in range(poly.dim)):
+        return ()
+    return poly.names
+
+
+def _or_given(names, poly: Polytope | None):
+    """``names``, or the given coordinate names of ``poly`` when ``names`` is ``None`` or an empty list."""
+    if names is None or (isinstance(names, (list, tuple, np.ndarray)) and len(names) == 0):
+        return _given_names(poly)
+    return names
+
+
+def check_coordinate_names(state_names: tuple[str, ...], input_names: tuple[str, ...], sets) -> None:
+    """Refuse a set whose given coordinate names are not the system's names of its space.
+
+    ``sets`` holds ``(field, polytope, over_inputs)``: ``over_inputs`` False means a set over x,
+    True over u, None over x or (x, u) (by its dimension).  Default labels (``z1, z2, ...``, what
+    ``Polytope.from_box`` gives without names) say nothing and are accepted.  States and inputs
+    share the space of the guards, so a name may not be both.
+    """
+    both = sorted(set(state_names) & set(input_names))
+    if both:
+        raise ModelError("input_names", f"names distinct from the state names {list(state_names)}", f"{both[0]!r} in both")
+    for label, poly, over_inputs in sets:
+        given = _given_names(poly)
+        if not given:
+            continue
+        if over_inputs is True:
+            want = input_names
+        elif over_inputs is False or poly.dim == len(state_names):
+            want = state_names
+        else:
+            want = state_names + input_names
+        if given != want:
+            raise ModelError(f"{label}.names", f"the system's coordinate names {list(want)} (or no names)", f"{list(given)}")
 
 
 def check_partition(system: PWASystem, overlaps: bool = True) -> None:

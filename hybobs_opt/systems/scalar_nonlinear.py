@@ -34,7 +34,7 @@ from ..errors import ModelError
 from ..geometry.lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_names
+from ._validate import as_matrix, as_names, as_text, names_or_default, probe_callable
 from .polytope import Polytope
 
 #: Number of points of each function's argument interval at which values and derivatives are
@@ -99,8 +99,7 @@ class ScalarFunction:
     _autodiff_fn: ca.Function = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise ModelError("ScalarFunction.name", "a non-empty string", repr(self.name))
+        as_text(self.name, "ScalarFunction.name")
         label = f"ScalarFunction {self.name!r}"
         if not callable(self.expr):
             raise ModelError(f"{label}.expr", "a callable expr(z: SX) -> SX", type(self.expr).__name__)
@@ -123,8 +122,9 @@ class ScalarFunction:
                 raise ModelError(f"{label}.derivative", "a callable mapping a CasADi SX scalar to an SX expression",
                                  f"{type(exc).__name__}: {exc}") from None
             deriv = _to_scalar_sx(raw_d, z, f"{label}.derivative")
-        # CasADi function names: a letter, then letters, digits and single underscores.
-        safe = "_".join("".join(c if c.isalnum() else " " for c in self.name).split()) or "fn"
+        # CasADi function names: a letter, then ASCII letters, digits and single underscores (a
+        # name such as "é" or "x²" would make CasADi raise a RuntimeError).
+        safe = "_".join("".join(c if c.isascii() and c.isalnum() else " " for c in self.name).split()) or "fn"
         object.__setattr__(self, "_z", z)
         object.__setattr__(self, "_value_sx", value)
         object.__setattr__(self, "_deriv_sx", deriv)
@@ -149,6 +149,9 @@ class ScalarFunction:
         from .expressions import parse_expression
 
         label = field or f"ScalarFunction {name!r}"
+        as_text(variable, f"{label}.variable")
+        if not variable.isidentifier():
+            raise ModelError(f"{label}.variable", "a variable name that is an identifier (letters, digits, _)", repr(variable))
         parse_expression(expr, {variable: ca.SX.sym(variable)}, f"{label}.expr")  # errors name the entry now
         if derivative is not None:
             parse_expression(derivative, {variable: ca.SX.sym(variable)}, f"{label}.derivative")
@@ -271,6 +274,7 @@ class ScalarNonlinearSystem(ModelDictMixin):
         for arr in (lo, hi):
             arr.setflags(write=False)
 
+        as_text(self.name, "name")
         C = as_matrix(self.C, "C", (None, n))
         m_out = C.shape[0]
         if m_out == 0:
@@ -283,21 +287,28 @@ class ScalarNonlinearSystem(ModelDictMixin):
             raise ModelError("F" if self.F is None else "E", f"a matrix for the {r} functions f", "None")
         F = as_matrix(np.zeros((n, 0)) if self.F is None else self.F, "F", (n, r))
         E = as_matrix(np.zeros((0, n)) if self.E is None else self.E, "E", (r, n))
+        # Without B the input names give the number of inputs; with B an empty B is "no inputs" only.
+        given = _name_count(self.input_names, "input_names")
         if self.B is None:
-            k = len(self.input_names)
-            B = as_matrix(np.zeros((n, k)), "B", (n, k))
+            B = as_matrix(np.zeros((n, given)), "B", (n, given))
         else:
             B = as_matrix(self.B, "B", (n, None))
-            k = B.shape[1]
+            if B.shape[1] == 0 and given:
+                raise ModelError("B", f"an (n, k) input matrix with a column for each of the {given} input(s)",
+                                 f"an empty array of shape {np.shape(self.B)}")
+        k = B.shape[1]
         if self.g is not None and not callable(self.g):
             raise ModelError("g", "a callable g(y, u) -> (n,) or None", type(self.g).__name__)
 
         default_states = self.box.names if not _default_names(self.box.names, "z") else ()
-        state_names = as_names(self.state_names or default_states, "state_names", n, "x")
+        state_names = as_names(default_states if _no_names(self.state_names) else self.state_names, "state_names", n, "x")
         if not _default_names(self.box.names, "z") and self.box.names != state_names:
             raise ModelError("box.names", f"the state names {state_names} (or no names)", f"{self.box.names}")
         input_names = as_names(self.input_names, "input_names", k, "u")
         output_names = as_names(self.output_names, "output_names", m_out, "y")
+        both = sorted(set(state_names) & set(input_names))
+        if both:
+            raise ModelError("input_names", f"names distinct from the state names {list(state_names)}", f"{both[0]!r} in both")
 
         f_ranges = _ranges(self.box, E, "E")
         h_ranges = _ranges(self.box, C, "C")
@@ -323,14 +334,9 @@ class ScalarNonlinearSystem(ModelDictMixin):
 
         if self.g is not None:
             centre = 0.5 * (lo + hi)
-            try:
-                gv = np.asarray(self.g(self.output(centre), np.zeros(k)), dtype=float)
-            except Exception as exc:
-                raise ModelError("g", "a callable g(y, u) -> (n,) vector", f"{type(exc).__name__}: {exc}") from None
-            if gv.shape != (n,):
-                raise ModelError("g", f"a vector of length {n} from g(y, u)", f"shape {gv.shape}")
-            if not np.all(np.isfinite(gv)):
-                raise ModelError("g", "finite values at the centre of the box", f"{gv.tolist()}")
+            y0 = self.output(centre)
+            probe_callable(self.g, (y0, np.zeros(k)), "g", n, "g(y, u) -> (n,)",
+                           f"the centre of the box (y = {y0.tolist()}, u = 0)", flat=True)
 
     @staticmethod
     def _functions(value, label: str, size: int | None, allow_identity: bool) -> tuple[ScalarFunction, ...]:
@@ -338,7 +344,7 @@ class ScalarNonlinearSystem(ModelDictMixin):
             if not allow_identity:
                 raise ModelError(label, "a sequence of ScalarFunction", "None")
             return tuple(ScalarFunction.identity() for _ in range(size or 0))
-        if isinstance(value, ScalarFunction) or not isinstance(value, Sequence):
+        if isinstance(value, (ScalarFunction, str, bytes)) or not isinstance(value, Sequence):
             raise ModelError(label, "a sequence (tuple/list) of ScalarFunction", type(value).__name__)
         if size is not None and len(value) != size:
             raise ModelError(label, f"{size} functions (one per row of C)", f"{len(value)}")
@@ -465,6 +471,20 @@ class ScalarNonlinearSystem(ModelDictMixin):
     def sx_output(self, x: ca.SX) -> ca.SX:
         """``h(C x)`` as an SX expression of an SX state ``x``."""
         return self._out_fn(x)
+
+
+def _no_names(value) -> bool:
+    """``None`` or an empty list/tuple/array: "no names given" (the defaults apply)."""
+    return value is None or (isinstance(value, (list, tuple, np.ndarray)) and len(value) == 0)
+
+
+def _name_count(value, field: str) -> int:
+    """How many names ``value`` holds (0 for none); a string or a non-sequence is refused here."""
+    if _no_names(value):
+        return 0
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        names_or_default(value, field, ())  # raises, naming what was given
+    return len(value)
 
 
 def _default_names(names: tuple[str, ...], prefix: str) -> bool:
