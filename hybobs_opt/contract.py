@@ -94,24 +94,135 @@ class ObserverTrace:
         return {"median_step_s": float(np.median(s)), "p95_step_s": float(np.percentile(s, 95)), "max_step_s": float(s.max())}
 
 
-#: A sample whose output lies outside the range the model can produce (``output_range`` of an
-#: observer) by more than this fraction of the range's width is not used: it is flagged
-#: ``fallback`` and the step is open loop.  Half the width leaves room for sensor noise and offsets
-#: while a sensor fault (``y = 1e12``) never enters the state.
-OUTPUT_RANGE_MARGIN: float = 0.5
+#: A sample whose input or output lies outside the range the model can produce (``input_range``,
+#: ``output_range`` of an observer) by more than this fraction of the range's width is not used:
+#: it is flagged ``fallback`` and the step is open loop.  Half the width leaves room for sensor
+#: noise and offsets while a sensor fault (``y = 1e12``) never enters the state.
+RANGE_MARGIN: float = 0.5
+
+#: The older name of :data:`RANGE_MARGIN` (it applied to outputs only).
+OUTPUT_RANGE_MARGIN: float = RANGE_MARGIN
+
+#: An estimate outside the model's state set (``state_range`` of an observer) by more than this
+#: fraction of the set's width in some coordinate is never flagged ``observable``: the plant cannot
+#: be there, so the estimate is wrong by at least that much.  1 % leaves room for the transient
+#: overshoot of an observer that has converged and for rounding on the boundary.
+STATE_SET_MARGIN: float = 0.01
+
+#: Relative floor of every range test (``(1 + |bound|)`` times this): a degenerate range (a
+#: constant output) still admits rounding.
+RANGE_ABS_RTOL: float = 1e-9
+
+
+def outside_range(v: np.ndarray, rng, margin: float, names=(), label: str = "y") -> str | None:
+    """Why ``v`` lies outside ``rng = (lo, hi)`` by more than ``margin`` of its width, else ``None``.
+
+    A side that is infinite is not judged; the width of a half-bounded coordinate is taken as
+    ``1 + |finite bound|`` so a margin stays finite.
+    """
+    lo, hi = rng
+    width = hi - lo
+    finite = np.isfinite(width)
+    scale = np.where(finite, width, 1.0 + np.where(np.isfinite(lo), np.abs(lo), np.where(np.isfinite(hi), np.abs(hi), 0.0)))
+    big = np.maximum(np.where(np.isfinite(lo), np.abs(lo), 0.0), np.where(np.isfinite(hi), np.abs(hi), 0.0))
+    pad = margin * scale + RANGE_ABS_RTOL * (1.0 + big)
+    with np.errstate(invalid="ignore"):
+        bad = np.nonzero((v < lo - pad) | (v > hi + pad))[0]
+    if not bad.size:
+        return None
+    j = int(bad[0])
+    name = names[j] if j < len(names) else f"{label}[{j}]"
+    return f"{name} = {v[j]:.6g} outside the model's range [{lo[j]:.6g}, {hi[j]:.6g}] by more than {margin:g} of its width"
+
+
+#: An event-driven observer refuses a time stamp later than the previous accepted one by more than
+#: this many times its model's time scale (the timer durations of one cycle): a clock fault
+#: (``t = 1e300``) must not move the observer's time reference, after which every good sample
+#: would be refused as "before the previous one".  A thousand cycles is no plausible gap in a log.
+TIME_JUMP_FACTOR: float = 1000.0
+
+
+class TimeGuard:
+    """Judges the time stamps of an event-driven observer: order, and jumps beyond ``max_step``.
+
+    :meth:`judge` returns ``("ok", None)`` for a plausible time stamp, ``("refused", reason)`` for
+    one before the previous accepted time stamp or more than ``max_step`` after it, and
+    ``("resumed", reason)`` when a time stamp follows a refused jump within ``max_step`` of it:
+    two consecutive consistent samples after a gap are a real gap in the data (the observer
+    restarts its time reference there), one alone is a clock fault.  ``max_step=None`` judges
+    the order only.
+    """
+
+    def __init__(self, max_step: float | None):
+        if max_step is not None and not (np.isfinite(max_step) and max_step > 0):
+            raise ModelError("max_time_step", "a positive finite time or None", repr(max_step))
+        self.max_step = None if max_step is None else float(max_step)
+        self.reset(0.0)
+
+    def reset(self, t0: float) -> None:
+        self.t = float(t0)
+        self._jump: float | None = None
+
+    def judge(self, t: float) -> tuple[str, str | None]:
+        if not np.isfinite(t):
+            return "refused", f"time stamp {t} is not finite"
+        if t < self.t:
+            return "refused", f"time stamp {t:.9g} before the previous one {self.t:.9g}"
+        if self.max_step is None or t - self.t <= self.max_step:
+            self.t, self._jump = float(t), None
+            return "ok", None
+        if self._jump is not None and 0.0 <= t - self._jump <= self.max_step:
+            gap = t - self.t
+            self.t, self._jump = float(t), None
+            return "resumed", f"data resumed after a gap of {gap:.6g} (more than {self.max_step:.6g}): time reference restarted"
+        self._jump = float(t)
+        return "refused", (f"time stamp {t:.9g} jumps {t - self.t:.6g} after the previous one {self.t:.9g}, more than "
+                           f"the plausible {self.max_step:.6g} ({TIME_JUMP_FACTOR:g} x the model's time scale)")
+
+
+def judge_samples_against(observer: "Observer", system: Any, *, inputs: bool = True, outputs: bool = True,
+                          states: bool = True) -> None:
+    """Give ``observer`` the ranges of ``system`` (:mod:`hybobs_opt.systems.ranges`) and its signal
+    names, so that :meth:`Observer.step` judges samples and estimates against the model."""
+    from .systems.ranges import input_range, output_range, state_range
+
+    observer.input_names = tuple(getattr(system, "input_names", ()))
+    observer.output_names = tuple(getattr(system, "output_names", ()))
+    observer.input_range = input_range(system) if inputs else None
+    observer.output_range = output_range(system) if outputs else None
+    observer.state_range = state_range(system) if states else None
+
+
+def checked_state(x0, n: int, field: str = "x0", what: str = "state") -> np.ndarray:
+    """``x0`` as a finite real ``(n,)`` array, or :class:`ModelError` naming ``field`` (nothing coerced:
+    a string, a complex value, a wrong length or a NaN is refused)."""
+    arr = np.asarray(x0) if not isinstance(x0, (str, bytes)) else None
+    if arr is None or arr.dtype.kind not in "biuf":
+        got = type(x0).__name__ if arr is None else f"an array of {arr.dtype}"
+        raise ModelError(field, f"a finite real {what} of length {n}", got)
+    arr = arr.astype(float).reshape(-1)
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise ModelError(field, f"a finite real {what} of length {n}", f"{arr.tolist()}")
+    return arr
 
 
 class Observer(ABC):
     """Base class: subclasses implement :meth:`reset` and :meth:`_step`; :meth:`step` times it
     and turns any exception on a sample into a flagged open-loop step.
 
-    An observer that sets ``output_range = (lo, hi)`` (arrays over the outputs: what the model can
-    produce on its state set) has samples outside it by more than :data:`OUTPUT_RANGE_MARGIN`
-    refused like NaN samples."""
+    Samples are judged against the model (:mod:`hybobs_opt.systems.ranges`): an observer that sets
+    ``output_range`` or ``input_range = (lo, hi)`` (arrays over the outputs / inputs: what the
+    model can produce) has samples outside them by more than :data:`RANGE_MARGIN` refused like NaN
+    samples, and one that sets ``state_range`` never flags ``observable`` an estimate outside the
+    state set by more than :data:`STATE_SET_MARGIN` (the step is flagged ``fallback`` with the
+    reason in ``info``)."""
 
     name = "observer"
     n: int
     state_names: tuple[str, ...] = ()
+    input_range: tuple[np.ndarray, np.ndarray] | None = None
+    output_range: tuple[np.ndarray, np.ndarray] | None = None
+    state_range: tuple[np.ndarray, np.ndarray] | None = None
 
     @abstractmethod
     def reset(self, x0: np.ndarray | None = None, **kwargs: Any) -> None:
@@ -135,17 +246,12 @@ class Observer(ABC):
             return f"sample of length (u={uu.size}, y={yy.size}), expected (u={self.m}, y={self.p})"
         if not (np.all(np.isfinite(uu)) and np.all(np.isfinite(yy))):
             return "sample with NaN or Inf"
-        rng = getattr(self, "output_range", None)
-        if rng is not None:
-            lo, hi = rng
-            pad = OUTPUT_RANGE_MARGIN * (hi - lo) + 1e-9 * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
-            bad = np.nonzero((yy < lo - pad) | (yy > hi + pad))[0]
-            if bad.size:
-                j = int(bad[0])
-                names = getattr(self, "output_names", ())
-                label = names[j] if j < len(names) else f"y[{j}]"
-                return (f"output {label} = {yy[j]:.6g} outside the model's range [{lo[j]:.6g}, {hi[j]:.6g}] "
-                        f"by more than {OUTPUT_RANGE_MARGIN:g} of its width")
+        for rng, v, names, label in ((self.input_range, uu, getattr(self, "input_names", ()), "u"),
+                                     (self.output_range, yy, getattr(self, "output_names", ()), "y")):
+            if rng is not None:
+                why = outside_range(v, rng, RANGE_MARGIN, names, label)
+                if why is not None:
+                    return ("input " if label == "u" else "output ") + why
         return uu, yy
 
     def step(self, u, y) -> Estimate:
@@ -153,10 +259,29 @@ class Observer(ABC):
         t0 = time.perf_counter()
         checked = self._validate_sample(u, y)
         if isinstance(checked, str):
-            est = self._fallback(_safe_input(u, self.m), checked)
+            est = self._fallback(self._usable_input(u), checked)
         else:
             est = self._step(*checked)
+        est = self._judge_estimate(est)
         return Estimate(est.x, est.mode, est.flag, time.perf_counter() - t0, est.info)
+
+    def _usable_input(self, u) -> np.ndarray | None:
+        """The input of a refused sample if open-loop prediction may still use it (numeric, finite, of
+        the right length and inside ``input_range``), else ``None``."""
+        uu = _safe_input(u, self.m)
+        if uu is not None and self.input_range is not None and outside_range(uu, self.input_range, RANGE_MARGIN) is not None:
+            return None
+        return uu
+
+    def _judge_estimate(self, est: Estimate) -> Estimate:
+        """``est`` with ``observable`` withdrawn (flag ``fallback``) when it lies outside the state set."""
+        if est.flag != OBSERVABLE or self.state_range is None:
+            return est
+        why = outside_range(np.asarray(est.x, dtype=float).reshape(-1), self.state_range, STATE_SET_MARGIN,
+                            self.state_names, "x")
+        if why is None:
+            return est
+        return Estimate(est.x, est.mode, FALLBACK, est.seconds, dict(est.info, reason="estimate " + why))
 
     def run(self, U, Y) -> ObserverTrace:
         """Run :meth:`step` over a recorded trace (subclasses may vectorise this)."""
@@ -184,10 +309,7 @@ def initial_state(x0, fallback, state_bounds, n: int) -> np.ndarray:
     if x0 is None:
         lo, hi = state_bounds.bounding_box()
         x0 = (lo + hi) / 2.0
-    x0 = np.asarray(x0, dtype=float).reshape(-1)
-    if x0.shape != (n,) or not np.all(np.isfinite(x0)):
-        raise ModelError("x0", f"a finite state of length {n}", f"{x0.tolist()}")
-    return x0
+    return checked_state(x0, n)
 
 
 def _safe_input(u, m: int) -> np.ndarray | None:

@@ -77,7 +77,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer
+from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state, judge_samples_against
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -314,6 +314,7 @@ class MHEObserver(Observer):
         self._U_A = None if Ub is None else Ub.A
         self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
         self._x_default = self.model.cx.copy()
+        judge_samples_against(self, system)
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
@@ -388,10 +389,7 @@ class MHEObserver(Observer):
             decides it (default ``-1``, unknown).  The warm start's modes always come from the
             guards at ``x0``.
         """
-        x0 = self._x_default if x0 is None else x0
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
-            raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
+        x0 = checked_state(self._x_default if x0 is None else x0, self.n)
         if q0 is not None and (isinstance(q0, bool) or not isinstance(q0, (int, np.integer))
                                or not 0 <= q0 < self.system.n_modes):
             raise ModelError("q0", f"a mode index in 0..{self.system.n_modes - 1} or None", repr(q0))

@@ -51,7 +51,7 @@ from .. import _compat
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_mode
+from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, initial_mode
 from .periodic import PeriodicGains, analyse_gains, deadbeat_gains
 
 
@@ -151,7 +151,7 @@ class DriftObserver(Observer):
     p = 1
 
     def __init__(self, system: ConstantDriftSystem, gains: PeriodicGains | ArrayLike | None = None, *,
-                 project: bool = False):
+                 project: bool = False, max_time_step: float | None = None):
         if not isinstance(system, ConstantDriftSystem):
             raise ModelError("system", "a ConstantDriftSystem (paper 003, eq. 3)", type(system).__name__)
         self.system = system
@@ -162,6 +162,11 @@ class DriftObserver(Observer):
         self.n = system.n_states
         self.state_names = system.state_names
         self._outputs = {0} | set(system.visible_modes)
+        if max_time_step is None:
+            scale = float(np.sum(system.alpha))
+            max_time_step = TIME_JUMP_FACTOR * scale if scale > 0 else None
+        self._guard = TimeGuard(max_time_step)
+        self.max_time_step = self._guard.max_step
         self.reset()
 
     # ------------------------------------------------------------------ set-up
@@ -206,6 +211,7 @@ class DriftObserver(Observer):
         if y0 is not None and y0 not in self._outputs:
             raise ModelError("y0", f"an output of the system, one of {sorted(self._outputs)}", repr(y0))
         self._t = float(t0)
+        self._guard.reset(self._t)
         self._x = x
         self._q = int(mode)
         self._waiting = False
@@ -307,18 +313,38 @@ class DriftObserver(Observer):
                     predicted_t=self._xi, y_hat=int(self.system.h[self._q - 1]))
         return Estimate(x, self._q, flag, 0.0, info)
 
+    def _judge_time(self, t: float, y_new: int | None) -> str | None:
+        """``None`` when the observer may advance to ``t``; otherwise the reason of a ``fallback`` step.
+
+        A refused time stamp leaves the observer as it was.  After a real gap in the data
+        (:class:`~hybobs_opt.contract.TimeGuard`) the time reference restarts at ``t`` from the
+        current estimate, with the prediction of the next visible event recomputed and the count
+        of consistent events towards ``observable`` reset.
+        """
+        verdict, why = self._guard.judge(t)
+        if verdict == "ok":
+            return None
+        if verdict == "resumed":
+            self._t = float(t)
+            self._waiting = False
+            self._updates = 0
+            self._y_prev = y_new
+            self._predict_from_flow()
+        return why
+
     def _fallback(self, u, reason: str) -> Estimate:
-        if u is not None and u[0] >= self._t:
+        if u is not None and self._judge_time(float(u[0]), None) is None:
             self._advance(float(u[0]))
         return self._estimate(FALLBACK, {"reason": reason})
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         t, yv = float(u[0]), float(y[0])
-        if t < self._t:
-            return self._estimate(FALLBACK, {"reason": f"time stamp {t} before the previous one {self._t}"})
         if yv != round(yv) or int(round(yv)) not in self._outputs:
             return self._fallback(u, f"y = {yv} is not an output of the system (one of {sorted(self._outputs)})")
         yi = int(round(yv))
+        why = self._judge_time(t, yi)
+        if why is not None:
+            return self._estimate(FALLBACK, {"reason": why})
         self._advance(t)
         if self._y_prev is None:
             self._y_prev = yi

@@ -43,7 +43,8 @@ from ..lmi.solve import SOLVER_ERROR, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import FALLBACK, OBSERVABLE, Estimate, Observer, ObserverTrace, initial_mode, initial_state
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_mode, initial_state, judge_samples_against
+from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_observer import (
     AMBIGUOUS,
@@ -453,6 +454,7 @@ class ContinuousObserver(Observer):
         self.Ts = float(Ts)
         self.n, self.m, self.p = aut.n, aut.m, aut.p
         self.state_names = aut.state_names
+        judge_samples_against(self, aut)
         self._mats = []
         self._ol = []
         for q in range(aut.n_locations):
@@ -460,6 +462,11 @@ class ContinuousObserver(Observer):
             G = design.gain(q)
             self._mats.append(sampled_observer(A, B, E, C, D, c, G, self.Ts))
             self._ol.append(sampled_observer(A, B, E, C, D, c, np.zeros_like(G), self.Ts)[:2])
+        P = np.asarray(design.P, dtype=float)
+        self._P, self._P_inv_diag = P, np.diag(np.linalg.inv(P))
+        self._log_rate = [induced_log_norm(mats[0], P) for mats in self._mats]
+        self._log_rate_ol = [induced_log_norm(ol[0], P) for ol in self._ol]
+        self._bound = ErrorBound(*design.state_box)
         self._loc0 = int(location)
         self._x0 = x0
         self.reset(x0, q0=location)
@@ -478,19 +485,37 @@ class ContinuousObserver(Observer):
         self.location = loc
         self._u_prev: np.ndarray | None = None
         self._y_prev: np.ndarray | None = None
+        self._bound.start(self.x, self._P)
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
-        if self._u_prev is not None:
+        if self._u_prev is not None and self._y_prev is None:
+            # the previous sample was refused: open loop over the interval it leaves without output
+            Ad, Bw = self._ol[self.location]
+            self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, np.zeros(self.p), [1.0]])
+            self._bound.contract(self._log_rate_ol[self.location])
+        elif self._u_prev is not None:
             Ad, Bw, Bd = self._mats[self.location]
-            y_prev = y if self._y_prev is None else self._y_prev
-            self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, y_prev, [1.0]]) + Bd @ (y - y_prev)
+            self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, self._y_prev, [1.0]]) + Bd @ (y - self._y_prev)
+            self._bound.contract(self._log_rate[self.location])
         self._u_prev, self._y_prev = u, y
-        return Estimate(self.x.copy(), self.location, OBSERVABLE, 0.0, {})
+        return Estimate(self.x.copy(), self.location, self._flag(), 0.0, {"error_bound": self.error_bound().tolist()})
+
+    def error_bound(self) -> np.ndarray:
+        """Certified bound on ``|x_hat_k - x_k|`` per state (:mod:`~hybobs_opt.observers.error_bound`):
+        from the reset, the sampled error map of each step's location contracts the design's
+        ``P``-norm.  It assumes the location used is the plant's (for the hybrid observer, add the
+        neighbourhood ``M0`` of Proposition 3.3.1 of paper 000)."""
+        return self._bound.per_state(self._P_inv_diag)
+
+    def _flag(self) -> str:
+        """``observable`` once :meth:`error_bound` is below the convergence fraction of the state box."""
+        return OBSERVABLE if self._bound.converged(self._P_inv_diag) else WARMING_UP
 
     def _fallback(self, u: np.ndarray | None, reason: str) -> Estimate:
         if self._u_prev is not None:
             Ad, Bw = self._ol[self.location]
             self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, np.zeros(self.p), [1.0]])
+            self._bound.contract(self._log_rate_ol[self.location])
         if u is not None:
             self._u_prev = u
         self._y_prev = None
@@ -558,6 +583,7 @@ class HybridObserver(Observer):
         self.automaton = aut = bank.automaton
         self.n, self.m, self.p = aut.n, aut.m, aut.p
         self.state_names = aut.state_names
+        judge_samples_against(self, aut)
         self.locobs = LocationObserver(bank, Ts, x0=x0, q0=q0)
         self.contobs = ContinuousObserver(design, Ts, x0=self.locobs._x0, location=self._start_location(self.locobs._x0, q0))
         self._q0 = q0
@@ -583,7 +609,11 @@ class HybridObserver(Observer):
         info = dict(loc.info)
         info["generator_x"] = loc.x
         info["continuous_location"] = xc.mode
-        return Estimate(xc.x, loc.mode, loc.flag, 0.0, info)
+        info["error_bound"] = xc.info["error_bound"]
+        # the location identified is not yet the state: observable once the continuous
+        # observer's certified transient has died out too
+        flag = WARMING_UP if loc.flag == OBSERVABLE and xc.flag != OBSERVABLE else loc.flag
+        return Estimate(xc.x, loc.mode, flag, 0.0, info)
 
     def _fallback(self, u: np.ndarray | None, reason: str) -> Estimate:
         xc = self.contobs._fallback(u, reason)

@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state
+from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against
+from .error_bound import CONVERGENCE_FRACTION, induced_log_norm
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
@@ -128,6 +129,7 @@ class LocationObserver(Observer):
         self.Ts = float(Ts)
         self.n, self.m, self.p = aut.n, aut.m, aut.p
         self.state_names = aut.state_names
+        judge_samples_against(self, aut)
         G, n = len(bank.generators), aut.n
         self._G = G
         blocks = [sampled_observer(g.A, g.B, g.E, g.C, g.D, g.c, g.L, self.Ts) for g in bank.generators]
@@ -148,6 +150,14 @@ class LocationObserver(Observer):
             inv = loc.invariant
             slack = inv.b + bank.invariant_margins[q] + LOCATION_INVARIANT_RTOL * (1.0 + np.abs(inv.b))
             self._inv.append((bank.group_of[q], inv.A[:, :n], inv.A[:, n:], slack))
+        # the certified state-error bound of each generator once its dynamics are the plant's:
+        # ||x - z_g||_P <= sqrt(lambda_max(P_g)) Z0 exp(-alpha_g t) from entry (Proposition 3.1.1)
+        self._gen_bound0 = [math.sqrt(float(np.linalg.eigvalsh(g.P)[-1])) * bank.z0_bound for g in bank.generators]
+        self._gen_P_inv_diag = [np.diag(np.linalg.inv(g.P)) for g in bank.generators]
+        self._gen_decay = [float(g.decay) for g in bank.generators]
+        self._gen_log_open = [induced_log_norm(b[0], g.P) for b, g in zip(open_loop, bank.generators)]
+        lo, hi = aut.state_bounds.bounding_box()
+        self._converged_tol = CONVERGENCE_FRACTION * (hi - lo)
         stale = int(math.ceil(bank.delta / self.Ts)) + 1
         self.logic = LocationLogic(aut, stale, q0)
         self._q0 = q0
@@ -163,13 +173,20 @@ class LocationObserver(Observer):
         self._u_prev: np.ndarray | None = None
         self._y_prev: np.ndarray | None = None
         self._identified = False
+        self._bound_group, self._log_bound = -1, math.inf
 
     # ------------------------------------------------------------------ one step
     def _propagate(self, u: np.ndarray, y: np.ndarray) -> None:
-        if self._u_prev is not None:
-            y_prev = y if self._y_prev is None else self._y_prev
-            w = np.concatenate([self._u_prev, y_prev, [1.0]])
-            self._z = self._Ad @ self._z + self._Bw @ w + self._Bd @ (y - y_prev)
+        if self._u_prev is not None and self._y_prev is None:
+            # the previous sample was refused: no output over the last interval, so no correction
+            # (holding y at its new value over it would feed the gain a step the plant never made)
+            w = np.concatenate([self._u_prev, np.zeros(self.p), [1.0]])
+            self._z = self._Ad_ol @ self._z + self._Bw_ol @ w
+            if self._bound_group >= 0:
+                self._log_bound += self._gen_log_open[self._bound_group]
+        elif self._u_prev is not None:
+            w = np.concatenate([self._u_prev, self._y_prev, [1.0]])
+            self._z = self._Ad @ self._z + self._Bw @ w + self._Bd @ (y - self._y_prev)
         self._u_prev, self._y_prev = u, y
 
     def _decide(self, u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, LocationDecision]:
@@ -189,21 +206,36 @@ class LocationObserver(Observer):
         q = dec.held if dec.held >= 0 else 0
         g = self.bank.group_of[q]
         x = self._z[g * self.n : (g + 1) * self.n].copy()
+        bound = self.error_bound(g)
         if dec.status == IDENTIFIED:
             self._identified = True
-            flag = OBSERVABLE
+            # the location is known; the state once the generator's certified transient has died out
+            flag = OBSERVABLE if np.all(bound <= self._converged_tol) else WARMING_UP
         else:
             flag = UNOBSERVABLE if self._identified else WARMING_UP
         info = {"residuals": res, "sigma": sigma, "consistent": cons, "candidates": dec.candidates,
                 "status": dec.status, "held": dec.held, "ambiguous": dec.status == AMBIGUOUS,
-                "generator_states": self._z.reshape(self._G, self.n).copy()}
+                "generator_states": self._z.reshape(self._G, self.n).copy(), "error_bound": bound.tolist()}
         if reason:
             info["reason"] = reason
         return Estimate(x, dec.location, flag, 0.0, info)
 
+    def error_bound(self, g: int) -> np.ndarray:
+        """Certified bound on ``|z_g,k - x_k|`` per state while generator ``g``'s dynamics have been
+        the identified ones for the steps counted: ``Z0`` at entry into them (the bank's design
+        hypothesis, Proposition 3.1.1 of paper 000), contracting at the generator's certified rate."""
+        log_b = self._log_bound if g == self._bound_group else math.log(self._gen_bound0[g])
+        return math.exp(min(log_b, 700.0)) * np.sqrt(self._gen_P_inv_diag[g])
+
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         self._propagate(u, y)
         res, sigma, cons, dec = self._decide(u, y)
+        if dec.status == IDENTIFIED:
+            g = self.bank.group_of[dec.held]
+            if g == self._bound_group:
+                self._log_bound -= self._gen_decay[g] * self.Ts
+            else:
+                self._bound_group, self._log_bound = g, math.log(self._gen_bound0[g])
         self.last_decision = dec
         return self._estimate(dec, res, sigma, cons)
 
@@ -215,6 +247,8 @@ class LocationObserver(Observer):
         if u is not None:
             self._u_prev = u
         self._y_prev = None
+        if self._bound_group >= 0:  # an open-loop step: the generator's error is not corrected
+            self._log_bound += self._gen_log_open[self._bound_group]
         held = self.logic.held
         dec = LocationDecision(-1, held, (), NO_CANDIDATE)
         self.last_decision = dec

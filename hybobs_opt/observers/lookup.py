@@ -84,7 +84,7 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from . import _lookup_kernels as K
-from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
+from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
 REASONS = {
@@ -293,9 +293,7 @@ class LookupObserver(Observer):
             self._build_kernel_args()
         if x0 is None:
             x0 = self.analysis.enumeration.centre[: self.n]
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
-            raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
+        x0 = checked_state(x0, self.n)
         self._xcur = x0.copy()
         self._meta = np.array([0, -1, 0, 0, -1, 0, 0], dtype=np.int64)
         self._Ybuf = np.zeros((self.T, self.p))

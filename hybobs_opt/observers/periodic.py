@@ -62,7 +62,7 @@ from ..tolerances import (
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,
 )
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, initial_mode
+from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, initial_mode
 
 
 # ---------------------------------------------------------------------------- properties of gains
@@ -710,13 +710,19 @@ class PeriodicObserver(Observer):
     m = 1
     p = 1
 
-    def __init__(self, periodic: PeriodicSystem, gains: PeriodicGains | ArrayLike, *, project: bool = False):
+    def __init__(self, periodic: PeriodicSystem, gains: PeriodicGains | ArrayLike, *, project: bool = False,
+                 max_time_step: float | None = None):
         self.ps = _check_system(periodic)
         self.gains = gains if isinstance(gains, PeriodicGains) else analyse_gains(periodic, gains)
         self.L = self.ps.check_gains(self.gains.L, "gains")
         self.project = bool(project)
         self.n = self.ps.n
         self.state_names = self.ps.state_names
+        if max_time_step is None:
+            scale = float(np.sum(np.abs(self.ps.c)))
+            max_time_step = TIME_JUMP_FACTOR * scale if scale > 0 else None
+        self._guard = TimeGuard(max_time_step)
+        self.max_time_step = self._guard.max_step
         self.reset()
 
     def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, q0: int | None = None, mode: int | None = None,
@@ -730,15 +736,14 @@ class PeriodicObserver(Observer):
             For a wrong length / non-finite ``x0`` or ``t0``, or a ``q0`` not in ``V``.
         """
         mode = initial_mode(q0, mode, "mode")
-        x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
-        if x.shape != (self.n,) or not np.all(np.isfinite(x)):
-            raise ModelError("x0", f"a finite estimate of the {self.n} queues", f"{np.asarray(x0).tolist()}")
+        x = np.zeros(self.n) if x0 is None else checked_state(x0, self.n, what="estimate of the queues")
         if not np.isfinite(t0):
             raise ModelError("t0", "a finite time", repr(t0))
         v = self.ps.event_modes[0] if mode is None else mode
         self._j = self.ps.phase_of(v)
         self._x = x.copy()
         self._t = float(t0)
+        self._guard.reset(self._t)
         self._events = 0
 
     def _estimate(self, flag: str, info: dict) -> Estimate:
@@ -752,14 +757,18 @@ class PeriodicObserver(Observer):
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         t, v = float(u[0]), float(y[0])
-        if t < self._t:
-            return self._fallback(u, f"event time {t} before the previous event {self._t}")
         if v != round(v) or int(round(v)) not in self.ps.event_modes:
             return self._fallback(u, f"y = {v} is not a mode of V = {self.ps.event_modes}")
         v = int(round(v))
+        verdict, why = self._guard.judge(t)
+        if verdict == "refused":
+            return self._fallback(u, f"event {why}")
+        if verdict == "resumed":  # a real gap: the phase and time reference restart at this event
+            self._j, self._t, self._events = self.ps.phase_of(v), t, 0
+            return self._estimate(FALLBACK, {"reason": why})
         expected = self.ps.event_modes[self._j % self.ps.period]
         if v != expected:
-            self._j, self._t = self.ps.phase_of(v), t
+            self._j, self._t, self._events = self.ps.phase_of(v), t, 0
             return self._estimate(FALLBACK, {"reason": f"event leaving mode {v}, expected {expected}: phase reset"})
         i = self._j - 1
         t_hat = self._t + float(self.ps.C[i] @ self._x) + float(self.ps.c[i])

@@ -60,7 +60,7 @@ from .. import _compat
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
 from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against
 
 __all__ = [
     "GainRule",
@@ -251,6 +251,7 @@ class SlidingModeObserver(Observer):
         self._flows = [loc.flow for loc in a.locations]
         self._u0 = np.zeros(a.m)
         self._a_filter = 0.0 if self.filter_tau is None else 1.0 - math.exp(-self.Ts / self.filter_tau)
+        judge_samples_against(self, a)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -259,10 +260,7 @@ class SlidingModeObserver(Observer):
         if x0 is None:
             z0 = 0.5 * (self.form.z_lower + self.form.z_upper)
         else:
-            x0 = np.asarray(x0, dtype=float).reshape(-1)
-            if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
-                raise ModelError("x0", f"a finite state of length {self.n}", f"{x0.tolist()}")
-            z0 = self.form.to_z(x0)
+            z0 = self.form.to_z(checked_state(x0, self.n))
         self._zh = [min(max(float(v), lo), hi) for v, lo, hi in zip(z0, self._lo, self._hi)]
         self._zprev = list(self._zh)
         self._count = [0] * self.n

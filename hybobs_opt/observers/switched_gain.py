@@ -32,7 +32,9 @@ import numpy as np
 from .. import _compat
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, initial_mode
+from ..systems.ranges import output_range, state_range
+from .error_bound import ErrorBound
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, checked_state, initial_mode
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -114,15 +116,56 @@ class SwitchedGainObserver(Observer):
             raise ModelError("substeps", "at least 1", repr(substeps))
         self.clip_to_box = bool(clip_to_box)
         self.output_names = system.output_names
-        self.output_range = _output_range(system)
+        self.output_range = output_range(system)
+        self.state_range = state_range(system)
         self.periodic: dict[int, float] = _periodic_coordinates(periodic, system)
         self._wrap_idx = np.array(sorted(self.periodic), dtype=int)
         self._wrap_lo = np.asarray(system.box_lower, dtype=float)[self._wrap_idx]
         self._wrap_period = np.array([self.periodic[i] for i in self._wrap_idx], dtype=float)
         self._clip_mask = np.ones(self.n, dtype=bool)
         self._clip_mask[self._wrap_idx] = False
+        self._setup_error_bound(regs, order)
         self._build_step()
         self.reset()
+
+    def _setup_error_bound(self, regs, order) -> None:
+        """The Lyapunov matrices and rates of the design, for the certified error bound behind the flag."""
+        Ps, rates = [], []
+        for i in order:
+            P = getattr(regs[i], "P", None)
+            sigma = getattr(regs[i], "sigma_verified", None)
+            sigma = getattr(regs[i], "sigma", None) if sigma is None else sigma
+            P = None if P is None else np.asarray(P, dtype=float)
+            if (P is None or sigma is None or P.shape != (self.n, self.n) or not np.all(np.isfinite(P))
+                    or not float(sigma) > 0 or np.linalg.eigvalsh(0.5 * (P + P.T))[0] <= 0):
+                Ps = None  # gains without a certificate (a hand-set gain): the flag stays warming_up
+                break
+            Ps.append(0.5 * (P + P.T))
+            rates.append(float(sigma))
+        self._lyap = None if Ps is None else (Ps, [np.diag(np.linalg.inv(P)) for P in Ps], rates)
+        self._bound = ErrorBound(self.system.box_lower, self.system.box_upper)
+
+    def error_bound(self) -> np.ndarray | None:
+        """Certified bound on ``|x_hat_k - x_k|`` per state, or ``None`` when the gains carry no
+        Lyapunov matrices (:mod:`~hybobs_opt.observers.error_bound`).
+
+        From the region selection, the bound is the farthest corner of the box in the region's
+        ``P``-norm; each closed-loop sample contracts it by ``exp(-sigma dt / 2)`` (``V' <= -sigma V``,
+        paper 004 eqs. 7-10), each region switch multiplies it by ``sqrt(lambda_max(P_i^-1 P_j))``
+        and an open-loop sample restarts it from the box.  It holds under the design's hypotheses
+        (the plant and the estimate in the box of the region whose gain is used)."""
+        if self._lyap is None or self.q is None:
+            return None
+        return self._bound.per_state(self._lyap[1][self.q])
+
+    def _flag(self) -> str:
+        if self._lyap is None or self.q is None:
+            return WARMING_UP
+        return OBSERVABLE if self._bound.converged(self._lyap[1][self.q]) else WARMING_UP
+
+    def _restart_bound(self) -> None:
+        if self._lyap is not None and self.q is not None:
+            self._bound.start(self.x, self._lyap[0][self.q])
 
     def _build_step(self) -> None:
         """One sample of RK4 as a CasADi function, built once (``g(y, u)`` needs the numpy path)."""
@@ -174,15 +217,14 @@ class SwitchedGainObserver(Observer):
         field = "region" if region is not None else "q0"  # errors name the keyword the caller used
         region = initial_mode(q0, region, "region")
         sysm = self.system
-        x = 0.5 * (sysm.box_lower + sysm.box_upper) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
-        if x.shape != (self.n,) or not np.all(np.isfinite(x)):
-            raise ModelError("x0", f"a finite state of length {self.n}", repr(x0))
+        x = 0.5 * (sysm.box_lower + sysm.box_upper) if x0 is None else checked_state(x0, self.n)
         if region is not None and not 0 <= int(region) < len(self.regions):
             raise ModelError(field, f"a region index in [0, {len(self.regions)})", repr(region))
         self.x = self._wrap(x.copy())
         self.q: int | None = None if region is None else int(region)
         if self.q is None and (self.init_samples <= 1 or len(self.regions) == 1):
             self.q = self._region_of(self.x[self.k], 0)[0]
+        self._restart_bound()
         self._buf_u: list[np.ndarray] = []
         self._buf_y: list[np.ndarray] = []
         self._prev_u: np.ndarray | None = None
@@ -328,26 +370,35 @@ class SwitchedGainObserver(Observer):
                     self.x[self.k] = min(max(v, reg.lo), reg.hi)
                     self.x = self._wrap(self.x)
                 self.selected = {"region": q, "s": s, "samples": len(self._buf_y)}
+                self._restart_bound()
             return Estimate(self.x.copy(), -1 if self.q is None else self.q, WARMING_UP, 0.0,
                             {"region": self.q, "selected": dict(self.selected)})
         if self._prev_u is not None:
             y0 = self._prev_y if self._prev_y is not None else y
             self.x = self._integrate(self.x, self._prev_u, y0, y, self.gains[self.q])
+            if self._lyap is not None:
+                self._bound.contract(-0.5 * self._lyap[2][self.q] * self.dt)
         if not np.all(np.isfinite(self.x)):
             self.x = np.nan_to_num(self.x, nan=0.0, posinf=0.0, neginf=0.0)
             self._prev_u, self._prev_y = u, y
+            self._restart_bound()
             return Estimate(self.x.copy(), self.q, FALLBACK, 0.0, {"reason": "estimate became non-finite"})
         q_old = self.q
         self.q, outside = self._region_of(float(self.x[self.k]), self.q)
+        if self._lyap is not None and self.q != q_old:
+            self._bound.change_metric(self._lyap[0][q_old], self._lyap[0][self.q])
         self._prev_u, self._prev_y = u, y
-        return Estimate(self.x.copy(), self.q, OBSERVABLE, 0.0,
-                        {"region": self.q, "switched": self.q != q_old, "outside": outside})
+        bound = self.error_bound()
+        return Estimate(self.x.copy(), self.q, self._flag(), 0.0,
+                        {"region": self.q, "switched": self.q != q_old, "outside": outside,
+                         "error_bound": None if bound is None else bound.tolist()})
 
     def _fallback(self, u: np.ndarray | None, reason: str) -> Estimate:
         uu = u if u is not None else (self._prev_u if self._prev_u is not None else np.zeros(self.m))
         if self._prev_u is not None:
             self.x = self._integrate(self.x, self._prev_u, None, None, None)
         self._prev_u, self._prev_y = uu, None
+        self._restart_bound()  # no certified contraction of an open-loop sample: from the box again
         return Estimate(self.x.copy(), -1 if self.q is None else self.q, FALLBACK, 0.0, {"reason": reason})
 
 
@@ -382,31 +433,6 @@ def _periodic_coordinates(periodic: Mapping[str | int, float] | None,
             raise ModelError("periodic", f"one period per state ({system.state_names[k]!r} given twice)", repr(key))
         out[k] = value
     return out
-
-
-def _output_range(system: ScalarNonlinearSystem) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)`` of every output ``h_j(C_j x)`` over the operating box (sampled on its argument
-    interval): samples far outside it are sensor faults (:data:`~hybobs_opt.contract.OUTPUT_RANGE_MARGIN`)."""
-    from scipy.optimize import minimize_scalar
-
-    lo, hi = [], []
-    for fn, (a, b) in zip(system.h, system.h_ranges):
-        z = np.linspace(a, b, 1025)
-        v = fn.value(z)
-        ext = []
-        for sign, k in ((1.0, int(np.argmin(v))), (-1.0, int(np.argmax(v)))):
-            # refine the sampled extreme inside its two neighbouring cells
-            za, zb = z[max(k - 1, 0)], z[min(k + 1, z.size - 1)]
-            best = float(v[k])
-            if zb > za:
-                r = minimize_scalar(lambda t: sign * float(fn.value(np.array([t]))[0]), bounds=(za, zb), method="bounded",
-                                    options={"xatol": 1e-12 * max(1.0, abs(za), abs(zb))})
-                if np.isfinite(r.fun):
-                    best = min(best, sign * r.fun) if sign > 0 else max(best, -r.fun)
-            ext.append(best)
-        lo.append(ext[0])
-        hi.append(ext[1])
-    return np.array(lo), np.array(hi)
 
 
 def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
