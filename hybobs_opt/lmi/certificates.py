@@ -555,5 +555,14 @@ def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str 
     cert = InfeasibilityCertificate(reason, theorem, lmi.form, sigma, dual, structural, ob, nonmono, sol.status,
                                     None if sol.region is None else sol.region.to_dict())
     if raise_error:
-        raise InfeasibleError(f"observer LMI {lmi.form} {region_text}", cert, theorem)
+        what = f"observer LMI {lmi.form} {region_text}"
+        if not (cert.verify() or cert.structural_verified):
+            from .farkas import verified_farkas
+
+            farkas = verified_farkas(lmi, f"the {what} at decay rate {sigma:g}")
+            if farkas is None:
+                raise SolverError(what, SOLVER, str(sol.status), "no point and no certificate of infeasibility verified: "
+                                  "rescale the model or lower the decay rate")
+            raise InfeasibleError(what, farkas, f"{theorem}; {farkas.reason}")
+        raise InfeasibleError(what, cert, theorem)
     return cert

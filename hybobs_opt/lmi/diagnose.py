@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import HybobsError, InfeasibleError
+from ..errors import HybobsError, InfeasibleError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
 from .certificates import InfeasibilityCertificate
 from .hierarchy import HierarchyResult, condition_hierarchy, design_lmi, verified_rate
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
 from .observer_lmi import SIGMA_CAP, DecayResult, LMISolution, ObserverLMI
+from .solve import SOLVER
 from .schedule import SchedulingRegion, coordinate_index, make_region
 from .subtraction import SubtractionCheck, theorem5_check
 from .switched import grow_regions
@@ -184,9 +185,6 @@ def diagnose(
     sol = paper.solution if paper.solution is not None else lmi.solve(bounds, 0.0)
     cert = paper.certificate if isinstance(paper.certificate, InfeasibilityCertificate) else None
     if paper.skipped and str(paper.status) != "infeasible" and not hier.feasible and hier.strongest_infeasible is None:
-        from ..errors import SolverError
-        from .solve import SOLVER
-
         raise SolverError(f"observer LMI {lmi.form} on {region.name} in [{lo:.6g}, {hi:.6g}]", SOLVER, sol.status,
                           paper.skipped)
     undetectable = undetectable_points(system, k, lo, hi)
@@ -200,8 +198,13 @@ def diagnose(
             design = design_lmi(system, design_key, gain_bound=gain_bound, scaling=lmi.d)
             decay = design.max_decay(bounds, sigma_cap)
             if not decay.solution.feasible:
-                raise InfeasibleError(f"{design_key} condition with ||L||_2 <= {gain_bound:g}", None,
-                                      "not feasible at decay rate 0")
+                from .farkas import verified_farkas
+
+                what = f"{design_key} condition with ||L||_2 <= {gain_bound:g}"
+                cert = verified_farkas(design, f"the {what} at decay rate 0")
+                if cert is None:
+                    raise SolverError(what, SOLVER, decay.solution.status, "no gain and no verified certificate")
+                raise InfeasibleError(what, cert, "not feasible at decay rate 0")
             rate = verified_rate(system, bounds, decay.solution.P, decay.solution.L)
         except HybobsError as exc:
             decay = None

@@ -273,6 +273,7 @@ def _growth_failure(system, lmi, k: int, a: float, b: float, min_decay: float, s
     every gain, feasible there means the bound is what fails.  Undetectable points of ``[a, b]``
     (:mod:`.impossibility`) are named: they rule out every gain on any region containing them.
     """
+    from .farkas import verified_farkas as _farkas
     from .hierarchy import _certificate, design_lmi
     from .impossibility import undetectable_points
 
@@ -281,24 +282,35 @@ def _growth_failure(system, lmi, k: int, a: float, b: float, min_decay: float, s
     where = f"[{a:.6g}, {b:.6g}]"
     points = undetectable_points(system, k, a, b)
     proof = (" " + points[0].claim) if points else ""
+    undecided = f"{problem} ({condition} condition on {where})"
     cert, missing = _certificate(lmi, sol)
-    if cert is None and not str(sol.status).startswith("infeasible"):
-        raise SolverError(f"{problem} ({condition} condition on {where})", SOLVER, sol.status,
-                          f"no gain was confirmed and no certificate verified ({missing}); lower min_decay or the "
-                          f"resolution, or rescale the model.{proof}")
+    if cert is None:
+        # the condition's own certificates did not verify: the Farkas ray of the problem as posed
+        cert = _farkas(lmi, f"the {condition} condition on {where} at decay rate {min_decay:g}")
+    if cert is None:
+        raise SolverError(undecided, SOLVER, sol.status,
+                          f"no gain was confirmed and no certificate of infeasibility verified ({missing}); lower the "
+                          f"minimum decay or the resolution, or rescale the model.{proof}")
     if lmi.gain_bound is None:
         raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} satisfies the {condition} condition "
-                              f"even on {where}" + ("" if cert is not None else f" ({missing})") + "." + proof)
+                              f"even on {where}." + proof)
     free = design_lmi(system, condition, gain_bound=None, scaling=lmi.d)
     fsol = free.solve(sol.bounds, min_decay)
     if fsol.feasible:
-        raise InfeasibleError(problem, None, f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} "
-                              f"on {where} (the solver's verdict; no certificate covers a gain bound), but without the "
-                              f"bound the {condition} condition is feasible there (||L||_2 = {fsol.gain_norm:.4g}): raise "
-                              f"--gain-bound or lower --min-decay.{proof}")
+        raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} "
+                              f"satisfies the {condition} condition on {where} (certificate: {type(cert).__name__}), but "
+                              f"without the bound it is feasible there (||L||_2 = {fsol.gain_norm:.4g}): raise the gain "
+                              f"bound or lower the minimum decay.{proof}")
     fcert, fmissing = _certificate(free, fsol)
+    if fcert is None:
+        fcert = _farkas(free, f"the {condition} condition on {where} at decay rate {min_decay:g} without a gain bound")
+    if fcert is None:  # proven under the bound only
+        raise InfeasibleError(problem, cert, f"no gain with decay rate {min_decay:g} and ||L||_2 <= {lmi.gain_bound:.4g} "
+                              f"satisfies the {condition} condition on {where}; without the bound the solver found no "
+                              f"gain either but no certificate verified ({fmissing}).{proof}")
     raise InfeasibleError(problem, fcert, f"no gain with decay rate {min_decay:g} satisfies the {condition} condition on "
-                          f"{where}, whatever the gain bound" + ("" if fcert is not None else f" ({fmissing})") + "." + proof)
+                          f"{where}, whatever the gain bound." + proof)
+
 
 
 def synthesize_switched(
@@ -376,6 +388,14 @@ def synthesize_switched(
         dr = lmi.max_decay(b, sigma_cap, guess=guess, known=min_decay)
         if not dr.solution.feasible:  # the polytopic search returns the failed zero-rate solve
             cert = lmi.certify(dr.solution) if lmi.gain_bound is None else None
+            if cert is None or not cert.verify():
+                from .farkas import verified_farkas
+
+                cert = verified_farkas(lmi, f"the polytopic condition on {reg.name} at decay rate 0")
+            if cert is None:
+                raise SolverError(f"polytopic condition on {reg.name} in [{reg.lo:.6g}, {reg.hi:.6g}]", SOLVER,
+                                  dr.solution.status, "no gain was found and no certificate of infeasibility verified: "
+                                  "rescale the model or split the region")
             raise InfeasibleError(f"polytopic condition on {reg.name} in [{reg.lo:.6g}, {reg.hi:.6g}]", cert,
                                   "no constant gain with a quadratic Lyapunov function on this region"
                                   + ("" if lmi.gain_bound is None else f" within ||L||_2 <= {lmi.gain_bound:.4g}"))

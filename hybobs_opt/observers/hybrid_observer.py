@@ -280,7 +280,14 @@ class ContinuousObserverLMI:
             raise SolverError(what, SOLVER, "solver error", f"a smaller decay rate ({outcome.message})")
         seconds, status = outcome.seconds, outcome.status
         if is_infeasible(status):
-            raise InfeasibleError(what, None, self._diagnose(decay))
+            from ..lmi.farkas import conic_certificate
+
+            cert = conic_certificate(self.problem, f"the {what} at decay rate {decay:g} 1/s")
+            if cert is None or not cert.verify():
+                raise SolverError(what, SOLVER, f"{status} without a certificate that verifies",
+                                  "a smaller decay rate, or rescale the model (the solver's verdict could not be "
+                                  "confirmed by a Farkas certificate)")
+            raise InfeasibleError(what, cert, self._diagnose(decay))
         if not is_optimal(status) or self.P.value is None:
             # inaccurate answers are not accepted (hybobs_opt.status): the bounds built from P need an optimum
             raise SolverError(what, SOLVER, str(status), "a smaller decay rate, or a larger gain bound")

@@ -567,11 +567,11 @@ def _search_decay(lmi: LuenbergerLMI, A, C, delta, epsilon, z0, gain_bound, cap,
     total, last_status = 0.0, ""
     for it in range(1, MAX_DECAY_ITERATIONS + 1):
         if alpha > cap:
-            raise InfeasibleError(
-                f"detection delay Delta = {delta:g} s for location {label}",
-                None,
-                f"the LMI design needs a decay rate of at least {alpha:.4g} 1/s, above max_decay = {cap:g} "
-                "(sufficient condition of Proposition 3.1.1; raise max_decay or Delta, or lower Z0/epsilon)",
+            # a limit of the design's search, not a proof that no gain exists
+            raise SolverError(
+                f"{what} for detection delay Delta = {delta:g} s", "decay-rate search", f"limit max_decay = {cap:g}",
+                f"the LMI design needs a decay rate of at least {alpha:.4g} 1/s (sufficient condition of "
+                "Proposition 3.1.1): raise max_decay or Delta, or lower Z0/epsilon",
             )
         try:
             out = lmi.solve(A, C, alpha, what)
@@ -587,10 +587,16 @@ def _search_decay(lmi: LuenbergerLMI, A, C, delta, epsilon, z0, gain_bound, cap,
                               "a larger Delta or epsilon, a smaller Z0 or invariant_rtol: the required decay makes "
                               "the Lyapunov matrix too ill-conditioned")
         if out is None:
+            from ..lmi.farkas import conic_certificate
+
             bound = f" with ||L|| <= {gain_bound:g}" if gain_bound is not None else ""
+            cert = conic_certificate(lmi.problem, f"the decay-rate LMI of location {label} at alpha = {alpha:.4g} 1/s{bound}")
+            if cert is None or not cert.verify():
+                raise SolverError(what, SOLVER, f"infeasible at alpha = {alpha:.4g} 1/s without a certificate that verifies",
+                                  "a larger gain bound or Delta, or rescale the model")
             raise InfeasibleError(
                 f"detection delay Delta = {delta:g} s for location {label}",
-                None,
+                cert,
                 f"the decay-rate LMI is infeasible at alpha = {alpha:.4g} 1/s{bound}, the rate the residual bound "
                 f"needs for Delta (sufficient condition of Proposition 3.1.1; raise the gain bound or Delta)",
             )
