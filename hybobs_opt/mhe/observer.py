@@ -600,13 +600,30 @@ class MHEObserver(Observer):
         common = {"solver": self.solver, "solved_by": "branch-and-bound", "solver_detail": dict(out.detail)}
         if out.status == Status.INFEASIBLE and incumbent is not None:
             if cutoff is not None and self._backend.cutoff_applied:
-                # every node was pruned by the incumbent's objective (the problem is feasible:
-                # the incumbent is a point of it), so the incumbent is optimal
-                return WindowResult(Status.INCUMBENT_OPTIMAL, gap_bound=self._gap_bound(vbar)), False
-            # without a cutoff "infeasible" contradicts the incumbent, a verified point of the window
-            return WindowResult(Status.NOT_CERTIFIED, **common,
-                                reason=f"solver status {out.detail.get('status')!r} (infeasible) "
-                                       "for a window with a feasible incumbent"), False
+                # "infeasible" under the cutoff claims that no node beats the incumbent (a point of
+                # the problem).  The claim is not taken on trust: the same problem without the
+                # cutoff must return a verified point no better than the incumbent.
+                try:
+                    check = self._backend.solve(f, lo, hi, vbar)
+                except Exception as exc:  # a crashing solver must not stop the observer loop
+                    return WindowResult(Status.NOT_CERTIFIED, **common, reason=f"{type(exc).__name__}: {exc}"), False
+                cv = check.v
+                ok = check.status == Status.OPTIMAL and cv is not None and np.isfinite(cv).all()
+                if ok and enc.violation(cv, Uf, bounds=(lo, hi)) <= max(MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL):
+                    d = cv - vbar
+                    if 0.5 * d @ self._H @ d + f @ d >= obj - MHE_ABS_SUBOPT * (1.0 + abs(obj)):
+                        return WindowResult(Status.INCUMBENT_OPTIMAL, gap_bound=self._gap_bound(vbar)), False
+                    out, v = check, cv  # the cutoff's "infeasible" was wrong: a better point exists
+                    common["solver_detail"] = dict(check.detail, cutoff_claim_refuted=True)
+                else:
+                    return WindowResult(Status.NOT_CERTIFIED, **common,
+                                        reason="the solver's 'no node beats the incumbent' was not confirmed by the "
+                                               f"solve without cutoff (status {check.detail.get('status')!r})"), False
+            else:
+                # without a cutoff "infeasible" contradicts the incumbent, a verified point of the window
+                return WindowResult(Status.NOT_CERTIFIED, **common,
+                                    reason=f"solver status {out.detail.get('status')!r} (infeasible) "
+                                           "for a window with a feasible incumbent"), False
         if out.status != Status.OPTIMAL:
             return WindowResult(out.status, **common, reason=f"solver status {out.detail.get('status')!r}"), False
         viol = enc.violation(v, Uf, bounds=(lo, hi)) if np.isfinite(v).all() else np.inf
