@@ -28,6 +28,11 @@ MAX_HORIZON: int = 100
 #: and three floats per state; 10^6 points is a 1000 x 1000 image, finer than any figure shows.
 MAX_GRID_POINTS: int = 1_000_000
 
+#: Bound on an observer gain ``||L||_2`` (model units).  The LMIs take it squared and scaled
+#: (``gamma = (bound / scale)^2``); above 10^12 the square exceeds the relative accuracy of the conic
+#: solvers by far (it constrains nothing any more), and near 10^154 it overflows a double.
+MAX_GAIN_BOUND: float = 1e12
+
 #: Local worker processes per core: each forked worker holds a copy of the package and the
 #: problem; more than a few per core only adds start-up time and memory.
 MAX_WORKERS_PER_CORE: int = 4

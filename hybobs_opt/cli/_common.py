@@ -196,7 +196,9 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
                 if value not in (0.0, 1.0):
                     raise ModelError(f"--param {key}", f"0 or 1 (a yes/no parameter of example {example.name!r})", repr(value))
                 params[key] = bool(value)
-    return NamedSystem(args.system, resolve_system(args.system, params), example, params)
+    with as_options({key: f"--param {key}" for key in params} if example is not None else {}):
+        system = resolve_system(args.system, params)
+    return NamedSystem(args.system, system, example, params)
 
 
 def require_kind(named: NamedSystem, kinds: tuple[str, ...], why: str) -> None:

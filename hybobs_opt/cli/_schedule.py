@@ -136,10 +136,18 @@ def design_setup(args: argparse.Namespace):
         coordinate = name
     if coordinate is not None and coordinate not in named.system.state_names:
         raise ModelError("--coordinate", f"a state of the system ({', '.join(named.system.state_names)})", repr(coordinate))
+    from ..limits import MAX_GAIN_BOUND
+
+    if args.gain_bound is not None and args.gain_bound > MAX_GAIN_BOUND:
+        raise ModelError("--gain-bound", f"at most {MAX_GAIN_BOUND:g} (hybobs_opt.limits.MAX_GAIN_BOUND: the LMIs take "
+                         "the bound squared)", repr(args.gain_bound))
     rate = getattr(args, "max_rate", None)
     with as_options(DESIGN_OPTIONS):
         settings = design_settings(named.system, coordinate, lo, hi, gain_bound=args.gain_bound, min_decay=args.min_decay,
                                    overlap=args.overlap, rate=rate, condition=getattr(args, "condition", None))
+    if args.min_decay is not None and settings.min_decay > settings.sigma_cap:
+        raise ModelError("--min-decay", f"at most the largest decay rate the design searches, sigma_cap = "
+                         f"{settings.sigma_cap:g} 1/s", repr(args.min_decay))
     if args.overlap is not None and not settings.overlap < settings.hi - settings.lo:
         raise ModelError("--overlap", f"a hysteresis smaller than the range of {settings.coordinate}, "
                          f"{settings.hi - settings.lo:g} (model units)", repr(args.overlap))

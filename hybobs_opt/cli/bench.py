@@ -119,7 +119,8 @@ def bench_recorded(named, args, observers: list[str]) -> dict:
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
-        runs = observe_log(named.system, log, observers, horizon, analysis, progress=progress)
+        with as_options({"horizon T": "--horizon", "horizon": "--horizon"}):
+            runs = observe_log(named.system, log, observers, horizon, analysis, progress=progress)
     finally:
         close()
     results = {}

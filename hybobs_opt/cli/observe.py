@@ -162,7 +162,8 @@ def observe_recorded(named, args) -> dict:
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
-        trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress)[kind]
+        with as_options({"horizon T": "--horizon", "horizon": "--horizon"}):
+            trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress)[kind]
     finally:
         close()
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}

@@ -112,5 +112,5 @@ def simulate_system(system, args: argparse.Namespace):
             raise ModelError("--q0", f"a {'location' if first == 0 else 'mode'} index in {first}..{first + count - 1}",
                              repr(args.q0))
     with as_options({"t_final": "--t-final", "t_final / dt": "--t-final / --dt", "steps": "--steps", "dt": "--dt",
-                     "q0": "--q0", "x0": "--x0", "u": "--u"}):
+                     "q0": "--q0", "x0": "--x0", "u": "--u", "x(0)": "--x0 / --u"}):
         return run_system(system, x0=x0, u=u, q0=args.q0, steps=args.steps, t_final=args.t_final, dt=args.dt)

@@ -85,6 +85,8 @@ def simulate_pwa(system: PWASystem, x0, U, *, on_blocked: str = "raise") -> Trac
         U = U[:, None]
     if U.ndim != 2 or U.shape[1] != system.m:
         raise ModelError("U", f"an array of shape (T, {system.m})", f"shape {U.shape}")
+    if U.shape[0] == 0:
+        raise ModelError("U", f"at least one input sample, shape (T >= 1, {system.m})", f"shape {U.shape}")
     x0 = np.asarray(x0, dtype=float)
     if x0.shape != (system.n,):
         raise ModelError("x0", f"a state of length {system.n}", f"shape {x0.shape}")
@@ -95,7 +97,7 @@ def simulate_pwa(system: PWASystem, x0, U, *, on_blocked: str = "raise") -> Trac
     events = []
     if blocked.size:
         k = int(blocked[0])
-        if on_blocked == "raise":
+        if on_blocked == "raise" or k == 0:  # blocked at once: not even one sample to return
             raise ModelError(
                 f"x({k})",
                 "a state-input pair inside X x U (paper 002: otherwise the evolution is blocked)",

@@ -107,9 +107,12 @@ def vehicle_tracking(
         ``[0, 2 pi]`` (the "entire operating range 0 < psi < 360 deg" of Sec. 6.1),
         ``delta_f`` in ``[-delta_max, delta_max]``.
     """
-    for label, value in (("V", V), ("l_f", l_f), ("l_r", l_r)):
+    for label, value in (("V", V), ("l_f", l_f), ("l_r", l_r), ("position_range", position_range)):
         if not (np.isfinite(value) and value > 0):
             raise ModelError(label, "a positive finite number", repr(value))
+    if not (np.isfinite(delta_max_deg) and delta_max_deg < 90):  # a negative one: "bounds of delta_f" below
+        raise ModelError("delta_max_deg", "a steering bound below 90 degrees (tan(delta_f) has a pole at 90)",
+                         repr(delta_max_deg))
     d_max = math.radians(delta_max_deg)
     k = V / (l_f + l_r)
     names = ("X", "Y", "psi", "delta_f")
@@ -270,6 +273,9 @@ def magnetic_piston(
     """
     if not (np.isfinite(stroke) and stroke != 0):
         raise ModelError("stroke", "a finite, non-zero stroke length (mm)", repr(stroke))
+    for label, value in (("v_max", v_max), ("a_max", a_max)):
+        if not (np.isfinite(value) and value > 0):
+            raise ModelError(label, "a positive finite bound of the operating box", repr(value))
     names = ("z", "v", "a")
     box = Polytope.from_box([0.0, -v_max, -a_max], [stroke, v_max, a_max], names)
     h = (
