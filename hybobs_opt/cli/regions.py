@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ts", type=float, default=None, metavar="SECONDS",
                    help="sampling period: discretise an affine hybrid automaton exactly (ZOH) first")
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
-    p.add_argument("--resolution", default=DEFAULT_RESOLUTION, metavar="NXxNY",
+    p.add_argument("--resolution", default=None, metavar="NXxNY",
                    help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
     p.add_argument("--save", metavar="FILE", help="save the result (JSON) for the lookup observer")
@@ -70,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--plot", "a system with at least 2 states (a cut is a plane)", f"{system.n} state")
         if not fixed and system.n > 2:
             raise ModelError("--plot", f"a --cut fixing {system.n - 2} states so that a 2-D plane remains", "no --cut")
-        nx, ny = _resolution(args.resolution)
-    elif args.resolution != DEFAULT_RESOLUTION:
+        nx, ny = _resolution(args.resolution or DEFAULT_RESOLUTION)
+    elif args.resolution is not None:
         raise ModelError("--resolution", "--cut or --plot as well (it is the grid of the cut)", repr(args.resolution))
     points = _read_query(args.query, system.state_names) if args.query else None
     executor = executor_from_args(args)

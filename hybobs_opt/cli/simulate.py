@@ -89,6 +89,15 @@ def simulate_system(system, args: argparse.Namespace):
         for key, value in values.items():
             if not math.isfinite(value):
                 raise ModelError(f"{option} {key}", "a finite number", repr(value))
+    bounds = getattr(system, "box", None) if type(system).__name__ == "ScalarNonlinearSystem" else getattr(system, "state_bounds", None)
+    if x0 and bounds is not None and type(system).__name__ != "PWASystem":  # a PWA run stops at the bounds itself
+        from ..tolerances import MEMBERSHIP_RTOL
+
+        lo, hi = bounds.bounding_box()
+        for key, value in x0.items():
+            k = list(system.state_names).index(key)
+            if not lo[k] - MEMBERSHIP_RTOL * (1 + abs(lo[k])) <= value <= hi[k] + MEMBERSHIP_RTOL * (1 + abs(hi[k])):
+                raise ModelError(f"--x0 {key}", f"a value within the model's bounds of {key}, [{lo[k]:g}, {hi[k]:g}]", repr(value))
     kind = type(system).__name__
     if args.steps is not None and (kind != "PWASystem" or args.steps < 1):
         raise ModelError("--steps", "a positive number of samples, for a PWA system (others take --t-final)", repr(args.steps))

@@ -83,6 +83,10 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
             n = DEFAULT_PWA_STEPS
         return simulate_pwa(system, xs, np.tile(us, (n, 1)), on_blocked="stop")
     if kind == "HybridAutomaton":
+        if t_final is not None and t_final < (dt or 1e-2):
+            raise ModelError("t_final", f"at least one sample period dt = {dt or 1e-2:g}", repr(t_final))
         return simulate_hybrid(system, xs, t_final or DEFAULT_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)
     horizon = t_final or DEFAULT_T_FINAL
+    if dt is not None and horizon < dt:
+        raise ModelError("t_final", f"at least one sample period dt = {dt:g}", repr(t_final))
     return simulate_nonlinear(system, xs, (lambda t: us) if system.m else None, horizon, dt or horizon / 1000)
