@@ -69,6 +69,9 @@ class FarkasCertificate:
         r = self.residuals()
         return r["stationarity"] <= FARKAS_RTOL and r["cone"] <= FARKAS_RTOL and r["gap"] <= -FARKAS_MARGIN
 
+    #: The theorem the certificate applies (the certificate protocol names one).
+    theorem: str = "Farkas lemma (conic theorem of alternatives)"
+
     @property
     def reason(self) -> str:
         r = self.residuals()
