@@ -493,6 +493,7 @@ class ContinuousObserver(Observer):
         self._u_prev: np.ndarray | None = None
         self._y_prev: np.ndarray | None = None
         self._bound.start(self.x, self._P)
+        self._input_unknown = False
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         if self._u_prev is not None and self._y_prev is None:
@@ -504,6 +505,9 @@ class ContinuousObserver(Observer):
             Ad, Bw, Bd = self._mats[self.location]
             self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, self._y_prev, [1.0]]) + Bd @ (y - self._y_prev)
             self._bound.contract(self._log_rate[self.location])
+        if self._input_unknown:  # the last interval ran on a refused sample's input: no bound holds
+            self._input_unknown = False
+            self._bound.start(self.x, self._P)
         self._u_prev, self._y_prev = u, y
         return Estimate(self.x.copy(), self.location, self._flag(), 0.0, {"error_bound": self.error_bound().tolist()})
 
@@ -523,6 +527,7 @@ class ContinuousObserver(Observer):
             Ad, Bw = self._ol[self.location]
             self.x = Ad @ self.x + Bw @ np.concatenate([self._u_prev, np.zeros(self.p), [1.0]])
             self._bound.contract(self._log_rate_ol[self.location])
+        self._input_unknown = u is None and self._u_prev is not None
         if u is not None:
             self._u_prev = u
         self._y_prev = None

@@ -174,6 +174,7 @@ class LocationObserver(Observer):
         self._y_prev: np.ndarray | None = None
         self._identified = False
         self._bound_group, self._log_bound = -1, math.inf
+        self._input_unknown = False
 
     # ------------------------------------------------------------------ one step
     def _propagate(self, u: np.ndarray, y: np.ndarray) -> None:
@@ -187,6 +188,9 @@ class LocationObserver(Observer):
         elif self._u_prev is not None:
             w = np.concatenate([self._u_prev, self._y_prev, [1.0]])
             self._z = self._Ad @ self._z + self._Bw @ w + self._Bd @ (y - self._y_prev)
+        if self._input_unknown:  # the last interval ran on a refused sample's input: the error is
+            self._input_unknown = False  # bounded again only by Z0 (the bank's hypothesis) at re-entry
+            self._bound_group, self._log_bound = -1, math.inf
         self._u_prev, self._y_prev = u, y
 
     def _decide(self, u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, LocationDecision]:
@@ -244,6 +248,7 @@ class LocationObserver(Observer):
         if self._u_prev is not None:
             w = np.concatenate([self._u_prev, np.zeros(self.p), [1.0]])
             self._z = self._Ad_ol @ self._z + self._Bw_ol @ w
+        self._input_unknown = u is None and self._u_prev is not None
         if u is not None:
             self._u_prev = u
         self._y_prev = None

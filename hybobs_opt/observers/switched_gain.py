@@ -22,12 +22,14 @@ The scenarios of ``vehicle_tracking`` and ``magnetic_piston`` are the study
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import casadi as ca
 import numpy as np
+from scipy.linalg import eigh
 
 from .. import _compat
 from ..errors import ModelError
@@ -79,13 +81,29 @@ class SwitchedGainObserver(Observer):
         compares the wrapped value with each region through its image nearest to the region
         (a region ``[-10, 10] deg`` contains ``355 deg``), and the distance to a region is the
         distance along the circle.  ``None`` (default): no coordinate is periodic.
+    input_range : (lower, upper), optional
+        The inputs' declared range (a scalar-nonlinear model has no input set of its own): a
+        sample whose input lies outside it by more than
+        :data:`~hybobs_opt.contract.RANGE_MARGIN` of its width is refused (``fallback``).
+        Outputs are always judged against what the model produces on the box.
+
+    Notes
+    -----
+    Flags: ``warming_up`` while the initial region is selected and until the certified error
+    bound of :meth:`error_bound` is below
+    :data:`~hybobs_opt.observers.error_bound.CONVERGENCE_FRACTION` of the box in every
+    coordinate, ``observable`` after; ``fallback`` for a refused sample (open loop: the bound
+    grows at the region's open-loop rate, or restarts from the box when the input is unknown).
+    Gains without Lyapunov matrices (``P``, ``sigma``) certify nothing: their flag stays
+    ``warming_up``.
     """
 
     name = "switched-gain"
 
     def __init__(self, system: ScalarNonlinearSystem, gains, dt: float, *, init_samples: int = 5,
                  init_state: str = "clip", substeps: int | None = None, clip_to_box: bool = True,
-                 periodic: Mapping[str | int, float] | None = None):
+                 periodic: Mapping[str | int, float] | None = None,
+                 input_range: tuple[Sequence[float], Sequence[float]] | None = None):
         if not isinstance(system, ScalarNonlinearSystem):
             raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
         regs = list(getattr(gains, "regions", gains))
@@ -118,6 +136,8 @@ class SwitchedGainObserver(Observer):
         self.output_names = system.output_names
         self.output_range = output_range(system)
         self.state_range = state_range(system)
+        self.input_names = system.input_names
+        self.input_range = _input_range(input_range, self.m)
         self.periodic: dict[int, float] = _periodic_coordinates(periodic, system)
         self._wrap_idx = np.array(sorted(self.periodic), dtype=int)
         self._wrap_lo = np.asarray(system.box_lower, dtype=float)[self._wrap_idx]
@@ -144,6 +164,31 @@ class SwitchedGainObserver(Observer):
             rates.append(float(sigma))
         self._lyap = None if Ps is None else (Ps, [np.diag(np.linalg.inv(P)) for P in Ps], rates)
         self._bound = ErrorBound(self.system.box_lower, self.system.box_upper)
+        self._open_rates = None if Ps is None else self._open_loop_rates([regs[i] for i in order], Ps)
+        self._input_unknown = False
+
+    def _open_loop_rates(self, regs, Ps) -> list[float] | None:
+        """Per region, the largest growth rate of ``||e||_P`` without output correction: the log-norm
+        of ``A + F diag(theta) E`` in the ``P``-norm at every vertex of the region's slope box (the
+        log-norm is convex in the matrix, so the vertices bound the box).  ``None`` when a known
+        term ``g(y, u)`` makes the open-loop error depend on the missing output."""
+        from ..lmi.bounds import jacobian_bounds
+
+        sysm = self.system
+        if sysm.g is not None:
+            return None
+        A = np.zeros((self.n, self.n)) if sysm.A is None else np.asarray(sysm.A, dtype=float)
+        rates = []
+        for reg, P in zip(regs, Ps):
+            b = getattr(reg, "bounds", None) or jacobian_bounds(sysm, reg.region)
+            thetas = list(itertools.product(*zip(b.U, b.V))) if sysm.r else [()]
+            mu = -np.inf
+            for th in thetas:
+                Av = A + (np.asarray(sysm.F) * np.asarray(th)) @ np.asarray(sysm.E) if sysm.r else A
+                S = 0.5 * (Av.T @ P + P @ Av)
+                mu = max(mu, float(eigh(S, P, eigvals_only=True)[-1]))
+            rates.append(mu)
+        return rates
 
     def error_bound(self) -> np.ndarray | None:
         """Certified bound on ``|x_hat_k - x_k|`` per state, or ``None`` when the gains carry no
@@ -378,6 +423,9 @@ class SwitchedGainObserver(Observer):
             self.x = self._integrate(self.x, self._prev_u, y0, y, self.gains[self.q])
             if self._lyap is not None:
                 self._bound.contract(-0.5 * self._lyap[2][self.q] * self.dt)
+            if self._input_unknown:  # the last interval's input was a refused sample's: no bound holds
+                self._input_unknown = False
+                self._restart_bound()
         if not np.all(np.isfinite(self.x)):
             self.x = np.nan_to_num(self.x, nan=0.0, posinf=0.0, neginf=0.0)
             self._prev_u, self._prev_y = u, y
@@ -398,8 +446,28 @@ class SwitchedGainObserver(Observer):
         if self._prev_u is not None:
             self.x = self._integrate(self.x, self._prev_u, None, None, None)
         self._prev_u, self._prev_y = uu, None
-        self._restart_bound()  # no certified contraction of an open-loop sample: from the box again
+        if self._open_rates is not None:  # the error grows at most at the open-loop rate
+            self._bound.contract(self._open_rates[self.q] * self.dt if self.q is not None else 0.0)
+        else:
+            self._restart_bound()
+        self._input_unknown = u is None  # the next interval runs on the previous input
         return Estimate(self.x.copy(), -1 if self.q is None else self.q, FALLBACK, 0.0, {"reason": reason})
+
+
+def _input_range(value, m: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The ``input_range`` keyword: ``(lo, hi)`` over the ``m`` inputs, validated (``None``: not judged)."""
+    if value is None:
+        return None
+    try:
+        lo, hi = (np.asarray(v) for v in value)
+    except (TypeError, ValueError):
+        raise ModelError("input_range", f"(lower, upper) arrays of the {m} inputs", repr(value)) from None
+    if lo.dtype.kind not in "biuf" or hi.dtype.kind not in "biuf":
+        raise ModelError("input_range", "real (lower, upper) bounds", f"{lo.dtype} and {hi.dtype}")
+    lo, hi = lo.astype(float).reshape(-1), hi.astype(float).reshape(-1)
+    if lo.shape != (m,) or hi.shape != (m,) or np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
+        raise ModelError("input_range", f"(lower, upper) of length {m} with lower <= upper", f"{lo.tolist()}, {hi.tolist()}")
+    return lo, hi
 
 
 def _periodic_coordinates(periodic: Mapping[str | int, float] | None,
