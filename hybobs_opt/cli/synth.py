@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import sys
 from pathlib import Path
@@ -86,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.out)
     if path.parent and not path.parent.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(out, indent=2, default=json_default))
+    from ..lmi.gains_file import save_gains
+
+    out = save_gains(path, out, system, default=json_default)  # format version, fingerprint, checksum
     out["written"] = str(path)
     if args.json:
         print_json(out)

@@ -111,34 +111,36 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
 NONLINEAR_OBSERVERS = ("switched",)
 
 
-def gains_from_json(system, data: dict, source: str = "gains"):
+def gains_from_json(system, data, source: str = "gains"):
     """The per-region gains of a ``hybobs synth --out`` file, for :class:`~.switched_gain.SwitchedGainObserver`.
+
+    ``data`` is the file's JSON object (``source`` names the file in errors) or the file's path.
+    The file must be sealed (:mod:`hybobs_opt.lmi.gains_file`): format version, the fingerprint
+    of ``system`` and a checksum of its content.
 
     Raises
     ------
     ModelError
-        The file is for another system (state or output names) or an entry is malformed.
+        Naming the file: it is for another system (fingerprint, state or output names), was
+        edited or corrupted (checksum), was written before gains files were sealed (recompute it
+        with ``hybobs synth``), is not a readable JSON object, or an entry is malformed.
     """
+    import os
     from types import SimpleNamespace
 
+    from ..lmi.gains_file import GAINS_FILE, check_gains, read_gains
     from ..lmi.schedule import make_region
 
-    if not isinstance(data, dict) or not isinstance(data.get("regions"), list) or not data["regions"]:
-        raise ModelError(source, "a gains file written by 'synth' (a 'regions' list)", type(data).__name__)
-    for key, names in (("state_names", system.state_names), ("output_names", system.output_names)):
-        if key in data and list(data[key]) != list(names):
-            raise ModelError(f"{source}: {key}", f"{list(names)} (the gains were designed for another system)", f"{data[key]}")
+    if isinstance(data, (str, os.PathLike)):
+        source = str(data) if source == "gains" else source
+        data = read_gains(data)
     out = []
-    for i, r in enumerate(data["regions"]):
+    for i, (coordinate, lo, hi, L) in enumerate(check_gains(data, system, source)):
         try:
-            lo, hi = (float(v) for v in r["interval_model"])
-            L = np.asarray(r["L"], dtype=float)
-            coordinate = r["coordinate"]
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ModelError(f"{source}: regions[{i}]", "interval_model, L and coordinate", f"{type(exc).__name__}: {exc}") from None
-        if L.shape != (system.n, system.p) or not np.all(np.isfinite(L)):
-            raise ModelError(f"{source}: regions[{i}].L", f"a finite ({system.n}, {system.p}) gain", f"shape {L.shape}")
-        out.append(SimpleNamespace(region=make_region(system, coordinate, lo, hi, i), L=L))
+            region = make_region(system, coordinate, lo, hi, i)
+        except ModelError as exc:
+            raise ModelError(f"{GAINS_FILE.where(source)}: regions[{i}].interval_model", exc.expected, exc.got) from None
+        out.append(SimpleNamespace(region=region, L=L))
     return out
 
 

@@ -135,9 +135,17 @@ def test_switched_gain_observer_on_a_log_of_the_robot(capsys, tmp_path):
     x_direct = direct.run(data.U, data.Y).x_hat
     rows = list(csv.DictReader(est.open()))
     np.testing.assert_array_equal(np.array([[float(r[n]) for n in system.state_names] for r in rows]), x_direct)
-    # gains designed for another system are refused, naming the file
-    other = json.loads(gains.read_text())
-    other["state_names"] = ["a", "b", "c", "d"]
-    gains.write_text(json.dumps(other))
+    # gains designed for another system are refused, naming the file (the file carries the
+    # system's fingerprint and a checksum: an edit of the file is refused as an edit)
+    from hybobs_opt.systems.fingerprint import system_fingerprint
+    from hybobs_opt.systems.saved_file import content_checksum
+
+    sealed = json.loads(gains.read_text())
+    assert sealed["format"] == "hybobs_opt.gains" and sealed["system_fingerprint"] == system_fingerprint(system)
+    other = dict(sealed, system_fingerprint=system_fingerprint(resolve_system("vehicle_tracking", {})))
+    gains.write_text(json.dumps(dict(other, checksum=content_checksum(other))))
     code, _, err = run(capsys, "observe", model, "--data", log, "--gains", gains)
     assert code == 2 and "gains.json" in err and "another system" in err
+    gains.write_text(json.dumps(dict(sealed, state_names=["a", "b", "c", "d"])))
+    code, _, err = run(capsys, "observe", model, "--data", log, "--gains", gains)
+    assert code == 2 and "gains.json" in err and "edited or corrupted" in err
