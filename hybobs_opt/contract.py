@@ -193,6 +193,23 @@ def judge_samples_against(observer: "Observer", system: Any, *, inputs: bool = T
     observer.state_range = state_range(system) if states else None
 
 
+def checked_index(value, count: int, field: str, what: str = "index") -> int | None:
+    """``value`` as an integer in ``0..count-1`` (``None`` passes), or :class:`ModelError`: a float,
+    a bool, a string or a sequence is not an index."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= int(value) < count:
+        raise ModelError(field, f"an integer {what} in 0..{count - 1} or None", repr(value))
+    return int(value)
+
+
+def checked_time(value, field: str) -> float:
+    """``value`` as a finite real time, or :class:`ModelError` (nothing coerced: no strings, bools, sequences)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not np.isfinite(value):
+        raise ModelError(field, "a finite real time", repr(value))
+    return float(value)
+
+
 def checked_state(x0, n: int, field: str = "x0", what: str = "state") -> np.ndarray:
     """``x0`` as a finite real ``(n,)`` array, or :class:`ModelError` naming ``field`` (nothing coerced:
     a string, a complex value, a wrong length or a NaN is refused)."""

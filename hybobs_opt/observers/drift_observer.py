@@ -51,7 +51,7 @@ from .. import _compat
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
-from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, initial_mode
+from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, checked_time, initial_mode
 from .periodic import PeriodicGains, analyse_gains, deadbeat_gains
 
 
@@ -206,9 +206,8 @@ class DriftObserver(Observer):
                 x[0] = sysm.alpha[sysm.predecessor(mode) - 1]
         else:
             x = np.array(sysm.validate_state(x0, mode, field_name="x0", mode_field=field), dtype=float)
-        if not np.isfinite(t0):
-            raise ModelError("t0", "a finite time", repr(t0))
-        if y0 is not None and y0 not in self._outputs:
+        t0 = checked_time(t0, "t0")
+        if y0 is not None and (isinstance(y0, bool) or not isinstance(y0, (int, np.integer)) or y0 not in self._outputs):
             raise ModelError("y0", f"an output of the system, one of {sorted(self._outputs)}", repr(y0))
         self._t = float(t0)
         self._guard.reset(self._t)

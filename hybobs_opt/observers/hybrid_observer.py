@@ -43,7 +43,8 @@ from ..lmi.solve import SOLVER_ERROR, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_mode, initial_state, judge_samples_against
+from .base import (FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_index, initial_mode,
+                   initial_state, judge_samples_against)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_observer import (
@@ -484,9 +485,7 @@ class ContinuousObserver(Observer):
         field = "location" if location is not None else "q0"  # errors name the keyword the caller used
         q0 = initial_mode(q0, location, "location")
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
-        loc = self._loc0 if q0 is None else int(q0)
-        if not 0 <= loc < self.automaton.n_locations:
-            raise ModelError(field, f"a location index in 0..{self.automaton.n_locations - 1}", repr(q0))
+        loc = self._loc0 if q0 is None else checked_index(q0, self.automaton.n_locations, field, "location index")
         self._x0 = x0
         self.x = x0.copy()
         self.location = loc

@@ -62,7 +62,7 @@ from ..tolerances import (
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,
 )
-from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, initial_mode
+from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, checked_time, initial_mode
 
 
 # ---------------------------------------------------------------------------- properties of gains
@@ -737,8 +737,9 @@ class PeriodicObserver(Observer):
         """
         mode = initial_mode(q0, mode, "mode")
         x = np.zeros(self.n) if x0 is None else checked_state(x0, self.n, what="estimate of the queues")
-        if not np.isfinite(t0):
-            raise ModelError("t0", "a finite time", repr(t0))
+        t0 = checked_time(t0, "t0")
+        if mode is not None and (isinstance(mode, bool) or not isinstance(mode, (int, np.integer))):
+            raise ModelError("q0", f"a mode of V = {self.ps.event_modes} (an integer)", repr(mode))
         v = self.ps.event_modes[0] if mode is None else mode
         self._j = self.ps.phase_of(v)
         self._x = x.copy()

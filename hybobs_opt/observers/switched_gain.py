@@ -36,7 +36,7 @@ from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
 from .error_bound import ErrorBound
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, checked_state, initial_mode
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, checked_index, checked_state, initial_mode
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -263,8 +263,7 @@ class SwitchedGainObserver(Observer):
         region = initial_mode(q0, region, "region")
         sysm = self.system
         x = 0.5 * (sysm.box_lower + sysm.box_upper) if x0 is None else checked_state(x0, self.n)
-        if region is not None and not 0 <= int(region) < len(self.regions):
-            raise ModelError(field, f"a region index in [0, {len(self.regions)})", repr(region))
+        region = checked_index(region, len(self.regions), field, "region index")
         self.x = self._wrap(x.copy())
         self.q: int | None = None if region is None else int(region)
         if self.q is None and (self.init_samples <= 1 or len(self.regions) == 1):
