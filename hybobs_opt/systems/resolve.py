@@ -21,7 +21,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -60,12 +60,24 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
     """
     from .model_file import is_model_path, load_model
 
+    if params is not None and not isinstance(params, Mapping):
+        raise ModelError("params", "a mapping of parameter names to values (or None)", f"{type(params).__name__}")
     params = dict(params or {})
+    bad = [k for k in params if not isinstance(k, str) or not k.isidentifier()]
+    if bad:
+        raise ModelError("params", "parameter names that are identifiers (keyword arguments of the builder)", repr(bad[0]))
     if not isinstance(name, str) or not name.strip():
         raise ModelError("system name", "a non-empty string (an example name, a model file, PATH.py:FUNCTION or "
                          "module:FUNCTION)", repr(name))
-    for _, resolver in _RESOLVERS:
-        system = resolver(name, params)
+    for label, resolver in _RESOLVERS:
+        try:
+            system = resolver(name, params)
+        except HybobsError:
+            raise
+        except Exception as exc:  # an unknown keyword (TypeError), or whatever the builder raises
+            raise ModelError(f"{name}: params" if isinstance(exc, TypeError) and "argument" in str(exc) else name,
+                             f"parameters the {label} builder accepts, and a builder that runs without error",
+                             f"{type(exc).__name__}: {exc}") from None
         if system is not None:
             return system
     if is_model_path(name):

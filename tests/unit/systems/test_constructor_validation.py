@@ -271,6 +271,15 @@ def test_event_sampled_entry_points_check_their_arguments():
     _raises(lambda: periodic(A=PERIODIC.A + 0j), r"^A.*complex")
 
 
+def test_resolve_system_checks_its_params():
+    """Were TypeError: params not a mapping, and a keyword the example's builder does not take."""
+    from hybobs_opt.systems.resolve import resolve_system
+
+    _raises(lambda: resolve_system("powertrain3", 5), r"^params")
+    _raises(lambda: resolve_system("powertrain3", {1: 2.0}), r"^params")
+    _raises(lambda: resolve_system("switching_server", {"no_such_parameter": 1.0}), r"^switching_server: params")
+
+
 # ---------------------------------------------------------------------------------- the campaign
 
 def _raise(*_):
