@@ -193,6 +193,38 @@ def judge_samples_against(observer: "Observer", system: Any, *, inputs: bool = T
     observer.state_range = state_range(system) if states else None
 
 
+def sample_rows(X, width: int, field: str) -> np.ndarray:
+    """A recorded trace as a float ``(N, width)`` array for a vectorised run: a row that is not
+    ``width`` real numbers (a string, a wrong length, a complex value) becomes a NaN row, which every
+    observer flags ``fallback`` like any bad sample.  Only something that is not a sequence of
+    rows is refused (:class:`ModelError`)."""
+    try:
+        N = len(X)
+    except TypeError:
+        raise ModelError(field, "a sequence of samples (one row per step)", type(X).__name__) from None
+    try:
+        arr = np.asarray(X)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is not None and arr.dtype.kind in "biuf":
+        if arr.size != N * width:
+            raise ModelError(field, f"{N} rows of {width} values", f"an array of shape {arr.shape}")
+        return np.ascontiguousarray(arr.astype(float).reshape(N, width))
+    out = np.full((N, width), np.nan)
+    for k in range(N):
+        row = _safe_input(X[k], width)
+        if row is not None or width == 0:
+            out[k] = row if row is not None else out[k]
+        else:
+            try:  # a finite check is the observer's: keep NaN/inf entries of a well-formed row
+                r = np.atleast_1d(np.asarray(X[k]))
+                if r.dtype.kind in "biuf" and r.size == width:
+                    out[k] = r.astype(float).reshape(-1)
+            except (TypeError, ValueError):
+                pass
+    return out
+
+
 def checked_index(value, count: int, field: str, what: str = "index") -> int | None:
     """``value`` as an integer in ``0..count-1`` (``None`` passes), or :class:`ModelError`: a float,
     a bool, a string or a sequence is not an index."""
@@ -301,12 +333,19 @@ class Observer(ABC):
         return Estimate(est.x, est.mode, FALLBACK, est.seconds, dict(est.info, reason="estimate " + why))
 
     def run(self, U, Y) -> ObserverTrace:
-        """Run :meth:`step` over a recorded trace (subclasses may vectorise this)."""
-        U = np.asarray(U, dtype=float).reshape(len(U), -1)
-        Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
-        if U.shape[0] != Y.shape[0]:
-            raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
-        N = U.shape[0]
+        """Run :meth:`step` over a recorded trace (subclasses may vectorise this).
+
+        The rows go to :meth:`step` as they are, so a malformed row (a string, a wrong length) is a
+        ``fallback`` step like any bad sample; only traces of different lengths are refused.
+        """
+        try:
+            nu, ny = len(U), len(Y)
+        except TypeError:
+            raise ModelError("U, Y", "sequences of samples (one row per step)",
+                             f"{type(U).__name__} and {type(Y).__name__}") from None
+        if nu != ny:
+            raise ModelError("U, Y", "the same number of samples", f"{nu} and {ny}")
+        N = nu
         xs = np.full((N, self.n), np.nan)
         modes = np.full(N, -1)
         flags = np.empty(N, dtype=object)

@@ -44,7 +44,7 @@ from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
 from .base import (FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_index, initial_mode,
-                   initial_state, judge_samples_against)
+                   initial_state, judge_samples_against, sample_rows)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_observer import (
@@ -534,8 +534,7 @@ class ContinuousObserver(Observer):
 
     def run_with_locations(self, U, Y, Q) -> ObserverTrace:
         """Run with a given location sequence (e.g. the true one): ``Q[k]`` is used after sample ``k``."""
-        U = np.asarray(U, dtype=float).reshape(len(U), -1)
-        Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
+        U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         Q = np.asarray(Q, dtype=int).reshape(-1)
         if not (U.shape[0] == Y.shape[0] == Q.shape[0]):
             raise ModelError("U, Y, Q", "the same number of samples", f"{U.shape[0]}, {Y.shape[0]}, {Q.shape[0]}")
@@ -635,8 +634,7 @@ class HybridObserver(Observer):
 
     def run_detailed(self, U, Y) -> HybridRun:
         """Run from the reset state, keeping the location observer's signals."""
-        U = np.asarray(U, dtype=float).reshape(len(U), -1)
-        Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
+        U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
             raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
         self.reset()

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against
+from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows
 from .error_bound import CONVERGENCE_FRACTION, induced_log_norm
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
@@ -263,7 +263,9 @@ class LocationObserver(Observer):
     # ------------------------------------------------------------------ whole runs
     def run_detailed(self, U, Y) -> LocationRun:
         """Run from the reset state over ``(U, Y)`` keeping residuals, decisions and the logic's output."""
-        U, Y = _as_samples(U, Y)
+        U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
+        if U.shape[0] != Y.shape[0]:
+            raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
         self.reset()
         N = U.shape[0]
         res = np.full((N, self._G), np.nan)
@@ -280,15 +282,6 @@ class LocationObserver(Observer):
         tr = ObserverTrace(xs, loc, flags, secs, self.state_names, self.name)
         return LocationRun(res, sig, cons, loc, held, status, ncand, secs, tr)
 
-
-def _as_samples(U, Y) -> tuple[np.ndarray, np.ndarray]:
-    U = np.asarray(U, dtype=float)
-    Y = np.asarray(Y, dtype=float)
-    U = U.reshape(len(U), -1)
-    Y = Y.reshape(len(Y), -1)
-    if U.shape[0] != Y.shape[0]:
-        raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
-    return U, Y
 
 
 def _block_diag(blocks: Sequence[np.ndarray]) -> np.ndarray:
@@ -315,6 +308,17 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
         sel = np.nonzero((t >= times[k] - 1e-12) & (t < t_end) & (location == int(e["to"])))[0]
         out.append(float(t[sel[0]] - times[k]) if sel.size else None)
     return out
+
+
+
+def _as_samples(U, Y) -> tuple[np.ndarray, np.ndarray]:
+    """Old helper of ``run_detailed`` (kept for imports): numeric traces as ``(N, .)`` arrays."""
+    U = np.asarray(U, dtype=float)
+    Y = np.asarray(Y, dtype=float)
+    U, Y = U.reshape(len(U), -1), Y.reshape(len(Y), -1)
+    if U.shape[0] != Y.shape[0]:
+        raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
+    return U, Y
 
 
 __all__ = [

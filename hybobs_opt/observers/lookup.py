@@ -84,7 +84,7 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from . import _lookup_kernels as K
-from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state
+from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, sample_rows
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
 REASONS = {
@@ -367,8 +367,7 @@ class LookupObserver(Observer):
         called every few hundred steps.
         """
         t_start = time.perf_counter()
-        U = np.ascontiguousarray(np.asarray(U, dtype=float).reshape(len(U), -1))
-        Y = np.ascontiguousarray(np.asarray(Y, dtype=float).reshape(len(Y), -1))
+        U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape != (Y.shape[0], self.m) or Y.shape[1] != self.p:
             raise ModelError("U, Y", f"arrays of shapes (N, {self.m}) and (N, {self.p})", f"{U.shape} and {Y.shape}")
         self.reset(x0)

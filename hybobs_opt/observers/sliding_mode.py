@@ -60,7 +60,7 @@ from .. import _compat
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
 from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against
+from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows
 
 __all__ = [
     "GainRule",
@@ -380,9 +380,7 @@ class SlidingModeObserver(Observer):
         x0 : (n,) array, optional
             Initial estimate (original coordinates).
         """
-        Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
-        if Y.shape[1] != 1:
-            raise ModelError("Y", "one output per sample (shape (N,) or (N, 1))", f"shape {Y.shape}")
+        Y = sample_rows(Y, 1, "Y")
         if U is not None and len(U) != Y.shape[0]:
             raise ModelError("U, Y", "the same number of samples", f"{len(U)} and {Y.shape[0]}")
         self.reset(x0)

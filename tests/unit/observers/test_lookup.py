@@ -134,7 +134,7 @@ def test_bad_construction_arguments(setup):
         LookupObserver(analysis, variant="fast")
     with pytest.raises(ModelError, match="output_rtol"):
         LookupObserver(analysis, output_rtol=-1.0)
-    with pytest.raises(ModelError, match="U, Y"):
+    with pytest.raises(ModelError, match=r"^U: expected 5 rows of 1 values"):
         LookupObserver(analysis).run(np.zeros((5, 2)), np.zeros((5, 1)))
 
 
