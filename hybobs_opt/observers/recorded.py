@@ -140,7 +140,29 @@ def gains_from_json(system, data, source: str = "gains"):
             region = make_region(system, coordinate, lo, hi, i)
         except ModelError as exc:
             raise ModelError(f"{GAINS_FILE.where(source)}: regions[{i}].interval_model", exc.expected, exc.got) from None
-        out.append(SimpleNamespace(region=region, L=L))
+        out.append(SimpleNamespace(region=region, L=L, **_lyapunov_entry(data["regions"][i], system.n,
+                                                                        f"{GAINS_FILE.where(source)}: regions[{i}]")))
+    return out
+
+
+def _lyapunov_entry(entry: dict, n: int, where: str) -> dict:
+    """``P``, ``sigma`` and ``sigma_verified`` of one region of a gains file (the certificate behind
+    the switched-gain observer's error bound); absent entries are left out (no certificate)."""
+    out: dict = {}
+    if entry.get("P") is None or entry.get("sigma") is None:
+        return out
+    try:
+        P = np.asarray(entry["P"], dtype=float)
+        sigma = float(entry["sigma"])
+        sv = entry.get("sigma_verified")
+        sv = None if sv is None else float(sv)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{where}.P", "a real (n, n) Lyapunov matrix and real decay rates", str(exc)) from None
+    if P.shape != (n, n) or not np.all(np.isfinite(P)) or not np.allclose(P, P.T, rtol=1e-9, atol=0.0):
+        raise ModelError(f"{where}.P", f"a finite symmetric ({n}, {n}) Lyapunov matrix", f"shape {P.shape}")
+    if np.linalg.eigvalsh(P)[0] <= 0:
+        raise ModelError(f"{where}.P", "a positive definite Lyapunov matrix", "an indefinite matrix")
+    out.update(P=P, sigma=sigma, sigma_verified=sv)
     return out
 
 
