@@ -174,6 +174,7 @@ LPS = {
 
 def try_lp(value) -> tuple[str, str]:
     from hybobs_opt.geometry.lp import solve_lp
+    from hybobs_opt.tolerances import LP_POINT_RTOL
 
     name, fault, schedule = value
     c, A, b, E, e, (truth, xstar) = LPS[name]
@@ -188,7 +189,10 @@ def try_lp(value) -> tuple[str, str]:
     if status != truth:
         return WRONG_ANSWER, f"{what}: {status} (truth {truth})"
     if truth == "optimal":
-        ok = res.x is not None and np.allclose(res.x, xstar, atol=1e-7) and abs(res.objective - c @ xstar) <= 1e-7
+        # the layer's own tolerance (LP_POINT_RTOL = 1e-6: HiGHS's 1e-7 with room for the unscaling);
+        # a corrupted point (moved by 1e-3) is far outside it
+        tol = 10 * LP_POINT_RTOL
+        ok = res.x is not None and np.allclose(res.x, xstar, atol=tol) and abs(res.objective - c @ xstar) <= tol
         return (CORRECT if ok else WRONG_ANSWER), f"{what}: x = {None if res.x is None else res.x.tolist()}"
     cert = getattr(res, "certificate", None)
     ok = cert is not None and bool(cert.verify())
@@ -212,7 +216,7 @@ def try_box(value) -> tuple[str, str]:
         # a ModelError from a valid polytope ("empty", "unbounded") is a wrong verdict, not a refusal
         return (WRONG_ANSWER if out == "ModelError" else out), f"{what}: {type(exc).__name__}: {str(exc)[:200]}"
     scale = 10.0 ** which
-    ok = np.allclose(lo, truth_lo, atol=1e-7 * scale) and np.allclose(hi, truth_hi, atol=1e-7 * scale)
+    ok = np.allclose(lo, truth_lo, atol=1e-5 * scale) and np.allclose(hi, truth_hi, atol=1e-5 * scale)
     return (CORRECT if ok else WRONG_ANSWER), f"{what}: [{lo.tolist()}, {hi.tolist()}] (truth [{truth_lo.tolist()}, {truth_hi.tolist()}])"
 
 
