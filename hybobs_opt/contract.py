@@ -212,16 +212,12 @@ def sample_rows(X, width: int, field: str) -> np.ndarray:
         return np.ascontiguousarray(arr.astype(float).reshape(N, width))
     out = np.full((N, width), np.nan)
     for k in range(N):
-        row = _safe_input(X[k], width)
-        if row is not None or width == 0:
-            out[k] = row if row is not None else out[k]
-        else:
-            try:  # a finite check is the observer's: keep NaN/inf entries of a well-formed row
-                r = np.atleast_1d(np.asarray(X[k]))
-                if r.dtype.kind in "biuf" and r.size == width:
-                    out[k] = r.astype(float).reshape(-1)
-            except (TypeError, ValueError):
-                pass
+        try:  # the finite check is the observer's: NaN/inf entries of a well-formed row stay
+            r = np.atleast_1d(np.asarray(X[k]))
+        except (TypeError, ValueError):
+            continue
+        if r.dtype.kind in "biuf" and r.size == width:
+            out[k] = r.astype(float).reshape(-1)
     return out
 
 

@@ -28,6 +28,9 @@ import numpy as np
 FARKAS_RTOL: float = 1e-7
 FARKAS_MARGIN: float = 1e-9
 
+#: Smallest positive float: the relative residuals of an all-zero ``A`` or ``b`` stay finite.
+_TINY: float = float(np.finfo(float).tiny)
+
 
 @dataclass(frozen=True, eq=False)
 class FarkasCertificate:
@@ -57,9 +60,9 @@ class FarkasCertificate:
         y = self.y
         Aty = np.asarray(self.A.T @ y).reshape(-1)
         normA = _norm(self.A)
-        stationarity = float(np.linalg.norm(Aty) / max(normA, 1e-300))
+        stationarity = float(np.linalg.norm(Aty) / max(normA, _TINY))
         nb = float(np.linalg.norm(self.b))
-        gap = float(self.b @ y) / max(nb, 1e-300)
+        gap = float(self.b @ y) / max(nb, _TINY)
         return {"stationarity": stationarity, "cone": _dual_cone_violation(y, self.cones), "gap": gap}
 
     def verify(self) -> bool:

@@ -36,6 +36,11 @@ CONVERGENCE_FRACTION: float = 0.01
 #: Above this many states the initial bound uses the box's half-diagonal instead of its 2^n vertices.
 MAX_VERTEX_STATES: int = 12
 
+#: ``log`` of the largest float: a bound beyond it is reported as that (``exp`` would overflow).
+LOG_FLOAT_MAX: float = math.log(np.finfo(float).max)
+#: Smallest positive float: keeps ``log`` of a zero gain finite (an exact zero contracts to -inf anyway).
+FLOAT_TINY: float = float(np.finfo(float).tiny)
+
 
 class ErrorBound:
     """``b >= ||x_hat - x||_P``, updated step by step (see the module docstring).
@@ -74,11 +79,11 @@ class ErrorBound:
 
     def change_metric(self, P_old: np.ndarray, P_new: np.ndarray) -> None:
         """The Lyapunov matrix in use changes (a region switch)."""
-        self.log_b += 0.5 * math.log(max(float(eigh(P_new, P_old, eigvals_only=True)[-1]), 1e-300))
+        self.log_b += 0.5 * math.log(max(float(eigh(P_new, P_old, eigvals_only=True)[-1]), FLOAT_TINY))
 
     def per_state(self, P_inv_diag: np.ndarray) -> np.ndarray:
         """``|e_k|`` bounds from the diagonal of ``P^-1``."""
-        return math.exp(min(self.log_b, 700.0)) * np.sqrt(P_inv_diag)
+        return math.exp(min(self.log_b, LOG_FLOAT_MAX)) * np.sqrt(P_inv_diag)
 
     def converged(self, P_inv_diag: np.ndarray) -> bool:
         return bool(np.all(self.per_state(P_inv_diag) <= self.tol))
@@ -87,7 +92,7 @@ class ErrorBound:
 def induced_log_norm(M: np.ndarray, P: np.ndarray) -> float:
     """``log ||P^{1/2} M P^{-1/2}||_2``: the log of ``M``'s gain in the ``P``-norm."""
     w = float(eigh(M.T @ P @ M, P, eigvals_only=True)[-1])
-    return 0.5 * math.log(max(w, 1e-300))
+    return 0.5 * math.log(max(w, FLOAT_TINY))
 
 
-__all__ = ["CONVERGENCE_FRACTION", "ErrorBound", "MAX_VERTEX_STATES", "induced_log_norm"]
+__all__ = ["CONVERGENCE_FRACTION", "ErrorBound", "FLOAT_TINY", "LOG_FLOAT_MAX", "MAX_VERTEX_STATES", "induced_log_norm"]

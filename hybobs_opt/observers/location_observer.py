@@ -27,7 +27,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows
-from .error_bound import CONVERGENCE_FRACTION, induced_log_norm
+from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
@@ -229,7 +229,7 @@ class LocationObserver(Observer):
         the identified ones for the steps counted: ``Z0`` at entry into them (the bank's design
         hypothesis, Proposition 3.1.1 of paper 000), contracting at the generator's certified rate."""
         log_b = self._log_bound if g == self._bound_group else math.log(self._gen_bound0[g])
-        return math.exp(min(log_b, 700.0)) * np.sqrt(self._gen_P_inv_diag[g])
+        return math.exp(min(log_b, LOG_FLOAT_MAX)) * np.sqrt(self._gen_P_inv_diag[g])
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         self._propagate(u, y)
