@@ -240,9 +240,9 @@ def checked_time(value, field: str) -> float:
 
 def checked_state(x0, n: int, field: str = "x0", what: str = "state") -> np.ndarray:
     """``x0`` as a finite real ``(n,)`` array, or :class:`ModelError` naming ``field`` (nothing coerced:
-    a string, a complex value, a wrong length or a NaN is refused)."""
+    a string, a boolean, a complex value, a wrong length or a NaN is refused)."""
     arr = np.asarray(x0) if not isinstance(x0, (str, bytes)) else None
-    if arr is None or arr.dtype.kind not in "biuf":
+    if arr is None or arr.dtype.kind not in "iuf":  # booleans are no state either
         got = type(x0).__name__ if arr is None else f"an array of {arr.dtype}"
         raise ModelError(field, f"a finite real {what} of length {n}", got)
     arr = arr.astype(float).reshape(-1)

@@ -87,7 +87,8 @@ class LocationLogic:
         self.reset(q0)
 
     def reset(self, q0: int | None = None) -> None:
-        if q0 is not None and not (isinstance(q0, (int, np.integer)) and 0 <= q0 < self.automaton.n_locations):
+        if q0 is not None and (isinstance(q0, bool) or not (isinstance(q0, (int, np.integer))
+                                                            and 0 <= q0 < self.automaton.n_locations)):
             raise ModelError("q0", f"a location index in 0..{self.automaton.n_locations - 1} or None", repr(q0))
         self.current: int | None = None if q0 is None else int(q0)
         self.held = -1 if q0 is None else int(q0)
