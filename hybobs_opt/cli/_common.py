@@ -118,7 +118,6 @@ def check_scheduler(address: str) -> None:
 
 def executor_from_args(args: argparse.Namespace):
     from ..executor import make_executor
-    from ..limits import max_workers
 
     dask = [o for o, v in (("--scheduler", args.scheduler), ("--dask-local", args.dask_local)) if v is not None]
     if len(dask) == 2:
@@ -130,21 +129,24 @@ def executor_from_args(args: argparse.Namespace):
             raise ModelError("--workers", f"no value with {dask[0]} (the cluster has its own workers)", repr(args.workers))
         if args.executor == "serial":
             raise ModelError("--workers", "no value with --executor serial (one process)", repr(args.workers))
-        if args.workers < 1:
-            raise ModelError("--workers", "a positive number of processes", repr(args.workers))
-        if args.workers > max_workers():
-            raise ModelError("--workers", f"at most {max_workers()} processes (hybobs_opt.limits.MAX_WORKERS_PER_CORE = "
-                             f"{MAX_WORKERS_PER_CORE} per core)", repr(args.workers))
+        _check_count("--workers", args.workers, "processes", "processes")
     if args.dask_local is not None:
-        if args.dask_local < 1:
-            raise ModelError("--dask-local", "a positive number of workers", repr(args.dask_local))
-        if args.dask_local > max_workers():
-            raise ModelError("--dask-local", f"at most {max_workers()} local workers (hybobs_opt.limits.MAX_WORKERS_PER_CORE "
-                             f"= {MAX_WORKERS_PER_CORE} per core)", repr(args.dask_local))
+        _check_count("--dask-local", args.dask_local, "workers", "local workers")
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     return make_executor(args.executor or "processes", args.workers, args.scheduler, args.dask_local)
 
+
+
+def _check_count(option: str, value: int, unit: str, limit_unit: str) -> None:
+    """A worker count between 1 and :func:`~hybobs_opt.limits.max_workers` (``MAX_WORKERS_PER_CORE`` per core)."""
+    from ..limits import max_workers
+
+    if value < 1:
+        raise ModelError(option, f"a positive number of {unit}", repr(value))
+    if value > max_workers():
+        raise ModelError(option, f"at most {max_workers()} {limit_unit} (hybobs_opt.limits.MAX_WORKERS_PER_CORE = "
+                         f"{MAX_WORKERS_PER_CORE} per core)", repr(value))
 
 #: Help text of the positional system argument of every command.
 SYSTEM_HELP = ("the system: an example name ('hybobs examples'), a model file PATH.toml|.yaml|.json, "
