@@ -283,8 +283,7 @@ class Observer(ABC):
 
     def _validate_sample(self, u, y) -> tuple[np.ndarray, np.ndarray] | str:
         try:
-            uu = np.atleast_1d(np.asarray(u, dtype=float)).reshape(-1)
-            yy = np.atleast_1d(np.asarray(y, dtype=float)).reshape(-1)
+            uu, yy = real_sample(u), real_sample(y)
         except (TypeError, ValueError) as exc:
             return f"sample not numeric ({exc})"
         if uu.size != self.m or yy.size != self.p:
@@ -364,10 +363,28 @@ def initial_state(x0, fallback, state_bounds, n: int) -> np.ndarray:
     return checked_state(x0, n)
 
 
+def real_sample(v) -> np.ndarray:
+    """One sample ``v`` as a flat float array, refusing what would be coerced: a complex value (its
+    imaginary part would be dropped), a string or any non-numeric object.
+
+    Raises
+    ------
+    TypeError
+        ``v`` is not real numbers (the observers turn this into a ``fallback`` step with its reason).
+    """
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"a string {v!r:.40} is no sample")
+    arr = np.asarray(v)
+    if arr.dtype.kind not in "biuf":
+        what = "complex" if arr.dtype.kind == "c" else str(arr.dtype)
+        raise TypeError(f"values of type {what}, expected real numbers")
+    return np.atleast_1d(arr.astype(float)).reshape(-1)
+
+
 def _safe_input(u, m: int) -> np.ndarray | None:
     """The input if it is usable for open-loop prediction, else ``None``."""
     try:
-        uu = np.atleast_1d(np.asarray(u, dtype=float)).reshape(-1)
+        uu = real_sample(u)
     except (TypeError, ValueError):
         return None
     return uu if uu.size == m and np.all(np.isfinite(uu)) else None

@@ -84,7 +84,8 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from . import _lookup_kernels as K
-from .base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, sample_rows
+from .base import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state,
+                   real_sample, sample_rows)
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
 REASONS = {
@@ -331,8 +332,7 @@ class LookupObserver(Observer):
         t0 = time.perf_counter()
         reason = ""
         try:
-            uu = np.asarray(u, dtype=np.float64).reshape(-1)
-            yy = np.asarray(y, dtype=np.float64).reshape(-1)
+            uu, yy = real_sample(u), real_sample(y)
             if uu.shape[0] != self.m or yy.shape[0] != self.p:
                 reason = f"sample of length (u={uu.shape[0]}, y={yy.shape[0]}), expected (u={self.m}, y={self.p})"
         except (TypeError, ValueError) as exc:
