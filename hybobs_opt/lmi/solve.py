@@ -153,9 +153,51 @@ def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, 
         warnings.simplefilter("ignore", UserWarning)
         try:
             problem.solve(solver=solver, **options)
-            return map_status(CVXPY_STATUS, problem.status, solver=f"cvxpy/{solver}"), ""
-        except (cp.error.SolverError, ArithmeticError, ValueError) as exc:
-            return SOLVER_ERROR, f"{solver}: {exc}"
+        except (cp.error.SolverError, ArithmeticError, ValueError, RuntimeError) as exc:
+            # RuntimeError: the solver's own crash (a Rust panic of Clarabel, a CVXOPT failure)
+            return SOLVER_ERROR, f"{solver}: {type(exc).__name__}: {exc}"
+    status = map_status(CVXPY_STATUS, problem.status, solver=f"cvxpy/{solver}")
+    if status in POINT_STATUSES and not _point_is_finite(problem):
+        return SOLVER_ERROR, f"{solver}: status {status} with a missing or non-finite point"
+    return status, ""
+
+
+def _point_is_finite(problem: cp.Problem) -> bool:
+    """Every variable of ``problem`` has a value and every entry is finite."""
+    for v in problem.variables():
+        val = v.value
+        if val is None or not np.all(np.isfinite(np.asarray(val, dtype=float))):
+            return False
+    return True
+
+
+def checked_lyapunov(P, what: str, solver: str = SOLVER) -> np.ndarray:
+    """The symmetric part of a Lyapunov matrix returned by ``solver`` for ``what``, once checked in
+    numpy: finite and positive definite (smallest eigenvalue above :data:`LYAPUNOV_MIN_RATIO` times
+    the largest).
+
+    Raises
+    ------
+    SolverError
+        ``P`` is missing, not finite or not positive definite: the solver's "optimal" answer is not one.
+    """
+    from ..errors import SolverError
+
+    if P is None or not np.all(np.isfinite(np.asarray(P, dtype=float))):
+        raise SolverError(what, solver, "optimal, but the Lyapunov matrix P is missing or not finite",
+                          "re-run; if it persists, rescale the model or try another solver")
+    P = np.asarray(P, dtype=float)
+    P = 0.5 * (P + P.T)
+    w = np.linalg.eigvalsh(P)
+    if not (w[-1] > 0 and w[0] > LYAPUNOV_MIN_RATIO * w[-1]):
+        raise SolverError(what, solver, f"optimal, but P is not positive definite (eigenvalues {w[0]:.3g}..{w[-1]:.3g})",
+                          "re-run; if it persists, rescale the model or try another solver")
+    return P
+
+
+#: Smallest eigenvalue of a returned Lyapunov matrix relative to its largest: below it ``P`` is
+#: singular to working precision and ``P^-1 Y`` (the gain) is not determined by the answer.
+LYAPUNOV_MIN_RATIO = 1e-12
 
 
 def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) -> SolveOutcome:

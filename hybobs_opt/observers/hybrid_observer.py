@@ -39,7 +39,7 @@ import numpy as np
 
 from .. import _compat
 from ..errors import InfeasibleError, ModelError, SolverError
-from ..lmi.solve import SOLVER_ERROR, solve_problem
+from ..lmi.solve import SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
@@ -292,7 +292,7 @@ class ContinuousObserverLMI:
         if not is_optimal(status) or self.P.value is None:
             # inaccurate answers are not accepted (hybobs_opt.status): the bounds built from P need an optimum
             raise SolverError(what, SOLVER, str(status), "a smaller decay rate, or a larger gain bound")
-        P = 0.5 * (self.P.value + self.P.value.T)
+        P = checked_lyapunov(self.P.value, what)
         G = tuple(self.scale * np.linalg.solve(P, Y.value) for Y in self.Y)
         Ph, _, w = sqrt_psd(P)
         F = [d[0] - Gk @ d[3] for d, Gk in zip(self._data, G)]

@@ -41,7 +41,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..errors import InfeasibleError, ModelError, SolverError
-from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
+from ..lmi.solve import SOLVER, SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import Status, is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import (
@@ -274,7 +274,7 @@ class LuenbergerLMI:
             return None
         if not is_optimal(status) or self.P.value is None or self.Y.value is None:
             raise SolverError(what, SOLVER, str(status), "a smaller decay rate, or check the model's scaling")
-        P = 0.5 * (self.P.value + self.P.value.T)
+        P = checked_lyapunov(self.P.value, what)
         L = s * np.linalg.solve(P, self.Y.value)
         return P, L, str(status), seconds
 

@@ -473,12 +473,6 @@ KNOWN_DEFECTS: dict[str, str] = {
     "analyse_observability [DAQP corrupted]": (
         "a DAQP answer flagged optimal with a violated point and negative multipliers is trusted by the pair tests: "
         "6 pair sets reported non-empty that are empty; a DAQP ValueError escapes"),
-    "design_residual_bank [cvxpy answers corrupted]": (
-        "status optimal with a NaN or zero Lyapunov matrix is not re-checked (LinAlgError); a solver RuntimeError "
-        "escapes solve_problem"),
-    "ContinuousObserverLMI.solve [cvxpy answers corrupted]": (
-        "status optimal with a NaN, zero or singular P is not re-checked (LinAlgError); a solver RuntimeError escapes "
-        "solve_problem"),
 }
 
 
@@ -525,8 +519,13 @@ DEFECTS = [
 ]
 
 
-@pytest.mark.parametrize("try_one, value", [pytest.param(f, v, id=i, marks=pytest.mark.xfail(strict=True, reason="defect found by the fuzz"))
-                                            for i, f, v in DEFECTS])
+#: Defects of :data:`DEFECTS` that are fixed: ordinary regression tests now.
+FIXED = {"bank-nan-lyapunov-matrix", "bank-solver-RuntimeError", "continuous-zero-lyapunov-matrix"}
+
+
+@pytest.mark.parametrize("try_one, value", [
+    pytest.param(f, v, id=i, marks=[] if i in FIXED else pytest.mark.xfail(strict=True, reason="defect found by the fuzz"))
+    for i, f, v in DEFECTS])
 def test_defect(try_one, value):
     from .common import is_bug
 
