@@ -10,6 +10,7 @@ an integer is an ``int``, not ``2.0``, ``"2"`` or ``True``.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
@@ -111,6 +112,98 @@ def as_int(value, field: str, minimum: int | None = None, what: str | None = Non
     if minimum is not None and int(value) < minimum:
         raise ModelError(field, what, repr(int(value)))
     return int(value)
+
+
+def as_positive(value, field: str, what: str = "a positive finite number", allow_none: bool = False) -> float | None:
+    """A positive finite real scalar as a ``float`` (``None`` passes if ``allow_none``).
+
+    Parameters
+    ----------
+    value
+        The argument: an ``int``, ``float`` or numpy integer/floating scalar.
+    field : str
+        Name of the argument, for the message.
+    what : str
+        What was expected, for the message (e.g. ``"a positive sampling period"``).
+    allow_none : bool
+        Let ``None`` through (returned as ``None``).
+
+    Returns
+    -------
+    float or None
+
+    Raises
+    ------
+    ModelError
+        ``value`` is a bool, a string, a complex number, an array or list (even of one entry),
+        ``None`` (unless ``allow_none``) or any other non-real object, or is NaN, infinite, zero
+        or negative.  Nothing is converted first: ``float(0.1 + 0j)`` or ``np.array([0.1])`` is
+        not taken for ``0.1``.
+    """
+    if value is None and allow_none:
+        return None
+    if value is None or isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ModelError(field, what + (" or None" if allow_none else ""), f"{_short(value)} of type {type(value).__name__}")
+    out = float(value)
+    if not (math.isfinite(out) and out > 0):
+        raise ModelError(field, what + (" or None" if allow_none else ""), repr(value))
+    return out
+
+
+def as_flag(value, field: str) -> bool:
+    """A boolean switch as a ``bool``: ``True``, ``False`` or a numpy bool, nothing else.
+
+    Parameters
+    ----------
+    value
+        The argument.
+    field : str
+        Name of the argument, for the message.
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    ModelError
+        ``value`` is not a ``bool``/``numpy.bool_``: ``"no"``, ``0``, ``1``, ``None`` and arrays are
+        refused (``bool("no")`` is ``True``).
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise ModelError(field, "True or False", f"{_short(value)} of type {type(value).__name__}")
+    return bool(value)
+
+
+def as_instance(value, field: str, cls: type | tuple[type, ...], what: str | None = None):
+    """``value`` itself if it is an instance of ``cls``, else :class:`ModelError` naming the class.
+
+    Parameters
+    ----------
+    value
+        The argument (a design object, an analysis, a system).
+    field : str
+        Name of the argument, for the message.
+    cls : type or tuple of types
+        The class(es) expected; import them lazily in the caller where a module-level import
+        would be circular.
+    what : str, optional
+        What was expected, for the message (default: ``"a <class name>"``).
+
+    Returns
+    -------
+    object
+        ``value``, unchanged.
+
+    Raises
+    ------
+    ModelError
+        ``value`` is not an instance of ``cls``.
+    """
+    if not isinstance(value, cls):
+        names = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
+        raise ModelError(field, what or f"a {names}", f"{_short(value)} of type {type(value).__name__}")
+    return value
 
 
 def as_text(value, field: str, allow_empty: bool = False) -> str:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import casadi as ca
@@ -32,6 +32,7 @@ import numpy as np
 from scipy.linalg import eigh
 
 from .. import _compat
+from .._validate import _short, as_flag, as_int, as_matrix, as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
@@ -106,33 +107,27 @@ class SwitchedGainObserver(Observer):
                  input_range: tuple[Sequence[float], Sequence[float]] | None = None):
         if not isinstance(system, ScalarNonlinearSystem):
             raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
-        regs = list(getattr(gains, "regions", gains))
-        if not regs:
-            raise ModelError("gains", "at least one region with its gain", "none")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ModelError("dt", "a positive sampling period", repr(dt))
-        if init_state not in ("clip", "identified", "keep"):
+        regs, Ls = _region_gains(gains, system.n, system.p)
+        dt = as_positive(dt, "dt", "a positive sampling period")
+        if not isinstance(init_state, str) or init_state not in ("clip", "identified", "keep"):
             raise ModelError("init_state", "'clip', 'identified' or 'keep'", repr(init_state))
-        if int(init_samples) < 1:
-            raise ModelError("init_samples", "at least 1", repr(init_samples))
+        init_samples = as_int(init_samples, "init_samples", 1)
+        substeps = None if substeps is None else as_int(substeps, "substeps", 1)
+        clip_to_box = as_flag(clip_to_box, "clip_to_box")
         self.system = system
         self.n, self.m, self.p = system.n, system.m, system.p
         self.state_names = system.state_names
-        self.dt = float(dt)
+        self.dt = dt
         order = sorted(range(len(regs)), key=lambda i: regs[i].region.lo)
         self.regions = [regs[i].region for i in order]
-        self.gains = np.array([np.asarray(regs[i].L, dtype=float) for i in order])
-        if self.gains.shape[1:] != (self.n, self.p):
-            raise ModelError("gains", f"gains of shape ({self.n}, {self.p})", f"{self.gains.shape[1:]}")
+        self.gains = np.array([Ls[i] for i in order])
         if len({r.coordinate for r in self.regions}) != 1:
             raise ModelError("gains", "regions of one scheduling coordinate", "several coordinates")
         self.k = self.regions[0].coordinate
-        self.init_samples = int(init_samples)
+        self.init_samples = init_samples
         self.init_state = init_state
-        self.substeps = int(substeps) if substeps is not None else self._auto_substeps()
-        if self.substeps < 1:
-            raise ModelError("substeps", "at least 1", repr(substeps))
-        self.clip_to_box = bool(clip_to_box)
+        self.substeps = substeps if substeps is not None else self._auto_substeps()
+        self.clip_to_box = clip_to_box
         self.output_names = system.output_names
         self.output_range = output_range(system)
         self.state_range = state_range(system)
@@ -451,6 +446,36 @@ class SwitchedGainObserver(Observer):
             self._restart_bound()
         self._input_unknown = u is None  # the next interval runs on the previous input
         return Estimate(self.x.copy(), -1 if self.q is None else self.q, FALLBACK, 0.0, {"reason": reason})
+
+
+def _region_gains(gains, n: int, p: int) -> tuple[list, list[np.ndarray]]:
+    """The regions' gains of a :class:`SwitchedGainObserver`: ``(gain objects, their L as (n, p) arrays)``.
+
+    ``gains`` is a :class:`~hybobs_opt.lmi.SwitchedDesign` or a non-empty sequence of gains, each a
+    :class:`~hybobs_opt.lmi.RegionGain` or an object like it (the gains read from a file): a
+    ``region`` that is a :class:`~hybobs_opt.lmi.schedule.SchedulingRegion` and a real finite
+    ``(n, p)`` gain ``L`` (complex entries are refused, not cast).
+    """
+    from ..lmi.schedule import SchedulingRegion
+    from ..lmi.switched import SwitchedDesign
+
+    what = "a SwitchedDesign or a sequence of RegionGain"
+    if isinstance(gains, SwitchedDesign):
+        gains = gains.regions
+    elif isinstance(getattr(gains, "region", None), SchedulingRegion):
+        raise ModelError("gains", what, f"a single {type(gains).__name__} (wrap it in a list)")
+    elif isinstance(gains, (str, bytes, Mapping)) or not isinstance(gains, Iterable):
+        raise ModelError("gains", what, f"{_short(gains)} of type {type(gains).__name__}")
+    regs = list(gains)
+    if not regs:
+        raise ModelError("gains", "at least one region with its gain", "none")
+    Ls = []
+    for i, g in enumerate(regs):
+        if not isinstance(getattr(g, "region", None), SchedulingRegion):
+            raise ModelError(f"gains[{i}]", "a RegionGain (its .region a SchedulingRegion, its .L the gain)",
+                             f"{_short(g)} of type {type(g).__name__}")
+        Ls.append(as_matrix(getattr(g, "L", None), f"gains[{i}].L", (n, p)))
+    return regs, Ls
 
 
 def _input_range(value, m: int) -> tuple[np.ndarray, np.ndarray] | None:

@@ -365,7 +365,6 @@ KNOWN_DEFECTS: dict[str, str] = {
     "HybridObserver(...)": "bank='x'/object(), design=<a ResidualBank> AttributeError",
     "ContinuousObserver(...)": "design='x'/object() AttributeError, location=1j TypeError",
     "SlidingModeObserver(...)": "filter_tau=0.1+0.1j TypeError, filter_tau=array ValueError, complex gains cast to real",
-    "SwitchedGainObserver(...)": "clip_to_box='no' and substeps=1.0 accepted, gains='x'/[5] AttributeError",
     "DriftObserver(...)": "project='no' accepted, max_time_step complex TypeError / array ValueError, complex gains cast",
     "PeriodicObserver(...)": "project='no' accepted, max_time_step complex TypeError / array ValueError, complex gains cast",
 }
@@ -413,9 +412,6 @@ DEFECTS = [
     ("sliding-filter_tau-complex", _ctor("SlidingModeObserver", filter_tau=0.1 + 0.1j)),
     ("sliding-filter_tau-array", _ctor("SlidingModeObserver", filter_tau=np.array([0.1, 0.2]))),
     ("sliding-gains-complex", _ctor("SlidingModeObserver", gains=np.ones(3) * 1j)),
-    ("switched-clip_to_box-str", _ctor("SwitchedGainObserver", clip_to_box="no")),
-    ("switched-substeps-float", _ctor("SwitchedGainObserver", substeps=1.0)),
-    ("switched-gains-str", _ctor("SwitchedGainObserver", gains="x")),
     ("drift-project-str", _ctor("DriftObserver", project="no")),
     ("drift-max_time_step-complex", _ctor("DriftObserver", max_time_step=0.1 + 0.1j)),
     ("drift-gains-complex", _ctor("DriftObserver", gains=np.ones((2, 2)) * 1j)),
@@ -429,6 +425,10 @@ FIXED = [
     ("reset-bool-x0", _reset("SlidingModeObserver", x0=np.ones(3, dtype=bool))),
     ("ctor-bool-x0", _ctor("MHEObserver", x0=np.ones(3, dtype=bool))),
     ("location-reset-q0-True", _reset("LocationObserver", q0=True)),
+    ("switched-clip_to_box-str", _ctor("SwitchedGainObserver", clip_to_box="no")),
+    ("switched-substeps-float", _ctor("SwitchedGainObserver", substeps=1.0)),
+    ("switched-gains-str", _ctor("SwitchedGainObserver", gains="x")),
+    ("switched-gains-list-of-int", _ctor("SwitchedGainObserver", gains=[5])),
 ]
 
 
