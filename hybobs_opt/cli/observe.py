@@ -105,7 +105,6 @@ def open_log(named, args):
 
 def observe_recorded_nonlinear(named, args) -> dict:
     """The switched-gain observer of paper 004 on a log of a scalar-nonlinear system."""
-    import json
 
     from ..observers.recorded import gains_from_json, observe_nonlinear_log
     from ..sim.log import read_log
@@ -120,12 +119,11 @@ def observe_recorded_nonlinear(named, args) -> dict:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
     log = read_log(args.data, named.system)
     if args.gains:
+        # the package's reader: unreadable, non-JSON, too deeply nested or unsealed files are ModelErrors naming it
         try:
-            with open(args.gains, encoding="utf-8") as fh:
-                data = json.loads(fh.read())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ModelError(f"--gains {args.gains}", "a readable gains JSON written by 'hybobs synth --out'", str(exc)) from None
-        gains, source = gains_from_json(named.system, data, str(args.gains)), str(args.gains)
+            gains, source = gains_from_json(named.system, args.gains), str(args.gains)
+        except ModelError as exc:
+            raise ModelError(f"--gains: {exc.field}", exc.expected, exc.got) from None
     else:
         from ..lmi.auto_design import design_settings, design_switched
 

@@ -326,7 +326,7 @@ def test_the_valid_files_load():
     assert code == 0, err
 
 
-@pytest.mark.xfail(strict=True, reason="hybobs observe --gains: a gains file of 100 000 nested lists is a RecursionError traceback")
 def test_defect_deeply_nested_gains_file():
+    """Was a RecursionError traceback: ``hybobs observe --gains`` read the file with its own json.loads."""
     outcome, detail = try_gains(("deep", 0.01, 1e-12, True), True)
     assert outcome == MODEL_ERROR, f"{outcome}: {detail}"
