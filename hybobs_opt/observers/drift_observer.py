@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import _compat
+from .._validate import as_flag, as_positive
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
@@ -154,11 +155,13 @@ class DriftObserver(Observer):
                  project: bool = False, max_time_step: float | None = None):
         if not isinstance(system, ConstantDriftSystem):
             raise ModelError("system", "a ConstantDriftSystem (paper 003, eq. 3)", type(system).__name__)
+        project = as_flag(project, "project")
+        max_time_step = as_positive(max_time_step, "max_time_step", "a positive finite time", allow_none=True)
         self.system = system
         self.periodic = periodic_system(system)
         self.gains = _as_gains(self.periodic, gains)
         self.L = np.array(self.gains.L, dtype=float)
-        self.project = bool(project)
+        self.project = project
         self.n = system.n_states
         self.state_names = system.state_names
         self._outputs = {0} | set(system.visible_modes)

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._validate import as_flag, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..status import Status, is_optimal
 from ..systems.event_sampled import PeriodicSystem
@@ -713,9 +714,11 @@ class PeriodicObserver(Observer):
     def __init__(self, periodic: PeriodicSystem, gains: PeriodicGains | ArrayLike, *, project: bool = False,
                  max_time_step: float | None = None):
         self.ps = _check_system(periodic)
-        self.gains = gains if isinstance(gains, PeriodicGains) else analyse_gains(periodic, gains)
+        project = as_flag(project, "project")
+        max_time_step = as_positive(max_time_step, "max_time_step", "a positive finite time", allow_none=True)
+        self.gains = gains if isinstance(gains, PeriodicGains) else analyse_gains(periodic, self.ps.check_gains(gains, "gains"))
         self.L = self.ps.check_gains(self.gains.L, "gains")
-        self.project = bool(project)
+        self.project = project
         self.n = self.ps.n
         self.state_names = self.ps.state_names
         if max_time_step is None:

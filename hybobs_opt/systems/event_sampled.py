@@ -295,10 +295,7 @@ class PeriodicSystem:
 
     def check_gains(self, L: ArrayLike, field: str = "L") -> np.ndarray:
         """Return observer gains ``L`` as a (V, N) float array; one column ``L_j`` per phase as a row."""
-        try:
-            arr = np.array(L, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ModelError(field, f"gains of shape ({self.period}, {self.n})", str(exc)) from None
+        arr = real_array(L, field, f"gains of shape ({self.period}, {self.n})")  # complex gains refused, not cast
         if arr.shape != (self.period, self.n):
             raise ModelError(field, f"gains of shape ({self.period}, {self.n}) (one L_j per phase)", f"shape {arr.shape}")
         if not np.all(np.isfinite(arr)):

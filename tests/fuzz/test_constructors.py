@@ -365,8 +365,6 @@ KNOWN_DEFECTS: dict[str, str] = {
     "HybridObserver(...)": "bank='x'/object(), design=<a ResidualBank> AttributeError",
     "ContinuousObserver(...)": "design='x'/object() AttributeError, location=1j TypeError",
     "SlidingModeObserver(...)": "filter_tau=0.1+0.1j TypeError, filter_tau=array ValueError, complex gains cast to real",
-    "DriftObserver(...)": "project='no' accepted, max_time_step complex TypeError / array ValueError, complex gains cast",
-    "PeriodicObserver(...)": "project='no' accepted, max_time_step complex TypeError / array ValueError, complex gains cast",
 }
 
 
@@ -412,11 +410,6 @@ DEFECTS = [
     ("sliding-filter_tau-complex", _ctor("SlidingModeObserver", filter_tau=0.1 + 0.1j)),
     ("sliding-filter_tau-array", _ctor("SlidingModeObserver", filter_tau=np.array([0.1, 0.2]))),
     ("sliding-gains-complex", _ctor("SlidingModeObserver", gains=np.ones(3) * 1j)),
-    ("drift-project-str", _ctor("DriftObserver", project="no")),
-    ("drift-max_time_step-complex", _ctor("DriftObserver", max_time_step=0.1 + 0.1j)),
-    ("drift-gains-complex", _ctor("DriftObserver", gains=np.ones((2, 2)) * 1j)),
-    ("periodic-project-str", _ctor("PeriodicObserver", project="no")),
-    ("periodic-max_time_step-array", _ctor("PeriodicObserver", max_time_step=np.array([0.1, 0.2]))),
 ]
 
 
@@ -429,6 +422,12 @@ FIXED = [
     ("switched-substeps-float", _ctor("SwitchedGainObserver", substeps=1.0)),
     ("switched-gains-str", _ctor("SwitchedGainObserver", gains="x")),
     ("switched-gains-list-of-int", _ctor("SwitchedGainObserver", gains=[5])),
+    ("drift-project-str", _ctor("DriftObserver", project="no")),
+    ("drift-max_time_step-complex", _ctor("DriftObserver", max_time_step=0.1 + 0.1j)),
+    ("drift-gains-complex", _ctor("DriftObserver", gains=np.ones((2, 2)) * 1j)),
+    ("periodic-project-str", _ctor("PeriodicObserver", project="no")),
+    ("periodic-max_time_step-array", _ctor("PeriodicObserver", max_time_step=np.array([0.1, 0.2]))),
+    ("periodic-gains-complex", _ctor("PeriodicObserver", gains=np.ones((2, 2)) * 1j)),
 ]
 
 
