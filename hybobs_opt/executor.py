@@ -125,3 +125,23 @@ def make_executor(kind: str = "processes", n_workers: int | None = None, schedul
     if kind == "processes":
         return ProcessExecutor(n_workers)
     raise ModelError("executor", "'serial', 'processes' or a Dask option", repr(kind))
+
+
+def resolve_executor(executor=None):
+    """The executor an analysis runs on: ``None`` is serial, a string is a kind of
+    :func:`make_executor` (``"serial"`` or ``"processes"``), an executor passes as it is.
+
+    Raises
+    ------
+    ModelError
+        ``executor`` is neither (it must have ``map``, ``n_workers`` and ``name``, like
+        :class:`SerialExecutor`, :class:`ProcessExecutor` and :class:`DaskExecutor`).
+    """
+    if executor is None:
+        return SerialExecutor()
+    if isinstance(executor, str):
+        return make_executor(executor)
+    if not all(hasattr(executor, a) for a in ("map", "n_workers", "name")):
+        raise ModelError("executor", "None, 'serial', 'processes' or an executor of hybobs_opt.executor",
+                         type(executor).__name__)
+    return executor

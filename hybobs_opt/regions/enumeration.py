@@ -265,10 +265,10 @@ def enumerate_modes(
     -------
     ModeEnumeration
     """
-    from ..executor import SerialExecutor
+    from ..executor import resolve_executor
 
     check_horizon(system, T)
-    executor = executor or SerialExecutor()
+    executor = resolve_executor(executor)
     t0 = time.perf_counter()
     start = COUNTERS.total
     depth = 0

@@ -616,10 +616,10 @@ def analyse_observability(
     progress : callable, optional
         ``progress(done, total)``.
     """
-    from ..executor import SerialExecutor
+    from ..executor import resolve_executor
     from ..systems.pwa import PWASystem
 
-    executor = executor or SerialExecutor()
+    executor = resolve_executor(executor)
     if isinstance(system_or_enum, PWASystem):
         if T is None:
             raise ModelError("T", "a horizon when a PWASystem is given", "None")
