@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from .. import _compat
+from .._validate import as_int, as_positive, as_vector
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
 from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
@@ -216,24 +217,21 @@ class SlidingModeObserver(Observer):
 
     def __init__(self, system, Ts: float, *, gains=None, filter_tau: float | None = None, hold: int = SMO_SLIDING_HOLD):
         form = system if isinstance(system, ObservabilityForm) else observability_form(system)
-        if not (isinstance(Ts, (int, float, np.floating)) and np.isfinite(Ts) and Ts > 0):
-            raise ModelError("Ts", "a positive finite sample period", repr(Ts))
-        if filter_tau is not None and not (np.isfinite(filter_tau) and filter_tau > 0):
-            raise ModelError("filter_tau", "None or a positive time constant", repr(filter_tau))
-        if not (isinstance(hold, (int, np.integer)) and hold >= 1):
-            raise ModelError("hold", "a number of samples >= 1", repr(hold))
+        Ts = as_positive(Ts, "Ts", "a positive finite sample period")
+        filter_tau = as_positive(filter_tau, "filter_tau", "a positive time constant", allow_none=True)
+        hold = as_int(hold, "hold", 1, "a number of samples >= 1 (an integer)")
         if gains is None:
             gains = design_gains(form)
         elif not isinstance(gains, GainRule):
-            lam = np.asarray(gains, dtype=float).reshape(-1)
-            if lam.shape != (form.n,) or not np.all(np.isfinite(lam)) or np.any(lam <= 0):
+            lam = as_vector(gains, "gains", form.n)  # complex gains refused, not cast
+            if np.any(lam <= 0):
                 raise ModelError("gains", f"{form.n} positive finite gains", repr(gains))
-            gains = GainRule(lam, np.full(form.n, np.nan), float("nan"), "user-supplied gains")
+            gains = GainRule(np.array(lam), np.full(form.n, np.nan), float("nan"), "user-supplied gains")
         self.form = form
         self.gains = gains
-        self.Ts = float(Ts)
-        self.filter_tau = None if filter_tau is None else float(filter_tau)
-        self.hold = int(hold)
+        self.Ts = Ts
+        self.filter_tau = filter_tau
+        self.hold = hold
         a = form.automaton
         self.n, self.m, self.p = form.n, a.m, 1
         self.state_names = tuple(a.state_names)

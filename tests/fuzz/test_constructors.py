@@ -364,7 +364,6 @@ KNOWN_DEFECTS: dict[str, str] = {
     "LocationObserver(...)": "bank='x'/object() AttributeError",
     "HybridObserver(...)": "bank='x'/object(), design=<a ResidualBank> AttributeError",
     "ContinuousObserver(...)": "design='x'/object() AttributeError, location=1j TypeError",
-    "SlidingModeObserver(...)": "filter_tau=0.1+0.1j TypeError, filter_tau=array ValueError, complex gains cast to real",
 }
 
 
@@ -407,9 +406,6 @@ DEFECTS = [
     ("hybrid-design-is-a-bank", lambda: _ctor("HybridObserver", design=_driveline()[0].bank)()),
     ("continuous-design-str", _ctor("ContinuousObserver", design="x")),
     ("continuous-location-complex", _ctor("ContinuousObserver", location=1j)),
-    ("sliding-filter_tau-complex", _ctor("SlidingModeObserver", filter_tau=0.1 + 0.1j)),
-    ("sliding-filter_tau-array", _ctor("SlidingModeObserver", filter_tau=np.array([0.1, 0.2]))),
-    ("sliding-gains-complex", _ctor("SlidingModeObserver", gains=np.ones(3) * 1j)),
 ]
 
 
@@ -428,6 +424,11 @@ FIXED = [
     ("periodic-project-str", _ctor("PeriodicObserver", project="no")),
     ("periodic-max_time_step-array", _ctor("PeriodicObserver", max_time_step=np.array([0.1, 0.2]))),
     ("periodic-gains-complex", _ctor("PeriodicObserver", gains=np.ones((2, 2)) * 1j)),
+    ("sliding-filter_tau-complex", _ctor("SlidingModeObserver", filter_tau=0.1 + 0.1j)),
+    ("sliding-filter_tau-array", _ctor("SlidingModeObserver", filter_tau=np.array([0.1, 0.2]))),
+    ("sliding-gains-complex", _ctor("SlidingModeObserver", gains=np.ones(3) * 1j)),
+    ("sliding-hold-True", _ctor("SlidingModeObserver", hold=True)),
+    ("sliding-Ts-True", _ctor("SlidingModeObserver", Ts=True)),
 ]
 
 
