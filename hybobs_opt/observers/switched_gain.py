@@ -37,7 +37,8 @@ from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
 from .error_bound import ErrorBound
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, checked_index, checked_state, initial_mode
+from .base import (FALLBACK, OBSERVABLE, STATE_SET_MARGIN, WARMING_UP, Estimate, Observer, checked_index, checked_state,
+                   initial_mode, outside_range)
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -161,6 +162,8 @@ class SwitchedGainObserver(Observer):
         self._bound = ErrorBound(self.system.box_lower, self.system.box_upper)
         self._open_rates = None if Ps is None else self._open_loop_rates([regs[i] for i in order], Ps)
         self._input_unknown = False
+        self._left_box: str | None = None
+        self._good_u: np.ndarray | None = None  # the last input whose interval kept the estimate in the box
 
     def _open_loop_rates(self, regs, Ps) -> list[float] | None:
         """Per region, the largest growth rate of ``||e||_P`` without output correction: the log-norm
@@ -267,6 +270,7 @@ class SwitchedGainObserver(Observer):
         self._buf_u: list[np.ndarray] = []
         self._buf_y: list[np.ndarray] = []
         self._prev_u: np.ndarray | None = None
+        self._good_u = None
         self._prev_y: np.ndarray | None = None
         self.selected: dict[str, Any] = {}
 
@@ -343,8 +347,15 @@ class SwitchedGainObserver(Observer):
         return self._clip(self._integrate_numpy(x, u, y0, y1, L))
 
     def _clip(self, x: np.ndarray) -> np.ndarray:
-        """Wrap the periodic coordinates, clip the others to the box (if ``clip_to_box``)."""
+        """Wrap the periodic coordinates, clip the others to the box (if ``clip_to_box``).
+
+        Records in ``_left_box`` why the integrated estimate left the box by more than
+        :data:`~hybobs_opt.contract.STATE_SET_MARGIN` of its width (``None`` if it did not): the
+        error bound's hypothesis (estimate and plant in the box) failed on that interval.
+        """
         x = self._wrap(x)
+        self._left_box = outside_range(x, (self.system.box_lower, self.system.box_upper), STATE_SET_MARGIN,
+                                       self.system.state_names, "x")
         if not self.clip_to_box:
             return x
         if self._wrap_idx.size == 0:
@@ -412,13 +423,28 @@ class SwitchedGainObserver(Observer):
                 self._restart_bound()
             return Estimate(self.x.copy(), -1 if self.q is None else self.q, WARMING_UP, 0.0,
                             {"region": self.q, "selected": dict(self.selected)})
+        refused = ""
         if self._prev_u is not None:
             y0 = self._prev_y if self._prev_y is not None else y
-            self.x = self._integrate(self.x, self._prev_u, y0, y, self.gains[self.q])
+            x_before = self.x
+            self.x = self._integrate(x_before, self._prev_u, y0, y, self.gains[self.q])
+            left = self._left_box
+            if left is not None and self._good_u is not None and not np.array_equal(self._prev_u, self._good_u):
+                # Did the input throw the estimate out of the box?  With the last input that kept it
+                # inside, the interval stays in the box: that input sample is refused, not integrated.
+                x_alt = self._integrate(x_before, self._good_u, y0, y, self.gains[self.q])
+                if self._left_box is None:
+                    self.x = x_alt
+                    refused = (f"input u = {self._prev_u.tolist()} refused: it drives the estimate out of the model's "
+                               f"state set ({left}); the last plausible input {self._good_u.tolist()} is used")
+            if left is None:
+                self._good_u = self._prev_u
             if self._lyap is not None:
                 self._bound.contract(-0.5 * self._lyap[2][self.q] * self.dt)
             if self._input_unknown:  # the last interval's input was a refused sample's: no bound holds
                 self._input_unknown = False
+                self._restart_bound()
+            elif left is not None:  # the estimate left the box (or an absurd input was refused): no bound holds
                 self._restart_bound()
         if not np.all(np.isfinite(self.x)):
             self.x = np.nan_to_num(self.x, nan=0.0, posinf=0.0, neginf=0.0)
@@ -431,9 +457,11 @@ class SwitchedGainObserver(Observer):
             self._bound.change_metric(self._lyap[0][q_old], self._lyap[0][self.q])
         self._prev_u, self._prev_y = u, y
         bound = self.error_bound()
-        return Estimate(self.x.copy(), self.q, self._flag(), 0.0,
-                        {"region": self.q, "switched": self.q != q_old, "outside": outside,
-                         "error_bound": None if bound is None else bound.tolist()})
+        info = {"region": self.q, "switched": self.q != q_old, "outside": outside,
+                "error_bound": None if bound is None else bound.tolist()}
+        if refused:
+            return Estimate(self.x.copy(), self.q, FALLBACK, 0.0, dict(info, reason=refused))
+        return Estimate(self.x.copy(), self.q, self._flag(), 0.0, info)
 
     def _fallback(self, u: np.ndarray | None, reason: str) -> Estimate:
         uu = u if u is not None else (self._prev_u if self._prev_u is not None else np.zeros(self.m))
