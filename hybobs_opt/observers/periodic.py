@@ -749,6 +749,7 @@ class PeriodicObserver(Observer):
         self._t = float(t0)
         self._guard.reset(self._t)
         self._events = 0
+        self._refused = 0
 
     def _estimate(self, flag: str, info: dict) -> Estimate:
         x = np.maximum(self._x, 0.0) if self.project else self._x.copy()
@@ -757,6 +758,9 @@ class PeriodicObserver(Observer):
         return Estimate(x, mode, flag, 0.0, info)
 
     def _fallback(self, u, reason: str) -> Estimate:
+        # A refused sample may have been an event: the phase and the time reference of (16a) are no
+        # longer known, so the next accepted event restarts them (see _step).
+        self._refused += 1
         return self._estimate(FALLBACK, {"reason": reason})
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
@@ -768,8 +772,13 @@ class PeriodicObserver(Observer):
         if verdict == "refused":
             return self._fallback(u, f"event {why}")
         if verdict == "resumed":  # a real gap: the phase and time reference restart at this event
-            self._j, self._t, self._events = self.ps.phase_of(v), t, 0
+            self._j, self._t, self._events, self._refused = self.ps.phase_of(v), t, 0, 0
             return self._estimate(FALLBACK, {"reason": why})
+        if self._refused:  # events may have been missed: (16a) would predict from a stale reference
+            k, self._refused = self._refused, 0
+            self._j, self._t, self._events = self.ps.phase_of(v), t, 0
+            return self._estimate(FALLBACK, {"reason": f"first event after {k} refused sample(s), which may have been "
+                                                       "events: the phase and time reference restart here"})
         expected = self.ps.event_modes[self._j % self.ps.period]
         if v != expected:
             self._j, self._t, self._events = self.ps.phase_of(v), t, 0

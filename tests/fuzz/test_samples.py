@@ -165,9 +165,6 @@ KNOWN_DEFECTS: dict[str, str] = {
         what="flagged observable 5.2 rad/s off while its error_bound says ~0 (the bound ignores the innovation)"),
     "powertrain3-miqp [outlier]": _OUTLIER.format(
         what="the MHE flags observable a window no trajectory fits, omega_m 117 rad/s off"),
-    "periodic-switching_server [t+y+int-y]": (
-        "two consecutive refused events (a whole period) go unnoticed: the next event is taken as the next phase and "
-        "flagged observable with a queue 21 off (28.8 for 7.2)"),
 }
 
 
@@ -205,7 +202,7 @@ DEFECTS = [
 
 
 #: Defects of :data:`DEFECTS` that are fixed: their runs are ordinary regression tests now.
-FIXED = {"complex-output-sample", "piston-input-minus-1e12"}
+FIXED = {"complex-output-sample", "piston-input-minus-1e12", "periodic-two-refused-events"}
 
 
 @pytest.mark.parametrize("name, faults", [
