@@ -69,6 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import nnls
 
+from .._validate import as_instance, as_items, as_positive
 from ..errors import ModelError
 from ..geometry.lp import solve_slack_lp
 from ..geometry.polytope import Polytope
@@ -150,16 +151,24 @@ class LookupObserver(Observer):
 
     def __init__(self, analysis, *, b_tilde: Sequence[Polytope] | str | None = None, variant: str = "table",
                  output_rtol: float = LOOKUP_OUTPUT_RTOL, progress: Callable[[int, int], None] | None = None):
-        if variant not in ("table", "exact"):
+        from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
+
+        as_instance(analysis, "analysis", ObservabilityAnalysis,
+                    "an ObservabilityAnalysis (Algorithm 3.1, hybobs_opt.regions; e.g. load_analysis(file))")
+        if not isinstance(variant, str) or variant not in ("table", "exact"):
             raise ModelError("variant", "'table' or 'exact'", repr(variant))
-        if not (np.isfinite(output_rtol) and output_rtol > 0):
-            raise ModelError("output_rtol", "a positive tolerance", repr(output_rtol))
-        if isinstance(b_tilde, str) and b_tilde != "project":
-            raise ModelError("b_tilde", "None, 'project' or a sequence of polytopes over x", repr(b_tilde))
+        output_rtol = as_positive(output_rtol, "output_rtol", "a positive tolerance")
+        if isinstance(b_tilde, str):
+            if b_tilde != "project":
+                raise ModelError("b_tilde", "None, 'project' or a sequence of polytopes over x", repr(b_tilde))
+        elif b_tilde is not None:
+            b_tilde = as_items(b_tilde, "b_tilde", Polytope, "polytopes (Polytope) over x")
+        if progress is not None and not callable(progress):
+            raise ModelError("progress", "None or a callable progress(done, total)", f"{progress!r} of type {type(progress).__name__}")
         self.analysis = analysis
         self.system = analysis.system
         self.variant = variant
-        self.output_rtol = float(output_rtol)
+        self.output_rtol = output_rtol
         self.T = analysis.T
         self.n, self.m, self.p = self.system.n, self.system.m, self.system.p
         self.state_names = self.system.state_names

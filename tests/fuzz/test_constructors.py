@@ -360,7 +360,6 @@ FAMILY = Family(
 
 #: Targets where the fuzz finds a defect today (strict: fixing the defects turns them into failures to remove).
 KNOWN_DEFECTS: dict[str, str] = {
-    "LookupObserver(...)": "analysis=None/object() AttributeError, progress='x' and b_tilde=5 TypeError",
     "LocationObserver(...)": "bank='x'/object() AttributeError",
     "HybridObserver(...)": "bank='x'/object(), design=<a ResidualBank> AttributeError",
     "ContinuousObserver(...)": "design='x'/object() AttributeError, location=1j TypeError",
@@ -399,9 +398,6 @@ def _reset(kind, **kwargs):
 
 #: ``(id, call)``: each call must raise ModelError; today each one does not (strict xfails).
 DEFECTS = [
-    ("lookup-analysis-None", _ctor("LookupObserver", analysis=None)),
-    ("lookup-progress-str", _ctor("LookupObserver", progress="x")),
-    ("lookup-b_tilde-int", _ctor("LookupObserver", b_tilde=5)),
     ("location-bank-str", _ctor("LocationObserver", bank="x")),
     ("hybrid-design-is-a-bank", lambda: _ctor("HybridObserver", design=_driveline()[0].bank)()),
     ("continuous-design-str", _ctor("ContinuousObserver", design="x")),
@@ -429,6 +425,11 @@ FIXED = [
     ("sliding-gains-complex", _ctor("SlidingModeObserver", gains=np.ones(3) * 1j)),
     ("sliding-hold-True", _ctor("SlidingModeObserver", hold=True)),
     ("sliding-Ts-True", _ctor("SlidingModeObserver", Ts=True)),
+    ("lookup-analysis-None", _ctor("LookupObserver", analysis=None)),
+    ("lookup-progress-str", _ctor("LookupObserver", progress="x")),
+    ("lookup-b_tilde-int", _ctor("LookupObserver", b_tilde=5)),
+    ("lookup-analysis-object", _ctor("LookupObserver", analysis=object())),
+    ("lookup-b_tilde-list-of-int", _ctor("LookupObserver", b_tilde=[5])),
 ]
 
 
