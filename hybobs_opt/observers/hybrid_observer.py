@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from .. import _compat
+from .._validate import as_instance, as_int, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
@@ -454,12 +455,16 @@ class ContinuousObserver(Observer):
     name = "continuous"
 
     def __init__(self, design: ContinuousDesign, Ts: float, *, x0: np.ndarray | None = None, location: int = 0):
-        if not (isinstance(Ts, (int, float, np.floating)) and np.isfinite(Ts) and Ts > 0):
-            raise ModelError("Ts", "a positive sampling period", repr(Ts))
-        self.design = design
+        as_instance(design, "design", ContinuousDesign, "a ContinuousDesign (design_continuous_observer)")
+        Ts = as_positive(Ts, "Ts", "a positive sampling period")
         aut = design.automaton
+        what = f"an integer location index in 0..{aut.n_locations - 1}"  # not None: reset(q0=None) restarts here
+        location = as_int(location, "location", 0, what)
+        if location >= aut.n_locations:
+            raise ModelError("location", what, repr(location))
+        self.design = design
         self.automaton = aut
-        self.Ts = float(Ts)
+        self.Ts = Ts
         self.n, self.m, self.p = aut.n, aut.m, aut.p
         self.state_names = aut.state_names
         judge_samples_against(self, aut)
@@ -588,6 +593,8 @@ class HybridObserver(Observer):
 
     def __init__(self, bank: ResidualBank, design: ContinuousDesign, Ts: float, *, x0: np.ndarray | None = None,
                  q0: int | None = None):
+        as_instance(bank, "bank", ResidualBank, "a ResidualBank (design_residual_bank)")
+        as_instance(design, "design", ContinuousDesign, "a ContinuousDesign (design_continuous_observer)")
         if bank.automaton is not design.automaton:
             raise ModelError("design", "a continuous design for the same automaton as the residual bank", "another automaton")
         self.automaton = aut = bank.automaton

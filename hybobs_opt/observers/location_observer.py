@@ -28,6 +28,7 @@ from scipy.linalg import expm
 
 from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
+from .._validate import as_instance, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
 from ..systems.hybrid import HybridAutomaton
@@ -122,11 +123,11 @@ class LocationObserver(Observer):
     name = "location"
 
     def __init__(self, bank: ResidualBank, Ts: float, *, x0: np.ndarray | None = None, q0: int | None = None):
-        if not (isinstance(Ts, (int, float, np.floating)) and np.isfinite(Ts) and Ts > 0):
-            raise ModelError("Ts", "a positive sampling period", repr(Ts))
+        as_instance(bank, "bank", ResidualBank, "a ResidualBank (design_residual_bank)")
+        Ts = as_positive(Ts, "Ts", "a positive sampling period")
         self.bank = bank
         self.automaton = aut = bank.automaton
-        self.Ts = float(Ts)
+        self.Ts = Ts
         self.n, self.m, self.p = aut.n, aut.m, aut.p
         self.state_names = aut.state_names
         judge_samples_against(self, aut)

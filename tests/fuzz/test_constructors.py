@@ -359,11 +359,8 @@ FAMILY = Family(
 
 
 #: Targets where the fuzz finds a defect today (strict: fixing the defects turns them into failures to remove).
-KNOWN_DEFECTS: dict[str, str] = {
-    "LocationObserver(...)": "bank='x'/object() AttributeError",
-    "HybridObserver(...)": "bank='x'/object(), design=<a ResidualBank> AttributeError",
-    "ContinuousObserver(...)": "design='x'/object() AttributeError, location=1j TypeError",
-}
+#: Empty: every target passes (issue 16); a new defect goes here, target name -> what it is.
+KNOWN_DEFECTS: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("target", [pytest.param(t, id=t.name, marks=[pytest.mark.xfail(strict=True, reason=KNOWN_DEFECTS[t.name])]
@@ -396,13 +393,9 @@ def _reset(kind, **kwargs):
     return lambda: reset_instance(kind).reset(**kwargs)
 
 
-#: ``(id, call)``: each call must raise ModelError; today each one does not (strict xfails).
-DEFECTS = [
-    ("location-bank-str", _ctor("LocationObserver", bank="x")),
-    ("hybrid-design-is-a-bank", lambda: _ctor("HybridObserver", design=_driveline()[0].bank)()),
-    ("continuous-design-str", _ctor("ContinuousObserver", design="x")),
-    ("continuous-location-complex", _ctor("ContinuousObserver", location=1j)),
-]
+#: ``(id, call)``: each call must raise ModelError; today each one does not (strict xfails).  Empty: each
+#: defect found so far is fixed and its call is a test of :data:`FIXED`.
+DEFECTS: list = []
 
 
 #: Defects of this table that are fixed: each call raises ModelError now (ordinary tests).
@@ -430,6 +423,14 @@ FIXED = [
     ("lookup-b_tilde-int", _ctor("LookupObserver", b_tilde=5)),
     ("lookup-analysis-object", _ctor("LookupObserver", analysis=object())),
     ("lookup-b_tilde-list-of-int", _ctor("LookupObserver", b_tilde=[5])),
+    ("location-bank-str", _ctor("LocationObserver", bank="x")),
+    ("hybrid-design-is-a-bank", lambda: _ctor("HybridObserver", design=_driveline()[0].bank)()),
+    ("continuous-design-str", _ctor("ContinuousObserver", design="x")),
+    ("continuous-location-complex", _ctor("ContinuousObserver", location=1j)),
+    ("location-bank-object", _ctor("LocationObserver", bank=object())),
+    ("hybrid-bank-str", _ctor("HybridObserver", bank="x")),
+    ("continuous-design-object", _ctor("ContinuousObserver", design=object())),
+    ("continuous-Ts-True", _ctor("ContinuousObserver", Ts=True)),
 ]
 
 
