@@ -188,7 +188,7 @@ def as_instance(value, field: str, cls: type | tuple[type, ...], what: str | Non
         The class(es) expected; import them lazily in the caller where a module-level import
         would be circular.
     what : str, optional
-        What was expected, for the message (default: ``"a <class name>"``).
+        What was expected, for the message (default: ``"an instance of <class name>"``).
 
     Returns
     -------
@@ -202,7 +202,7 @@ def as_instance(value, field: str, cls: type | tuple[type, ...], what: str | Non
     """
     if not isinstance(value, cls):
         names = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
-        raise ModelError(field, what or f"a {names}", f"{_short(value)} of type {type(value).__name__}")
+        raise ModelError(field, what or f"an instance of {names}", f"{_short(value)} of type {type(value).__name__}")
     return value
 
 
