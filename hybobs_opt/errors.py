@@ -37,6 +37,9 @@ class ModelError(HybobsError, ValueError):
             message += f", got {got}"
         super().__init__(message)
 
+    def __reduce__(self):  # rebuilt from its fields in another process (a worker's error reaches the caller)
+        return type(self), (self.field, self.expected, self.got)
+
 
 class InfeasibleError(HybobsError):
     """An optimisation problem is infeasible; ``certificate`` proves it (``certificate.verify()``)."""
@@ -44,10 +47,14 @@ class InfeasibleError(HybobsError):
     def __init__(self, problem: str, certificate: Any = None, detail: str = ""):
         self.problem = problem
         self.certificate = certificate
+        self.detail = detail
         message = f"{problem} is infeasible"
         if detail:
             message += f": {detail}"
         super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.problem, self.certificate, self.detail)
 
 
 class SolverError(HybobsError):
@@ -62,3 +69,6 @@ class SolverError(HybobsError):
         if hint:
             message += f"; try: {hint}"
         super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.problem, self.solver, self.status, self.hint)
