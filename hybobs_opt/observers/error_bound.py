@@ -85,6 +85,17 @@ class ErrorBound:
         """``|e_k|`` bounds from the diagonal of ``P^-1``."""
         return math.exp(min(self.log_b, LOG_FLOAT_MAX)) * np.sqrt(P_inv_diag)
 
+    def output_bound(self, C_norms: np.ndarray) -> np.ndarray:
+        """``|C_j e|`` bounds, given ``C_norms[j] = sqrt(C_j P^-1 C_j')`` (Cauchy-Schwarz in the ``P``-norm)."""
+        return math.exp(min(self.log_b, LOG_FLOAT_MAX)) * np.asarray(C_norms, dtype=float)
+
+    def save(self) -> float:
+        """The bound's state, for :meth:`restore` (a refused step is undone)."""
+        return self.log_b
+
+    def restore(self, saved: float) -> None:
+        self.log_b = saved
+
     def converged(self, P_inv_diag: np.ndarray) -> bool:
         return bool(np.all(self.per_state(P_inv_diag) <= self.tol))
 

@@ -44,8 +44,8 @@ from ..lmi.solve import SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import (FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_index, initial_mode,
-                   initial_state, judge_samples_against, sample_rows)
+from .base import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, WARMING_UP, Estimate, Observer,
+                   ObserverTrace, checked_index, initial_mode, initial_state, judge_samples_against, sample_rows)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_observer import (
@@ -476,7 +476,17 @@ class ContinuousObserver(Observer):
             self._mats.append(sampled_observer(A, B, E, C, D, c, G, self.Ts))
             self._ol.append(sampled_observer(A, B, E, C, D, c, np.zeros_like(G), self.Ts)[:2])
         P = np.asarray(design.P, dtype=float)
-        self._P, self._P_inv_diag = P, np.diag(np.linalg.inv(P))
+        P_inv = np.linalg.inv(P)
+        self._P, self._P_inv_diag = P, np.diag(P_inv)
+        # per location: (C, D, c) and sqrt(C_j P^-1 C_j') for the innovation test (INNOVATION_MARGIN)
+        self._outputs = []
+        for q in range(aut.n_locations):
+            _, _, _, C, D, c = affine_key(aut, q)
+            self._outputs.append((C, D, c, np.sqrt(np.einsum("ij,jk,ik->i", C, P_inv, C))))
+        rng = self.output_range
+        width = None if rng is None else rng[1] - rng[0]
+        self._innovation_floor = (INNOVATION_MARGIN * width if width is not None and np.all(np.isfinite(width))
+                                  else None)
         self._log_rate = [induced_log_norm(mats[0], P) for mats in self._mats]
         self._log_rate_ol = [induced_log_norm(ol[0], P) for ol in self._ol]
         self._bound = ErrorBound(*design.state_box)
@@ -498,8 +508,44 @@ class ContinuousObserver(Observer):
         self._y_prev: np.ndarray | None = None
         self._bound.start(self.x, self._P)
         self._input_unknown = False
+        self._contradictions = 0
+
+    def _innovation_excess(self, u: np.ndarray, y: np.ndarray) -> str | None:
+        """Why the residual ``y - (C x + D u + c)`` of the current estimate exceeds what the error
+        bound allows plus :data:`~hybobs_opt.contract.INNOVATION_MARGIN` (``None`` if it does not)."""
+        if self._innovation_floor is None:
+            return None
+        C, D, c, C_norms = self._outputs[self.location]
+        r = y - (C @ self.x + (D @ u if D is not None and D.size else 0.0) + c)
+        allowed = self._bound.output_bound(C_norms) + self._innovation_floor
+        bad = np.nonzero(~(np.abs(r) <= allowed))[0]
+        if not bad.size:
+            return None
+        j = int(bad[0])
+        name = self.output_names[j] if j < len(self.output_names) else f"y[{j}]"
+        return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g} exceeds the certified "
+                f"error bound's {allowed[j]:.3g}")
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        saved = (self.x.copy(), self._bound.save(), self._u_prev, self._y_prev, self._input_unknown)
+        est = self._closed_loop_step(u, y)
+        why = self._innovation_excess(u, y)
+        if why is None:
+            self._contradictions = 0
+            return est
+        self._contradictions += 1
+        if self._contradictions <= INNOVATION_PATIENCE:  # one bad sample: undo the step, run it open loop
+            self.x, log_b, self._u_prev, self._y_prev, self._input_unknown = saved
+            self._bound.restore(log_b)
+            return self._fallback(u, why)
+        # a persistent contradiction: the bound's hypotheses failed; take the sample, restart the bound
+        self._contradictions = 0
+        self._bound.start(self.x, self._P)
+        return Estimate(est.x, est.mode, self._flag(), 0.0,
+                        dict(est.info, error_bound=self.error_bound().tolist(),
+                             reason=why + f" on {INNOVATION_PATIENCE + 1} samples: the error bound restarts"))
+
+    def _closed_loop_step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         if self._u_prev is not None and self._y_prev is None:
             # the previous sample was refused: open loop over the interval it leaves without output
             Ad, Bw = self._ol[self.location]
@@ -620,6 +666,9 @@ class HybridObserver(Observer):
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         xc = self.contobs._step(u, y)
+        if xc.flag == FALLBACK:  # the sample contradicts the continuous estimate's bound: nobody uses it
+            loc = self.locobs._fallback(u, xc.info["reason"])
+            return Estimate(xc.x, -1, FALLBACK, 0.0, dict(loc.info, generator_x=loc.x, reason=xc.info["reason"]))
         loc = self.locobs._step(u, y)
         if loc.info["held"] >= 0:
             self.contobs.location = loc.info["held"]

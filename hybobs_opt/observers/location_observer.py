@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows
+from ..contract import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate,
+                        Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows)
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
@@ -157,6 +158,12 @@ class LocationObserver(Observer):
         self._gen_P_inv_diag = [np.diag(np.linalg.inv(g.P)) for g in bank.generators]
         self._gen_decay = [float(g.decay) for g in bank.generators]
         self._gen_log_open = [induced_log_norm(b[0], g.P) for b, g in zip(open_loop, bank.generators)]
+        # sqrt(C_j P_g^-1 C_j') per generator and the floor of the innovation test (INNOVATION_MARGIN)
+        self._gen_C_norms = [np.sqrt(np.einsum("ij,jk,ik->i", g.C, np.linalg.inv(g.P), g.C)) for g in bank.generators]
+        rng = self.output_range
+        width = None if rng is None else rng[1] - rng[0]
+        self._innovation_floor = (INNOVATION_MARGIN * width if width is not None and np.all(np.isfinite(width))
+                                  else None)
         lo, hi = aut.state_bounds.bounding_box()
         self._converged_tol = CONVERGENCE_FRACTION * (hi - lo)
         stale = int(math.ceil(bank.delta / self.Ts)) + 1
@@ -176,8 +183,27 @@ class LocationObserver(Observer):
         self._identified = False
         self._bound_group, self._log_bound = -1, math.inf
         self._input_unknown = False
+        self._contradictions = 0
 
     # ------------------------------------------------------------------ one step
+    def _innovation_excess(self, u: np.ndarray, y: np.ndarray) -> str | None:
+        """Why the residual of the generator whose error bound is tracked (the identified location's)
+        exceeds what that bound allows plus :data:`~hybobs_opt.contract.INNOVATION_MARGIN` (``None``:
+        it does not, or no bound is tracked)."""
+        g = self._bound_group
+        if g < 0 or self._innovation_floor is None:
+            return None
+        gen, n = self.bank.generators[g], self.n
+        r = y - (gen.C @ self._z[g * n : (g + 1) * n] + (gen.D @ u if gen.D.size else 0.0) + gen.c)
+        allowed = math.exp(min(self._log_bound, LOG_FLOAT_MAX)) * self._gen_C_norms[g] + self._innovation_floor
+        bad = np.nonzero(~(np.abs(r) <= allowed))[0]
+        if not bad.size:
+            return None
+        j = int(bad[0])
+        name = self.output_names[j] if j < len(self.output_names) else f"y[{j}]"
+        return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g} of the identified "
+                f"location's generator exceeds its certified error bound's {allowed[j]:.3g}")
+
     def _propagate(self, u: np.ndarray, y: np.ndarray) -> None:
         if self._u_prev is not None and self._y_prev is None:
             # the previous sample was refused: no output over the last interval, so no correction
@@ -233,7 +259,17 @@ class LocationObserver(Observer):
         return math.exp(min(log_b, LOG_FLOAT_MAX)) * np.sqrt(self._gen_P_inv_diag[g])
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        saved = (self._z.copy(), self._u_prev, self._y_prev, self._input_unknown, self._bound_group, self._log_bound)
         self._propagate(u, y)
+        why = self._innovation_excess(u, y)
+        if why is not None:
+            self._contradictions += 1
+            if self._contradictions <= INNOVATION_PATIENCE:  # one bad sample: undo the step, run it open loop
+                self._z, self._u_prev, self._y_prev, self._input_unknown, self._bound_group, self._log_bound = saved
+                return self._fallback(u, why)
+            # a persistent contradiction: the bound's hypothesis failed; it holds again only from re-entry
+            self._bound_group, self._log_bound = -1, math.inf
+        self._contradictions = 0
         res, sigma, cons, dec = self._decide(u, y)
         if dec.status == IDENTIFIED:
             g = self.bank.group_of[dec.held]
@@ -241,6 +277,8 @@ class LocationObserver(Observer):
                 self._log_bound -= self._gen_decay[g] * self.Ts
             else:
                 self._bound_group, self._log_bound = g, math.log(self._gen_bound0[g])
+        else:  # the location is no longer identified: the bound holds again only from the next entry (Z0)
+            self._bound_group, self._log_bound = -1, math.inf
         self.last_decision = dec
         return self._estimate(dec, res, sigma, cons)
 

@@ -158,11 +158,6 @@ _OUTLIER = ("an output or input ten times the run's largest, inside the model's 
 
 #: Targets where the fuzz finds a defect today (strict: fixing the defect turns them into failures to remove).
 KNOWN_DEFECTS: dict[str, str] = {
-    "driveline-hybrid [outlier]": _OUTLIER.format(what="theta flagged observable 0.0117 rad off (tolerance 0.0100)"),
-    "driveline-location [outlier]": _OUTLIER.format(
-        what="omega_l flagged observable 1.0 rad/s off while its error_bound says ~0 (the bound ignores the innovation)"),
-    "driveline-continuous [outlier]": _OUTLIER.format(
-        what="flagged observable 5.2 rad/s off while its error_bound says ~0 (the bound ignores the innovation)"),
     "powertrain3-miqp [outlier]": _OUTLIER.format(
         what="the MHE flags observable a window no trajectory fits, omega_m 117 rad/s off"),
 }
@@ -202,7 +197,8 @@ DEFECTS = [
 
 
 #: Defects of :data:`DEFECTS` that are fixed: their runs are ordinary regression tests now.
-FIXED = {"complex-output-sample", "piston-input-minus-1e12", "periodic-two-refused-events"}
+FIXED = {"complex-output-sample", "piston-input-minus-1e12", "periodic-two-refused-events",
+         "continuous-output-outlier", "location-input-outlier"}
 
 
 @pytest.mark.parametrize("name, faults", [
