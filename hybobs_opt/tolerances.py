@@ -71,6 +71,36 @@ DISTINCT_STATE_TOL: float = 1e-5
 #: room for the unscaling, while a point moved by 1e-3 (a corrupted answer) fails by far.
 LP_POINT_RTOL: float = 1e-6
 
+#: The multipliers HiGHS returns with an "optimal" point must certify it: of the right sign,
+#: stationary and with a zero duality gap, each to this times the size of the terms summed (on
+#: the equilibrated LP, where data and variables are of order one).  HiGHS's dual feasibility
+#: tolerance is 1e-7 on its own scaling; ten times that leaves room for the unscaling (the same
+#: margin as LP_POINT_RTOL).  Relative, not absolute: an absolute residual bound rejected correct
+#: answers of large pair LPs (the previous attempt at issue 16).  A point 1e-3 off the optimum
+#: along a feasible direction leaves a gap of ~1e-3: far outside.
+LP_DUAL_RTOL: float = 1e-6
+
+#: An "infeasible" / "unbounded" verdict of HiGHS is trusted only with a certificate checked in
+#: numpy: Farkas multipliers ``y >= 0`` with ``A'y + E'w = 0`` to this times ``|A|'y + |E|'|w|``
+#: and ``b'y + e'w < -this * (|b|'y + |e|'|w|)``, or a ray with ``A d <= 0`` to this relative.
+#: The auxiliary LPs normalise ``b'y + e'w = -1``, which HiGHS meets to ~1e-9; rounding of the
+#: products is ~1e-15 relative; a wrong verdict (a feasible LP) has no such multipliers at all.
+LP_CERTIFICATE_RTOL: float = 1e-7
+
+#: Equilibration sweeps of :func:`hybobs_opt.geometry.lp.solve_lp` (rows, then columns, by powers
+#: of two, geometric mean of the largest and smallest entry) before every row is set to unit norm.
+#: Each sweep about halves the logarithm of the imbalance; 8 sweeps bring states rescaled by 1e6
+#: and 1e-6 (entries 1e12 apart within a row, which HiGHS drops below its 1e-9 small-value
+#: threshold) within a factor of a few of one, for 4 x 8 small numpy reductions per LP.
+LP_EQUILIBRATION_SWEEPS: int = 8
+
+#: Entries below this times their row's largest are ignored by the geometric-mean scaling (they
+#: are still in the LP): rows built by products (pair sets restricted to their equality subspace)
+#: hold rounding residues of ~1e-16 (measured down to 2.5e-22) where exact arithmetic gives zero,
+#: and a residue taken for a unit drove HiGHS 5e-4 off a row.  100 times the rounding level, and
+#: below the 1e-12 spread of a row whose states are in units 1e6 and 1e-6.
+LP_SCALING_NOISE_RTOL: float = 1e-14
+
 # ---------------------------------------------------------------------- polytope operations
 # (projection, redundancy removal, set difference; paper 002, Sections 2-3).  All of these act in
 # coordinates scaled so that the set's bounding box is [-1, 1]^d.
@@ -120,6 +150,13 @@ NEAR_ACTIVE_TOL: float = 1e-5
 #: gives multipliers that certify 99.5 % of them directly; 1e-10 stalls more often (6 % failed
 #: solves) and the answer is certified by numpy either way, so the value only trades speed.
 DAQP_EPS_PROX: float = 1e-7
+
+#: A DAQP answer flagged optimal is used only when its point satisfies every row to this times
+#: ``1 + |b_k| + |a_k| |x|`` and its multipliers are non-negative to this times their size.
+#: DAQP's proximal points violate the (unit-norm, scaled) rows by up to ~1e-6 (NEAR_ACTIVE_TOL);
+#: ten times that accepts every clean answer, while a corrupted one (a point moved by 1e-3,
+#: negated multipliers) fails by orders of magnitude and goes to HiGHS.
+DAQP_POINT_RTOL: float = 1e-5
 
 #: Redundancy removal by ray shooting from an interior point: the first row crossed is a facet
 #: only if the next row is crossed later by more than this fraction of the distance; closer

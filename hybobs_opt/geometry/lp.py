@@ -18,7 +18,7 @@ from scipy.optimize import linprog
 
 from ..errors import ModelError, SolverError
 from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
-from ..tolerances import LP_POINT_RTOL
+from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_EQUILIBRATION_SWEEPS, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,9 @@ class LPResult:
     (equal to the strings ``"optimal"``, ``"infeasible"``, ``"unbounded"``); ``residuals`` holds
     the largest violation of the inequality rows, the equality rows and the variable bounds at
     ``x`` (empty without a point); ``seconds`` the wall time of the solve, retries included.
+    ``certificate`` proves an ``INFEASIBLE`` / ``UNBOUNDED`` status (:class:`LPCertificate`,
+    ``verify()`` true); ``duals`` holds the multipliers ``lambda >= 0`` of the inequality rows at an
+    optimum (``c + A_ub' lambda + A_eq' mu = 0`` up to the bounds' multipliers), checked.
     """
 
     status: Status
@@ -37,6 +40,8 @@ class LPResult:
     solver: str = "highs"
     seconds: float = 0.0
     residuals: dict[str, float] = field(default_factory=dict)
+    certificate: "LPCertificate | None" = None
+    duals: np.ndarray | None = None
 
     @property
     def optimal(self) -> bool:
@@ -44,7 +49,8 @@ class LPResult:
 
     def to_dict(self) -> dict:
         return {"status": self.status, "x": None if self.x is None else self.x.tolist(), "objective": self.objective,
-                "solver": self.solver, "seconds": self.seconds, "residuals": dict(self.residuals)}
+                "solver": self.solver, "seconds": self.seconds, "residuals": dict(self.residuals),
+                "certificate": None if self.certificate is None else self.certificate.to_dict()}
 
 
 def solve_lp(
@@ -57,7 +63,7 @@ def solve_lp(
     *,
     problem: str = "LP",
 ) -> LPResult:
-    """Solve one LP with HiGHS and check its status.
+    """Solve one LP with HiGHS and check its answer in numpy before it is trusted.
 
     Parameters
     ----------
@@ -70,43 +76,399 @@ def solve_lp(
     Returns
     -------
     LPResult
-        Optimal point, or a status of ``"infeasible"`` / ``"unbounded"``.
+        Optimal point (with its multipliers), or a status of ``"infeasible"`` / ``"unbounded"``
+        with a :class:`LPCertificate` whose ``verify()`` is true.
 
     Raises
     ------
     SolverError
-        If HiGHS hits an iteration limit, reports a numerical failure, or returns an "optimal"
-        point that is not finite or violates a constraint by more than
-        :data:`~hybobs_opt.tolerances.LP_POINT_RTOL` (checked here, in numpy, before the status
-        is trusted).
+        If no HiGHS method gives an answer that passes the checks: the solver raised, hit a limit,
+        reported a numerical failure, returned an "optimal" point that is not finite, violates a row
+        by more than :data:`~hybobs_opt.tolerances.LP_POINT_RTOL` (relative), whose objective is
+        not ``c'x`` or whose multipliers do not certify it optimal (:data:`LP_DUAL_RTOL`), or an
+        "infeasible" / "unbounded" verdict for which no certificate verifies.  The last exception
+        of the solver, if any, is chained.
+
+    Notes
+    -----
+    The LP is equilibrated first (rows and columns scaled by powers of two, :func:`_equilibrate`),
+    so the answer does not depend on the units of the data; every check is done on that exact
+    equivalent problem.  HiGHS's automatic choice runs first; on a failed check its interior-point
+    and dual simplex solvers are tried (they fail on different degenerate instances).
     """
-    c = np.asarray(c, dtype=float)
+    c = np.asarray(c, dtype=float).reshape(-1)
     if bounds is None:
         bounds = (None, None)
-    messages = []
     t0 = time.perf_counter()
-    # HiGHS's automatic choice first; on a numerical failure its interior-point and dual simplex
-    # solvers are tried before giving up (they fail on different degenerate instances).
+    sc = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds)
+    bad_ub = np.nonzero(sc.zero_ub < 0)[0]
+    bad_eq = np.nonzero(sc.zero_eq != 0)[0]
+    if bad_ub.size or bad_eq.size:  # a constant row 0 <= b < 0 (or 0 = e != 0): infeasible as posed
+        n = c.size
+        if bad_ub.size:
+            cert = LPCertificate("farkas", problem, np.zeros((1, n)), sc.zero_ub[bad_ub[:1]], np.zeros((0, n)), np.zeros(0), c,
+                                 y=np.ones(1), w=np.zeros(0))
+        else:
+            e0 = sc.zero_eq[bad_eq[:1]]
+            cert = LPCertificate("farkas", problem, np.zeros((0, n)), np.zeros(0), np.zeros((1, n)), e0, c,
+                                 y=np.zeros(0), w=-np.sign(e0))
+        return LPResult(Status.INFEASIBLE, None, None, "numpy", time.perf_counter() - t0, certificate=cert)
+    messages = []
+    last_exc: BaseException | None = None
+    sb = sc.bounds()
     for method in ("highs", "highs-ipm", "highs-ds"):
-        res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method=method)
-        status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
+        try:
+            res = _call_linprog(sc, sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
+            status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
+        except Exception as exc:  # HiGHS (or scipy around it) raised: try the next method
+            last_exc = exc
+            messages.append(f"{method}: raised {type(exc).__name__}: {exc}")
+            continue
         if is_optimal(status):
-            x = np.asarray(res.x, dtype=float)
-            defect = _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x, res.fun)
+            z = np.asarray(res.x, dtype=float).reshape(-1) if getattr(res, "x", None) is not None else np.full(c.size, np.nan)
+            defect = _optimality_defect(sc, res, z, getattr(res, "fun", None))
             if defect is None:
-                return LPResult(Status.OPTIMAL, x, float(res.fun), method, time.perf_counter() - t0,
-                                _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x))
+                x = sc.D * z
+                duals = -_marginals(res, "ineqlin", sc.A.shape[0]) * sc.r_ub / sc.cn
+                return LPResult(Status.OPTIMAL, x, float(c @ x), method, time.perf_counter() - t0,
+                                _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x), duals=_full_duals(duals, sc))
             messages.append(f"{method}: status optimal but {defect}")
             continue
         if status in (Status.INFEASIBLE, Status.UNBOUNDED):
-            return LPResult(status, None, None, method, time.perf_counter() - t0)
-        messages.append(f"{method}: {res.status} {res.message}")
+            cert = (_farkas if status == Status.INFEASIBLE else _ray)(sc, problem, method)
+            if cert is not None:
+                return LPResult(status, None, None, method, time.perf_counter() - t0, certificate=cert)
+            messages.append(f"{method}: status {status} but no certificate of it verifies")
+            continue
+        messages.append(f"{method}: {res.status} {getattr(res, 'message', '')}")
     raise SolverError(
         problem,
         "HiGHS (scipy.optimize.linprog: highs, highs-ipm, highs-ds)",
         "; ".join(messages),
-        hint="rescale the data to the state/input bounds, or check for huge/small coefficients",
-    )
+        hint="rescale the data to the state/input bounds, or check for huge/small coefficients"
+             + ("; the solver itself raised (chained below): check the installed scipy/HiGHS" if last_exc is not None else ""),
+    ) from last_exc
+
+
+def _full_duals(duals: np.ndarray, sc: _Scaled) -> np.ndarray:
+    """Multipliers ``lambda >= 0`` of every inequality row as the caller passed it (constant rows: 0)."""
+    out = np.zeros(sc.zero_ub_mask.size)
+    out[~sc.zero_ub_mask] = duals
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class LPCertificate:
+    """Numpy-checkable evidence for an ``"infeasible"`` or ``"unbounded"`` LP verdict.
+
+    The data are those of the LP as :func:`solve_lp` posed it to HiGHS: rows and columns scaled by
+    powers of two (an exact, equivalent problem; see :func:`_equilibrate`), the variable bounds
+    written as inequality rows ``A z <= b``, and the equalities ``E z = e``.
+
+    * ``kind = "farkas"`` (infeasible): ``y >= 0`` and free ``w`` with ``A'y + E'w = 0`` and
+      ``b'y + e'w < 0`` (a feasible ``z`` would give ``0 <= y'(b - A z) = b'y + e'w < 0``).
+    * ``kind = "ray"`` (unbounded): a point ``z0`` satisfying every row and a direction ``d``
+      with ``A d <= 0``, ``E d = 0`` and ``c'd < 0``.
+
+    Every condition is checked relative to the sizes of the terms summed (:data:`LP_CERTIFICATE_RTOL`).
+    """
+
+    kind: str
+    problem: str
+    A: np.ndarray = field(repr=False)
+    b: np.ndarray = field(repr=False)
+    E: np.ndarray = field(repr=False)
+    e: np.ndarray = field(repr=False)
+    c: np.ndarray = field(repr=False)
+    y: np.ndarray | None = field(default=None, repr=False)
+    w: np.ndarray | None = field(default=None, repr=False)
+    z0: np.ndarray | None = field(default=None, repr=False)
+    d: np.ndarray | None = field(default=None, repr=False)
+
+    theorem: str = "Farkas lemma / primal ray (LP theorem of alternatives)"
+
+    def verify(self) -> bool:
+        """Re-check the certificate with numpy alone (no solver)."""
+        try:
+            if self.kind == "farkas":
+                return _farkas_ok(self.A, self.b, self.E, self.e, self.y, self.w)
+            if self.kind == "ray":
+                return _ray_ok(self.A, self.b, self.E, self.e, self.c, self.z0, self.d)
+        except (TypeError, ValueError):
+            return False
+        return False
+
+    @property
+    def reason(self) -> str:
+        if self.kind == "farkas":
+            return f"{self.problem} is infeasible: non-negative multipliers combine its rows into 0 <= b'y + e'w < 0"
+        return f"{self.problem} is unbounded: a feasible point and a ray d with A d <= 0, E d = 0, c'd < 0"
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "problem": self.problem, "verified": self.verify()}
+
+
+def _finite(*arrays) -> bool:
+    return all(a is not None and np.all(np.isfinite(a)) for a in arrays)
+
+
+def _farkas_ok(A, b, E, e, y, w) -> bool:
+    if not _finite(y, w) or y.shape != (A.shape[0],) or w.shape != (E.shape[0],):
+        return False
+    if np.any(y < 0.0):
+        return False
+    r = A.T @ y + E.T @ w
+    size = np.abs(A).T @ y + np.abs(E).T @ np.abs(w)
+    gap = float(b @ y + e @ w)
+    gap_size = float(np.abs(b) @ y + np.abs(e) @ np.abs(w))
+    if gap_size == 0.0 or not np.any(size > 0.0) and gap >= 0.0:
+        return False
+    return bool(np.all(np.abs(r) <= LP_CERTIFICATE_RTOL * np.max(size, initial=0.0))
+                and gap < -LP_CERTIFICATE_RTOL * gap_size)
+
+
+def _ray_ok(A, b, E, e, c, z0, d) -> bool:
+    if not _finite(z0, d) or z0.shape != c.shape or d.shape != c.shape:
+        return False
+    if _rows_defect(A, b, E, e, z0) is not None:
+        return False
+    nd = np.abs(d)
+    cd = float(c @ d)
+    if not cd < -LP_CERTIFICATE_RTOL * float(np.abs(c) @ nd):
+        return False
+    scale = max(float(np.max(nd, initial=0.0)), _TINY)
+    return bool(np.all(A @ d <= LP_CERTIFICATE_RTOL * (np.abs(A) @ nd + scale))
+                and np.all(np.abs(E @ d) <= LP_CERTIFICATE_RTOL * (np.abs(E) @ nd + scale)))
+
+
+_TINY = float(np.finfo(float).tiny)
+
+
+def _rows_defect(A, b, E, e, z) -> str | None:
+    """What row of ``A z <= b, E z = e`` the point violates (relative), or ``None``.
+
+    A row may be violated by at most ``LP_POINT_RTOL (1 + |b_k| + |a_k| |z|)``: the rows are
+    equilibrated (unit infinity norm, variables of order one), so the ``1`` is in the units of the
+    data, and the other terms are those summed in the row.
+    """
+    az = np.abs(z)
+    for label, M, v, eq in (("inequality", A, b, False), ("equality", E, e, True)):
+        if M.shape[0] == 0:
+            continue
+        r = M @ z - v
+        allowed = LP_POINT_RTOL * (1.0 + np.abs(v) + np.abs(M) @ az)
+        excess = (np.abs(r) if eq else r) - allowed
+        if np.any(excess > 0):
+            k = int(np.argmax(excess))
+            return f"{label} row {k} is violated by {abs(r[k]):.3g} (relative to its norm) at the returned point"
+    return None
+
+
+def _pow2(v: np.ndarray) -> np.ndarray:
+    """Nearest powers of two (scaling by them is exact in floating point); 1 where ``v`` is 0 or not finite."""
+    v = np.asarray(v, dtype=float)
+    ok = np.isfinite(v) & (v > 0)
+    return np.where(ok, np.exp2(np.round(np.log2(np.where(ok, v, 1.0)))), 1.0)
+
+
+def _pow2_inv(v: np.ndarray) -> np.ndarray:
+    """``_pow2(1 / v)``, with 1 where ``v`` is 0 (an all-zero column or cost: nothing to scale)."""
+    v = np.asarray(v, dtype=float)
+    ok = np.isfinite(v) & (v > 0)
+    return np.where(ok, np.exp2(-np.round(np.log2(np.where(ok, v, 1.0)))), 1.0)
+
+
+@dataclass
+class _Scaled:
+    """The LP after equilibration: ``x = D z``; rows multiplied by ``r_ub``/``r_eq``; ``c_hat = cn D c``."""
+
+    A: np.ndarray
+    b: np.ndarray
+    E: np.ndarray
+    e: np.ndarray
+    c: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    D: np.ndarray
+    r_ub: np.ndarray
+    r_eq: np.ndarray
+    cn: float
+    zero_ub: np.ndarray  # right-hand sides of the constant (all-zero) rows: 0 <= b must hold
+    zero_eq: np.ndarray
+    zero_ub_mask: np.ndarray  # which of the caller's inequality rows are constant
+
+    def bounds(self) -> list:
+        return [(None if not np.isfinite(lo) else float(lo), None if not np.isfinite(hi) else float(hi))
+                for lo, hi in zip(self.lo, self.hi)]
+
+    def bound_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The finite variable bounds as rows ``z_j <= hi_j``, ``-z_j <= -lo_j``."""
+        n = self.c.size
+        I = np.eye(n)
+        up, dn = np.isfinite(self.hi), np.isfinite(self.lo)
+        return np.vstack([I[up], -I[dn]]), np.concatenate([self.hi[up], -self.lo[dn]])
+
+    def all_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        Ab, bb = self.bound_rows()
+        return np.vstack([self.A, Ab]), np.concatenate([self.b, bb])
+
+
+def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds) -> _Scaled:
+    """Scale rows and columns of the LP by powers of two so that its entries are about 1 (a few
+    geometric-mean sweeps, then every row to unit infinity norm exactly); the cost to unit norm.
+
+    This is what makes the LP layer independent of the units of the data: ``{A x <= b}`` and
+    ``{1e-9 A x <= 1e-9 b}`` are the same problem for HiGHS (whose absolute tolerances and small-
+    coefficient threshold of 1e-9 otherwise see a different one), and so are states in volts or in
+    microvolts.  Constant (all-zero) rows are set aside: they are checked against ``0 <= b``.
+    """
+    n = c.size
+    A = np.zeros((0, n)) if A_ub is None or np.size(A_ub) == 0 else np.atleast_2d(np.asarray(A_ub, dtype=float))
+    b = np.zeros(0) if A.shape[0] == 0 else np.asarray(b_ub, dtype=float).reshape(-1)
+    E = np.zeros((0, n)) if A_eq is None or np.size(A_eq) == 0 else np.atleast_2d(np.asarray(A_eq, dtype=float))
+    e = np.zeros(0) if E.shape[0] == 0 else np.asarray(b_eq, dtype=float).reshape(-1)
+    if A.shape[1] != n or E.shape[1] != n or b.shape != (A.shape[0],) or e.shape != (E.shape[0],):
+        raise ModelError("LP data", f"constraint matrices with {n} columns and matching right-hand sides",
+                         f"A_ub {A.shape}, b_ub {b.shape}, A_eq {E.shape}, b_eq {e.shape}")
+    lo = np.full(n, -np.inf)
+    hi = np.full(n, np.inf)
+    for k, (l, h) in enumerate(_bound_pairs(bounds, n)):
+        lo[k] = -np.inf if l is None else float(l)
+        hi[k] = np.inf if h is None else float(h)
+    zero_ub = np.max(np.abs(A), axis=1, initial=0.0) == 0.0
+    zero_eq = np.max(np.abs(E), axis=1, initial=0.0) == 0.0
+    const_b, const_e = b[zero_ub], e[zero_eq]
+    A, b, E, e = A[~zero_ub], b[~zero_ub], E[~zero_eq], e[~zero_eq]
+    r_ub, r_eq, D = np.ones(A.shape[0]), np.ones(E.shape[0]), np.ones(n)
+    M = np.vstack([A, E])
+    if M.size:
+        r = np.ones(M.shape[0])
+        absM = np.abs(M)
+        # entries at rounding level of their row (a restricted row's 1e-22 where exact arithmetic
+        # gives 0) carry no unit: they would drag the geometric mean down
+        nz = absM > LP_SCALING_NOISE_RTOL * np.max(absM, axis=1, keepdims=True)
+        for _ in range(LP_EQUILIBRATION_SWEEPS):
+            # geometric-mean scaling (sqrt of the largest times the smallest non-zero entry): it
+            # recovers the units of a matrix that is a diagonal rescaling of a well-scaled one
+            # (states in other units), which the max-norm balance does not once a row holds a
+            # single variable
+            S = absM * r[:, None] * D[None, :]
+            big, small = np.max(S, axis=1), np.min(np.where(nz, S, np.inf), axis=1)
+            r = r * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            S = absM * r[:, None] * D[None, :]
+            big, small = np.max(S, axis=0), np.min(np.where(nz, S, np.inf), axis=0)
+            D = D * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+        r = r * _pow2_inv(np.max(absM * r[:, None] * D[None, :], axis=1))
+        r_ub, r_eq = r[:A.shape[0]], r[A.shape[0]:]
+    cs = c * D
+    cmax = float(np.max(np.abs(cs), initial=0.0))
+    cn = float(_pow2_inv(np.array([cmax]))[0])
+    return _Scaled(A * r_ub[:, None] * D[None, :], b * r_ub, E * r_eq[:, None] * D[None, :], e * r_eq, cs * cn,
+                   lo / D, hi / D, D, r_ub, r_eq, cn, const_b, const_e, zero_ub)
+
+
+def _call_linprog(sc: _Scaled, c, A, b, E, e, bounds, method: str):
+    return linprog(c, A_ub=A if A.shape[0] else None, b_ub=b if A.shape[0] else None,
+                   A_eq=E if E.shape[0] else None, b_eq=e if E.shape[0] else None, bounds=bounds, method=method)
+
+
+def _marginals(res, name: str, size: int) -> np.ndarray | None:
+    part = getattr(res, name, None)
+    m = None if part is None else getattr(part, "marginals", None)
+    if size == 0:
+        return np.zeros(0)
+    if m is None:
+        return None
+    m = np.asarray(m, dtype=float).reshape(-1)
+    return m if m.shape == (size,) and np.all(np.isfinite(m)) else None
+
+
+def _optimality_defect(sc: _Scaled, res, z: np.ndarray, fun) -> str | None:
+    """What is wrong with an "optimal" answer (scaled problem), or ``None``.
+
+    Checked: a finite point that satisfies every row and bound (:func:`_rows_defect`), an
+    objective equal to ``c'z``, and HiGHS's multipliers as a dual certificate: of the right sign,
+    stationary (``c = A'm + E'm_e + m_lo + m_hi``) and with the primal objective equal to the dual
+    one, all relative to the sizes of the terms (:data:`LP_DUAL_RTOL`).
+    """
+    n = sc.c.size
+    try:
+        fun = float(fun)
+    except (TypeError, ValueError):
+        return "the returned objective is not a number"
+    if z.shape != (n,) or not np.all(np.isfinite(z)) or not np.isfinite(fun):
+        return "the returned point or objective is not finite"
+    Ab, bb = sc.bound_rows()
+    defect = _rows_defect(np.vstack([sc.A, Ab]), np.concatenate([sc.b, bb]), sc.E, sc.e, z)
+    if defect is not None:
+        return defect
+    cz = float(sc.c @ z)
+    size = float(np.abs(sc.c) @ np.abs(z))
+    if abs(cz - fun) > LP_DUAL_RTOL * (1.0 + abs(cz) + size):
+        return f"its objective {fun:.9g} is not c'x = {cz:.9g}"
+    m_ub, m_eq = _marginals(res, "ineqlin", sc.A.shape[0]), _marginals(res, "eqlin", sc.E.shape[0])
+    m_lo, m_hi = _marginals(res, "lower", n), _marginals(res, "upper", n)
+    if m_ub is None or m_eq is None or m_lo is None or m_hi is None:
+        return "no finite dual multipliers were returned"
+    m_lo = np.where(np.isfinite(sc.lo), m_lo, 0.0)
+    m_hi = np.where(np.isfinite(sc.hi), m_hi, 0.0)
+    dual_size = float(np.max(np.abs(sc.A).T @ np.abs(m_ub) + np.abs(sc.E).T @ np.abs(m_eq) + np.abs(m_lo) + np.abs(m_hi)
+                             + np.abs(sc.c), initial=0.0))
+    sign = max(float(np.max(m_ub, initial=0.0)), float(np.max(-m_lo, initial=0.0)), float(np.max(m_hi, initial=0.0)))
+    if sign > LP_DUAL_RTOL * max(dual_size, 1.0):
+        return "a dual multiplier has the wrong sign"
+    station = sc.c - sc.A.T @ m_ub - sc.E.T @ m_eq - m_lo - m_hi
+    if np.max(np.abs(station), initial=0.0) > LP_DUAL_RTOL * max(dual_size, 1.0):
+        return f"the dual multipliers are not stationary (residual {np.max(np.abs(station)):.3g})"
+    lo_f = np.where(np.isfinite(sc.lo), sc.lo, 0.0)
+    hi_f = np.where(np.isfinite(sc.hi), sc.hi, 0.0)
+    dual = float(sc.b @ m_ub + sc.e @ m_eq + lo_f @ m_lo + hi_f @ m_hi)
+    gap_size = (1.0 + abs(cz) + size + float(np.abs(sc.b) @ np.abs(m_ub) + np.abs(sc.e) @ np.abs(m_eq)
+                                            + np.abs(lo_f) @ np.abs(m_lo) + np.abs(hi_f) @ np.abs(m_hi)))
+    if abs(cz - dual) > LP_DUAL_RTOL * gap_size:
+        return f"the duality gap {cz - dual:.3g} is not zero (the point is not optimal)"
+    return None
+
+
+def _farkas(sc: _Scaled, problem: str, method: str) -> LPCertificate | None:
+    """A Farkas certificate of the scaled LP's infeasibility from one auxiliary LP, or ``None``.
+
+    Finds ``y >= 0``, ``w`` free with ``A'y + E'w = 0`` and ``b'y + e'w = -1`` (feasible exactly
+    when the LP is infeasible); the answer is only returned when :meth:`LPCertificate.verify` holds.
+    """
+    A, b = sc.all_rows()
+    E, e = sc.E, sc.e
+    k, q, n = A.shape[0], E.shape[0], sc.c.size
+    M = np.vstack([np.hstack([A.T, E.T]), np.concatenate([b, e])[None, :]])
+    rhs = np.zeros(n + 1)
+    rhs[-1] = -1.0
+    try:
+        res = linprog(np.zeros(k + q), A_eq=M, b_eq=rhs, bounds=[(0, None)] * k + [(None, None)] * q, method=method)
+    except Exception:  # a crash of the auxiliary LP certifies nothing
+        return None
+    if res.status != 0 or res.x is None:
+        return None
+    v = np.asarray(res.x, dtype=float)
+    cert = LPCertificate("farkas", problem, A, b, E, e, sc.c, y=np.maximum(v[:k], 0.0), w=v[k:])
+    return cert if cert.verify() else None
+
+
+def _ray(sc: _Scaled, problem: str, method: str) -> LPCertificate | None:
+    """A certificate of unboundedness (a feasible point and a descent ray, two auxiliary LPs), or ``None``."""
+    A, b = sc.all_rows()
+    E, e = sc.E, sc.e
+    n = sc.c.size
+    try:
+        feas = _call_linprog(sc, np.zeros(n), A, b, E, e, (None, None), method)
+        if feas.status != 0 or feas.x is None:
+            return None
+        ray = _call_linprog(sc, sc.c, A, np.zeros(A.shape[0]), E, np.zeros(E.shape[0]), (-1.0, 1.0), method)
+        if ray.status != 0 or ray.x is None:
+            return None
+    except Exception:
+        return None
+    cert = LPCertificate("ray", problem, A, b, E, e, sc.c, z0=np.asarray(feas.x, dtype=float), d=np.asarray(ray.x, dtype=float))
+    return cert if cert.verify() else None
 
 
 def _bound_pairs(bounds, size: int) -> list:
@@ -131,34 +493,6 @@ def _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray) -> dict[str,
             worst = max(worst, float(x[k] - hi))
     out["bounds"] = worst
     return out
-
-
-def _point_defect(c, A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray, fun) -> str | None:
-    """What is wrong with an "optimal" point, or ``None``: finite, every row within tolerance.
-
-    A row ``a'x <= b`` may be violated by at most ``LP_POINT_RTOL (1 + |b| + |a| |x|)``: relative
-    to the size of the terms that are summed, so the check is independent of the row's scaling.
-    """
-    if x.shape != (np.size(c),) or not np.all(np.isfinite(x)) or not np.isfinite(fun):
-        return "the returned point or objective is not finite"
-    ax = np.abs(x)
-    for label, A, b, eq in (("inequality", A_ub, b_ub, False), ("equality", A_eq, b_eq, True)):
-        if A is None or np.size(A) == 0:
-            continue
-        A = np.atleast_2d(np.asarray(A, dtype=float))
-        b = np.asarray(b, dtype=float).reshape(-1)
-        r = A @ x - b
-        allowed = LP_POINT_RTOL * (1.0 + np.abs(b) + np.abs(A) @ ax)
-        bad = (np.abs(r) if eq else r) > allowed
-        if np.any(bad):
-            k = int(np.argmax(np.where(bad, r, -np.inf) if not eq else np.where(bad, np.abs(r), -np.inf)))
-            return f"{label} row {k} is violated by {abs(r[k]):.3g} at the returned point"
-    if bounds is not None and not (isinstance(bounds, tuple) and len(bounds) == 2 and bounds[0] is None and bounds[1] is None):
-        for k, (lo, hi) in enumerate(_bound_pairs(bounds, x.size)):
-            tol = LP_POINT_RTOL * (1.0 + ax[k])
-            if (lo is not None and x[k] < lo - tol) or (hi is not None and x[k] > hi + tol):
-                return f"variable {k} is outside its bounds ({x[k]:.6g} not in [{lo}, {hi}])"
-    return None
 
 
 def row_range(
@@ -249,7 +583,7 @@ def row_range(
 import daqp  # noqa: E402
 
 from ._lp_kernels import slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
-from ..tolerances import DAQP_EPS_PROX, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
+from ..tolerances import DAQP_EPS_PROX, DAQP_POINT_RTOL, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
 
 
 def _daqp_optimal(flag: int) -> bool:
@@ -275,6 +609,80 @@ class LPCounters:
 
 #: Process-wide counters (each worker process has its own; executors add them up).
 COUNTERS = LPCounters()
+
+
+def _daqp_call(H, f, A, bu, lower, sense, **settings):
+    """``daqp.solve``, with an exception of the solver reported as a failed solve (``None``)."""
+    try:
+        return daqp.solve(H, f, A, bu, lower, sense, **settings)
+    except Exception:  # the robust solver decides instead; the caller counts it
+        return None
+
+
+def daqp_answer_ok(A: np.ndarray, b: np.ndarray, x, lam) -> bool:
+    """Does a DAQP answer flagged optimal for ``min f'x s.t. A x <= b`` pass the numpy checks?
+
+    The point is finite and satisfies every row to ``DAQP_POINT_RTOL (1 + |b_k| + |a_k| |x|)``,
+    and the multipliers are finite and non-negative to ``DAQP_POINT_RTOL`` times their largest
+    size.  (The certified bounds computed from them clip them at zero, so they need no
+    stationarity check: a poor multiplier only gives a weaker bound, and the caller then asks HiGHS.)
+    Two matrix-vector products.
+    """
+    x = np.asarray(x, dtype=float)
+    lam = np.asarray(lam, dtype=float)
+    if x.shape != (A.shape[1],) or lam.shape != (A.shape[0],) or not (np.all(np.isfinite(x)) and np.all(np.isfinite(lam))):
+        return False
+    if np.min(lam, initial=0.0) < -DAQP_POINT_RTOL * max(1.0, float(np.max(np.abs(lam), initial=0.0))):
+        return False
+    return bool(np.all(A @ x - b <= DAQP_POINT_RTOL * (1.0 + np.abs(b) + np.abs(A) @ np.abs(x))))
+
+
+def daqp_infeasibility_ok(A: np.ndarray, b: np.ndarray, lam) -> bool:
+    """Do DAQP's multipliers of an "infeasible" exit prove it (Farkas: ``y >= 0, A'y = 0, b'y < 0``)?"""
+    y = np.asarray(lam, dtype=float)
+    if y.shape != (A.shape[0],) or not np.all(np.isfinite(y)):
+        return False
+    y = np.where(y > 0.0, y, 0.0)
+    return _farkas_ok(A, b, np.zeros((0, A.shape[1])), np.zeros(0), y, np.zeros(0))
+
+
+@dataclass(frozen=True)
+class VerifiedLP:
+    """Answer of :func:`verified_lp`: ``status`` (optimal / infeasible), the point ``v`` and the
+    multipliers ``lam >= 0`` of the rows (optimal only), and which solver gave them."""
+
+    status: Status
+    v: np.ndarray | None
+    lam: np.ndarray | None
+    solver: str
+
+
+def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, eps_prox: float | None = DAQP_EPS_PROX) -> VerifiedLP:
+    """``min c'v s.t. A v <= b`` by DAQP when its answer verifies in numpy, else by HiGHS (:func:`solve_lp`).
+
+    DAQP's "optimal" must pass :func:`daqp_answer_ok`, its "infeasible" must come with a Farkas
+    certificate in its multipliers (:func:`daqp_infeasibility_ok`); any other exit, an exception
+    or a failed check sends the LP to HiGHS, whose answer :func:`solve_lp` checks in turn (a
+    :class:`SolverError` when that fails too; ``UNBOUNDED`` is then a certified status too).
+    """
+    d = A.shape[1]
+    COUNTERS.fast += 1
+    settings = {} if eps_prox is None else {"eps_prox": eps_prox}
+    out = _daqp_call(np.zeros((d, d)), c, A, b, np.full(A.shape[0], -1e30), np.zeros(A.shape[0], dtype=np.int32), **settings)
+    if out is not None:
+        x, _, flag, info = out
+        lam = info.get("lam") if isinstance(info, dict) else None
+        status = map_status(DAQP_STATUS, int(flag), solver="daqp")
+        if is_optimal(status) and lam is not None and daqp_answer_ok(A, b, x, lam):
+            return VerifiedLP(Status.OPTIMAL, np.asarray(x, dtype=float), np.asarray(lam, dtype=float), "daqp")
+        if status == Status.INFEASIBLE and lam is not None and daqp_infeasibility_ok(A, b, lam):
+            return VerifiedLP(Status.INFEASIBLE, None, None, "daqp")
+    COUNTERS.fast -= 1
+    COUNTERS.confirmed_by_highs += 1
+    res = solve_lp(c, A, b, problem=problem)
+    if not res.optimal:
+        return VerifiedLP(res.status, None, None, "highs")
+    return VerifiedLP(Status.OPTIMAL, res.x, res.duals, "highs")
 
 
 @dataclass(frozen=True)
@@ -372,8 +780,11 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     # automatic regularisation usually finishes, then NNLS sharpens its multipliers.
     for eps_prox in (DAQP_EPS_PROX, None):
         settings = {} if eps_prox is None else {"eps_prox": eps_prox}
-        x, _, flag, info = daqp.solve(H, f, A, bu, lower_bounds, sense, **settings)
-        if not _daqp_optimal(flag) or not np.all(np.isfinite(x)):
+        out = _daqp_call(H, f, A, bu, lower_bounds, sense, **settings)
+        if out is None:
+            break  # DAQP raised: HiGHS decides
+        x, _, flag, info = out
+        if not _daqp_optimal(flag) or not daqp_answer_ok(A, bu, x, info.get("lam")):
             continue
         lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
@@ -413,24 +824,13 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
     is already more than ``width`` away from it along ``c``.
     """
-    d = A.shape[1]
-    H = np.zeros((d, d))
-    lower = np.full(A.shape[0], -1e30)
-    sense = np.zeros(A.shape[0], dtype=np.int32)
     total = 0.0
     for sign in (1.0, -1.0):
-        COUNTERS.fast += 1
-        v, _, flag, info = daqp.solve(H, -sign * c, A, b, lower, sense, eps_prox=DAQP_EPS_PROX)
-        lam = info["lam"]
-        if not _daqp_optimal(flag) or not np.all(np.isfinite(v)) or not np.all(np.isfinite(lam)):
-            # DAQP failed: HiGHS's duals give the same kind of certificate
-            COUNTERS.fast -= 1
-            COUNTERS.confirmed_by_highs += 1
-            res = linprog(-sign * c, A_ub=A, b_ub=b, bounds=(None, None), method="highs")
-            if (not is_optimal(map_status(LINPROG_STATUS, res.status, solver="linprog/highs")) or res.ineqlin is None
-                    or not np.all(np.isfinite(res.ineqlin.marginals))):
-                return False
-            v, lam = np.asarray(res.x, dtype=float), -np.asarray(res.ineqlin.marginals, dtype=float)
+        # DAQP when its answer verifies, else HiGHS (checked): both give multipliers for the bound
+        ans = verified_lp(-sign * c, A, b, problem="width LP (certified_width_below)")
+        if ans.status != Status.OPTIMAL:
+            return False  # empty or unbounded: not certified (the safe answer)
+        v, lam = ans.v, ans.lam
         if point is not None and sign > 0 and float(c @ (v - point)) > width:
             return False
         total += support_upper_bound(A, b, sign * c, np.ascontiguousarray(lam, dtype=float), radius_bound)

@@ -33,15 +33,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import daqp
 import numpy as np
 
 from ..geometry._lp_kernels import slack_lp_data, support_upper_bound
-from ..geometry.lp import COUNTERS, certified_width_below, solve_lp, solve_slack_lp
-from ..status import DAQP_STATUS, Status, is_optimal, map_status
+from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, solve_slack_lp, verified_lp
+from ..status import Status
 from ..tolerances import (
     CLOSED_SET_TOL,
-    DAQP_EPS_PROX,
     DISTINCT_STATE_TOL,
     EQUALITY_CONSISTENCY_RTOL,
     IMPLICIT_EQUALITY_RANK_RTOL,
@@ -88,6 +86,18 @@ def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: f
     res = solve_slack_lp(A, bu, radius_bound, threshold, problem)
     radius = res.lower if res.lower > threshold else res.upper
     return radius, res.w, A, bu, res.lam, keep
+
+
+def _witness(centre, A: np.ndarray, bu: np.ndarray):
+    """``centre`` when it is a point of the closed set ``{A[:-1, :-1] v <= bu[:-1]}`` (to
+    CLOSED_SET_TOL), else ``None``: the frame tests use it as a witness (distinct states, widths),
+    so a solver's point is checked before it stands for the set."""
+    if centre is None or A.shape[0] <= 1:
+        return centre
+    c = np.asarray(centre, dtype=float)
+    if c.shape != (A.shape[1] - 1,) or not np.all(np.isfinite(c)):
+        return None
+    return c if float(np.min(bu[:-1] - A[:-1, :-1] @ c, initial=np.inf)) > -CLOSED_SET_TOL else None
 
 
 def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray, lam, keep, centre,
@@ -165,19 +175,18 @@ def _nnls_multipliers(GA: np.ndarray) -> np.ndarray | None:
 
 def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: float, bound: float,
                              radius_bound: float) -> bool:
-    """Is ``|c's + c0| <= bound`` certified on ``{Gs s <= gs}`` (two DAQP LPs and their multipliers)?"""
-    d = Gs.shape[1]
-    H = np.zeros((d, d))
-    lower = np.full(Gs.shape[0], -1e30)
-    sense = np.zeros(Gs.shape[0], dtype=np.int32)
+    """Is ``|c's + c0| <= bound`` certified on ``{Gs s <= gs}`` (two LPs and their multipliers)?
+
+    Each LP is DAQP's when its answer verifies in numpy, HiGHS's otherwise (:func:`verified_lp`).
+    """
     for sign in (1.0, -1.0):
-        COUNTERS.fast += 1
-        v, _, flag, info = daqp.solve(H, -sign * c, Gs, gs, lower, sense, eps_prox=DAQP_EPS_PROX)
-        if not is_optimal(map_status(DAQP_STATUS, flag, solver="daqp")) or not np.all(np.isfinite(v)):
+        ans = verified_lp(-sign * c, Gs, gs, problem="distinct-state LP")
+        if ans.status != Status.OPTIMAL:
             return False
+        v = ans.v
         if sign * (c @ v + c0) > bound and np.all(Gs @ v <= gs + CLOSED_SET_TOL):
             return False  # a (nearly) feasible point already has the two states apart
-        if support_upper_bound(Gs, gs, sign * c, info["lam"], radius_bound) + sign * c0 > bound:
+        if support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * c0 > bound:
             return False
     return True
 
@@ -304,7 +313,7 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, -CLOSED_SET_TOL, problem)
     if radius <= -CLOSED_SET_TOL:
         return PairVerdict(EMPTY, EMPTY, radius, False)
-    frame.centre = centre
+    frame.centre = _witness(centre, A, bu)
     frame._lp = (A, bu)
     verdicts = [EMPTY if p is None else "" for p in parts]
     face = radius <= REGION_SLACK_TOL
@@ -374,7 +383,7 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
     if face:
         frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + float(np.linalg.norm(s0)))
-        frame.centre = centre
+        frame.centre = _witness(centre, A, bu) if centre is not None and centre.size else centre
         if frame.forces_same_state():
             return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
     distinct = None
@@ -412,10 +421,6 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
     d0 = w0[:n] - x_scaled_offset
     if Gr.shape[0] == 0:
         return bool(np.max(np.abs(Dm), initial=0.0) > RANK_RTOL or np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
-    d = Gr.shape[1]
-    H = np.zeros((d, d))
-    lower = np.full(Gr.shape[0], -1e30)
-    sense = np.zeros(Gr.shape[0], dtype=np.int32)
     for k in range(n):
         c = np.ascontiguousarray(Dm[k])
         if np.max(np.abs(c)) <= RANK_RTOL:
@@ -423,17 +428,20 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
                 return True
             continue
         for sign in (1.0, -1.0):
-            COUNTERS.fast += 1
-            v, _, flag, info = daqp.solve(H, -sign * c, Gr, gr, lower, sense, eps_prox=DAQP_EPS_PROX)
-            if is_optimal(map_status(DAQP_STATUS, flag, solver="daqp")) and np.all(np.isfinite(v)):
+            # DAQP when its answer verifies in numpy (and its bound decides), else HiGHS (checked)
+            ans = verified_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
+            if ans.status == Status.OPTIMAL and ans.solver == "daqp":
+                v = ans.v
                 if sign * (c @ v + d0[k]) > DISTINCT_STATE_TOL and np.all(Gr @ v <= gr + CLOSED_SET_TOL):
                     return True
-                if support_upper_bound(Gr, gr, sign * c, info["lam"], radius_bound) + sign * d0[k] <= DISTINCT_STATE_TOL:
+                if support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) \
+                        + sign * d0[k] <= DISTINCT_STATE_TOL:
                     continue
-            COUNTERS.fast -= 1
-            COUNTERS.confirmed_by_highs += 1
-            out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
-            if out.status == Status.OPTIMAL and -out.objective + sign * d0[k] > DISTINCT_STATE_TOL:
+                COUNTERS.fast -= 1
+                COUNTERS.confirmed_by_highs += 1
+                out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
+                ans = VerifiedLP(out.status, out.x, out.duals, "highs")
+            if ans.status == Status.OPTIMAL and sign * (c @ ans.v + d0[k]) > DISTINCT_STATE_TOL:
                 return True
     return False
 
