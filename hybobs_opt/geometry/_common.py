@@ -79,6 +79,22 @@ def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return A[keep] / norms[keep, None], b[keep] / norms[keep]
 
 
+def _row_normalised(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every row of ``[A | b]`` divided by ``||A_i||`` (exactly-zero rows kept as they are).
+
+    The same set, with the units of each row removed: the absolute thresholds applied afterwards
+    (ZERO_ROW_TOL, the scaled-coordinate tolerances) then judge the geometry, not the scale in which
+    a row happened to be written (issue 16: rows given in units of 1e-10 were taken for zero rows).
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if A.shape[0] == 0:
+        return A, b
+    norms = np.linalg.norm(A, axis=1)
+    inv = np.where(norms > 0.0, 1.0 / np.where(norms > 0.0, norms, 1.0), 1.0)
+    return A * inv[:, None], b * inv
+
+
 def _box(A: np.ndarray, b: np.ndarray, E: np.ndarray | None = None, e: np.ndarray | None = None):
     """Bounding box ``(lo, hi)`` with ``+-inf`` where unbounded, or ``None`` when empty (2d LPs)."""
     r = row_range(A, b, np.eye(A.shape[1]), E=E, e=e, problem="bounding box", allow_unbounded=True, allow_empty=True)

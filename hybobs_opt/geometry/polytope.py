@@ -38,6 +38,7 @@ from ._common import (
     resolve_coordinate,
     _resolve_list,
     _unit_box_map,
+    _row_normalised,
     _unit_rows,
 )
 from .lp import row_range, solve_lp
@@ -389,13 +390,14 @@ class Polytope:
             mid = np.zeros(self.dim)
             if self.is_empty():
                 return Polytope.empty(self.dim, self.names)
-        As = self.A * half
-        bs = self.b - self.A @ mid
+        An, bn = _row_normalised(self.A, self.b)  # unit rows first: ZERO_ROW_TOL then judges the box scaling only
+        As = An * half
+        bs = bn - An @ mid
         norms = np.linalg.norm(As, axis=1)
         rows = np.nonzero(norms > ZERO_ROW_TOL)[0]  # zero rows read 0 <= b_i, true on a non-empty set
         keep = irredundant(As[rows] / norms[rows, None], bs[rows] / norms[rows])
         rows = rows[keep]
-        A, b = _unit_rows(self.A[rows], self.b[rows])
+        A, b = _unit_rows(An[rows], bn[rows])
         return Polytope(A, b, self.names)
 
     def project(

@@ -21,7 +21,7 @@ from ..tolerances import (
     RANK_RTOL,
     ZERO_ROW_TOL,
 )
-from ._common import _box, _lp, _nullspace, _unit_box_map, _unit_rows
+from ._common import _box, _lp, _nullspace, _row_normalised, _unit_box_map, _unit_rows
 from .redundancy import irredundant
 
 #: Target dimension up to which :meth:`Polytope.project` (``method="auto"``) uses the iterative
@@ -57,6 +57,9 @@ def image_of(A, b, E, e, M, v, method: str, hull_max_dim: int | None) -> _Image 
     ``w -> x`` to :func:`_linear_image`.
     """
     d = A.shape[1]
+    A, b = _row_normalised(A, b)
+    if E is not None and E.shape[0]:
+        E, e = _row_normalised(E, e)
     box = _box(A, b, E, e)
     if box is None:
         return None
