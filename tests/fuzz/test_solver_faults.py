@@ -464,16 +464,13 @@ FAMILY = Family(
     ],
 )
 
-_RAISES = "an exception of the solver ({}) escapes as itself, not as a SolverError"
 
 #: Targets where the fuzz finds a defect today (strict: fixing the defects turns them into failures to remove).
-KNOWN_DEFECTS: dict[str, str] = {
-    "solve_lp [HiGHS answers corrupted]": _RAISES.format("ValueError, RuntimeError from linprog"),
-    "Polytope.bounding_box [HiGHS and DAQP corrupted]": _RAISES.format("ValueError, RuntimeError from linprog"),
-    "analyse_observability [DAQP corrupted]": (
-        "a DAQP answer flagged optimal with a violated point and negative multipliers is trusted by the pair tests: "
-        "6 pair sets reported non-empty that are empty; a DAQP ValueError escapes"),
-}
+KNOWN_DEFECTS: dict[str, str] = {}
+# Fixed (issue 16, LP checks): "solve_lp [HiGHS answers corrupted]" and "Polytope.bounding_box [HiGHS and
+# DAQP corrupted]" (an exception of linprog escaped as itself; an unchecked infeasible/unbounded verdict),
+# "analyse_observability [DAQP corrupted]" (a DAQP point flagged optimal but violated, with negative
+# multipliers, was trusted by the pair tests; a DAQP ValueError escaped).
 
 
 @pytest.mark.parametrize("target", [pytest.param(t, id=t.name, marks=[pytest.mark.xfail(strict=True, reason=KNOWN_DEFECTS[t.name])]
@@ -520,7 +517,8 @@ DEFECTS = [
 
 
 #: Defects of :data:`DEFECTS` that are fixed: ordinary regression tests now.
-FIXED = {"bank-nan-lyapunov-matrix", "bank-solver-RuntimeError", "continuous-zero-lyapunov-matrix"}
+FIXED = {"bank-nan-lyapunov-matrix", "bank-solver-RuntimeError", "continuous-zero-lyapunov-matrix",
+         "lp-highs-raises-ValueError", "lp-highs-raises-RuntimeError", "regions-daqp-violated-point-trusted"}
 
 
 @pytest.mark.parametrize("try_one, value", [
