@@ -48,6 +48,7 @@ from .base import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE,
                    ObserverTrace, checked_index, initial_mode, initial_state, judge_samples_against, sample_rows)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
+from .location_logic import IDENTIFIED
 from .location_observer import (
     AMBIGUOUS,
     SOLVER,
@@ -633,6 +634,16 @@ class HybridObserver(Observer):
     q0 : int, optional
         Known initial location; otherwise the location observer identifies it and the continuous
         observer starts on the location whose invariant contains ``x0`` (location 0 if none).
+
+    Notes
+    -----
+    ``info["error_bound"]`` is the continuous observer's contraction since the location in use was
+    identified, restarted from the state box at every newly identified location (the first, or a
+    switch detected up to ``Delta`` late): the contraction on another location's gain proves
+    nothing, and Proposition 3.3.1 bounds the error through a detection delay only by ``M0`` (eq.
+    20), 0.55 rad on the driveline's theta.  The flag is ``observable`` once that bound is below
+    the convergence fraction.  Its hypothesis is that the identified location is the plant's: in
+    the ``Delta`` before a switch is detected the error can exceed it.
     """
 
     name = "location+continuous"
@@ -650,6 +661,7 @@ class HybridObserver(Observer):
         self.locobs = LocationObserver(bank, Ts, x0=x0, q0=q0)
         self.contobs = ContinuousObserver(design, Ts, x0=self.locobs._x0, location=self._start_location(self.locobs._x0, q0))
         self._q0 = q0
+        self._bound_location: int | None = q0  # the identified location the continuous bound started in
 
     def _start_location(self, x0: np.ndarray, q0: int | None) -> int:
         if q0 is not None:
@@ -663,22 +675,32 @@ class HybridObserver(Observer):
         self.locobs.reset(x0, q0)
         q = self._q0 if q0 is None else q0
         self.contobs.reset(self.locobs._x0, q0=self._start_location(self.locobs._x0, q))
+        self._bound_location = q
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
-        xc = self.contobs._step(u, y)
+        co = self.contobs
+        xc = co._step(u, y)
         if xc.flag == FALLBACK:  # the sample contradicts the continuous estimate's bound: nobody uses it
             loc = self.locobs._fallback(u, xc.info["reason"])
             return Estimate(xc.x, -1, FALLBACK, 0.0, dict(loc.info, generator_x=loc.x, reason=xc.info["reason"]))
         loc = self.locobs._step(u, y)
+        identified = loc.info["held"] if loc.info["status"] == IDENTIFIED else None
+        if identified is not None and identified != self._bound_location:
+            # a newly identified location (the first, or a switch detected up to Delta late): the
+            # contraction so far ran on another location's gain and proves nothing; the error is
+            # bounded by the state box (Proposition 3.3.1 only bounds it by M0, eq. 20)
+            co._bound.start(co.x, co._P)
+        self._bound_location = identified
         if loc.info["held"] >= 0:
-            self.contobs.location = loc.info["held"]
+            co.location = loc.info["held"]
         info = dict(loc.info)
         info["generator_x"] = loc.x
         info["continuous_location"] = xc.mode
-        info["error_bound"] = xc.info["error_bound"]
+        info["error_bound"] = co.error_bound().tolist()
+        converged = co._bound.converged(co._P_inv_diag)
         # the location identified is not yet the state: observable once the continuous
-        # observer's certified transient has died out too
-        flag = WARMING_UP if loc.flag == OBSERVABLE and xc.flag != OBSERVABLE else loc.flag
+        # observer's certified transient since that identification has died out too
+        flag = WARMING_UP if loc.flag == OBSERVABLE and not converged else loc.flag
         return Estimate(xc.x, loc.mode, flag, 0.0, info)
 
     def _fallback(self, u: np.ndarray | None, reason: str) -> Estimate:
