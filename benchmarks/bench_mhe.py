@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from hybobs_opt.examples.registry import get_example
+from hybobs_opt.contract import NOISE_FIT_SIGMAS
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe.miqp import MHEObserver
 
@@ -189,7 +190,8 @@ def main(argv: list[str] | None = None) -> int:
         log(f"{key} ...")
         t0 = time.perf_counter()
         try:
-            obs = MHEObserver(plant, big_m=bm, x0=X[0], **kw)
+            obs = MHEObserver(plant, big_m=bm, x0=X[0], **kw,
+                              fit_tolerance=None if clean else NOISE_FIT_SIGMAS * NOISE)
             if clean:
                 res = run_observer(obs, U, Y, X, observable[kw["T"]])
             else:

@@ -124,6 +124,11 @@ INNOVATION_MARGIN: float = 1e-3
 #: hypothesis failing (a location switch not yet detected, a model mismatch), not one bad sample.
 INNOVATION_PATIENCE: int = 2
 
+#: Noisy data: an observer's fit tolerance of this many output-noise standard deviations
+#: (``MHEObserver(fit_tolerance=NOISE_FIT_SIGMAS * std)``); a Gaussian residual exceeds it about
+#: once in 1.7 million samples.
+NOISE_FIT_SIGMAS: float = 5.0
+
 #: Relative floor of every range test (``(1 + |bound|)`` times this): a degenerate range (a
 #: constant output) still admits rounding.
 RANGE_ABS_RTOL: float = 1e-9

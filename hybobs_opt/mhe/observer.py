@@ -77,7 +77,9 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state, judge_samples_against
+from .._validate import as_positive, as_vector
+from ..contract import (FALLBACK, INNOVATION_MARGIN, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
+                        judge_samples_against)
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -172,6 +174,14 @@ class MHEObserver(Observer):
         lies outside ``X*_T``) the separated program decides (``fallback`` if
         ``check_uniqueness=False``).
 
+    fit_tolerance : float or (p,) array, optional
+        Largest output residual ``|y(k) - y^(k)|`` of the optimum in a window the model is taken to
+        fit.  A certified optimum that misses a sample by more proves that no trajectory of the
+        model explains the window (a bad sample, or noise above the tolerance): the step is
+        ``fallback``.  Default: :data:`~hybobs_opt.contract.INNOVATION_MARGIN` of each output's
+        range over the model, for noise-free data; set it to a few noise standard deviations for
+        noisy data.
+
     Notes
     -----
     Uniqueness (the flag ``observable``).  After the optimum ``J*`` with window-start state
@@ -256,7 +266,8 @@ class MHEObserver(Observer):
                  polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
                  binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
                  prox_passes: int = DEFAULT_PROX_PASSES, big_m: BigMConstants | None = None,
-                 check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None):
+                 check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
+                 fit_tolerance=None):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -315,6 +326,7 @@ class MHEObserver(Observer):
         self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
         self._x_default = self.model.cx.copy()
         judge_samples_against(self, system)
+        self.fit_tolerance = self._fit_tolerance(fit_tolerance)
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
@@ -323,6 +335,34 @@ class MHEObserver(Observer):
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight
         self.reset(x0)
+
+    def _fit_tolerance(self, value) -> np.ndarray | None:
+        """The ``fit_tolerance`` keyword as a ``(p,)`` array (``None``: no output range to derive it from)."""
+        if value is None:
+            rng = self.output_range
+            width = None if rng is None else rng[1] - rng[0]
+            if width is None or not np.all(np.isfinite(width)):
+                return None
+            return INNOVATION_MARGIN * width
+        tol = as_vector(value, "fit_tolerance", self.p) if np.ndim(value) else np.full(self.p, as_positive(
+            value, "fit_tolerance", "a positive output tolerance (one value, or one per output)"))
+        if not np.all(np.isfinite(tol) & (tol > 0)):
+            raise ModelError("fit_tolerance", "positive finite output tolerances", f"{tol.tolist()}")
+        return tol
+
+    def _misfit(self, result: WindowResult) -> str | None:
+        """Why the optimum does not fit the window's outputs within :attr:`fit_tolerance` (``None`` if
+        it does): no trajectory of the model fits the data, so a sample of the window is wrong."""
+        if self.fit_tolerance is None:
+            return None
+        ry = np.abs(self.model.output_residuals(result.states, result.modes, self._U, self._Y))
+        bad = np.argwhere(~(ry <= self.fit_tolerance[None, :]))
+        if not bad.size:
+            return None
+        k, j = (int(v) for v in bad[0])
+        name = self.output_names[j] if j < len(self.output_names) else f"y[{j}]"
+        return (f"no trajectory of the model fits the window: the optimum misses {name} at window sample {k} by "
+                f"{ry[k, j]:.3g} > fit_tolerance {self.fit_tolerance[j]:.3g} (a bad sample, or noise above it)")
 
     # ------------------------------------------------------------------ offline
     def _build(self, options: dict) -> None:
@@ -735,6 +775,10 @@ class MHEObserver(Observer):
             states, modes = result.states, result.modes
             # the optimum fits the data whatever the flag: it warm-starts the next window
             self._prev = (states, modes, self._U[-1].copy())
+            misfit = self._misfit(result)
+            if misfit is not None:
+                self._x, self._mode = x_pred, q_pred
+                return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, dict(info, reason=misfit))
             flag = self._decide(self._U, self._Y, Xg[0], result, info)
             if flag == OBSERVABLE:
                 self._x, self._mode = states[-1].copy(), int(modes[-1])

@@ -106,13 +106,16 @@ class WindowModel:
             X[k + 1] = self.f(X[k], U[k], int(modes[k])) + W[k]
         return X
 
+    def output_residuals(self, X, modes, U, Y) -> np.ndarray:
+        """``y(k) - y^(k)`` of a trajectory, ``(T, p)`` (original units, unweighted)."""
+        if self._common_out:
+            return Y - X @ self._Cs[0].T - U @ self._Ds[0].T - self._cs[0]
+        return (Y - np.einsum("kpn,kn->kp", self._Cs[modes], X) - np.einsum("kpm,km->kp", self._Ds[modes], U)
+                - self._cs[modes])
+
     def cost(self, X, modes, U, Y, W, xbar) -> float:
         """Cost of eq. (10) with the optional terms, of a trajectory (original units)."""
-        if self._common_out:
-            ry = Y - X @ self._Cs[0].T - U @ self._Ds[0].T - self._cs[0]
-        else:
-            ry = (Y - np.einsum("kpn,kn->kp", self._Cs[modes], X) - np.einsum("kpm,km->kp", self._Ds[modes], U)
-                  - self._cs[modes])
+        ry = self.output_residuals(X, modes, U, Y)
         parts = [(ry @ self.Wy.T).reshape(-1)]
         if self.Ww is not None and self.T > 1:
             parts.append((W @ self.Ww.T).reshape(-1))

@@ -158,8 +158,6 @@ _OUTLIER = ("an output or input ten times the run's largest, inside the model's 
 
 #: Targets where the fuzz finds a defect today (strict: fixing the defect turns them into failures to remove).
 KNOWN_DEFECTS: dict[str, str] = {
-    "powertrain3-miqp [outlier]": _OUTLIER.format(
-        what="the MHE flags observable a window no trajectory fits, omega_m 117 rad/s off"),
 }
 
 
@@ -198,7 +196,8 @@ DEFECTS = [
 
 #: Defects of :data:`DEFECTS` that are fixed: their runs are ordinary regression tests now.
 FIXED = {"complex-output-sample", "piston-input-minus-1e12", "periodic-two-refused-events",
-         "continuous-output-outlier", "location-input-outlier"}
+         "continuous-output-outlier", "location-input-outlier",
+         "mhe-output-outlier"}
 
 
 @pytest.mark.parametrize("name, faults", [

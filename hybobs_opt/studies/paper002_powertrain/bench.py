@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.observers.base import OBSERVABLE, ObserverTrace
+from hybobs_opt.observers.base import NOISE_FIT_SIGMAS, OBSERVABLE, ObserverTrace
 from hybobs_opt.progress import phase_bars
 from hybobs_opt.observers.comparison import (  # noqa: F401  (re-exported: hybobs_opt.observers.bench)
     EXACT_LABEL_SAMPLES,
@@ -119,7 +119,8 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
             from hybobs_opt.mhe import MHEObserver
 
             norm = {"miqp": "2", "milp": "1", "milp_inf": "inf"}[name]
-            obs = MHEObserver(plant, T, norm=norm)
+            # with output noise the windows fit the model only to the noise level (fit_tolerance)
+            obs = MHEObserver(plant, T, norm=norm, fit_tolerance=NOISE_FIT_SIGMAS * noise if noise > 0 else None)
             n_mhe = min(steps, mhe_steps or steps)
             out = timed_steps(obs, U[:n_mhe], y[:n_mhe], progress=phase(name, "step"), chunk=10)
             rec = summarise(out, trace.x[:n_mhe], truly[:n_mhe], plant.state_names, obs.solver, T - 1)
