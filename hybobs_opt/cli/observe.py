@@ -21,6 +21,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --save') for the lookup observer")
     p.add_argument("--gains", metavar="FILE", help="switched gains ('hybobs synth --out') for a scalar-nonlinear "
                    "system (default: designed now with the model's settings)")
+    p.add_argument("--fit-tolerance", type=float, default=None, metavar="Y",
+                   help="with --data and a moving-horizon observer: the largest output residual a window may "
+                        "leave (noisy logs: about 5 noise standard deviations; default 1e-3 of each output's range)")
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
@@ -55,9 +58,10 @@ def run(args: argparse.Namespace) -> int:
     check_output_path("--out", args.out)
     named = load_system(args)
     if args.data is None:
-        for option in ("horizon", "regions", "out", "gains"):
+        for option in ("horizon", "regions", "out", "gains", "fit_tolerance"):
             if getattr(args, option) is not None:
-                raise ModelError(f"--{option}", "--data LOG.csv as well (it applies to a recorded log)", "no --data")
+                flag = "--" + option.replace("_", "-")
+                raise ModelError(flag, "--data LOG.csv as well (it applies to a recorded log)", "no --data")
         if named.example is None:
             raise ModelError("--data", f"a CSV log for {named.label!r} (only the shipped examples have scenarios)", "none")
         from ..studies.scenarios import get_scenario
@@ -112,9 +116,10 @@ def observe_recorded_nonlinear(named, args) -> dict:
     kind = args.observer or "switched"
     if kind != "switched":
         raise ModelError("--observer", "switched (the observer of a scalar-nonlinear system on a log)", repr(kind))
-    for option in ("horizon", "regions"):
-        if getattr(args, option):
-            raise ModelError(f"--{option}", "no value for a scalar-nonlinear system (it belongs to the PWA observers)", "a value")
+    for option in ("horizon", "regions", "fit_tolerance"):
+        if getattr(args, option) is not None:
+            raise ModelError("--" + option.replace("_", "-"), "no value for a scalar-nonlinear system (it belongs to the "
+                             "PWA observers)", "a value")
     if args.filter:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
     log = read_log(args.data, named.system)
@@ -157,11 +162,15 @@ def observe_recorded(named, args) -> dict:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
     with as_options({"observer": "--observer"}):
         check_observer_kinds([kind])
+    if args.fit_tolerance is not None and kind == "lookup":
+        raise ModelError("--fit-tolerance", "no value for the lookup observer (it belongs to miqp, milp, milp_inf)",
+                         repr(args.fit_tolerance))
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
-        with as_options({"horizon T": "--horizon", "horizon": "--horizon"}):
-            trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress)[kind]
+        with as_options({"horizon T": "--horizon", "horizon": "--horizon", "fit_tolerance": "--fit-tolerance"}):
+            trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress,
+                                     fit_tolerance=args.fit_tolerance)[kind]
     finally:
         close()
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}

@@ -41,9 +41,13 @@ def check_observer_kinds(kinds: Sequence[str]) -> list[str]:
 
 
 def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
-                      progress: Callable[[str, str, int, int], None] | None = None):
-    """The observer ``kind`` for ``system``; the lookup observer uses ``analysis`` (of horizon ``horizon``)."""
+                      progress: Callable[[str, str, int, int], None] | None = None, fit_tolerance=None):
+    """The observer ``kind`` for ``system``; the lookup observer uses ``analysis`` (of horizon ``horizon``),
+    the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data)."""
     check_observer_kinds([kind])
+    if kind == "lookup" and fit_tolerance is not None:
+        raise ModelError("fit_tolerance", "no value for the lookup observer (it belongs to the moving-horizon observers)",
+                         repr(fit_tolerance))
     if kind == "lookup":
         from .lookup import LookupObserver
 
@@ -52,7 +56,7 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
         return LookupObserver(analysis, progress=None if progress is None else (lambda d, t: progress("lookup tables", "piece", d, t)))
     from ..mhe import MHEObserver
 
-    return MHEObserver(system, horizon, norm=PWA_OBSERVERS[kind], analysis=analysis)
+    return MHEObserver(system, horizon, norm=PWA_OBSERVERS[kind], analysis=analysis, fit_tolerance=fit_tolerance)
 
 
 def run_on_log(observer, log) -> tuple[ObserverTrace, float]:
@@ -83,7 +87,8 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
 
 
 def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
-                progress: Callable[[str, str, int, int], None] | None = None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
+                progress: Callable[[str, str, int, int], None] | None = None,
+                fit_tolerance=None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
     """Run each observer of ``kinds`` on ``log``: ``{kind: (trace, summary)}``.
 
     ``analysis`` (Algorithm 3.1 at ``horizon``) is computed here when the lookup observer needs it
@@ -99,7 +104,8 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
                                          (lambda d, t: progress("Algorithm 3.1", "region", d, t)))
     out = {}
     for kind in kinds:
-        obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress)
+        obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress,
+                                fit_tolerance=None if kind == "lookup" else fit_tolerance)
         trace, seconds = run_on_log(obs, log)
         rec = log_summary(trace, log, seconds)
         rec["solver"] = getattr(obs, "solver", "none (lookup table)")
