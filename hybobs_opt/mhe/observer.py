@@ -280,10 +280,8 @@ class MHEObserver(Observer):
             raise ModelError("solver", f"one of {SOLVERS[norm]} for norm {norm!r}", repr(solver))
         if solver_options is not None and not isinstance(solver_options, dict):
             raise ModelError("solver_options", "a dict of solver options", type(solver_options).__name__)
-        for label, w in (("prox_weight", prox_weight), ("binary_prox_weight", binary_prox_weight)):
-            if not (isinstance(w, (int, float, np.floating)) and np.isfinite(w) and w > 0):
-                raise ModelError(label, "a positive finite weight", repr(w))
-        self.binary_prox_weight = float(binary_prox_weight)
+        prox_weight = as_positive(prox_weight, "prox_weight", "a positive finite weight")
+        self.binary_prox_weight = as_positive(binary_prox_weight, "binary_prox_weight", "a positive finite weight")
         if isinstance(prox_passes, bool) or not isinstance(prox_passes, (int, np.integer)) or prox_passes < 1:
             raise ModelError("prox_passes", "an integer >= 1", repr(prox_passes))
         self.prox_passes = int(prox_passes)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import real_array
 from ..errors import ModelError
 from .mld import MLDEncoding
 
@@ -21,15 +22,14 @@ def weight_matrix(W, dim: int, name: str) -> np.ndarray | None:
     """``None`` or a ``(dim, dim)`` weight matrix from a scalar, a vector (diagonal) or a matrix."""
     if W is None:
         return None
-    try:
-        arr = np.asarray(W, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(name, f"a scalar, a length-{dim} vector or a ({dim}, {dim}) matrix", repr(W)) from None
+    arr = real_array(W, name, f"a scalar, a length-{dim} vector or a ({dim}, {dim}) matrix")
     if arr.ndim == 0:
         arr = np.full(dim, float(arr))
     if arr.ndim == 1:
         if arr.size != dim:
             raise ModelError(name, f"a length-{dim} vector (diagonal weight)", f"length {arr.size}")
+        if np.any(arr < 0):  # a negative weight is a typo: its sign never matters in a norm
+            raise ModelError(name, "nonnegative diagonal weights", f"{arr.tolist()}")
         arr = np.diag(arr)
     if arr.shape != (dim, dim):
         raise ModelError(name, f"a ({dim}, {dim}) matrix", f"shape {arr.shape}")
