@@ -33,6 +33,8 @@ def weight_matrix(W, dim: int, name: str) -> np.ndarray | None:
         arr = np.diag(arr)
     if arr.shape != (dim, dim):
         raise ModelError(name, f"a ({dim}, {dim}) matrix", f"shape {arr.shape}")
+    if np.any(np.diag(arr) < 0):  # W and -W weigh alike: a negative diagonal entry is a sign typo
+        raise ModelError(name, "a weight matrix with a nonnegative diagonal", f"diagonal {np.diag(arr).tolist()}")
     if not np.all(np.isfinite(arr)):
         raise ModelError(name, "finite entries", "NaN or Inf")
     if not np.any(arr):

@@ -18,7 +18,7 @@ def plant():
     (dict(binary_prox_weight=0.0), "binary_prox_weight"), (dict(binary_prox_weight=1j), "binary_prox_weight"),
     (dict(output_weight=[-1.0]), "output_weight"), (dict(output_weight=1j), "output_weight"),
     (dict(output_weight="2"), "output_weight"), (dict(output_weight=[True]), "output_weight"),
-    (dict(disturbance_weight=[1.0, -1.0, 1.0]), "disturbance_weight"),
+    (dict(disturbance_weight=[1.0, -1.0, 1.0]), "disturbance_weight"), (dict(output_weight=[[-1.0]]), "output_weight"),
 ])
 def test_a_bad_weight_is_a_model_error_naming_it(plant, kw, field):
     with pytest.raises(ModelError) as err:
