@@ -17,8 +17,13 @@ The bound is kept as one number, ``b >= ||e||_P`` with ``P`` the Lyapunov matrix
 * a change of Lyapunov matrix ``P -> P'`` multiplies it by ``sqrt(lambda_max(P^-1 P'))``;
 
 and ``|e_k| <= b sqrt((P^-1)_kk)`` per coordinate.  The bound holds under the design's own
-hypotheses (the gains' region or location is the plant's, noise-free outputs); it is what the
-design proves, no more.
+hypotheses (the gains' region or location is the plant's, noise-free outputs, and for the sampled
+observers of paper 000 a plant that is the sampled model: inputs held and outputs linear between
+samples); it is what the design proves, no more.  What it leaves out is measured, not proven: on
+the driveline the continuous observer's output residual settles near 2e-4 rad/s while the bound
+goes to 1e-13 (the plant between samples is not the sampled model), which is why the innovation
+tests allow :data:`~hybobs_opt.contract.INNOVATION_MARGIN` on top of it and the suite's oracle
+1e-3 of the box.
 """
 
 from __future__ import annotations
