@@ -115,6 +115,7 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["observe", "powertrain3"], "--filter", [None]),
     (["observe", "powertrain3"], "--param", ["gear_ratio=0.1", "nosuch=1"]),
     (["observe", "powertrain3"], "--horizon", ["3", "0", "abc"]),
+    (["observe", "powertrain3"], "--fit-tolerance", ["0.1", "-1", "abc", "nan"]),
     (["observe", "powertrain3"], "--regions", [F("nosuch"), F("bin")]),
     (["observe", "powertrain3"], "--gains", [F("nosuch"), F("text.json")]),
     (["observe", "driveline"], "--plot", [F("dir") + "/o.xyz", F("dir")]),

@@ -19,24 +19,39 @@ from hybobs_opt.status import DAQP_EXIT_FLAGS, Status
 # ---------------------------------------------------------------------------- linprog (geometry.lp.solve_lp)
 @pytest.mark.parametrize("raw", [0, 1, 2, 3, 4])
 def test_solve_lp_accepts_only_linprog_status_0(raw, monkeypatch):
+    """HiGHS's real answer (point and multipliers) with the status replaced: only status 0 gives a
+    point; a limit (1) or numerical trouble (4) is an error after every HiGHS method; a claimed
+    infeasibility (2) or unboundedness (3) of this feasible, bounded LP has no certificate that
+    verifies, so it is an error too (issue 16: no verdict is trusted unchecked)."""
     from hybobs_opt.geometry import lp
 
     calls = []
+    real = lp.linprog
 
     def fake(c, **kw):
         calls.append(kw["method"])
-        return OptimizeResult(status=raw, x=np.array([0.5]), fun=0.5, message=f"status {raw}", success=raw == 0)
+        out = real(c, **kw)
+        out.status, out.success, out.message = raw, raw == 0, f"status {raw}"
+        return out
 
     monkeypatch.setattr(lp, "linprog", fake)
     A, b = np.array([[1.0], [-1.0]]), np.array([1.0, 1.0])
     try:
         res = lp.solve_lp(np.array([1.0]), A, b)
     except SolverError:
-        assert raw in (1, 4)  # a limit or numerical trouble after every HiGHS method: an error
-        assert calls == ["highs", "highs-ipm", "highs-ds"]
+        assert raw in (1, 2, 3, 4)
+        assert {"highs", "highs-ipm", "highs-ds"} <= set(calls)  # every method tried (and its certificate LPs)
         return
-    assert (res.status is Status.OPTIMAL) == (raw == 0)
-    assert res.status is {0: Status.OPTIMAL, 2: Status.INFEASIBLE, 3: Status.UNBOUNDED}[raw]
+    assert raw == 0 and res.status is Status.OPTIMAL
+    np.testing.assert_allclose(res.x, [-1.0])
+
+
+def test_solve_lp_reports_a_real_infeasibility_with_a_certificate():
+    from hybobs_opt.geometry import lp
+
+    A, b = np.array([[1.0], [-1.0]]), np.array([-1.0, -1.0])  # x <= -1 and x >= 1
+    res = lp.solve_lp(np.array([1.0]), A, b)
+    assert res.status is Status.INFEASIBLE and res.certificate.verify()
 
 
 # ---------------------------------------------------------------------------- cvxpy (lmi.solve.solve_problem)
