@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import re
 import sys
 
@@ -74,10 +75,13 @@ class ArgumentParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .. import __version__
+
     parser = ArgumentParser(
         prog="hybobs",
         description="Optimization-based state observers for hybrid systems (hybobs_opt).",
     )
+    parser.add_argument("--version", action="version", version=f"hybobs {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(f"{__name__}.{module_name}")
@@ -161,6 +165,9 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except HybobsError as exc:
         return report_error(args.command, str(exc), as_json, **_error_fields(exc))
+    except BrokenPipeError:  # the reader closed the pipe ('hybobs ... | head'): nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 0
     except OSError as exc:
         fields = _error_fields(exc)
         if getattr(exc, "filename", None) is not None:

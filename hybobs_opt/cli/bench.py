@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ..limits import MAX_HORIZON, MAX_SAMPLES
+from ..limits import DEFAULT_HORIZON, MAX_HORIZON, MAX_SAMPLES
 from ._common import add_system_argument, as_options, check_figure_path, load_system, print_json
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
@@ -23,7 +23,8 @@ HELP = "lookup observer vs MIQP/MILP moving-horizon observers on one scenario or
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, default=3, help=f"observation horizon T (default 3, at most {MAX_HORIZON})")
+    p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
+                   help=f"observation horizon T (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="compare the observers on this recorded log (any PWA system)")
     p.add_argument("--regions", metavar="FILE", help="with --data: saved analysis for the lookup observer")
     p.add_argument("--steps", type=int, default=None,

@@ -28,7 +28,8 @@ HELP = "does a constant observer gain exist? verdict, certificate, report (paper
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     add_design_arguments(p)
-    p.add_argument("--out", metavar="DIR", default=None, help=f"report directory (default {DEFAULT_DIAGNOSE_OUT})")
+    p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None,
+                   help="write the Markdown and HTML reports into DIR (none without it); --out is its old name")
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 
 
@@ -38,9 +39,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..report.lmi_section import write_diagnosis_report
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
-    out_dir = Path(args.out or DEFAULT_DIAGNOSE_OUT)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ModelError("--out", "a directory (it receives the Markdown and HTML reports)", f"{str(out_dir)!r}, an existing file")
+    out_dir = None if args.out is None else Path(args.out)
+    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
+        raise ModelError("--out-dir", "a directory (it receives the Markdown and HTML reports)", f"{str(out_dir)!r}, an existing file")
     named, preset, settings = design_setup(args)
     system = named.system
     if preset is not None:
@@ -55,7 +56,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                         min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
                         scaling=settings.scaling, condition=settings.condition)
-    paths = write_diagnosis_report(diag, args.out or DEFAULT_DIAGNOSE_OUT, file_slug(named.label))
+    paths = None if out_dir is None else write_diagnosis_report(diag, out_dir, file_slug(named.label))
     out = diag.to_dict()
     out["example"] = named.label
     out["system"] = named.label
@@ -92,7 +93,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print("next:")
     for step in diag.next_steps:
         print(f"  - {step}")
-    print(f"report: {paths['markdown']} and {paths['html']}")
+    if paths is not None:
+        print(f"report: {paths['markdown']} and {paths['html']}")
     return 0
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
+from ..limits import DEFAULT_HORIZON
 from ._common import (add_system_argument, as_options, check_figure_path, check_output_path, load_system,
                       print_json)
 
@@ -17,7 +18,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--observer", default=None, metavar="KIND", help=_observer_help)
     p.add_argument("--data", metavar="LOG.csv", help="recorded inputs and outputs, columns named by the system "
                    "(optional: t or time, the true states)")
-    p.add_argument("--horizon", "-T", type=int, default=None, help="observation horizon T (with --data; default 3)")
+    p.add_argument("--horizon", "-T", type=int, default=None,
+                   help=f"observation horizon T (with --data; default {DEFAULT_HORIZON}, or the --regions file's)")
     p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --save') for the lookup observer")
     p.add_argument("--gains", metavar="FILE", help="switched gains ('hybobs synth --out') for a scalar-nonlinear "
                    "system (default: designed now with the model's settings)")
@@ -103,7 +105,7 @@ def open_log(named, args):
         analysis = load_analysis(args.regions, system=named.system)
         if args.horizon is not None and args.horizon != analysis.T:
             raise ModelError("--horizon", f"the horizon of {args.regions}, T = {analysis.T}", repr(args.horizon))
-    horizon = analysis.T if analysis is not None else (args.horizon or 3)
+    horizon = analysis.T if analysis is not None else (args.horizon or DEFAULT_HORIZON)
     return read_log(args.data, named.system), horizon, analysis
 
 

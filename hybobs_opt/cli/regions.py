@@ -10,7 +10,7 @@ import argparse
 import math
 
 from ..errors import ModelError
-from ..limits import MAX_GRID_POINTS, MAX_HORIZON
+from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
 from ._common import (add_executor_arguments, add_system_argument, as_options, check_figure_path, check_output_path,
                       executor_from_args, load_system, print_json)
 
@@ -22,15 +22,16 @@ HELP = "observability regions of a PWA system (paper 002, Algorithm 3.1)"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, required=True,
-                   help=f"observation horizon T (1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
+    p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
+                   help=f"observation horizon T (default {DEFAULT_HORIZON}, 1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
     p.add_argument("--ts", type=float, default=None, metavar="SECONDS",
                    help="sampling period: discretise an affine hybrid automaton exactly (ZOH) first")
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
     p.add_argument("--resolution", default=None, metavar="NXxNY",
                    help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
-    p.add_argument("--save", metavar="FILE", help="save the result (JSON) for the lookup observer")
+    p.add_argument("--out", "--save", dest="save", metavar="FILE",
+                   help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its old name")
     p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
     add_executor_arguments(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
@@ -43,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_horizon_limit(args.horizon, "--horizon")
     check_figure_path("--plot", args.plot)
-    check_output_path("--save", args.save)
+    check_output_path("--out", args.save)
     named = load_system(args)
     if named.kind == "hybrid_automaton" and args.ts is not None:
         with as_options({"Ts": "--ts"}):

@@ -8,11 +8,8 @@ import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ..limits import MAX_HORIZON
+from ..limits import DEFAULT_HORIZON, MAX_HORIZON
 from ._common import SYSTEM_HELP, as_options, examples_help, load_system, print_json
-
-#: Horizon of the PWA sections of ``report SYSTEM`` when --horizon is not given.
-DEFAULT_HORIZON = 2
 
 
 def _section_help() -> str:
@@ -27,7 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("system", nargs="?", default=None, metavar="SYSTEM",
                    help=lambda: f"optional: {SYSTEM_HELP}; the examples: {examples_help()}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out-dir", "--out", dest="out", required=True, metavar="DIR",
+                   help="output directory (index.html and the figures); --out is its old name")
     p.add_argument("--section", action="append", metavar="KEY", help=_section_help)
     p.add_argument("--horizon", "-T", type=int, default=None,
                    help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
@@ -39,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from ..progress import status_line
 
     if Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ModelError("--out", "a directory (it receives index.html and the figures)", f"{args.out!r}, an existing file")
+        raise ModelError("--out-dir", "a directory (it receives index.html and the figures)", f"{args.out!r}, an existing file")
     named = None
     if args.system is None:
         for option in ("param", "data", "horizon"):

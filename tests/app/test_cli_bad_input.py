@@ -192,7 +192,7 @@ def test_observe_powertrain_unknown_observer_names_its_own_flag(capsys):
     (["simulate"], "SYSTEM"),
     (["simulate", "powertrain3", "--t-final", "abc"], "--t-final"),
     (["simulate", "powertrain3", "--nosuch"], "--nosuch"),
-    (["regions", "powertrain3"], "--horizon"),
+    (["regions", "powertrain3", "-T"], "--horizon"),  # -T has a default now (DEFAULT_HORIZON), not a value
     (["synth", "vehicle_tracking"], "--out"),
     (["nosuchcommand"], "COMMAND"),
 ])
@@ -316,7 +316,8 @@ CAMPAIGN = [
     (["regions", "powertrain3", "-T", "3", "--resolution", "41x31"], "--cut or --plot"),
     (["regions", "powertrain3", "-T", "3", "--cut", "theta=0", "--plot", "{dir}/c.xyz"], ".svg"),
     (["regions", "powertrain3", "-T", "3", "--plot", "{dir}/c.png"], "--cut"),
-    (["regions", "powertrain3", "-T", "3", "--save", "{dir}"], "--save"),
+    (["regions", "powertrain3", "-T", "3", "--save", "{dir}"], "--out"),  # --save is the old name of --out
+    (["regions", "powertrain3", "-T", "3", "--out", "{dir}"], "--out"),
     (["regions", "powertrain3", "-T", "3", "--query", "{nosuch.csv}"], "--query"),
     (["regions", "powertrain3", "-T", "3", "--query", "{empty.csv}"], "header"),
     (["regions", "powertrain3", "-T", "3", "--query", "{header_only.csv}"], "omega_l"),

@@ -1,0 +1,80 @@
+"""One CLI vocabulary (issue 17): ``--version``; ``--horizon/-T`` with one default; ``--out`` a file
+and ``--out-dir`` a directory everywhere (old spellings kept as aliases); ``--param`` wherever a
+system is built."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import pytest
+
+from hybobs_opt import __version__
+from hybobs_opt.cli import build_parser, main
+from hybobs_opt.limits import DEFAULT_HORIZON
+
+
+def _subparsers():
+    parser = build_parser()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def _options(p):
+    return {s: a for a in p._actions for s in a.option_strings}
+
+
+def test_version(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"hybobs {__version__}"
+
+
+def test_every_horizon_option_is_horizon_or_T_with_the_one_default():
+    seen = 0
+    for name, p in _subparsers().items():
+        opts = _options(p)
+        if "--horizon" not in opts:
+            continue
+        seen += 1
+        a = opts["--horizon"]
+        assert "-T" in a.option_strings and not a.required, name
+        # None means "the default, or the horizon of a --regions file"; the help says which
+        assert a.default in (DEFAULT_HORIZON, None) and f"default {DEFAULT_HORIZON}" in a.help, name
+    assert seen >= 4  # regions, observe, bench, report
+
+
+def test_out_is_a_file_and_out_dir_a_directory():
+    for name, p in _subparsers().items():
+        opts = _options(p)
+        if "--out-dir" in opts:
+            assert opts["--out-dir"].metavar == "DIR", name
+        if "--out" in opts and opts["--out"] is not opts.get("--out-dir"):
+            assert opts["--out"].metavar != "DIR", name
+    subs = _subparsers()
+    assert "--out-dir" in _options(subs["report"]) and "--out-dir" in _options(subs["diagnose"])
+    assert _options(subs["regions"])["--out"] is _options(subs["regions"])["--save"]  # old name kept
+
+
+def test_param_wherever_a_system_is_built():
+    for name, p in _subparsers().items():
+        positional = [a.metavar for a in p._actions if not a.option_strings]
+        if "SYSTEM" in positional:
+            assert "--param" in _options(p), name
+
+
+def test_regions_out_and_its_old_name_write_the_same_file(tmp_path, capsys):
+    for flag in ("--out", "--save"):
+        path = tmp_path / f"r{flag.strip('-')}.json"
+        assert main(["regions", "powertrain3", flag, str(path), "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["horizon"] == DEFAULT_HORIZON
+        assert json.loads(path.read_text())["horizon"] == DEFAULT_HORIZON
+
+
+def test_diagnose_writes_no_report_unless_asked(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["diagnose", "vehicle_tracking", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["report"] is None
+    assert not any(tmp_path.iterdir())
+    assert main(["diagnose", "vehicle_tracking", "--out-dir", "d", "--json"]) == 0
+    paths = json.loads(capsys.readouterr().out)["report"]
+    assert paths and (tmp_path / "d").is_dir()
