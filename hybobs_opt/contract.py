@@ -124,6 +124,18 @@ INNOVATION_MARGIN: float = 1e-3
 #: hypothesis failing (a location switch not yet detected, a model mismatch), not one bad sample.
 INNOVATION_PATIENCE: int = 2
 
+def innovation_excess(r: np.ndarray, allowed: np.ndarray, y: np.ndarray, names=(), what: str = "") -> str | None:
+    """Why an output residual ``r`` exceeds ``allowed`` (the error bound's share plus
+    :data:`INNOVATION_MARGIN`) in some output, or ``None``; ``what`` names whose residual it is."""
+    bad = np.nonzero(~(np.abs(r) <= allowed))[0]
+    if not bad.size:
+        return None
+    j = int(bad[0])
+    name = names[j] if j < len(names) else f"y[{j}]"
+    return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g}{what} exceeds the certified "
+            f"error bound's {allowed[j]:.3g}")
+
+
 #: Noisy data: an observer's fit tolerance of this many output-noise standard deviations
 #: (``MHEObserver(fit_tolerance=NOISE_FIT_SIGMAS * std)``); a Gaussian residual exceeds it about
 #: once in 1.7 million samples.

@@ -45,7 +45,8 @@ from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
 from .base import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, WARMING_UP, Estimate, Observer,
-                   ObserverTrace, checked_index, initial_mode, initial_state, judge_samples_against, sample_rows)
+                   ObserverTrace, checked_index, initial_mode, initial_state, innovation_excess, judge_samples_against,
+                   sample_rows)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_logic import IDENTIFIED
@@ -519,13 +520,7 @@ class ContinuousObserver(Observer):
         C, D, c, C_norms = self._outputs[self.location]
         r = y - (C @ self.x + (D @ u if D is not None and D.size else 0.0) + c)
         allowed = self._bound.output_bound(C_norms) + self._innovation_floor
-        bad = np.nonzero(~(np.abs(r) <= allowed))[0]
-        if not bad.size:
-            return None
-        j = int(bad[0])
-        name = self.output_names[j] if j < len(self.output_names) else f"y[{j}]"
-        return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g} exceeds the certified "
-                f"error bound's {allowed[j]:.3g}")
+        return innovation_excess(r, allowed, y, self.output_names)
 
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
         saved = (self.x.copy(), self._bound.save(), self._u_prev, self._y_prev, self._input_unknown)

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..contract import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate,
-                        Observer, ObserverTrace, initial_state, judge_samples_against, sample_rows)
+                        Observer, ObserverTrace, initial_state, innovation_excess, judge_samples_against, sample_rows)
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
@@ -196,13 +196,7 @@ class LocationObserver(Observer):
         gen, n = self.bank.generators[g], self.n
         r = y - (gen.C @ self._z[g * n : (g + 1) * n] + (gen.D @ u if gen.D.size else 0.0) + gen.c)
         allowed = math.exp(min(self._log_bound, LOG_FLOAT_MAX)) * self._gen_C_norms[g] + self._innovation_floor
-        bad = np.nonzero(~(np.abs(r) <= allowed))[0]
-        if not bad.size:
-            return None
-        j = int(bad[0])
-        name = self.output_names[j] if j < len(self.output_names) else f"y[{j}]"
-        return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g} of the identified "
-                f"location's generator exceeds its certified error bound's {allowed[j]:.3g}")
+        return innovation_excess(r, allowed, y, self.output_names, " of the identified location's generator")
 
     def _propagate(self, u: np.ndarray, y: np.ndarray) -> None:
         if self._u_prev is not None and self._y_prev is None:

@@ -10,19 +10,13 @@ import pytest
 
 from hybobs_opt.contract import FALLBACK, INNOVATION_MARGIN, OBSERVABLE
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.registry import get_example
 from hybobs_opt.mhe import MHEObserver
 from hybobs_opt.systems.ranges import output_range
 
 A, B = 990, 1030  # a stretch of the powertrain3 scenario through the backlash
 OA, OB = 0, 40  # a stretch whose windows are all observable on the clean data
 
-
-@pytest.fixture(scope="module")
-def plant_trace():
-    ex = get_example("powertrain3")
-    plant = ex.build()
-    return plant, ex.scenario(plant)
+# plant_trace: the powertrain3 plant and its scenario (conftest.py)
 
 
 def test_default_tolerance_is_the_innovation_margin_of_the_output_range(plant_trace):

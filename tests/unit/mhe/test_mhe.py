@@ -11,7 +11,6 @@ from scipy.optimize import linprog
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.examples.powertrain import TABLE1
-from hybobs_opt.examples.registry import get_example
 from hybobs_opt.mhe.mld import big_m_constants, encode_mld
 from hybobs_opt.mhe.miqp import MHEObserver
 from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
@@ -24,11 +23,7 @@ PIECE = (985, 1045)
 ALPHA = TABLE1["alpha"]
 
 
-@pytest.fixture(scope="module")
-def plant_trace():
-    ex = get_example("powertrain3")
-    plant = ex.build()
-    return plant, ex.scenario(plant)
+# plant_trace: the powertrain3 plant and its scenario (conftest.py)
 
 
 # ------------------------------------------------------------------ MLD encoding

@@ -1,0 +1,13 @@
+"""Fixtures of the MHE tests."""
+
+import pytest
+
+from hybobs_opt.examples.registry import get_example
+
+
+@pytest.fixture(scope="module")
+def plant_trace():
+    """The powertrain3 plant (model (16) of paper 002) and its scenario."""
+    ex = get_example("powertrain3")
+    plant = ex.build()
+    return plant, ex.scenario(plant)
