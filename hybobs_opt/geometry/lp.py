@@ -508,7 +508,7 @@ def row_range(
     allow_unbounded: bool = False,
     allow_empty: bool = False,
 ) -> np.ndarray | None:
-    """``[min, max]`` of each ``row . z`` over ``{z : A z <= b, E z = e}``: two LPs per row.
+    """``[min, max]`` of each ``row @ z`` over ``{z : A z <= b, E z = e}``: two LPs per row.
 
     The one implementation of the interval of a linear functional over a polytope (bounding boxes,
     argument intervals of the sector bounds of paper 004, big-M constants of paper 002's MLD

@@ -4,7 +4,7 @@ Modules, one concept each:
 
 * :mod:`.schedule` -- regions of a scheduling coordinate (sub-boxes of the operating box);
 * :mod:`.bounds` -- Jacobian bounds (eqs. 4-5), monotonicity, slope changes, monotonic pieces;
-* :mod:`.observer_lmi` -- LMIs (8), (22), (23) compiled once with cvxpy ``Parameter``s;
+* :mod:`.observer_lmi` -- LMIs (8), (22), (23) compiled once with cvxpy ``Parameter`` objects;
 * :mod:`.certificates` -- infeasibility certificates (structural reason, dual multiplier, numpy re-check);
 * :mod:`.polytopic` -- the polytopic condition (one ``P`` on every vertex of the Jacobian box) and its certificate;
 * :mod:`.hierarchy` -- the conditions weakest claim first (paper LMI, one multiplier per function, polytopic);

@@ -246,7 +246,7 @@ _COMPILED: "weakref.WeakKeyDictionary[ScalarNonlinearSystem, dict]" = weakref.We
 
 
 class PolytopicLMI:
-    """The vertex LMIs of one system, compiled once with the vertex matrices as ``Parameter``s.
+    """The vertex LMIs of one system, compiled once with the vertex matrices as cvxpy ``Parameter`` objects.
 
     Parameters
     ----------

@@ -17,7 +17,7 @@ from .base import OBSERVABLE, Observer, ObserverTrace
 
 
 def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
-    """Per time ``t``: is the true mode sequence of the window ``t-T+1 .. t`` a region of ``I``?
+    """Per time ``t``: is the true mode sequence of the window ``t-T+1`` to ``t`` a region of ``I``?
 
     A necessary condition for the window-start state to be observable (its output map has full
     rank), not a sufficient one: another mode sequence may explain the same data.  For the

@@ -99,7 +99,7 @@ def positivity_violation(ps: PeriodicSystem, L: np.ndarray) -> tuple[float, floa
 
 @dataclass(frozen=True, eq=False)
 class PeriodicGains:
-    """Gains ``L_1 ... L_V`` of observer (16) with the properties that were checked for them.
+    """Gains ``L_1`` to ``L_V`` of observer (16) with the properties that were checked for them.
 
     Attributes
     ----------

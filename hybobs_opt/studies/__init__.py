@@ -6,15 +6,15 @@ settings, comparisons and figure data.  Studies import the core (``hybobs_opt.sy
 up.  Importing this package registers the examples without importing their modules (the
 factories are imported on first call), so listing them is cheap.
 
-=======================  ============================================================
-package                  paper
-=======================  ============================================================
+=========================  ============================================================
+package                    paper
+=========================  ============================================================
 ``paper000_driveline``     000 Balluchi et al., hybrid observer of a driveline
 ``paper001_sliding_mode``  001 Djemai et al., sliding-mode observers
 ``paper002_powertrain``    002 observability regions, lookup and MHE observers (PWA)
 ``paper003_switching``     003 observers of PWA systems with constant drift
 ``paper004_nonmonotonic``  004 Rajamani et al., switched-gain observers
-=======================  ============================================================
+=========================  ============================================================
 """
 
 from hybobs_opt.systems.resolve import register_resolver
