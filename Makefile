@@ -7,13 +7,13 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.hybobs-installed
 PYTEST_ARGS ?= -n 2 --dist worksteal
 
-.PHONY: demo test bench install clean
+.PHONY: demo test bench docs install clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "hybobs_opt needs Python >= 3.11, found " + sys.version.split()[0])'
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,distributed,models,solvers]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,distributed,models,solvers,docs]'
 	@touch $(STAMP)
 
 install: $(STAMP)
@@ -28,5 +28,10 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) -m benchmarks.run_all
 
+# The documentation site (docs/): warnings are errors; the HTML lands in docs/_build/html.
+docs: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m sphinx -b html -W --keep-going docs docs/_build/html
+	@echo "Open $(CURDIR)/docs/_build/html/index.html"
+
 clean:
-	rm -rf out .pytest_cache
+	rm -rf out .pytest_cache docs/_build docs/api/generated
