@@ -344,6 +344,8 @@ def synthesize_switched(
         largest rate leaves room for the joint dwell-time constraints.
     sigma_cap : float
         Upper end of the decay-rate search.
+    scaling : (n,) array, optional
+        State scaling of the LMIs (default: the box half-widths).
     max_rate : float, optional
         Maximum rate of the scheduling variable (model units/s) for the hysteresis of Fig. 1.
     overlap : float, optional

@@ -426,6 +426,8 @@ class MHEObserver(Observer):
             Known initial mode: the mode reported until the first open-loop step or window
             decides it (default ``-1``, unknown).  The warm start's modes always come from the
             guards at ``x0``.
+        **kwargs
+            Ignored: the keywords of other observers' ``reset`` (one call resets any observer).
         """
         x0 = checked_state(self._x_default if x0 is None else x0, self.n)
         if q0 is not None and (isinstance(q0, bool) or not isinstance(q0, (int, np.integer))

@@ -133,6 +133,9 @@ class DriftObserver(Observer):
     project : bool
         Report ``P_Omega x-bar^ = max(0, x-bar^)`` (Remark 4.4) instead of ``x-bar^``; the
         observer's own state is not projected.
+    max_time_step : float, optional
+        Largest time between samples accepted as consistent; default ``TIME_JUMP_FACTOR`` times
+        the timer cycle ``sum(alpha)`` (a later time stamp is a jump: ``fallback``).
 
     Notes
     -----
@@ -191,6 +194,8 @@ class DriftObserver(Observer):
             reference (no visible event at the first sample).
         mode : int, optional
             Old name of ``q0``.
+        **kwargs
+            Ignored: the keywords of other observers' ``reset`` (one call resets any observer).
 
         Raises
         ------

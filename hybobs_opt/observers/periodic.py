@@ -699,6 +699,9 @@ class PeriodicObserver(Observer):
     project : bool
         Return ``max(0, x^)`` (the projection of Remark 4.4) instead of ``x^``; the internal
         recursion is not projected.
+    max_time_step : float, optional
+        Largest time between events accepted as consistent; default ``TIME_JUMP_FACTOR`` times
+        the cycle's total constant time ``sum(|c_j|)`` (a later time stamp is a jump: ``fallback``).
 
     Notes
     -----

@@ -99,6 +99,8 @@ def compute_cut(
         Grid points along the horizontal and vertical axes.
     limits : dict, optional
         ``{state name: (lo, hi)}`` for the free axes; default: the state bounds.
+    progress : callable, optional
+        ``progress(done, total)`` after each grid point is classified.
     """
     system = analysis.system
     names = system.state_names

@@ -93,6 +93,8 @@ def simulate_hybrid(
         Times where ``u`` is discontinuous (the integration restarts there).
     max_events : int
         Guard against Zeno executions.
+    t0 : float
+        Initial time (``u`` is evaluated from ``t0``).
 
     Returns
     -------

@@ -174,6 +174,9 @@ class HybridAutomaton(ModelDictMixin):
         Bounded input set ``U``; ``None`` for autonomous automata.
     state_names, input_names, output_names : sequence of str
     name : str
+    p : int, optional
+        Number of outputs; default: the rows of the first location's ``C`` (needed when no
+        location has one).
     """
 
     locations: tuple[Location, ...]
