@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml constraints.txt
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/hybobs report --out out/report
+	$(VENV)/bin/hybobs report --out-dir out/report
 	@echo "Open $(CURDIR)/out/report/index.html"
 
 test: $(STAMP)
