@@ -71,6 +71,11 @@ DISTINCT_STATE_TOL: float = 1e-5
 #: room for the unscaling, while a point moved by 1e-3 (a corrupted answer) fails by far.
 LP_POINT_RTOL: float = 1e-6
 
+#: Smallest eigenvalue of a Lyapunov matrix returned by an LMI solve relative to its largest
+#: (:func:`hybobs_opt.lmi.solve.checked_lyapunov`): below it ``P`` is singular to working precision
+#: and the gain ``P^-1 Y`` is not determined by the answer.
+LYAPUNOV_MIN_RATIO: float = 1e-12
+
 #: The multipliers HiGHS returns with an "optimal" point must certify it: of the right sign,
 #: stationary and with a zero duality gap, each to this times the size of the terms summed (on
 #: the equilibrated LP, where data and variables are of order one).  HiGHS's dual feasibility

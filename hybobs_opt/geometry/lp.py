@@ -118,7 +118,7 @@ def solve_lp(
     sb = sc.bounds()
     for method in ("highs", "highs-ipm", "highs-ds"):
         try:
-            res = _call_linprog(sc, sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
+            res = _call_linprog(sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
             status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
         except Exception as exc:  # HiGHS (or scipy around it) raised: try the next method
             last_exc = exc
@@ -221,7 +221,7 @@ def _farkas_ok(A, b, E, e, y, w) -> bool:
     size = np.abs(A).T @ y + np.abs(E).T @ np.abs(w)
     gap = float(b @ y + e @ w)
     gap_size = float(np.abs(b) @ y + np.abs(e) @ np.abs(w))
-    if gap_size == 0.0 or not np.any(size > 0.0) and gap >= 0.0:
+    if gap_size == 0.0:
         return False
     return bool(np.all(np.abs(r) <= LP_CERTIFICATE_RTOL * np.max(size, initial=0.0))
                 and gap < -LP_CERTIFICATE_RTOL * gap_size)
@@ -367,7 +367,7 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds) -> _Scaled:
                    lo / D, hi / D, D, r_ub, r_eq, cn, const_b, const_e, zero_ub)
 
 
-def _call_linprog(sc: _Scaled, c, A, b, E, e, bounds, method: str):
+def _call_linprog(c, A, b, E, e, bounds, method: str):
     return linprog(c, A_ub=A if A.shape[0] else None, b_ub=b if A.shape[0] else None,
                    A_eq=E if E.shape[0] else None, b_eq=e if E.shape[0] else None, bounds=bounds, method=method)
 
@@ -459,10 +459,10 @@ def _ray(sc: _Scaled, problem: str, method: str) -> LPCertificate | None:
     E, e = sc.E, sc.e
     n = sc.c.size
     try:
-        feas = _call_linprog(sc, np.zeros(n), A, b, E, e, (None, None), method)
+        feas = _call_linprog(np.zeros(n), A, b, E, e, (None, None), method)
         if feas.status != 0 or feas.x is None:
             return None
-        ray = _call_linprog(sc, sc.c, A, np.zeros(A.shape[0]), E, np.zeros(E.shape[0]), (-1.0, 1.0), method)
+        ray = _call_linprog(sc.c, A, np.zeros(A.shape[0]), E, np.zeros(E.shape[0]), (-1.0, 1.0), method)
         if ray.status != 0 or ray.x is None:
             return None
     except Exception:

@@ -16,6 +16,7 @@ import cvxpy as cp
 import numpy as np
 
 from ..status import CVXPY_STATUS, Status, map_status
+from ..tolerances import LYAPUNOV_MIN_RATIO
 
 #: cvxpy statuses in the one vocabulary (:mod:`hybobs_opt.status`).  No status is an answer by
 #: itself: a point is feasible only when it passes the numpy re-check of the problem's own
@@ -173,7 +174,8 @@ def _point_is_finite(problem: cp.Problem) -> bool:
 
 def checked_lyapunov(P, what: str, solver: str = SOLVER) -> np.ndarray:
     """The symmetric part of a Lyapunov matrix returned by ``solver`` for ``what``, once checked in
-    numpy: finite and positive definite (smallest eigenvalue above :data:`LYAPUNOV_MIN_RATIO` times
+    numpy: finite and positive definite (smallest eigenvalue above
+    :data:`~hybobs_opt.tolerances.LYAPUNOV_MIN_RATIO` times
     the largest).
 
     Raises
@@ -194,10 +196,6 @@ def checked_lyapunov(P, what: str, solver: str = SOLVER) -> np.ndarray:
                           "re-run; if it persists, rescale the model or try another solver")
     return P
 
-
-#: Smallest eigenvalue of a returned Lyapunov matrix relative to its largest: below it ``P`` is
-#: singular to working precision and ``P^-1 Y`` (the gain) is not determined by the answer.
-LYAPUNOV_MIN_RATIO = 1e-12
 
 
 def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) -> SolveOutcome:
