@@ -59,6 +59,8 @@ _EXPORTS: dict[str, str] = {
                     "hybobs_opt.observers"),
     # running work
     **dict.fromkeys(("DaskExecutor", "ProcessExecutor", "SerialExecutor", "make_executor"), "hybobs_opt.executor"),
+    **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),
+    "PhaseProgress": "hybobs_opt.progress",
     # the seed papers' examples
     **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.studies"),
 }

@@ -1,12 +1,24 @@
 """Shared test set-up: ``tests/`` is importable (``import canonical``, ``import exact_oracle``)
 from the test modules in its sub-folders."""
 
+import atexit
+import os
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 _TESTS = str(Path(__file__).resolve().parent)
 if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
+
+# The CLI's cache of analyses (hybobs_opt.cache) lives in a directory of this test session, never in
+# the user's ~/.cache: the CLI tests run through it (a second run of a system loads what the first
+# stored, so the suite checks cached answers too); the cache's own tests use their own directories.
+if "HYBOBS_CACHE_DIR" not in os.environ:
+    _CACHE = tempfile.mkdtemp(prefix="hybobs-test-cache-")
+    os.environ["HYBOBS_CACHE_DIR"] = _CACHE
+    atexit.register(shutil.rmtree, _CACHE, True)
 
 
 def pytest_collection_modifyitems(session, config, items):

@@ -278,3 +278,40 @@ def as_options(fields: Mapping[str, str]) -> Iterator[None]:
         if option is None:
             raise
         raise ModelError(option, exc.expected, exc.got) from exc
+
+
+def add_cache_argument(p: argparse.ArgumentParser) -> None:
+    """``--no-cache``: compute the analyses and lookup tables afresh (:mod:`hybobs_opt.cache`)."""
+    p.add_argument("--no-cache", action="store_true",
+                   help="compute the observability analysis and lookup tables afresh, without reading or writing the "
+                        "cache (~/.cache/hybobs_opt, or $HYBOBS_CACHE_DIR; empty it with 'hybobs cache clear'; "
+                        "HYBOBS_NO_CACHE=1 has the same effect)")
+
+
+def cache_disabled(args: argparse.Namespace) -> bool:
+    """``--no-cache`` or ``HYBOBS_NO_CACHE`` set to 1/true/yes."""
+    import os
+
+    from ..cache import NO_CACHE_ENV
+
+    return bool(getattr(args, "no_cache", False)) or os.environ.get(NO_CACHE_ENV, "").strip().lower() in ("1", "true", "yes")
+
+
+@contextmanager
+def command_cache(args: argparse.Namespace) -> Iterator[Any]:
+    """The command's :class:`~hybobs_opt.cache.ResultCache`, active inside the block (``None`` with ``--no-cache``).
+
+    Each cache event is printed on stderr (``hybobs COMMAND: ...``), except under ``--json``,
+    where the command lists :attr:`~hybobs_opt.cache.ResultCache.events` under ``"cache"``.
+    """
+    import sys
+
+    from ..cache import ResultCache, use_cache
+
+    if cache_disabled(args):
+        yield None
+        return
+    log = None if getattr(args, "json", False) else (lambda msg: print(f"hybobs {args.command}: {msg}", file=sys.stderr))
+    cache = ResultCache(log=log)
+    with use_cache(cache):
+        yield cache

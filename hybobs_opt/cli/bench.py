@@ -10,7 +10,8 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON, MAX_SAMPLES
-from ._common import add_system_argument, as_options, check_figure_path, load_system, print_json
+from ._common import (add_cache_argument, add_system_argument, as_options, check_figure_path, command_cache, load_system,
+                      print_json)
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
 OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf")
@@ -36,12 +37,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
     p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
     p.add_argument("--plot", metavar="FILE", help="PNG like the paper's Figs. 7-9")
+    add_cache_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..progress import phase_bars
-
     observers = parse_observers(args.observers)
     check_figure_path("--plot", args.plot)
     if args.horizon < 1 or args.horizon > MAX_HORIZON:
@@ -58,8 +58,31 @@ def run(args: argparse.Namespace) -> int:
         if args.data is None and not args.noise:
             raise ModelError("--seed", "--noise as well (the seed draws the output noise)", "no --noise")
     named = load_system(args)
+    with command_cache(args) as cache:
+        summary = _bench(named, args, observers)
+    if cache is not None and cache.events:
+        summary["cache"] = cache.events
+    summary.setdefault("system", named.label)
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"{summary['example']}, T = {summary['horizon']}, {summary['steps']} steps, noise {summary['noise']:g}")
+    for name, rec in summary["observers"].items():
+        err = rec.get("max_abs_error_observable_all")
+        print(f"  {name:<9} median {1e6 * rec['median_step_s']:9.1f} us  p95 {1e6 * rec['p95_step_s']:9.1f} us  "
+              f"flagged unobservable {rec['n_flagged_unobservable']:5d}  max rel. error where flagged observable "
+              f"{'n/a' if err is None else f'{err:.2e}'}  [{rec['solver']}]")
+    if "note" in summary:
+        print("note:", summary["note"])
+    return 0
+
+
+def _bench(named, args, observers: list[str]) -> dict:
+    """The summary of the comparison on ``--data`` or on the example's scenario."""
+    from ..progress import phase_bars
+
     if args.data is not None:
-        summary = bench_recorded(named, args, observers)
+        return bench_recorded(named, args, observers)
     else:
         from ..studies.paper002_powertrain.bench import SCENARIO_EXAMPLES, run_bench
 
@@ -78,19 +101,7 @@ def run(args: argparse.Namespace) -> int:
                                     args.plot, args.seed or 0, progress=progress, params=named.params)
         finally:
             close()
-    summary.setdefault("system", named.label)
-    if args.json:
-        print_json(summary)
-        return 0
-    print(f"{summary['example']}, T = {summary['horizon']}, {summary['steps']} steps, noise {summary['noise']:g}")
-    for name, rec in summary["observers"].items():
-        err = rec.get("max_abs_error_observable_all")
-        print(f"  {name:<9} median {1e6 * rec['median_step_s']:9.1f} us  p95 {1e6 * rec['p95_step_s']:9.1f} us  "
-              f"flagged unobservable {rec['n_flagged_unobservable']:5d}  max rel. error where flagged observable "
-              f"{'n/a' if err is None else f'{err:.2e}'}  [{rec['solver']}]")
-    if "note" in summary:
-        print("note:", summary["note"])
-    return 0
+        return summary
 
 
 def parse_observers(text: str) -> list[str]:

@@ -7,8 +7,8 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON
-from ._common import (add_system_argument, as_options, check_figure_path, check_output_path, load_system,
-                      print_json)
+from ._common import (add_cache_argument, add_system_argument, as_options, check_figure_path, check_output_path,
+                      command_cache, load_system, print_json)
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
 
@@ -29,6 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
+    add_cache_argument(p)
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
@@ -59,6 +60,22 @@ def run(args: argparse.Namespace) -> int:
     check_figure_path("--plot", args.plot)
     check_output_path("--out", args.out)
     named = load_system(args)
+    with command_cache(args) as cache:
+        summary = _observe(named, args)
+    if cache is not None and cache.events:
+        summary["cache"] = cache.events
+    if args.json:
+        print_json(summary)
+    else:
+        for key, value in summary.items():
+            if isinstance(value, (list, dict)) and len(str(value)) > 200:
+                value = f"{type(value).__name__} of {len(value)} items (use --json)"
+            print(f"{key}: {value}")
+    return 0
+
+
+def _observe(named, args: argparse.Namespace) -> dict:
+    """The summary of the example's scenario, or of the run on ``--data``."""
     if args.data is None:
         for option in ("horizon", "regions", "out", "gains", "fit_tolerance"):
             if getattr(args, option) is not None:
@@ -74,14 +91,7 @@ def run(args: argparse.Namespace) -> int:
         summary = observe_recorded_nonlinear(named, args)
     else:
         summary = observe_recorded(named, args)
-    if args.json:
-        print_json(summary)
-    else:
-        for key, value in summary.items():
-            if isinstance(value, (list, dict)) and len(str(value)) > 200:
-                value = f"{type(value).__name__} of {len(value)} items (use --json)"
-            print(f"{key}: {value}")
-    return 0
+    return summary
 
 
 def open_log(named, args):

@@ -11,8 +11,8 @@ import math
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
-from ._common import (add_executor_arguments, add_system_argument, as_options, check_figure_path, check_output_path,
-                      executor_from_args, load_system, print_json)
+from ._common import (add_cache_argument, add_executor_arguments, add_system_argument, as_options, check_figure_path,
+                      check_output_path, command_cache, executor_from_args, load_system, print_json)
 
 #: Grid of a cut when --resolution is not given.
 DEFAULT_RESOLUTION = "41x31"
@@ -34,13 +34,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its old name")
     p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
     add_executor_arguments(p)
+    add_cache_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..limits import check_horizon_limit
-    from ..progress import counter_bar
-    from ..regions import analyse_observability, compute_cut, parse_assignments, plot_cut, save_analysis
+    from ..cache import cached_analysis
+    from ..progress import counter_bar, phase_bars
+    from ..regions import compute_cut, parse_assignments, plot_cut, save_analysis
 
     check_horizon_limit(args.horizon, "--horizon")
     check_figure_path("--plot", args.plot)
@@ -76,14 +78,16 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("--resolution", "--cut or --plot as well (it is the grid of the cut)", repr(args.resolution))
     points = _read_query(args.query, system.state_names) if args.query else None
     executor = executor_from_args(args)
-    update, close = counter_bar(not args.json, "Algorithm 3.1")
+    progress, close = phase_bars(not args.json)
     try:
-        with as_options({"horizon T": "--horizon"}):
-            analysis = analyse_observability(system, args.horizon, executor=executor, progress=update)
+        with as_options({"horizon T": "--horizon"}), command_cache(args) as cache:
+            analysis = cached_analysis(system, args.horizon, executor=executor, progress=progress)
     finally:
         close()
         executor.close()
     out = analysis.summary()
+    if cache is not None:
+        out["cache"] = cache.events
     out["example"] = label
     out["system"] = label
     out["params"] = params
@@ -93,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     if points is not None:
         out["observable"] = [analysis.is_observable(p) for p in points]
     if cut_wanted:
-        update, close = counter_bar(not args.json, "cut")
+        update, close = counter_bar(not args.json, "cut", "point")
         try:
             cut = compute_cut(analysis, fixed, (nx, ny), progress=update)
         finally:
@@ -110,7 +114,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{label} (T = {args.horizon}): {out['n_regions']} regions, {out['n_full_rank']} with rank C_i = n, "
           f"{out['n_unobservable_pieces']} polytopes in B_T ({out['n_reduced_pieces']} in B~_T), "
-          f"{out['n_lps']} LPs ({out['n_lps_avoided_by_pruning']} avoided by pruning), {out['seconds']:.2f} s [{out['executor']}]")
+          f"{out['n_lps']} LPs ({out['n_lps_avoided_by_pruning']} avoided by pruning), {out['seconds']:.2f} s [{out['executor']}]"
+          + (" (computed in an earlier run: loaded from the cache)" if any(e["outcome"] == "hit" for e in out.get("cache", ()))
+             else ""))
     if "cut" in out:
         c = out["cut"]
         print(f"cut {c['fixed']}: {100 * c['fraction_observable_of_feasible']:.1f} % of the feasible grid points observable")

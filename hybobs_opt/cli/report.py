@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..progress import status_line
+    from ..progress import section_bar
 
     if Path(args.out).exists() and not Path(args.out).is_dir():
         raise ModelError("--out-dir", "a directory (it receives index.html and the figures)", f"{args.out!r}, an existing file")
@@ -70,7 +70,15 @@ def run(args: argparse.Namespace) -> int:
             from ..sim.log import read_log
 
             read_log(args.data, named.system)  # a bad log is bad input, not a failed section
-    update, close = status_line(not args.json)
+    if named is None:
+        from ..report.html import section_keys
+
+        keys = [k for k in section_keys() if not args.section or k in args.section]
+    else:
+        from ..report.system_report import system_report_keys
+
+        keys = system_report_keys(named.system, args.data)
+    update, close = section_bar(not args.json, keys)
     try:
         if named is None:
             from ..report import build_report

@@ -43,7 +43,9 @@ def run(args: argparse.Namespace) -> int:
     import warnings
 
     from ..lmi.auto_design import design_switched
+    from ..lmi.solve import counting_solves
     from ..lmi.switched import DwellTimeWarning
+    from ..progress import counter_bar
     from ..studies.paper004_nonmonotonic.presets import preset_design
 
     if args.max_rate is not None and not (math.isfinite(args.max_rate) and args.max_rate > 0):
@@ -56,16 +58,20 @@ def run(args: argparse.Namespace) -> int:
     system = named.system
     periodic = _periodic(args.periodic, system)
     accept = bool(args.accept_unenforced_dwell)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DwellTimeWarning)  # reported in the JSON and printed below
-        if preset is not None:
-            lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.synth_range
-            design = preset_design(named.example.name, system, lo, hi, rate=args.max_rate,
-                                   accept_unenforced_dwell=accept)
-            unit, factor = preset.unit, preset.factor
-        else:
-            lo, hi, unit, factor = settings.lo, settings.hi, "", 1.0
-            design = design_switched(system, settings, accept_unenforced_dwell=accept)
+    update, close = counter_bar(not args.json, "LMI solves", "solve")
+    try:
+        with warnings.catch_warnings(), counting_solves(None if update is None else (lambda n: update(n, None))):
+            warnings.simplefilter("ignore", DwellTimeWarning)  # reported in the JSON and printed below
+            if preset is not None:
+                lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.synth_range
+                design = preset_design(named.example.name, system, lo, hi, rate=args.max_rate,
+                                       accept_unenforced_dwell=accept)
+                unit, factor = preset.unit, preset.factor
+            else:
+                lo, hi, unit, factor = settings.lo, settings.hi, "", 1.0
+                design = design_switched(system, settings, accept_unenforced_dwell=accept)
+    finally:
+        close()
     if not args.no_verify:
         from ..observers.switched_verification import verify_switched_design
 

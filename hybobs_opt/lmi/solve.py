@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -198,6 +201,32 @@ def checked_lyapunov(P, what: str, solver: str = SOLVER) -> np.ndarray:
 
 
 
+_ON_SOLVE: ContextVar[Callable[[int], None] | None] = ContextVar("hybobs_opt_on_lmi_solve", default=None)
+
+
+@contextmanager
+def counting_solves(callback: Callable[[int], None] | None) -> Iterator[None]:
+    """Call ``callback(n)`` after each :func:`solve_problem` in the block (``n``: solves so far in it).
+
+    The progress of work whose number of solves is not known in advance (the region growing and
+    dwell-time search of ``hybobs synth``).
+    """
+    if callback is None:
+        yield
+        return
+    count = [0]
+
+    def tick(_: int) -> None:
+        count[0] += 1
+        callback(count[0])
+
+    token = _ON_SOLVE.set(tick)
+    try:
+        yield
+    finally:
+        _ON_SOLVE.reset(token)
+
+
 def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) -> SolveOutcome:
     """Solve ``problem`` with Clarabel, then with :data:`FALLBACK_SOLVERS` while it is undecided.
 
@@ -253,4 +282,7 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
     if not (status == INFEASIBLE or accepted or (status == OPTIMAL and accept is None)):
         COUNTERS.undecided += 1
     residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
+    listener = _ON_SOLVE.get()
+    if listener is not None:
+        listener(COUNTERS.calls)
     return SolveOutcome(status, seconds, compile_s, solver_s, "; ".join(messages), residuals, used, tuple(attempts))

@@ -48,12 +48,34 @@ def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMP
     ends = np.arange(T - 1, x.shape[0])
     if ends.size > samples:
         ends = ends[np.linspace(0, ends.size - 1, samples).round().astype(int)]
+    starts = np.ascontiguousarray(x[ends - T + 1], dtype=float)
+
+    def compute() -> dict[str, np.ndarray]:
+        out = []
+        for k, x0 in enumerate(starts):
+            out.append(analysis.classify(x0))
+            if progress:
+                progress(k + 1, ends.size)
+        return {"labels": np.array(out, dtype=str)}
+
+    from ..cache import active_cache, analysis_key_parts
+
+    cache = active_cache()
+    if cache is None or not ends.size:
+        found = compute()["labels"] if ends.size else np.zeros(0, dtype=str)
+    else:
+        parts = {**analysis_key_parts(analysis), "states": _digest(starts)}
+        what = f"exact labels of {ends.size} windows of {analysis.system.name!r} (T = {T})"
+        found = cache.arrays("exact-labels", parts, compute, what)["labels"]
     labels = np.empty(ends.size, dtype=object)
-    for k, t in enumerate(ends):
-        labels[k] = analysis.classify(x[t - T + 1])
-        if progress:
-            progress(k + 1, ends.size)
+    labels[:] = [str(v) for v in found]
     return ends, labels
+
+
+def _digest(a: np.ndarray) -> str:
+    import hashlib
+
+    return hashlib.sha256(f"{a.dtype.str}|{a.shape}|".encode() + a.tobytes()).hexdigest()
 
 
 def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int, int], None] | None = None,

@@ -184,7 +184,7 @@ class LookupObserver(Observer):
         elif b_tilde is None:
             self.btilde_test = "pairs"
             self._build_btilde([])
-            self._pairs = _PairPieces(analysis, progress)
+            self._pairs = _PairPieces.cached(analysis, progress)
         else:
             self.btilde_test = "polytopes"
             pieces = reduced_unobservable_polytopes(analysis) if isinstance(b_tilde, str) else list(b_tilde)
@@ -550,10 +550,14 @@ class _PairPieces:
             ex_starts.append(ex_starts[-1] + ex_rows[-1].shape[0])
             self.lp.append((np.ascontiguousarray(A[~zero]), np.ascontiguousarray(b0[~zero]), np.ascontiguousarray(B1[~zero])))
             self.ij.append((pair.i, pair.j))
-        P = len(self.lp)
         self.ex_A = np.ascontiguousarray(np.vstack(ex_rows)) if ex_rows else np.zeros((0, n))
         self.ex_b = np.ascontiguousarray(np.concatenate(ex_rhs)) if ex_rhs else np.zeros(0)
         self.ex_starts = np.array(ex_starts, dtype=np.int64)
+        self._start_counters()
+
+    def _start_counters(self) -> None:
+        """The cuts and counters of a fresh set of pieces (nothing learnt from data yet)."""
+        n, P = self.n, len(self.lp)
         self.cut_A = np.zeros((P, PAIR_CUTS_PER_PIECE, n))
         self.cut_b = np.zeros((P, PAIR_CUTS_PER_PIECE))
         self.cut_count = np.zeros(P, dtype=np.int64)
@@ -562,6 +566,54 @@ class _PairPieces:
         self._last_hit = -1
         self.n_tests = self.n_lps = self.n_hits = self.n_cuts = 0
         self.n_pairs = P
+
+    @classmethod
+    def cached(cls, analysis, progress: Callable[[int, int], None] | None = None) -> "_PairPieces":
+        """The pieces of ``analysis``, through the active cache (:mod:`hybobs_opt.cache`) when there is one."""
+        from ..cache import active_cache, analysis_key_parts
+
+        cache = active_cache()
+        if cache is None:
+            return cls(analysis, progress)
+        parts = analysis_key_parts(analysis)
+        what = f"lookup tables of B~_T for {analysis.system.name!r} (T = {analysis.T})"
+        return cls.from_arrays(cache.arrays("lookup-pieces", parts, lambda: cls(analysis, progress).to_arrays(), what))
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The pieces as flat arrays (:meth:`from_arrays` restores them; the cuts are not kept)."""
+        shapes = np.array([A.shape for A, _, _ in self.lp], dtype=np.int64).reshape(-1, 2)
+        return {"n": np.array(self.n), "sx": self.sx, "cx": self.cx, "radius": np.array(self.radius),
+                "ex_A": self.ex_A, "ex_b": self.ex_b, "ex_starts": self.ex_starts,
+                "ij": np.array(self.ij, dtype=np.int64).reshape(-1, 2), "lp_shapes": shapes,
+                "lp_A": np.concatenate([A.ravel() for A, _, _ in self.lp]) if self.lp else np.zeros(0),
+                "lp_b0": np.concatenate([b0 for _, b0, _ in self.lp]) if self.lp else np.zeros(0),
+                "lp_B1": np.vstack([B1 for _, _, B1 in self.lp]) if self.lp else np.zeros((0, self.n))}
+
+    @classmethod
+    def from_arrays(cls, arrays) -> "_PairPieces":
+        """The pieces written by :meth:`to_arrays` (fresh counters and no cuts)."""
+        self = cls.__new__(cls)
+        self.n = int(arrays["n"])
+        self.sx, self.cx = np.asarray(arrays["sx"], dtype=float), np.asarray(arrays["cx"], dtype=float)
+        self.radius = float(arrays["radius"])
+        self.ex_A = np.ascontiguousarray(arrays["ex_A"], dtype=float)
+        self.ex_b = np.ascontiguousarray(arrays["ex_b"], dtype=float)
+        self.ex_starts = np.ascontiguousarray(arrays["ex_starts"], dtype=np.int64)
+        self.ij = [(int(i), int(j)) for i, j in arrays["ij"]]
+        self.lp = []
+        a = r = 0
+        lp_A, lp_b0, lp_B1 = arrays["lp_A"], arrays["lp_b0"], arrays["lp_B1"]
+        for rows, cols in arrays["lp_shapes"]:
+            rows, cols = int(rows), int(cols)
+            self.lp.append((np.ascontiguousarray(lp_A[a : a + rows * cols].reshape(rows, cols)),
+                            np.ascontiguousarray(lp_b0[r : r + rows]), np.ascontiguousarray(lp_B1[r : r + rows])))
+            a += rows * cols
+            r += rows
+        if len(self.ij) != len(self.lp) or self.ex_starts.size != len(self.lp) + 1:
+            raise ModelError("lookup tables", "one (i, j) pair and one row range per piece",
+                             f"{len(self.ij)} pairs, {self.ex_starts.size - 1} ranges, {len(self.lp)} pieces")
+        self._start_counters()
+        return self
 
     @classmethod
     def empty(cls, n: int) -> "_PairPieces":

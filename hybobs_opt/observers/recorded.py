@@ -98,10 +98,11 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
     if analysis is not None and analysis.T != horizon:
         raise ModelError("horizon", f"the horizon of the saved analysis, T = {analysis.T}", repr(horizon))
     if "lookup" in kinds and analysis is None:
-        from ..regions import analyse_observability
+        from ..cache import cached_analysis
+        from ..progress import PhaseProgress
 
-        analysis = analyse_observability(system, horizon, progress=None if progress is None else
-                                         (lambda d, t: progress("Algorithm 3.1", "region", d, t)))
+        analysis = cached_analysis(system, horizon, progress=None if progress is None else
+                                   PhaseProgress(lambda phase, unit, d, t: progress(f"Algorithm 3.1: {phase}", unit, d, t)))
     out = {}
     for kind in kinds:
         obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress,

@@ -259,7 +259,8 @@ def enumerate_modes(
         Where the subtrees run (:mod:`hybobs_opt.executor`); serial by default.  Every executor
         returns the same regions in the same (lexicographic) order.
     progress : callable, optional
-        ``progress(done, total)`` over subtrees.
+        ``progress(done, total)`` over the subtrees below the feasible prefixes (of length 2,
+        or more with parallel workers; the whole tree is one subtree when ``T <= 2``).
 
     Returns
     -------
@@ -278,7 +279,11 @@ def enumerate_modes(
         depth = 1
         while depth < T - 1 and system.n_modes ** depth < 4 * executor.n_workers:
             depth += 1
+    elif progress is not None and T > 2:
+        depth = 2  # a few subtrees to report progress over (the same tests, the same order)
     prefixes, tested = _feasible_prefixes(system, T, depth) if depth else ([()], 0)
+    if progress is not None:
+        progress(0, len(prefixes))
     lps_here = COUNTERS.total - start
     results = executor.map(_subtree_task, [(system, T, p) for p in prefixes], progress=progress)
     regions: list[ModeRegion] = []

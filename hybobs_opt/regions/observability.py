@@ -613,17 +613,22 @@ def analyse_observability(
         Horizon (required when a system is given).
     executor : Executor, optional
         Serial by default; the pair tests are split by ``i`` (one task per region of ``I``).
-    progress : callable, optional
-        ``progress(done, total)``.
+    progress : callable or PhaseProgress, optional
+        ``progress(done, total)`` over the pair tests (the candidate pairs ``(i, j)``, ``i`` in
+        ``I``); a :class:`~hybobs_opt.progress.PhaseProgress` also follows the mode enumeration
+        (phase ``"mode enumeration"``, unit ``"prefix"``) and reports the pair tests as phase
+        ``"pair tests"``, unit ``"pair"``.
     """
     from ..executor import resolve_executor
+    from ..progress import phase_callback
     from ..systems.pwa import PWASystem
 
     executor = resolve_executor(executor)
     if isinstance(system_or_enum, PWASystem):
         if T is None:
             raise ModelError("T", "a horizon when a PWASystem is given", "None")
-        enum = enumerate_modes(system_or_enum, T, executor=executor)
+        enum = enumerate_modes(system_or_enum, T, executor=executor,
+                               progress=phase_callback(progress, "mode enumeration", "prefix", main=False))
     elif isinstance(system_or_enum, ModeEnumeration):
         enum = system_or_enum
     else:
@@ -642,10 +647,18 @@ def analyse_observability(
     # while a bytes object costs one copy.
     payload = pickle.dumps(enum, protocol=pickle.HIGHEST_PROTOCOL) if parallel else enum
     tasks = [(payload, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
+    pair_progress = phase_callback(progress, "pair tests", "pair")
+    n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
+    if pair_progress is not None:
+        pair_progress(0, n_candidates)
     if parallel:
-        results = executor.map(_pairs_task, tasks, progress=progress)
+        per_task = [len(t[2]) * len(enum.regions) for t in tasks]
+        results = executor.map(_pairs_task, tasks, progress=None if pair_progress is None else
+                               (lambda done, total: pair_progress(sum(per_task[:done]), n_candidates)))
     else:  # one task in this process: report progress per region of I
-        results = [_pairs_task(t, progress) for t in tasks]
+        results = [_pairs_task(t, None if pair_progress is None else
+                               (lambda done, total: pair_progress(done * len(enum.regions), n_candidates)))
+                   for t in tasks]
     pairs: list = []
     n_lps = tested = skipped = 0
     thin: list = []

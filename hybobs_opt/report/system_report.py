@@ -37,6 +37,12 @@ def _table(rows: list[tuple[str, Any]]) -> str:
     return "<table>" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows) + "</table>"
 
 
+def system_report_keys(system, data: str | None = None) -> list[str]:
+    """The keys of the sections :func:`build_system_report` builds for ``system``, in order."""
+    kind = type(system).__name__
+    return [k for k in SECTIONS_BY_CLASS.get(kind, ("model", "simulation")) if k != "observers" or data]
+
+
 def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int = 2, data: str | None = None,
                         progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Build ``out_dir/index.html`` for ``system`` (named ``label``); returns what :func:`assemble_report` does.
@@ -44,8 +50,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
     ``horizon`` is the observation horizon of the PWA sections; ``data`` a CSV log
     (:func:`hybobs_opt.sim.log.read_log`) for the observers section (skipped without one).
     """
-    kind = type(system).__name__
-    keys = [k for k in SECTIONS_BY_CLASS.get(kind, ("model", "simulation")) if k != "observers" or data]
+    keys = system_report_keys(system, data)
     slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(label).name)
     shared: dict[str, Any] = {}
 

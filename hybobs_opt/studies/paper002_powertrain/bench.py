@@ -50,9 +50,11 @@ def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, p
                 progress: Callable[[int, int], None] | None = None):
     """The plant, its regions analysis and the (noisy) trace of the paper's scenario.
 
-    ``progress(done, total)`` follows Algorithm 3.1 (per region of ``I``).
+    ``progress`` (a ``(done, total)`` callable or a :class:`~hybobs_opt.progress.PhaseProgress`)
+    follows Algorithm 3.1 (:func:`~hybobs_opt.regions.analyse_observability`); the analysis comes
+    from the active cache when there is one (:mod:`hybobs_opt.cache`).
     """
-    from hybobs_opt.regions import analyse_observability
+    from hybobs_opt.cache import cached_analysis
     from hybobs_opt.studies import get_example
 
     from .systems import SCENARIO_TORQUES, backlash_scenario
@@ -68,7 +70,7 @@ def bench_trace(example: str, T: int, steps: int, noise: float, seed: int = 0, p
     plant = ex.build(**(params or {}))
     trace = backlash_scenario(plant, SCENARIO_TORQUES[example], t_final=steps * plant.Ts)
     y = trace.y + (np.random.default_rng(seed).normal(0.0, noise, trace.y.shape) if noise > 0 else 0.0)
-    analysis = analyse_observability(plant, T, progress=progress)
+    analysis = cached_analysis(plant, T, progress=progress)
     return plant, trace, y, analysis
 
 
@@ -85,8 +87,12 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
     def phase(name: str, unit: str):
         return None if progress is None else (lambda done, total: progress(name, unit, done, total))
 
+    from hybobs_opt.progress import PhaseProgress
+
     t0 = time.perf_counter()
-    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed, params, progress=phase("Algorithm 3.1", "region"))
+    analysis_progress = None if progress is None else PhaseProgress(
+        lambda name, unit, done, total: progress(f"Algorithm 3.1: {name}", unit, done, total))
+    plant, trace, y, analysis = bench_trace(example, T, steps, noise, seed, params, progress=analysis_progress)
     analysis_s = time.perf_counter() - t0
     truly = true_window_observable(analysis, trace.q)
     _, labels = exact_window_labels(analysis, trace.x, progress=phase("exact labels", "state"))

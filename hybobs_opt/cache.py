@@ -1,0 +1,318 @@
+"""A cache of analyses and lookup tables, keyed by the system's fingerprint.
+
+Algorithm 3.1 of paper 002, the lookup observer's tables of ``B~_T`` and the exact labels of a
+scenario's windows depend only on the system, the horizon and the code that computed them, so the
+command line keeps them between runs: a second ``hybobs observe powertrain5`` loads them instead
+of solving the LPs again.  The library computes afresh unless a cache is made active
+(:func:`use_cache`); the CLI activates one unless ``--no-cache`` (or ``HYBOBS_NO_CACHE=1``) is given,
+and ``hybobs cache clear`` empties it.
+
+Where
+    ``$HYBOBS_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/hybobs_opt``, else
+    ``~/.cache/hybobs_opt`` (:func:`default_cache_dir`).
+Key
+    SHA-256 of the canonical JSON of the entry's kind, the system's fingerprint
+    (:func:`~hybobs_opt.systems.fingerprint.system_fingerprint`), its parameters (horizon, the
+    tolerances, a digest of the inputs), the package version and a digest of the package's
+    source files (:func:`code_digest`): an edited checkout never reads an entry an older code
+    wrote.
+Entries
+    An analysis is a sealed regions file (:func:`~hybobs_opt.regions.save_analysis`), read back
+    by :func:`~hybobs_opt.regions.load_analysis`, which checks its checksum, its fingerprint
+    against the system and its content against the mode sequences.  Arrays are an ``.npz``
+    (read with ``allow_pickle=False``) holding the key and a SHA-256 of every array.
+Failures
+    An entry that is unreadable, corrupted or for another key is refused and recomputed (and
+    rewritten); a directory that cannot be written is reported once and the run goes on without
+    caching.  A cache never changes an answer, only how long it takes.
+
+Every lookup, store and refusal is an event (:attr:`ResultCache.events`) passed to ``log`` (the
+CLI prints it on stderr, and lists the events under ``"cache"`` in its ``--json`` summary).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+import zipfile
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ModelError
+
+#: Environment variable naming the cache directory.
+CACHE_DIR_ENV = "HYBOBS_CACHE_DIR"
+#: Environment variable that switches the CLI's cache off (``1``, ``true``, ``yes``), like ``--no-cache``.
+NO_CACHE_ENV = "HYBOBS_NO_CACHE"
+#: Layout version of the entries (part of every key).
+CACHE_FORMAT = 1
+
+__all__ = ["CACHE_DIR_ENV", "NO_CACHE_ENV", "ResultCache", "active_cache", "analysis_key_parts", "cached_analysis", "code_digest",
+           "default_cache_dir", "use_cache"]
+
+
+def default_cache_dir() -> Path:
+    """``$HYBOBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybobs_opt``, else ``~/.cache/hybobs_opt``."""
+    if os.environ.get(CACHE_DIR_ENV):
+        return Path(os.environ[CACHE_DIR_ENV]).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "hybobs_opt"
+
+
+@lru_cache(maxsize=1)
+def code_digest() -> str:
+    """SHA-256 over the package's Python sources (path and content), computed once per process."""
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        h.update(str(path.relative_to(root)).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def _array_digest(arrays: Mapping[str, np.ndarray]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+class ResultCache:
+    """A directory of cached results (see the module docstring).
+
+    Parameters
+    ----------
+    directory : path-like, optional
+        Where the entries live (default :func:`default_cache_dir`).  Created when the first
+        entry is written.
+    log : callable, optional
+        ``log(message)`` for every event (a hit, a store, a refused entry, an unwritable
+        directory).
+
+    Attributes
+    ----------
+    events : list of dict
+        One record per event: ``kind``, ``what``, ``outcome`` (``"hit"``, ``"stored"``,
+        ``"refused"``, ``"not stored"``), ``path``, ``seconds`` and, when refused, ``reason``.
+    """
+
+    def __init__(self, directory: str | os.PathLike | None = None, log: Callable[[str], None] | None = None):
+        if log is not None and not callable(log):
+            raise ModelError("log", "None or a callable log(message)", type(log).__name__)
+        self.directory = Path(directory).expanduser() if directory is not None else default_cache_dir()
+        self.log = log
+        self.events: list[dict[str, Any]] = []
+        self._unwritable = False
+
+    # ------------------------------------------------------------------ keys and events
+    def key(self, kind: str, parts: Mapping[str, Any]) -> str:
+        """SHA-256 of ``kind``, ``parts``, the package version and :func:`code_digest`."""
+        from . import __version__
+
+        body = {"kind": kind, "parts": dict(parts), "version": __version__, "code": code_digest(), "format": CACHE_FORMAT}
+        return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":"), default=str).encode()).hexdigest()
+
+    def path(self, kind: str, key: str, suffix: str) -> Path:
+        """The file of the entry ``kind``/``key``."""
+        return self.directory / f"{kind}-{key[:32]}{suffix}"
+
+    def _event(self, kind: str, what: str, outcome: str, path: Path, seconds: float, reason: str | None = None) -> None:
+        record = {"kind": kind, "what": what, "outcome": outcome, "path": str(path), "seconds": round(seconds, 4)}
+        if reason:
+            record["reason"] = reason
+        self.events.append(record)
+        if self.log is not None:
+            verb = {"hit": "loaded from the cache", "stored": "computed and stored in the cache",
+                    "refused": "cache entry refused, recomputed", "not stored": "computed (cache not writable)"}[outcome]
+            tail = f": {reason}" if reason else ""
+            self.log(f"{what}: {verb} ({path}, {seconds:.2f} s){tail}")
+
+    def _writable(self) -> bool:
+        if self._unwritable:
+            return False
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            probe = self.directory / f".write-test-{os.getpid()}"
+            probe.write_bytes(b"")
+            probe.unlink()
+            return True
+        except OSError as exc:
+            self._unwritable = True
+            if self.log is not None:
+                self.log(f"cache directory {self.directory} is not writable ({exc.strerror or exc}); "
+                         f"running without a cache (set {CACHE_DIR_ENV} or pass --no-cache)")
+            return False
+
+    def _replace(self, tmp: Path, path: Path) -> None:
+        os.replace(tmp, path)  # atomic: a reader sees the old entry or the whole new one
+
+    # ------------------------------------------------------------------ analyses
+    def analysis(self, system, T: int, compute: Callable[[], Any], what: str | None = None):
+        """The analysis of ``system`` at horizon ``T``: loaded from the cache, else ``compute()`` and stored."""
+        from .regions.io import load_analysis, save_analysis
+        from .systems.fingerprint import system_fingerprint
+
+        what = what or f"observability analysis of {system.name!r} (T = {T})"
+        key = self.key("analysis", {"fingerprint": system_fingerprint(system), "T": int(T)})
+        path = self.path("analysis", key, ".json")
+        t0 = time.perf_counter()
+        reason = None
+        if path.exists():
+            try:
+                analysis = load_analysis(path, system=system)
+                if analysis.T != T:
+                    raise ModelError(str(path), f"an analysis with T = {T}", f"T = {analysis.T}")
+                self._event("analysis", what, "hit", path, time.perf_counter() - t0)
+                return analysis
+            except (ModelError, OSError) as exc:
+                reason = str(exc)
+        analysis = compute()
+        if self._writable():
+            tmp = path.with_name(path.name + f".tmp{os.getpid()}")
+            try:
+                save_analysis(analysis, tmp)
+                self._replace(tmp, path)
+            except OSError as exc:
+                tmp.unlink(missing_ok=True)
+                self._event("analysis", what, "not stored", path, time.perf_counter() - t0, str(exc))
+                return analysis
+            self._event("analysis", what, "refused" if reason else "stored", path, time.perf_counter() - t0, reason)
+        else:
+            self._event("analysis", what, "not stored", path, time.perf_counter() - t0, reason)
+        return analysis
+
+    # ------------------------------------------------------------------ arrays
+    def arrays(self, kind: str, parts: Mapping[str, Any], compute: Callable[[], Mapping[str, np.ndarray]],
+               what: str) -> dict[str, np.ndarray]:
+        """Named arrays for ``kind``/``parts``: loaded from the cache, else ``compute()`` and stored.
+
+        ``compute`` returns a mapping of names (not starting with ``__``) to numeric or string
+        arrays (no objects: entries are read with ``allow_pickle=False``).
+        """
+        key = self.key(kind, parts)
+        path = self.path(kind, key, ".npz")
+        t0 = time.perf_counter()
+        reason = None
+        if path.exists():
+            try:
+                out = self._read_arrays(path, key)
+                self._event(kind, what, "hit", path, time.perf_counter() - t0)
+                return out
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+                reason = f"{type(exc).__name__}: {exc}"
+        arrays = {name: np.asarray(a) for name, a in compute().items()}
+        if any(name.startswith("__") for name in arrays) or any(a.dtype == object for a in arrays.values()):
+            raise ModelError(f"cache entry {kind}", "arrays of numbers or strings under names without a leading '__'",
+                             sorted(arrays))
+        if not self._writable():
+            self._event(kind, what, "not stored", path, time.perf_counter() - t0, reason)
+            return arrays
+        tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
+        try:
+            np.savez_compressed(tmp, __key__=np.array(key), __digest__=np.array(_array_digest(arrays)), **arrays)
+            self._replace(tmp, path)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            self._event(kind, what, "not stored", path, time.perf_counter() - t0, str(exc))
+            return arrays
+        self._event(kind, what, "refused" if reason else "stored", path, time.perf_counter() - t0, reason)
+        return arrays
+
+    @staticmethod
+    def _read_arrays(path: Path, key: str) -> dict[str, np.ndarray]:
+        with np.load(path, allow_pickle=False) as data:
+            out = {name: data[name] for name in data.files}
+        if str(out.pop("__key__", "")) != key:
+            raise ValueError("the entry was written for another key")
+        digest = str(out.pop("__digest__", ""))
+        if digest != _array_digest(out):
+            raise ValueError("the arrays do not match their SHA-256 (a corrupted entry)")
+        return out
+
+    # ------------------------------------------------------------------ housekeeping
+    def entries(self) -> list[dict[str, Any]]:
+        """The entries on disk: ``name``, ``kind``, ``bytes``, ``modified`` (POSIX time), sorted by name."""
+        if not self.directory.is_dir():
+            return []
+        out = []
+        for path in sorted(self.directory.iterdir()):
+            if path.is_file() and path.suffix in (".json", ".npz") and ".tmp" not in path.name:
+                st = path.stat()
+                out.append({"name": path.name, "kind": path.name.rsplit("-", 1)[0], "bytes": st.st_size,
+                            "modified": st.st_mtime})
+        return out
+
+    def clear(self) -> tuple[int, int]:
+        """Delete every entry (and stale temporary files); returns ``(files, bytes)`` removed."""
+        if not self.directory.is_dir():
+            return 0, 0
+        files = size = 0
+        for path in self.directory.iterdir():
+            if path.is_file() and (path.suffix in (".json", ".npz") or ".tmp" in path.name):
+                size += path.stat().st_size
+                path.unlink()
+                files += 1
+        return files, size
+
+
+_ACTIVE: ContextVar[ResultCache | None] = ContextVar("hybobs_opt_active_cache", default=None)
+
+
+@contextmanager
+def use_cache(cache: ResultCache | None) -> Iterator[ResultCache | None]:
+    """Make ``cache`` the active cache inside the ``with`` block (``None``: no cache)."""
+    if cache is not None and not isinstance(cache, ResultCache):
+        raise ModelError("cache", "a ResultCache or None", type(cache).__name__)
+    token = _ACTIVE.set(cache)
+    try:
+        yield cache
+    finally:
+        _ACTIVE.reset(token)
+
+
+def active_cache() -> ResultCache | None:
+    """The cache made active by :func:`use_cache`, or ``None`` (compute everything afresh)."""
+    return _ACTIVE.get()
+
+
+def analysis_key_parts(analysis) -> dict[str, Any]:
+    """Key parts of a result derived from ``analysis``: the system's fingerprint, ``T`` and a
+    digest of the regions' mode sequences, the index set and the pair sets."""
+    from .systems.fingerprint import sha256_of, system_fingerprint
+
+    return {"fingerprint": system_fingerprint(analysis.system), "T": int(analysis.T),
+            "analysis": sha256_of({"sequences": [list(r.sequence) for r in analysis.regions],
+                                   "full_rank": [bool(v) for v in analysis.full_rank],
+                                   "pairs": [[int(p.i), int(p.j)] for p in analysis.pairs]})}
+
+
+def cached_analysis(system, T: int, *, executor=None, progress=None):
+    """:func:`~hybobs_opt.regions.analyse_observability` of ``system`` at ``T``, through the active cache.
+
+    Without an active cache this is ``analyse_observability(system, T, executor=executor,
+    progress=progress)``; with one, a stored analysis of the same system (same fingerprint),
+    horizon and code is loaded and checked instead.
+    """
+    from .regions import analyse_observability
+
+    def compute():
+        return analyse_observability(system, T, executor=executor, progress=progress)
+
+    from .regions.enumeration import check_horizon
+    from .systems.pwa import PWASystem
+
+    cache = active_cache()
+    if cache is None or not isinstance(system, PWASystem):
+        return compute()  # (analyse_observability refuses what is not a PWASystem)
+    check_horizon(system, T)  # before the key is computed from it
+    return cache.analysis(system, T, compute)
