@@ -36,6 +36,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """``hybobs diagnose``: verdict, certificate and report for one range."""
     from ..lmi.diagnose import diagnose
+    from ..lmi.solve import counting_solves
+    from ..progress import counter_bar
     from ..report.lmi_section import write_diagnosis_report
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
@@ -44,18 +46,23 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         raise ModelError("--out-dir", "a directory (it receives the Markdown and HTML reports)", f"{str(out_dir)!r}, an existing file")
     named, preset, settings = design_setup(args)
     system = named.system
-    if preset is not None:
-        lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.diagnose_range
-        coordinate, unit = preset.coordinate, preset.unit
-        diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
-                        factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
-                        overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
-                        scaling=scaling_for(preset, system))
-    else:
-        lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
-        diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
-                        min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
-                        scaling=settings.scaling, condition=settings.condition)
+    update, close = counter_bar(not args.json, "LMI solves", "solve")
+    try:
+        with counting_solves(None if update is None else (lambda n: update(n, None))):
+            if preset is not None:
+                lo, hi = parse_range(args.range, preset, system.state_names, system) if args.range else preset.diagnose_range
+                coordinate, unit = preset.coordinate, preset.unit
+                diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
+                                factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
+                                overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
+                                scaling=scaling_for(preset, system))
+            else:
+                lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
+                diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
+                                min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
+                                scaling=settings.scaling, condition=settings.condition)
+    finally:
+        close()
     paths = None if out_dir is None else write_diagnosis_report(diag, out_dir, file_slug(named.label))
     out = diag.to_dict()
     out["example"] = named.label

@@ -62,6 +62,7 @@ LONG_COMMANDS = {
     "bench": (["bench", "powertrain3", "--observers", "lookup,miqp", "--mhe-steps", "40", "--no-cache"],
               [("lookup (batch)", "step"), ("miqp", "step")]),
     "synth": (["synth", "magnetic_piston", "--out", "gains.json"], [("LMI solves", "solve")]),
+    "diagnose": (["diagnose", "vehicle_tracking"], [("LMI solves", "solve")]),
     "report": (["report", "--section", "regions", "--out-dir", "rep"], [("report", "section")]),
 }
 
