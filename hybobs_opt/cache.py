@@ -158,7 +158,18 @@ class ResultCache:
 
     # ------------------------------------------------------------------ analyses
     def analysis(self, system, T: int, compute: Callable[[], Any], what: str | None = None):
-        """The analysis of ``system`` at horizon ``T``: loaded from the cache, else ``compute()`` and stored."""
+        """The analysis of ``system`` at horizon ``T``: loaded from the cache, else ``compute()`` and stored.
+
+        Parameters
+        ----------
+        system : PWASystem
+        T : int
+        compute : callable
+            ``compute()`` returns the :class:`~hybobs_opt.regions.ObservabilityAnalysis` (on a
+            miss, or when the entry is refused).
+        what : str, optional
+            What the events call the entry (default: the system's name and ``T``).
+        """
         from .regions.io import load_analysis, save_analysis
         from .systems.fingerprint import system_fingerprint
 
@@ -196,8 +207,17 @@ class ResultCache:
                what: str) -> dict[str, np.ndarray]:
         """Named arrays for ``kind``/``parts``: loaded from the cache, else ``compute()`` and stored.
 
-        ``compute`` returns a mapping of names (not starting with ``__``) to numeric or string
-        arrays (no objects: entries are read with ``allow_pickle=False``).
+        Parameters
+        ----------
+        kind : str
+            The kind of entry (the file name's prefix, ``"lookup-pieces"``).
+        parts : mapping
+            What the entry depends on besides the code (JSON-serialisable; part of the key).
+        compute : callable
+            ``compute()`` returns a mapping of names (not starting with ``__``) to numeric or
+            string arrays (no objects: entries are read with ``allow_pickle=False``).
+        what : str
+            What the events call the entry.
         """
         key = self.key(kind, parts)
         path = self.path(kind, key, ".npz")
@@ -270,7 +290,14 @@ _ACTIVE: ContextVar[ResultCache | None] = ContextVar("hybobs_opt_active_cache", 
 
 @contextmanager
 def use_cache(cache: ResultCache | None) -> Iterator[ResultCache | None]:
-    """Make ``cache`` the active cache inside the ``with`` block (``None``: no cache)."""
+    """Make ``cache`` the active cache inside the ``with`` block.
+
+    Parameters
+    ----------
+    cache : ResultCache or None
+        The cache that :func:`cached_analysis`, the lookup observer's tables and the exact window
+        labels read and write inside the block; ``None`` switches caching off there.
+    """
     if cache is not None and not isinstance(cache, ResultCache):
         raise ModelError("cache", "a ResultCache or None", type(cache).__name__)
     token = _ACTIVE.set(cache)
@@ -302,6 +329,20 @@ def cached_analysis(system, T: int, *, executor=None, progress=None):
     Without an active cache this is ``analyse_observability(system, T, executor=executor,
     progress=progress)``; with one, a stored analysis of the same system (same fingerprint),
     horizon and code is loaded and checked instead.
+
+    Parameters
+    ----------
+    system : PWASystem
+    T : int
+        Horizon (``T p >= n``, eq. 8 of paper 002).
+    executor : Executor, optional
+        Where the LPs run when the analysis is computed.
+    progress : callable or PhaseProgress, optional
+        As for :func:`~hybobs_opt.regions.analyse_observability` (not called on a hit).
+
+    Returns
+    -------
+    ObservabilityAnalysis
     """
     from .regions import analyse_observability
 
