@@ -109,9 +109,23 @@ class SwitchingFunction:
     thresholds: tuple[float, ...]
 
     def of_x(self, x) -> float:
+        """``sigma(x) = x_row . x``.
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            Original state.
+        """
         return float(self.x_row @ np.asarray(x, dtype=float))
 
     def of_z(self, z) -> float:
+        """``sigma(z) = z_row . z + z_offset``.
+
+        Parameters
+        ----------
+        z : (n,) array_like
+            Canonical state.
+        """
         return float(self.z_row @ np.asarray(z, dtype=float) + self.z_offset)
 
 
@@ -185,16 +199,36 @@ class ObservabilityForm:
         return bool(np.array_equal(self.T, np.eye(self.n)) and not np.any(self.d))
 
     def to_z(self, x) -> np.ndarray:
-        """``z = T x + d`` for one state ``(n,)`` or many ``(N, n)``."""
+        """``z = T x + d`` for one state ``(n,)`` or many ``(N, n)``.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            Original state(s).
+        """
         return np.asarray(x, dtype=float) @ self.T.T + self.d
 
     def to_x(self, z) -> np.ndarray:
-        """``x = T_inv (z - d)`` for one state ``(n,)`` or many ``(N, n)``."""
+        """``x = T_inv (z - d)`` for one state ``(n,)`` or many ``(N, n)``.
+
+        Parameters
+        ----------
+        z : (n,) or (N, n) array_like
+            Canonical state(s).
+        """
         return (np.asarray(z, dtype=float) - self.d) @ self.T_inv.T
 
     # ------------------------------------------------------------------ dynamics in z
     def f(self, q: int, z) -> float:
-        """``z_n' = f_q(z)``, the last line of form (4) in location ``q``."""
+        """``z_n' = f_q(z)``, the last line of form (4) in location ``q``.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        z : (n,) array_like
+            Canonical state.
+        """
         z = np.asarray(z, dtype=float)
         if self.alpha is not None:
             return float(self.alpha[q] @ z + self.beta[q])
@@ -206,6 +240,16 @@ class ObservabilityForm:
 
         Total: a point outside every invariant (an estimate in a gap between regions) gets the
         location it violates least, so the runtime observer never raises here.
+
+        Parameters
+        ----------
+        z : (n,) array_like
+            Canonical state.
+
+        Returns
+        -------
+        int
+            0-based location index.
         """
         v = self.invariant_G @ np.asarray(z, dtype=float) - self.invariant_g
         best, best_v = 0, np.inf
@@ -219,7 +263,18 @@ class ObservabilityForm:
         return best
 
     def modes_of(self, Z) -> np.ndarray:
-        """:meth:`mode_of` for every row of ``Z`` ``(N, n)`` (vectorised)."""
+        """:meth:`mode_of` for every row of ``Z`` ``(N, n)`` (vectorised).
+
+        Parameters
+        ----------
+        Z : (N, n) array_like
+            Canonical states, one per row (a single ``(n,)`` state is taken as one row).
+
+        Returns
+        -------
+        (N,) int ndarray
+            0-based location index of each row.
+        """
         Z = np.atleast_2d(np.asarray(Z, dtype=float))
         V = Z @ self.invariant_G.T - self.invariant_g
         L = len(self.invariant_starts) - 1
@@ -233,7 +288,13 @@ class ObservabilityForm:
         return np.where(inside.any(axis=1), first, np.argmin(worst, axis=1))
 
     def sigma(self, z) -> np.ndarray:
-        """Values of every switching function at ``z`` (``(k,)``, or ``(N, k)`` for ``(N, n)``)."""
+        """Values of every switching function at ``z`` (``(k,)``, or ``(N, k)`` for ``(N, n)``).
+
+        Parameters
+        ----------
+        z : (n,) or (N, n) array_like
+            Canonical state(s).
+        """
         z = np.asarray(z, dtype=float)
         rows = np.array([s.z_row for s in self.switching]).reshape(-1, self.n)
         offs = np.array([s.z_offset for s in self.switching])
@@ -264,7 +325,20 @@ class ObservabilityForm:
 
 # ---------------------------------------------------------------------------------- helpers
 def observability_matrix(A, C) -> np.ndarray:
-    """``[C; C A; ...; C A^{n-1}]`` (the codistribution of Assumption 1b, paper 001, for linear flows)."""
+    """``[C; C A; ...; C A^{n-1}]`` (the codistribution of Assumption 1b, paper 001, for linear flows).
+
+    Parameters
+    ----------
+    A : (n, n) array_like
+        State matrix.
+    C : (p, n) or (n,) array_like
+        Output matrix (a vector is one output row).
+
+    Returns
+    -------
+    (n p, n) ndarray
+        The blocks ``C A^k``, ``k = 0 ... n-1``, stacked.
+    """
     A = np.asarray(A, dtype=float)
     C = np.atleast_2d(np.asarray(C, dtype=float))
     rows, R = [], C
@@ -309,6 +383,16 @@ def location_transforms(automaton: HybridAutomaton) -> tuple[LocationTransform, 
 
     This is the transformation that is "computed and reported" when the locations do not share
     one set of coordinates: each ``(T_q, d_q)`` puts location ``q`` alone in form (2)/(3).
+
+    Parameters
+    ----------
+    automaton : HybridAutomaton
+        Model with affine, input-free locations and one common affine output ``y = C x + c``.
+
+    Returns
+    -------
+    tuple of LocationTransform
+        One per location, in location order.
 
     Raises
     ------
@@ -614,6 +698,13 @@ def theorem1(automaton: HybridAutomaton, i: int, j: int) -> Theorem1Result:
       (``R^n`` when both locations share the coordinates).
     - ``L = {x : A_i x + E_i = 0 = A_j x + E_j}``, and whether every ``sigma`` is constant on it.
 
+    Parameters
+    ----------
+    automaton : HybridAutomaton
+        Model with affine, input-free locations and one common affine output.
+    i, j : int
+        0-based indices of the two locations.
+
     Raises
     ------
     ModelError
@@ -677,7 +768,14 @@ def theorem1(automaton: HybridAutomaton, i: int, j: int) -> Theorem1Result:
 
 
 def theorem1_pairs(automaton: HybridAutomaton) -> list[Theorem1Result]:
-    """:func:`theorem1` for every pair of locations joined by an edge of the location graph."""
+    """:func:`theorem1` for every pair of locations joined by an edge of the location graph.
+
+    Parameters
+    ----------
+    automaton : HybridAutomaton
+        Model with affine locations; without edges between distinct locations every pair of
+        locations is evaluated.
+    """
     pairs = sorted({tuple(sorted((e.source, e.target))) for e in automaton.edges if e.source != e.target})
     if not pairs:
         pairs = list(combinations(range(automaton.n_locations), 2))

@@ -251,17 +251,35 @@ class ConstantDriftSystem(ModelDictMixin):
 
     # ------------------------------------------------------------------ discrete structure
     def successor(self, q: int) -> int:
-        """Cyclic successor ``sigma(q) = 1 + (q mod Q)``; implements eq. (1) of paper 003."""
+        """Cyclic successor ``sigma(q) = 1 + (q mod Q)``; implements eq. (1) of paper 003.
+
+        Parameters
+        ----------
+        q : int
+            Mode number in ``1..Q``.
+        """
         self._check_mode(q, "q")
         return 1 + (q % self.n_modes)
 
     def predecessor(self, q: int) -> int:
-        """Inverse of :meth:`successor`, ``sigma^{-1}(q)``."""
+        """Inverse of :meth:`successor`, ``sigma^{-1}(q)``.
+
+        Parameters
+        ----------
+        q : int
+            Mode number in ``1..Q``.
+        """
         self._check_mode(q, "q")
         return self.n_modes if q == 1 else q - 1
 
     def output(self, q: int) -> int:
-        """Output ``y = h_q`` of mode ``q`` (eq. 3a): ``q`` if visible, else 0."""
+        """Output ``y = h_q`` of mode ``q`` (eq. 3a): ``q`` if visible, else 0.
+
+        Parameters
+        ----------
+        q : int
+            Mode number in ``1..Q``.
+        """
         self._check_mode(q, "q")
         return int(self.h[q - 1])
 
@@ -279,12 +297,24 @@ class ConstantDriftSystem(ModelDictMixin):
         return tuple(sorted(self._v))
 
     def is_visible_event(self, q: int) -> bool:
-        """Whether the event leaving mode ``q`` is visible (``q`` in ``V``, Section 2.4)."""
+        """Whether the event leaving mode ``q`` is visible (``q`` in ``V``, Section 2.4).
+
+        Parameters
+        ----------
+        q : int
+            Mode number in ``1..Q``.
+        """
         self._check_mode(q, "q")
         return q in self._v
 
     def is_timer_mode(self, q: int) -> bool:
-        """Whether mode ``q`` is ended by the timer ``x0`` (a setup mode, ``k_q = 1``)."""
+        """Whether mode ``q`` is ended by the timer ``x0`` (a setup mode, ``k_q = 1``).
+
+        Parameters
+        ----------
+        q : int
+            Mode number in ``1..Q``.
+        """
         self._check_mode(q, "q")
         return int(self.trigger[q - 1]) == 0
 
@@ -296,6 +326,22 @@ class ConstantDriftSystem(ModelDictMixin):
         must lie in the flow set of mode ``q`` (eq. 3a), and, if ``q`` is not a timer mode, must
         have ``x0 = 0``: in such a mode ``x0`` has slope 0 (Assumption 2.2) and Lemma 2.7 needs it
         to be 0 there, otherwise the next setup would last longer than ``alpha`` (Lemma 2.8).
+
+        Parameters
+        ----------
+        x : (N+1,) array_like
+            State ``(x0, x1, ..., xN)``: timer first, then the buffers.
+        q : int
+            Mode number in ``1..Q``.
+        field_name : str, default "x"
+            Name of ``x`` in the :class:`ModelError` raised on a bad state.
+        mode_field : str, default "q"
+            Name of ``q`` in the :class:`ModelError` raised on a bad mode.
+
+        Raises
+        ------
+        ModelError
+            If ``q`` is not a mode number or ``x`` breaks one of the conditions above.
         """
         self._check_mode(q, mode_field)
         arr = as_vector(x, field_name, self.n_states)
@@ -317,6 +363,13 @@ class ConstantDriftSystem(ModelDictMixin):
         """Time left in mode ``q`` from state ``x``: ``x[k_q] / (-f_q[k_q])`` (flow of eq. 3a).
 
         For a timer mode entered at an event this is ``alpha`` of the preceding mode (Lemma 2.8).
+
+        Parameters
+        ----------
+        x : (N+1,) array_like
+            State in the flow set of mode ``q`` (checked by :meth:`validate_state`).
+        q : int
+            Mode number in ``1..Q``.
         """
         arr = self.validate_state(x, q)
         return self._dwell(arr, q)
@@ -325,6 +378,21 @@ class ConstantDriftSystem(ModelDictMixin):
         """State after flowing ``tau`` in mode ``q``: ``x + tau f_q`` (eq. 3a).
 
         ``tau`` must lie in ``[0, mode_duration(x, q)]`` (the flow set of mode ``q``).
+
+        Parameters
+        ----------
+        x : (N+1,) array_like
+            State in the flow set of mode ``q`` (checked by :meth:`validate_state`).
+        q : int
+            Mode number in ``1..Q``.
+        tau : float
+            Flow time, in ``[0, mode_duration(x, q)]``; at the upper end the trigger component is set
+            to exactly 0.
+
+        Raises
+        ------
+        ModelError
+            If ``tau`` lies outside ``[0, mode_duration(x, q)]`` or the state is invalid.
         """
         arr = self.validate_state(x, q)
         tau_arr = as_vector(tau, "tau", 1)
@@ -339,7 +407,22 @@ class ConstantDriftSystem(ModelDictMixin):
         return out
 
     def jump(self, x: ArrayLike, q: int) -> tuple[np.ndarray, int]:
-        """Jump map (3b): ``x+ = x + alpha_q e_1``, ``q+ = sigma(q)``; ``x`` must satisfy ``x[k_q] = 0``."""
+        """Jump map (3b): ``x+ = x + alpha_q e_1``, ``q+ = sigma(q)``; ``x`` must satisfy ``x[k_q] = 0``.
+
+        Parameters
+        ----------
+        x : (N+1,) array_like
+            Pre-jump state, in the jump set ``x[k_q] = 0`` of mode ``q``.
+        q : int
+            Mode number in ``1..Q`` before the jump.
+
+        Returns
+        -------
+        x_plus : (N+1,) ndarray
+            Post-jump state (read-only).
+        q_plus : int
+            Next mode ``sigma(q)``.
+        """
         arr = self.validate_state(x, q)
         k = int(self.trigger[q - 1])
         if arr[k] != 0:
@@ -350,6 +433,13 @@ class ConstantDriftSystem(ModelDictMixin):
 
     def next_event(self, x: ArrayLike, q: int) -> NextEvent:
         """Flow to and jump through the next event from ``(x, q)`` (eqs. 3a-3b).
+
+        Parameters
+        ----------
+        x : (N+1,) array_like
+            State in the flow set of mode ``q`` (checked by :meth:`validate_state`).
+        q : int
+            Current mode number in ``1..Q``.
 
         Returns
         -------

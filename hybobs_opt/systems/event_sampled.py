@@ -78,14 +78,44 @@ class EventMaps:
     c_bar: np.ndarray
 
     def step_all(self, x_minus: ArrayLike, q: int) -> tuple[np.ndarray, float]:
-        """``(x(t_{k+1}^-), t_{k+1} - t_k)`` from ``x(t_k^-)`` when mode ``q`` is left at ``t_k`` (eq. 11)."""
+        """``(x(t_{k+1}^-), t_{k+1} - t_k)`` from ``x(t_k^-)`` when mode ``q`` is left at ``t_k`` (eq. 11).
+
+        Parameters
+        ----------
+        x_minus : (N+1,) array_like
+            State ``x(t_k^-)`` just before the event (timer included).
+        q : int
+            Mode left at ``t_k``, in ``1..Q``.
+
+        Returns
+        -------
+        x_next : (N+1,) ndarray
+            ``A~_q x + a~_q``, the state just before the next event.
+        dt : float
+            ``C~_q x + c~_q``, the time to the next event.
+        """
         self.system._check_mode(q, "q")
         x = as_vector(x_minus, "x_minus", self.system.n_states)
         i = q - 1
         return self.A_tilde[i] @ x + self.a_tilde[i], float(self.C_tilde[i] @ x + self.c_tilde[i])
 
     def step_reduced(self, x_bar: ArrayLike, q: int) -> tuple[np.ndarray, float]:
-        """``(x-bar(t_{k+1}), t_{k+1} - t_k)`` from ``x-bar(t_k)`` when mode ``q`` is left at ``t_k`` (eq. 13)."""
+        """``(x-bar(t_{k+1}), t_{k+1} - t_k)`` from ``x-bar(t_k)`` when mode ``q`` is left at ``t_k`` (eq. 13).
+
+        Parameters
+        ----------
+        x_bar : (N,) array_like
+            Reduced state ``x-bar(t_k)`` (buffers only, no timer).
+        q : int
+            Mode left at ``t_k``, in ``1..Q``.
+
+        Returns
+        -------
+        x_next : (N,) ndarray
+            ``A-bar_q x + a-bar_q``.
+        dt : float
+            ``C-bar_q x + c-bar_q``, the time to the next event.
+        """
         self.system._check_mode(q, "q")
         x = as_vector(x_bar, "x_bar", self.system.n_buffers)
         i = q - 1
@@ -233,6 +263,11 @@ class PeriodicSystem:
     def phase_of(self, v: int) -> int:
         """Phase ``j`` (1-based) of the visible event that leaves mode ``v``.
 
+        Parameters
+        ----------
+        v : int
+            Mode number, one of :attr:`event_modes`.
+
         Raises
         ------
         ModelError
@@ -244,18 +279,48 @@ class PeriodicSystem:
             raise ModelError("v", f"a mode whose leaving event is visible, one of {self.event_modes}", repr(v)) from None
 
     def next_phase(self, j: int) -> int:
-        """``j + 1`` cyclically (``sigma_v`` of eq. 10 on phases)."""
+        """``j + 1`` cyclically (``sigma_v`` of eq. 10 on phases).
+
+        Parameters
+        ----------
+        j : int
+            Phase in ``1..V``.
+        """
         return 1 + (j % self.period)
 
     # ------------------------------------------------------------------ maps
     def step(self, j: int, x_bar: ArrayLike) -> tuple[np.ndarray, float]:
-        """One step of (14) in phase ``j``: ``(A_j x + a_j, C_j x + c_j)`` (state, time to next visible event)."""
+        """One step of (14) in phase ``j``: ``(A_j x + a_j, C_j x + c_j)`` (state, time to next visible event).
+
+        Parameters
+        ----------
+        j : int
+            Phase in ``1..V``.
+        x_bar : (N,) array_like
+            Reduced state at the visible event that starts phase ``j``.
+
+        Raises
+        ------
+        ModelError
+            If ``j`` is not a phase in ``1..V`` or ``x_bar`` has the wrong length.
+        """
         x = as_vector(x_bar, "x_bar", self.n)
         i = self._index(j)
         return self.A[i] @ x + self.a[i], float(self.C[i] @ x + self.c[i])
 
     def closed_loop(self, L: ArrayLike) -> np.ndarray:
-        """``A_j - L_j C_j`` for every phase (the error dynamics of observer (16)); ``L`` has shape (V, N)."""
+        """``A_j - L_j C_j`` for every phase (the error dynamics of observer (16)); ``L`` has shape (V, N).
+
+        Parameters
+        ----------
+        L : (V, N) array_like
+            Observer gains, ``L_j`` as row ``j - 1`` (checked by :meth:`check_gains`).
+
+        Returns
+        -------
+        (V, N, N) ndarray
+            ``A_j - L_j C_j`` stacked by phase.
+        """
         L = self.check_gains(L)
         return self.A - L[:, :, None] * self.C[:, None, :]
 
@@ -264,6 +329,13 @@ class PeriodicSystem:
 
         ``Phi = M_{start-1} ... M_{start+1} M_start`` (left multiplication, the paper's product
         convention) with ``M_j = A_j - L_j C_j``, or ``M_j = A_j`` when ``L`` is ``None``.
+
+        Parameters
+        ----------
+        L : (V, N) array_like, optional
+            Observer gains (one row per phase); ``None`` gives the open-loop product of the ``A_j``.
+        start : int, default 1
+            Phase (``1..V``) whose matrix is applied first.
         """
         M = self.A if L is None else self.closed_loop(L)
         i0 = self._index(start)
@@ -273,7 +345,17 @@ class PeriodicSystem:
         return out
 
     def transition(self, M: np.ndarray, start: int, steps: int) -> np.ndarray:
-        """``M_{start+steps-1} ... M_start`` for per-phase matrices ``M`` (shape (V, N, N))."""
+        """``M_{start+steps-1} ... M_start`` for per-phase matrices ``M`` (shape (V, N, N)).
+
+        Parameters
+        ----------
+        M : (V, N, N) ndarray
+            One matrix per phase, e.g. ``A`` or :meth:`closed_loop`.
+        start : int
+            Phase (``1..V``) whose matrix is applied first.
+        steps : int
+            Number of factors; phases wrap around cyclically (``steps = 0`` gives the identity).
+        """
         i0 = self._index(start)
         out = np.eye(self.n)
         for s in range(steps):
@@ -284,6 +366,18 @@ class PeriodicSystem:
         """Rows ``C_j, C_{j+1} A_j, ...`` of ``T`` consecutive event-time increments from phase ``start``.
 
         The window-start state is determined by ``T`` visible-event times iff this has rank ``N``.
+
+        Parameters
+        ----------
+        start : int
+            Phase (``1..V``) of the window's first visible event.
+        T : int
+            Number of consecutive event-time increments (rows).
+
+        Returns
+        -------
+        (T, N) ndarray
+            Row ``s`` is ``C_{j+s} A_{j+s-1} ... A_j`` with phases taken cyclically.
         """
         i0 = self._index(start)
         rows, P = [], np.eye(self.n)
@@ -294,7 +388,20 @@ class PeriodicSystem:
         return np.array(rows)
 
     def check_gains(self, L: ArrayLike, field: str = "L") -> np.ndarray:
-        """Return observer gains ``L`` as a (V, N) float array; one column ``L_j`` per phase as a row."""
+        """Return observer gains ``L`` as a (V, N) float array; one column ``L_j`` per phase as a row.
+
+        Parameters
+        ----------
+        L : (V, N) array_like
+            Gains to check: real, finite, one row per phase.
+        field : str, default "L"
+            Name of ``L`` in the :class:`ModelError` raised on bad gains.
+
+        Raises
+        ------
+        ModelError
+            If ``L`` is complex, non-finite or not of shape ``(V, N)``.
+        """
         arr = real_array(L, field, f"gains of shape ({self.period}, {self.n})")  # complex gains refused, not cast
         if arr.shape != (self.period, self.n):
             raise ModelError(field, f"gains of shape ({self.period}, {self.n}) (one L_j per phase)", f"shape {arr.shape}")
@@ -310,6 +417,21 @@ class PeriodicSystem:
 
 def visible_event_set(system: ConstantDriftSystem, visible_modes: Sequence[int] | None = None) -> tuple[tuple[int, ...], tuple[int, ...]]:
     """``(Q_v, V)`` of Section 2.4 for the system's outputs or for a chosen set of visible modes.
+
+    Parameters
+    ----------
+    system : ConstantDriftSystem
+        The system of eq. (3) of paper 003.
+    visible_modes : sequence of int, optional
+        Modes taken as visible (``Q_v``); ``None`` uses the system's outputs ``h_q``.
+
+    Returns
+    -------
+    Q_v : tuple of int
+        The visible modes, sorted.
+    V : tuple of int
+        The modes whose leaving event is visible, sorted: ``Q_v`` and the modes ``q`` with
+        ``sigma(q)`` in ``Q_v``.
 
     Raises
     ------

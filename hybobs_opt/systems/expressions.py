@@ -58,6 +58,15 @@ _COMPARE = {ast.Lt: lambda a, b: a < b, ast.LtE: lambda a, b: a <= b, ast.Gt: la
 def parse_expression(text: str, variables: dict[str, ca.SX], field: str) -> ca.SX:
     """The ``SX`` scalar written by ``text`` over ``variables`` (name -> SX symbol).
 
+    Parameters
+    ----------
+    text : str or float
+        The expression, e.g. ``"-cos(30*x2) + 0.4"``; a finite number is a constant.
+    variables : dict of str to casadi.SX
+        The names the expression may use and their symbols.
+    field : str
+        Name of the entry in error messages.
+
     Raises
     ------
     ModelError
@@ -172,6 +181,13 @@ _TEMPLATES = {
 
 def expression_text(expr: ca.SX, field: str) -> str:
     """``expr`` (an ``SX`` scalar) written in the language of :func:`parse_expression`.
+
+    Parameters
+    ----------
+    expr : casadi.SX
+        A scalar expression.
+    field : str
+        Name of the entry in error messages.
 
     Raises
     ------

@@ -56,6 +56,11 @@ def model_fingerprint(model: Mapping[str, Any]) -> str:
 def system_fingerprint(system: Any) -> str:
     """SHA-256 (hex) of the canonical JSON of ``system.to_dict()``.
 
+    Parameters
+    ----------
+    system : PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem
+        The system to fingerprint.
+
     Raises
     ------
     ModelError

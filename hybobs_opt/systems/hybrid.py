@@ -90,7 +90,23 @@ class Location:
             raise ModelError(f"{label}.D", "no D or c with a callable output (they belong to the affine output)", "a matrix")
 
     def validated(self, index: int, n: int, m: int, p: int, probe: tuple[np.ndarray, np.ndarray] | None = None) -> "Location":
-        """A copy checked against ``(n, m, p)``; callables are evaluated once at ``probe = (x, u)``."""
+        """A copy checked against ``(n, m, p)``; callables are evaluated once at ``probe = (x, u)``.
+
+        Parameters
+        ----------
+        index : int
+            Position of the location in the automaton (used in error messages).
+        n, m, p : int
+            Numbers of states, inputs and outputs of the automaton.
+        probe : (x, u) pair of arrays, optional
+            A point inside the invariant at which the callable flow / output are evaluated once to
+            check their shape; ``None`` skips that check.
+
+        Raises
+        ------
+        ModelError
+            If a matrix, the invariant's dimension or a callable's result has the wrong shape.
+        """
         f = f"locations[{index}] ({self.name})"
         if self.invariant.dim not in (n, n + m):
             raise ModelError(f"{f}.invariant", f"a Polytope over x (dim {n}) or over (x, u) (dim {n + m})",
@@ -302,7 +318,13 @@ class HybridAutomaton(ModelDictMixin):
         return tuple(loc.name for loc in self.locations)
 
     def successors(self, q: int) -> tuple[int, ...]:
-        """Locations reachable from ``q`` by one edge of the location graph."""
+        """Locations reachable from ``q`` by one edge of the location graph.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        """
         return tuple(e.target for e in self.edges if e.source == q)
 
     # ------------------------------------------------------------------ evaluation
@@ -315,20 +337,60 @@ class HybridAutomaton(ModelDictMixin):
         return u
 
     def in_invariant(self, q: int, x, u=None, rtol: float | None = None) -> bool:
-        """True when ``x`` (and ``u``) satisfy the invariant of location ``q``."""
+        """True when ``x`` (and ``u``) satisfy the invariant of location ``q``.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input, used when the invariant is over ``(x, u)``; ``None`` means zeros.
+        rtol : float, optional
+            Relative tolerance of the membership test; ``None`` uses :meth:`Polytope.contains`'s default.
+        """
         inv = self.locations[q].invariant
         z = np.asarray(x, dtype=float) if inv.dim == self.n else np.concatenate([np.asarray(x, dtype=float), self._u(u)])
         return bool(inv.contains(z) if rtol is None else inv.contains(z, rtol))
 
     def location_of(self, x, u=None) -> int:
-        """First location whose invariant contains ``x`` (and ``u``); raises ``ModelError`` if none."""
+        """First location whose invariant contains ``x`` (and ``u``); raises ``ModelError`` if none.
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input (``None`` means zeros).
+
+        Returns
+        -------
+        int
+            0-based location index.
+        """
         for q in range(self.n_locations):
             if self.in_invariant(q, x, u):
                 return q
         raise ModelError("x", "a state inside some location's invariant", f"{np.asarray(x).tolist()}")
 
     def flow(self, q: int, x, u=None) -> np.ndarray:
-        """Right-hand side ``dx/dt`` in location ``q``."""
+        """Right-hand side ``dx/dt`` in location ``q``.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input (``None`` means zeros).
+
+        Returns
+        -------
+        (n,) ndarray
+            ``A x + B u + E``, or ``flow(x, u)`` for a callable flow (checked finite).
+        """
         loc = self.locations[q]
         u = self._u(u)
         x = np.asarray(x, dtype=float)
@@ -339,7 +401,22 @@ class HybridAutomaton(ModelDictMixin):
         return dx
 
     def output(self, q: int, x, u=None) -> np.ndarray:
-        """Output ``y`` in location ``q``."""
+        """Output ``y`` in location ``q``.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input (``None`` means zeros).
+
+        Returns
+        -------
+        (p,) ndarray
+            ``C x + D u + c``, or ``output(x, u)`` for a callable output.
+        """
         loc = self.locations[q]
         u = self._u(u)
         x = np.asarray(x, dtype=float)
@@ -356,6 +433,11 @@ class HybridAutomaton(ModelDictMixin):
         guard of the resulting mode is the location's invariant (lifted to ``(x, u)``).  The
         location is frozen over a sample, as in the PWA models of paper 002: the map is exact for
         every sample whose trajectory does not cross a location boundary.
+
+        Parameters
+        ----------
+        Ts : float
+            Sampling period (positive, in the automaton's time unit).
 
         Raises
         ------

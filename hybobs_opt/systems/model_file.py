@@ -29,7 +29,19 @@ def is_model_path(text: str) -> bool:
 
 
 def read_model_dict(path: str | Path) -> dict[str, Any]:
-    """The raw dictionary in a model file (no system built)."""
+    """The raw dictionary in a model file (no system built).
+
+    Parameters
+    ----------
+    path : str or Path
+        Model file ending in ``.json``, ``.toml``, ``.yaml`` or ``.yml``.
+
+    Raises
+    ------
+    ModelError
+        On an unknown suffix, an unreadable or non-UTF-8 file, a parse error, or a top level that is
+        not a mapping.
+    """
     path = Path(path)
     kind = MODEL_SUFFIXES.get(path.suffix.lower())
     if kind is None:
@@ -63,6 +75,11 @@ def read_model_dict(path: str | Path) -> dict[str, Any]:
 def load_model(path: str | Path):
     """Build the system written in a model file.
 
+    Parameters
+    ----------
+    path : str or Path
+        Model file ending in ``.json``, ``.toml``, ``.yaml`` or ``.yml``.
+
     Raises
     ------
     ModelError
@@ -79,7 +96,20 @@ def load_model(path: str | Path):
 
 
 def save_model(system, path: str | Path) -> Path:
-    """Write ``system`` as a model file; the format follows the suffix (``.json``, ``.toml``, ``.yaml``)."""
+    """Write ``system`` as a model file; the format follows the suffix (``.json``, ``.toml``, ``.yaml``).
+
+    Parameters
+    ----------
+    system : PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem
+        The system to write (through its ``to_dict()``).
+    path : str or Path
+        Target file; its suffix picks the format (TOML and YAML need the ``models`` extra).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     kind = MODEL_SUFFIXES.get(path.suffix.lower())
     if kind is None:

@@ -61,7 +61,21 @@ class PWAMode:
             raise ModelError(f"{label}.guard", "a Polytope over (x, u)", type(self.guard).__name__)
 
     def validated(self, index: int, n: int, m: int, p: int) -> "PWAMode":
-        """Return a copy whose arrays are checked against ``(n, m, p)``; fields named ``modes[index].X``."""
+        """Return a copy whose arrays are checked against ``(n, m, p)``; fields named ``modes[index].X``.
+
+        Parameters
+        ----------
+        index : int
+            Position of the mode in the system (used in the field names of errors).
+        n, m, p : int
+            Numbers of states, inputs and outputs of the system.
+
+        Raises
+        ------
+        ModelError
+            If a matrix or the guard's dimension does not fit ``(n, m, p)``, or ``B`` is missing while
+            ``m > 0``.
+        """
         f = f"modes[{index}]"
         A = as_matrix(self.A, f"{f}.A", (n, n))
         if self.B is None or self.B.size == 0:
@@ -237,7 +251,20 @@ class PWASystem(ModelDictMixin):
         return np.concatenate([x, u], axis=-1)
 
     def modes_of(self, X: np.ndarray, U: np.ndarray | None = None) -> np.ndarray:
-        """Vectorised mode lookup: index of the first guard containing each row of ``[X U]``, ``-1`` if none."""
+        """Vectorised mode lookup: index of the first guard containing each row of ``[X U]``, ``-1`` if none.
+
+        Parameters
+        ----------
+        X : (N, n) array_like
+            States, one per row (a single ``(n,)`` state is one row).
+        U : (N, m) array_like, optional
+            Inputs, one per row; ``None`` for a system without inputs.
+
+        Returns
+        -------
+        (N,) int ndarray
+            0-based mode index of each row, ``-1`` outside every guard.
+        """
         Z = self._xu(np.atleast_2d(X), None if U is None else np.atleast_2d(U))
         table, rhs, starts = self._mode_table
         inside = np.maximum.reduceat(Z @ table.T - rhs, starts, axis=1) <= 0.0
@@ -245,6 +272,13 @@ class PWASystem(ModelDictMixin):
 
     def mode_of(self, x: Sequence[float], u: Sequence[float] | None = None) -> int:
         """Index of the mode whose guard contains ``(x, u)``.
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input; ``None`` for a system without inputs.
 
         Raises
         ------
@@ -257,14 +291,30 @@ class PWASystem(ModelDictMixin):
         return i
 
     def step(self, x, u=None) -> np.ndarray:
-        """Successor state ``A_i x + B_i u + a_i`` with ``i = mode_of(x, u)`` (eq. 1)."""
+        """Successor state ``A_i x + B_i u + a_i`` with ``i = mode_of(x, u)`` (eq. 1).
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            State at sample ``k``.
+        u : (m,) array_like, optional
+            Input at sample ``k``; ``None`` for a system without inputs.
+        """
         i = self.mode_of(x, u)
         mode = self.modes[i]
         uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
         return mode.A @ np.asarray(x, dtype=float) + mode.B @ uu + mode.a
 
     def output(self, x, u=None) -> np.ndarray:
-        """Output ``C_i x + D_i u + c_i`` with ``i = mode_of(x, u)`` (eq. 1)."""
+        """Output ``C_i x + D_i u + c_i`` with ``i = mode_of(x, u)`` (eq. 1).
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            State.
+        u : (m,) array_like, optional
+            Input; ``None`` for a system without inputs.
+        """
         i = self.mode_of(x, u)
         mode = self.modes[i]
         uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
@@ -333,6 +383,13 @@ def check_partition(system: PWASystem, overlaps: bool = True) -> None:
     full-dimensional piece.  Sets thinner than
     :data:`~hybobs_opt.tolerances.FULL_DIMENSION_RTOL` (relative to ``X x U``) are ignored: a
     shared boundary is not an overlap.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The system whose guards are checked.
+    overlaps : bool, default True
+        Also check that no two guards share an interior; ``False`` checks the covering only.
 
     Raises
     ------

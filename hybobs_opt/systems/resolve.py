@@ -34,7 +34,16 @@ _RESOLVERS: list[tuple[str, Resolver]] = []
 
 
 def register_resolver(label: str, resolver: Resolver) -> None:
-    """Add (or replace, by ``label``) a resolver of system names."""
+    """Add (or replace, by ``label``) a resolver of system names.
+
+    Parameters
+    ----------
+    label : str
+        Name of the resolver (shown in error messages); a resolver already registered under it is
+        replaced.
+    resolver : callable
+        ``resolver(name, params) -> system or None``; ``None`` means the name is not one it knows.
+    """
     _RESOLVERS[:] = [(k, r) for k, r in _RESOLVERS if k != label]
     _RESOLVERS.append((label, resolver))
 
@@ -51,6 +60,14 @@ def system_classes() -> tuple[type, ...]:
 
 def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
     """The system called ``name``, built with ``params`` (see the module docstring for the forms).
+
+    Parameters
+    ----------
+    name : str
+        A registered name (e.g. an example), a model file, ``PATH.py:FUNCTION`` or
+        ``package.module:FUNCTION``.
+    params : mapping of str to object, optional
+        Keyword arguments of the builder (refused for a model file).
 
     Raises
     ------

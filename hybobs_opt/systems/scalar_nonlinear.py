@@ -135,7 +135,13 @@ class ScalarFunction:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def identity(cls, name: str = "identity") -> "ScalarFunction":
-        """``h(z) = z`` (a linear output, ``M_j = N_j = 1`` in eq. (4))."""
+        """``h(z) = z`` (a linear output, ``M_j = N_j = 1`` in eq. (4)).
+
+        Parameters
+        ----------
+        name : str, default "identity"
+            Label of the function.
+        """
         return cls(name, lambda z: z, lambda z: ca.SX(1.0))
 
     @classmethod
@@ -145,6 +151,24 @@ class ScalarFunction:
 
         The text is parsed by :func:`hybobs_opt.systems.expressions.parse_expression` (no Python is
         evaluated); ``field`` names the entry in errors (default ``"ScalarFunction NAME"``).
+
+        Parameters
+        ----------
+        name : str
+            Label of the function.
+        expr : str
+            The function's text, e.g. ``"V*cos(z)"``.
+        derivative : str, optional
+            Text of the exact derivative; ``None`` uses automatic differentiation of ``expr``.
+        variable : str, default "z"
+            Name of the argument in ``expr`` and ``derivative`` (an identifier).
+        field : str, optional
+            Name of the entry in error messages.
+
+        Raises
+        ------
+        ModelError
+            If ``variable`` is not an identifier or a text does not parse.
         """
         from .expressions import parse_expression
 
@@ -168,26 +192,56 @@ class ScalarFunction:
         return out
 
     def value(self, z) -> np.ndarray:
-        """``f(z)`` elementwise for an array ``z`` of any shape (same shape out)."""
+        """``f(z)`` elementwise for an array ``z`` of any shape (same shape out).
+
+        Parameters
+        ----------
+        z : array_like
+            Arguments, any shape.
+        """
         return self._eval(self._value_fn, z)
 
     __call__ = value
 
     def deriv(self, z) -> np.ndarray:
-        """``f'(z)`` elementwise: the supplied derivative, else CasADi automatic differentiation."""
+        """``f'(z)`` elementwise: the supplied derivative, else CasADi automatic differentiation.
+
+        Parameters
+        ----------
+        z : array_like
+            Arguments, any shape (same shape out).
+        """
         return self._eval(self._deriv_fn, z)
 
     def deriv_autodiff(self, z) -> np.ndarray:
-        """``f'(z)`` by CasADi automatic differentiation of ``expr``, whatever ``derivative`` says."""
+        """``f'(z)`` by CasADi automatic differentiation of ``expr``, whatever ``derivative`` says.
+
+        Parameters
+        ----------
+        z : array_like
+            Arguments, any shape (same shape out).
+        """
         return self._eval(self._autodiff_fn, z)
 
     # ------------------------------------------------------------------ symbolic evaluation
     def sx(self, z: ca.SX) -> ca.SX:
-        """Symbolic value at an SX scalar ``z``."""
+        """Symbolic value at an SX scalar ``z``.
+
+        Parameters
+        ----------
+        z : casadi.SX
+            Symbolic scalar argument.
+        """
         return ca.substitute(self._value_sx, self._z, z)
 
     def sx_deriv(self, z: ca.SX) -> ca.SX:
-        """Symbolic derivative at an SX scalar ``z``."""
+        """Symbolic derivative at an SX scalar ``z``.
+
+        Parameters
+        ----------
+        z : casadi.SX
+            Symbolic scalar argument.
+        """
         return ca.substitute(self._deriv_sx, self._z, z)
 
     @property
@@ -405,41 +459,81 @@ class ScalarNonlinearSystem(ModelDictMixin):
                          f"shape {U.shape}")
 
     def f_values(self, x) -> np.ndarray:
-        """``f_i(E_i x)`` for a state ``(n,)`` -> ``(r,)`` or states ``(N, n)`` -> ``(N, r)``."""
+        """``f_i(E_i x)`` for a state ``(n,)`` -> ``(r,)`` or states ``(N, n)`` -> ``(N, r)``.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         X, single = self._states(x)
         Z = X @ self.E.T
         out = np.column_stack([fn.value(Z[:, i]) for i, fn in enumerate(self.f)]) if self.r else np.zeros((X.shape[0], 0))
         return out[0] if single else out
 
     def f_derivatives(self, x) -> np.ndarray:
-        """``f_i'(E_i x)`` (the diagonal of eq. (5)'s Jacobian), shaped like :meth:`f_values`."""
+        """``f_i'(E_i x)`` (the diagonal of eq. (5)'s Jacobian), shaped like :meth:`f_values`.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         X, single = self._states(x)
         Z = X @ self.E.T
         out = np.column_stack([fn.deriv(Z[:, i]) for i, fn in enumerate(self.f)]) if self.r else np.zeros((X.shape[0], 0))
         return out[0] if single else out
 
     def h_values(self, x) -> np.ndarray:
-        """``h_j(C_j x)`` for ``(n,)`` -> ``(m,)`` or ``(N, n)`` -> ``(N, m)``."""
+        """``h_j(C_j x)`` for ``(n,)`` -> ``(m,)`` or ``(N, n)`` -> ``(N, m)``.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         X, single = self._states(x)
         Z = X @ self.C.T
         out = np.column_stack([fn.value(Z[:, j]) for j, fn in enumerate(self.h)])
         return out[0] if single else out
 
     def h_derivatives(self, x) -> np.ndarray:
-        """``h_j'(C_j x)`` (the diagonal of eq. (4)'s Jacobian), shaped like :meth:`h_values`."""
+        """``h_j'(C_j x)`` (the diagonal of eq. (4)'s Jacobian), shaped like :meth:`h_values`.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         X, single = self._states(x)
         Z = X @ self.C.T
         out = np.column_stack([fn.deriv(Z[:, j]) for j, fn in enumerate(self.h)])
         return out[0] if single else out
 
     def output(self, x, u=None) -> np.ndarray:
-        """``y = h(C x)`` (eq. 2); ``u`` is accepted for a uniform signature and not used."""
+        """``y = h(C x)`` (eq. 2); ``u`` is accepted for a uniform signature and not used.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s); the result is ``(p,)`` or ``(N, p)``.
+        u : array_like, optional
+            Ignored.
+        """
         X, single = self._states(x)
         Y = np.asarray(self._out_fn(X.T), dtype=float).reshape(self.p, X.shape[0]).T
         return Y[0] if single else Y
 
     def rhs(self, x, u=None) -> np.ndarray:
-        """``dx/dt = A x + F f(E x) + B u + g(y, u)`` (eq. 1) for one state or ``(N, n)`` states."""
+        """``dx/dt = A x + F f(E x) + B u + g(y, u)`` (eq. 1) for one state or ``(N, n)`` states.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s); the result has the same shape.
+        u : (k,) or (N, k) array_like, optional
+            Input(s); one ``(k,)`` input is applied to every state of a batch; ``None`` means zeros.
+        """
         X, single = self._states(x)
         U = self._inputs(u, X.shape[0], single)
         dX = np.asarray(self._dyn_fn(X.T), dtype=float).reshape(self.n, X.shape[0]).T + U @ self.B.T
@@ -453,23 +547,46 @@ class ScalarNonlinearSystem(ModelDictMixin):
 
         The Jacobian of the state-dependent part of eq. (1); ``g(y, u)`` is a known signal of the
         measured output and input, as in the observer (6), so it is not differentiated.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
         """
         D = self.f_derivatives(x)
         J = self.A + np.einsum("ir,...r,rj->...ij", self.F, D, self.E)
         return J
 
     def output_jacobian(self, x) -> np.ndarray:
-        """``diag(h'(C x)) C`` -> ``(m, n)`` (or ``(N, m, n)``), the matrix of eq. (10)."""
+        """``diag(h'(C x)) C`` -> ``(m, n)`` (or ``(N, m, n)``), the matrix of eq. (10).
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         D = self.h_derivatives(x)
         return D[..., :, None] * self.C
 
     # ------------------------------------------------------------------ symbolic evaluation
     def sx_dynamics(self, x: ca.SX) -> ca.SX:
-        """``A x + F f(E x)`` as an SX expression of an SX state ``x`` (no ``B u``, no ``g``)."""
+        """``A x + F f(E x)`` as an SX expression of an SX state ``x`` (no ``B u``, no ``g``).
+
+        Parameters
+        ----------
+        x : casadi.SX
+            Symbolic state, ``(n, 1)``.
+        """
         return self._dyn_fn(x)
 
     def sx_output(self, x: ca.SX) -> ca.SX:
-        """``h(C x)`` as an SX expression of an SX state ``x``."""
+        """``h(C x)`` as an SX expression of an SX state ``x``.
+
+        Parameters
+        ----------
+        x : casadi.SX
+            Symbolic state, ``(n, 1)``.
+        """
         return self._out_fn(x)
 
 
