@@ -15,7 +15,24 @@ from .polytope import Polytope
 
 
 def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Polytope]:
-    """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time."""
+    """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time.
+
+    Parameters
+    ----------
+    R : Polytope
+        The set to subtract from.
+    Q : Polytope
+        The set subtracted (same dimension).
+    scale : (d,) ndarray
+        Per-coordinate scale of the full-dimensionality tests
+        (:meth:`Polytope.is_full_dimensional`).
+
+    Returns
+    -------
+    list of Polytope
+        Irredundant pieces whose union is the closure of ``R \\ Q`` up to lower-dimensional
+        sets; ``[R]`` when ``R`` and ``Q`` share no interior.
+    """
     if not R.intersect(Q).is_full_dimensional(scale):
         return [R]
     pieces = []

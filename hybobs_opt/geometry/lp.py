@@ -768,6 +768,24 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     The LP of :func:`max_slack` after its constant rows were handled: ``A`` is ``(k + 1) x (d + 1)``
     (the last row caps ``t``), ``bu`` its right-hand side.  ``threshold`` is the decision the
     caller will take (``slack > threshold``); see :func:`max_slack` for the certificates.
+
+    Parameters
+    ----------
+    A : (k + 1, d + 1) ndarray
+        Constraint matrix over ``(w, t)``; the last row caps ``t``.
+    bu : (k + 1,) ndarray
+        Right-hand side.
+    radius_bound : float
+        ``R``: every feasible ``w`` has ``||w||_2 <= R`` (for the dual bound).
+    threshold : float
+        The caller's decision value (``slack > threshold``).
+    problem : str
+        Name of the LP for error messages.
+
+    Returns
+    -------
+    SlackResult
+        Certified lower and upper bounds of the slack, the point and the solver that decided.
     """
     t0 = time.perf_counter()
     k = A.shape[0] - 1
@@ -823,6 +841,21 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     When DAQP fails (or returns non-finite numbers), HiGHS's duals are used for the same bound.
     With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
     is already more than ``width`` away from it along ``c``.
+
+    Parameters
+    ----------
+    A : (k, d) ndarray
+        Constraint rows of ``{A v <= b}``.
+    b : (k,) ndarray
+        Right-hand side.
+    c : (d,) ndarray
+        Direction whose width is bounded.
+    radius_bound : float
+        Bound on ``||v||`` over the feasible set, used by the dual bound.
+    width : float
+        Width to certify.
+    point : (d,) ndarray, optional
+        A (nearly) feasible point that allows skipping the second LP.
     """
     total = 0.0
     for sign in (1.0, -1.0):

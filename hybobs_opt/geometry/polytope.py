@@ -91,7 +91,15 @@ class Polytope:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_box(cls, lower: Sequence[float], upper: Sequence[float], names: Sequence[str] | None = None) -> "Polytope":
-        """Axis-aligned box ``lower <= z <= upper``; raises if a lower bound exceeds its upper bound."""
+        """Axis-aligned box ``lower <= z <= upper``; raises if a lower bound exceeds its upper bound.
+
+        Parameters
+        ----------
+        lower, upper : sequence of float
+            Bounds of each coordinate (same length ``d``).
+        names : sequence of str, optional
+            Coordinate names (``z1 ... zd`` by default).
+        """
         lo = as_vector(lower, "lower", None)
         hi = as_vector(upper, "upper", lo.size)
         names = as_names(names, "names", lo.size, "z")
@@ -106,7 +114,15 @@ class Polytope:
 
     @classmethod
     def empty(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
-        """The empty set of ``R^dim``, written as the rows ``z1 <= -1`` and ``-z1 <= 0``."""
+        """The empty set of ``R^dim``, written as the rows ``z1 <= -1`` and ``-z1 <= 0``.
+
+        Parameters
+        ----------
+        dim : int
+            Dimension ``d >= 1``.
+        names : sequence of str, optional
+            Coordinate names (``z1 ... zd`` by default).
+        """
         dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         A = np.zeros((2, dim))
         A[0, 0], A[1, 0] = 1.0, -1.0
@@ -114,7 +130,15 @@ class Polytope:
 
     @classmethod
     def whole_space(cls, dim: int, names: Sequence[str] | None = None) -> "Polytope":
-        """The unconstrained set ``R^dim`` (no rows)."""
+        """The unconstrained set ``R^dim`` (no rows).
+
+        Parameters
+        ----------
+        dim : int
+            Dimension ``d >= 1``.
+        names : sequence of str, optional
+            Coordinate names (``z1 ... zd`` by default).
+        """
         dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         return cls(np.zeros((0, dim)), np.zeros(0), as_names(names, "names", dim, "z"))
 
@@ -131,6 +155,13 @@ class Polytope:
         """Membership of one point ``(d,)`` (returns bool) or many points ``(N, d)`` (returns array).
 
         A point is inside when ``A z <= b + rtol * (1 + |b|)`` row-wise.
+
+        Parameters
+        ----------
+        points : (d,) or (N, d) array_like
+            One point or one point per row.
+        rtol : float, default MEMBERSHIP_RTOL
+            Relative slack of each row (:data:`~hybobs_opt.tolerances.MEMBERSHIP_RTOL`).
         """
         z = np.asarray(points, dtype=float)
         single = z.ndim == 1
@@ -174,6 +205,19 @@ class Polytope:
         """Centre and radius of the largest inscribed ball, optionally in coordinates ``z / scale``.
 
         Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.
+
+        Parameters
+        ----------
+        scale : (d,) array_like, optional
+            Per-coordinate scale; the ball is the largest one in ``z / scale``, its centre returned in
+            ``z``.  ``None`` means the unscaled coordinates.
+
+        Returns
+        -------
+        centre : (d,) ndarray or None
+            Centre of the ball (``None`` when empty or unbounded).
+        radius : float
+            Radius in the scaled coordinates (``-inf`` empty, ``inf`` unbounded).
         """
         A = self.A if scale is None else self.A * np.asarray(scale, dtype=float)[None, :]
         norms = np.linalg.norm(A, axis=1)
@@ -199,6 +243,15 @@ class Polytope:
 
         ``scale`` defaults to the bounding-box widths, so the test is relative to the set's size
         in every coordinate (DESIGN.md: tolerances are relative).
+
+        Parameters
+        ----------
+        scale : (d,) array_like, optional
+            Per-coordinate scale; ``None`` uses the bounding-box widths (or no scaling when the set is
+            unbounded or empty).
+        rtol : float, default FULL_DIMENSION_RTOL
+            Smallest radius counted as full-dimensional
+            (:data:`~hybobs_opt.tolerances.FULL_DIMENSION_RTOL`).
         """
         if scale is None:
             try:
@@ -212,14 +265,26 @@ class Polytope:
 
     # ------------------------------------------------------------------ combinations
     def intersect(self, other: "Polytope") -> "Polytope":
-        """Intersection with a polytope of the same dimension."""
+        """Intersection with a polytope of the same dimension.
+
+        Parameters
+        ----------
+        other : Polytope
+            Polytope of the same dimension; the result keeps this polytope's names.
+        """
         _check_polytope(other, "other")
         if other.dim != self.dim:
             raise ModelError("other", f"a polytope of dimension {self.dim}", f"dimension {other.dim}")
         return Polytope(np.vstack([self.A, other.A]), np.concatenate([self.b, other.b]), self.names)
 
     def product(self, other: "Polytope") -> "Polytope":
-        """Cartesian product ``self x other`` (coordinates concatenated)."""
+        """Cartesian product ``self x other`` (coordinates concatenated).
+
+        Parameters
+        ----------
+        other : Polytope
+            The second factor; names are concatenated (dropped if they collide).
+        """
         _check_polytope(other, "other")
         A = np.block(
             [
@@ -233,7 +298,17 @@ class Polytope:
         return Polytope(A, np.concatenate([self.b, other.b]), names)
 
     def lift(self, dim: int, coords: Sequence[int], names: Sequence[str] | None = None) -> "Polytope":
-        """Embed into ``R^dim``: the constraint acts on ``coords`` of the larger space only."""
+        """Embed into ``R^dim``: the constraint acts on ``coords`` of the larger space only.
+
+        Parameters
+        ----------
+        dim : int
+            Dimension of the larger space (at least this polytope's).
+        coords : sequence of int
+            Distinct 0-based indices in ``R^dim`` of this polytope's coordinates, in order.
+        names : sequence of str, optional
+            Names of the ``dim`` coordinates (``z1 ...`` by default).
+        """
         dim = as_int(dim, "dim", self.dim, f"a dimension (an integer >= {self.dim}, this polytope's)")
         coords = [as_int(c, f"coords[{i}]", 0, f"a coordinate index in 0..{dim - 1}")
                   for i, c in enumerate(as_items(coords, "coords", (int, np.integer), "coordinate indices"))]
@@ -249,6 +324,11 @@ class Polytope:
     # ------------------------------------------------------------------ coordinates, cuts, maps
     def index_of(self, coord: int | str) -> int:
         """Index of a coordinate given by its index or its name.
+
+        Parameters
+        ----------
+        coord : int or str
+            0-based index or name of the coordinate.
 
         Raises
         ------
