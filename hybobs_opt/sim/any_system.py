@@ -50,6 +50,39 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     stop where the trajectory leaves ``X x U``; continuous-time systems run to ``t_final``
     (default :data:`DEFAULT_T_FINAL`) with output sample time ``dt``.  A constant-drift system
     starts in mode ``q0`` (default 1) from ``x0`` (default all ones).
+
+    Parameters
+    ----------
+    system : PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem
+        The system to simulate.
+    x0 : mapping of str to float, optional
+        Initial values by state name; the others start at the centre of the state bounds (all ones
+        for a constant-drift system).
+    u : mapping of str to float, optional
+        Constant input values by input name; the others sit at the centre of the input bounds.
+        Refused for a constant-drift system.
+    q0 : int, optional
+        Initial mode of a constant-drift system (``1..Q``, default 1) or 0-based location of a
+        hybrid automaton (default: the location containing ``x0``); not used by other systems.
+    steps : int, optional
+        Number of samples of a PWA system (refused for other systems).
+    t_final : float, optional
+        Final time (positive); for a PWA system it needs ``Ts`` and gives ``round(t_final / Ts)``
+        samples.
+    dt : float, optional
+        Output sample time of a continuous-time system (default ``1e-2`` for a hybrid automaton,
+        ``t_final / 1000`` for a scalar-nonlinear one, the event times only for a constant-drift one).
+
+    Returns
+    -------
+    Trace
+        The simulated trajectory.
+
+    Raises
+    ------
+    ModelError
+        On a system of another class, a name that is not one of the system's, or a non-positive or
+        misplaced ``steps``, ``t_final`` or ``dt``.
     """
     kind = type(system).__name__
     if steps is not None and (kind != "PWASystem" or isinstance(steps, bool) or int(steps) != steps or steps < 1):

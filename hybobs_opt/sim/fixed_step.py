@@ -71,6 +71,23 @@ def simulate_hybrid_fixed_step(automaton, x0, t_final: float, *, dt: float, u=No
     state-dependent switching of paper 001), so a trajectory that chatters on a switching
     surface is reproduced as a sampled implementation would see it.
 
+    Parameters
+    ----------
+    automaton : HybridAutomaton
+        The automaton; its location is ``location_of(x, u)`` at every step.
+    x0 : (n,) array_like
+        Initial state.
+    t_final : float
+        Final time (greater than ``t0``).
+    dt : float
+        Fixed integration step, also the sample time of the trace.
+    u : (m,) array_like or callable, optional
+        Constant input, or ``u(t) -> (m,)``; ``None`` means zeros.
+    method : {"euler", "heun", "rk4"}, default "rk4"
+        Integration scheme (:func:`integrate_fixed_step`).
+    t0 : float, default 0.0
+        Initial time.
+
     Returns
     -------
     Trace

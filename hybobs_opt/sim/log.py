@@ -67,6 +67,19 @@ class SignalLog:
 def read_log(path: str | Path, system) -> SignalLog:
     """Read a CSV log of ``system`` (anything with ``input_names``, ``output_names``, ``state_names``).
 
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    system : object
+        Any object with ``input_names``, ``output_names`` and ``state_names`` (a system class of
+        :mod:`hybobs_opt.systems`).
+
+    Returns
+    -------
+    SignalLog
+        The columns as arrays in the system's order.
+
     Raises
     ------
     ModelError
@@ -146,7 +159,22 @@ def read_log(path: str | Path, system) -> SignalLog:
 
 
 def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Path:
-    """Write an :class:`~hybobs_opt.contract.ObserverTrace` as CSV: ``[t,] states..., mode, flag``."""
+    """Write an :class:`~hybobs_opt.contract.ObserverTrace` as CSV: ``[t,] states..., mode, flag``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output CSV file.
+    trace : ObserverTrace
+        The observer's run.
+    t : (N,) ndarray, optional
+        Sample times, written as a first column ``t`` when given.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     names = list(trace.state_names) or [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]
     with path.open("w", newline="") as fh:

@@ -66,7 +66,18 @@ class Trace:
         return self.t.size
 
     def state(self, name: str) -> np.ndarray:
-        """Column of the state called ``name``."""
+        """Column of the state called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`state_names`.
+
+        Raises
+        ------
+        ModelError
+            If ``name`` is not a state name.
+        """
         try:
             return self.x[:, self.state_names.index(name)]
         except ValueError:
@@ -88,7 +99,13 @@ class Trace:
         }
 
     def to_csv(self, path: str | Path) -> None:
-        """Write one row per sample with columns ``t, <states>, q, <inputs>, <outputs>``."""
+        """Write one row per sample with columns ``t, <states>, q, <inputs>, <outputs>``.
+
+        Parameters
+        ----------
+        path : str or Path
+            Output CSV file (overwritten).
+        """
         header = ["t", *self.state_names, "q", *self.input_names, *self.output_names]
         with open(path, "w", newline="") as fh:
             w = csv.writer(fh)
