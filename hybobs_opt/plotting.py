@@ -27,6 +27,23 @@ def pyplot():
     return plt
 
 
+def quantity_label(name: str, unit: str | None = None) -> str:
+    """The axis label of a quantity: ``"omega_m [rad/s]"``, or ``name`` alone without a unit.
+
+    Parameters
+    ----------
+    name : str
+        The quantity (a state name, ``"t"``, ``"|error theta|"``).
+    unit : str, optional
+        Its unit; ``None`` or ``""`` for a dimensionless or unknown unit (no brackets).
+
+    Returns
+    -------
+    str
+    """
+    return f"{name} [{unit}]" if unit else name
+
+
 def save_figure(fig, path, title: str = "", dpi: int = 110):
     """Give ``fig`` its title, lay it out, write it to ``path`` (parents created) and close it; returns ``path``."""
     from pathlib import Path

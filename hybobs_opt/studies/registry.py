@@ -88,6 +88,10 @@ class Example:
         default first; empty: not declared (the scenario checks the kind itself).
     observer_filter : bool
         Whether the observer scenario has a low-pass filtered variant (paper 001's observers).
+    state_units : tuple of str
+        The unit of each state as its paper gives it (``"rad/s"``, ``"vehicles"``; ``""`` for a
+        dimensionless state), used on the axes of the figures (:meth:`state_label`); empty: none
+        declared.
     """
 
     name: str
@@ -102,8 +106,12 @@ class Example:
     sample_time: float | None = None
     observers: tuple[str, ...] = ()
     observer_filter: bool = False
+    state_units: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        if self.state_units and len(self.state_units) != len(self.state_names):
+            raise ModelError("Example.state_units", f"one unit per state ({len(self.state_names)})",
+                             f"{len(self.state_units)} units")
         for name in ("build", "scenario"):
             value = getattr(self, name)
             if isinstance(value, str):
@@ -114,6 +122,38 @@ class Example:
     @property
     def n_states(self) -> int:
         return len(self.state_names)
+
+    def state_unit(self, name: str) -> str:
+        """The unit of state ``name`` (``""`` when dimensionless or not declared).
+
+        Parameters
+        ----------
+        name : str
+            A state name of the example.
+
+        Returns
+        -------
+        str
+        """
+        if name not in self.state_names:
+            raise ModelError("state name", f"one of {self.state_names}", repr(name))
+        return self.state_units[self.state_names.index(name)] if self.state_units else ""
+
+    def state_label(self, name: str) -> str:
+        """Axis label of state ``name``: ``"omega_m [rad/s]"``, or the bare name without a unit.
+
+        Parameters
+        ----------
+        name : str
+            A state name of the example.
+
+        Returns
+        -------
+        str
+        """
+        from hybobs_opt.plotting import quantity_label
+
+        return quantity_label(name, self.state_unit(name))
 
     def check_t_final(self, t_final: float) -> None:
         """``ModelError("t_final")`` unless the scenario up to ``t_final`` has at least one sample period
@@ -156,6 +196,7 @@ class Example:
             "summary": self.summary,
             "n_states": self.n_states,
             "state_names": list(self.state_names),
+            "state_units": list(self.state_units) or [""] * self.n_states,
             "params": {k: v for k, v in self.params.items()},
             "default_t_final": self.default_t_final,
             "sample_time": self.sample_time,

@@ -14,6 +14,8 @@ register(Example(
     paper="000",
     summary="driveline with discontinuous elasticity (backlash), 3 locations, -10 N m torque step at 2 s (Fig. 6)",
     state_names=("theta_e", "omega_c", "omega_p"),
+    # paper 000, Sec. 2: torsion angle (rad), crankshaft and wheel speeds (rad/sec)
+    state_units=("rad", "rad/s", "rad/s"),
     build=f"{__name__}.systems:driveline",
     scenario=f"{__name__}.systems:scenario",
     default_t_final=4.0,
