@@ -40,12 +40,38 @@ class Cut:
     labels: np.ndarray
 
     def fraction(self, label: str, mask: np.ndarray | None = None) -> float:
-        """Share of grid points (optionally within ``mask``) carrying ``label``."""
+        """Share of grid points (optionally within ``mask``) carrying ``label``.
+
+        Parameters
+        ----------
+        label : str
+            One of :data:`LABELS`.
+        mask : boolean ndarray, optional
+            Grid points to count (shape of :attr:`labels`); ``None`` counts all.
+
+        Returns
+        -------
+        float
+            The share, ``nan`` when no point is selected.
+        """
         sel = self.labels if mask is None else self.labels[mask]
         return float(np.mean(sel == label)) if sel.size else float("nan")
 
     def fraction_of_feasible(self, label: str, mask: np.ndarray | None = None) -> float:
-        """Share of the points of ``X*_T`` (optionally within ``mask``) carrying ``label``."""
+        """Share of the points of ``X*_T`` (optionally within ``mask``) carrying ``label``.
+
+        Parameters
+        ----------
+        label : str
+            One of :data:`LABELS`.
+        mask : boolean ndarray, optional
+            Grid points to count (shape of :attr:`labels`); ``None`` counts all feasible ones.
+
+        Returns
+        -------
+        float
+            The share, ``nan`` when no feasible point is selected.
+        """
         m = self.labels != "infeasible"
         if mask is not None:
             m &= mask
@@ -66,7 +92,22 @@ class Cut:
 
 
 def parse_assignments(items: list[str] | None, state_names: tuple[str, ...], option: str = "fixed") -> dict[str, float]:
-    """Parse ``["omega_l=25", ...]`` into ``{name: value}`` with the names checked (errors name ``option``)."""
+    """Parse ``["omega_l=25", ...]`` into ``{name: value}`` with the names checked (errors name ``option``).
+
+    Parameters
+    ----------
+    items : list of str, optional
+        ``NAME=VALUE`` strings; ``None`` gives ``{}``.
+    state_names : tuple of str
+        The allowed names.
+    option : str, default "fixed"
+        Name of the option in error messages (e.g. the command-line flag).
+
+    Raises
+    ------
+    ModelError
+        On an item without ``=``, an unknown name, or a value that is not a number.
+    """
     out: dict[str, float] = {}
     for item in items or []:
         if "=" not in item:
@@ -131,6 +172,22 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
     """Save a PNG of the cut: observable (green), unobservable (red), outside ``X*_T`` (white).
 
     ``stretch`` multiplies an axis for display (the paper multiplies the theta axis by 10).
+
+    Parameters
+    ----------
+    cut : Cut
+        The classified grid (:func:`compute_cut`).
+    path : str or Path
+        Output PNG file.
+    title : str, optional
+        Figure title; empty gives ``"cut at NAME = VALUE, ..."``.
+    stretch : dict of str to float, optional
+        Display factor per axis name.
+
+    Returns
+    -------
+    str or Path
+        ``path``.
     """
     from ..plotting import pyplot
 

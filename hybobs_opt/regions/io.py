@@ -84,6 +84,22 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
     ``example`` and ``params`` (the name the system was built from) are stored for information;
     the system itself is stored as its model dictionary with its fingerprint, and the content
     with a checksum (see the module docstring).
+
+    Parameters
+    ----------
+    analysis : ObservabilityAnalysis
+        The result of Algorithm 3.1 to save.
+    path : str or Path
+        Output JSON file.
+    example : str, optional
+        Name the system was built from (stored for information).
+    params : dict, optional
+        Parameters it was built with (stored for information).
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     enum = analysis.enumeration
     model = enum.system.to_dict()

@@ -189,7 +189,13 @@ class ObservabilityAnalysis:
         return self._xboxes
 
     def regions_containing(self, x) -> list[int]:
-        """Indices ``k`` with ``x`` in the interior of ``Proj_x(P_k)`` (so ``x in X*_T``, eq. 5)."""
+        """Indices ``k`` with ``x`` in the interior of ``Proj_x(P_k)`` (so ``x in X*_T``, eq. 5).
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            A finite state.
+        """
         x = self._check_point(x)
         boxes = self._x_boxes()
         span = np.maximum(self.enumeration.scale[: self.system.n], 1e-300)
@@ -221,6 +227,11 @@ class ObservabilityAnalysis:
         ``x`` is observable in ``T`` steps when it lies in ``X*_T`` and for every region ``P_i``
         whose projection contains it, ``i`` is in ``I`` and no ``R_ij`` (``j != i``) has a point
         over this ``x``.  States outside ``X*_T`` are reported not observable.
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            A finite state.
         """
         return self.classify(x) == "observable"
 
@@ -230,6 +241,16 @@ class ObservabilityAnalysis:
         Only the pairs that Algorithm 3.1 found non-empty can hold a point indistinguishable from
         ``x`` (an empty ``R_ij`` has no slice at any ``x``), so those are the only LPs solved
         beyond the region-membership ones.
+
+        Parameters
+        ----------
+        x : (n,) array_like
+            A finite state.
+
+        Raises
+        ------
+        ModelError
+            If ``x`` has the wrong length or a non-finite entry.
         """
         x = self._check_point(x)
         inside = self.regions_containing(x)
@@ -253,7 +274,20 @@ class ObservabilityAnalysis:
         return self._pair_cache["_by_i"]
 
     def classify_many(self, X: np.ndarray, progress: Callable[[int, int], None] | None = None) -> np.ndarray:
-        """Vector of :meth:`classify` labels for the rows of ``X``."""
+        """Vector of :meth:`classify` labels for the rows of ``X``.
+
+        Parameters
+        ----------
+        X : (N, n) array_like
+            States, one per row.
+        progress : callable, optional
+            ``progress(done, total)``, called after each state.
+
+        Returns
+        -------
+        (N,) object ndarray
+            The labels.
+        """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         out = np.empty(X.shape[0], dtype=object)
         for k, x in enumerate(X):
@@ -277,6 +311,12 @@ class ObservabilityAnalysis:
         ``Proj_x(R_ij)`` (with its output equalities) for the pairs.  ``fixed=None`` gives the
         sets in the full state space (practical for ``n <= 3``).  ``O_T`` is the region
         difference, exact up to sets of measure zero as in the paper.
+
+        Parameters
+        ----------
+        fixed : dict of str to float, optional
+            Values of the states fixed by the cut, by name (at least one state must stay free);
+            ``None`` fixes none.
 
         Returns
         -------
