@@ -202,24 +202,56 @@ class MLDEncoding:
         return (half[:n] if self.state_scale is None else self.state_scale), centre[:n]
 
     def bounds(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Row bounds ``lo - BU U``, ``hi - BU U`` for the stacked window input ``U``."""
+        """Row bounds ``lo - BU U``, ``hi - BU U`` for the stacked window input ``U``.
+
+        Parameters
+        ----------
+        U : (T m,) ndarray
+            Stacked window input ``[u(0); ...; u(T-1)]``.
+        """
         shift = self.BU @ U
         return self.lo - shift, self.hi - shift
 
     def states(self, v: np.ndarray) -> np.ndarray:
-        """``(T, n)`` window states of the decision vector ``v``."""
+        """``(T, n)`` window states of the decision vector ``v``.
+
+        Parameters
+        ----------
+        v : (n_vars,) ndarray
+            Scaled decision vector.
+        """
         return np.einsum("kij,j->ki", self.Xmap, v) + self.Xoff
 
     def outputs(self, v: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """``(T, p)`` window outputs."""
+        """``(T, p)`` window outputs.
+
+        Parameters
+        ----------
+        v : (n_vars,) ndarray
+            Scaled decision vector.
+        U : (T m,) ndarray
+            Stacked window input.
+        """
         return (self.Ymap @ v + self.YU @ U + self.Yoff).reshape(self.T, self.system.p)
 
     def modes(self, v: np.ndarray) -> np.ndarray:
-        """``(T,)`` mode index of each step (largest ``delta``)."""
+        """``(T,)`` mode index of each step (largest ``delta``).
+
+        Parameters
+        ----------
+        v : (n_vars,) ndarray
+            Scaled decision vector.
+        """
         return np.argmax(v[self.slices["delta"]].reshape(self.T, self.system.n_modes), axis=1)
 
     def disturbance(self, v: np.ndarray) -> np.ndarray:
-        """``(T - 1, n)`` disturbances ``w(k)`` (zeros when disabled)."""
+        """``(T - 1, n)`` disturbances ``w(k)`` (zeros when disabled).
+
+        Parameters
+        ----------
+        v : (n_vars,) ndarray
+            Scaled decision vector.
+        """
         n = self.system.n
         if not self.disturbances:
             return np.zeros((self.T - 1, n))
@@ -230,6 +262,22 @@ class MLDEncoding:
 
         The states follow ``x(k + 1) = A_q x + B_q u + a_q + w(k)`` with ``q = modes[k]`` (guards
         are not checked; :meth:`violation` does that).  Used for warm starts and tests.
+
+        Parameters
+        ----------
+        x0 : (n,) array_like
+            Window-start state ``x(0)``.
+        modes : (T,) int array_like
+            0-based mode index of each step.
+        U : array_like
+            Window inputs, ``(T m,)`` stacked or ``(T, m)``.
+        W : (T - 1, n) ndarray, optional
+            Disturbances ``w(k)``; ``None`` means none.
+
+        Returns
+        -------
+        (n_vars,) ndarray
+            The scaled decision vector (see :meth:`pack`).
         """
         sysm, T = self.system, self.T
         Uw = np.asarray(U, dtype=float).reshape(T, sysm.m)
@@ -244,6 +292,22 @@ class MLDEncoding:
         """The decision vector of a known trajectory: states ``X`` (``(T, n)``), modes, inputs, disturbances.
 
         Vectorised counterpart of :meth:`point` for a trajectory that is already simulated.
+
+        Parameters
+        ----------
+        X : (T, n) ndarray
+            Window states.
+        modes : (T,) int array_like
+            0-based mode index of each step.
+        U : array_like
+            Window inputs, ``(T m,)`` stacked or ``(T, m)`` (used for the output copies only).
+        W : (T - 1, n) ndarray, optional
+            Disturbances ``w(k)`` (``X[k + 1]`` includes them); ``None`` means none.
+
+        Returns
+        -------
+        (n_vars,) ndarray
+            The scaled decision vector.
         """
         sysm, T = self.system, self.T
         n, s = sysm.n, sysm.n_modes
@@ -277,6 +341,15 @@ class MLDEncoding:
         """Largest violation of the (row-normalised) constraints, bounds and integrality at ``v``.
 
         ``bounds`` are :meth:`bounds` of ``U`` when already computed.
+
+        Parameters
+        ----------
+        v : (n_vars,) ndarray
+            Scaled decision vector.
+        U : (T m,) ndarray
+            Stacked window input.
+        bounds : (lo, hi) pair of ndarray, optional
+            Row bounds from :meth:`bounds` of ``U``, to skip recomputing them.
         """
         lo, hi = self.bounds(U) if bounds is None else bounds
         Av = self.A @ v

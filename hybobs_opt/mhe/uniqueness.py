@@ -179,6 +179,17 @@ class SeparatedProgram:
         ``"not certified"`` (``reason``); ``decided_by``, ``separated_cost`` (exact cost of the
         alternative found, else ``None``), ``separated_cost_bound`` (a proven lower bound of the
         separated minimum), ``threshold = J* + epsilon`` and ``seconds``.
+
+        Parameters
+        ----------
+        U : (T, m) ndarray
+            Window inputs.
+        Y : (T, p) ndarray
+            Window outputs.
+        xbar : (n,) ndarray
+            Prior estimate of the window-start state (the arrival-cost term of the cost).
+        opt : WindowResult
+            The certified optimum of the window problem.
         """
         t0 = time.perf_counter()
         try:
@@ -189,7 +200,24 @@ class SeparatedProgram:
         return out
 
     def separation_rows(self, xi_s: np.ndarray, j: int, sign: int) -> tuple[np.ndarray, np.ndarray]:
-        """``sign (xi0_j - xi_s_j) >= delta`` as a row ``G xi0 <= g``."""
+        """``sign (xi0_j - xi_s_j) >= delta`` as a row ``G xi0 <= g``.
+
+        Parameters
+        ----------
+        xi_s : (n,) ndarray
+            Scaled window-start state of the optimum.
+        j : int
+            Index of the state coordinate.
+        sign : {1, -1}
+            Direction of the separation along coordinate ``j``.
+
+        Returns
+        -------
+        G : (1, n) ndarray
+            The row.
+        g : (1,) ndarray
+            Its right-hand side.
+        """
         G = np.zeros((1, self.n))
         G[0, j] = -float(sign)
         return G, np.array([-float(sign) * xi_s[j] - self.delta])
@@ -197,7 +225,31 @@ class SeparatedProgram:
     def alternative(self, x0, modes, U, Y, xbar, W, xi_s) -> dict | None:
         """A verified alternative: a model trajectory from ``x0`` with ``modes`` (and ``W``) that
         satisfies the MLD rows to :data:`MHE_FEASIBILITY_TOL`, is ``delta`` away from the
-        optimum's window-start state (to the same tolerance) and has its exact cost; else ``None``."""
+        optimum's window-start state (to the same tolerance) and has its exact cost; else ``None``.
+
+        Parameters
+        ----------
+        x0 : (n,) ndarray
+            Candidate window-start state (unscaled).
+        modes : (T,) int array_like
+            0-based mode index of each step.
+        U : (T, m) ndarray
+            Window inputs.
+        Y : (T, p) ndarray
+            Window outputs.
+        xbar : (n,) ndarray
+            Prior estimate of the window-start state (arrival cost).
+        W : (T - 1, n) ndarray
+            Disturbances of the candidate trajectory.
+        xi_s : (n,) ndarray
+            Scaled window-start state of the optimum.
+
+        Returns
+        -------
+        dict or None
+            ``x_start``, ``cost``, ``modes``, ``states``, ``w`` and ``distance`` (inf-norm, scaled) of
+            the verified alternative, or ``None``.
+        """
         if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(W))):
             return None
         modes = np.asarray(modes, dtype=int)
@@ -386,6 +438,25 @@ class SeparatedProgram:
         ``(alternative or None, reason or None, (modes, direction index) or None, bound)``,
         ``bound`` a proven lower bound of the least cost over that sequence and direction (from
         the exact QP, :meth:`~hybobs_opt.mhe.window.WindowModel.polish` with ``bound=True``) or ``None``.
+
+        Parameters
+        ----------
+        w : ndarray
+            The solver's point ``[v; b]``: MLD decision vector and direction binaries.
+        U : (T, m) ndarray
+            Window inputs.
+        Y : (T, p) ndarray
+            Window outputs.
+        xbar : (n,) ndarray
+            Prior estimate of the window-start state (arrival cost).
+        xi_s : (n,) ndarray
+            Scaled window-start state of the optimum.
+        allowed : (2 n,) bool ndarray
+            Admissible separation directions (``+`` and ``-`` per coordinate, interleaved).
+        lo, hi : ndarray
+            Row bounds of the MLD encoding for ``U`` (:meth:`MLDEncoding.bounds`).
+        polish : bool
+            Also solve the exact QP of the point's mode sequence and direction.
         """
         enc, T, nv = self.enc, self.T, self.enc.n_vars
         v, b = w[:nv], w[nv:]

@@ -36,7 +36,32 @@ MILP_SOLVERS = ("highs", "cbc", "casadi-highs")
 
 def miqp_backend(solver: str, H: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: np.ndarray, discrete: np.ndarray,
                  eq_rows: np.ndarray, enc: MLDEncoding, options: dict) -> Backend:
-    """The MIQP ``min 0.5 v'Hv + f'v, lo <= A v <= hi, lb <= v <= ub`` on the named solver."""
+    """The MIQP ``min 0.5 v'Hv + f'v, lo <= A v <= hi, lb <= v <= ub`` on the named solver.
+
+    Parameters
+    ----------
+    solver : {"daqp", "casadi-daqp", "bonmin"}
+        The solver (:data:`MIQP_SOLVERS`).
+    H : (nv, nv) ndarray
+        Positive definite Hessian.
+    A : (nr, nv) ndarray
+        Constraint rows.
+    lb, ub : (nv,) ndarray
+        Variable bounds.
+    discrete : (nv,) bool ndarray
+        Binary variables.
+    eq_rows : (nr,) bool ndarray
+        Equality rows.
+    enc : MLDEncoding
+        The window's encoding (used by ``"casadi-daqp"``).
+    options : dict
+        The solver's options.
+
+    Raises
+    ------
+    ModelError
+        If ``solver`` is not one of :data:`MIQP_SOLVERS`.
+    """
     if solver == "daqp":
         return DaqpBackend(H, A, lb, ub, discrete, eq_rows, options)
     if solver == "casadi-daqp":
@@ -49,6 +74,23 @@ def miqp_backend(solver: str, H: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: 
 def milp_backend(solver: str, c: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: np.ndarray, discrete: np.ndarray,
                  options: dict, *, problem: str = "MILP of eq. (10)") -> Backend:
     """The MILP ``min c'v, lo <= A v <= hi, lb <= v <= ub`` on the named solver.
+
+    Parameters
+    ----------
+    solver : {"highs", "cbc", "casadi-highs"}
+        The solver (:data:`MILP_SOLVERS`).
+    c : (nv,) ndarray
+        Cost vector.
+    A : (nr, nv) ndarray
+        Constraint rows.
+    lb, ub : (nv,) ndarray
+        Variable bounds.
+    discrete : (nv,) bool ndarray
+        Integer variables.
+    options : dict
+        The solver's options.
+    problem : str, default "MILP of eq. (10)"
+        Name of the problem in a :class:`SolverError`.
 
     Raises
     ------

@@ -36,6 +36,23 @@ class CasadiDaqpBackend:
     CasADi 3.8.2 bundles an older DAQP whose branch-and-bound returns NaN (with "success") when
     equality rows are present, so the one-hot rows ``sum_i delta[k, i] = 1`` are eliminated
     (``delta[k, s-1] = 1 - sum_{i < s-1} delta[k, i]``, with ``sum_{i < s-1} delta[k, i] <= 1``).
+
+    Parameters
+    ----------
+    H : (nv, nv) array
+        Positive definite Hessian.
+    A : (nr, nv) array
+        Rows ``lo <= A v <= hi``.
+    lb, ub : (nv,) arrays
+        Variable bounds.
+    discrete : (nv,) bool array
+        Binary variables.
+    enc : MLDEncoding
+        The encoding the program comes from (locates the mode binaries ``delta``).
+    eq_rows : (nr,) bool array
+        Equality rows (the one-hot rows, eliminated as above).
+    options : dict
+        DAQP settings passed to CasADi's plugin.
     """
 
     name = "casadi-daqp"
@@ -80,7 +97,25 @@ class CasadiDaqpBackend:
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
               start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
         """The MIQP with linear term ``f`` in the displacement from ``centre`` (as
-        :meth:`~hybobs_opt.mhe.backends.daqp_backend.DaqpBackend.solve`); ``cutoff`` is ignored."""
+        :meth:`~hybobs_opt.mhe.backends.daqp_backend.DaqpBackend.solve`); ``cutoff`` is ignored.
+
+        Parameters
+        ----------
+        f : (nv,) ndarray or None
+            Linear term of the objective in the displacement from ``centre``.
+        lo, hi : (nr,) ndarray
+            Row bounds of ``lo <= A v <= hi`` (the equality rows are eliminated).
+        centre : (nv,) ndarray, optional
+            Warm start the displacement is measured from; ``None`` means zeros.
+        cutoff : float, optional
+            Ignored.
+        target : float, optional
+            Ignored.
+        start : (nv,) ndarray, optional
+            Ignored.
+        col_bounds : (index, lower, upper), optional
+            Not supported: must be ``None`` (``NotImplementedError``).
+        """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
         g = f - self._H @ centre  # back from the displacement form
@@ -101,7 +136,21 @@ class CasadiDaqpBackend:
 
 
 class BonminBackend:
-    """Bonmin (CasADi ``nlpsol``) on the same MIQP; the linear term is the NLP parameter."""
+    """Bonmin (CasADi ``nlpsol``) on the same MIQP; the linear term is the NLP parameter.
+
+    Parameters
+    ----------
+    H : (nv, nv) array
+        Hessian of the MIQP.
+    A : (nr, nv) array
+        Rows ``lo <= A v <= hi``.
+    lb, ub : (nv,) arrays
+        Variable bounds.
+    discrete : (nv,) bool array
+        Binary variables.
+    options : dict
+        Bonmin options; they override the quiet log levels.
+    """
 
     name = "bonmin"
     cutoff_applied = False
@@ -124,7 +173,25 @@ class BonminBackend:
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
               start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
-        """The MIQP with linear term ``f`` in the displacement from ``centre``; ``cutoff`` is ignored."""
+        """The MIQP with linear term ``f`` in the displacement from ``centre``; ``cutoff`` is ignored.
+
+        Parameters
+        ----------
+        f : (nv,) ndarray or None
+            Linear term of the objective in the displacement from ``centre``.
+        lo, hi : (nr,) ndarray
+            Row bounds of ``lo <= A v <= hi``.
+        centre : (nv,) ndarray, optional
+            Warm start (also Bonmin's initial point, clipped to the bounds); ``None`` means zeros.
+        cutoff : float, optional
+            Ignored.
+        target : float, optional
+            Ignored.
+        start : (nv,) ndarray, optional
+            Ignored.
+        col_bounds : (index, lower, upper), optional
+            Column bounds for this solve only (the backend's own bounds are kept).
+        """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
         g = f - self._H @ centre  # back from the displacement form
@@ -172,7 +239,25 @@ class CasadiMilpBackend:
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
               start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
         """Solve with row bounds ``lo, hi`` (``f`` and ``centre`` unused, ``cutoff``, ``target`` and
-        ``start`` ignored: CasADi's plugins are given none)."""
+        ``start`` ignored: CasADi's plugins are given none).
+
+        Parameters
+        ----------
+        f : (nv,) ndarray or None
+            Unused (the cost is fixed at construction).
+        lo, hi : (nr,) ndarray
+            Row bounds of ``lo <= A v <= hi``.
+        centre : (nv,) ndarray, optional
+            Unused.
+        cutoff : float, optional
+            Ignored.
+        target : float, optional
+            Ignored.
+        start : (nv,) ndarray, optional
+            Ignored.
+        col_bounds : (index, lower, upper), optional
+            Column bounds for this solve only (the backend's own bounds are kept).
+        """
         t0 = time.perf_counter()
         lb, ub = with_col_bounds(self._lb, self._ub, col_bounds)
         with quiet_stdout():

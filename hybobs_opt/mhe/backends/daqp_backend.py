@@ -26,7 +26,13 @@ _RETRY_FLAGS = (DAQP_EXIT_FLAGS["CYCLE"], DAQP_EXIT_FLAGS["ITERLIMIT"])
 
 
 def daqp_flag(raw) -> Status:
-    """A DAQP exit flag (``daqp.solve``, ``Model.solve``, ``Model.setup``) in the one vocabulary."""
+    """A DAQP exit flag (``daqp.solve``, ``Model.solve``, ``Model.setup``) in the one vocabulary.
+
+    Parameters
+    ----------
+    raw : int or tuple
+        DAQP's exit flag, or a tuple whose first item is it.
+    """
     return map_status(DAQP_STATUS, int(raw[0] if isinstance(raw, tuple) else raw), solver="daqp")
 
 
@@ -107,6 +113,23 @@ class DaqpBackend:
         drown in the rounding of the active-set updates.  ``col_bounds = (index, lower, upper)``
         replaces some variable bounds for this solve (e.g. to fix binaries to zero); ``target``
         and ``start`` are not DAQP's (the centre is its warm start).
+
+        Parameters
+        ----------
+        f : (nv,) ndarray or None
+            Linear term of the objective in ``d = v - centre`` (``H centre + g``).
+        lo, hi : (nr,) ndarray
+            Row bounds of ``lo <= A v <= hi``.
+        centre : (nv,) ndarray, optional
+            Warm start the displacement is measured from; ``None`` means zeros.
+        cutoff : float, optional
+            Upper bound of ``0.5 d'Hd + f'd``; nodes that cannot beat it are pruned.
+        target : float, optional
+            Not used by DAQP.
+        start : (nv,) ndarray, optional
+            Not used by DAQP (``centre`` is its warm start).
+        col_bounds : (index, lower, upper), optional
+            Column bounds for this solve only (the backend's own bounds are kept).
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._nv) if centre is None else centre

@@ -92,6 +92,28 @@ class HighspyBackend:
         stop at the first incumbent below it; such a point comes back with status
         ``FEASIBLE`` (not claimed optimal), to be verified by the caller.  ``col_bounds`` =
         ``(index, lower, upper)`` replaces some column bounds for this solve.
+
+        Parameters
+        ----------
+        f : (nv,) ndarray or None
+            Must be ``None`` (the cost is fixed at construction).
+        lo, hi : (nr,) ndarray
+            Row bounds of ``lo <= A v <= hi``.
+        centre : (nv,) ndarray, optional
+            Must be ``None``.
+        cutoff : float, optional
+            HiGHS ``objective_bound``.
+        target : float, optional
+            HiGHS ``objective_target``.
+        start : (nv,) ndarray, optional
+            MIP start passed to HiGHS.
+        col_bounds : (index, lower, upper), optional
+            Column bounds for this solve only (the backend's own bounds are kept).
+
+        Raises
+        ------
+        ModelError
+            If ``f`` or ``centre`` is not ``None``.
         """
         if f is not None or centre is not None:
             raise ModelError("f, centre", "None for a MILP backend (its cost is fixed at construction)")
