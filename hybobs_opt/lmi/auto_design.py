@@ -152,6 +152,11 @@ def scheduling_candidates(system: ScalarNonlinearSystem) -> dict[str, list[str]]
     """States on which a non-monotonic function acts: ``{state: [function names]}``.
 
     A function of a combination of several states is listed under ``"<combination>"``.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system; monotonicity is judged from its Jacobian bounds on the whole box.
     """
     bounds = jacobian_bounds(system, None)
     out: dict[str, list[str]] = {}
@@ -170,6 +175,27 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
                     overlap: float | None = None, rate: float | None = None, scaling=None,
                     condition: str | None = None) -> DesignSettings:
     """Settings for :func:`design_switched` / :func:`~hybobs_opt.lmi.diagnose.diagnose` from the model (module docstring).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    coordinate : int or str, optional
+        The scheduling state; ``None`` picks the state the non-monotonic functions act on.
+    lo, hi : float, optional
+        The scheduling range in model units (default: the coordinate's interval on the box).
+    gain_bound : float, optional
+        Bound on ``||L||_2`` (default: the gain rule above).
+    min_decay : float, optional
+        Minimum decay rate of each grown region (default ``DECAY_FACTOR * rho``).
+    overlap : float, optional
+        Hysteresis ``epsilon``, ``>= 0`` (default ``OVERLAP_FRACTION`` of the range).
+    rate : float, optional
+        Largest rate of the coordinate, for the dwell time (default :func:`max_rate`).
+    scaling : (n,) array_like, optional
+        State scaling of the LMIs (default: the rule above).
+    condition : {"paper", "per_function", "polytopic"}, optional
+        The region condition (default: the least conservative one that can be built).
 
     Raises
     ------
@@ -258,6 +284,21 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     the design (``design.dwell_attempts``).  If none enforces it, :class:`~hybobs_opt.lmi.switched.DwellTimeError`
     is raised unless ``accept_unenforced_dwell`` (then the last design comes with a
     :class:`~hybobs_opt.lmi.switched.DwellTimeWarning` and the text in ``design.warnings``).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    settings : DesignSettings
+        The settings (:func:`design_settings`).
+    accept_unenforced_dwell : bool, default False
+        Return the last design with a warning instead of raising when no attempt enforces the dwell
+        time.
+
+    Returns
+    -------
+    SwitchedDesign
+        The regions, gains, dwell time and the attempts made.
     """
     import warnings
 

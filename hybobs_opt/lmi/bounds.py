@@ -318,7 +318,22 @@ def jacobian_bounds(
 
 
 def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int = BOUND_SAMPLES) -> np.ndarray:
-    """Arguments in ``(lo, hi)`` where ``fn'`` changes sign (local extrema of ``fn``), refined by brentq."""
+    """Arguments in ``(lo, hi)`` where ``fn'`` changes sign (local extrema of ``fn``), refined by brentq.
+
+    Parameters
+    ----------
+    fn : ScalarFunction
+        The function.
+    lo, hi : float
+        The argument interval.
+    samples : int, default BOUND_SAMPLES
+        Grid size on which sign changes of ``fn'`` are looked for (at least 3).
+
+    Raises
+    ------
+    ModelError
+        If ``fn'`` is not finite on the grid.
+    """
     z = np.linspace(lo, hi, max(int(samples), 3))
     d = fn.deriv(z)
     if not np.all(np.isfinite(d)):
@@ -344,6 +359,17 @@ def monotonic_pieces(
     coordinate (the other states at the centre of the box, which is exact when the argument is the
     coordinate itself, as in both examples of paper 004).  On each piece every such function is
     monotonic (Section 5 of paper 004).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    coordinate : int or str
+        The scheduling state (index or name).
+    lo, hi : float, optional
+        The range in model units (default: the operating box).
+    samples : int, default 4 * BOUND_SAMPLES
+        Grid size of :func:`slope_change_points`.
 
     Returns
     -------

@@ -116,7 +116,18 @@ class DualCertificate:
         return out
 
     def W_of(self, Z: np.ndarray) -> np.ndarray:
-        """``W`` with ``<Z, B(P, 0, 0)> = <W, P>`` for every symmetric ``P`` (basis evaluation)."""
+        """``W`` with ``<Z, B(P, 0, 0)> = <W, P>`` for every symmetric ``P`` (basis evaluation).
+
+        Parameters
+        ----------
+        Z : (k, k) ndarray
+            A symmetric multiplier of the LMI's size.
+
+        Returns
+        -------
+        (n, n) ndarray
+            The symmetric ``W``.
+        """
         n = self.data.n
         zl, zn = np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl))
         W = np.zeros((n, n))
@@ -132,7 +143,13 @@ class DualCertificate:
         return W
 
     def g_of(self, Z: np.ndarray) -> np.ndarray:
-        """``g_k = <Z, B(0, 0, e_k)>`` for each multiplier (one entry for the paper's single one)."""
+        """``g_k = <Z, B(0, 0, e_k)>`` for each multiplier (one entry for the paper's single one).
+
+        Parameters
+        ----------
+        Z : (k, k) ndarray
+            A symmetric multiplier of the LMI's size.
+        """
         n, k = self.data.n, self.data.r + self.data.p_nl
         zeros = (np.zeros((n, n)), np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl)))
         if not self.per_function or k <= 1:
@@ -506,6 +523,18 @@ def explain(system, bounds: JacobianBounds, form: str, sigma: float, ob: Structu
 
 def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str | None = None) -> InfeasibilityCertificate:
     """Build and check the certificate for a solve of ``lmi`` that was not feasible.
+
+    Parameters
+    ----------
+    lmi : ObserverLMI
+        The compiled LMI that was solved.
+    sol : LMISolution
+        Its solve that was not feasible (bounds, ``sigma``, status and Farkas duals).
+    raise_error : bool, default False
+        Raise :class:`InfeasibleError` with the certificate instead of returning it.
+    region_text : str, optional
+        How the region is named in the messages (default: from ``sol.bounds.region``, or "the whole
+        operating box").
 
     Returns
     -------

@@ -83,9 +83,23 @@ class Diagnosis:
         return " ".join(parts)
 
     def show(self, value: float) -> float:
+        """A value in model units converted to the display unit (``value / factor``).
+
+        Parameters
+        ----------
+        value : float
+            Value in model units.
+        """
         return value / self.factor
 
     def interval_text(self, r: SchedulingRegion) -> str:
+        """``"[lo, hi] unit"`` of a region, in the display unit.
+
+        Parameters
+        ----------
+        r : SchedulingRegion
+            The region.
+        """
         return f"[{self.show(r.lo):.4g}, {self.show(r.hi):.4g}] {self.unit}".strip()
 
     def to_dict(self) -> dict:

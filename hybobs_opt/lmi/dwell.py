@@ -36,6 +36,20 @@ def dwell_time_fixed(P: Sequence[np.ndarray], sigmas: Sequence[float], pairs: Se
 
     ``exp(-tau sigma_j) P_j <= P_i`` holds iff ``exp(-tau sigma_j) <= 1 / lambda_max(P_j, P_i)``
     (generalised eigenvalue), i.e. ``tau >= ln(lambda_max) / sigma_j``.
+
+    Parameters
+    ----------
+    P : sequence of (n, n) arrays
+        The regions' Lyapunov matrices ``P_i`` (positive definite).
+    sigmas : sequence of float
+        The regions' decay rates ``sigma_i``.
+    pairs : sequence of (i, j)
+        The switches ``i -> j`` the observer can make (0-based region indices).
+
+    Returns
+    -------
+    float
+        The dwell time; ``inf`` when a needed ``sigma_j`` is not positive.
     """
     tau = 0.0
     for i, j in pairs:
@@ -54,6 +68,13 @@ def hysteresis_for_dwell(tau: float, max_rate: float) -> float:
     variable leaves the current region, a switch back needs a travel of ``2 epsilon``: at a rate of
     at most ``max_rate`` that takes at least ``2 epsilon / max_rate``.  Hence ``epsilon = tau *
     max_rate / 2`` (regions must also be at least ``2 epsilon`` wide between switching points).
+
+    Parameters
+    ----------
+    tau : float
+        Dwell time to enforce (``>= 0``, time units of the system).
+    max_rate : float
+        Largest ``|ds/dt|`` of the scheduling variable (positive).
     """
     if not (np.isfinite(max_rate) and max_rate > 0):
         raise ModelError("max_rate", "a positive maximum rate of the scheduling variable", repr(max_rate))
@@ -67,6 +88,15 @@ def dwell_for_hysteresis(epsilon: float, max_rate: float, regions: Sequence[Sche
 
     Also limited by the narrowest travel between two switching points (a region's width minus the
     two overlaps).
+
+    Parameters
+    ----------
+    epsilon : float
+        Hysteresis (half the overlap of neighbouring regions), in units of the scheduling variable.
+    max_rate : float
+        Largest ``|ds/dt|`` of the scheduling variable (positive).
+    regions : sequence of SchedulingRegion, optional
+        The regions in order; with more than two, the interior regions' widths also limit the travel.
     """
     if not (np.isfinite(max_rate) and max_rate > 0):
         raise ModelError("max_rate", "a positive maximum rate of the scheduling variable", repr(max_rate))
@@ -212,7 +242,23 @@ class DwellTimeLMI:
     def compiled(cls, system: ScalarNonlinearSystem, n_regions: int, pairs: Sequence[tuple[int, int]], *,
                  gain_bound: float | None = None, scaling: np.ndarray | None = None,
                  condition: str = "paper") -> "DwellTimeLMI":
-        """The process-wide compiled joint LMI for this system, switching graph and condition."""
+        """The process-wide compiled joint LMI for this system, switching graph and condition.
+
+        Parameters
+        ----------
+        system : ScalarNonlinearSystem
+            The system (the cache key).
+        n_regions : int
+            Number of regions.
+        pairs : sequence of (i, j)
+            The switches ``i -> j`` the observer can make.
+        gain_bound : float, optional
+            ``||L_i||_2 <= gain_bound`` in every region; set on every call when given.
+        scaling : (n,) array, optional
+            State scaling (default: the box half-widths).
+        condition : {"paper", "per_function", "polytopic"}, default "paper"
+            The region condition (see :class:`DwellTimeLMI`).
+        """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (int(n_regions), tuple(tuple(p) for p in pairs), gain_bound is None, d.tobytes(), condition)
         per = _COMPILED.setdefault(system, {})
@@ -224,7 +270,20 @@ class DwellTimeLMI:
         return obj
 
     def set_regions(self, bounds: Sequence[JacobianBounds], sigmas: Sequence[float]) -> "DwellTimeLMI":
-        """Assign each region's Jacobian bounds and decay rate to the parameters."""
+        """Assign each region's Jacobian bounds and decay rate to the parameters.
+
+        Parameters
+        ----------
+        bounds : sequence of JacobianBounds
+            One per region, in order.
+        sigmas : sequence of float
+            The decay rate ``sigma_i`` of each region's LMI.
+
+        Returns
+        -------
+        DwellTimeLMI
+            ``self``.
+        """
         if len(bounds) != self.K or len(sigmas) != self.K:
             raise ModelError("sigmas", f"{self.K} bounds and decay rates (one per region)", f"{len(bounds)}, {len(sigmas)}")
         self.sigmas = [float(s) for s in sigmas]
@@ -286,7 +345,19 @@ class DwellTimeLMI:
         return P_model, Ls, eps_l, pair_min, eigs
 
     def feasible(self, tau: float):
-        """Solve at ``tau``; the numpy-checked point or ``None``."""
+        """Solve at ``tau``; the numpy-checked point or ``None``.
+
+        Parameters
+        ----------
+        tau : float
+            Dwell time (sets ``mu_j = exp(-tau sigma_j)``).
+
+        Returns
+        -------
+        tuple or None
+            ``(P, L, multipliers, min_pair_eig, lmi_max_eig)`` (``P`` and ``L`` in model coordinates,
+            one per region) when the point passes the numpy re-check, else ``None``.
+        """
         self.mu.value = np.exp(-tau * np.array(self.sigmas))
         out = solve_problem(self.problem, accept=lambda: self._check(tau) is not None)
         if out.status not in POINT_STATUSES:
@@ -297,6 +368,20 @@ class DwellTimeLMI:
         """Bisection on ``tau`` in ``[0, tau_hi]`` (``tau_hi`` must be feasible, e.g. the fixed-P value).
 
         ``tau_hi`` is doubled (up to 20 times) until the joint LMI is feasible there.
+
+        Parameters
+        ----------
+        tau_hi : float
+            Upper end of the bisection (finite, ``>= 0``).
+        rtol : float, default BISECTION_RTOL
+            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+        tau_fixed : float, optional
+            The fixed-``P`` dwell time, stored in the result (default ``tau_hi``).
+
+        Raises
+        ------
+        ModelError
+            If the joint LMI is infeasible at every ``tau`` tried.
         """
         if not (np.isfinite(tau_hi) and tau_hi >= 0):
             raise ModelError("tau_hi", "a finite non-negative dwell time", repr(tau_hi))

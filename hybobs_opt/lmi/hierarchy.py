@@ -118,6 +118,18 @@ class HierarchyResult:
     seconds: float
 
     def get(self, key: str) -> ConditionResult:
+        """The result of condition ``key``.
+
+        Parameters
+        ----------
+        key : {"paper", "per_function", "polytopic"}
+            The condition (:data:`CONDITIONS`).
+
+        Raises
+        ------
+        KeyError
+            If no condition has that key.
+        """
         for c in self.conditions:
             if c.key == key:
                 return c
@@ -153,7 +165,13 @@ class HierarchyResult:
         return next((c for c in self.conditions if c.feasible), None)
 
     def claim(self, where: str) -> str:
-        """What the hierarchy proves on the region (``where`` names it, e.g. ``"theta in [0, 1]"``)."""
+        """What the hierarchy proves on the region (``where`` names it, e.g. ``"theta in [0, 1]"``).
+
+        Parameters
+        ----------
+        where : str
+            Text naming the region in the claim.
+        """
         strongest = self.strongest_infeasible
         feas = self.gain
         parts = []
@@ -220,6 +238,21 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
     rate) without a gain bound, so a certificate covers every gain.  Once a condition is feasible,
     the later ones are feasible by implication (their ``status`` is ``"implied"``, their gain the
     same).  An undecided solve (no certificate verified, no checked point) ends the claim there.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    region : SchedulingRegion, optional
+        The region; ``None`` means the whole operating box.  Used only to compute ``bounds``.
+    bounds : JacobianBounds, optional
+        Precomputed Jacobian bounds of the region (default: :func:`.bounds.jacobian_bounds`).
+    scaling : (n,) array, optional
+        State scaling of the LMIs (default: the box half-widths).
+    sigma : float, default 0.0
+        Decay rate at which every condition is solved.
+    region_text : str, optional
+        How the region is named in the certificates' messages.
     """
     if not isinstance(system, ScalarNonlinearSystem):
         raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)

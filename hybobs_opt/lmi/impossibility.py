@@ -137,6 +137,22 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     examples, the functions depend on the scheduling coordinate alone).  Candidates: the range
     ends, ``samples`` grid points, and the roots of every output slope ``h_j'(C_j x)`` along the
     coordinate (refined by ``brentq``: the points where an output stops seeing the state).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    coordinate : int or str
+        The scheduling state (index or name).
+    lo, hi : float, optional
+        The range in model units (default: the operating box).
+    samples : int, default DETECTABILITY_SAMPLES
+        Number of grid points (:data:`DETECTABILITY_SAMPLES`).
+
+    Raises
+    ------
+    ModelError
+        If the range is empty, reversed or outside the box.
     """
     k = coordinate_index(system, coordinate)
     lo = float(system.box_lower[k]) if lo is None else float(lo)
@@ -213,11 +229,26 @@ class OutputSymmetry:
     upper: np.ndarray = field(repr=False, default=None)
 
     def map(self, x) -> np.ndarray:
+        """The mirror map ``x -> c + S (x - c)``.
+
+        Parameters
+        ----------
+        x : (n,) or (N, n) array_like
+            State(s).
+        """
         x = np.asarray(x, dtype=float)
         return self.c + (x - self.c) * np.diag(self.S)
 
     def verify(self, points: int = SYMMETRY_POINTS, seed: int = 1) -> bool:
-        """Re-check equivariance and invariance at fresh random points."""
+        """Re-check equivariance and invariance at fresh random points.
+
+        Parameters
+        ----------
+        points : int, default SYMMETRY_POINTS
+            Number of random points drawn in ``[lower, upper]`` (:data:`SYMMETRY_POINTS`).
+        seed : int, default 1
+            Seed of the random points (the search itself uses 0, so these are fresh).
+        """
         res = _symmetry_residual(self.system, np.diag(self.S), self.c, self.lower, self.upper, points, seed)
         return res is not None and res <= SYMMETRY_RTOL
 
@@ -290,6 +321,15 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
     :func:`_centre_candidates` for the flipped coordinates; a candidate is accepted when the
     vector field is equivariant and the output invariant at ``points`` random points of
     ``box ∩ T(box)`` to :data:`SYMMETRY_RTOL`, and ``T`` moves some of them.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    points : int, default SYMMETRY_POINTS
+        Random points at which each candidate is checked.
+    seed : int, default 0
+        Seed of the random points.
     """
     n = system.n
     lo_box, hi_box = system.box_lower, system.box_upper

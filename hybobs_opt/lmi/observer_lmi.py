@@ -313,6 +313,19 @@ class ObserverLMI:
 
         Keyed by the system object, ``shifted``, whether there is a gain bound and the scaling;
         the bound itself is a ``Parameter`` and is set on every call.
+
+        Parameters
+        ----------
+        system : ScalarNonlinearSystem
+            The system of eqs. (1)-(3) of paper 004 (the cache key; held weakly).
+        gain_bound : float, optional
+            Require ``||L||_2 <= gain_bound`` (model units); ``None`` for no bound.
+        shifted : bool, default False
+            Theorem 5's transformed LMI instead of Theorem 1's.
+        scaling : (n,) array, optional
+            State scaling (default: the box half-widths).
+        multipliers : {"single", "per_function"}, default "single"
+            As for :class:`ObserverLMI`.
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (bool(shifted), gain_bound is None, d.tobytes(), multipliers)
@@ -352,7 +365,18 @@ class ObserverLMI:
         self.problem = cp.Problem(cp.Minimize(cp.norm(Yall, "fro")), cons)
 
     def set_gain_bound(self, gain_bound: float) -> None:
-        """Change the gain bound without rebuilding (only for an LMI built with a bound)."""
+        """Change the gain bound without rebuilding (only for an LMI built with a bound).
+
+        Parameters
+        ----------
+        gain_bound : float
+            New bound on ``||L||_2`` (positive, finite, model units).
+
+        Raises
+        ------
+        ModelError
+            If the LMI was built without a gain bound, or the bound is not positive and finite.
+        """
         if self.gamma is None:
             raise ModelError("gain_bound", "an ObserverLMI built with gain_bound=...", "one built without")
         if not (np.isfinite(gain_bound) and gain_bound > 0):
@@ -362,7 +386,15 @@ class ObserverLMI:
 
     # -- solving
     def bounds(self, region: SchedulingRegion | None = None, **kwargs) -> JacobianBounds:
-        """Jacobian bounds of the system over ``region`` (see :func:`.bounds.jacobian_bounds`)."""
+        """Jacobian bounds of the system over ``region`` (see :func:`.bounds.jacobian_bounds`).
+
+        Parameters
+        ----------
+        region : SchedulingRegion, optional
+            Restrict one coordinate of the operating box (default: the whole box).
+        **kwargs
+            ``given`` and ``samples`` of :func:`.bounds.jacobian_bounds`.
+        """
         return jacobian_bounds(self.system, region, **kwargs)
 
     def solve(self, bounds: JacobianBounds, sigma: float = 0.0) -> LMISolution:
@@ -370,6 +402,19 @@ class ObserverLMI:
 
         The answer is ``feasible`` only when the solver returned a point and numpy confirms it;
         a failed re-check is returned as not feasible (status ``recheck_failed``), never as feasible.
+
+        Parameters
+        ----------
+        bounds : JacobianBounds
+            Bounds ``U, V`` (eq. 5) and ``M, N`` (eq. 4) of the region (:meth:`bounds`).
+        sigma : float, default 0.0
+            Decay rate ``sigma >= 0`` (``V' <= -sigma V``).
+
+        Returns
+        -------
+        LMISolution
+            The gain ``L`` and ``P`` (in model units) when feasible, else the status and, for an
+            infeasible answer, the solver's dual (``farkas``).
         """
         if not (np.isfinite(sigma) and sigma >= 0):
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
@@ -424,6 +469,24 @@ class ObserverLMI:
     def max_decay(self, bounds: JacobianBounds, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RTOL,
                   guess: float | None = None, known: float | None = None) -> DecayResult:
         """Largest ``sigma`` in ``[0, sigma_cap]`` for which the LMI is feasible (:func:`bisect_decay`).
+
+        Parameters
+        ----------
+        bounds : JacobianBounds
+            Bounds of the region (:meth:`bounds`).
+        sigma_cap : float, default SIGMA_CAP
+            Upper end of the search (:data:`SIGMA_CAP`, 100).
+        rtol : float, default BISECTION_RTOL
+            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+        guess : float, optional
+            Starting rate of the bracket search (default ``sigma_cap / 8``).
+        known : float, optional
+            A rate believed feasible, tried when it falls inside the final bracket.
+
+        Returns
+        -------
+        DecayResult
+            The rate found, whether it reached the cap, the solution there and the log of the rates tried.
 
         Raises
         ------

@@ -154,6 +154,13 @@ class PolytopicCertificate:
         return out
 
     def W_of(self, Zs) -> np.ndarray:
+        """``W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v)``, symmetrised (the re-check needs ``W >= 0``).
+
+        Parameters
+        ----------
+        Zs : list of (n, n) arrays
+            One multiplier per vertex (e.g. :attr:`Z` or :meth:`projected`).
+        """
         W = sum(A @ Z + Z @ A.T + self.sigma * Z for Z, A in zip(Zs, self.As))
         return 0.5 * (W + W.T)
 
@@ -285,7 +292,17 @@ class PolytopicLMI:
     @classmethod
     def compiled(cls, system: ScalarNonlinearSystem, *, gain_bound: float | None = None,
                  scaling: np.ndarray | None = None) -> "PolytopicLMI":
-        """The process-wide compiled condition for ``system`` (built once, then re-solved)."""
+        """The process-wide compiled condition for ``system`` (built once, then re-solved).
+
+        Parameters
+        ----------
+        system : ScalarNonlinearSystem
+            The system (the cache key).
+        gain_bound : float, optional
+            Bound on ``||L||_2`` (model units); set on every call when given.
+        scaling : (n,) array, optional
+            State scaling (default: the box half-widths).
+        """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (gain_bound is None, d.tobytes())
         per = _COMPILED.setdefault(system, {})
@@ -321,11 +338,30 @@ class PolytopicLMI:
         self.problem = cp.Problem(cp.Minimize(cp.norm(self.Y, "fro")), cons)
 
     def vertices(self, bounds: JacobianBounds) -> tuple[list[np.ndarray], list[np.ndarray]]:
-        """Vertex matrices of ``bounds`` in scaled coordinates (duplicates kept: the problem has fixed size)."""
+        """Vertex matrices of ``bounds`` in scaled coordinates (duplicates kept: the problem has fixed size).
+
+        Parameters
+        ----------
+        bounds : JacobianBounds
+            The Jacobian box of the region.
+
+        Returns
+        -------
+        As, Cs : list of ndarray
+            The ``2^k`` vertex matrices ``A_v`` and ``C_v``.
+        """
         return vertex_matrices(self.sdata, vertex_slopes(bounds))
 
     def solve(self, bounds: JacobianBounds, sigma: float = 0.0) -> PolytopicSolution:
-        """One feasibility solve; ``feasible`` only for ``optimal`` plus the numpy re-check at every vertex."""
+        """One feasibility solve; ``feasible`` only for ``optimal`` plus the numpy re-check at every vertex.
+
+        Parameters
+        ----------
+        bounds : JacobianBounds
+            The Jacobian box of the region.
+        sigma : float, default 0.0
+            Decay rate ``sigma >= 0``.
+        """
         if not (np.isfinite(sigma) and sigma >= 0):
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
         As, Cs = self.vertices(bounds)
@@ -371,7 +407,14 @@ class PolytopicLMI:
                                  gain, out, P_scaled=Pb, Y_scaled=Yb)
 
     def certify(self, sol: PolytopicSolution) -> PolytopicCertificate | None:
-        """A verified certificate for an infeasible solve, or ``None`` (none found or none checks)."""
+        """A verified certificate for an infeasible solve, or ``None`` (none found or none checks).
+
+        Parameters
+        ----------
+        sol : PolytopicSolution
+            An infeasible solve of this condition (its ``farkas`` duals are tried first, then the
+            alternative SDP).
+        """
         As, Cs = self.vertices(sol.bounds)
         if sol.farkas is not None:
             cand = PolytopicCertificate(As, Cs, sol.sigma, sol.farkas, "Clarabel Farkas ray")
@@ -400,7 +443,26 @@ class PolytopicLMI:
 
     def max_decay(self, bounds: JacobianBounds, sigma_cap: float | None = None, rtol: float | None = None,
                   guess: float | None = None, known: float | None = None):
-        """Largest decay rate of the polytopic condition (:func:`.observer_lmi.bisect_decay`)."""
+        """Largest decay rate of the polytopic condition (:func:`.observer_lmi.bisect_decay`).
+
+        Parameters
+        ----------
+        bounds : JacobianBounds
+            The Jacobian box of the region.
+        sigma_cap : float, optional
+            Upper end of the search (default :data:`.observer_lmi.SIGMA_CAP`).
+        rtol : float, optional
+            Relative tolerance of the bisection (default :data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+        guess : float, optional
+            Starting rate of the bracket search.
+        known : float, optional
+            A rate believed feasible, tried when it falls inside the final bracket.
+
+        Returns
+        -------
+        DecayResult
+            The largest rate found and the solution there (no error when ``sigma = 0`` is infeasible).
+        """
         from ..tolerances import BISECTION_RTOL
         from .observer_lmi import SIGMA_CAP, bisect_decay
 

@@ -55,6 +55,13 @@ class SchedulingRegion:
         return self.hi - self.lo
 
     def contains(self, value: float) -> bool:
+        """Whether ``lo <= value <= hi``.
+
+        Parameters
+        ----------
+        value : float
+            Value of the scheduling state, in model units.
+        """
         return self.lo <= value <= self.hi
 
     def to_dict(self) -> dict:
@@ -76,6 +83,17 @@ def coordinate_index(system: ScalarNonlinearSystem, coordinate: int | str) -> in
 
 def make_region(system: ScalarNonlinearSystem, coordinate: int | str, lo: float, hi: float, index: int = 0) -> SchedulingRegion:
     """A region of ``system``, checked against the operating box.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system whose operating box the region restricts.
+    coordinate : int or str
+        The scheduling state (index or name).
+    lo, hi : float
+        The interval in model units.
+    index : int, default 0
+        Position of the region in its partition.
 
     Raises
     ------
@@ -149,6 +167,24 @@ def regions_from_switch_points(
     10 deg``.  Neighbouring regions share ``2 eps``; the hysteresis state machine switches when the
     estimate leaves its region, i.e. at ``s_k + eps`` going up and ``s_k - eps`` going down.
 
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system whose operating box the regions restrict.
+    coordinate : int or str
+        The scheduling state (index or name).
+    lo, hi : float
+        The range covered, in model units.
+    switch_points : sequence of float
+        Nominal switching points ``s_1 < ... < s_{K-1}`` inside ``(lo, hi)``.
+    overlap : float
+        The hysteresis ``eps >= 0`` (model units).
+
+    Returns
+    -------
+    list of SchedulingRegion
+        ``K = len(switch_points) + 1`` regions, indexed in order.
+
     Raises
     ------
     ModelError
@@ -176,7 +212,18 @@ def regions_from_switch_points(
 
 
 def adjacent_pairs(regions: Sequence[SchedulingRegion]) -> list[tuple[int, int]]:
-    """Ordered pairs ``(i, j)`` of overlapping regions: the switches the observer can make."""
+    """Ordered pairs ``(i, j)`` of overlapping regions: the switches the observer can make.
+
+    Parameters
+    ----------
+    regions : sequence of SchedulingRegion
+        The regions, in their partition's order.
+
+    Returns
+    -------
+    list of (int, int)
+        Indices into ``regions``; both orders of each overlapping pair are listed.
+    """
     pairs = []
     for i, a in enumerate(regions):
         for j, b in enumerate(regions):

@@ -68,7 +68,27 @@ class SubtractionCheck:
 def theorem5_check(system: ScalarNonlinearSystem, region: SchedulingRegion | None = None, *, sigma: float = 0.0,
                    bounds: JacobianBounds | None = None, scaling: np.ndarray | None = None, trials: int = 5,
                    seed: int = 0, original: ObserverLMI | None = None) -> SubtractionCheck:
-    """Solve the original and the linearly-shifted LMI on the same system (Theorem 5, eqs. 43-46)."""
+    """Solve the original and the linearly-shifted LMI on the same system (Theorem 5, eqs. 43-46).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    region : SchedulingRegion, optional
+        The region (default: the whole operating box); used only when ``bounds`` is not given.
+    sigma : float, default 0.0
+        Decay rate of both LMIs.
+    bounds : JacobianBounds, optional
+        Precomputed Jacobian bounds of the region.
+    scaling : (n,) array, optional
+        State scaling (default: the box half-widths); ignored when ``original`` is given.
+    trials : int, default 5
+        Random ``(P, L)`` at which the two Schur forms are compared (``identity_residual``).
+    seed : int, default 0
+        Seed of those random trials.
+    original : ObserverLMI, optional
+        The compiled original LMI to reuse (default: :meth:`ObserverLMI.compiled`).
+    """
     from .certificates import certify_infeasible
 
     b = bounds if bounds is not None else jacobian_bounds(system, region)

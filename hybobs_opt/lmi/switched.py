@@ -146,7 +146,15 @@ class SwitchedDesign:
         return out
 
     def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
-        """The JSON of ``hybobs synth``; intervals also in display units (``value / factor``)."""
+        """The JSON of ``hybobs synth``; intervals also in display units (``value / factor``).
+
+        Parameters
+        ----------
+        unit : str, optional
+            Display unit of the scheduling coordinate (for the texts).
+        factor : float, default 1.0
+            Model units per display unit.
+        """
         regs = []
         for g in self.regions:
             regs.append({
@@ -184,6 +192,11 @@ class DwellTimeError(HybobsError):
     """A switched design whose hysteresis does not enforce its dwell time, not accepted by the caller.
 
     ``design`` is the design that was rejected (pass ``accept_unenforced_dwell=True`` to get it).
+
+    Parameters
+    ----------
+    design : SwitchedDesign
+        The rejected design; the message says which overlap would enforce its dwell time.
     """
 
     def __init__(self, design: "SwitchedDesign"):
@@ -219,6 +232,29 @@ def grow_regions(
     region condition (``condition`` of :mod:`.hierarchy`: ``"paper"``, ``"per_function"`` or
     ``"polytopic"``) is feasible at ``sigma = min_decay`` (with the gain bound); the next region
     starts ``2 * overlap`` below it, so neighbours overlap by twice the hysteresis.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system of eqs. (1)-(3) of paper 004.
+    coordinate : int or str
+        The scheduling state (index or name).
+    lo, hi : float
+        The range to cover, in model units.
+    overlap : float
+        The hysteresis ``epsilon >= 0`` (model units).
+    min_decay : float
+        Decay rate each region must admit (``>= 0``).
+    gain_bound : float, optional
+        Bound on ``||L||_2``; ``None`` for none.
+    scaling : (n,) array, optional
+        State scaling of the LMIs (default: the box half-widths).
+    resolution : float, optional
+        Resolution of each region's upper end (default ``(hi - lo) / 400``).
+    lmi : ObserverLMI or PolytopicLMI, optional
+        A compiled condition to reuse (default: :func:`.hierarchy.design_lmi` of ``condition``).
+    condition : {"paper", "per_function", "polytopic"}, default "paper"
+        The region condition.
 
     Raises
     ------
