@@ -22,6 +22,18 @@ def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
     A necessary condition for the window-start state to be observable (its output map has full
     rank), not a sufficient one: another mode sequence may explain the same data.  For the
     exact answer see :func:`exact_window_labels`.
+
+    Parameters
+    ----------
+    analysis : ObservabilityAnalysis
+        Algorithm 3.1 at horizon ``T``.
+    q : (N,) int ndarray
+        The true mode at each sample.
+
+    Returns
+    -------
+    (N,) bool ndarray
+        ``False`` for the first ``T - 1`` samples (no full window).
     """
     seqs = {r.sequence: k for k, r in enumerate(analysis.regions)}
     T = analysis.T
@@ -43,6 +55,17 @@ def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMP
 
     Returns ``(times, labels)``: the window end times ``t`` that were classified (every
     ``k``-th one, at most ``samples``) and their labels.
+
+    Parameters
+    ----------
+    analysis : ObservabilityAnalysis
+        Algorithm 3.1 at horizon ``T``.
+    x : (N, n) ndarray
+        The true states.
+    samples : int, default EXACT_LABEL_SAMPLES
+        Largest number of windows classified.
+    progress : callable, optional
+        ``progress(done, total)`` per classified window.
     """
     T = analysis.T
     ends = np.arange(T - 1, x.shape[0])
@@ -85,6 +108,19 @@ def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int,
     Calls the base class's :meth:`Observer.run`, which loops ``step``, even for observers whose
     own ``run`` is a vectorised batch; with ``progress(done, total)``, in chunks of ``chunk``
     samples (the observer keeps its state between them).
+
+    Parameters
+    ----------
+    observer : Observer
+        The observer (reset first).
+    U : (N, m) ndarray
+        Inputs.
+    Y : (N, p) ndarray
+        Outputs.
+    progress : callable, optional
+        ``progress(done, total)`` after each chunk.
+    chunk : int, default 500
+        Samples per chunk when ``progress`` is given.
     """
     observer.reset()
     if progress is None:
@@ -109,6 +145,23 @@ def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarr
     named in ``interval_states`` the RMS error on the samples where ``truly_observable`` holds and
     where it does not.  The interval errors leave out the first ``warmup`` samples (``T - 1``: no
     window yet, every observer shows its initial guess there).
+
+    Parameters
+    ----------
+    out : ObserverTrace
+        The observer's run.
+    x_true : (N, n) ndarray
+        The true states.
+    truly_observable : (N,) bool ndarray
+        Which samples are observable (e.g. :func:`true_window_observable`).
+    state_names : sequence of str
+        Names of the states (columns of ``x_true``).
+    solver : str
+        The observer's solver, stored in the record.
+    warmup : int, default 0
+        Samples left out of the interval errors.
+    interval_states : sequence of str, optional
+        States whose RMS errors on the observable and unobservable intervals are reported.
     """
     err = np.abs(out.x_hat - x_true)
     flagged = out.flags == OBSERVABLE
@@ -131,7 +184,22 @@ def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarr
 
 
 def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float] | None:
-    """95 % Wilson score interval of a binomial proportion ``k / n`` (``None`` when ``n = 0``)."""
+    """95 % Wilson score interval of a binomial proportion ``k / n`` (``None`` when ``n = 0``).
+
+    Parameters
+    ----------
+    k : int
+        Number of successes.
+    n : int
+        Number of trials.
+    z : float, default 1.959963984540054
+        Standard normal quantile of the confidence level (the default gives 95 %).
+
+    Returns
+    -------
+    (float, float) or None
+        Lower and upper end, clipped to ``[0, 1]``.
+    """
     if n == 0:
         return None
     p = k / n

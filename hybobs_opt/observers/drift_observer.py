@@ -368,7 +368,15 @@ class DriftObserver(Observer):
         return self._estimate(WARMING_UP, {"visible_event": True})
 
     def run_trace(self, trace, t_start: float | None = None) -> ObserverTrace:
-        """Run :meth:`step` on the rows of a simulated trace with ``t >= t_start`` (no reset)."""
+        """Run :meth:`step` on the rows of a simulated trace with ``t >= t_start`` (no reset).
+
+        Parameters
+        ----------
+        trace : Trace
+            A simulated trace of the constant-drift system (its times and first output column are used).
+        t_start : float, optional
+            First time used; ``None`` uses every row.
+        """
         keep = np.ones(trace.t.size, dtype=bool) if t_start is None else trace.t >= t_start
         return Observer.run(self, trace.t[keep], trace.y[keep, 0])
 

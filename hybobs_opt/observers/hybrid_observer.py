@@ -134,6 +134,13 @@ class ContinuousDesign:
         return max((pr.sigma for pr in self.pairs), default=0.0)
 
     def gain(self, q: int) -> np.ndarray:
+        """The gain ``G`` used in location ``q``.
+
+        Parameters
+        ----------
+        q : int
+            0-based location index.
+        """
         return self.G[self.group_of[q]]
 
     def summary(self) -> dict[str, Any]:
@@ -337,7 +344,20 @@ class ContinuousObserverLMI:
 
 def design_continuous_observer(automaton: HybridAutomaton, decay: float, *, gain_bound: float | None = None,
                                state_box=None, input_box=None) -> ContinuousDesign:
-    """Gains ``G_i`` of eq. (15) (paper 000) for the decay rate ``decay``: see :class:`ContinuousObserverLMI`."""
+    """Gains ``G_i`` of eq. (15) (paper 000) for the decay rate ``decay``: see :class:`ContinuousObserverLMI`.
+
+    Parameters
+    ----------
+    automaton : HybridAutomaton
+        Automaton with affine locations.
+    decay : float
+        Requested common decay rate ``alpha`` (1/time unit).
+    gain_bound : float, optional
+        Bound on ``||G_i||``; ``None`` for none.
+    state_box, input_box : (lo, hi), optional
+        Operating box ``X``, ``U`` of Proposition 3.3.1 (default: bounding boxes of the automaton's
+        state and input bounds).
+    """
     return ContinuousObserverLMI(automaton, gain_bound=gain_bound, state_box=state_box, input_box=input_box).solve(decay)
 
 
@@ -392,7 +412,17 @@ class ConvergenceBound:
     M0_paper: float
 
     def error_bound(self, t: np.ndarray, e0: float, t0: float = 0.0) -> np.ndarray:
-        """``c e^{-alpha (t - t0)} e0 + M0`` for ``t >= t0``."""
+        """``c e^{-alpha (t - t0)} e0 + M0`` for ``t >= t0``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (before ``t0`` the bound is that at ``t0``).
+        e0 : float
+            ``||eps(t0)||``, the Euclidean error at ``t0``.
+        t0 : float, default 0.0
+            Initial time.
+        """
         t = np.asarray(t, dtype=float)
         return self.transient_factor * np.exp(-self.decay * np.maximum(t - t0, 0.0)) * e0 + self.M0
 
@@ -407,6 +437,15 @@ def convergence_bound(design: ContinuousDesign, delta: float, dwell_time: float)
 
     Hypotheses (Proposition 3.3.1): plant transitions at least ``D`` apart, the location observer
     identifies each within ``Delta < D``, state and input in the operating box of the design.
+
+    Parameters
+    ----------
+    design : ContinuousDesign
+        The designed gains (positive certified decay).
+    delta : float
+        Detection delay ``Delta`` of the location observer (time units).
+    dwell_time : float
+        Minimum time ``D > Delta`` between plant transitions.
 
     Raises
     ------
@@ -498,7 +537,19 @@ class ContinuousObserver(Observer):
 
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, location: int | None = None,
               **kwargs: Any) -> None:
-        """Restart at ``x0`` in location ``q0`` (``location`` is its old name; default: the constructor's)."""
+        """Restart at ``x0`` in location ``q0`` (``location`` is its old name; default: the constructor's).
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial estimate (default: the previous one, else the centre of the state bounds).
+        q0 : int, optional
+            Initial location (default: the constructor's ``location``).
+        location : int, optional
+            Older name of ``q0``.
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         field = "location" if location is not None else "q0"  # errors name the keyword the caller used
         q0 = initial_mode(q0, location, "location")
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
@@ -580,7 +631,17 @@ class ContinuousObserver(Observer):
         return Estimate(self.x.copy(), self.location, FALLBACK, 0.0, {"reason": reason})
 
     def run_with_locations(self, U, Y, Q) -> ObserverTrace:
-        """Run with a given location sequence (e.g. the true one): ``Q[k]`` is used after sample ``k``."""
+        """Run with a given location sequence (e.g. the true one): ``Q[k]`` is used after sample ``k``.
+
+        Parameters
+        ----------
+        U : (N, m) array_like
+            Inputs.
+        Y : (N, p) array_like
+            Outputs.
+        Q : (N,) int array_like
+            Location used for the gains after each sample (``Q[0]`` also at the start).
+        """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         Q = np.asarray(Q, dtype=int).reshape(-1)
         if not (U.shape[0] == Y.shape[0] == Q.shape[0]):
@@ -667,6 +728,18 @@ class HybridObserver(Observer):
         return 0
 
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, **kwargs: Any) -> None:
+        """Restart both observers at ``x0``.
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial estimate (default: the previous one, else the centre of the state bounds).
+        q0 : int, optional
+            Known initial location (default: the constructor's ``q0``; ``None`` lets the location
+            observer identify it).
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         self.locobs.reset(x0, q0)
         q = self._q0 if q0 is None else q0
         self.contobs.reset(self.locobs._x0, q0=self._start_location(self.locobs._x0, q))
@@ -706,7 +779,15 @@ class HybridObserver(Observer):
         return Estimate(xc.x, -1, FALLBACK, 0.0, info)
 
     def run_detailed(self, U, Y) -> HybridRun:
-        """Run from the reset state, keeping the location observer's signals."""
+        """Run from the reset state, keeping the location observer's signals.
+
+        Parameters
+        ----------
+        U : (N, m) array_like
+            Inputs.
+        Y : (N, p) array_like
+            Outputs.
+        """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
             raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
@@ -735,6 +816,21 @@ def summarise_run(aut: HybridAutomaton, trace, bank: ResidualBank, design: Conti
     transient term of the bound is below ``TRANSIENT_FRACTION M0``; ``t_enter_M0`` is the first
     sample after which the measured error stays within ``M0``.  ``entry_mismatch``: ``||x - z_i||`` of the entered
     location's generator at the first sample after each change (the ``Z0`` hypothesis).
+
+    Parameters
+    ----------
+    aut : HybridAutomaton
+        The plant.
+    trace : Trace
+        The simulated plant trajectory (true state, location and events).
+    bank : ResidualBank
+        The location observer's design.
+    design : ContinuousDesign
+        The continuous observer's design.
+    bound : ConvergenceBound
+        The guarantee the run is compared with.
+    run : HybridRun
+        The observer's run on ``trace`` (:meth:`HybridObserver.run_detailed`).
     """
     t = trace.t
     err = np.linalg.norm(run.x_hat - trace.x, axis=1)

@@ -173,7 +173,18 @@ class LocationObserver(Observer):
         self.reset(x0, q0)
 
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, **kwargs: Any) -> None:
-        """Restart every generator at ``x0`` and the logic at ``q0`` (``None``: unknown)."""
+        """Restart every generator at ``x0`` and the logic at ``q0`` (``None``: unknown).
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial state of every generator (default: the previous one, else the centre of the state
+            bounds).
+        q0 : int, optional
+            Known initial location (default: the constructor's ``q0``).
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
         self._x0 = x0
         self._z = np.tile(x0, self._G)
@@ -248,7 +259,18 @@ class LocationObserver(Observer):
     def error_bound(self, g: int) -> np.ndarray:
         """Certified bound on ``|z_g,k - x_k|`` per state while generator ``g``'s dynamics have been
         the identified ones for the steps counted: ``Z0`` at entry into them (the bank's design
-        hypothesis, Proposition 3.1.1 of paper 000), contracting at the generator's certified rate."""
+        hypothesis, Proposition 3.1.1 of paper 000), contracting at the generator's certified rate.
+
+        Parameters
+        ----------
+        g : int
+            Index of the generator (a group of locations with equal dynamics, ``bank.group_of``).
+
+        Returns
+        -------
+        (n,) ndarray
+            The bound per state.
+        """
         log_b = self._log_bound if g == self._bound_group else math.log(self._gen_bound0[g])
         return math.exp(min(log_b, LOG_FLOAT_MAX)) * np.sqrt(self._gen_P_inv_diag[g])
 
@@ -295,7 +317,15 @@ class LocationObserver(Observer):
 
     # ------------------------------------------------------------------ whole runs
     def run_detailed(self, U, Y) -> LocationRun:
-        """Run from the reset state over ``(U, Y)`` keeping residuals, decisions and the logic's output."""
+        """Run from the reset state over ``(U, Y)`` keeping residuals, decisions and the logic's output.
+
+        Parameters
+        ----------
+        U : (N, m) array_like
+            Inputs.
+        Y : (N, p) array_like
+            Outputs.
+        """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
             raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
@@ -331,7 +361,18 @@ def _block_diag(blocks: Sequence[np.ndarray]) -> np.ndarray:
 
 def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray) -> list[float | None]:
     """Measured delay of each true location change: from the event time to the first sample at which
-    the estimate equals the new location (``None`` if it never does before the next change)."""
+    the estimate equals the new location (``None`` if it never does before the next change).
+
+    Parameters
+    ----------
+    t : (N,) array_like
+        Sample times.
+    events : sequence of dict
+        The true location changes, each with the time ``"t"`` and the new location ``"to"``
+        (:attr:`Trace.events`).
+    location : (N,) int array_like
+        The estimated location at each sample (``-1`` when unknown).
+    """
     t = np.asarray(t, dtype=float)
     location = np.asarray(location)
     out: list[float | None] = []

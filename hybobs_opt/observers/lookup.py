@@ -298,7 +298,15 @@ class LookupObserver(Observer):
 
     # ------------------------------------------------------------------ state
     def reset(self, x0: np.ndarray | None = None, **kwargs) -> None:
-        """Clear the window; ``x0`` (default: centre of the state box) seeds open-loop prediction."""
+        """Clear the window; ``x0`` (default: centre of the state box) seeds open-loop prediction.
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Seed of open-loop prediction (default: the centre of the state box).
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         if not hasattr(self, "_tables"):
             self._build_kernel_args()
         if x0 is None:
@@ -337,7 +345,15 @@ class LookupObserver(Observer):
         return code
 
     def step(self, u, y) -> Estimate:
-        """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step with its reason."""
+        """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step with its reason.
+
+        Parameters
+        ----------
+        u : (m,) array_like
+            Input sample.
+        y : (p,) array_like
+            Output sample.
+        """
         t0 = time.perf_counter()
         reason = ""
         try:
@@ -374,6 +390,22 @@ class LookupObserver(Observer):
         ``seconds`` holds the mean time per step of the whole run; ``reason_codes`` says why each
         ``fallback`` step fell back (:meth:`LookupTrace.reasons`).  ``progress(done, total)`` is
         called every few hundred steps.
+
+        Parameters
+        ----------
+        U : (N, m) array_like
+            Inputs.
+        Y : (N, p) array_like
+            Outputs.
+        x0 : (n,) array, optional
+            Seed of open-loop prediction (see :meth:`reset`).
+        progress : callable, optional
+            ``progress(done, total)``.
+
+        Returns
+        -------
+        LookupTrace
+            The estimates, flags and reason codes of every step.
         """
         t_start = time.perf_counter()
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
@@ -447,6 +479,24 @@ def input_bound_rows(H: np.ndarray, h: np.ndarray, system, T: int, scale: np.nda
     ``system.input_bounds`` (the domain rows ``u(k) in U`` that the mode enumeration adds at every
     step).  A guard row that only involves ``u`` is not one of them unless it coincides with a
     bound of ``U``; it stays a guard (strict).
+
+    Parameters
+    ----------
+    H : (k, n + T m) ndarray
+        Rows of the region over ``(x(0), U)``.
+    h : (k,) ndarray
+        Right-hand side.
+    system : PWASystem
+        The system (its ``input_bounds``).
+    T : int
+        Window length (samples).
+    scale, centre : (n + T m,) ndarray
+        Scaling of ``(x(0), U)`` (half-widths and centre, as in the mode enumeration).
+
+    Returns
+    -------
+    (k,) bool ndarray
+        ``True`` for the rows that only bound an input.
     """
     n, m = system.n, system.m
     out = np.zeros(H.shape[0], dtype=bool)

@@ -414,6 +414,16 @@ def positive_gain_bounds(ps: PeriodicSystem) -> np.ndarray:
     ``U_ji = min_{k: C_jk > 0} A_jik / C_jk``; rows with ``C_j = 0`` get ``U_j = 0`` (the gain has
     no effect there).
 
+    Parameters
+    ----------
+    ps : PeriodicSystem
+        The ``V``-periodic system (14) of paper 003.
+
+    Returns
+    -------
+    (V, N) ndarray
+        The upper corner ``U`` of the box, one row per phase.
+
     Raises
     ------
     ModelError
@@ -505,6 +515,16 @@ def _perron(ps: PeriodicSystem, U: np.ndarray) -> tuple[float, np.ndarray]:
 
 def positive_deadbeat_gains(ps: PeriodicSystem) -> PeriodicGains:
     """The positive deadbeat observer if one exists: the box corner ``L = U`` (see module).
+
+    Parameters
+    ----------
+    ps : PeriodicSystem
+        The ``V``-periodic system (14) of paper 003.
+
+    Returns
+    -------
+    PeriodicGains
+        The gains ``L = U`` and their analysis.
 
     Raises
     ------
@@ -735,6 +755,19 @@ class PeriodicObserver(Observer):
               **kwargs: Any) -> None:
         """Start at a visible event: estimate ``x0`` of ``x-bar`` there, its time ``t0``, and ``q0`` = the mode it left
         (``mode`` is its old name).
+
+        Parameters
+        ----------
+        x0 : (N,) array_like, optional
+            Estimate of the queues ``x-bar`` at the start (default: zeros).
+        t0 : float, default 0.0
+            Time of that visible event.
+        q0 : int, optional
+            The mode left at that event, one of ``V`` (default ``v_1``).
+        mode : int, optional
+            Older name of ``q0``.
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
 
         Raises
         ------

@@ -93,6 +93,31 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
 
     ``analysis`` (Algorithm 3.1 at ``horizon``) is computed here when the lookup observer needs it
     and none is given.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The plant the log was recorded on.
+    log : SignalLog
+        The recorded inputs and outputs (:func:`~hybobs_opt.sim.log.read_log`).
+    kinds : sequence of str
+        Observer names, keys of :data:`PWA_OBSERVERS` (``"lookup"``, ``"miqp"``, ``"milp"``,
+        ``"milp_inf"``).
+    horizon : int
+        Window length ``T`` (samples) of every observer.
+    analysis : ObservabilityAnalysis, optional
+        Algorithm 3.1 at ``horizon`` for the lookup observer (default: computed, or read from the
+        cache).
+    progress : callable, optional
+        ``progress(phase, unit, done, total)``.
+    fit_tolerance : optional
+        Passed to the moving-horizon observers (:class:`~hybobs_opt.mhe.MHEObserver`), not to the
+        lookup observer.
+
+    Raises
+    ------
+    ModelError
+        On an unknown kind, or an ``analysis`` of another horizon.
     """
     kinds = check_observer_kinds(kinds)
     if analysis is not None and analysis.T != horizon:

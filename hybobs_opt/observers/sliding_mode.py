@@ -108,6 +108,13 @@ def design_gains(form: ObservabilityForm, margin: float = SMO_GAIN_MARGIN) -> Ga
     ``lambda_j = margin * (z_{j+1}^max - z_{j+1}^min)`` for ``j < n`` and
     ``lambda_n = margin * (f^max - f^min)``.
 
+    Parameters
+    ----------
+    form : ObservabilityForm
+        The automaton in the canonical form (4) of paper 001, with its state and derivative ranges.
+    margin : float, default SMO_GAIN_MARGIN
+        Factor ``> 1`` on each range width.
+
     Raises
     ------
     ModelError
@@ -129,6 +136,18 @@ def discretization_band(form: ObservabilityForm, Ts: float) -> np.ndarray:
     ``(j-1) h / 2``) and the estimate adds one Euler step, so its error is at most about
     ``(j + 1) / 2 * h * D_j <= j h D_j`` with ``D_j`` the bound of ``z_j' `` (``max |z_{j+1}|``,
     and ``max |f|`` for ``j = n``) over the operating box.
+
+    Parameters
+    ----------
+    form : ObservabilityForm
+        The automaton in the canonical form (4), with its state and derivative ranges.
+    Ts : float
+        Sampling period ``h``.
+
+    Returns
+    -------
+    (n,) ndarray
+        The band of each canonical state ``z_j``.
     """
     n = form.n
     D = np.empty(n)
@@ -254,7 +273,15 @@ class SlidingModeObserver(Observer):
 
     # ------------------------------------------------------------------ state
     def reset(self, x0: np.ndarray | None = None, **kwargs: Any) -> None:
-        """Start from ``x0`` (original coordinates; default: the centre of the operating box)."""
+        """Start from ``x0`` (original coordinates; default: the centre of the operating box).
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial estimate in the original coordinates (default: the centre of the operating box).
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         if x0 is None:
             z0 = 0.5 * (self.form.z_lower + self.form.z_upper)
         else:
@@ -411,7 +438,17 @@ class SlidingModeObserver(Observer):
         return SlidingModeRun(trace, Zh, Zt, Zs, Es, modes)
 
     def run(self, U, Y, x0: np.ndarray | None = None) -> ObserverTrace:
-        """:meth:`run_detailed`, returning only the common :class:`ObserverTrace`."""
+        """:meth:`run_detailed`, returning only the common :class:`ObserverTrace`.
+
+        Parameters
+        ----------
+        U : (N, 0) array or None
+            Inputs (the system is autonomous; only the number of rows is used).
+        Y : (N,) or (N, 1) array
+            Output samples, one every ``Ts``.
+        x0 : (n,) array, optional
+            Initial estimate (original coordinates).
+        """
         return self.run_detailed(U, Y, x0).trace
 
 

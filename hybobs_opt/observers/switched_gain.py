@@ -256,7 +256,20 @@ class SwitchedGainObserver(Observer):
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, region: int | None = None,
               **kwargs: Any) -> None:
         """Restart from ``x0`` (default: the centre of the box); a region index ``q0`` skips the
-        selection (``region`` is its old name)."""
+        selection (``region`` is its old name).
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial estimate (default: the centre of the box).
+        q0 : int, optional
+            Index of the initial region; ``None`` selects it from the first samples (or from ``x0``
+            with a single region or ``init_samples <= 1``).
+        region : int, optional
+            Older name of ``q0``.
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
         field = "region" if region is not None else "q0"  # errors name the keyword the caller used
         region = initial_mode(q0, region, "region")
         sysm = self.system
@@ -304,6 +317,20 @@ class SwitchedGainObserver(Observer):
         residual is normalised by its spread over the grid, so an output that does not depend on
         the coordinate (the vehicle's positions) is ignored and one that does (its heading through
         the slope, the piston's position through the value) decides.
+
+        Parameters
+        ----------
+        Y : (k, p) array_like
+            The first output samples, one every ``dt``.
+        U : (k, m) array_like, optional
+            The matching inputs (the first one is used for the model's slope; ``None`` means zeros).
+
+        Returns
+        -------
+        region : int
+            Index of the region selected.
+        s : float
+            The scheduling value identified.
         """
         sysm = self.system
         Y = np.asarray(Y, dtype=float).reshape(-1, self.p)
@@ -378,7 +405,15 @@ class SwitchedGainObserver(Observer):
 
     def difference(self, x_hat: np.ndarray, x_true: np.ndarray) -> np.ndarray:
         """``x_hat - x_true`` with every periodic coordinate's difference wrapped into
-        ``[-period/2, period/2)`` (the error along the circle); rows are samples."""
+        ``[-period/2, period/2)`` (the error along the circle); rows are samples.
+
+        Parameters
+        ----------
+        x_hat : (N, n) or (n,) array_like
+            Estimates.
+        x_true : array_like
+            True states, same shape.
+        """
         err = np.asarray(x_hat, dtype=float) - np.asarray(x_true, dtype=float)
         if self._wrap_idx.size == 0:
             return err
@@ -573,7 +608,17 @@ def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
 
 
 def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float | None:
-    """First time from which ``|err[:, i]| <= tol[i]`` for every later sample (``None`` if never)."""
+    """First time from which ``|err[:, i]| <= tol[i]`` for every later sample (``None`` if never).
+
+    Parameters
+    ----------
+    t : (N,) ndarray
+        Sample times.
+    err : (N, n) ndarray
+        Errors, one row per sample.
+    tol : (n,) ndarray
+        Tolerance per column.
+    """
     bad = np.any(np.abs(err) > tol[None, :], axis=1)
     if not bad.any():
         return float(t[0])
