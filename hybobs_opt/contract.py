@@ -77,7 +77,18 @@ class ObserverTrace:
         return self.x_hat.shape[0]
 
     def errors(self, x_true: np.ndarray) -> np.ndarray:
-        """``x_hat - x_true`` (shapes must agree)."""
+        """``x_hat - x_true`` (shapes must agree).
+
+        Parameters
+        ----------
+        x_true : (N, n) array_like
+            The true states, one row per step.
+
+        Raises
+        ------
+        ModelError
+            If the shapes differ.
+        """
         x_true = np.asarray(x_true, dtype=float)
         if x_true.shape != self.x_hat.shape:
             raise ModelError("x_true", f"shape {self.x_hat.shape}", f"shape {x_true.shape}")
@@ -303,7 +314,16 @@ class Observer(ABC):
 
     @abstractmethod
     def reset(self, x0: np.ndarray | None = None, **kwargs: Any) -> None:
-        """Forget the past; ``x0`` is the initial guess used for open-loop prediction."""
+        """Forget the past; ``x0`` is the initial guess used for open-loop prediction.
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Initial estimate; ``None`` keeps each observer's default (its previous or constructor value,
+            else the centre of the state bounds).
+        **kwargs
+            Observer-specific options, e.g. the initial mode or location ``q0``.
+        """
 
     @abstractmethod
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
@@ -331,7 +351,21 @@ class Observer(ABC):
         return uu, yy
 
     def step(self, u, y) -> Estimate:
-        """Process one sample ``(u(t), y(t))`` and return the estimate of ``x(t)``."""
+        """Process one sample ``(u(t), y(t))`` and return the estimate of ``x(t)``.
+
+        Parameters
+        ----------
+        u : (m,) array_like
+            Input sample.
+        y : (p,) array_like
+            Output sample.
+
+        Returns
+        -------
+        Estimate
+            The estimate, its mode, flag, compute time and details; a bad sample gives a flagged
+            open-loop step, never an exception.
+        """
         t0 = time.perf_counter()
         checked = self._validate_sample(u, y)
         if isinstance(checked, str):
@@ -364,6 +398,23 @@ class Observer(ABC):
 
         The rows go to :meth:`step` as they are, so a malformed row (a string, a wrong length) is a
         ``fallback`` step like any bad sample; only traces of different lengths are refused.
+
+        Parameters
+        ----------
+        U : sequence of (m,) samples
+            Inputs, one row per step.
+        Y : sequence of (p,) samples
+            Outputs, one row per step (same number as ``U``).
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates of every step.
+
+        Raises
+        ------
+        ModelError
+            If ``U`` and ``Y`` are not sequences of the same length.
         """
         try:
             nu, ny = len(U), len(Y)
