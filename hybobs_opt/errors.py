@@ -12,7 +12,15 @@ from typing import Any
 
 
 class HybobsError(Exception):
-    """Base class of every error raised on purpose by hybobs_opt."""
+    """Base class of every error raised on purpose by hybobs_opt.
+
+    Parameters
+    ----------
+    *args
+        The message (and any further arguments), as for :class:`Exception`.
+    **kwargs
+        None accepted (:class:`Exception` takes no keyword arguments).
+    """
 
 
 class ModelError(HybobsError, ValueError):
@@ -42,7 +50,17 @@ class ModelError(HybobsError, ValueError):
 
 
 class InfeasibleError(HybobsError):
-    """An optimisation problem is infeasible; ``certificate`` proves it (``certificate.verify()``)."""
+    """An optimisation problem is infeasible; ``certificate`` proves it (``certificate.verify()``).
+
+    Parameters
+    ----------
+    problem : str
+        Name of the problem (e.g. ``"positive deadbeat observer (16)"``).
+    certificate : object, optional
+        The proof of infeasibility (with ``verify()``), or ``None``.
+    detail : str, optional
+        Explanation appended to the message.
+    """
 
     def __init__(self, problem: str, certificate: Any = None, detail: str = ""):
         self.problem = problem
@@ -58,7 +76,19 @@ class InfeasibleError(HybobsError):
 
 
 class SolverError(HybobsError):
-    """A solver failed, hit a limit, or returned an answer it could not certify."""
+    """A solver failed, hit a limit, or returned an answer it could not certify.
+
+    Parameters
+    ----------
+    problem : str
+        Name of the problem.
+    solver : str
+        The solver's name.
+    status : str
+        The solver's status.
+    hint : str, optional
+        What to try, appended to the message.
+    """
 
     def __init__(self, problem: str, solver: str, status: str, hint: str = ""):
         self.problem = problem

@@ -32,6 +32,22 @@ class SerialExecutor:
     n_workers = 1
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], progress: Progress = None) -> list[Any]:
+        """Apply ``fn`` to every item in turn.
+
+        Parameters
+        ----------
+        fn : callable
+            ``fn(item)``.
+        items : iterable
+            The work items.
+        progress : callable, optional
+            ``progress(done, total)`` as each result arrives, in order.
+
+        Returns
+        -------
+        list
+            ``[fn(item) for item in items]``, in the order of ``items``.
+        """
         items = list(items)
         out = []
         for k, item in enumerate(items):
@@ -45,7 +61,13 @@ class SerialExecutor:
 
 
 class ProcessExecutor:
-    """Local worker processes (``concurrent.futures``), all cores by default."""
+    """Local worker processes (``concurrent.futures``), all cores by default.
+
+    Parameters
+    ----------
+    n_workers : int, optional
+        Number of processes (default: ``os.cpu_count()``).
+    """
 
     name = "processes"
 
@@ -67,6 +89,22 @@ class ProcessExecutor:
         return self._pool
 
     def map(self, fn, items, progress: Progress = None) -> list[Any]:
+        """Apply ``fn`` to the items in the worker processes (serially for one item or one worker).
+
+        Parameters
+        ----------
+        fn : callable
+            ``fn(item)``, picklable (module-level) for the worker processes.
+        items : iterable
+            The work items.
+        progress : callable, optional
+            ``progress(done, total)`` as each result arrives, in order.
+
+        Returns
+        -------
+        list
+            ``[fn(item) for item in items]``, in the order of ``items``.
+        """
         items = list(items)
         if len(items) <= 1 or self.n_workers == 1:
             return SerialExecutor().map(fn, items, progress)
@@ -83,6 +121,18 @@ class DaskExecutor:
     """A Dask distributed cluster: an existing scheduler (``tcp://HOST:PORT``) or a ``LocalCluster``.
 
     Needs the ``distributed`` extra (``pip install hybobs_opt[distributed]``).
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of an existing scheduler (``tcp://HOST:PORT``); give it or ``local_workers``.
+    local_workers : int, optional
+        Size of a ``LocalCluster`` started here (one thread per worker process).
+
+    Raises
+    ------
+    ModelError
+        If ``distributed`` is not installed, both or neither are given, or ``local_workers < 1``.
     """
 
     name = "dask"
@@ -106,6 +156,22 @@ class DaskExecutor:
         self.n_workers = max(1, len(self._client.scheduler_info().get("workers", {})) or (local_workers or 1))
 
     def map(self, fn, items, progress: Progress = None) -> list[Any]:
+        """Apply ``fn`` to the items on the cluster.
+
+        Parameters
+        ----------
+        fn : callable
+            ``fn(item)``, serialisable for the workers.
+        items : iterable
+            The work items.
+        progress : callable, optional
+            ``progress(done, total)`` as each result arrives, in order.
+
+        Returns
+        -------
+        list
+            ``[fn(item) for item in items]``, in the order of ``items``.
+        """
         items = list(items)
         return _gather(self._client.map(fn, items, pure=False), progress)
 
@@ -117,7 +183,24 @@ class DaskExecutor:
 
 def make_executor(kind: str = "processes", n_workers: int | None = None, scheduler: str | None = None,
                   dask_local: int | None = None):
-    """Build an executor from CLI-style options (``--scheduler`` / ``--dask-local`` win over ``kind``)."""
+    """Build an executor from CLI-style options (``--scheduler`` / ``--dask-local`` win over ``kind``).
+
+    Parameters
+    ----------
+    kind : {"processes", "serial"}, default "processes"
+        The local executor.
+    n_workers : int, optional
+        Processes of a :class:`ProcessExecutor` (default: all cores).
+    scheduler : str, optional
+        Address of a Dask scheduler: gives a :class:`DaskExecutor`.
+    dask_local : int, optional
+        Workers of a Dask ``LocalCluster``: gives a :class:`DaskExecutor`.
+
+    Raises
+    ------
+    ModelError
+        On an unknown ``kind``.
+    """
     if scheduler is not None or dask_local is not None:
         return DaskExecutor(scheduler, dask_local)
     if kind == "serial":

@@ -123,12 +123,23 @@ def is_optimal(status: Any) -> bool:
     """The one acceptance policy: true for :attr:`Status.OPTIMAL` only.
 
     Inaccurate, soft-optimal, limit, incumbent and unknown answers are never optimal.
+
+    Parameters
+    ----------
+    status : Status or str
+        A status (a plain string compares equal to its :class:`Status`).
     """
     return status == Status.OPTIMAL
 
 
 def is_infeasible(status: Any) -> bool:
-    """True for :attr:`Status.INFEASIBLE` only (the caller must still hold a certificate)."""
+    """True for :attr:`Status.INFEASIBLE` only (the caller must still hold a certificate).
+
+    Parameters
+    ----------
+    status : Status or str
+        A status (a plain string compares equal to its :class:`Status`).
+    """
     return status == Status.INFEASIBLE
 
 

@@ -185,7 +185,15 @@ class SwitchedDesign:
 
 
 class DwellTimeWarning(UserWarning):
-    """A switched design whose hysteresis does not enforce its dwell time (Theorem 6 not guaranteed)."""
+    """A switched design whose hysteresis does not enforce its dwell time (Theorem 6 not guaranteed).
+
+    Parameters
+    ----------
+    *args
+        The message (one of :attr:`SwitchedDesign.warnings`), as for :class:`UserWarning`.
+    **kwargs
+        None accepted (:class:`Warning` takes no keyword arguments).
+    """
 
 
 class DwellTimeError(HybobsError):

@@ -40,7 +40,15 @@ ENTRY_PROBE = 1e-9
 
 
 class SimulationError(HybobsError):
-    """The simulation could not continue (Zeno behaviour, state left every invariant)."""
+    """The simulation could not continue (Zeno behaviour, state left every invariant).
+
+    Parameters
+    ----------
+    *args
+        The message, as for :class:`HybobsError`.
+    **kwargs
+        None accepted (:class:`Exception` takes no keyword arguments).
+    """
 
 
 def _input_fn(automaton: HybridAutomaton, u) -> InputFn:
