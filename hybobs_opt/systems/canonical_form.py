@@ -65,7 +65,7 @@ class LocationTransform:
     ``z = T x + d`` with ``z_{k+1} = y^{(k)}``; in these coordinates the location reads
     ``z_k' = z_{k+1}`` (``k < n``), ``z_n' = alpha . z + beta``.
 
-    Attributes
+    Parameters
     ----------
     location : int
     name : str
@@ -133,7 +133,7 @@ class SwitchingFunction:
 class ObservabilityForm:
     """A hybrid automaton in the canonical form (4) of paper 001, ready for the observer (5).
 
-    Attributes
+    Parameters
     ----------
     automaton : HybridAutomaton
         The original model.
@@ -626,7 +626,7 @@ class Theorem1Result:
     and ``sigma_q(v)`` are location ``q``'s last dynamics and switching functions in its own
     coordinates.
 
-    Attributes
+    Parameters
     ----------
     i, j : int
     M_dim : int

@@ -51,7 +51,7 @@ def _ro(arr: np.ndarray) -> np.ndarray:
 class EventMaps:
     """The system sampled at all events, eqs. (11)-(13) of paper 003.
 
-    Attributes
+    Parameters
     ----------
     system : ConstantDriftSystem
         The system the maps were computed from.
@@ -185,7 +185,7 @@ class PeriodicSystem:
     ``x-bar(t^v_{j+1}) = A_j x-bar(t^v_j) + a_j`` and ``t^v_{j+1} = t^v_j + C_j x-bar(t^v_j) + c_j``
     where phase ``j`` is the step that starts at the visible event leaving mode ``v_j``.
 
-    Attributes
+    Parameters
     ----------
     A : (V, N, N) array
     a : (V, N) array
