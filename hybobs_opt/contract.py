@@ -35,7 +35,7 @@ FLAGS = (OBSERVABLE, UNOBSERVABLE, FALLBACK, WARMING_UP)
 class Estimate:
     """One step's result.
 
-    Attributes
+    Parameters
     ----------
     x : (n,) array
         State estimate at the current time.

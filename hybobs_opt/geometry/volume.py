@@ -14,7 +14,7 @@ from ..errors import ModelError
 class VolumeEstimate:
     """Volume of a polytope or union of polytopes.
 
-    Attributes
+    Parameters
     ----------
     value : float
         The volume (exact, or the Monte Carlo estimate).

@@ -37,7 +37,7 @@ MODE_COLUMNS = ("q", "mode")
 class SignalLog:
     """The samples of a log, as arrays in the system's order.
 
-    Attributes
+    Parameters
     ----------
     path : str
     U : (N, m) array

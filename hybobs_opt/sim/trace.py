@@ -16,7 +16,7 @@ from ..errors import ModelError
 class Trace:
     """A sampled trajectory of a hybrid system.
 
-    Attributes
+    Parameters
     ----------
     t : (N,) array
         Sample times (seconds, or sample index times ``Ts`` for discrete systems).
