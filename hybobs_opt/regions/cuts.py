@@ -21,7 +21,7 @@ LABELS = ("observable", "unobservable", "infeasible")
 class Cut:
     """Classification of a grid in the plane of two states, the others fixed.
 
-    Attributes
+    Parameters
     ----------
     axes : (str, str)
         Names of the free states (horizontal, vertical).

@@ -26,7 +26,7 @@ from ..tolerances import BOX_IMPLIED_RTOL, REGION_SLACK_TOL
 class ModeRegion:
     """One region ``P_i`` of eq. (4): a mode sequence, its polytope over ``(x, U)`` and output map.
 
-    Attributes
+    Parameters
     ----------
     sequence : tuple of int
         Modes ``i_0 ... i_{T-1}``.

@@ -78,7 +78,7 @@ class PairSet:
 class ObservabilityAnalysis:
     """Result of Algorithm 3.1 (paper 002) with the exact point query of Definition 2.2.
 
-    Attributes
+    Parameters
     ----------
     enumeration : ModeEnumeration
         The regions ``P_i`` of eq. (4).
@@ -95,6 +95,10 @@ class ObservabilityAnalysis:
         ``executor``; ``n_pairs_dropped_thin`` and ``pairs_dropped_thin``: the non-empty
         ``R_ij`` left out of ``B_T`` because their projection on ``x`` is certified thinner
         than ``2 REGION_SLACK_TOL`` (see :func:`_pair_lps`).
+    _pair_cache : dict
+        Internal cache of the pair lookups; leave it at its default.
+    _xboxes : array or None
+        Internal cache of the bounding boxes of ``Proj_x(P_k)``; leave it at its default.
     """
 
     enumeration: ModeEnumeration
