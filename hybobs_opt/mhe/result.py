@@ -34,7 +34,7 @@ _KEYS = ("status", "solver", "solved_by", "polished", "x_start", "states", "mode
 class WindowResult(Mapping):
     """Answer of one window of eq. (10): status, trajectory and how it was certified.
 
-    Attributes
+    Parameters
     ----------
     status : Status
         ``OPTIMAL`` (a certified global optimum: see the module docstring of
@@ -71,6 +71,11 @@ class WindowResult(Mapping):
         Another window-start state ``delta`` away whose cost is within ``epsilon`` of the optimum.
     seconds : float
         Wall time of the window's solve.
+    residual_source : callable, optional
+        ``residual_source() -> dict`` giving ``residuals`` (called once, on first access).
+
+    Attributes
+    ----------
     residuals : dict of str to float
         Constraint residuals at the returned point: ``"mld_rows"``, the largest violation of the
         (row-normalised) MLD rows, bounds and integrality of the window at the trajectory (empty

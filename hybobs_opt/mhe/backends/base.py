@@ -42,7 +42,7 @@ __all__ = ["Backend", "BackendOutcome", "quiet_stdout"]
 class BackendOutcome:
     """Result of one backend solve.
 
-    Attributes
+    Parameters
     ----------
     status : Status
         ``OPTIMAL`` (a finite point the solver proved optimal), ``INFEASIBLE`` (proven; with a
