@@ -66,7 +66,7 @@ RATE_FLOOR: float = 1e-12
 class DesignSettings:
     """The settings of one switched-gain design, each with where it came from.
 
-    Attributes
+    Parameters
     ----------
     coordinate : str
         Scheduling state.
@@ -88,6 +88,8 @@ class DesignSettings:
         Design rate as a fraction of the largest; upper end of the decay search.
     sources : dict
         Per setting, ``"given"`` or the rule that produced it.
+    condition : {"paper", "per_function", "polytopic"}
+        The region condition of :mod:`.hierarchy` the regions are grown with.
     """
 
     coordinate: str

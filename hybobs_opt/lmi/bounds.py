@@ -68,7 +68,7 @@ def _eval(f: ca.Function, z: np.ndarray) -> np.ndarray:
 class DerivativeBound:
     """Bounds of one scalar function's derivative over an argument interval (eq. 4 or 5).
 
-    Attributes
+    Parameters
     ----------
     name : str
         The function's name.
@@ -239,7 +239,7 @@ def _linear_bound(j: int, interval: tuple[float, float]) -> DerivativeBound:
 class JacobianBounds:
     """All the bounds of eqs. (4)-(5) for one system over one region (or the whole box).
 
-    Attributes
+    Parameters
     ----------
     region : SchedulingRegion or None
         ``None`` for the whole operating box.
@@ -247,6 +247,8 @@ class JacobianBounds:
         ``U_i, V_i`` of each ``f_i``.
     h : tuple of DerivativeBound
         ``M_j, N_j`` of each ``h_j`` (``method == "linear"`` for identity outputs).
+    linear_outputs : tuple of bool
+        Per output, whether ``h_j`` is the identity (its bounds are not used in the sector).
     """
 
     region: SchedulingRegion | None

@@ -75,7 +75,7 @@ class CertificateCheck:
 class DualCertificate:
     """A dual PSD multiplier ``Z`` of an observer LMI (scaled coordinates) and its re-check.
 
-    Attributes
+    Parameters
     ----------
     data : LMIData
         The LMI's matrices in the coordinates of ``Z``.
@@ -377,7 +377,7 @@ def obstruction_certificate(data: LMIData, sector: SectorData, sigma: float, ob:
 class InfeasibilityCertificate:
     """Why an observer LMI of paper 004 has no solution, with checkable evidence.
 
-    Attributes
+    Parameters
     ----------
     reason : str
         The structural explanation, stated for the system at hand.
@@ -396,6 +396,8 @@ class InfeasibilityCertificate:
         Names of the non-monotonic functions on the region.
     solver_status : str
         The primal status that triggered the certification.
+    region : dict or None
+        The region (``SchedulingRegion.to_dict()``), ``None`` for the whole box.
     """
 
     reason: str
@@ -533,7 +535,7 @@ def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str 
     raise_error : bool, default False
         Raise :class:`InfeasibleError` with the certificate instead of returning it.
     region_text : str, optional
-        How the region is named in the messages (default: from ``sol.bounds.region``, or "the whole
+        How the region is named in the messages (default: from ``sol.region``, or "the whole
         operating box").
 
     Returns

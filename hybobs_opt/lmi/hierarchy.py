@@ -51,7 +51,7 @@ def condition_name(key: str, form: str) -> str:
 class ConditionResult:
     """The verdict of one condition of the hierarchy on one region.
 
-    Attributes
+    Parameters
     ----------
     key : str
         ``"paper"``, ``"per_function"`` or ``"polytopic"``.
@@ -70,6 +70,10 @@ class ConditionResult:
     implied_by : str or None
         Feasible because an earlier (stronger) condition is.
     seconds : float
+    skipped : str
+        Why the condition was not solved or not decided (empty otherwise).
+    solution : LMISolution, PolytopicSolution or None
+        The solve behind the verdict.
     """
 
     key: str

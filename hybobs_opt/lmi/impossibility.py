@@ -57,7 +57,7 @@ def _fmt_complex(lam: complex) -> str:
 class UndetectablePoint:
     """A state where the linearisation has a non-decaying mode the outputs do not see.
 
-    Attributes
+    Parameters
     ----------
     x : array
         The state (the scheduling coordinate at ``s``, the other states at the centre of the box).
@@ -72,6 +72,8 @@ class UndetectablePoint:
         ``x`` is an equilibrium of the unforced system (``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)`` at ``u = 0``).
     pbh_residual : float
         ``sigma_min([J - lambda I; C])`` relative to ``1 + ||J|| + ||C||``.
+    system : ScalarNonlinearSystem
+        The system.
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -205,7 +207,7 @@ def _thin(points: list[UndetectablePoint], spacing: float) -> list[UndetectableP
 class OutputSymmetry:
     """An involution ``T x = c + S (x - c)`` under which the system's outputs cannot tell ``x`` from ``T x``.
 
-    Attributes
+    Parameters
     ----------
     S : (n, n) array
         Diagonal sign matrix (not the identity).
@@ -217,6 +219,10 @@ class OutputSymmetry:
         Largest relative residual found there.
     example_pair : (array, array)
         A state and its mirror image, both in the box.
+    system : ScalarNonlinearSystem
+        The system.
+    lower, upper : (n,) arrays
+        Box ``box ∩ T(box)`` in which :meth:`verify` draws its points.
     """
 
     system: ScalarNonlinearSystem = field(repr=False)

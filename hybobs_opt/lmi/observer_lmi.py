@@ -75,7 +75,7 @@ MULTIPLIER_MODES = ("single", "per_function")
 class LMISolution:
     """One solve of an observer LMI for one region (a :class:`~hybobs_opt.results.SolveResult`).
 
-    Attributes
+    Parameters
     ----------
     feasible : bool
         True only for a point (status ``optimal`` or ``optimal_inaccurate``, see
@@ -102,6 +102,18 @@ class LMISolution:
         Smallest eigenvalue of the scaled ``P`` (at least 1 by the normalisation).
     gain_norm : float or None
         ``||L||_2``.
+    region : SchedulingRegion or None
+        The region (``None`` for the whole operating box).
+    bounds : JacobianBounds
+        The Jacobian bounds the LMI was solved with.
+    outcome : SolveOutcome or None
+        The solver chain's status and timing.
+    farkas : array or None
+        For an infeasible solve, the solver's dual of the LMI constraint (checked by
+        :func:`.certificates.certify_infeasible`).
+    P_scaled, Y_scaled : arrays or None
+        ``P`` and ``Y = P L`` at the solver's point in the scaled coordinates (the columns of ``Y``
+        in the order linear outputs, then nonlinear ones).
     """
 
     feasible: bool

@@ -109,7 +109,7 @@ class PolytopicCheck:
 class PolytopicCertificate:
     """Multipliers ``Z_v`` proving the polytopic condition infeasible (scaled coordinates).
 
-    Attributes
+    Parameters
     ----------
     As, Cs : list of arrays
         The vertex matrices the multipliers refer to.

@@ -35,7 +35,7 @@ def schur_form(data: LMIData, s: SectorData, P: np.ndarray, L_lin: np.ndarray, L
 class SubtractionCheck:
     """Outcome of :func:`theorem5_check`.
 
-    Attributes
+    Parameters
     ----------
     original_feasible, shifted_feasible : bool
         Verdicts of the original LMI and of the transformed one (45) at ``sigma``.
@@ -44,6 +44,8 @@ class SubtractionCheck:
         ``max ||(43) - (44)||_F / ||(44)||_F`` over random ``P > 0, L`` (rounding level).
     shifted_certificate_verified : bool or None
         When the transformed LMI is infeasible: whether its dual certificate passed the numpy check.
+    sigma : float
+        Decay rate of both LMIs.
     """
 
     original_feasible: bool

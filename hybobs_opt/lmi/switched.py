@@ -34,7 +34,7 @@ from .solve import COUNTERS, SOLVER
 class RegionGain:
     """The design of one region.
 
-    Attributes
+    Parameters
     ----------
     region : SchedulingRegion
     L : (n, p) array
@@ -57,6 +57,8 @@ class RegionGain:
         numpy (:func:`.hierarchy.verified_rate`); at least ``sigma`` for a sound design.
     decay_log : tuple of (sigma, feasible, status)
         Every rate the decay search tried.
+    capped : bool
+        ``sigma_max`` is the cap of the decay search.
     """
 
     region: SchedulingRegion
@@ -80,7 +82,7 @@ class RegionGain:
 class SwitchedDesign:
     """A switched-gain observer design: gains per region, dwell time and hysteresis.
 
-    Attributes
+    Parameters
     ----------
     system : ScalarNonlinearSystem
     coordinate : int
@@ -104,6 +106,18 @@ class SwitchedDesign:
     solves : int
         LMI solves of the synthesis (including the dwell search).
     seconds : float
+    dwell_solves : int
+        Joint LMI solves of the dwell-time search.
+    min_pair_eig : float
+        ``min over pairs of lambda_min(P_i - exp(-tau sigma_j) P_j)`` at ``tau`` (numpy re-check).
+    solver_counts : dict
+        Solver statuses, undecided solves and rescues counted during the synthesis.
+    accepted_unenforced_dwell : bool
+        The design was accepted although the hysteresis does not enforce ``tau``.
+    verification : DesignVerification or None
+        The check of :func:`~hybobs_opt.observers.switched_verification.verify_switched_design`, when run.
+    dwell_attempts : list of dict
+        The attempts of :func:`.auto_design.design_switched` (overlap, design-rate fraction, result).
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
