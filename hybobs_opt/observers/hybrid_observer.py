@@ -90,7 +90,7 @@ class MismatchPair:
 class ContinuousDesign:
     """Gains ``G_i`` of the continuous observer (eq. 15 of paper 000) with a common ``P``.
 
-    Attributes
+    Parameters
     ----------
     automaton : HybridAutomaton
     G : tuple of arrays
@@ -379,7 +379,7 @@ def _box(box, polytope, dim: int, field: str) -> tuple[np.ndarray, np.ndarray]:
 class ConvergenceBound:
     """The convergence neighbourhood of Proposition 3.3.1 (eq. 20 of paper 000) for a design.
 
-    Attributes
+    Parameters
     ----------
     delta, dwell_time, decay : float
         ``Delta``, ``D`` and the certified common rate ``alpha``.

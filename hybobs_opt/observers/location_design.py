@@ -376,7 +376,7 @@ class ResidualGenerator:
 class ResidualBank:
     """The designed bank of residual generators (Section 3.1 of paper 000).
 
-    Attributes
+    Parameters
     ----------
     automaton : HybridAutomaton
     delta, epsilon, z0_bound : float
@@ -389,6 +389,8 @@ class ResidualBank:
         Per location, per row of its invariant: the bound on ``|a_k'(x - z)|`` that holds
         ``Delta`` after the location is entered (``||P^{-1/2} a_k|| ||P^{1/2}|| e^{-alpha Delta} Z0``).
     gain_bound : float or None
+    seconds : float
+        Wall time of the design (:func:`design_residual_bank`).
     """
 
     automaton: HybridAutomaton

@@ -101,7 +101,7 @@ def positivity_violation(ps: PeriodicSystem, L: np.ndarray) -> tuple[float, floa
 class PeriodicGains:
     """Gains ``L_1`` to ``L_V`` of observer (16) with the properties that were checked for them.
 
-    Attributes
+    Parameters
     ----------
     L : (V, N) array
         ``L_j`` as rows, phase ``j`` at index ``j - 1``.

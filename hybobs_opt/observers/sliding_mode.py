@@ -81,7 +81,7 @@ __all__ = [
 class GainRule:
     """The gains ``lambda_1..lambda_n`` of observer (5) and the bounds they come from.
 
-    Attributes
+    Parameters
     ----------
     lambdas : (n,) array
     widths : (n,) array
