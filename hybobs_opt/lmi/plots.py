@@ -2,19 +2,39 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
-from ..plotting import pyplot
+from ..plotting import pyplot, quantity_label
 
 plt = pyplot()
 import numpy as np  # noqa: E402
 
 
-def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721) -> Path:
+def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
+                         units: Mapping[str, tuple[str, str]] | None = None) -> Path:
     """Each nonlinear function's derivative over the range with its bounds (eqs. 4-5) and pieces.
 
     Functions of the scheduling coordinate are drawn against it (display units), with the
     slope-change points and the suggested switching regions; the others against their own argument.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+        From :func:`hybobs_opt.lmi.diagnose.diagnose`.
+    path : path-like
+        Output file (PNG).
+    samples : int
+        Points per curve.
+    units : mapping, optional
+        ``{function name: (unit of its value, unit of its argument in model units)}``: the slope
+        axis is then labelled ``"slope of NAME [VALUE per ARGUMENT]"``; without an entry it carries the
+        name only (a user system declares no units).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     path = Path(path)
     system = diag.system
@@ -35,8 +55,11 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721) -> Path:
                 ax.axvspan(r.lo / diag.factor, r.hi / diag.factor, color=f"C{i % 10}", alpha=0.08)
         else:
             z = np.linspace(*b.interval, samples)
-            xs, xlabel = z, f"argument of {b.name}"
+            xs, xlabel = z, quantity_label(f"argument of {b.name}", (units or {}).get(b.name, ("", ""))[1])
+        value_unit, arg_unit = (units or {}).get(b.name, ("", ""))
         ax.plot(xs, fn.deriv(z), lw=1.2, color="k")
+        ax.set_ylabel(quantity_label(f"slope of {b.name}", f"{value_unit} per {arg_unit}" if value_unit and arg_unit else ""),
+                      fontsize=8)
         ax.axhline(b.lower, color="tab:blue", lw=1, ls="--", label=f"lower {b.lower:.3g}")
         ax.axhline(b.upper, color="tab:red", lw=1, ls="--", label=f"upper {b.upper:.3g}")
         ax.axhline(0.0, color="0.3", lw=0.6)

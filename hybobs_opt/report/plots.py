@@ -1,10 +1,16 @@
-"""Plots of simulation traces (matplotlib, Agg backend: no screen needed)."""
+"""Plots of simulation traces and region cuts (matplotlib, Agg backend: no screen needed).
+
+Every axis carries its quantity and, when known, its unit (``"omega_m [rad/s]"``,
+:func:`hybobs_opt.plotting.quantity_label`); a state without a declared unit is labelled with its
+name only.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from ..plotting import pyplot, save_figure
+from ..plotting import pyplot, quantity_label, save_figure
 
 plt = pyplot()
 import numpy as np  # noqa: E402
@@ -12,7 +18,18 @@ import numpy as np  # noqa: E402
 from ..sim.trace import Trace  # noqa: E402
 
 
-def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int = 6) -> Path:
+def _unit_list(names: Sequence[str], units: Sequence[str] | Mapping[str, str] | None) -> list[str]:
+    """One unit per name (``""`` when unknown) from a sequence aligned with ``names`` or a mapping."""
+    if not units:
+        return [""] * len(names)
+    if isinstance(units, Mapping):
+        return [str(units.get(nm, "") or "") for nm in names]
+    units = list(units)
+    return [str(units[i] or "") if i < len(units) else "" for i in range(len(names))]
+
+
+def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int = 6,
+               units: Sequence[str] | Mapping[str, str] | None = None) -> Path:
     """Plot each state and the discrete state ``q`` against time and save a PNG.
 
     Parameters
@@ -23,6 +40,9 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
     title : str
     max_states : int
         Plot at most this many states (one panel each).
+    units : sequence or mapping of str, optional
+        The unit of each state (aligned with ``trace.state_names``, or ``{name: unit}``), shown
+        on its axis as ``"name [unit]"``; a state without one is labelled with its name only.
 
     Returns
     -------
@@ -31,14 +51,15 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
     """
     path = Path(path)
     n = min(trace.x.shape[1], max_states)
+    unit = _unit_list(trace.state_names, units)
     fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * (n + 1) + 0.6), sharex=True)
     axes = np.atleast_1d(axes)
     for i in range(n):
         axes[i].plot(trace.t, trace.x[:, i], lw=1.0)
-        axes[i].set_ylabel(trace.state_names[i], rotation=0, ha="right", va="center")
+        axes[i].set_ylabel(quantity_label(trace.state_names[i], unit[i]))
         axes[i].grid(alpha=0.3)
     axes[n].step(trace.t, trace.q, where="post", lw=1.0, color="tab:red")
-    axes[n].set_ylabel("q", rotation=0, ha="right", va="center")
+    axes[n].set_ylabel("location q")
     if trace.location_names:
         ticks = sorted(set(int(v) for v in np.unique(trace.q)))
         axes[n].set_yticks(ticks)
@@ -48,26 +69,106 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
     return save_figure(fig, path, title)
 
 
-def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: int = 6) -> Path:
+def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: int = 6,
+                   units: Sequence[str] | Mapping[str, str] | None = None) -> Path:
     """An observer's run on a log: each estimated state (the true one too when the log has it),
-    with the samples flagged ``observable`` marked, and the flags against the sample index."""
+    with the samples flagged ``observable`` marked, and the flags on their own labelled axis.
+
+    Parameters
+    ----------
+    trace : ObserverTrace
+        The observer's estimates and flags.
+    log : Log
+        The log it ran on (``log.t`` and ``log.X`` when recorded).
+    path : path-like
+        Output file (PNG).
+    title : str
+    max_states : int
+        Plot at most this many states (one panel each).
+    units : sequence or mapping of str, optional
+        The unit of each state, as for :func:`plot_trace` (none for a user system without units).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(path)
     n = min(trace.x_hat.shape[1], max_states)
     k = np.arange(trace.n_steps) if log.t is None else log.t
     flagged = trace.flags == "observable"
-    fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * (n + 1) + 0.6), sharex=True)
+    names = list(trace.state_names) if trace.state_names else [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]
+    unit = _unit_list(names, units)
+    fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * n + 1.4), sharex=True,
+                             gridspec_kw={"height_ratios": [1.0] * n + [0.6]})
     axes = np.atleast_1d(axes)
     for i in range(n):
         if log.X is not None:
             axes[i].plot(k, log.X[:, i], lw=1.0, color="0.5", label="true")
         axes[i].plot(k, trace.x_hat[:, i], lw=0.9, color="tab:blue", label="estimate")
         axes[i].plot(k[flagged], trace.x_hat[flagged, i], ".", ms=2, color="tab:green", label="flagged observable")
-        axes[i].set_ylabel(trace.state_names[i] if trace.state_names else f"x{i + 1}", rotation=0, ha="right", va="center")
+        axes[i].set_ylabel(quantity_label(names[i], unit[i]))
         axes[i].grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper right")
     codes = {"observable": 3, "unobservable": 2, "warming_up": 1, "fallback": 0}
     axes[n].step(k, [codes.get(str(f), 0) for f in trace.flags], where="post", lw=1.0, color="tab:red")
     axes[n].set_yticks(sorted(codes.values()))
     axes[n].set_yticklabels(sorted(codes, key=codes.get), fontsize=7)
+    axes[n].set_ylim(-0.5, 3.5)
+    axes[n].set_ylabel("flag")
     axes[n].set_xlabel("t [s]" if log.t is not None else "sample")
     return save_figure(fig, path, title)
+
+
+#: Colours of the region cuts, by label: (word used in the report's text, matplotlib colour).
+CUT_COLOURS: dict[str, tuple[str, str]] = {
+    "observable": ("green", "#7fc97f"),
+    "unobservable": ("magenta", "#e7298a"),
+    "infeasible": ("white", "#ffffff"),
+}
+
+
+def plot_region_cut(cut, path: str | Path, title: str = "", units: Mapping[str, str] | None = None) -> Path:
+    """Save a PNG of a cut of the observability regions, both axes unscaled with their units.
+
+    The grid points are drawn observable (:data:`CUT_COLOURS`: green), unobservable ``B_T``
+    (magenta) and outside ``X*_T`` (white), with a legend; the fixed states go in the title.
+
+    Parameters
+    ----------
+    cut : Cut
+        From :func:`hybobs_opt.regions.compute_cut`.
+    path : path-like
+        Output file (PNG).
+    title : str
+        Figure title; default: the fixed states.
+    units : mapping of str, optional
+        ``{state name: unit}``; a free axis without one is labelled with its name only.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    path = Path(path)
+    units = units or {}
+    order = ("observable", "unobservable", "infeasible")
+    code = np.vectorize({k: i for i, k in enumerate(order)}.get)(cut.labels)
+    fig, ax = plt.subplots(figsize=(7.6, 4.6))
+    dx = (cut.x_values[1] - cut.x_values[0]) / 2
+    dy = (cut.y_values[1] - cut.y_values[0]) / 2
+    ax.imshow(code, origin="lower", aspect="auto", interpolation="nearest",
+              extent=(cut.x_values[0] - dx, cut.x_values[-1] + dx, cut.y_values[0] - dy, cut.y_values[-1] + dy),
+              cmap=ListedColormap([CUT_COLOURS[k][1] for k in order]), vmin=0, vmax=len(order) - 1)
+    ax.set_xlabel(quantity_label(cut.axes[0], units.get(cut.axes[0])))
+    ax.set_ylabel(quantity_label(cut.axes[1], units.get(cut.axes[1])))
+    fixed = ", ".join(f"{k} = {v:g}" + (f" {units[k]}" if units.get(k) else "") for k, v in cut.fixed.items())
+    ax.set_title(title or f"cut at {fixed}", fontsize=9)
+    ax.legend(handles=[Patch(color=CUT_COLOURS["observable"][1], label="observable (O_T)"),
+                       Patch(color=CUT_COLOURS["unobservable"][1], label="unobservable (B_T)"),
+                       Patch(facecolor=CUT_COLOURS["infeasible"][1], edgecolor="k", label="outside X*_T")],
+              fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)  # beside, hiding no cell
+    return save_figure(fig, path)

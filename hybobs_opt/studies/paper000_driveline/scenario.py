@@ -128,15 +128,17 @@ def plot_fig6(res: DrivelineResult, path: str, lookup: Any = None) -> str:
     ax[0].plot(t[sel], run.x_hat[sel, 0], "--", label="continuous observer")
     for thr in (-0.01, -0.04):
         ax[0].axhline(thr, color="grey", lw=0.8, ls=":")
-    ax[0].set_ylabel("torsion (rad)")
+    ax[0].set_ylabel("theta_e - theta_e0 [rad]")
     ax[0].legend(loc="lower right", fontsize=8)
     for k, name in ((1, "q2"), (2, "q3")):
         q = aut.location_names.index(name)
         g = res.bank.group_of[q]
         ax[k].step(t[sel], run.sigma[sel, g].astype(int) + 0.04, where="post", ls="--", label="sigma (eq. 8)")
         ax[k].step(t[sel], run.consistent[sel, q].astype(int), where="post", label="sigma and invariant")
-        ax[k].set_ylabel(f"sigma_r{q + 1}")
+        ax[k].set_ylabel(f"sigma_r{q + 1}\n(decision)")
         ax[k].set_ylim(-0.2, 1.3)
+        ax[k].set_yticks([0, 1])
+        ax[k].set_yticklabels(["false", "true"], fontsize=8)
         ax[k].legend(loc="center right", fontsize=7)
     ax[3].step(t[sel], tr.q[sel] + 1, where="post", label="true location", lw=2)
     loc = run.location.astype(float) + 1
@@ -150,8 +152,9 @@ def plot_fig6(res: DrivelineResult, path: str, lookup: Any = None) -> str:
         lk[lookup < 0] = np.nan
         ax[3].step(t[sel], lk[sel], where="post", label="lookup observer", ls=":")
     ax[3].set_yticks([1, 2, 3])
+    ax[3].set_yticklabels(list(aut.location_names[:3]), fontsize=8)
     ax[3].set_ylabel("location")
-    ax[3].set_xlabel("t (s)")
+    ax[3].set_xlabel("t [s]")
     ax[3].legend(loc="upper right", fontsize=7)
     fig.suptitle("Driveline, -10 N m step at 2 s (paper 000, Fig. 6)")
     fig.tight_layout()

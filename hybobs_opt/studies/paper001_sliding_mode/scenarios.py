@@ -397,6 +397,7 @@ def _plot(result: ScenarioResult, path: str, filtered: ScenarioResult | None = N
     if filtered is not None:
         axes[n].step(t, filtered.run.mode + 0.1, where="post", lw=0.8, label="S_o (filtered)")
     axes[n].legend(fontsize=7, loc="upper right")
+    axes[n].set_ylabel("indicator S")
     axes[n].set_xlabel("t [s]")
     fig.suptitle(f"{result.spec.name}: sliding-mode observer (paper 001, eq. 5)", fontsize=10)
     fig.tight_layout()

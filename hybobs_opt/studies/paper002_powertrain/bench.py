@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.observers.base import NOISE_FIT_SIGMAS, OBSERVABLE, ObserverTrace
+from hybobs_opt.observers.base import NOISE_FIT_SIGMAS, ObserverTrace
 from hybobs_opt.progress import phase_bars
 from hybobs_opt.observers.comparison import (  # noqa: F401  (re-exported: hybobs_opt.observers.bench)
     EXACT_LABEL_SAMPLES,
@@ -168,34 +168,15 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
 
 
 def plot_bench(trace, outs: dict[str, ObserverTrace], path: str) -> str:
-    """Figs. 7-9 of paper 002: true twist angle and wheel speed; each observer's errors and flags."""
-    from hybobs_opt.plotting import pyplot
+    """Figs. 7-9 of paper 002: true twist angle and wheel speed; each observer's errors and flags.
 
-    plt = pyplot()
+    The errors of both states are drawn on a log scale and each observer's observability flag on
+    its own labelled axis (:func:`hybobs_opt.studies.paper002_powertrain.plots.plot_observer_errors`).
+    """
+    from .plots import plot_observer_errors
+    from .systems import TABLE1
 
-    names = list(outs)
-    fig, axes = plt.subplots(2 + len(names), 1, figsize=(8, 2.0 * (2 + len(names))), sharex=True)
-    t = trace.t
-    axes[0].plot(t, trace.state("theta"))
-    axes[0].axhspan(-0.05, 0.05, color="0.9")
-    axes[0].set_ylabel("theta")
-    axes[1].plot(t, trace.state("omega_l"))
-    axes[1].set_ylabel("omega_l")
-    for ax, name in zip(axes[2:], names):
-        out = outs[name]
-        n = out.n_steps
-        i = trace.state_names.index("theta")
-        ax.plot(t[:n], out.x_hat[:, i] - trace.x[:n, i], label="theta error")
-        flag = np.where(out.flags == OBSERVABLE, 1.0, -1.0)
-        ax2 = ax.twinx()
-        ax2.plot(t[:n], flag, "k--", lw=0.7, label="observable (+1) / not (-1)")
-        ax2.set_ylim(-1.5, 1.5)
-        ax.set_ylabel(f"{name}\nerror")
-    axes[-1].set_xlabel("t [s]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return plot_observer_errors(trace, outs, path, backlash=TABLE1["alpha"] if "theta" in trace.state_names else None)
 
 
 def _observe_scenario(example: str, horizon: int):

@@ -142,6 +142,11 @@ def _true_at(trace, t: float) -> np.ndarray:
     return np.array([np.interp(t, trace.t, trace.x[:, i]) for i in range(trace.x.shape[1])])
 
 
+#: The quantity of the states ``x1 ... xN`` of each example and its unit (Secs. 2.1 and 5; the paper
+#: gives no units: jobs and vehicles, counted).
+PLOTTED_QUANTITY = {"switching_server": ("buffer content", "jobs"), "traffic_junction": ("queue length", "vehicles")}
+
+
 def plot_drift_run(res: dict[str, Any], path, title: str = "") -> None:
     """Figure 3 of paper 003: true (dashed) and estimated (solid) queues, visible events marked."""
     from hybobs_opt.plotting import pyplot
@@ -157,7 +162,8 @@ def plot_drift_run(res: dict[str, Any], path, title: str = "") -> None:
     for r in res["observer"].events:
         ax.axvline(r.t, color="k", lw=0.5, alpha=0.4)
     ax.set_xlabel("t [s]")
-    ax.set_ylabel("queue length")
+    quantity, unit = PLOTTED_QUANTITY.get(res["summary"].get("example"), ("x1 ... xN", ""))
+    ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     ax.set_title(title or f"{res['summary']['example']}: observer (18), {res['summary']['observer']}", fontsize=10)

@@ -308,7 +308,13 @@ def plot_piston_comparison(result: Mapping[str, Any], path: str | Path) -> Path:
         ax.set_ylabel(f"|error {n}|")
         ax.grid(alpha=0.3)
     axes[1].legend(fontsize=7)
+    for i, n in enumerate(names):  # the piston's units (paper 004, Sec. 7): z in mm, v in mm/s, a in mm/s^2
+        unit = dict(zip(("z", "v", "a"), ("mm", "mm/s", "mm/s^2"))).get(n, "")
+        axes[1 + i].set_ylabel(f"|error {n}|" + (f" [{unit}]" if unit else ""))
     axes[-1].set_xlabel("t [s]")
+    for ax in axes[1:-1]:  # the error panels share the time axis of the last one
+        ax.sharex(axes[-1])
+        ax.tick_params(axis="x", labelbottom=False)
     for ax in axes:
         ax.grid(alpha=0.3)
     fig.suptitle("Magnetic piston with PWL sensor fit: lookup-table vs switched-gain observer", fontsize=10)

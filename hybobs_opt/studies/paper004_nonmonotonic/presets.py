@@ -95,6 +95,17 @@ PRESETS: dict[str, SchedulePreset] = {
 }
 
 
+#: Units of the nonlinear functions of the two examples, ``{function name: (value unit, argument
+#: unit)}`` in model units (the slope axes of :func:`hybobs_opt.lmi.plots.plot_jacobian_bounds`):
+#: the vehicle's velocity components (m/s) and yaw rate (rad/s) of the angles in rad (Sec. 6.1), the
+#: piston's sensor readings (mT) of the position in mm (Sec. 7).
+FUNCTION_UNITS: dict[str, dict[str, tuple[str, str]]] = {
+    "vehicle_tracking": {"V cos(psi)": ("m/s", "rad"), "V sin(psi)": ("m/s", "rad"),
+                         "V/(l_f+l_r) tan(delta_f)": ("rad/s", "rad")},
+    "magnetic_piston": {"sensor 1": ("mT", "mm"), "sensor 2": ("mT", "mm")},
+}
+
+
 def get_preset(example: str) -> SchedulePreset:
     try:
         return PRESETS[example]
