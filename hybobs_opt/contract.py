@@ -62,6 +62,23 @@ class ObserverTrace:
 
     ``info[k]`` is the ``Estimate.info`` of step ``k`` (solver status, candidates, reasons) when
     the run kept it (:meth:`Observer.run` does); empty for vectorised runs that have none.
+
+    Parameters
+    ----------
+    x_hat : (N, n) array
+        The estimates.
+    mode : (N,) int array
+        Estimated mode or location per step (``-1`` when unknown).
+    flags : (N,) object array
+        One of :data:`FLAGS` per step.
+    seconds : (N,) array
+        Compute time per step.
+    state_names : tuple of str
+        Names of the states.
+    observer : str
+        Name of the observer.
+    info : tuple of dict
+        ``Estimate.info`` per step (or empty).
     """
 
     x_hat: np.ndarray

@@ -32,6 +32,25 @@ class LPResult:
     ``certificate`` proves an ``INFEASIBLE`` / ``UNBOUNDED`` status (:class:`LPCertificate`,
     ``verify()`` true); ``duals`` holds the multipliers ``lambda >= 0`` of the inequality rows at an
     optimum (``c + A_ub' lambda + A_eq' mu = 0`` up to the bounds' multipliers), checked.
+
+    Parameters
+    ----------
+    status : Status
+        The outcome above.
+    x : array or None
+        The optimal point (``None`` without one).
+    objective : float or None
+        ``c'x`` at the optimum.
+    solver : str, default "highs"
+        The solver's name.
+    seconds : float, default 0.0
+        Wall time, retries included.
+    residuals : dict of str to float, optional
+        Largest violation of the inequality rows, the equality rows and the bounds at ``x``.
+    certificate : LPCertificate, optional
+        Proof of an ``INFEASIBLE`` / ``UNBOUNDED`` status.
+    duals : array, optional
+        Multipliers ``lambda >= 0`` of the inequality rows at an optimum.
     """
 
     status: Status
@@ -698,6 +717,22 @@ class SlackResult:
     empty (``lower = upper = -inf``) and ``OPTIMAL`` otherwise (the LP's optimum is certified to lie
     in ``[lower, upper]``, which decides the caller's threshold); ``residuals`` reports that
     bracket's width (the point itself satisfies every row at ``t = lower`` by construction).
+
+    Parameters
+    ----------
+    lower : float
+        Certified lower bound of the slack (``-inf`` for an empty polytope).
+    upper : float
+        Certified upper bound (``inf`` without multipliers).
+    w : array or None
+        The point that certifies ``lower`` (``None`` when empty).
+    solver : str
+        The solver that decided: ``"daqp"``, ``"daqp+nnls"``, ``"highs"``, or ``"numpy"`` when
+        the constant rows decide.
+    lam : array, optional
+        DAQP's multipliers of the LP's rows.
+    seconds : float, default 0.0
+        Wall time of the solve.
     """
 
     lower: float

@@ -34,7 +34,59 @@ from .switched import grow_regions
 
 @dataclass
 class Diagnosis:
-    """Everything :func:`diagnose` found (``to_dict`` is the JSON of ``hybobs diagnose``)."""
+    """Everything :func:`diagnose` found (``to_dict`` is the JSON of ``hybobs diagnose``).
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system diagnosed.
+    region : SchedulingRegion
+        The range diagnosed.
+    unit : str
+        Display unit of the scheduling coordinate.
+    factor : float
+        Model units per display unit (:meth:`show` divides by it).
+    bounds : JacobianBounds
+        Bounds (4)-(5) on the region.
+    feasible : bool
+        Some condition of the hierarchy is feasible on the region (a constant gain exists).
+    solution : LMISolution
+        The solve of the paper's LMI (8)/(22)/(23).
+    certificate : InfeasibilityCertificate or None
+        Why the paper's LMI is infeasible, when it is.
+    decay : DecayResult or None
+        Largest decay rate of the feasible condition (with the gain bound).
+    theorem5 : SubtractionCheck
+        Theorem 5's transformed LMI on the region.
+    breakpoints : array
+        Where the functions of the coordinate change direction (:func:`.bounds.monotonic_pieces`).
+    pieces : list of SchedulingRegion
+        The monotonic pieces between them.
+    suggested : list of SchedulingRegion or None
+        Switching regions grown when no constant gain exists (:func:`.switched.grow_regions`).
+    suggest_error : str
+        Why the decay search or the region growing failed (empty otherwise).
+    gain_bound : float or None
+        Bound on ``||L||_2`` used for the design and the regions.
+    min_decay : float
+        Decay rate the suggested regions must admit.
+    overlap : float
+        Hysteresis of the suggested regions (model units).
+    next_steps : list of str
+        The advice, the verdict first.
+    seconds : float
+        Wall time of the diagnosis.
+    hierarchy : HierarchyResult, optional
+        All conditions of :mod:`.hierarchy` on the region.
+    undetectable : list of UndetectablePoint, optional
+        Points of the range where the linearisation is not detectable.
+    symmetries : list of OutputSymmetry, optional
+        Mirror maps the outputs cannot detect.
+    design_condition : str, optional
+        The condition the gain is designed with (the first feasible one).
+    sigma_verified : float, optional
+        Decay rate the designed ``(P, L)`` proves on every vertex of the Jacobian box.
+    """
 
     system: ScalarNonlinearSystem = field(repr=False)
     region: SchedulingRegion

@@ -113,7 +113,21 @@ class ConditionResult:
 
 @dataclass(frozen=True)
 class HierarchyResult:
-    """All conditions of the hierarchy on one region, and what they prove together."""
+    """All conditions of the hierarchy on one region, and what they prove together.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+        The system.
+    region : SchedulingRegion or None
+        The region (``None`` for the whole operating box).
+    form : str
+        The paper's LMI for the system: ``"(8)"``, ``"(22)"`` or ``"(23)"``.
+    conditions : tuple of ConditionResult
+        One per condition of :data:`CONDITIONS`, in that order.
+    seconds : float
+        Wall time of the hierarchy.
+    """
 
     system: ScalarNonlinearSystem = field(repr=False)
     region: SchedulingRegion | None

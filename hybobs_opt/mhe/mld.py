@@ -165,6 +165,33 @@ class MLDEncoding:
     * outputs: ``Y^ = Ymap v + YU U + Yoff`` (stacked ``y^(0) ... y^(T-1)``).
 
     Build with :func:`encode_mld`.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model.
+    T : int
+        Window length.
+    disturbances : bool
+        Whether the disturbances ``omega`` are variables.
+    A, BU : arrays
+        Constraint rows ``lo <= A v + BU U <= hi``.
+    lo, hi : arrays
+        Their bounds (equal for equality rows).
+    lb, ub : arrays
+        Variable bounds.
+    discrete : bool array
+        The binary variables ``delta``.
+    Xmap, Xoff : arrays
+        ``x(k) = Xmap[k] v + Xoff[k]``, shapes ``(T, n, n_vars)`` and ``(T, n)``.
+    Ymap, YU, Yoff : arrays
+        ``Y^ = Ymap v + YU U + Yoff``.
+    slices : dict of str to slice
+        Position of each block (``"xi0"``, ``"delta"``, ``"zeta"``, ``"zeta_y"``, ``"omega"``) in ``v``.
+    big_m : BigMConstants, optional
+        The constants the rows were built with.
+    state_scale : (n,) array, optional
+        The state scale ``hx`` (``None``: the half-widths of the state box).
     """
 
     system: PWASystem

@@ -101,7 +101,23 @@ class VisibleEventRecord:
 
 @dataclass(frozen=True, eq=False)
 class DriftRun:
-    """Result of :meth:`DriftObserver.observe_events`: estimates on a time grid and the event records."""
+    """Result of :meth:`DriftObserver.observe_events`: estimates on a time grid and the event records.
+
+    Parameters
+    ----------
+    t : (K,) array
+        Times of the estimates (the grid and both sides of every event).
+    x_hat : (K, N + 1) array
+        Estimates ``[x0^, x1^, ..., xN^]``.
+    mode : (K,) int array
+        The observer's model mode at each time.
+    waiting : (K,) bool array
+        Whether the observer was in a waiting mode.
+    events : list of VisibleEventRecord
+        What the observer did at each visible event.
+    state_names : tuple of str
+        Names of ``x0 ... xN``.
+    """
 
     t: np.ndarray
     x_hat: np.ndarray

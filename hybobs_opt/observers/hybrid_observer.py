@@ -658,7 +658,31 @@ class ContinuousObserver(Observer):
 
 @dataclass(frozen=True, eq=False)
 class HybridRun:
-    """A run of :class:`HybridObserver`: the continuous estimate and the location observer's signals."""
+    """A run of :class:`HybridObserver`: the continuous estimate and the location observer's signals.
+
+    Parameters
+    ----------
+    x_hat : (N, n) array
+        The continuous observer's estimates.
+    location : (N,) int array
+        Estimated location (``-1`` when ambiguous / none).
+    held : (N,) int array
+        The location observer's held location.
+    status : (N,) object array
+        The location observer's status per step.
+    residuals : (N, G) array
+        ``||r_j||`` per generator.
+    sigma : (N, G) bool array
+        Decisions of eq. (8).
+    consistent : (N, Q) bool array
+        Per location: ``sigma`` of its generator and the invariant test.
+    generator_states : (N, G, n) array
+        States of the residual generators.
+    seconds : (N,) array
+        Compute time per step.
+    trace : ObserverTrace
+        The run on the common contract.
+    """
 
     x_hat: np.ndarray
     location: np.ndarray

@@ -109,6 +109,13 @@ class LookupTrace(ObserverTrace):
 
     ``reason_codes[k]`` is a code of :data:`REASONS`: why step ``k`` is ``fallback``, or a note
     (``"open-loop prediction clipped to the state bounds"``) on an ``unobservable`` step.
+
+    Parameters
+    ----------
+    x_hat, mode, flags, seconds, state_names, observer, info
+        As for :class:`ObserverTrace`.
+    reason_codes : (N,) int array or None
+        The codes above.
     """
 
     reason_codes: np.ndarray | None = None

@@ -64,6 +64,27 @@ class ModeEnumeration:
 
     ``scale``/``centre`` map scaled coordinates ``w in [-1, 1]`` of ``(x, U)`` to original ones,
     ``z = centre + scale * w``.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The system.
+    T : int
+        Horizon.
+    regions : tuple of ModeRegion
+        The non-empty regions, in lexicographic order of their mode sequences.
+    scale, centre : arrays
+        The map above, over ``(x, U)``.
+    n_lps : int
+        LPs solved.
+    n_prefixes_tested : int
+        Mode-sequence prefixes tested.
+    n_prefixes_total : int
+        All prefixes of length ``1 ... T`` (``sum_k s^k``).
+    seconds : float
+        Wall time of the enumeration.
+    stats : dict
+        ``executor`` and ``split_depth`` of the run.
     """
 
     system: PWASystem

@@ -63,6 +63,17 @@ class PairSet:
 
     ``G [x; x^; U] <= g`` and ``E [x; x^; U] = e``; ``slack`` is its Chebyshev radius inside the
     equality subspace, in scaled coordinates.
+
+    Parameters
+    ----------
+    i, j : int
+        Indices of the two regions (``i`` in ``I``, ``j != i``).
+    G, g : arrays
+        Inequalities over ``[x; x^; U]``.
+    E, e : arrays
+        Equalities over ``[x; x^; U]`` (equal outputs).
+    slack : float
+        The Chebyshev radius above.
     """
 
     i: int

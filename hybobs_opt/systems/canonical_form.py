@@ -101,6 +101,17 @@ class SwitchingFunction:
     ``sigma(x) = x_row . x`` and ``sigma(z) = z_row . z + z_offset`` are the same function; the
     locations change where ``sigma`` crosses one of ``thresholds``.  For Example 3 of paper 001,
     ``sigma(x) = x1`` and ``sigma(z) = (z3 + z2)/c1 - z1`` with thresholds ``-1, 1``.
+
+    Parameters
+    ----------
+    x_row : (n,) array
+        Coefficients of ``sigma`` in ``x``.
+    z_row : (n,) array
+        Coefficients of ``sigma`` in ``z``.
+    z_offset : float
+        Constant term in ``z``.
+    thresholds : tuple of float
+        Values of ``sigma`` at which the location changes.
     """
 
     x_row: np.ndarray
