@@ -144,7 +144,9 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
                  "x^(50) = [0, 70, 20, 30] in mode 4. The paper computed the jump from its rounded numbers "
                  "(58.3 + 0.5 (70.7 - 81.7) = 52.8); the exact value is 52.86.</p>")
     parts.append(_table(["quantity", "paper 003", "recomputed"], rows))
-    parts.append(f"<img src='{fig}' alt='junction observer'>")
+    alt = (f"Queue lengths x1, x2, x3 [vehicles] of the T-junction against t [s] up to {res['t'][-1]:g} s: observer (18) "
+           f"with the gains (20a-b), estimated (solid) and true (dashed), the {len(ev)} visible events marked by vertical lines")
+    parts.append(f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>")
     summary["junction"] = {k: res["summary"][k] for k in ("final_error", "first_exact_visible_event", "nonnegative")}
     summary["junction"]["visible_events"] = [{"t": r.t, "predicted_t": r.predicted_t} for r in ev[:3]]
 
@@ -153,9 +155,13 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     fig = "drift_server.png"
     plot_drift_run(res_s, out / fig, "Switching server, sequential deadbeat gains: estimated (solid) and true (dashed)")
     figs.append(fig)
+    alt_s = (f"Buffer contents x1, x2 [jobs] of the switching server against t [s] up to {res_s['t'][-1]:g} s: observer "
+             f"(18) with the sequential deadbeat gains, estimated (solid) and true (dashed), the "
+             f"{len(res_s['observer'].events)} visible events marked by vertical lines")
     parts.append("<h3>The switching server of Section 2.1</h3><p>Parameters lam1 = 1, mu1 = 3, mu2 = 4, gamma1 = 2, "
                  "gamma2 = 1 (chosen; the paper keeps them symbolic), observer from x^(0) = [gamma1, 0, 0] in mode 1. "
-                 f"Exact from t = {_fmt(res_s['summary']['first_exact_visible_event'])} s.</p><img src='{fig}' alt='server observer'>")
+                 f"Exact from t = {_fmt(res_s['summary']['first_exact_visible_event'])} s.</p>"
+                 f"<img src='{fig}' alt='{html.escape(alt_s, quote=True)}'>")
     summary["server"] = {k: res_s["summary"][k] for k in ("final_error", "first_exact_visible_event", "nonnegative")}
 
     # ---------------------------------------------------------------- comparison

@@ -42,6 +42,10 @@ def driveline_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
     lookup_name = next(k for k in rows if k.startswith("lookup T=4"))
     fig = "driveline_fig6.png"
     plot_fig6(res, str(out / fig), lookup=outs[lookup_name].mode)
+    alt = ("Driveline from 1.9 s to 2.6 s around the -10 N m torque step: the torsion theta_e - theta_e0 [rad] of the "
+           "plant and of the continuous observer with the location thresholds -0.01 and -0.04 rad; the decision "
+           "signals sigma_r2 and sigma_r3 (false/true); the true location, the estimated one (gaps: ambiguous) and "
+           f"the location found by the {lookup_name} observer, against t [s]")
     s = res.summary
     names = res.automaton.state_names
 
@@ -91,7 +95,7 @@ def driveline_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "ambiguity, not a guess, while both tests pass.</p>"
     )
     body_html = (
-        intro + f"<img src='{fig}' alt='Fig. 6'>" + "<h3>Residual generators (Proposition 3.1.1)</h3>" + gen_table + cont
+        intro + f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>" + "<h3>Residual generators (Proposition 3.1.1)</h3>" + gen_table + cont
         + "<h3>Against the lookup observer on the discretised driveline</h3>" + comparison
     )
     summary = {k: v for k, v in s.items() if k not in ("residual_design", "continuous_design")}

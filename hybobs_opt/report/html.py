@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -15,6 +16,25 @@ from typing import Any
 
 from ..errors import HybobsError
 from .section import _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
+
+def wrap_tables(body: str) -> str:
+    """Wrap every ``<table>`` of ``body`` in a ``<div class='table-wrap'>`` that scrolls sideways.
+
+    A wide table (the 13-column observer tables) then scrolls inside the page instead of making
+    the page itself wider than the window.
+
+    Parameters
+    ----------
+    body : str
+        HTML.
+
+    Returns
+    -------
+    str
+    """
+    body = re.sub(r"<table\b", "<div class='table-wrap'><table", body)
+    return body.replace("</table>", "</table></div>")
+
 
 def section_keys() -> list[str]:
     _load_builtin_sections()
@@ -56,7 +76,7 @@ def assemble_report(out_dir: str | Path, builders: list[tuple[str, SectionBuilde
             section = ReportSection(key, f"<p class='error'>This section failed: {html.escape(str(exc))}</p>")
             ok, err = False, str(exc)
         seconds = time.perf_counter() - t0
-        parts.append(f"<section id='{key}'><h2>{html.escape(section.title)}</h2>\n{section.body_html}</section>")
+        parts.append(f"<section id='{key}'><h2>{html.escape(section.title)}</h2>\n{wrap_tables(section.body_html)}</section>")
         records.append(
             {"key": key, "title": section.title, "ok": ok, "error": err, "summary": section.summary,
              "figures": section.figures, "seconds": round(seconds, 3)}
@@ -73,7 +93,10 @@ _PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title>
 <style>
 body {{ font-family: system-ui, sans-serif; max-width: 1000px; margin: 2em auto; color: #222; }}
-table {{ border-collapse: collapse; margin: 1em 0; }}
+table {{ border-collapse: collapse; margin: 0; }}
+.table-wrap {{ overflow-x: auto; max-width: 100%; margin: 1em 0; }}
+figure {{ margin: 1em 0; }}
+figcaption {{ font-size: 0.9em; color: #444; }}
 td, th {{ border: 1px solid #ccc; padding: 0.3em 0.6em; font-size: 0.9em; }}
 th {{ background: #f2f2f2; }}
 img {{ max-width: 100%; }}

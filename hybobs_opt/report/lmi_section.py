@@ -164,7 +164,7 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """Paper 004 on the vehicle tracker and the magnetic piston (see the module docstring)."""
     from ..studies import get_example
     from ..lmi.diagnose import diagnose
-    from ..studies.paper004_nonmonotonic.presets import get_preset, preset_design, scaling_for
+    from ..studies.paper004_nonmonotonic.presets import FUNCTION_UNITS, get_preset, preset_design, scaling_for
     from ..studies.paper004_nonmonotonic.scenarios import run_example
 
     parts, figs, summary = [], [], {}
@@ -179,13 +179,20 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
                         overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
                         scaling=scaling_for(preset, system), suggest=False)
         fb = f"lmi_bounds_{name}.png"
-        plot_jacobian_bounds(diag, out / fb)
+        plot_jacobian_bounds(diag, out / fb, units=FUNCTION_UNITS.get(name))
         design = preset_design(name, system)
         trace, sw, s_sw = run_example(name, "switched", design=design)
         _, single, s_1 = run_example(name, "single", design=design)
         fr = f"lmi_observer_{name}.png"
+        example = get_example(name)
         plot_observer_run(trace, [sw, single], out / fr, title=f"{name}: switched gains vs the first region's gain alone",
-                          labels=["switched", "single gain"])
+                          labels=["switched", "single gain"], units=example.state_units)
+        nonlinear = [b.name for b in (*diag.bounds.f, *diag.bounds.h) if b.method != "linear"]
+        alt_bounds = (f"Slopes of the nonlinear functions of {name} ({', '.join(nonlinear)}) over {preset.coordinate} "
+                      f"in [{lo:g}, {hi:g}] {preset.unit}, with their lower and upper Jacobian bounds")
+        alt_run = (f"{name}: true states {', '.join(example.state_label(s) for s in example.state_names[:4])} against "
+                   f"the switched-gain and the single-gain estimates over {trace.t[-1]:g} s, their errors, the region "
+                   f"index and the error norm on a log scale")
         figs += [fb, fr]
         c = diag.certificate
         d = design.to_dict(preset.unit, preset.factor)
@@ -209,7 +216,7 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
             + ("" if c is None else f"; certificate ({html.escape(c.theorem)}) verified in numpy: <b>{c.verify()}</b>")
             + f". Theorem 5: the linearly shifted LMI is {'feasible' if diag.theorem5.shifted_feasible else 'infeasible'} too.</p>"
             + ("" if c is None else f"<p>{html.escape(c.reason)}</p>")
-            + f"<img src='{fb}' alt='Jacobian bounds'>"
+            + f"<img src='{fb}' alt='{html.escape(alt_bounds, quote=True)}'>"
             f"<p>Switched gains on {len(design.regions)} regions (gain bound {preset.gain_bound:g}, design rate = "
             f"{preset.decay_fraction:g} x largest rate):</p>" + _design_table(design, u, preset.factor)
             + f"<p>Dwell time of eqs. (47)-(48) searched jointly over the P_i: tau = {design.tau:.4g} s "
@@ -219,7 +226,7 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
             f"<p>Scenario: switched observer converged = {s_sw['converged']} (at t = {s_sw['convergence_time']} s), "
             f"regions visited {s_sw['regions_visited']}; the first region's gain alone converged = {s_1['converged']}. "
             f"Median compute time per step {1e3 * s_sw['timing']['median_step_s']:.3f} ms.</p>"
-            f"<img src='{fr}' alt='observer run'>")
+            f"<img src='{fr}' alt='{html.escape(alt_run, quote=True)}'>")
     intro = ("<p>Paper 004 (Rajamani et al.): no constant-gain observer LMI is feasible when the nonlinear functions "
              "are non-monotonic over the operating range; the certificates below prove it for each system and for each "
              "condition of the hierarchy (the paper's LMI, one multiplier per function, the polytopic condition on the "
@@ -296,6 +303,9 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
     s = comparison_summary(res)
     fit, lk, sg, band = s["plant"]["fit"], s["lookup"], s["switched_gain"], s["band"]
     band_txt = ", ".join(f"|e_{k}| <= {v:g}" for k, v in band.items())
+    alt = (f"Top: the two sensor curves h_1, h_2 [mT] against z [mm] with their {fit['n_pieces']}-piece linear fit; "
+           f"below: absolute errors of z [mm], v [mm/s] and a [mm/s^2] of the lookup-table and switched-gain observers "
+           f"on a log scale over {s['scenario']['t_final']:g} s, with the convergence band")
 
     def conv(rec: dict) -> str:
         return "never" if rec["convergence_time"] is None else f"{rec['convergence_time']:.3f} s"
@@ -342,7 +352,7 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
         f"(identified z = {sg['initial_selection'].get('s', float('nan')):.4g} mm). "
         f"The switched-gain observer costs {sg['median_step_s'] / lk['median_step_s']:.0f} times the lookup's median "
         "step (RK4 through a CasADi function versus one table product in a compiled kernel).</p>"
-        f"<img src='{fig}' alt='piston comparison'>"
+        f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>"
         "<p>Errors are drawn on a log scale, floored at 1e-14.</p>")
     s["seconds"] = time.perf_counter() - t0
     return ReportSection("Piston with PWA sensor fit: lookup-table vs switched-gain observer (papers 002, 004)",

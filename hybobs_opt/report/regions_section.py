@@ -2,7 +2,7 @@
 
 Reproduces Section 6 of paper 002 with the ``regions`` package: the sizes of ``B_T`` and
 ``B~_T`` for model (16) at T = 3, 5, 7 and model (17) at T = 5, the cuts of Figs. 3(b), 4, 5
-(model 16, ``omega_l = 25`` rad/s, theta axis stretched x10) and Fig. 6 (model 17, T = 5), the
+(model 16, ``omega_l = 25`` rad/s; theta drawn unscaled in rad, where the paper stretches it x10) and Fig. 6 (model 17, T = 5), the
 share of the backlash band ``|theta| < alpha`` that is unobservable, and the paper's timings
 next to ours.  Every number is recomputed here; the paper's published figures are labelled.
 
@@ -15,7 +15,6 @@ and ``notebooks/02_observability_regions.ipynb``; their old names here keep work
 from __future__ import annotations
 
 import html
-import json
 import os
 import statistics
 import time
@@ -34,7 +33,8 @@ from ..studies.paper002_powertrain.figures import (  # noqa: F401  (old names of
     reduced_pair_dimensions,
 )
 from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
-from ..regions import analyse_observability, compute_cut, plot_cut
+from ..regions import analyse_observability, compute_cut, plot_cut  # noqa: F401  (plot_cut: old name here)
+from .plots import CUT_COLOURS, plot_region_cut
 from .section import ReportSection, register_section
 
 #: Published figures of paper 002 (Sections 6-7), quoted for comparison only.
@@ -47,6 +47,9 @@ PAPER_002 = {
     "model17_T7_B_seconds": 33.0,
     "model17_O7": "not obtained after 4 h of MPT set differences",
 }
+
+#: Units of the states of models (16) and (17) on the cut axes (paper 002, Section 5.1).
+UNITS = {"theta": "rad", "theta_mc": "rad", "theta_cl": "rad", "omega_m": "rad/s", "omega_c": "rad/s", "omega_l": "rad/s"}
 
 #: Grid of the report's cuts (modest, to keep the section under ~90 s).
 REPORT_GRID = (31, 21)
@@ -119,15 +122,15 @@ def _fmt(v, digits=3) -> str:
     return str(v)
 
 
-def _benchmark_record() -> dict | None:
-    """The committed benchmark results, when present (``benchmarks/results/regions.json``)."""
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "regions.json"
-    if not path.is_file():
-        return None
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
+def _describe_cut(cut, caption: str) -> str:
+    """An alt text saying what a cut shows: its plane, its axes and its classified shares."""
+    share = {k: float(np.mean(cut.labels == k)) for k in CUT_COLOURS}
+    fixed = ", ".join(f"{k} = {v:g} {UNITS.get(k, '')}".rstrip() for k, v in cut.fixed.items())
+    return (f"{caption}: grid of {cut.axes[0]} ({_fmt(float(cut.x_values[0]))} to {_fmt(float(cut.x_values[-1]))} "
+            f"{UNITS.get(cut.axes[0], '')}) against {cut.axes[1]} ({_fmt(float(cut.y_values[0]))} to "
+            f"{_fmt(float(cut.y_values[-1]))} {UNITS.get(cut.axes[1], '')}) at {fixed}, coloured "
+            + ", ".join(f"{CUT_COLOURS[k][0]} where {w} ({_fmt(100 * share[k])} % of the points)" for k, w in
+                        (("observable", "observable"), ("unobservable", "unobservable"), ("infeasible", "outside X*_T"))))
 
 
 def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
@@ -171,29 +174,38 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
     for key in ("3b", "4a", "4b", "5a", "5b"):
         r = by_fig[key]
         name = f"regions_fig{key}.png"
-        plot_cut(r["cut"], out / name, title=f"{captions[key]}, omega_l = {OMEGA_L_CUT:g}", stretch={"theta": THETA_STRETCH})
+        plot_region_cut(r["cut"], out / name, title=f"{captions[key]}, omega_l = {OMEGA_L_CUT:g} rad/s", units=UNITS)
         figs.append(name)
-        images.append(f"<figure><img src='{name}' alt='{name}'><figcaption>{html.escape(captions[key])}: "
+        alt = html.escape(_describe_cut(r["cut"], captions[key]), quote=True)
+        images.append(f"<figure><img src='{name}' alt='{alt}'><figcaption>{html.escape(captions[key])}: "
                       f"{r['band_points']} grid points of X*_T in the band |theta| &lt; alpha, "
                       f"{_fmt(100 * r['band_unobservable'])} % unobservable.</figcaption></figure>")
     r17 = by_fig["6a"]
     planes = r17["planes"]
-    name = "regions_fig6a_paper_plane.png"
-    plot_cut(r17["paper_cut"], out / name, title="Fig. 6(a) plane: model (17), T = 5, theta_mc = 0, omega_m = 90, omega_l = 30")
-    figs.append(name)
     wl = planes["omega_l_range"]
-    fig6_html = (
-        f"<figure><img src='{name}' alt='{name}'><figcaption>Model (17), T = 5, at the paper's plane "
-        f"{html.escape(str(planes['paper']))}: "
-        + ("the plane does not meet X*_5 (LP over every region: no feasible omega_c)" if planes["paper_omega_c_range"] is None
+    paper_cut = r17["paper_cut"]
+    # The paper's plane may miss X*_5 altogether (it does with Table 2): its cut is then one white
+    # rectangle, an empty panel, so it is drawn only when some grid point lies in X*_5.
+    fig6_html = ""
+    if np.any(paper_cut.labels != "infeasible"):
+        name = "regions_fig6a_paper_plane.png"
+        caption = "Fig. 6(a) plane: model (17), T = 5, theta_mc = 0 rad, omega_m = 90 rad/s, omega_l = 30 rad/s"
+        plot_region_cut(paper_cut, out / name, title=caption, units=UNITS)
+        figs.append(name)
+        fig6_html += f"<figure><img src='{name}' alt='{html.escape(_describe_cut(paper_cut, caption), quote=True)}'></figure>"
+    fig6_html += (
+        f"<p>Model (17), T = 5, at the paper's plane {html.escape(str(planes['paper']))}: "
+        + ("the plane does not meet X*_5 (LP over every region: no feasible omega_c; all "
+           f"{paper_cut.labels.size} points of its cut lie outside X*_5, so it is not drawn)"
+           if planes["paper_omega_c_range"] is None
            else f"omega_c over X*_5 in [{_fmt(planes['paper_omega_c_range'][0])}, {_fmt(planes['paper_omega_c_range'][1])}]")
-        + ".</figcaption></figure>"
+        + ".</p>"
     )
     if planes["consistent"] is not None:
         name = "regions_fig6a_consistent_plane.png"
         cp = planes["consistent"]
-        plot_cut(r17["consistent_cut"], out / name,
-                 title=f"model (17), T = 5, theta_mc = 0, omega_m = 90, omega_l = {cp['omega_l']:.4g}")
+        caption = f"Model (17), T = 5, theta_mc = 0 rad, omega_m = 90 rad/s, omega_l = {cp['omega_l']:.4g} rad/s"
+        plot_region_cut(r17["consistent_cut"], out / name, title=caption, units=UNITS)
         figs.append(name)
         fig6_html += (
             f"<p>With theta_mc = 0 and omega_m = 90 rad/s, omega_l ranges over [{_fmt(wl[0])}, {_fmt(wl[1])}] rad/s "
@@ -204,7 +216,7 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
             f"rad/s, with omega_c over its feasible range [{_fmt(planes['consistent_omega_c_range'][0])}, "
             f"{_fmt(planes['consistent_omega_c_range'][1])}]: {_fmt(100 * r17['consistent_observable_of_feasible'])} % "
             f"of its X*_5 points are observable.</p>"
-            f"<figure><img src='{name}' alt='{name}'></figure>"
+            f"<figure><img src='{name}' alt='{html.escape(_describe_cut(r17['consistent_cut'], caption), quote=True)}'></figure>"
         )
 
     # summary table
@@ -255,27 +267,24 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         ("model (16), T = 3: mode enumeration", PAPER_002["model16_T3_enumeration_seconds"], t_enum),
         ("model (16), T = 3: Algorithm 3.1", PAPER_002["model16_T3_algorithm_3_1_seconds"], t_alg),
     ]
-    bench = _benchmark_record()
-    bench_note = ""
-    try:
-        b7 = bench["model17_T7"]["executors"]["serial"]["median_wall_seconds"] if bench else None
-    except (KeyError, TypeError):
-        b7 = None
-    if b7 is not None:
-        timing_rows.append(("model (17), T = 7: all of B_7 (serial; from benchmarks/results/regions.json)",
-                            PAPER_002["model17_T7_B_seconds"], b7))
-        bench_note = f" The model (17) row is the benchmark's median, recorded {html.escape(str(bench.get('created', '?')))}."
+    # Only timings measured in this run are tabulated: the paper's 33 s for all of B_7 of model (17)
+    # is measured by benchmarks/bench_regions.py (about 15 s serial), too long for the report, and a
+    # figure read from a results file of the repository would not be "recomputed" (nor exist in a wheel).
     timing = ("<table><tr><th>task</th><th>paper (published, Pentium 4 / Matlab)</th><th>here (median, s)</th><th>ratio here/paper</th></tr>"
               + "".join(f"<tr><td>{html.escape(t)}</td><td>{p:g} s</td><td>{o:.4f}</td><td>{o / p:.2g}</td></tr>" for t, p, o in timing_rows)
               + "</table>"
               + f"<p>The paper did not obtain O_7 of model (17) after 4 h of set differences (paper's figure); here O_T is "
-                f"never formed: each cut point is an exact point query (LPs), so a {grid[0]}x{grid[1]} cut costs seconds."
-                f"{bench_note}</p>")
+                f"never formed: each cut point is an exact point query (LPs), so a {grid[0]}x{grid[1]} cut costs seconds. "
+                f"The paper's {PAPER_002['model17_T7_B_seconds']:g} s for all of B_7 of model (17) is not re-timed here "
+                f"(it is a benchmark: <code>python -m benchmarks.bench_regions</code>); every time in the table was "
+                f"measured in this run.</p>")
     seconds = time.perf_counter() - t_start
     body = (
         "<p>Algorithm 3.1 of paper 002 on the powertrain models with backlash. Cuts: every grid point is classified "
-        "exactly (observable: green, unobservable B_T: red, outside X*_T: white); model (16) cuts are at "
-        f"omega_l = {OMEGA_L_CUT:g} rad/s with the theta axis multiplied by {THETA_STRETCH:g}, as in the paper.</p>"
+        "exactly (" + ", ".join(f"{w}: {CUT_COLOURS[k][0]}" for k, w in (("observable", "observable"),
+        ("unobservable", "unobservable B_T"), ("infeasible", "outside X*_T"))) + "); model (16) cuts are at "
+        f"omega_l = {OMEGA_L_CUT:g} rad/s, with theta in rad on an unscaled axis (the paper multiplies it by "
+        f"{THETA_STRETCH:g} for display).</p>"
         + table + band_html + note + "<h3>Timings</h3>" + timing + "<h3>Figures 3(b), 4, 5</h3>" + "".join(images)
         + "<h3>Figure 6 (T = 5 only)</h3>" + fig6_html
         + f"<p>Section computed in {seconds:.1f} s.</p>"

@@ -44,11 +44,16 @@ from .section import ReportSection, register_section  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------- figures
-def _save(fig, out: Path, name: str, figs: list[str]) -> None:
+#: Alt text of each figure written by :func:`_save` in the current section run (what it shows).
+_ALTS: dict[str, str] = {}
+
+
+def _save(fig, out: Path, name: str, figs: list[str], alt: str) -> None:
     fig.tight_layout()
     fig.savefig(out / name, dpi=100)
     plt.close(fig)
     figs.append(name)
+    _ALTS[name] = alt
 
 
 def _fig_example1(out: Path, ex1: ScenarioResult, figs: list[str]) -> None:
@@ -61,8 +66,11 @@ def _fig_example1(out: Path, ex1: ScenarioResult, figs: list[str]) -> None:
         ax.set_title(f"{label} alone (stable)", fontsize=9)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
+    axes[0].set_ylabel("x1, x2")
     axes[0].legend(fontsize=7)
-    _save(fig, out, "smo_fig2_subsystems.png", figs)
+    _save(fig, out, "smo_fig2_subsystems.png", figs,
+          "x1 and x2 of Example 1's subsystems Sigma_1 and Sigma_2, each alone, over 10 s from (1, 0): both are "
+          "stable centres (Fig. 2)")
 
     tt = ex1.t
     names = ex1.form.automaton.location_names
@@ -72,18 +80,22 @@ def _fig_example1(out: Path, ex1: ScenarioResult, figs: list[str]) -> None:
         axes[j].plot(tt, ex1.truth.x[:, j], lw=1.2, label=f"x{j + 1}")
         axes[j].plot(tt, ex1.run.trace.x_hat[:, j], "--", lw=1.0, label="estimate")
         axes[j].grid(alpha=0.3)
+        axes[j].set_ylabel(f"x{j + 1}")
         axes[j].legend(fontsize=7, loc="upper left")
     axes[2].step(tt, S, where="post", lw=1.0)
     axes[2].set_yticks([1, 2])
     axes[2].set_ylabel("S (active Sigma)")
     axes[2].set_xlabel("t [s]")
     fig.suptitle("Example 1: the switched system is unstable (Fig. 3), with observer (5)", fontsize=10)
-    _save(fig, out, "smo_fig3_switched.png", figs)
+    _save(fig, out, "smo_fig3_switched.png", figs,
+          f"Example 1 switched by sign(x1 x2) over {tt[-1]:g} s: x1 and x2 growing, with the sliding-mode "
+          "observer's estimates, and the active subsystem S (1 or 2) against time (Fig. 3)")
 
 
-def _fig_states(out: Path, res: ScenarioResult, name: str, title: str, figs: list[str], t_max: float | None = None) -> None:
+def _fig_states(out: Path, res: ScenarioResult, name: str, title: str, figs: list[str], t_max: float | None = None,
+                alt: str = "") -> None:
     n = res.form.n
-    fig, axes = plt.subplots(n, 2, figsize=(10, 1.9 * n + 0.6))
+    fig, axes = plt.subplots(n, 2, figsize=(10, 1.9 * n + 0.6), sharex="col")  # one time axis per column
     t = res.t
     for j in range(n):
         ax = axes[j, 0]
@@ -106,7 +118,10 @@ def _fig_states(out: Path, res: ScenarioResult, name: str, title: str, figs: lis
     axes[-1, 0].set_xlabel("t [s]")
     axes[-1, 1].set_xlabel("t [s]")
     fig.suptitle(title, fontsize=10)
-    _save(fig, out, name, figs)
+    names = ", ".join(res.form.names[:n])
+    _save(fig, out, name, figs,
+          (alt or title) + f": {names} true and estimated over {t[-1]:g} s (left), their absolute errors on a log "
+          "scale with the stated band and the convergence times (right)")
 
 
 def _fig_indicator(out: Path, raw: ScenarioResult, filt: ScenarioResult, sigma_index: int, window: tuple[float, float],
@@ -117,11 +132,11 @@ def _fig_indicator(out: Path, raw: ScenarioResult, filt: ScenarioResult, sigma_i
     axes[0].step(t[sel], raw.S[sel], where="post", lw=1.4, label="S (true)")
     axes[0].step(t[sel], raw.run.mode[sel] + 0.05, where="post", lw=0.8, label="S_o, no filter")
     axes[0].legend(fontsize=7)
-    axes[0].set_ylabel("indicator")
+    axes[0].set_ylabel("indicator S")
     axes[1].step(t[sel], raw.S[sel], where="post", lw=1.4, label="S (true)")
     axes[1].step(t[sel], filt.run.mode[sel] + 0.05, where="post", lw=0.8, label=f"S_o, filter tau = {filt.observer.filter_tau:g} s")
     axes[1].legend(fontsize=7)
-    axes[1].set_ylabel("indicator")
+    axes[1].set_ylabel("indicator S")
     sig_true = raw.form.sigma(raw.z_true)[:, sigma_index]
     sig_raw = raw.form.sigma(raw.run.z_switch)[:, sigma_index]
     sig_f = raw.form.sigma(filt.run.z_switch)[:, sigma_index]
@@ -131,11 +146,14 @@ def _fig_indicator(out: Path, raw: ScenarioResult, filt: ScenarioResult, sigma_i
     for thr in raw.form.switching[sigma_index].thresholds:
         axes[2].axhline(thr, color="grey", ls=":", lw=0.8)
     axes[2].legend(fontsize=7)
+    axes[2].set_ylabel("switching function sigma")
     axes[2].set_xlabel("t [s]")
     for ax in axes:
         ax.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
-    _save(fig, out, name, figs)
+    _save(fig, out, name, figs,
+          f"{title}: from {window[0]:.3g} s to {window[1]:.3g} s, the true location indicator S against the observer's "
+          "S_o without and with the low-pass filter, and the switching function sigma of the true and estimated states")
 
 
 def _fig_phase(out: Path, ds: ScenarioResult, figs: list[str]) -> None:
@@ -158,7 +176,10 @@ def _fig_phase(out: Path, ds: ScenarioResult, figs: list[str]) -> None:
         ax.axvline(1, color="grey", ls=":", lw=0.8)
         ax.axvline(-1, color="grey", ls=":", lw=0.8)
         ax.grid(alpha=0.3)
-    _save(fig, out, "smo_fig7_phase.png", figs)
+    _save(fig, out, "smo_fig7_phase.png", figs,
+          "Double scroll: x3 against x1 over 50 s from (0.1, 0, 0) (Fig. 7, left), and x2 against x1 of the true "
+          "trajectory with the sliding-mode estimate after convergence (right); dotted lines at the switching "
+          "surfaces x1 = -1 and x1 = 1")
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -280,7 +301,7 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
                  [[r["observer"], r["Ts"], r["offline_s"], r["convergence_time_s"], r["max_error_after"], r["rms_error_after"],
                    r["step_s"], r["note"]] for r in comp])
     )
-    images = "".join(f"<h3>{html.escape(f[4:-4])}</h3><img src='{f}' alt='{f}'>" for f in figs)
+    images = "".join(f"<h3>{html.escape(f[4:-4])}</h3><img src='{f}' alt='{html.escape(_ALTS[f], quote=True)}'>" for f in figs)
     scen = "<ul>" + "".join(f"<li><b>{k}</b>: {html.escape(v.note)}</li>" for k, v in SCENARIOS.items()) + "</ul>"
     return ReportSection("Sliding-mode observer (paper 001)", "".join(parts) + scen + images, summary, figs)
 
