@@ -79,12 +79,15 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
                                  f"--x0 ... --t-final ...</code>.</p>", {"error": str(exc)})
         fig = f"simulation_{slug}.png"
         plot_trace(trace, out / fig, title=f"{label}: from the centre of the state bounds")
+        alt = (f"Simulation of {label} from the centre of its state bounds over {trace.t[-1] - trace.t[0]:g} s: "
+               f"{', '.join(trace.state_names[:6])} and the discrete state q against time")
         return ReportSection("Simulation", f"<p>{trace.n_samples} samples; initial state and constant input at the "
-                             f"centre of the bounds.</p><img src='{fig}' alt='simulation'>",
+                             f"centre of the bounds.</p><img src='{fig}' alt='{html.escape(alt, quote=True)}'>",
                              {"samples": trace.n_samples, "final_state": trace.x[-1].tolist()}, [fig])
 
     def regions(out: Path, progress) -> ReportSection:
-        from ..regions import analyse_observability, compute_cut, plot_cut
+        from ..regions import analyse_observability, compute_cut
+        from .plots import CUT_COLOURS, plot_region_cut
 
         analysis = analyse_observability(system, horizon)
         shared["analysis"] = analysis
@@ -95,9 +98,14 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         figs = []
         if system.n == 2:
             fig = f"regions_{slug}.png"
-            plot_cut(compute_cut(analysis, {}, (41, 31)), out / fig, title=f"{label}, T = {horizon}")
+            cut = compute_cut(analysis, {}, (41, 31))
+            plot_region_cut(cut, out / fig, title=f"{label}, T = {horizon}")
             figs.append(fig)
-            body += f"<img src='{fig}' alt='observable set'>"
+            shares = ", ".join(f"{CUT_COLOURS[k][0]} {w} {100 * float(np.mean(cut.labels == k)):.3g} %" for k, w in
+                               (("observable", "observable"), ("unobservable", "unobservable"), ("infeasible", "outside X*_T")))
+            alt = (f"Observability regions of {label} at T = {horizon} on a 41 x 31 grid of {cut.axes[0]} against "
+                   f"{cut.axes[1]}: {shares}")
+            body += f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>"
         else:
             body += "<p>A cut plot needs fixed values for all but two states: <code>hybobs regions SYSTEM --cut ...</code>.</p>"
         return ReportSection(f"Observability regions (paper 002, Algorithm 3.1, T = {horizon})", body, s, figs)
@@ -108,7 +116,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
 
         log = read_log(data, system)
         runs = observe_log(system, log, ["lookup", "miqp", "milp"], horizon, shared.get("analysis"))
-        rows, figs, summary = [], [], {}
+        rows, figs, summary, alts = [], [], {}, {}
         for kind_, (trace, rec) in runs.items():
             summary[kind_] = rec
             err = rec.get("max_rel_error_observable")
@@ -118,9 +126,13 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
             fig = f"observer_{kind_}_{slug}.png"
             plot_estimates(trace, log, out / fig, title=f"{label}: {kind_} on {Path(data).name}")
             figs.append(fig)
+            alts[fig] = (f"The {kind_} observer on {Path(data).name}: each estimated state "
+                         + ("against the logged one " if log.X is not None else "")
+                         + f"with the {rec['flag_counts']['observable']} samples flagged observable marked, and its flag "
+                         "(observable, unobservable, warming up, fallback) on a separate axis")
         body = ("<table><tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
                 "<th>median step [us]</th><th>max rel. error where observable</th></tr>" + "".join(rows) + "</table>"
-                + "".join(f"<img src='{f}' alt='{f}'>" for f in figs))
+                + "".join(f"<img src='{f}' alt='{html.escape(alts[f], quote=True)}'>" for f in figs))
         return ReportSection(f"Observers on {Path(data).name}", body, summary, figs)
 
     def diagnosis(out: Path, progress) -> ReportSection:
@@ -134,6 +146,8 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
                         overlap=st.overlap, sigma_cap=st.sigma_cap, scaling=st.scaling, condition=st.condition)
         fig = f"bounds_{slug}.png"
         plot_jacobian_bounds(diag, out / fig)
+        alt = (f"Slopes of the nonlinear functions of {label} over {st.coordinate} in [{st.lo:.4g}, {st.hi:.4g}], "
+               "with their lower and upper Jacobian bounds (eqs. 4-5 of paper 004)")
         verdict = (f"feasible ({diag.hierarchy.feasible_condition} condition): a constant gain exists" if diag.feasible
                    else f"infeasible up to the {diag.hierarchy.strongest_infeasible} condition (certified)"
                    if diag.hierarchy.strongest_infeasible else "not decided")
@@ -147,7 +161,8 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
             rows.append(("certificate", f"{diag.certificate.theorem}: verified {diag.certificate.verify()}"))
         rows += [(f"setting {k}", v) for k, v in st.sources.items()]
         return ReportSection("Constant-gain diagnosis (paper 004)",
-                             f"<p>{html.escape(diag.verdict)}</p>" + _table(rows) + f"<img src='{fig}' alt='bounds'>",
+                             f"<p>{html.escape(diag.verdict)}</p>" + _table(rows)
+                             + f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>",
                              {"feasible": diag.feasible, "strongest_infeasible": diag.hierarchy.strongest_infeasible,
                               "settings": st.to_dict()}, [fig])
 

@@ -182,6 +182,9 @@ def test_report_of_the_system(files, capsys):
     keys = [r["key"] for r in json.loads(out)["sections"]]
     assert keys == ["model", "simulation", "regions", "observers"]
     assert (out_dir / "index.html").exists()
+    from tests.check_links import check_html_tree  # every link and image resolves, every alt says what it shows
+
+    assert check_html_tree(out_dir) == []
 
 
 def test_model_export_then_check_round_trip(files, capsys):
