@@ -238,11 +238,13 @@ def _fig_paper001(path: Path) -> None:
 
 def _fig_paper002(path: Path) -> None:
     from hybobs_opt import analyse_observability, compute_cut, get_example
-    from hybobs_opt.regions.cuts import plot_cut
+    from hybobs_opt.report.plots import plot_region_cut
 
-    analysis = analyse_observability(get_example("powertrain3").build(), 3)
-    plot_cut(compute_cut(analysis, {"omega_l": 25.0}), str(path),
-             title="model (16), T = 3: cut of O_T at omega_l = 25 rad/s (Fig. 3)")
+    example = get_example("powertrain3")
+    analysis = analyse_observability(example.build(), 3)
+    plot_region_cut(compute_cut(analysis, {"omega_l": 25.0}), str(path),
+                    title="model (16), T = 3: cut of O_T at omega_l = 25 rad/s (Fig. 3)",
+                    units=dict(zip(example.state_names, example.state_units)))
 
 
 def _fig_paper003(path: Path) -> None:
@@ -254,6 +256,7 @@ def _fig_paper003(path: Path) -> None:
 def _fig_paper004(path: Path) -> None:
     import numpy as np
 
+    from hybobs_opt import get_example
     from hybobs_opt.plotting import pyplot
     from hybobs_opt.studies.paper004_nonmonotonic.scenarios import run_example
 
@@ -265,7 +268,8 @@ def _fig_paper004(path: Path) -> None:
     for i, ax in enumerate(np.atleast_1d(axes)):
         ax.plot(trace.t, trace.x[:n, i], "k", lw=1.2, label="true")
         ax.plot(trace.t, out.x_hat[:n, i], "C1--", lw=1.0, label="switched-gain estimate")
-        ax.set_ylabel(names[i])
+        ax.set_ylabel(get_example("vehicle_tracking").state_label(names[i]) if names[i] in
+                      get_example("vehicle_tracking").state_names else names[i])
     np.atleast_1d(axes)[0].legend(loc="best", fontsize=8)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.suptitle(f"vehicle tracking: {summary.get('n_switches', '?')} gain switches, "
