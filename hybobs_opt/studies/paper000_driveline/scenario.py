@@ -155,7 +155,7 @@ def plot_fig6(res: DrivelineResult, path: str, lookup: Any = None) -> str:
     ax[3].set_yticklabels(list(aut.location_names[:3]), fontsize=8)
     ax[3].set_ylabel("location")
     ax[3].set_xlabel("t [s]")
-    ax[3].legend(loc="upper right", fontsize=7)
+    ax[3].legend(loc="center right", fontsize=7)  # after 2.3 s the locations sit at q3: the top right is taken
     fig.suptitle("Driveline, -10 N m step at 2 s (paper 000, Fig. 6)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
