@@ -332,3 +332,22 @@ def test_example_units_are_declared_for_the_physical_papers():
     assert get_example("traffic_junction").state_label("x1") == "x1 [vehicles]"
     assert get_example("powertrain5").state_label("omega_c") == "omega_c [rad/s]"
     assert get_example("double_scroll").state_label("x1") == "x1"  # paper 001's examples are dimensionless
+
+
+def test_observer_figure_of_model_17_names_and_flags(tmp_path):
+    """plot_bench's figure on model (17)'s state names (``hybobs observe powertrain5 --plot``), synthetic runs."""
+    from hybobs_opt.studies.paper002_powertrain.plots import plot_observer_errors
+
+    t = np.arange(200) * 1e-3
+    names = ("theta_mc", "theta_cl", "omega_m", "omega_c", "omega_l")
+    x = np.column_stack([np.sin(t * k) for k in range(1, 6)])
+    trace = SimpleNamespace(t=t, x=x, state_names=names)
+    flags = np.where(t < 0.1, "observable", "unobservable")
+    outs = {"lookup": SimpleNamespace(n_steps=200, x_hat=x + 1e-9, flags=flags),
+            "miqp": SimpleNamespace(n_steps=50, x_hat=x[:50] + 1e-6, flags=flags[:50])}
+    axes = _axes_of(lambda: plot_observer_errors(trace, outs, tmp_path / "o.png"))
+    labels = [a["ylabel"] for a in axes]
+    assert labels[:2] == ["theta_cl [rad]", "omega_l [rad/s]"]
+    assert labels.count("flag") == 4 and "|error theta_cl| [rad]" in labels and "|error omega_l| [rad/s]" in labels
+    assert all(a["has_data"] for a in axes) and not any(a["is_twin"] for a in axes)
+    assert sum(1 for a in axes if a["xlabel"] == "t [s]") == 2  # one time axis label per column, at the bottom
