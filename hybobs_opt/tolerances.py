@@ -382,6 +382,18 @@ MHE_BINARY_PROX_WEIGHT: float = 1e-10
 #: model (16) is a residual of 1.7e-5 rad/s, below the solver tolerances of the MIQP itself.
 MHE_ZERO_COST_RTOL: float = 1e-14
 
+#: Relative optimality gap a certified MIQP window must prove (issue 18): ``cost - optimum <=
+#: max(MHE_CERTIFIED_RTOL * cost, MHE_ZERO_COST_RTOL * J_s)``.  The proximal certificate of the
+#: branch and bound (``gap_bound``, the proximal term over the whole box: 4.7e-4 on model (16))
+#: reaches it only on zero-cost windows; the others are certified by the exact prefix search of
+#: :mod:`hybobs_opt.mhe.certify`, whose bounds close to about 1e-10 on noisy windows of model (16)
+#: (optima 1e-6 .. 6e-5, output noise 0.01 rad/s).  The absolute floor is the zero-cost threshold.
+MHE_CERTIFIED_RTOL: float = 1e-6
+
+#: Node QPs the prefix search of one window may solve before the window is left uncertified
+#: (``fallback``).  Model (16) needs at most 18 at T = 3.
+MHE_CERTIFY_MAX_NODES: int = 20_000
+
 # ---------------------------------------------------------------------- PWA-fitted magnetic piston
 # (paper 004, eq. 63, with piecewise-linear sensor curves; hybobs_opt.examples.piston_pwa and
 # hybobs_opt.observers.piston_comparison)

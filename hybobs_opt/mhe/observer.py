@@ -87,6 +87,8 @@ from ..tolerances import (
     MEMBERSHIP_RTOL,
     MHE_ABS_SUBOPT,
     MHE_BINARY_PROX_WEIGHT,
+    MHE_CERTIFIED_RTOL,
+    MHE_CERTIFY_MAX_NODES,
     MHE_FEASIBILITY_TOL,
     MHE_INTEGRALITY_TOL,
     MHE_POLISH_SKIP_TOL,
@@ -154,6 +156,11 @@ class MHEObserver(Observer):
         only its incumbent), e.g. to time it.
     prox_passes : int
         Largest number of proximal-point passes per window (norm 2; see Notes).
+    certify_max_nodes : int
+        Norm 2: node QPs the exact prefix search (:mod:`hybobs_opt.mhe.certify`) may solve per
+        window when the branch and bound's own certificate does not prove the relative gap
+        :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
+        certified (``fallback``).  Default :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
     big_m : BigMConstants, optional
         Precomputed constants (share them between MHE instances of the same system).
     check_uniqueness : bool
@@ -265,7 +272,8 @@ class MHEObserver(Observer):
                  disturbance_weight=None, arrival_weight=None, *, x0=None, solver_options: dict | None = None,
                  polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
                  binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
-                 prox_passes: int = DEFAULT_PROX_PASSES, big_m: BigMConstants | None = None,
+                 prox_passes: int = DEFAULT_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
+                 big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
                  fit_tolerance=None):
         if not isinstance(system, PWASystem):
@@ -285,6 +293,10 @@ class MHEObserver(Observer):
         if isinstance(prox_passes, bool) or not isinstance(prox_passes, (int, np.integer)) or prox_passes < 1:
             raise ModelError("prox_passes", "an integer >= 1", repr(prox_passes))
         self.prox_passes = int(prox_passes)
+        if isinstance(certify_max_nodes, bool) or not isinstance(certify_max_nodes, (int, np.integer)) or certify_max_nodes < 1:
+            raise ModelError("certify_max_nodes", "an integer >= 1 (node QPs of the prefix search per window)",
+                             repr(certify_max_nodes))
+        self.certify_max_nodes = int(certify_max_nodes)
         self.zero_cost_certificate = bool(zero_cost_certificate)
         if not isinstance(check_uniqueness, (bool, np.bool_)):
             raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
@@ -589,12 +601,49 @@ class MHEObserver(Observer):
             if not moved:
                 break
             Xg, mg, Wg = info.states, info.modes, info.w
+        if self.norm == "2" and (best is None or not best.gap_bound <= self._allowed_gap(best.cost)):
+            # the proximal certificate proves nothing against this optimum's size (noisy data):
+            # the exact prefix search certifies it, or finds the optimum the solver missed
+            return self._certified_by_search(U, Y, x_start, best, info)
         if best is None or not np.isfinite(best.gap_bound):
             # no certified branch-and-bound: an incumbent alone is not an optimum
             if info is not None and info.status in (Status.INFEASIBLE, Status.NOT_CERTIFIED):
                 return info
             return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason="no certified solve")
         return best
+
+    def _allowed_gap(self, cost: float | None) -> float:
+        """The optimality gap a certified window must prove (norm 2): relative, with the zero-cost floor."""
+        return max(MHE_CERTIFIED_RTOL * float(cost), self._zero_cost) if cost is not None and np.isfinite(cost) else 0.0
+
+    def _certified_by_search(self, U, Y, x_start, best: WindowResult | None, info: WindowResult | None) -> WindowResult:
+        """The window certified by the prefix search of :mod:`hybobs_opt.mhe.certify` (norm 2)."""
+        from .certify import search_sequences
+
+        incumbent = None if best is None else (best.modes, best.cost)
+        found = search_sequences(self.model, U, Y, x_start, incumbent, rtol=MHE_CERTIFIED_RTOL, atol=self._zero_cost,
+                                 max_nodes=self.certify_max_nodes)
+        detail = {**({} if info is None else info.solver_detail),
+                  "prefix_search": {"nodes": found.nodes, "seconds": found.seconds, "lower_bound": found.lower_bound,
+                                    "improved": found.improved, "certified": found.certified}}
+        if not found.certified:
+            if not np.isfinite(found.cost) and not found.reason.startswith(("node budget", "the QP")):
+                # every mode prefix proven infeasible: no trajectory of the model meets the window
+                return WindowResult(Status.INFEASIBLE, solver=self.solver, solved_by="prefix search",
+                                    reason="no mode sequence is feasible (every prefix proven infeasible)",
+                                    solver_detail=detail)
+            return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, solver_detail=detail,
+                                reason=f"optimum not certified to the relative gap {MHE_CERTIFIED_RTOL:g}: {found.reason}"
+                                       + ("" if info is None or info.reason is None else f" (branch and bound: {info.reason})"))
+        gap = max(found.gap, 0.0)
+        if not found.improved:
+            return best.replace(gap_bound=min(gap, best.gap_bound), solved_by=f"{best.solved_by}, certified by prefix search",
+                                solver_detail={**best.solver_detail, **detail})
+        states = self.model.trajectory(found.x0, found.modes, U, found.w)
+        return WindowResult(Status.OPTIMAL, solver=self.solver, solved_by="prefix search", polished=True,
+                            x_start=found.x0, states=states, modes=found.modes, w=found.w,
+                            cost=self.model.cost(states, found.modes, U, Y, found.w, x_start), gap_bound=gap,
+                            passes=None if best is None else best.passes, solver_detail=detail)
 
     def _solve_once(self, U, Y, x_start, Xg, mg, Wg, lo, hi, rp,
                     incumbent: WindowResult | None = None) -> tuple[WindowResult, bool]:

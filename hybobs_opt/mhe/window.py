@@ -132,7 +132,10 @@ class WindowModel:
 
         ``theta = [xi0; omega]`` are the window-start state and the disturbances, scaled by the
         state box; the rows are the guards of the sequence and ``X`` at every window step
-        (paper 002, eq. 10 with the modes fixed).
+        (paper 002, eq. 10 with the modes fixed).  ``modes`` may be a prefix of a sequence
+        (fewer than ``T`` steps): the outputs and rows of its steps only, with the disturbance
+        and arrival terms of the whole window, so that its least cost is a lower bound of every
+        sequence that begins with it (the branch and bound of :mod:`hybobs_opt.mhe.certify`).
         """
         sysm, T, n = self.system, self.T, self.n
         hx, cx = self.hx, self.cx
@@ -143,7 +146,7 @@ class WindowModel:
         px = cx.copy()
         Rrows, rvec, Grows, gvec = [], [], [], []
         XA, Xb = self.X.A, self.X.b
-        for k in range(T):
+        for k in range(len(modes)):
             md = sysm.modes[int(modes[k])]
             Rrows.append(-self.Wy @ md.C @ Px)
             rvec.append(self.Wy @ (Y[k] - md.C @ px - md.D @ U[k] - md.c))
@@ -192,8 +195,6 @@ class WindowModel:
         ``q(theta) >= q(theta^) - lam' (g - G theta^) - sum_j |rho_j| D_j`` with
         ``rho = H theta^ + f + G' lam`` and ``D_j`` the range of ``theta_j`` over its bounds.
         """
-        import daqp
-
         T, n = self.T, self.n
         hx, cx = self.hx, self.cx
         R, r, G, gg, dist = self.sequence_problem(modes, U, Y, xbar) if problem is None else problem
@@ -201,24 +202,73 @@ class WindowModel:
             Ge = np.zeros((extra[0].shape[0], G.shape[1]))
             Ge[:, :n] = extra[0]
             G, gg = np.vstack([G, Ge]), np.concatenate([gg, extra[1]])
-        # a QP for every norm: for norm 2 it is the exact problem; for norms 1 / inf its minimiser
-        # is a feasible point (an upper bound, the incumbent) and an exact fit when one exists
-        scale = float(np.max(np.einsum("ij,ij->j", R, R))) or 1.0
-        H = 2.0 * R.T @ R / scale
-        f = 2.0 * R.T @ r / scale
         theta0 = np.concatenate([(x0 - cx) / hx] + ([(W / hx).reshape(-1)] if dist else []))
-        settings = {"eta_prox": 1e-20} if bound else {}
-        theta, fval, flag, info = daqp.solve(H, f, G, gg, np.full(gg.size, -DAQP_INF), primal_start=theta0, **settings)
-        lam = np.asarray(info.get("lam", ()), dtype=float)
-        if daqp_flag(flag) != Status.OPTIMAL or not (np.all(np.isfinite(theta)) and np.isfinite(fval) and np.all(np.isfinite(lam))):
+        solved = self.sequence_qp((R, r, G, gg, dist), theta0, bound)
+        if solved is None or solved[0] is None:
             return None
-        if np.max(G @ theta - gg, initial=0.0) > MHE_FEASIBILITY_TOL:
-            return None
+        theta, lower = solved
         x0p = cx + hx * theta[:n]
         Wp = (theta[n:].reshape(T - 1, n) * hx) if dist else np.zeros((max(T - 1, 0), n))
         states = self.trajectory(x0p, modes, U, Wp)
         if not bound:
             return x0p, Wp, states
+        return x0p, Wp, states, lower
+
+    def sequence_qp(self, problem: tuple, theta0: np.ndarray | None = None, bound: bool = False):
+        """The QP of :meth:`sequence_problem`'s ``problem``: ``(theta, lower)``, ``(None, inf)`` or ``None``.
+
+        Parameters
+        ----------
+        problem : tuple
+            ``(R, r, G, g, dist)`` of :meth:`sequence_problem` (of a sequence or a prefix).
+        theta0 : array, optional
+            DAQP's primal start.
+        bound : bool
+            Run the proximal iterations to convergence and prove a lower bound (see
+            :meth:`polish`); otherwise ``lower`` is ``None``.
+
+        Returns
+        -------
+        tuple or None
+            ``(theta, lower)``: the minimiser (scaled) and, with ``bound``, a lower bound of
+            ``||R theta + r||^2`` over ``G theta <= g`` and the variable bounds, proven in numpy;
+            ``(None, inf)``: DAQP's "infeasible", proven by its Farkas multipliers
+            (:func:`~hybobs_opt.geometry.lp.daqp_infeasibility_ok`); ``None``: no certified
+            answer (DAQP failed, or a point or a verdict did not pass the checks).
+        """
+        import daqp
+
+        R, r, G, gg, dist = problem
+        # a QP for every norm: for norm 2 it is the exact problem; for norms 1 / inf its minimiser
+        # is a feasible point (an upper bound, the incumbent) and an exact fit when one exists
+        scale = float(np.max(np.einsum("ij,ij->j", R, R))) or 1.0
+        H = 2.0 * R.T @ R / scale
+        f = 2.0 * R.T @ r / scale
+        settings = {"eta_prox": 1e-20} if bound else {}
+        start = {} if theta0 is None else {"primal_start": theta0}
+        theta, fval, flag, info = daqp.solve(H, f, G, gg, np.full(gg.size, -DAQP_INF), **start, **settings)
+        lam = np.asarray(info.get("lam", ()), dtype=float)
+        status = daqp_flag(flag)
+        if status == Status.INFEASIBLE and self._infeasibility_proven(G, gg, lam):
+            return None, np.inf
+        ok = status == Status.OPTIMAL and np.all(np.isfinite(theta)) and np.isfinite(fval) and np.all(np.isfinite(lam))
+        if ok:
+            theta = np.asarray(theta, dtype=float)
+            ok = np.max(G @ theta - gg, initial=0.0) <= MHE_FEASIBILITY_TOL
+        if not ok and bound:
+            # DAQP's active set fails on some degenerate prefixes (an "infeasible" exit with
+            # multipliers of the wrong sign for rows HiGHS satisfies): the same QP by Clarabel
+            fallback = _conic_qp(R, r, G, gg)
+            if fallback is None:
+                return None
+            if fallback == "infeasible":
+                return (None, np.inf) if self._infeasibility_proven(G, gg, np.zeros(gg.size)) else None
+            theta, lam = fallback[0], fallback[1] / scale  # multipliers of ||R theta + r||^2 / scale
+            ok = np.max(G @ theta - gg, initial=0.0) <= MHE_FEASIBILITY_TOL
+        if not ok:
+            return None
+        if not bound:
+            return theta, None
         enc = self.enc
         lo_t = np.concatenate([enc.lb[enc.slices["xi0"]]] + ([enc.lb[enc.slices["omega"]]] if dist else []))
         hi_t = np.concatenate([enc.ub[enc.slices["xi0"]]] + ([enc.ub[enc.slices["omega"]]] if dist else []))
@@ -227,9 +277,53 @@ class WindowModel:
         rho = H @ theta + f + G.T @ lam
         res = R @ theta + r
         lower = float(res @ res - scale * (lam @ (gg - G @ theta) + np.abs(rho) @ D))
-        return x0p, Wp, states, lower
+        return theta, lower
+
+    @staticmethod
+    def _infeasibility_proven(G: np.ndarray, g: np.ndarray, lam: np.ndarray) -> bool:
+        """Is ``G theta <= g`` proven infeasible: by DAQP's Farkas multipliers, else by HiGHS's
+        (:func:`~hybobs_opt.geometry.lp.solve_lp`, its certificate re-checked in numpy)?
+
+        DAQP's multipliers of an "infeasible" exit fail the check on degenerate rows (the mode
+        prefix (2, 0) of model (16), which would cross the whole backlash in one step).
+        """
+        from ..errors import SolverError
+        from ..geometry.lp import daqp_infeasibility_ok, solve_lp
+
+        if daqp_infeasibility_ok(G, g, lam):
+            return True
+        try:
+            return solve_lp(np.zeros(G.shape[1]), G, g, problem="rows of a mode prefix").status == "infeasible"
+        except SolverError:
+            return False
 
     def mld_violation(self, states, modes, U, W, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> float:
         """Largest violation of the MLD rows, bounds and integrality at the trajectory ``(states, modes, W)``."""
         v = self.enc.pack(states, modes, U, W if self.enc.disturbances else None)
         return self.enc.violation(v, np.asarray(U).reshape(-1), bounds=bounds)
+
+
+def _conic_qp(R: np.ndarray, r: np.ndarray, G: np.ndarray, g: np.ndarray):
+    """``min ||R theta + r||^2 s.t. G theta <= g`` by cvxpy + Clarabel: ``(theta, lam)``, ``"infeasible"`` or ``None``.
+
+    ``lam`` are the multipliers of the rows (non-negative); an optimum is returned only with
+    status ``optimal`` and a finite point and multipliers.  The caller checks the rows at the
+    point and proves its bound from the multipliers itself.
+    """
+    import cvxpy as cp
+
+    theta = cp.Variable(R.shape[1])
+    rows = G @ theta <= g
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(R @ theta + r)), [rows])
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status == cp.INFEASIBLE:
+        return "infeasible"
+    if problem.status != cp.OPTIMAL or theta.value is None or rows.dual_value is None:
+        return None
+    x, lam = np.asarray(theta.value, dtype=float), np.asarray(rows.dual_value, dtype=float).reshape(-1)
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(lam))):
+        return None
+    return x, np.maximum(lam, 0.0)
