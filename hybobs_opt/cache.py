@@ -116,14 +116,32 @@ class ResultCache:
 
     # ------------------------------------------------------------------ keys and events
     def key(self, kind: str, parts: Mapping[str, Any]) -> str:
-        """SHA-256 of ``kind``, ``parts``, the package version and :func:`code_digest`."""
+        """SHA-256 of ``kind``, ``parts``, the package version and :func:`code_digest`.
+
+        Parameters
+        ----------
+        kind : str
+            The kind of entry (``"analysis"``, ``"lookup-pieces"``, ``"exact-labels"``).
+        parts : mapping
+            What the entry depends on besides the code (JSON-serialisable).
+        """
         from . import __version__
 
         body = {"kind": kind, "parts": dict(parts), "version": __version__, "code": code_digest(), "format": CACHE_FORMAT}
         return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":"), default=str).encode()).hexdigest()
 
     def path(self, kind: str, key: str, suffix: str) -> Path:
-        """The file of the entry ``kind``/``key``."""
+        """The file of the entry ``kind``/``key``.
+
+        Parameters
+        ----------
+        kind : str
+            The kind of entry (the file name's prefix).
+        key : str
+            Its :meth:`key` (the first 32 hex digits name the file).
+        suffix : str
+            ``".json"`` (an analysis) or ``".npz"`` (arrays).
+        """
         return self.directory / f"{kind}-{key[:32]}{suffix}"
 
     def _event(self, kind: str, what: str, outcome: str, path: Path, seconds: float, reason: str | None = None) -> None:

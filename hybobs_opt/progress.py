@@ -96,7 +96,15 @@ class PhaseProgress:
         self._report(phase, unit, done, total)
 
     def phase(self, name: str, unit: str) -> Callable[[int, int], None]:
-        """The ``(done, total)`` callback of one phase."""
+        """The ``(done, total)`` callback of one phase.
+
+        Parameters
+        ----------
+        name : str
+            The phase ("pair tests").
+        unit : str
+            What it counts ("pair").
+        """
         return lambda done, total: self._report(name, unit, done, total)
 
 
