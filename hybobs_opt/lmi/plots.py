@@ -28,8 +28,8 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
         Points per curve.
     units : mapping, optional
         ``{function name: (unit of its value, unit of its argument in model units)}``: the slope
-        axis is then labelled ``"slope of NAME [VALUE per ARGUMENT]"``; without an entry it carries the
-        name only (a user system declares no units).
+        axis is then labelled ``"slope of f[i] [VALUE per ARGUMENT]"`` (the panel's title names the
+        function); without an entry it carries no unit (a user system declares none).
 
     Returns
     -------
@@ -58,8 +58,9 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
             xs, xlabel = z, quantity_label(f"argument of {b.name}", (units or {}).get(b.name, ("", ""))[1])
         value_unit, arg_unit = (units or {}).get(b.name, ("", ""))
         ax.plot(xs, fn.deriv(z), lw=1.2, color="k")
-        ax.set_ylabel(quantity_label(f"slope of {b.name}", f"{value_unit} per {arg_unit}" if value_unit and arg_unit else ""),
-                      fontsize=8)
+        # the title names the function; the short name keeps a long expression inside the figure
+        ax.set_ylabel(quantity_label(f"slope of {b.kind}[{b.index}]", f"{value_unit} per {arg_unit}" if value_unit and arg_unit
+                                     else ""), fontsize=8)
         ax.axhline(b.lower, color="tab:blue", lw=1, ls="--", label=f"lower {b.lower:.3g}")
         ax.axhline(b.upper, color="tab:red", lw=1, ls="--", label=f"upper {b.upper:.3g}")
         ax.axhline(0.0, color="0.3", lw=0.6)

@@ -155,7 +155,7 @@ def plot_drift_run(res: dict[str, Any], path, title: str = "") -> None:
 
     names = res["system"].state_names
     t, xt, xh = res["t"], res["x_true"], res["out"].x_hat
-    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    fig, ax = plt.subplots(figsize=(8.2, 3.6))
     for i in range(1, len(names)):
         line, = ax.plot(t, xh[:, i], lw=1.3, label=f"{names[i]}^")
         ax.plot(t, xt[:, i], "--", lw=1.0, color=line.get_color(), label=f"{names[i]}")
@@ -165,7 +165,7 @@ def plot_drift_run(res: dict[str, Any], path, title: str = "") -> None:
     quantity, unit = PLOTTED_QUANTITY.get(res["summary"].get("example"), ("x1 ... xN", ""))
     ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # beside: no line hidden
     ax.set_title(title or f"{res['summary']['example']}: observer (18), {res['summary']['observer']}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

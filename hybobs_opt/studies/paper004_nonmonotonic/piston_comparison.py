@@ -307,7 +307,7 @@ def plot_piston_comparison(result: Mapping[str, Any], path: str | Path) -> Path:
             ax.axhline(band[n], color="0.4", ls=":", lw=1, label="band")
         ax.set_ylabel(f"|error {n}|")
         ax.grid(alpha=0.3)
-    axes[1].legend(fontsize=7)
+    axes[1].legend(fontsize=7, loc="center", ncol=3)  # between the two error levels, hiding neither
     for i, n in enumerate(names):  # the piston's units (paper 004, Sec. 7): z in mm, v in mm/s, a in mm/s^2
         unit = dict(zip(("z", "v", "a"), ("mm", "mm/s", "mm/s^2"))).get(n, "")
         axes[1 + i].set_ylabel(f"|error {n}|" + (f" [{unit}]" if unit else ""))
