@@ -113,6 +113,10 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["observe", "vehicle_tracking"], "--observer", ["nosuch", "lookup"]),
     (["observe", "traffic_junction"], "--observer", ["nosuch", "switched"]),
     (["observe", "powertrain3"], "--filter", [None]),
+    # --no-cache is a flag: a value after it is an unknown argument
+    (["observe", "powertrain3"], "--no-cache", ["yes"]),
+    (["regions", "powertrain3", "-T", "3"], "--no-cache", ["1"]),
+    (["bench", "powertrain3", "--steps", "5"], "--no-cache", ["true"]),
     (["observe", "powertrain3"], "--param", ["gear_ratio=0.1", "nosuch=1"]),
     (["observe", "powertrain3"], "--horizon", ["3", "0", "abc"]),
     (["observe", "powertrain3"], "--fit-tolerance", ["0.1", "-1", "abc", "nan"]),
