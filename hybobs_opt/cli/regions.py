@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from ..limits import check_horizon_limit
     from ..cache import cached_analysis
     from ..progress import counter_bar, phase_bars
-    from ..regions import compute_cut, parse_assignments, plot_cut, save_analysis
+    from ..regions import compute_cut, parse_assignments, save_analysis
 
     check_horizon_limit(args.horizon, "--horizon")
     check_figure_path("--plot", args.plot)
@@ -106,8 +106,12 @@ def run(args: argparse.Namespace) -> int:
                       "fraction_observable_of_feasible": cut.fraction_of_feasible("observable"),
                       "fraction_unobservable_of_feasible": cut.fraction_of_feasible("unobservable")}
         if args.plot:
-            stretch = {"theta": 10.0} if "theta" in cut.axes else None  # as the paper's figures
-            plot_cut(cut, args.plot, title=f"{label}, T = {args.horizon}" + "".join(f", {k} = {v:g}" for k, v in fixed.items()), stretch=stretch)
+            from ..report.plots import plot_region_cut
+
+            example = named.example
+            units = dict(zip(example.state_names, example.state_units)) if example is not None and example.state_units else None
+            plot_region_cut(cut, args.plot, units=units,
+                            title=f"{label}, T = {args.horizon}" + "".join(f", {k} = {v:g}" for k, v in fixed.items()))
             out["plot"] = str(args.plot)
     if args.json:
         print_json(out)

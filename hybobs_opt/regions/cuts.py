@@ -169,7 +169,7 @@ def compute_cut(
 
 
 def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None = None):
-    """Save a PNG of the cut: observable (green), unobservable (red), outside ``X*_T`` (white).
+    """Save a PNG of the cut: observable (green), unobservable (magenta), outside ``X*_T`` (white).
 
     ``stretch`` multiplies an axis for display (the paper multiplies the theta axis by 10).
 
