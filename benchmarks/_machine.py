@@ -32,3 +32,18 @@ def versions(packages) -> dict:
         except metadata.PackageNotFoundError:
             out[pkg] = None
     return out
+
+
+def json_default(o):
+    """``json.dumps(..., default=json_default)``: numpy integers, floats, booleans and arrays as JSON."""
+    import numpy as np
+
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.floating):
+        return float(o)
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.bool_):
+        return bool(o)
+    raise TypeError(type(o).__name__)

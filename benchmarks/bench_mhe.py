@@ -37,7 +37,7 @@ from hybobs_opt.contract import NOISE_FIT_SIGMAS
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe.miqp import MHEObserver
 
-from ._machine import machine, versions
+from ._machine import machine, versions, json_default
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -211,21 +211,9 @@ def main(argv: list[str] | None = None) -> int:
     record["machine"]["load_average_at_end"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
     record["seconds_total"] = time.perf_counter() - t_start
     path = out_dir / "mhe.json"
-    path.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
+    path.write_text(json.dumps(record, indent=2, default=json_default) + "\n")
     log(f"wrote {path} ({record['seconds_total']:.0f} s)")
     return 0
-
-
-def _json_default(o):
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.bool_):
-        return bool(o)
-    raise TypeError(type(o).__name__)
 
 
 if __name__ == "__main__":
