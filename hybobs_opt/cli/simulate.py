@@ -57,7 +57,9 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from ..report.plots import plot_trace
 
-        plot_trace(trace, args.plot, title=title)
+        ex = named.example
+        units = dict(zip(ex.state_names, ex.state_units)) if ex is not None and ex.state_units else None
+        plot_trace(trace, args.plot, title=title, units=units)
     if args.csv:
         trace.to_csv(args.csv)
     if args.json:

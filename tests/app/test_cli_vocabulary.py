@@ -78,3 +78,28 @@ def test_diagnose_writes_no_report_unless_asked(tmp_path, monkeypatch, capsys):
     assert main(["diagnose", "vehicle_tracking", "--out-dir", "d", "--json"]) == 0
     paths = json.loads(capsys.readouterr().out)["report"]
     assert paths and (tmp_path / "d").is_dir()
+
+
+def test_simulate_and_regions_plots_get_the_examples_units(tmp_path, monkeypatch):
+    """The figures of ``simulate --plot`` and ``regions --plot`` label their axes "name [unit]" with
+    the example's units (issue 17), as the report does."""
+    import hybobs_opt.report.plots as plots
+
+    seen = {}
+    real_trace, real_cut = plots.plot_trace, plots.plot_region_cut
+
+    def trace(*a, **kw):
+        seen["trace"] = kw.get("units")
+        return real_trace(*a, **kw)
+
+    def cut(*a, **kw):
+        seen["cut"] = kw.get("units")
+        return real_cut(*a, **kw)
+
+    monkeypatch.setattr(plots, "plot_trace", trace)
+    monkeypatch.setattr(plots, "plot_region_cut", cut)
+    assert main(["simulate", "powertrain3", "--t-final", "0.05", "--plot", str(tmp_path / "s.png")]) == 0
+    assert main(["regions", "powertrain3", "-T", "3", "--cut", "omega_l=25", "--resolution", "6x5", "--no-cache",
+                 "--plot", str(tmp_path / "c.png")]) == 0
+    assert seen["trace"] == seen["cut"] == {"theta": "rad", "omega_m": "rad/s", "omega_l": "rad/s"}
+    assert (tmp_path / "s.png").stat().st_size > 0 and (tmp_path / "c.png").stat().st_size > 0
