@@ -168,7 +168,8 @@ def compute_cut(
     return Cut((names[free[0]], names[free[1]]), dict(fixed), axes[0], axes[1], labels)
 
 
-def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None = None):
+def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None = None,
+             units: dict[str, str] | None = None):
     """Save a PNG of the cut: observable (green), unobservable (magenta), outside ``X*_T`` (white).
 
     ``stretch`` multiplies an axis for display (the paper multiplies the theta axis by 10).
@@ -183,6 +184,8 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
         Figure title; empty gives ``"cut at NAME = VALUE, ..."``.
     stretch : dict of str to float, optional
         Display factor per axis name.
+    units : dict of str to str, optional
+        ``{state name: unit}``: an axis with a unit is labelled ``"name [unit]"``.
 
     Returns
     -------
@@ -203,8 +206,14 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
     ax.imshow(code, origin="lower", aspect="auto", interpolation="nearest",
               extent=(cut.x_values[0] * sx - dx, cut.x_values[-1] * sx + dx, cut.y_values[0] * sy - dy, cut.y_values[-1] * sy + dy),
               cmap=ListedColormap(["#7fc97f", "#e7298a", "#ffffff"]), vmin=0, vmax=2)
-    ax.set_xlabel(cut.axes[0] + (f" x {sx:g}" if sx != 1 else ""))
-    ax.set_ylabel(cut.axes[1] + (f" x {sy:g}" if sy != 1 else ""))
+    units = units or {}
+
+    def label(name: str, factor: float) -> str:
+        unit = f" [{units[name]}]" if units.get(name) else ""
+        return (f"{factor:g} {name}" if factor != 1 else name) + unit
+
+    ax.set_xlabel(label(cut.axes[0], sx))
+    ax.set_ylabel(label(cut.axes[1], sy))
     fixed = ", ".join(f"{k} = {v:g}" for k, v in cut.fixed.items())
     ax.set_title(title or f"cut at {fixed}", fontsize=10)
     from matplotlib.patches import Patch

@@ -444,3 +444,26 @@ def test_cut_sets_union_difference_agrees_with_point_queries(pt3_T3):
     # the band |theta| < alpha is in B_T, never in O_T (Fig. 3b)
     band = np.column_stack([np.full(20, 0.0), np.linspace(10.0, 590.0, 20)])
     assert not O.contains(band).any() and B.contains(band).all()
+
+
+def test_plot_cut_labels_axes_with_units_and_factors(tmp_path, monkeypatch):
+    """``plot_cut(units=...)`` labels ``"name [unit]"``; a display factor reads ``"10 theta [rad]"``."""
+    import matplotlib.figure
+
+    from hybobs_opt.regions import analyse_observability, compute_cut, plot_cut
+    from hybobs_opt.studies import get_example
+
+    labels = []
+    real = matplotlib.figure.Figure.savefig
+
+    def spy(self, *a, **kw):
+        labels.append((self.axes[0].get_xlabel(), self.axes[0].get_ylabel()))
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+    cut = compute_cut(analyse_observability(get_example("powertrain3").build(), 3), {"omega_l": 25.0}, (5, 4))
+    units = {"theta": "rad", "omega_m": "rad/s"}
+    plot_cut(cut, tmp_path / "a.png", units=units)
+    plot_cut(cut, tmp_path / "b.png", units=units, stretch={"theta": 10.0})
+    plot_cut(cut, tmp_path / "c.png")
+    assert labels == [("theta [rad]", "omega_m [rad/s]"), ("10 theta [rad]", "omega_m [rad/s]"), ("theta", "omega_m")]
