@@ -55,8 +55,8 @@ NO_CACHE_ENV = "HYBOBS_NO_CACHE"
 #: Layout version of the entries (part of every key).
 CACHE_FORMAT = 1
 
-__all__ = ["CACHE_DIR_ENV", "NO_CACHE_ENV", "ResultCache", "active_cache", "analysis_key_parts", "cached_analysis", "code_digest",
-           "default_cache_dir", "use_cache"]
+__all__ = ["CACHE_DIR_ENV", "NO_CACHE_ENV", "ResultCache", "active_cache", "analysis_key_parts", "array_digest",
+           "cached_analysis", "code_digest", "default_cache_dir", "use_cache"]
 
 
 def default_cache_dir() -> Path:
@@ -78,7 +78,9 @@ def code_digest() -> str:
     return h.hexdigest()
 
 
-def _array_digest(arrays: Mapping[str, np.ndarray]) -> str:
+def array_digest(arrays: Mapping[str, np.ndarray]) -> str:
+    """SHA-256 over the names, dtypes, shapes and bytes of ``arrays`` (the checksum of an entry,
+    and the key part of a result computed from arrays)."""
     h = hashlib.sha256()
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
@@ -171,9 +173,6 @@ class ResultCache:
                          f"running without a cache (set {CACHE_DIR_ENV} or pass --no-cache)")
             return False
 
-    def _replace(self, tmp: Path, path: Path) -> None:
-        os.replace(tmp, path)  # atomic: a reader sees the old entry or the whole new one
-
     # ------------------------------------------------------------------ analyses
     def analysis(self, system, T: int, compute: Callable[[], Any], what: str | None = None):
         """The analysis of ``system`` at horizon ``T``: loaded from the cache, else ``compute()`` and stored.
@@ -210,7 +209,7 @@ class ResultCache:
             tmp = path.with_name(path.name + f".tmp{os.getpid()}")
             try:
                 save_analysis(analysis, tmp)
-                self._replace(tmp, path)
+                os.replace(tmp, path)  # atomic: a reader sees the old entry or the whole new one
             except OSError as exc:
                 tmp.unlink(missing_ok=True)
                 self._event("analysis", what, "not stored", path, time.perf_counter() - t0, str(exc))
@@ -257,8 +256,8 @@ class ResultCache:
             return arrays
         tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
         try:
-            np.savez_compressed(tmp, __key__=np.array(key), __digest__=np.array(_array_digest(arrays)), **arrays)
-            self._replace(tmp, path)
+            np.savez_compressed(tmp, __key__=np.array(key), __digest__=np.array(array_digest(arrays)), **arrays)
+            os.replace(tmp, path)
         except OSError as exc:
             tmp.unlink(missing_ok=True)
             self._event(kind, what, "not stored", path, time.perf_counter() - t0, str(exc))
@@ -273,7 +272,7 @@ class ResultCache:
         if str(out.pop("__key__", "")) != key:
             raise ValueError("the entry was written for another key")
         digest = str(out.pop("__digest__", ""))
-        if digest != _array_digest(out):
+        if digest != array_digest(out):
             raise ValueError("the arrays do not match their SHA-256 (a corrupted entry)")
         return out
 

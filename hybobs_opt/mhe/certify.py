@@ -63,6 +63,9 @@ class SequenceSearch:
         Wall time.
     reason : str
         Why the search is not certified (empty when it is).
+    exhaustive : bool
+        Every node was closed (the search did not stop at its budget or at a node QP without a
+        certified answer); with no finite ``cost`` it proves that no mode sequence is feasible.
     """
 
     certified: bool
@@ -75,6 +78,7 @@ class SequenceSearch:
     nodes: int
     seconds: float
     reason: str = ""
+    exhaustive: bool = True
 
     @property
     def gap(self) -> float:
@@ -121,7 +125,7 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
 
     def stop(reason: str) -> SequenceSearch:
         return SequenceSearch(False, best_modes, None, None, best_cost, min(closed, best_cost), improved, nodes,
-                              time.perf_counter() - t0, reason)
+                              time.perf_counter() - t0, reason, exhaustive=False)
 
     stack: list[tuple[tuple[int, ...], float]] = [((), -np.inf)]
     while stack:

@@ -627,7 +627,7 @@ class MHEObserver(Observer):
                   "prefix_search": {"nodes": found.nodes, "seconds": found.seconds, "lower_bound": found.lower_bound,
                                     "improved": found.improved, "certified": found.certified}}
         if not found.certified:
-            if not np.isfinite(found.cost) and not found.reason.startswith(("node budget", "the QP")):
+            if found.exhaustive and not np.isfinite(found.cost):
                 # every mode prefix proven infeasible: no trajectory of the model meets the window
                 return WindowResult(Status.INFEASIBLE, solver=self.solver, solved_by="prefix search",
                                     reason="no mode sequence is feasible (every prefix proven infeasible)",

@@ -232,9 +232,9 @@ class WindowModel:
         tuple or None
             ``(theta, lower)``: the minimiser (scaled) and, with ``bound``, a lower bound of
             ``||R theta + r||^2`` over ``G theta <= g`` and the variable bounds, proven in numpy;
-            ``(None, inf)``: DAQP's "infeasible", proven by its Farkas multipliers
-            (:func:`~hybobs_opt.geometry.lp.daqp_infeasibility_ok`); ``None``: no certified
-            answer (DAQP failed, or a point or a verdict did not pass the checks).
+            ``(None, inf)``: infeasible, proven by a Farkas vector that re-checks in numpy
+            (:meth:`_infeasibility_proven`); ``None``: no certified answer (DAQP and, with
+            ``bound``, Clarabel failed, or a point or a verdict did not pass the checks).
         """
         import daqp
 

@@ -81,24 +81,18 @@ def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMP
                 progress(k + 1, ends.size)
         return {"labels": np.array(out, dtype=str)}
 
-    from ..cache import active_cache, analysis_key_parts
+    from ..cache import active_cache, analysis_key_parts, array_digest
 
     cache = active_cache()
     if cache is None or not ends.size:
         found = compute()["labels"] if ends.size else np.zeros(0, dtype=str)
     else:
-        parts = {**analysis_key_parts(analysis), "states": _digest(starts)}
+        parts = {**analysis_key_parts(analysis), "states": array_digest({"states": starts})}
         what = f"exact labels of {ends.size} windows of {analysis.system.name!r} (T = {T})"
         found = cache.arrays("exact-labels", parts, compute, what)["labels"]
     labels = np.empty(ends.size, dtype=object)
     labels[:] = [str(v) for v in found]
     return ends, labels
-
-
-def _digest(a: np.ndarray) -> str:
-    import hashlib
-
-    return hashlib.sha256(f"{a.dtype.str}|{a.shape}|".encode() + a.tobytes()).hexdigest()
 
 
 def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int, int], None] | None = None,
