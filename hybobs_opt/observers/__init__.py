@@ -12,6 +12,7 @@ observer                        paper, module
 ``DriftObserver``               003, constant-drift observer (18) (:mod:`.drift_observer`)
 ``PeriodicObserver``            003, event-sampled periodic observer (:mod:`.periodic`)
 ``SwitchedGainObserver``        004, switched gains with hysteresis (:mod:`.switched_gain`)
+``ModeSequenceKalmanFilter``    Kalman filter told the true modes: the noise bench's reference (:mod:`.kalman`)
 ==============================  ===========================================================
 
 Names are imported on first use (``from hybobs_opt.observers import LookupObserver``).
@@ -38,6 +39,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("exact_window_labels", "summarise", "timed_steps", "true_window_observable", "wilson_interval"),
                     "hybobs_opt.observers.comparison"),
     "plot_observer_run": "hybobs_opt.observers.plots",
+    **dict.fromkeys(("KalmanTrace", "ModeSequenceKalmanFilter"), "hybobs_opt.observers.kalman"),
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
