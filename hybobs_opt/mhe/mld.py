@@ -32,6 +32,7 @@ All decision variables are scaled (states by the half-widths of ``X``'s bounding
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -159,7 +160,8 @@ class MLDEncoding:
     output map is common), ``omega`` the scaled disturbances (``w(k) = hx * omega[k]``, empty when
     disabled).  With the stacked window input ``U = [u(0); ...; u(T-1)]``:
 
-    * constraints: ``lo <= A v + BU U <= hi`` (rows with ``lo == hi`` are equalities);
+    * constraints: ``lo <= A v + BU U + BP P <= hi`` (rows with ``lo == hi`` are equalities; ``P``
+      are the extension's parameters of :meth:`set_parameters`, none without an extension);
     * bounds: ``lb <= v <= ub`` (``delta`` in ``[0, 1]``, marked by ``discrete``);
     * states: ``x(k) = Xmap[k] v + Xoff[k]``;
     * outputs: ``Y^ = Ymap v + YU U + Yoff`` (stacked ``y^(0) ... y^(T-1)``).
@@ -192,6 +194,8 @@ class MLDEncoding:
         The constants the rows were built with.
     state_scale : (n,) array, optional
         The state scale ``hx`` (``None``: the half-widths of the state box).
+    BP : (nr, n_params) array, optional
+        Dependence of the rows on the extension's parameters (``None``: no extension).
     """
 
     system: PWASystem
@@ -212,6 +216,24 @@ class MLDEncoding:
     slices: dict = field(default_factory=dict)
     big_m: BigMConstants | None = None
     state_scale: np.ndarray | None = None
+    BP: np.ndarray | None = None
+    _params: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_params(self) -> int:
+        """Number of extra (extension) parameters entering the row bounds through ``BP``."""
+        return 0 if self.BP is None else self.BP.shape[1]
+
+    def set_parameters(self, P: np.ndarray | None) -> None:
+        """Values of the extension's parameters for the window being solved (``BP`` columns).
+
+        Parameters
+        ----------
+        P : (n_params,) ndarray or None
+            The stacked parameter values (:class:`~hybobs_opt.mhe.formulation.MHEFormulation`);
+            ``None`` clears them.
+        """
+        self._params["P"] = None if P is None else np.asarray(P, dtype=float).reshape(self.n_params)
 
     @property
     def n_vars(self) -> int:
@@ -237,6 +259,12 @@ class MLDEncoding:
             Stacked window input ``[u(0); ...; u(T-1)]``.
         """
         shift = self.BU @ U
+        if self.n_params:
+            P = self._params.get("P")
+            if P is None:
+                raise ModelError("parameters", f"values of the {self.n_params} extension parameters of the window",
+                                 "none set (MHEObserver.set_parameter)")
+            shift = shift + self.BP @ P
         return self.lo - shift, self.hi - shift
 
     def states(self, v: np.ndarray) -> np.ndarray:
@@ -386,30 +414,236 @@ class MLDEncoding:
         return float(r.max())
 
 
-class _Rows:
-    """Accumulates rows ``lo <= a v + bu U <= hi``."""
+@dataclass(frozen=True, eq=False)
+class MLDSymbols:
+    """The MLD constraints of eq. (10) as CasADi SX expressions (built by :func:`mld_expressions`).
 
-    def __init__(self, nv: int, nu: int):
-        self.nv, self.nu = nv, nu
-        self.A: list[np.ndarray] = []
-        self.BU: list[np.ndarray] = []
-        self.lo: list[float] = []
-        self.hi: list[float] = []
+    The decision vector ``v`` has the layout of :class:`MLDEncoding` (``slices``); the stacked
+    window input ``U`` is a parameter.  ``rows`` is the column of constraint expressions with the
+    constant bounds ``lo <= rows(v, U) <= hi`` (not yet normalised); ``x[k]`` and ``y_hat[k]``
+    are the window states and outputs in original units, ``delta[k]`` the ``s`` binaries of step
+    ``k``, ``w[k]`` the disturbances in original units (empty without them).
+    """
 
-    def add(self, a: np.ndarray, bu: np.ndarray | None, lo: float, hi: float) -> None:
-        self.A.append(a)
-        self.BU.append(np.zeros(self.nu) if bu is None else bu)
-        self.lo.append(lo)
-        self.hi.append(hi)
+    v: Any
+    U: Any
+    rows: Any
+    lo: np.ndarray
+    hi: np.ndarray
+    x: list
+    y_hat: list
+    delta: list
+    w: list
+    lb: np.ndarray
+    ub: np.ndarray
+    discrete: np.ndarray
+    slices: dict
+    hx: np.ndarray
+    cx: np.ndarray
+    hy: np.ndarray
+    big_m: BigMConstants
+    disturbances: bool
+    default_scale: bool
 
-    def arrays(self) -> tuple[np.ndarray, ...]:
-        A = np.array(self.A).reshape(-1, self.nv)
-        BU = np.array(self.BU).reshape(-1, self.nu)
-        lo, hi = np.array(self.lo), np.array(self.hi)
-        # unit largest coefficient per row (the binaries' big-M columns included)
-        norm = np.max(np.abs(A), axis=1)
-        norm = np.where(norm > 0, norm, 1.0)
-        return A / norm[:, None], BU / norm[:, None], lo / norm, hi / norm
+
+def mld_expressions(system: PWASystem, T: int, *, disturbances: bool = False,
+                    big_m: BigMConstants | None = None, state_scale: np.ndarray | None = None) -> MLDSymbols:
+    """Write the MLD / big-M constraints of eq. (10) for a window of ``T`` samples in CasADi SX.
+
+    The mixed-logical-dynamical form of Bemporad & Morari (1999) of the PWA system of eq. (1) of
+    paper 002 (module docstring), as symbolic expressions of the scaled decision vector ``v`` and
+    the window input ``U``: one-hot rows, ``x(k) in X``, the guards with their big-M constants and
+    the four big-M rows of every successor and output copy, in the order :func:`encode_mld`
+    extracts them.
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model, with bounded ``X`` and ``U`` (eq. 2).
+    T : int
+        Window length (``T >= 1``).
+    disturbances : bool
+        Whether ``x(k + 1) = f_i(x(k), u(k)) + w(k)`` has disturbance variables.
+    big_m : BigMConstants, optional
+        Precomputed constants (:func:`big_m_constants`).
+    state_scale : (n,) array, optional
+        Unit of each scaled state variable (default: the half-widths of ``X``'s bounding box).
+
+    Returns
+    -------
+    MLDSymbols
+
+    Raises
+    ------
+    ModelError
+        If ``system`` is not a PWASystem, ``T < 1`` or ``state_scale`` is not ``n`` positive numbers.
+    """
+    import casadi as ca
+
+    if not isinstance(system, PWASystem):
+        raise ModelError("system", "a PWASystem", type(system).__name__)
+    if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
+        raise ModelError("T", "an integer horizon T >= 1", repr(T))
+    T = int(T)
+    bm = big_m_constants(system) if big_m is None else big_m
+    n, m, p, s = system.n, system.m, system.p, system.n_modes
+    half, centre = system.scales()
+    hx, cx = half[:n].copy(), centre[:n].copy()
+    if state_scale is not None:
+        hx = np.asarray(state_scale, dtype=float).reshape(-1)
+        if hx.shape != (n,) or not np.all(np.isfinite(hx) & (hx > 0)):
+            raise ModelError("state_scale", f"{n} positive finite numbers", f"{np.asarray(state_scale).tolist()}")
+    common = bm.out_on_guard is None
+    hy = np.maximum(np.abs(bm.output_range).max(axis=1), 1e-300)
+
+    sizes = [("xi0", n), ("delta", T * s), ("zeta", (T - 1) * s * n),
+             ("zeta_y", 0 if common else T * s * p), ("omega", (T - 1) * n if disturbances else 0)]
+    slices, off = {}, 0
+    for name, size in sizes:
+        slices[name] = slice(off, off + size)
+        off += size
+    nv = off
+    v = ca.SX.sym("v", nv)
+    U = ca.SX.sym("U", T * m)
+
+    def block(name: str, start: int, size: int):
+        a = slices[name].start + start
+        return v[a:a + size]
+
+    u = [U[k * m:(k + 1) * m] for k in range(T)]
+    delta = [block("delta", k * s, s) for k in range(T)]
+    zeta = [[block("zeta", (k * s + i) * n, n) for i in range(s)] for k in range(T - 1)]
+    zeta_y = [[block("zeta_y", (k * s + i) * p, p) for i in range(s)] for k in range(T)] if not common else []
+    w = [ca.DM(hx) * block("omega", k * n, n) for k in range(T - 1)] if disturbances else []
+    # states: x(0) = cx + hx xi0; x(k+1) = sum_i hx zeta[k, i] (+ w(k))
+    x = [ca.DM(cx) + ca.DM(hx) * block("xi0", 0, n)]
+    for k in range(T - 1):
+        nxt = ca.DM(hx) * zeta[k][0]
+        for i in range(1, s):
+            nxt = nxt + ca.DM(hx) * zeta[k][i]
+        x.append(nxt + w[k] if disturbances else nxt)
+
+    rows, lo, hi = [], [], []
+
+    def add(expr, a: float, b: float) -> None:
+        rows.append(expr)
+        lo.append(a)
+        hi.append(b)
+
+    def dot(row: np.ndarray, vec):
+        return ca.mtimes(ca.DM(row.reshape(1, -1)), vec)
+
+    def copy_rows(d, z, f, lo_g: float, hi_g: float, lo_d: float, hi_d: float) -> None:
+        # lo_g delta <= z <= hi_g delta (the copy vanishes when the mode is off, bounds over its
+        # guard) and lo_d (1 - delta) <= f - z <= hi_d (1 - delta) (it equals f when the mode is
+        # on, bounds over X x U); Bemporad & Morari (1999)
+        add(z - hi_g * d, -np.inf, 0.0)
+        add(z - lo_g * d, 0.0, np.inf)
+        add(f - z + hi_d * d, -np.inf, hi_d)
+        add(f - z + lo_d * d, lo_d, np.inf)
+
+    X = system.state_bounds
+    box_X = _is_axis_box(X)
+    for k in range(T):
+        add(ca.sum1(delta[k]), 1.0, 1.0)  # one mode per step
+        if k > 0 or not box_X:  # x(k) in X (x(0) by its variable bounds when X is a box)
+            for r in range(X.n_constraints):
+                add(dot(X.A[r], x[k]), -np.inf, float(X.b[r]))
+        for i, mode in enumerate(system.modes):
+            d = delta[k][i]
+            G, g, M = bm.guard_rows[i]
+            for r in range(G.shape[0]):  # G_x x(k) + G_u u(k) + M delta <= g + M
+                add(dot(G[r, :n], x[k]) + M[r] * d + dot(G[r, n:], u[k]), -np.inf, float(g[r] + M[r]))
+            if k < T - 1:
+                for j in range(n):
+                    f = dot(mode.A[j], x[k]) + mode.a[j] + dot(mode.B[j], u[k])
+                    copy_rows(d, hx[j] * zeta[k][i][j], f, *bm.succ_on_guard[i, j], *bm.succ_on_domain[i, j])
+            if not common:
+                for j in range(p):
+                    f = dot(mode.C[j], x[k]) + mode.c[j] + dot(mode.D[j], u[k])
+                    copy_rows(d, hy[j] * zeta_y[k][i][j], f, *bm.out_on_guard[i, j], *bm.out_on_domain[i, j])
+
+    m0 = system.modes[0]
+    if common:
+        y_hat = [ca.mtimes(ca.DM(m0.C), x[k]) + ca.mtimes(ca.DM(m0.D), u[k]) + ca.DM(m0.c) for k in range(T)]
+    else:
+        y_hat = []
+        for k in range(T):
+            yk = ca.DM(hy) * zeta_y[k][0]
+            for i in range(1, s):
+                yk = yk + ca.DM(hy) * zeta_y[k][i]
+            y_hat.append(yk)
+
+    # variable bounds (scaled)
+    inf = np.inf
+    lb = np.full(nv, -inf)
+    ub = np.full(nv, inf)
+    xlo, xhi = cx - half[:n], cx + half[:n]
+    lb[slices["xi0"]], ub[slices["xi0"]] = -half[:n] / hx, half[:n] / hx
+    lb[slices["delta"]], ub[slices["delta"]] = 0.0, 1.0
+    zlo = np.minimum(bm.succ_on_guard[:, :, 0], 0.0) / hx
+    zhi = np.maximum(bm.succ_on_guard[:, :, 1], 0.0) / hx
+    lb[slices["zeta"]] = np.tile(zlo.reshape(-1), T - 1)
+    ub[slices["zeta"]] = np.tile(zhi.reshape(-1), T - 1)
+    if not common:
+        lb[slices["zeta_y"]] = np.tile((np.minimum(bm.out_on_guard[:, :, 0], 0.0) / hy).reshape(-1), T)
+        ub[slices["zeta_y"]] = np.tile((np.maximum(bm.out_on_guard[:, :, 1], 0.0) / hy).reshape(-1), T)
+    if disturbances:
+        # w = x(k+1) - f(x(k), u(k)) with x(k+1) in X: these bounds are implied, never binding
+        wlo = (xlo - bm.succ_on_domain[:, :, 1].max(axis=0)) / hx
+        whi = (xhi - bm.succ_on_domain[:, :, 0].min(axis=0)) / hx
+        lb[slices["omega"]] = np.tile(wlo, T - 1)
+        ub[slices["omega"]] = np.tile(whi, T - 1)
+    discrete = np.zeros(nv, dtype=bool)
+    discrete[slices["delta"]] = True
+    return MLDSymbols(v, U, ca.vertcat(*rows), np.array(lo, dtype=float), np.array(hi, dtype=float), x, y_hat,
+                      delta, w, lb, ub, discrete, slices, hx, cx, hy, bm, bool(disturbances), state_scale is None)
+
+
+def affine_parts(expr, var, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(J_var, J_params, const)`` of an expression affine in ``var`` and ``params``, by CasADi.
+
+    The Jacobians ``casadi.jacobian(expr, var)``, ``casadi.jacobian(expr, params)`` and the value
+    at ``var = 0, params = 0``, evaluated to dense numpy once.  Whether ``expr`` is affine is the
+    caller's check (:func:`is_affine`).
+    """
+    import casadi as ca
+
+    F = ca.Function("affine_parts", [var, params],
+                    [ca.jacobian(expr, var), ca.jacobian(expr, params), expr])
+    Jv, Jp, c = F(np.zeros(var.numel()), np.zeros(params.numel()))
+    return np.array(Jv.full(), dtype=float), np.array(Jp.full(), dtype=float), np.array(c.full(), dtype=float).reshape(-1)
+
+
+def mld_encoding(sym: MLDSymbols, system: PWASystem, T: int, extra_rows=None, params=None) -> MLDEncoding:
+    """Extract the numpy :class:`MLDEncoding` from the symbolic constraints (once, at construction).
+
+    ``A = jacobian(rows, v)``, ``BU = jacobian(rows, U)`` and the constant part moved into the
+    bounds; every row is then normalised to a largest coefficient of one in ``v``.  ``extra_rows``
+    ``(expr, lo, hi)`` are appended (an extension's affine constraints) and ``params`` is the SX
+    column of its extra parameters (their map goes into ``BP``).
+    """
+    import casadi as ca
+
+    rows, lo, hi = sym.rows, sym.lo, sym.hi
+    if extra_rows is not None and extra_rows[0].numel():
+        rows = ca.vertcat(rows, extra_rows[0])
+        lo, hi = np.concatenate([lo, extra_rows[1]]), np.concatenate([hi, extra_rows[2]])
+    P = ca.SX.sym("P", 0) if params is None else params
+    A, BUP, c = affine_parts(rows, sym.v, ca.vertcat(sym.U, P))
+    nu = sym.U.numel()
+    BU, BP = BUP[:, :nu], BUP[:, nu:]
+    lo, hi = lo - c, hi - c
+    norm = np.max(np.abs(A), axis=1) if A.size else np.ones(A.shape[0])
+    norm = np.where(norm > 0, norm, 1.0)
+    A, BU, BP, lo, hi = A / norm[:, None], BU / norm[:, None], BP / norm[:, None], lo / norm, hi / norm
+    nv = sym.v.numel()
+    Xmap, Xoff = np.zeros((T, system.n, nv)), np.zeros((T, system.n))
+    for k in range(T):
+        Xmap[k], _, Xoff[k] = affine_parts(sym.x[k], sym.v, sym.U)
+    Ymap, YU, Yoff = affine_parts(ca.vertcat(*sym.y_hat), sym.v, sym.U)
+    return MLDEncoding(system, T, sym.disturbances, A, BU, lo, hi, sym.lb, sym.ub, sym.discrete, Xmap, Xoff, Ymap, YU,
+                       Yoff, sym.slices, sym.big_m, None if sym.default_scale else sym.hx, BP=BP)
 
 
 def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
@@ -418,7 +652,9 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
 
     Implements the mixed-logical-dynamical form of Bemporad & Morari (1999) for the PWA system of
     eq. (1) of paper 002, as used by the moving-horizon observer of eq. (10) (Bemporad,
-    Ferrari-Trecate & Morari, 2000).  See the module docstring for the constraints.
+    Ferrari-Trecate & Morari, 2000).  See the module docstring for the constraints: they are
+    written once as CasADi expressions (:func:`mld_expressions`) and their matrices extracted by
+    ``casadi.jacobian`` (:func:`mld_encoding`).
 
     Parameters
     ----------
@@ -443,162 +679,8 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
     ModelError
         If ``system`` is not a PWASystem or ``T < 1``.
     """
-    if not isinstance(system, PWASystem):
-        raise ModelError("system", "a PWASystem", type(system).__name__)
-    if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
-        raise ModelError("T", "an integer horizon T >= 1", repr(T))
-    T = int(T)
-    bm = big_m_constants(system) if big_m is None else big_m
-    n, m, p, s = system.n, system.m, system.p, system.n_modes
-    half, centre = system.scales()
-    hx, cx = half[:n].copy(), centre[:n]
-    if state_scale is not None:
-        hx = np.asarray(state_scale, dtype=float).reshape(-1)
-        if hx.shape != (n,) or not np.all(np.isfinite(hx) & (hx > 0)):
-            raise ModelError("state_scale", f"{n} positive finite numbers", f"{np.asarray(state_scale).tolist()}")
-    common = bm.out_on_guard is None
-    hy = np.maximum(np.abs(bm.output_range).max(axis=1), 1e-300)
-
-    # variable layout
-    sizes = [("xi0", n), ("delta", T * s), ("zeta", (T - 1) * s * n),
-             ("zeta_y", 0 if common else T * s * p), ("omega", (T - 1) * n if disturbances else 0)]
-    slices, off = {}, 0
-    for name, size in sizes:
-        slices[name] = slice(off, off + size)
-        off += size
-    nv, nu = off, m * T
-
-    def idx_delta(k: int, i: int) -> int:
-        return slices["delta"].start + k * s + i
-
-    def idx_zeta(k: int, i: int) -> slice:
-        a = slices["zeta"].start + (k * s + i) * n
-        return slice(a, a + n)
-
-    def idx_zy(k: int, i: int) -> slice:
-        a = slices["zeta_y"].start + (k * s + i) * p
-        return slice(a, a + p)
-
-    def ublock(k: int, mat: np.ndarray) -> np.ndarray:
-        out = np.zeros((mat.shape[0], nu))
-        out[:, k * m:(k + 1) * m] = mat
-        return out
-
-    # states as affine maps of v: x(0) = cx + hx xi0; x(k+1) = sum_i hx zeta[k,i] + hx omega[k]
-    Xmap = np.zeros((T, n, nv))
-    Xoff = np.zeros((T, n))
-    Xmap[0][:, slices["xi0"]] = np.diag(hx)
-    Xoff[0] = cx
-    for k in range(T - 1):
-        for i in range(s):
-            Xmap[k + 1][:, idx_zeta(k, i)] = np.diag(hx)
-        if disturbances:
-            a = slices["omega"].start + k * n
-            Xmap[k + 1][:, a:a + n] = np.diag(hx)
-
-    rows = _Rows(nv, nu)
-    inf = np.inf
-    X = system.state_bounds
-    box_X = _is_axis_box(X)
-    for k in range(T):
-        # one mode per step
-        a = np.zeros(nv)
-        a[[idx_delta(k, i) for i in range(s)]] = 1.0
-        rows.add(a, None, 1.0, 1.0)
-        # x(k) in X (x(0) by its variable bounds when X is a box)
-        if k > 0 or not box_X:
-            for r in range(X.n_constraints):
-                rows.add(X.A[r] @ Xmap[k], None, -inf, X.b[r] - X.A[r] @ Xoff[k])
-        for i, mode in enumerate(system.modes):
-            d = idx_delta(k, i)
-            # guard: G_x x(k) + G_u u(k) <= g + M (1 - delta)
-            G, g, M = bm.guard_rows[i]
-            for r in range(G.shape[0]):
-                a = G[r, :n] @ Xmap[k]
-                a[d] += M[r]
-                rows.add(a, ublock(k, G[r:r + 1, n:])[0], -inf, g[r] + M[r] - G[r, :n] @ Xoff[k])
-            if k < T - 1:
-                zs = idx_zeta(k, i)
-                lo_g, hi_g = bm.succ_on_guard[i, :, 0], bm.succ_on_guard[i, :, 1]
-                lo_d, hi_d = bm.succ_on_domain[i, :, 0], bm.succ_on_domain[i, :, 1]
-                for j in range(n):
-                    _copy_rows(rows, nv, d, zs.start + j, hx[j], lo_g[j], hi_g[j], lo_d[j], hi_d[j],
-                               mode.A[j] @ Xmap[k], ublock(k, mode.B[j:j + 1])[0], mode.a[j] + mode.A[j] @ Xoff[k])
-            if not common:
-                ys = idx_zy(k, i)
-                lo_g, hi_g = bm.out_on_guard[i, :, 0], bm.out_on_guard[i, :, 1]
-                lo_d, hi_d = bm.out_on_domain[i, :, 0], bm.out_on_domain[i, :, 1]
-                for j in range(p):
-                    _copy_rows(rows, nv, d, ys.start + j, hy[j], lo_g[j], hi_g[j], lo_d[j], hi_d[j],
-                               mode.C[j] @ Xmap[k], ublock(k, mode.D[j:j + 1])[0], mode.c[j] + mode.C[j] @ Xoff[k])
-    A, BU, lo, hi = rows.arrays()
-
-    # outputs
-    Ymap = np.zeros((T * p, nv))
-    YU = np.zeros((T * p, nu))
-    Yoff = np.zeros(T * p)
-    m0 = system.modes[0]
-    for k in range(T):
-        r = slice(k * p, (k + 1) * p)
-        if common:
-            Ymap[r] = m0.C @ Xmap[k]
-            YU[r] = ublock(k, m0.D)
-            Yoff[r] = m0.C @ Xoff[k] + m0.c
-        else:
-            for i in range(s):
-                Ymap[r, idx_zy(k, i)] = np.diag(hy)
-
-    # variable bounds (scaled)
-    lb = np.full(nv, -inf)
-    ub = np.full(nv, inf)
-    xlo, xhi = cx - half[:n], cx + half[:n]
-    lb[slices["xi0"]], ub[slices["xi0"]] = -half[:n] / hx, half[:n] / hx
-    lb[slices["delta"]], ub[slices["delta"]] = 0.0, 1.0
-    zlo = np.minimum(bm.succ_on_guard[:, :, 0], 0.0) / hx
-    zhi = np.maximum(bm.succ_on_guard[:, :, 1], 0.0) / hx
-    lb[slices["zeta"]] = np.tile(zlo.reshape(-1), T - 1)
-    ub[slices["zeta"]] = np.tile(zhi.reshape(-1), T - 1)
-    if not common:
-        lb[slices["zeta_y"]] = np.tile((np.minimum(bm.out_on_guard[:, :, 0], 0.0) / hy).reshape(-1), T)
-        ub[slices["zeta_y"]] = np.tile((np.maximum(bm.out_on_guard[:, :, 1], 0.0) / hy).reshape(-1), T)
-    if disturbances:
-        # w = x(k+1) - f(x(k), u(k)) with x(k+1) in X: these bounds are implied, never binding
-        wlo = (xlo - bm.succ_on_domain[:, :, 1].max(axis=0)) / hx
-        whi = (xhi - bm.succ_on_domain[:, :, 0].min(axis=0)) / hx
-        lb[slices["omega"]] = np.tile(wlo, T - 1)
-        ub[slices["omega"]] = np.tile(whi, T - 1)
-    discrete = np.zeros(nv, dtype=bool)
-    discrete[slices["delta"]] = True
-    return MLDEncoding(system, T, bool(disturbances), A, BU, lo, hi, lb, ub, discrete,
-                       Xmap, Xoff, Ymap, YU, Yoff, slices, bm, None if state_scale is None else hx)
-
-
-
-def _copy_rows(rows, nv: int, d: int, col: int, scale: float, lo_g: float, hi_g: float, lo_d: float, hi_d: float,
-               f: np.ndarray, fu: np.ndarray, c0: float) -> None:
-    """Big-M rows tying the scaled copy ``scale * w[col]`` to one affine function and to ``delta = w[d]``.
-
-    ``lo_g delta <= scale w <= hi_g delta`` (the copy vanishes when the mode is off, bounds over
-    the guard) and ``lo_d (1 - delta) <= f w + fu u + c0 - scale w <= hi_d (1 - delta)`` (it equals
-    the function when the mode is on, bounds over the domain); Bemporad & Morari (1999).
-    """
-    inf = np.inf
-    a = np.zeros(nv)
-    a[col] = scale
-    a[d] = -hi_g
-    rows.add(a, None, -inf, 0.0)
-    a = np.zeros(nv)
-    a[col] = scale
-    a[d] = -lo_g
-    rows.add(a, None, 0.0, inf)
-    f = f.copy()
-    f[col] -= scale
-    a = f.copy()
-    a[d] += hi_d
-    rows.add(a, fu, -inf, hi_d - c0)
-    a = f.copy()
-    a[d] += lo_d
-    rows.add(a, fu, lo_d - c0, inf)
+    sym = mld_expressions(system, T, disturbances=disturbances, big_m=big_m, state_scale=state_scale)
+    return mld_encoding(sym, system, int(T))
 
 
 def _is_axis_box(P: Polytope) -> bool:
