@@ -5,6 +5,7 @@
 observer                        paper, module
 ==============================  ===========================================================
 ``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`)
+``NoiseAwareLookupObserver``    002 with noisy outputs: statistical tests per region (:mod:`.noise_lookup`)
 ``MHEObserver``                 002, MIQP/MILP moving horizon (:mod:`hybobs_opt.mhe`)
 ``LocationObserver``            000, residual-bank location observer (:mod:`.location_observer`)
 ``HybridObserver``              000, location + continuous observer (:mod:`.hybrid_observer`)
@@ -24,6 +25,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("FALLBACK", "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "ObserverTrace"),
                     "hybobs_opt.contract"),
     **dict.fromkeys(("LookupObserver", "LookupTrace", "REASONS", "input_bound_rows"), "hybobs_opt.observers.lookup"),
+    **dict.fromkeys(("NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"), "hybobs_opt.observers.noise_lookup"),
     "MHEObserver": "hybobs_opt.mhe",
     **dict.fromkeys(("LocationObserver", "ResidualBank", "design_residual_bank", "detection_delays"),
                     "hybobs_opt.observers.location_observer"),

@@ -1,0 +1,357 @@
+"""A lookup-table observer for noisy outputs: Algorithm 4.1 of paper 002 with statistical tests.
+
+Paper 002 assumes noise-free outputs and says so (Section 8): with noise "there is no theoretical
+guarantee that the set chi defined in (14) will be non-empty even if the true states are
+observable".  Its lookup observer (:class:`~hybobs_opt.observers.lookup.LookupObserver`) then
+fails in two ways: with ``T p = n`` every window fits some region exactly, so the noise reaches
+the estimate through ``C_i^-1`` with nothing to say it is large, and with ``T p > n`` the exact
+output equality (12) rejects every noisy window.  This observer keeps the algorithm's structure
+(candidates per region, membership, uniqueness) and replaces each exact test by a test at a
+stated false-alarm probability, for outputs ``y(k) = C_i x(k) + D_i u(k) + c_i + v(k)`` with
+``v(k)`` white Gaussian noise of known standard deviations ``sigma`` (per output) and inputs
+known exactly.
+
+For every mode sequence ``i`` of the analysis (regions ``P_i`` of eq. 4, the set ``I`` of
+full-rank sequences *and* the rank-deficient ones) and the window ``z = [Y_t; U_t]``, with the
+whitened output map ``C~_i = W C_i`` (``W = diag(1/sigma)`` per sample) of rank ``r_i``:
+
+1. **Least squares** (eq. 13 weighted): ``x_i = C~_i^+ W (Y_t - D_i U_t - f_i)``; when
+   ``r_i = n`` its error is Gaussian with covariance ``S_i = (C~_i' C~_i)^-1`` if ``i`` is the
+   true sequence.
+2. **Residual test** (eq. 12 with noise): ``rho_i = ||(I - C~_i C~_i^+) W (Y_t - D_i U_t - f_i)||^2``
+   is chi-square with ``T p - r_i`` degrees of freedom under the true sequence; it passes when
+   ``rho_i <= chi2_{T p - r_i}^-1(1 - alpha / 2)``.
+3. **Membership with a margin** (eq. 14 with noise): row ``h' [x; U] <= h0`` of ``P_i`` passes
+   when ``h' [x_i; U_t] - h0 <= kappa_i s_r`` where ``s_r = ||C~_i^+' h_x||`` is the standard
+   deviation of the row's value at ``x_i`` and ``kappa_i = Phi^-1(1 - alpha / (2 R_i))`` splits
+   the other half of ``alpha`` over the ``R_i`` rows that involve the state (a union bound).
+   Rows that only bound the inputs are noise-free and tested closed.  For a rank-deficient
+   sequence the least-squares solutions form an affine set ``x_i + N_i w``; it passes when some
+   ``w`` satisfies every row with its margin, decided by one certified LP
+   (:func:`hybobs_opt.lp.max_slack`), after the residual test.
+
+By construction the true mode sequence fails steps 2-3 with probability at most ``alpha``
+(Bonferroni).  The flag is ``observable`` only when **exactly one** sequence passes and it has
+``r_i = n``; the estimate is its ``x_i`` propagated to the current time through the region's
+affine map (``Phi_last, Gamma_last, phi_last``), and ``info["covariance"]`` is
+``Phi_last S_i Phi_last'``, the covariance of that estimate's error *if the passing sequence is the
+true one* -- which the test cannot prove: what it proves is that every other sequence of the model
+was rejected at false-alarm ``alpha`` each.  Several passing sequences, or one rank-deficient
+sequence, leave the state undetermined: ``unobservable``, open-loop prediction (step 2.1 of
+Algorithm 4.1), ``info["candidates"]`` says which passed.  No passing sequence means the window
+contradicts the model at that level (a fault, a model error or a false alarm): also
+``unobservable``, with that reason.  Bad samples (NaN, wrong length, input outside ``U``) are
+``fallback``; fewer than ``T`` samples ``warming_up``.
+
+This is the "noise-aware lookup" asked for in issue 18 (windows longer than ``n / p``, a residual
+test at a stated false-alarm probability, membership with a margin, ``observable`` only when one
+candidate passes); its answers are compared with the Kalman filter on the true mode sequence in
+the noise study of paper 002 (``benchmarks/bench_noise.py``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2, norm
+
+from .._validate import as_instance
+from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
+                        judge_samples_against)
+from ..errors import ModelError, SolverError
+from ..geometry.lp import max_slack
+from ..tolerances import LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, RANK_RTOL, ZERO_ROW_TOL
+from .lookup import input_bound_rows
+
+__all__ = ["NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"]
+
+#: Default probability that the true mode sequence fails the tests of one window (residual and
+#: membership together): about three false alarms in a 3,000-sample run.
+DEFAULT_FALSE_ALARM: float = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class _Sequence:
+    """Offline data of one mode sequence (scaled and whitened; see the module docstring)."""
+
+    index: int  # index in analysis.regions
+    rank: int
+    threshold: float  # chi-square quantile of the residual test
+    kappa: float  # membership margin in standard deviations
+    rows: slice  # its rows in the stacked table: [x_i (n) | residual (pT) | membership (k)]
+    n_member: int
+    member_tol: np.ndarray  # allowed value of each membership row (original units)
+    box_margin: float  # largest membership margin in units of the row norms (scaled)
+    null: np.ndarray | None  # (n, n - r) null-space basis of C~_i in scaled state coordinates
+    covariance_last: np.ndarray | None  # Phi_last S_i Phi_last' (full rank only)
+    last: tuple  # (Phi_last, Gamma_last, phi_last, last mode)
+
+
+class NoiseAwareLookupObserver(Observer):
+    """Lookup-table observer for outputs with white Gaussian noise (see the module docstring).
+
+    Parameters
+    ----------
+    analysis : ObservabilityAnalysis
+        Result of Algorithm 3.1 at horizon ``T`` with ``T p > n`` (``hybobs_opt.regions``): the
+        residual test needs more output samples than states.
+    noise_std : float or (p,) array_like
+        Standard deviation of the output noise of each output, in output units.
+    false_alarm : float, default DEFAULT_FALSE_ALARM
+        Probability that the true mode sequence fails the tests of one window, in (0, 0.5).
+
+    Attributes
+    ----------
+    n_sequences : int
+        Mode sequences tested per window.
+    table_seconds : float
+        Time to build the tables.
+
+    Examples
+    --------
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> from hybobs_opt.studies import get_example
+    >>> plant = get_example("powertrain3").build()
+    >>> obs = NoiseAwareLookupObserver(analyse_observability(plant, 4), noise_std=0.01)
+    >>> obs.n_sequences
+    35
+    """
+
+    name = "lookup-noise"
+
+    def __init__(self, analysis, noise_std, *, false_alarm: float = DEFAULT_FALSE_ALARM):
+        from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
+
+        as_instance(analysis, "analysis", ObservabilityAnalysis,
+                    "an ObservabilityAnalysis (Algorithm 3.1, hybobs_opt.regions; e.g. load_analysis(file))")
+        system = analysis.system
+        self.analysis, self.system, self.T = analysis, system, analysis.T
+        self.n, self.m, self.p = system.n, system.m, system.p
+        if self.T * self.p <= self.n:
+            raise ModelError("analysis", f"a horizon T with T p > n = {self.n} (the residual test needs more output "
+                             f"samples than states; T >= {self.n // self.p + 1} here)", f"T = {self.T}, p = {self.p}")
+        sigma = np.asarray(noise_std, dtype=float) if not isinstance(noise_std, (str, bytes)) else np.array([np.nan])
+        if sigma.ndim == 0:
+            sigma = np.full(self.p, float(sigma))
+        if sigma.shape != (self.p,) or not np.all(np.isfinite(sigma)) or not np.all(sigma > 0):
+            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them (one per output)",
+                             repr(noise_std))
+        if isinstance(false_alarm, bool) or not isinstance(false_alarm, (int, float, np.floating)) \
+                or not (0.0 < float(false_alarm) < 0.5):
+            raise ModelError("false_alarm", "a probability in (0, 0.5)", repr(false_alarm))
+        self.noise_std = sigma
+        self.false_alarm = float(false_alarm)
+        self.state_names = system.state_names
+        judge_samples_against(self, system, outputs=False)
+        t0 = time.perf_counter()
+        self._build_tables()
+        self.table_seconds = time.perf_counter() - t0
+        self.n_lps = 0
+        self.reset()
+
+    # ------------------------------------------------------------------ offline tables
+    def _build_tables(self) -> None:
+        an, n, T, p, m = self.analysis, self.n, self.T, self.p, self.m
+        scale, centre = an.enumeration.scale, an.enumeration.centre
+        self._sx, self._cx = scale[:n], centre[:n]
+        w = np.tile(1.0 / self.noise_std, T)  # whitening of the stacked outputs
+        I = set(an.index_set)
+        blocks, offsets, seqs = [], [], []
+        row = 0
+        for idx, reg in enumerate(an.regions):
+            Cw = w[:, None] * reg.C
+            Cs = Cw * self._sx[None, :]  # scaled state coordinates: conditioning of the rank test
+            U_, s, Vt = np.linalg.svd(Cs, full_matrices=True)
+            r = int(np.count_nonzero(s > RANK_RTOL * max(s[0] if s.size else 0.0, 1.0)))
+            if (r == n) != (idx in I):
+                raise ModelError("analysis", f"regions whose rank of C_i agrees with the set I (region {idx})",
+                                 f"rank {r} of the whitened C_i against membership in I = {idx in I}")
+            Cp = np.linalg.pinv(Cw, rcond=RANK_RTOL * (s[0] if s.size else 1.0))  # x = Cp W (Y - D U - f)
+            Q = np.eye(p * T) - Cw @ Cp
+            # x_i, and the whitened residual, affine in z = [Y; U]
+            Xz = np.hstack([Cp * w[None, :], -Cp @ (w[:, None] * reg.D)])
+            x0 = -Cp @ (w * reg.f)
+            Rz = np.hstack([Q * w[None, :], -Q @ (w[:, None] * reg.D)])
+            r0 = -Q @ (w * reg.f)
+            Hx, HU = reg.H[:, :n], reg.H[:, n:]
+            Mz = np.hstack([Hx @ Xz[:, : p * T], Hx @ Xz[:, p * T :] + HU])
+            m0 = Hx @ x0 - reg.h
+            # each row's noise standard deviation at x_i; rows without it are input bounds (closed)
+            s_row = np.linalg.norm(Hx @ Cp, axis=1)
+            row_norm = np.linalg.norm(reg.H * scale[None, :], axis=1)
+            row_norm = np.where(row_norm > 0, row_norm, 1.0)
+            state_rows = np.linalg.norm(Hx * self._sx[None, :], axis=1) > ZERO_ROW_TOL * row_norm
+            R = int(np.count_nonzero(state_rows))
+            alpha = self.false_alarm
+            kappa = float(norm.isf(alpha / (2 * R))) if R else 0.0
+            threshold = float(chi2.isf(alpha / 2 if R else alpha, p * T - r))
+            closed = input_bound_rows(reg.H, reg.h, self.system, T, scale, centre) | ~state_rows
+            tol = np.where(closed, LOOKUP_INPUT_BOUND_TOL * row_norm, kappa * s_row + LOOKUP_INPUT_BOUND_TOL * row_norm)
+            null = None if r == n else Vt[r:].T
+            cov_last = None
+            if r == n:
+                S = Cp @ Cp.T
+                cov_last = reg.Phi_last @ S @ reg.Phi_last.T
+                cov_last = (cov_last + cov_last.T) / 2
+            k = reg.H.shape[0]
+            box_margin = float(np.max(tol / row_norm)) if k else 0.0
+            seqs.append(_Sequence(idx, r, threshold, kappa, slice(row, row + n + p * T + k), k, tol, box_margin, null, cov_last,
+                                  (reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1])))
+            blocks += [Xz, Rz, Mz]
+            offsets += [x0, r0, m0]
+            row += n + p * T + k
+        self._seqs = tuple(seqs)
+        # index arrays of the vectorised tests (one reduceat per test)
+        self._res_idx = np.concatenate([np.arange(q.rows.start + n, q.rows.start + n + p * T) for q in seqs])
+        self._res_starts = np.arange(len(seqs)) * (p * T)
+        self._mem_idx = np.concatenate([np.arange(q.rows.start + n + p * T, q.rows.stop) for q in seqs])
+        self._mem_starts = np.cumsum([0] + [q.n_member for q in seqs[:-1]])
+        self._mem_tol = np.concatenate([q.member_tol for q in seqs])
+        self._thresholds = np.array([q.threshold for q in seqs])
+        self.n_sequences = len(seqs)
+        self._table = np.ascontiguousarray(np.vstack(blocks))
+        self._offset = np.concatenate(offsets)
+        lo, hi = self.system.state_bounds.bounding_box()
+        self._x_lo, self._x_hi = lo, hi
+        if m and self.system.input_bounds is not None:
+            IA, Ib = self.system.input_bounds.A, self.system.input_bounds.b
+            inrm = np.linalg.norm(IA * scale[None, n : n + m], axis=1)
+            self._in_A, self._in_b = IA, Ib + LOOKUP_INPUT_BOUND_TOL * np.where(inrm > 0, inrm, 1.0)
+        else:
+            self._in_A, self._in_b = None, None
+
+    # ------------------------------------------------------------------ state
+    def reset(self, x0: np.ndarray | None = None, **kwargs) -> None:
+        """Clear the window; ``x0`` (default: centre of the state box) seeds open-loop prediction.
+
+        Parameters
+        ----------
+        x0 : (n,) array, optional
+            Seed of open-loop prediction.
+        **kwargs
+            Ignored (the common signature of :meth:`Observer.reset`).
+        """
+        if x0 is None:
+            x0 = self.analysis.enumeration.centre[: self.n]
+        self._x = checked_state(x0, self.n).copy()
+        self._Y = np.zeros((self.T, self.p))
+        self._U = np.zeros((self.T, self.m))
+        self._count = 0  # consecutive good samples in the window
+        self._uprev: np.ndarray | None = None
+        self._mode = -1
+        self._started = False  # a sample was processed since the reset
+
+    # ------------------------------------------------------------------ online
+    def _predict(self, u_prev: np.ndarray | None) -> tuple[bool, str]:
+        """Open-loop prediction ``x <- f_q(x, u_prev)`` (step 2.1 of Algorithm 4.1)."""
+        if u_prev is None:
+            if not self._started:  # the first sample: the seed is the estimate
+                return True, ""
+            return False, "no open-loop prediction: the previous sample was bad"
+        x = np.clip(self._x, self._x_lo, self._x_hi)
+        q = int(self.system.modes_of(x[None, :], u_prev[None, :])[0])
+        if q < 0:
+            return False, "no open-loop prediction: the estimate lies in no mode's region of X x U"
+        md = self.system.modes[q]
+        self._x = md.A @ x + md.B @ u_prev + md.a
+        self._mode = q
+        return True, ""
+
+    def _consistent_family(self, seq: _Sequence, v: np.ndarray, viol: np.ndarray) -> bool:
+        """Does some point ``x_i + N_i w`` of a rank-deficient sequence meet every row with its margin?
+
+        One certified LP (:func:`hybobs_opt.lp.max_slack`: DAQP with both bounds checked, HiGHS
+        when they do not decide) over ``w`` in scaled coordinates.  Besides the rows of ``P_i`` it
+        bounds ``x_i + N_i w`` by the state box widened by the largest margin of the rows, so the
+        LP's radius bound holds whatever rows the region kept.
+        """
+        n = self.n
+        reg = self.analysis.regions[seq.index]
+        N = seq.null
+        xs = (v[:n] - self._cx) / self._sx
+        G = np.vstack([(reg.H[:, :n] * self._sx[None, :]) @ N, N, -N])
+        widen = 1.0 + seq.box_margin
+        g = np.concatenate([-viol, widen - xs, widen + xs])
+        radius = float(np.sqrt(n) * widen + np.linalg.norm(xs))
+        self.n_lps += 1
+        res = max_slack(G, g, radius_bound=radius, threshold=-LOOKUP_MEMBERSHIP_TOL,
+                        problem=f"noise-aware lookup: membership of the rank-deficient mode sequence {reg.sequence}")
+        return bool(res.lower > -LOOKUP_MEMBERSHIP_TOL)
+
+    def _test_window(self, z: np.ndarray) -> tuple[np.ndarray, list[int], np.ndarray]:
+        """Steps 1-3 of the module docstring for every sequence: the table's values at ``z``, the
+        indices of the passing sequences and every sequence's residual ``rho_i``."""
+        vals = self._table @ z + self._offset
+        r2 = vals[self._res_idx] ** 2
+        rho = np.add.reduceat(r2, self._res_starts)
+        viol = vals[self._mem_idx] - self._mem_tol
+        worst = np.maximum.reduceat(viol, self._mem_starts)
+        passed = []
+        for k in np.nonzero(rho <= self._thresholds)[0]:
+            seq = self._seqs[k]
+            if worst[k] <= 0.0:
+                passed.append(int(k))
+            elif seq.null is not None:
+                a = self._mem_starts[k]
+                if self._consistent_family(seq, vals[seq.rows], viol[a : a + seq.n_member]):
+                    passed.append(int(k))
+        return vals, passed, rho
+
+    def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        if self._in_A is not None and np.any(self._in_A @ u > self._in_b):
+            return self._fallback(None, "input outside the input set U: the model does not cover it")
+        u_prev, self._uprev = self._uprev, u.copy()
+        ok, why = self._predict(u_prev)  # x(t) from x(t-1): the estimate unless the window decides
+        self._started = True
+        self._Y = np.roll(self._Y, -1, axis=0)
+        self._U = np.roll(self._U, -1, axis=0)
+        self._Y[-1], self._U[-1] = y, u
+        self._count = min(self._count + 1, self.T)
+        if self._count < self.T:
+            return Estimate(self._x.copy(), self._mode, WARMING_UP if ok else FALLBACK, 0.0,
+                            {} if ok else {"reason": why})
+        z = np.concatenate([self._Y.reshape(-1), self._U.reshape(-1)])
+        try:
+            vals, passed_idx, rho = self._test_window(z)
+        except SolverError as exc:
+            info = {"reason": f"membership LP failed: {exc}"}
+            return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, info)
+        passed = [self._seqs[k] for k in passed_idx]
+        residuals = {s.index: float(rho[k]) for k, s in zip(passed_idx, passed)}
+        cands = [self.analysis.regions[s.index].sequence for s in passed]
+        if len(passed) == 1 and passed[0].null is None:
+            seq = passed[0]
+            x_start = vals[seq.rows][: self.n]
+            Pl, Gl, pl, qlast = seq.last
+            self._x = Pl @ x_start + Gl @ self._U.reshape(-1) + pl
+            self._mode = int(qlast)
+            info = {"candidates": cands, "residual": residuals[seq.index], "residual_threshold": seq.threshold,
+                    "covariance": seq.covariance_last.copy(), "x_start": x_start}
+            return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
+        if not passed:
+            note = (f"no mode sequence passes the tests at false-alarm {self.false_alarm:g}: the window contradicts the "
+                    "model (a fault, a model error, or a false alarm)")
+        elif len(passed) == 1:
+            note = "the only passing mode sequence is rank-deficient: the data do not determine the state"
+        else:
+            note = f"{len(passed)} mode sequences pass the tests: the data do not tell the state"
+        info = {"candidates": cands, "note": note}
+        if not ok:
+            info["reason"] = why
+        return Estimate(self._x.copy(), self._mode, UNOBSERVABLE if ok else FALLBACK, 0.0, info)
+
+    def _fallback(self, u, reason: str) -> Estimate:
+        # a bad sample breaks the window: the next T samples rebuild it
+        self._count = 0
+        ok, why = self._predict(self._uprev)
+        self._started = True
+        self._uprev = None if u is None else np.asarray(u, dtype=float)
+        return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason if ok else f"{reason}; {why}"})
+
+    def stats(self) -> dict:
+        """Offline time, sequences tested per window and the LPs solved so far."""
+        return {"table_seconds": self.table_seconds, "n_sequences": self.n_sequences,
+                "n_full_rank": int(sum(s.null is None for s in self._seqs)), "n_lps": self.n_lps,
+                "false_alarm": self.false_alarm}
