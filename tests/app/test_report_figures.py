@@ -169,6 +169,19 @@ def test_report_observer_flags_have_their_own_axes(built_report):
 
 
 @pytest.mark.slow
+def test_report_noise_study_shows_each_observer_and_the_criterion(built_report):
+    axes = built_report.figures["observers_noise_study.png"]
+    titles = {ax["title"] for ax in axes}
+    assert {"lookup observer", "lookup-noise observer", "kalman observer"} <= titles
+    assert all(ax["ylabel"] == "error omega_l [rad/s]" and ax["has_data"] for ax in axes)
+    study = next(s for s in built_report.result["sections"] if s["key"] == "observers")["summary"]["noise_study"]
+    at = next(lv for lv in study["levels"] if lv["noise"] == 0.01)["observers"]
+    # the criterion, checked on the report's own run
+    assert at["lookup-noise"]["n_flagged_beyond_5_sigma"] == 0 and at["lookup-noise"]["flags"]["observable"] > 0
+    assert "Noise-aware lookup observers against a Kalman filter" in built_report.html
+
+
+@pytest.mark.slow
 def test_report_colour_words_match_the_plots(built_report):
     from matplotlib.image import imread
 

@@ -72,7 +72,8 @@ def _record(out: ObserverTrace, x_true: np.ndarray, truly: np.ndarray, names, wa
 def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, steps: int = 3000, *,
                     observers=NOISE_OBSERVERS, mhe_steps: int | None = None, lookup_horizons=NOISE_LOOKUP_HORIZONS,
                     false_alarm: float | None = None, seed: int = 0,
-                    progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+                    progress: Callable[[str, int, int], None] | None = None,
+                    traces: dict | None = None) -> dict[str, Any]:
     """Run the study (module docstring) and return its JSON-ready table.
 
     Parameters
@@ -95,6 +96,10 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
         Seed of the noise (the same draw scaled to each level).
     progress : callable, optional
         ``progress(what, done, total)`` per observer run.
+    traces : dict, optional
+        If given, filled with the runs: ``traces["truth"]`` the simulated trace and
+        ``traces[(sigma, name)]`` each observer's :class:`~hybobs_opt.contract.ObserverTrace`
+        (for :func:`~hybobs_opt.studies.paper002_powertrain.plots.plot_noise_errors`).
 
     Returns
     -------
@@ -126,6 +131,8 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
     if "lookup-noise" in observers:
         at = list(observers).index("lookup-noise")
         runs[at:at] = [("lookup-noise" if k == 0 else f"lookup-noise-T{T}", T) for k, T in enumerate(horizons)]
+    if traces is not None:
+        traces["truth"] = trace
     draw = np.random.default_rng(seed).standard_normal(trace.y.shape)
     names = tuple(plant.state_names)
     out_levels = []
@@ -161,6 +168,8 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
                 rec["horizon"] = horizon
                 rec.update({k: v for k, v in obs.stats().items() if k in ("n_lps", "false_alarm", "table_seconds")})
             recs[name] = rec
+            if traces is not None:
+                traces[(sigma, name)] = out
             done += 1
             if progress:
                 progress(f"sigma {sigma:g}: {name}", done, total)

@@ -132,3 +132,68 @@ def plot_observer_errors(trace, outs: Mapping, path: str | Path, backlash: float
     plt.close(fig)
     return str(path)
 
+
+
+def plot_noise_errors(trace, outs: Mapping, path: str | Path, sigma: float, state: str = "omega_l",
+                      sigmas: float = 5.0) -> str:
+    """Save the noise study's figure: one state's error where each observer flags ``observable``.
+
+    One axis per observer, over time: the signed error of ``state`` at the samples the observer
+    flags observable (dots), and for an observer whose ``Estimate.info`` states a covariance the
+    band of ``sigmas`` standard deviations of that covariance around zero: an honest observer's
+    dots stay inside its band (issue 18: none beyond 5 sigma).  Drawn by the report's observers
+    section for :func:`~hybobs_opt.studies.paper002_powertrain.noise.run_noise_study`.
+
+    Parameters
+    ----------
+    trace : Trace
+        The plant's run (``t``, ``x``, ``state_names``).
+    outs : mapping
+        ``{observer name: ObserverTrace}``.
+    path : path-like
+        Output file (PNG).
+    sigma : float
+        The output noise of the run (rad/s), for the title.
+    state : str, default "omega_l"
+        The state drawn.
+    sigmas : float, default 5.0
+        Width of the covariance band in standard deviations.
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
+    from hybobs_opt.plotting import pyplot, quantity_label
+
+    plt = pyplot()
+    i = trace.state_names.index(state)
+    t = trace.t
+    names = list(outs)
+    fig, axes = plt.subplots(len(names), 1, figsize=(10, 1.2 + 1.9 * len(names)), sharex=True, squeeze=False)
+    for k, (ax, name) in enumerate(zip(axes[:, 0], names)):
+        out = outs[name]
+        n = out.n_steps
+        flagged = np.nonzero(np.asarray(out.flags[:n]) == OBSERVABLE)[0]
+        e = out.x_hat[:n, i] - trace.x[:n, i]
+        covs = [out.info[j].get("covariance") if j < len(out.info) else None for j in flagged]
+        if flagged.size and all(c is not None for c in covs):
+            band = np.full(n, np.nan)
+            band[flagged] = [sigmas * np.sqrt(max(c[i, i], 0.0)) for c in covs]
+            ax.fill_between(t[:n], -band, band, color=f"C{k}", alpha=0.2, lw=0,
+                            label=f"{sigmas:g} standard deviations of the stated covariance")
+        ax.plot(t[flagged], e[flagged], ".", ms=2.5, color=f"C{k}",
+                label=f"error where flagged observable ({flagged.size} of {n} samples)")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_title(f"{name} observer", loc="left", fontsize=8, pad=2)
+        ax.set_ylabel(quantity_label(f"error {state}", state_unit(state)), fontsize=8)
+        ax.legend(fontsize=7, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2, frameon=False, borderaxespad=0.1)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("t [s]")
+    fig.suptitle(f"Paper 002 with output noise sigma = {sigma:g} rad/s: {state} errors of the estimates flagged observable",
+                 fontsize=10)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)
