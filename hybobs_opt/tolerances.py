@@ -394,6 +394,16 @@ MHE_CERTIFIED_RTOL: float = 1e-6
 #: (``fallback``).  Model (16) needs at most 18 at T = 3.
 MHE_CERTIFY_MAX_NODES: int = 20_000
 
+#: An extension's norm-2 cost term (``MHEObserver(extend=...)``) is convex when its Hessian's
+#: smallest eigenvalue is at least ``-MHE_EXTENSION_PSD_RTOL`` times its largest; eigenvalues
+#: below that (in absolute value) count as zero curvature.  The Hessian is exact (CasADi's
+#: symbolic derivative of a quadratic), so only rounding of its coefficients is allowed for.
+MHE_EXTENSION_PSD_RTOL: float = 1e-10
+
+#: The linear part of an extension's norm-2 cost must lie in the range of its Hessian (the term is
+#: a sum of squares): its component outside, relative to its largest coefficient, at most this.
+MHE_EXTENSION_RANGE_RTOL: float = 1e-9
+
 # ---------------------------------------------------------------------- PWA-fitted magnetic piston
 # (paper 004, eq. 63, with piecewise-linear sensor curves; hybobs_opt.examples.piston_pwa and
 # hybobs_opt.observers.piston_comparison)

@@ -23,7 +23,8 @@ QP per node, in which
 
 When the search closes every node, the optimum lies between the least lower bound of the closed
 nodes and the best cost: ``gap = best - lower <= max(rtol * best, atol)``.  The search stops
-(not certified) after ``max_nodes`` QPs, or at the first node QP without a certified answer.
+(not certified) after ``max_nodes`` QPs, once a wall-clock ``deadline`` has passed (the observer's
+``certify_time_budget``), or at the first node QP without a certified answer.
 """
 
 from __future__ import annotations
@@ -87,7 +88,8 @@ class SequenceSearch:
 
 
 def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incumbent: tuple | None = None, *,
-                     rtol: float, atol: float, max_nodes: int) -> SequenceSearch:
+                     rtol: float, atol: float, max_nodes: int, deadline: float | None = None,
+                     time_budget: float | None = None) -> SequenceSearch:
     """Certify (or find) the optimum of one window of eq. (10), norm 2, by branch and bound over mode prefixes.
 
     Parameters
@@ -106,6 +108,11 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
         The gap to prove: ``cost - lower <= max(rtol * cost, atol)`` (original cost units).
     max_nodes : int
         Node QPs allowed before the search gives up (not certified).
+    deadline : float, optional
+        ``time.perf_counter()`` value after which no further node QP is solved (not certified,
+        the reason names the budget).  ``None``: no time limit.
+    time_budget : float, optional
+        The budget in seconds the deadline stands for (for the reason only).
 
     Returns
     -------
@@ -139,6 +146,10 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
             nodes += 1
             if nodes > max_nodes:
                 return stop(f"node budget of {max_nodes} QPs exhausted")
+            if deadline is not None and time.perf_counter() > deadline:
+                nodes -= 1
+                budget = "" if time_budget is None else f" of {time_budget:g} s"
+                return stop(f"time budget{budget} (certify_time_budget) exhausted after {nodes} node QPs")
             problem = model.sequence_problem(seq, U, Y, xbar)
             solved = model.sequence_qp(problem, None, bound=True)
             if solved is None:

@@ -97,8 +97,9 @@ from ..tolerances import (
     MHE_ZERO_COST_RTOL,
 )
 from .backends import MILP_SOLVERS, MIQP_SOLVERS, milp_backend, miqp_backend
-from .mld import BigMConstants, encode_mld
-from .residual import stacked_residual, weight_matrix
+from .formulation import MHEFormulation
+from .mld import BigMConstants
+from .residual import weight_matrix
 from .result import WindowResult
 from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram
 from .window import WindowModel
@@ -161,6 +162,34 @@ class MHEObserver(Observer):
         window when the branch and bound's own certificate does not prove the relative gap
         :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
         certified (``fallback``).  Default :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
+    certify_time_budget : float, optional
+        Norm 2: wall-clock seconds a window's certification may take (measured from the start of
+        the window's solve, so the branch and bound's time counts): the prefix search stops when
+        it is spent and the window is not certified (``fallback``, never ``observable``; the
+        reason says the time budget was hit).  ``None`` (default): no limit but
+        ``certify_max_nodes``.
+    extend : callable, optional
+        ``extend(ext)``, called once at construction with a
+        :class:`~hybobs_opt.mhe.formulation.MHEExtension` exposing the CasADi symbols of the
+        window (states ``x[k]`` in original units, outputs ``y_hat[k]``, inputs ``u[k]``, data
+        ``y[k]``, ``x_bar``, binaries ``delta[k]``, disturbances ``w[k]``): it may add cost terms
+        (``add_cost``: a convex sum of squares for norm 2, a linear term for norms 1 / inf),
+        affine constraints (``add_constraint``) and parameters (``add_parameter``, values per
+        step by :meth:`set_parameter`).  They enter the matrices every solver receives, the cost
+        of every trajectory, the problems of the mode sequences, the exact prefix search and
+        the uniqueness program.  Norms 1 / inf with an extension cost refuse
+        ``check_uniqueness=True`` (the separated program's norm-2 bound ``J_1 >= ||r||_2`` does
+        not hold for a linear term) and never use the zero-cost certificate (a linear term can
+        be negative).
+
+        Example: a pull of the window-start state towards a reference given each step::
+
+            def pull(ext):
+                x_ref = ext.add_parameter("x_ref", ext.n)
+                ext.add_cost(1e3 * casadi.sumsqr(ext.x[0] - x_ref))
+
+            obs = MHEObserver(plant, 3, extend=pull)
+            obs.set_parameter("x_ref", [0.0, 10.0, 10.0])
     big_m : BigMConstants, optional
         Precomputed constants (share them between MHE instances of the same system).
     check_uniqueness : bool
@@ -275,7 +304,7 @@ class MHEObserver(Observer):
                  prox_passes: int = DEFAULT_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
                  big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
-                 fit_tolerance=None):
+                 fit_tolerance=None, certify_time_budget: float | None = None, extend=None):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -297,6 +326,14 @@ class MHEObserver(Observer):
             raise ModelError("certify_max_nodes", "an integer >= 1 (node QPs of the prefix search per window)",
                              repr(certify_max_nodes))
         self.certify_max_nodes = int(certify_max_nodes)
+        if certify_time_budget is not None:
+            if not (isinstance(certify_time_budget, (int, float, np.integer, np.floating))
+                    and not isinstance(certify_time_budget, bool) and np.isfinite(certify_time_budget)
+                    and certify_time_budget > 0):
+                raise ModelError("certify_time_budget", "None or a positive finite number of seconds",
+                                 repr(certify_time_budget))
+            certify_time_budget = float(certify_time_budget)
+        self.certify_time_budget = certify_time_budget
         self.zero_cost_certificate = bool(zero_cost_certificate)
         if not isinstance(check_uniqueness, (bool, np.bool_)):
             raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
@@ -326,11 +363,23 @@ class MHEObserver(Observer):
         self._Wy = weight_matrix(np.eye(self.p) if output_weight is None else output_weight, self.p, "output_weight")
         self._Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
         self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
-        self.enc = encode_mld(system, self.T, disturbances=self._Ww is not None and self.T > 1, big_m=big_m)
+        # eq. (10) written once in CasADi; every matrix below is extracted from it
+        self.formulation = MHEFormulation(system, self.T, norm, self._Wy, self._Ww, self._Wa, big_m=big_m,
+                                          extend=extend)
+        self.enc = self.formulation.enc
+        self._ext = self.formulation.extension
+        if self._ext is not None and self._ext.cost_vector is not None:
+            if check_uniqueness:
+                raise ModelError("check_uniqueness", f"False with an extension cost for norm {norm!r} (the separated "
+                                 "program bounds J_1 / J_inf by ||r||_2, which a linear term breaks)", "True")
+            self.zero_cost_certificate = False  # a linear term can be negative: zero cost proves nothing
+        self._params: dict[str, np.ndarray | None] = (
+            {} if self._ext is None else dict(zip(self._ext.names, self._ext.defaults)))
         self._theta_idx = np.r_[self.enc.slices["xi0"], self.enc.slices["omega"]]
-        self._res = stacked_residual(self.enc, self._Wy, self._Ww, self._Wa)
+        self._res = self.formulation.res
         self._build(dict(solver_options or {}))
-        self.model = WindowModel(system, self.T, norm, self.enc, self._Wy, self._Ww, self._Wa)
+        self.model = WindowModel(system, self.T, norm, self.enc, self._Wy, self._Ww, self._Wa, res=self._res,
+                                 extension=self._ext)
         Ub = system.input_bounds
         self._U_A = None if Ub is None else Ub.A
         self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
@@ -376,42 +425,34 @@ class MHEObserver(Observer):
 
     # ------------------------------------------------------------------ offline
     def _build(self, options: dict) -> None:
-        enc, res = self.enc, self._res
-        nv = enc.n_vars
-        RtR = res.R.T @ res.R
+        """The backend on the matrices extracted from the CasADi formulation (once).
+
+        Norm 2: ``H = hessian(cost, v) / J_s + 2 diag(eps)`` (``J_s`` the largest diagonal entry
+        of ``R'R``, half the cost Hessian's); norms 1 / inf: the cost vector and rows of the
+        MILP in ``z = [v; e]`` (:class:`~hybobs_opt.mhe.formulation.MHEFormulation`).
+        """
+        enc, form = self.enc, self.formulation
         self._eq_rows = enc.lo == enc.hi
         if self.norm == "2":
-            diag = np.diag(RtR)
+            Hc = form.hessian
+            self._Hc = Hc
+            diag = 0.5 * np.diag(Hc)
             self._Js = float(diag.max()) if diag.max() > 0 else 1.0
             self._zero_cost = MHE_ZERO_COST_RTOL * self._Js
             # proximal weights: continuous variables and binaries (see Notes of the class)
             self._eps = np.where(enc.discrete, self.binary_prox_weight, self.prox_weight)
-            self._H = 2.0 * RtR / self._Js + 2.0 * np.diag(self._eps)
+            self._H = Hc / self._Js + 2.0 * np.diag(self._eps)
             self._backend = miqp_backend(self.solver, self._H, enc.A, enc.lb, enc.ub, enc.discrete, self._eq_rows,
                                          enc, options)
             self._milp, self._nslack = None, 0
             return
         # MILP: slacks e >= |r| / js (norm 1: one per residual entry; inf: one per block)
-        js = float(np.max(np.abs(res.R))) or 1.0
+        js = form.js
         self._Js = js
-        nr = res.R.shape[0]
-        if self.norm == "1":
-            ns = nr
-            E = np.eye(nr)
-        else:
-            ns = len(res.blocks)
-            E = np.zeros((nr, ns))
-            for b, (_, sl) in enumerate(res.blocks):
-                E[sl, b] = 1.0
-        Rs = res.R / js
-        A = np.vstack([np.hstack([enc.A, np.zeros((enc.n_constraints, ns))]),
-                       np.hstack([Rs, -E]), np.hstack([-Rs, -E])])
+        ns = form.nslack
         self._nslack = ns
         self._zero_cost = np.sqrt(MHE_ZERO_COST_RTOL) * js
-        c = np.concatenate([np.zeros(nv), np.ones(ns)])
-        lb = np.concatenate([enc.lb, np.zeros(ns)])
-        ub = np.concatenate([enc.ub, np.full(ns, np.inf)])
-        disc = np.concatenate([enc.discrete, np.zeros(ns, dtype=bool)])
+        c, A, lb, ub, disc = form.lp_c, form.lp_A, form.lp_lb, form.lp_ub, form.lp_discrete
         self._milp = (c, A, lb, ub, disc)
         self._backend = milp_backend(self.solver, c, A, lb, ub, disc, options, problem=f"MHE observer (norm {self.norm})")
 
@@ -453,6 +494,31 @@ class MHEObserver(Observer):
         self._U = np.zeros((self.T, self.m))
         self._count = 0
         self._u_prev: np.ndarray | None = None
+
+    def set_parameter(self, name: str, value) -> None:
+        """Set an extension parameter (``ext.add_parameter``) for the coming windows.
+
+        The value holds until it is set again (a fixed parameter is one set once).
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name.
+        value : array_like
+            Its value, of the shape it was declared with.
+
+        Raises
+        ------
+        ModelError
+            If the observer has no such parameter, or the value has the wrong size or is not finite.
+        """
+        from .formulation import _param_value
+
+        if self._ext is None or name not in self._ext.names:
+            raise ModelError("name", f"an extension parameter of this observer ({[] if self._ext is None else list(self._ext.names)})",
+                             repr(name))
+        sl = self._ext.offsets[self._ext.names.index(name)]
+        self._params[name] = _param_value(name, value, (sl.stop - sl.start, 1))
 
     # ------------------------------------------------------------------ model helpers
     def _open_loop(self, u: np.ndarray | None) -> tuple[np.ndarray, int, bool]:
@@ -528,6 +594,14 @@ class MHEObserver(Observer):
         lowest-cost certified point is returned, with the MLD residuals at it.
         """
         t0 = time.perf_counter()
+        if self._ext is not None:
+            missing = [k for k, val in self._params.items() if val is None]
+            if missing:
+                return WindowResult(Status.NOT_CERTIFIED, solver=self.solver,
+                                    reason=f"extension parameter(s) {missing} have no value (MHEObserver.set_parameter)")
+            self.model.set_parameters(np.concatenate([self._params[k] for k in self._ext.names])
+                                      if self._ext.names else np.zeros(0))
+        self._t_window = t0
         bounds = self.enc.bounds(U.reshape(-1))
         out = self._solve_certified(U, Y, x_start, Xg, mg, bounds, cold)
         if not out.optimal:
@@ -542,7 +616,9 @@ class MHEObserver(Observer):
         model, res = self.model, self._res
         Uf, Yf = U.reshape(-1), Y.reshape(-1)
         lo, hi = bounds
-        rp = res.offset(Yf, Uf, x_start)
+        rp = res.offset(Yf, Uf, x_start, model.params)
+        # the parameters p = [U; Y; x_bar; P] of the formulation's affine maps
+        rp = (rp, self.formulation.parameter_vector(Uf, Yf, x_start, model.params))
         best, Wg = None, None
         Wzero = np.zeros((max(self.T - 1, 0), self.n))
         candidates = [mg] + ([np.full(self.T, q) for q in range(self.system.n_modes)] if cold else [])
@@ -621,8 +697,10 @@ class MHEObserver(Observer):
         from .certify import search_sequences
 
         incumbent = None if best is None else (best.modes, best.cost)
+        deadline = None if self.certify_time_budget is None else self._t_window + self.certify_time_budget
         found = search_sequences(self.model, U, Y, x_start, incumbent, rtol=MHE_CERTIFIED_RTOL, atol=self._zero_cost,
-                                 max_nodes=self.certify_max_nodes)
+                                 max_nodes=self.certify_max_nodes, deadline=deadline,
+                                 time_budget=self.certify_time_budget)
         detail = {**({} if info is None else info.solver_detail),
                   "prefix_search": {"nodes": found.nodes, "seconds": found.seconds, "lower_bound": found.lower_bound,
                                     "improved": found.improved, "certified": found.certified}}
@@ -654,14 +732,16 @@ class MHEObserver(Observer):
         the status is ``INCUMBENT_OPTIMAL``.
         """
         enc, res = self.enc, self._res
+        rp, pvec = rp
         Uf = U.reshape(-1)
         vbar = enc.pack(Xg, mg, U, Wg) if self.norm == "2" else None
         cutoff = None
         try:
             if self.norm == "2":
                 # linear term in the displacement d = v - vbar (the proximal term is centred at
-                # vbar): H vbar + g = 2 R' (R vbar + rp) / J_s, the residual at the warm start
-                f = 2.0 * res.R.T @ (res.R @ vbar + rp) / self._Js
+                # vbar): (H_c vbar + g(p)) / J_s, the cost's gradient at the warm start, with
+                # H_c = hessian(cost) and g(p) = gradient(cost) at v = 0 extracted from CasADi
+                f = (self._Hc @ vbar + self.formulation.linear_term(pvec)) / self._Js
                 if incumbent is not None:
                     if incumbent.states is Xg:  # the centre is the incumbent: d = 0
                         obj = 0.0
@@ -673,7 +753,6 @@ class MHEObserver(Observer):
                 out = self._backend.solve(f, lo, hi, vbar, cutoff=cutoff)
                 v = out.v
             else:
-                rps = rp / self._Js
                 start = None
                 if incumbent is not None and self.solver == "highs":
                     # the incumbent as the MIP start, with its slacks
@@ -681,8 +760,9 @@ class MHEObserver(Observer):
                     ri = np.abs(res.R @ vi + rp) / self._Js
                     e = ri if self.norm == "1" else np.array([ri[sl].max() for _, sl in res.blocks])
                     start = np.concatenate([vi, e])
-                out = self._backend.solve(None, np.concatenate([lo, np.full(2 * rps.size, -np.inf)]),
-                                          np.concatenate([hi, -rps, rps]), start=start)
+                epi_hi = self.formulation.epigraph_upper(pvec)
+                out = self._backend.solve(None, np.concatenate([lo, np.full(epi_hi.size, -np.inf)]),
+                                          np.concatenate([hi, epi_hi]), start=start)
                 v = None if out.v is None else out.v[: enc.n_vars]
         except Exception as exc:  # a crashing solver must not stop the observer loop
             return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason=f"{type(exc).__name__}: {exc}"), False

@@ -44,7 +44,12 @@ def weight_matrix(W, dim: int, name: str) -> np.ndarray | None:
 
 @dataclass(frozen=True, eq=False)
 class StackedResidual:
-    """Stacked weighted residual ``r = R v + SY Y + SU U + SX x_bar + r0`` and its blocks."""
+    """Stacked weighted residual ``r = R v + SY Y + SU U + SX x_bar + SP P + r0`` and its blocks.
+
+    ``P`` are an extension's parameters (``SP`` is ``None`` or has no columns without one); the
+    rows come from the CasADi formulation (:class:`~hybobs_opt.mhe.formulation.MHEFormulation`)
+    or from :func:`stacked_residual`.
+    """
 
     R: np.ndarray
     SY: np.ndarray
@@ -52,9 +57,14 @@ class StackedResidual:
     SX: np.ndarray
     r0: np.ndarray
     blocks: tuple[tuple[str, slice], ...]
+    SP: np.ndarray | None = None
 
-    def offset(self, Y: np.ndarray, U: np.ndarray, xbar: np.ndarray) -> np.ndarray:
-        return self.SY @ Y + self.SU @ U + self.SX @ xbar + self.r0
+    def offset(self, Y: np.ndarray, U: np.ndarray, xbar: np.ndarray, P: np.ndarray | None = None) -> np.ndarray:
+        """``r - R v``: the residual's offset for the window data (and the extension's parameters ``P``)."""
+        out = self.SY @ Y + self.SU @ U + self.SX @ xbar + self.r0
+        if self.SP is not None and self.SP.shape[1]:
+            out = out + self.SP @ P
+        return out
 
 
 def stacked_residual(enc: MLDEncoding, Wy: np.ndarray, Ww: np.ndarray | None, Wa: np.ndarray | None) -> StackedResidual:

@@ -307,7 +307,7 @@ class SeparatedProgram:
         # 2. the separated mixed-integer programs over every mode sequence
         Uf, Yf = U.reshape(-1), Y.reshape(-1)
         lo, hi = enc.bounds(Uf)
-        rp = res.offset(Yf, Uf, xbar)
+        rp = res.offset(Yf, Uf, xbar, self.model.params)
         M = self._M
         sep_lo = np.empty(nb)
         sep_lo[0::2] = (xi_s + delta - M) / M

@@ -35,6 +35,11 @@ class WindowModel:
         The window's MLD encoding (its variable bounds bound the disturbances).
     Wy, Ww, Wa : arrays or None
         Output, disturbance and arrival weights (``Wy`` required).
+    res : StackedResidual, optional
+        The stacked residual of the formulation (needed with an ``extension``).
+    extension : ExtensionData, optional
+        What an ``extend`` callable added (:class:`~hybobs_opt.mhe.formulation.MHEExtension`):
+        its cost and rows enter :meth:`cost`, :meth:`feasible` and :meth:`sequence_problem`.
 
     Attributes
     ----------
@@ -45,8 +50,12 @@ class WindowModel:
     """
 
     def __init__(self, system: PWASystem, T: int, norm: str, enc: MLDEncoding, Wy: np.ndarray,
-                 Ww: np.ndarray | None, Wa: np.ndarray | None):
+                 Ww: np.ndarray | None, Wa: np.ndarray | None, res=None, extension=None):
         self.system, self.T, self.norm, self.enc = system, int(T), norm, enc
+        self.res, self.extension = res, extension
+        self.params: np.ndarray | None = None  # the extension's parameters of the window being solved
+        if extension is not None:
+            self._setup_extension()
         self.n, self.m, self.p = system.n, system.m, system.p
         self.Wy, self.Ww, self.Wa = Wy, Ww, Wa
         self._G_all = np.vstack([md.guard.A for md in system.modes])
@@ -80,7 +89,13 @@ class WindowModel:
         """Whether every ``(X[k], U[k])`` lies in ``X`` and in the guard of ``modes[k]``."""
         viol = np.concatenate([X, U], axis=1) @ self._G_all.T - self._g_all
         per_mode = np.maximum.reduceat(viol, self._g_starts, axis=1)
-        return bool((per_mode[np.arange(self.T), modes] <= 0.0).all() and (X @ self.X.A.T <= self._X_tol).all())
+        ok = bool((per_mode[np.arange(self.T), modes] <= 0.0).all() and (X @ self.X.A.T <= self._X_tol).all())
+        if ok and self.extension is not None and self._ext_A.shape[0]:
+            v = self.enc.pack(X, modes, U, None)
+            lo, hi = self._ext_bounds(U)
+            a = self._ext_A @ v
+            ok = bool(np.all(a >= lo - MHE_FEASIBILITY_TOL) and np.all(a <= hi + MHE_FEASIBILITY_TOL))
+        return ok
 
     def simulate(self, x_start: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Window states and modes simulated from ``x_start`` through the guards (a warm start).
@@ -121,11 +136,22 @@ class WindowModel:
             parts.append((W @ self.Ww.T).reshape(-1))
         if self.Wa is not None:
             parts.append(self.Wa @ (X[0] - xbar))
+        extra = 0.0
+        ext = self.extension
+        if ext is not None and ext.has_cost:
+            v = self.enc.pack(X, modes, U, W if self.enc.disturbances else None)
+            if ext.residual is not None:
+                res = self.res
+                sl = ext.residual
+                off = res.offset(Y.reshape(-1), U.reshape(-1), xbar, self.params)[sl]
+                parts.append(res.R[sl] @ v + off)
+            else:
+                extra = float(ext.cost_vector @ v)
         if self.norm == "2":
             return float(sum(np.dot(r, r) for r in parts))
         if self.norm == "1":
-            return float(sum(np.abs(r).sum() for r in parts))
-        return float(sum(np.abs(r).max() for r in parts))
+            return float(sum(np.abs(r).sum() for r in parts)) + extra
+        return float(sum(np.abs(r).max() for r in parts)) + extra
 
     def sequence_problem(self, modes, U, Y, xbar):
         """Condensed problem of one mode sequence: residual ``R theta + r`` and rows ``G theta <= g``.
@@ -170,10 +196,119 @@ class WindowModel:
             Ra[:, :n] = self.Wa @ np.diag(hx)
             Rrows.append(Ra)
             rvec.append(self.Wa @ (cx - xbar))
+        if self.extension is not None:
+            self._extension_rows(modes, U, Y, xbar, nt, dist, Rrows, rvec, Grows, gvec)
         G, gg = np.vstack(Grows), np.concatenate(gvec)
         norm = np.max(np.abs(G), axis=1)
+        # a row without coefficients is kept only when it cannot hold (0 <= g < 0): it proves the
+        # sequence infeasible (an extension's row on the binaries alone)
+        bad = (norm == 0) & (gg < 0)
         keep = norm > 0
+        norm = np.where(bad, np.abs(gg), norm)
+        keep = keep | bad
         return np.vstack(Rrows), np.concatenate(rvec), G[keep] / norm[keep, None], gg[keep] / norm[keep], dist
+
+    # ------------------------------------------------------------------ extension
+    def _setup_extension(self) -> None:
+        """Rows of the extension in the MLD encoding and the prefix length each needs."""
+        enc, ext = self.enc, self.extension
+        T, s, n, p = self.T, self.system.n_modes, self.system.n, self.system.p
+        sl = enc.slices
+        need = np.zeros(enc.n_vars, dtype=int)  # prefix length that fixes each variable
+        for k in range(T):
+            need[sl["delta"].start + k * s: sl["delta"].start + (k + 1) * s] = k + 1
+            if k < T - 1:
+                a = sl["zeta"].start + k * s * n
+                need[a:a + s * n] = k + 1
+            if sl["zeta_y"].stop > sl["zeta_y"].start:
+                a = sl["zeta_y"].start + k * s * p
+                need[a:a + s * p] = k + 1
+        self._need = need
+        self._ext_A = enc.A[ext.rows]
+        self._ext_need = np.array([need[np.nonzero(r)[0]].max(initial=0) for r in self._ext_A], dtype=int)
+        if ext.residual is not None:
+            Rh = self.res.R[ext.residual]
+            self._ext_res_need = np.array([need[np.nonzero(r)[0]].max(initial=0) for r in Rh], dtype=int)
+
+    def set_parameters(self, P: np.ndarray | None) -> None:
+        """The extension's parameter values of the window being solved (also set in the encoding).
+
+        Parameters
+        ----------
+        P : (n_P,) ndarray or None
+        """
+        self.params = None if P is None else np.asarray(P, dtype=float)
+        if self.enc.n_params:
+            self.enc.set_parameters(P)
+
+    def _ext_bounds(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self.enc.bounds(np.asarray(U, dtype=float).reshape(-1))
+        return lo[self.extension.rows], hi[self.extension.rows]
+
+    def _vmap(self, modes, U) -> tuple[np.ndarray, np.ndarray]:
+        """``v = Pv theta + pv`` for the mode sequence (or prefix) ``modes``: the MLD variables as an
+        affine map of ``theta = [xi0; omega]`` (the variables a prefix leaves open are zero)."""
+        enc, T, n = self.enc, self.T, self.n
+        s, p = self.system.n_modes, self.system.p
+        sl = enc.slices
+        dist = self.Ww is not None and T > 1
+        nt = n + (n * (T - 1) if dist else 0)
+        hx, cx = self.hx, self.cx
+        Pv, pv = np.zeros((enc.n_vars, nt)), np.zeros(enc.n_vars)
+        Pv[sl["xi0"], :n] = np.eye(n)
+        if dist:
+            Pv[sl["omega"], n:] = np.eye(n * (T - 1))
+        Px, px = np.zeros((n, nt)), cx.copy()
+        Px[:, :n] = np.diag(hx)
+        hy = enc._hy() if sl["zeta_y"].stop > sl["zeta_y"].start else None
+        for k in range(len(modes)):
+            q = int(modes[k])
+            md = self.system.modes[q]
+            pv[sl["delta"].start + k * s + q] = 1.0
+            if hy is not None:
+                a = sl["zeta_y"].start + (k * s + q) * p
+                Pv[a:a + p] = (md.C @ Px) / hy[:, None]
+                pv[a:a + p] = (md.C @ px + md.D @ U[k] + md.c) / hy
+            if k < T - 1:
+                SP, sp = md.A @ Px, md.A @ px + md.B @ U[k] + md.a
+                a = sl["zeta"].start + (k * s + q) * n
+                Pv[a:a + n], pv[a:a + n] = SP / hx[:, None], sp / hx
+                Px, px = SP, sp
+                if dist:
+                    Px = Px.copy()
+                    Px[:, n + k * n: n + (k + 1) * n] += np.diag(hx)
+        return Pv, pv
+
+    def _extension_rows(self, modes, U, Y, xbar, nt, dist, Rrows, rvec, Grows, gvec) -> None:
+        """Append the extension's residual rows (norm 2) and constraint rows that ``modes`` fixes.
+
+        A prefix (fewer than ``T`` modes) keeps only the rows whose variables it fixes: dropping a
+        square of the cost or a constraint relaxes the problem, so the prefix's least cost stays a
+        lower bound of every completion (:mod:`hybobs_opt.mhe.certify`).
+        """
+        ext = self.extension
+        L = len(modes)
+        Pv, pv = self._vmap(modes, U)
+        if ext.residual is not None:
+            sl = ext.residual
+            take = self._ext_res_need <= L
+            if take.any():
+                Rh = self.res.R[sl][take]
+                off = self.res.offset(np.asarray(Y, dtype=float).reshape(-1), np.asarray(U, dtype=float).reshape(-1), xbar,
+                                      self.params)[sl][take]
+                Rrows.append(Rh @ Pv)
+                rvec.append(Rh @ pv + off)
+        take = self._ext_need <= L
+        if take.any():
+            A = self._ext_A[take]
+            lo, hi = self._ext_bounds(U)
+            lo, hi = lo[take], hi[take]
+            AP, ap = A @ Pv, A @ pv
+            up, dn = np.isfinite(hi), np.isfinite(lo)
+            Grows.append(AP[up])
+            gvec.append(hi[up] - ap[up])
+            Grows.append(-AP[dn])
+            gvec.append(ap[dn] - lo[dn])
 
     def polish(self, modes, U, Y, xbar, x0, W, extra: tuple[np.ndarray, np.ndarray] | None = None,
                 problem: tuple | None = None, bound: bool = False):
