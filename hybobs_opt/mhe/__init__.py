@@ -7,13 +7,17 @@ step (2-norm: MIQP by DAQP's branch-and-bound; 1-/inf-norm: MILP by HiGHS) and
 branch and bound does not prove the relative gap is certified (or its optimum found) by the exact
 prefix search :func:`search_sequences` (:mod:`hybobs_opt.mhe.certify`).  The package implements the
 runtime contract of :mod:`hybobs_opt.contract` and sits below the runtime-observer package.
+The problem is written once in CasADi (:class:`MHEFormulation`), from which every backend takes
+its matrices; an ``extend`` callable adds cost terms, constraints and parameters to it through
+an :class:`MHEExtension`.
 """
 
 from .certify import SequenceSearch, search_sequences
+from .formulation import MHEExtension, MHEFormulation
 from .mld import MLDEncoding, big_m_constants, encode_mld
 from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
 from .uniqueness import SeparatedProgram
 
-__all__ = ["MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
+__all__ = ["MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
            "big_m_constants", "encode_mld", "search_sequences"]

@@ -217,7 +217,7 @@ class MLDEncoding:
     big_m: BigMConstants | None = None
     state_scale: np.ndarray | None = None
     BP: np.ndarray | None = None
-    _params: dict = field(default_factory=dict, repr=False)
+    _params: dict = field(default_factory=dict, repr=False, init=False)
 
     @property
     def n_params(self) -> int:

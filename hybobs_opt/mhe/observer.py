@@ -61,7 +61,16 @@ passed once, row bounds changed each step); ``"cbc"`` and ``"casadi-highs"`` go 
 see :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`).  Every problem is built once, with the window data ``U_t, Y_t``
 and the arrival prior entering only the linear term and the constraint bounds.
 
-Layout.  This module holds the runtime object; :mod:`hybobs_opt.mhe.window` the model side of a
+Formulation.  Eq. (10), its 1- / inf-norm variants and the optional terms are written once in
+CasADi (:class:`~hybobs_opt.mhe.formulation.MHEFormulation`: SX expressions of the decision
+vector with the window data as parameters); the constraint matrix, the affine dependence of the
+bounds and of the linear term on the data, and the cost's Hessian (norm 2) or cost vector (norms
+1 / inf) are extracted from it once, at construction, by ``casadi.jacobian`` / ``casadi.hessian``,
+and every backend receives those.  An ``extend`` callable adds cost terms, affine constraints and
+parameters to the same expressions (:class:`~hybobs_opt.mhe.formulation.MHEExtension`).
+
+Layout.  This module holds the runtime object; :mod:`hybobs_opt.mhe.formulation` the problem in
+CasADi; :mod:`hybobs_opt.mhe.window` the model side of a
 window (dynamics, cost, the exact problem of one mode sequence), :mod:`hybobs_opt.mhe.residual`
 the weights and the stacked residual, :mod:`hybobs_opt.mhe.uniqueness` the separated program,
 :mod:`hybobs_opt.mhe.backends` one module per solver family behind one signature and
@@ -163,11 +172,12 @@ class MHEObserver(Observer):
         :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
         certified (``fallback``).  Default :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
     certify_time_budget : float, optional
-        Norm 2: wall-clock seconds a window's certification may take (measured from the start of
-        the window's solve, so the branch and bound's time counts): the prefix search stops when
-        it is spent and the window is not certified (``fallback``, never ``observable``; the
-        reason says the time budget was hit).  ``None`` (default): no limit but
-        ``certify_max_nodes``.
+        Wall-clock seconds a window's certified solve may take (measured from the start of the
+        window's solve, every norm): the prefix search (norm 2) stops when it is spent, and an
+        optimum certified after it is not used.  Such a window is not certified (``fallback``,
+        never ``observable``; the reason says the time budget was hit).  ``None`` (default): no
+        limit but ``certify_max_nodes``.  The solver calls themselves are not interrupted, so a
+        step can take longer than the budget by one branch and bound or one node QP.
     extend : callable, optional
         ``extend(ext)``, called once at construction with a
         :class:`~hybobs_opt.mhe.formulation.MHEExtension` exposing the CasADi symbols of the
@@ -604,6 +614,13 @@ class MHEObserver(Observer):
         self._t_window = t0
         bounds = self.enc.bounds(U.reshape(-1))
         out = self._solve_certified(U, Y, x_start, Xg, mg, bounds, cold)
+        if out.optimal and self.certify_time_budget is not None:
+            spent = time.perf_counter() - t0
+            if spent > self.certify_time_budget:
+                # certified, but later than the budget allows: a late answer is not used
+                out = WindowResult(Status.NOT_CERTIFIED, solver=self.solver, solver_detail=out.solver_detail,
+                                   reason=f"time budget of {self.certify_time_budget:g} s (certify_time_budget) "
+                                          f"exhausted: the optimum was certified after {spent:.3g} s")
         if not out.optimal:
             return out.replace(seconds=time.perf_counter() - t0)
         model, Uc = self.model, U.copy()  # the observer's window buffer changes in place
