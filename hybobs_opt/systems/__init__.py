@@ -10,6 +10,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("LocationTransform", "ObservabilityForm", "SwitchingFunction", "Theorem1Result",
                      "location_transforms", "observability_form", "observability_matrix", "theorem1", "theorem1_pairs"),
                     "hybobs_opt.systems.canonical_form"),
+    **dict.fromkeys(("AugmentedSystem", "augment_parameters"), "hybobs_opt.systems.parameters"),
     "ConstantDriftSystem": "hybobs_opt.systems.constant_drift",
     **dict.fromkeys(("EventMaps", "PeriodicSystem", "event_maps", "periodic_system", "phase_augmented_pwa",
                      "visible_event_set"), "hybobs_opt.systems.event_sampled"),
