@@ -71,6 +71,20 @@ def log(msg: str) -> None:
     print(f"[bench_mhe_milp] {msg}", file=sys.stderr, flush=True)
 
 
+def git_state() -> dict:
+    """The commit the run measured and whether ``hybobs_opt/mhe`` differed from it (a shared working tree)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "hybobs_opt/mhe"], cwd=root, capture_output=True,
+                               text=True, timeout=10).stdout.splitlines()
+    except (OSError, subprocess.SubprocessError) as exc:
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    return {"head": head, "uncommitted_in_hybobs_opt_mhe": [ln.strip() for ln in dirty]}
+
+
 def stats_of(s) -> dict:
     s = np.asarray(s, dtype=float)
     if s.size == 0:
@@ -460,6 +474,7 @@ def main(argv: list[str] | None = None) -> int:
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "machine": machine(),
         "versions": versions(("hybobs_opt", "numpy", "scipy", "highspy", "daqp", "casadi")),
+        "git": git_state(),
         "scenario": {"example": "powertrain3", "model": "paper 002, eq. (16)", "samples": steps,
                      "noise_std_rad_s": NOISE, "seed": SEED, "fit_tolerance": NOISE_FIT_SIGMAS * NOISE,
                      "sample_period_s": plant.Ts, "mode_switches": np.nonzero(np.diff(trace.q))[0] + 1,
