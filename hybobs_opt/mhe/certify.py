@@ -10,7 +10,8 @@ QP per node, in which
 
 * a node is a prefix ``(q_0, ..., q_{k-1})`` of the mode sequence, and its QP is the window's cost
   restricted to the outputs of the first ``k`` steps (with the disturbance and arrival terms of
-  the whole window) over the rows of those steps
+  the whole window, and an extension's squares and rows on the variables the prefix fixes) over
+  the rows of those steps
   (:meth:`~hybobs_opt.mhe.window.WindowModel.sequence_problem`).  Every sequence that begins with
   the prefix has a cost at least this QP's minimum: its terms are non-negative and its rows
   include the prefix's;

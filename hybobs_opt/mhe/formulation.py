@@ -87,9 +87,11 @@ class MHEExtension:
       lies in the range of its Hessian (a sum of squares plus a constant of the data, e.g.
       ``rho * ||x[0] - x_ref||^2``), with coefficients affine in the parameters; it is written as
       extra rows of the stacked residual, so the cost stays a sum of squares (the zero-cost
-      certificate and the prefix search's bounds stay valid).  A constant of the data is dropped:
-      costs are reported without it.  Norms 1 / inf: a linear term with constant coefficients
-      (its constant part is dropped).  Anything else is a :class:`~hybobs_opt.errors.ModelError`
+      certificate and the prefix search's bounds stay valid).  A constant that is not part of
+      the sum of squares (``rho * ||x[0] - x_ref||^2 + 5``: the 5) does not change the
+      minimiser and is dropped: costs are reported without it.  Norms 1 / inf: a linear term
+      with constant coefficients (reported as written, constant included).  Anything else is a
+      :class:`~hybobs_opt.errors.ModelError`
       saying which condition failed (not quadratic, not convex, linear part outside the
       Hessian's range, not linear, coefficients depending on the data).
     * :meth:`add_constraint` -- ``lo <= expr <= hi`` with ``expr`` affine in the decision
@@ -228,6 +230,9 @@ class ExtensionData:
         Position of each parameter in ``P``.
     defaults : tuple
         Fixed values (``None`` when the value is set per step).
+    cost_constant : callable or None
+        Norms 1 / inf: ``(U, Y, x_bar, P) -> J_ext(0, p)``, the term's value at ``v = 0`` (so
+        that ``cost_vector @ v + cost_constant(...)`` is the term as written).
     """
 
     residual: slice | None
@@ -236,6 +241,7 @@ class ExtensionData:
     names: tuple[str, ...]
     offsets: tuple[slice, ...]
     defaults: tuple
+    cost_constant: Callable | None = None
 
     @property
     def has_cost(self) -> bool:
@@ -421,6 +427,11 @@ class MHEFormulation:
             c_lp = np.array(F(np.zeros(nv + ns), np.zeros(npar)).full(), dtype=float).reshape(-1)
             if has_cost:
                 cost_vec = c_lp[:nv].copy()
+                const_fn = ca.Function("ext_cost_constant", [params], [ca.substitute(J_ext, v, ca.DM.zeros(nv))])
+                zero_v = np.zeros(0)
+
+                def cost_constant(U_, Y_, xbar_, P_, _f=const_fn, _pv=self.parameter_vector):
+                    return float(_f(_pv(U_, Y_, xbar_, P_ if P_ is not None else zero_v)))
             Aepi, Pepi, c0 = affine_parts(self.epigraph_rows, self.z, params)
             self.lp_c = c_lp
             self.lp_A = np.vstack([np.hstack([self.enc.A, np.zeros((self.enc.n_constraints, ns))]), Aepi])
@@ -430,6 +441,8 @@ class MHEFormulation:
             self.lp_discrete = np.concatenate([self.enc.discrete, np.zeros(ns, dtype=bool)])
             self.nslack = ns
         self.extension = None
+        if not (norm != "2" and has_cost):
+            cost_constant = None
         if ext is not None:
             offs, o = [], 0
             for _, _, shp, _ in ext_params:
@@ -437,7 +450,7 @@ class MHEFormulation:
                 o += shp[0] * shp[1]
             self.extension = ExtensionData(res_ext, cost_vec, slice(n_mld, self.enc.n_constraints),
                                            tuple(q[0] for q in ext_params), tuple(offs),
-                                           tuple(q[3] for q in ext_params))
+                                           tuple(q[3] for q in ext_params), cost_constant)
 
     # ------------------------------------------------------------------ checks
     def _check_symbols(self, expr, what: str) -> None:

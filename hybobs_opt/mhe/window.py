@@ -146,7 +146,7 @@ class WindowModel:
                 off = res.offset(Y.reshape(-1), U.reshape(-1), xbar, self.params)[sl]
                 parts.append(res.R[sl] @ v + off)
             else:
-                extra = float(ext.cost_vector @ v)
+                extra = float(ext.cost_vector @ v) + ext.cost_constant(U, Y, xbar, self.params)
         if self.norm == "2":
             return float(sum(np.dot(r, r) for r in parts))
         if self.norm == "1":
@@ -162,6 +162,9 @@ class WindowModel:
         (fewer than ``T`` steps): the outputs and rows of its steps only, with the disturbance
         and arrival terms of the whole window, so that its least cost is a lower bound of every
         sequence that begins with it (the branch and bound of :mod:`hybobs_opt.mhe.certify`).
+        With an extension its residual rows (norm 2) and constraint rows are added, condensed
+        through the affine map of the MLD variables in ``theta`` of the sequence; a prefix keeps
+        those on the variables it fixes (the lower bound stays valid: the rest are relaxed).
         """
         sysm, T, n = self.system, self.T, self.n
         hx, cx = self.hx, self.cx
