@@ -6,6 +6,7 @@ observer                        paper, module
 ==============================  ===========================================================
 ``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`)
 ``NoiseAwareLookupObserver``    002 with noisy outputs: statistical tests per region (:mod:`.noise_lookup`)
+``ParameterBank``               002 with an unknown parameter: lookup observers over a grid (:mod:`.parameter_bank`)
 ``MHEObserver``                 002, MIQP/MILP moving horizon (:mod:`hybobs_opt.mhe`)
 ``LocationObserver``            000, residual-bank location observer (:mod:`.location_observer`)
 ``HybridObserver``              000, location + continuous observer (:mod:`.hybrid_observer`)
@@ -26,6 +27,7 @@ _EXPORTS: dict[str, str] = {
                     "hybobs_opt.contract"),
     **dict.fromkeys(("LookupObserver", "LookupTrace", "REASONS", "input_bound_rows"), "hybobs_opt.observers.lookup"),
     **dict.fromkeys(("NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"), "hybobs_opt.observers.noise_lookup"),
+    **dict.fromkeys(("ParameterBank", "ParameterBankTrace"), "hybobs_opt.observers.parameter_bank"),
     "MHEObserver": "hybobs_opt.mhe",
     **dict.fromkeys(("LocationObserver", "ResidualBank", "design_residual_bank", "detection_delays"),
                     "hybobs_opt.observers.location_observer"),

@@ -69,7 +69,8 @@ def _check_positive(params: dict, names) -> None:
             raise ModelError(name, "a positive finite number", repr(value))
 
 
-def powertrain3(gear_ratio: float = TABLE1["gear_ratio"], Ts: float = TS, **overrides: float) -> PWASystem:
+def powertrain3(gear_ratio: float = TABLE1["gear_ratio"], Ts: float = TS, *, theta_max: float = 0.2,
+                **overrides: float) -> PWASystem:
     """Third-order powertrain with backlash, model (16) of paper 002 with Table 1.
 
     State ``x = [theta, omega_m, omega_l]`` (shaft twist angle, engine speed, wheel speed),
@@ -88,6 +89,10 @@ def powertrain3(gear_ratio: float = TABLE1["gear_ratio"], Ts: float = TS, **over
         ``tau``; Table 1 gives 1/12, Figure 5 uses 1/2 and 1.
     Ts : float
         Sampling period (1 ms in the paper).
+    theta_max : float, default 0.2
+        Bound of the twist angle, ``theta in [-theta_max, theta_max]`` rad (Section 5.1: 0.2).  The
+        scenario's torque profile twists the shaft beyond 0.2 rad when ``alpha > 0.055``; the
+        unknown-gap study widens it.
     **overrides
         Any other Table 1 entry (``Jm, Jl, beta_m, beta_l, k, alpha``).
 
@@ -100,8 +105,10 @@ def powertrain3(gear_ratio: float = TABLE1["gear_ratio"], Ts: float = TS, **over
     if unknown:
         raise ModelError("powertrain3 parameters", f"names among {sorted(TABLE1)}", f"{sorted(unknown)}")
     p = {**TABLE1, **overrides, "gear_ratio": gear_ratio, "Ts": Ts}
-    _check_positive(p, ["Jm", "Jl", "beta_m", "beta_l", "k", "gear_ratio", "alpha", "Ts"])
+    _check_positive({**p, "theta_max": theta_max}, ["Jm", "Jl", "beta_m", "beta_l", "k", "gear_ratio", "alpha", "Ts", "theta_max"])
     Jm, Jl, bm, bl, k, tau, alpha = (p[s] for s in ("Jm", "Jl", "beta_m", "beta_l", "k", "gear_ratio", "alpha"))
+    if not alpha < theta_max:
+        raise ModelError("alpha", f"a backlash half-gap below theta_max = {theta_max:g} rad", repr(alpha))
     n, m = 3, 1
     modes = []
     for (name, guard, sign, contact) in zip(MODE_NAMES, _guards(n, m, 0, alpha), (-1.0, 0.0, 1.0), (1.0, 0.0, 1.0)):
@@ -120,13 +127,13 @@ def powertrain3(gear_ratio: float = TABLE1["gear_ratio"], Ts: float = TS, **over
     names = ("theta", "omega_m", "omega_l")
     return PWASystem(
         tuple(modes),
-        Polytope.from_box([-0.2, 0.0, -50.0], [0.2, 600.0, 50.0], names),
+        Polytope.from_box([-theta_max, 0.0, -50.0], [theta_max, 600.0, 50.0], names),
         Polytope.from_box([0.0], [140.0], ("T_m",)),
         names,
         ("T_m",),
         ("omega_m",),
         Ts=Ts,
-        name=f"powertrain3 (tau={tau:.4g})",
+        name=f"powertrain3 (tau={tau:.4g})" + ("" if theta_max == 0.2 else f", |theta| <= {theta_max:g}"),
     )
 
 
