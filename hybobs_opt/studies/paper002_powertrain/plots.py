@@ -197,3 +197,45 @@ def plot_noise_errors(trace, outs: Mapping, path: str | Path, sigma: float, stat
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return str(path)
+
+
+def plot_gap_estimates(t, runs: list, path: str | Path) -> str:
+    """Save the unknown-gap study's figure: each hidden gap and the bank's estimate over time.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times (s).
+    runs : list of (alpha, estimate) pairs
+        The hidden gap (rad) and the bank's estimate per sample (NaN while undetermined).
+    path : path-like
+        Output file (PNG).
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
+    from hybobs_opt.plotting import pyplot, quantity_label
+
+    plt = pyplot()
+    fig, (ax, rel) = plt.subplots(2, 1, figsize=(10, 5.2), sharex=True)
+    for k, (alpha, est) in enumerate(runs):
+        ax.axhline(alpha, color=f"C{k}", lw=0.8, ls="--")
+        ax.plot(t, est, color=f"C{k}", lw=1.4, label=f"hidden alpha = {alpha:.4f} rad (dashed), estimate (solid)")
+        rel.semilogy(t, np.maximum(np.abs(est - alpha) / alpha, ERROR_FLOOR), color=f"C{k}", lw=1.0)
+    rel.axhline(0.05, color="k", lw=0.8, ls=":", label="5 % (the issue's criterion)")
+    ax.set_ylabel(quantity_label("alpha", "rad"))
+    ax.legend(fontsize=7, loc="upper left", frameon=False)
+    ax.grid(alpha=0.3)
+    rel.set_ylabel("|estimate - alpha| / alpha")
+    rel.set_xlabel("t [s]")
+    rel.legend(fontsize=7, loc="upper right", frameon=False)
+    rel.grid(alpha=0.3)
+    fig.suptitle("Paper 002 with the backlash gap hidden: the bank's estimate (undetermined, not drawn, until the "
+                 "shaft has crossed the gap)", fontsize=10)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)

@@ -66,7 +66,8 @@ def first_crossing(q: np.ndarray, gap_mode: int = 1) -> int | None:
 
 
 def run_unknown_gap_study(draws: int = 10, steps: int = 3000, *, seed: int = 0, grid_step: float = GAP_GRID_STEP,
-                          T: int = 3, progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+                          T: int = 3, progress: Callable[[str, int, int], None] | None = None,
+                          traces: list | None = None) -> dict[str, Any]:
     """Run the study (module docstring) and return its JSON-ready table.
 
     Parameters
@@ -83,6 +84,9 @@ def run_unknown_gap_study(draws: int = 10, steps: int = 3000, *, seed: int = 0, 
         Horizon of the bank's lookup observers.
     progress : callable, optional
         ``progress(what, done, total)``.
+    traces : list, optional
+        If given, filled with ``(t, alpha, estimate per sample)`` per draw
+        (:func:`~hybobs_opt.studies.paper002_powertrain.plots.plot_gap_estimates`).
 
     Returns
     -------
@@ -116,6 +120,8 @@ def run_unknown_gap_study(draws: int = 10, steps: int = 3000, *, seed: int = 0, 
         out = bank.run(trace.u, trace.y)
         known = LookupObserver(cached_analysis(plant, T)).run(trace.u, trace.y)
         cross = first_crossing(trace.q)
+        if traces is not None:
+            traces.append((trace.t, float(alpha), out.parameter.copy()))
         rec: dict[str, Any] = {"alpha": float(alpha), "first_crossing_sample": cross}
         det = np.nonzero(out.determined)[0]
         rec["determined_from_sample"] = int(det[0]) if det.size else None
