@@ -144,7 +144,7 @@ class NoiseAwareLookupObserver(Observer):
         self.noise_std = sigma
         self.false_alarm = float(false_alarm)
         self.state_names = system.state_names
-        judge_samples_against(self, system, outputs=False)
+        judge_samples_against(self, system)
         t0 = time.perf_counter()
         self._build_tables()
         self.table_seconds = time.perf_counter() - t0

@@ -186,7 +186,7 @@ class ParameterBank:
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
             raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
-        N, K = U.shape[0], len(self.members)
+        N = U.shape[0]
         runs = [obs.run(U, Y) for obs in self.members]
         scores = np.cumsum(np.column_stack([self._innovations(k, r.x_hat, r.flags, U) for k, r in enumerate(runs)]), axis=0)
         best = np.argmin(scores, axis=1)

@@ -177,6 +177,8 @@ def test_bad_samples_fall_back_and_the_run_goes_on(linear_analysis):
     assert obs.step(U[8], [np.nan]).flag == "fallback"
     bad = obs.step(U[9], [1.0, 2.0])
     assert bad.flag == "fallback" and "length" in bad.info["reason"]
+    fault = obs.step(U[10], [1e12])
+    assert fault.flag == "fallback" and "output" in fault.info["reason"]
     outside = obs.step([5.0], Y[10])
     assert outside.flag == "fallback" and "input" in outside.info["reason"]
     # no input to predict with after it; the window refills: T good samples later it reconstructs
