@@ -605,7 +605,20 @@ def affine_parts(expr, var, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
     The Jacobians ``casadi.jacobian(expr, var)``, ``casadi.jacobian(expr, params)`` and the value
     at ``var = 0, params = 0``, evaluated to dense numpy once.  Whether ``expr`` is affine is the
-    caller's check (:func:`is_affine`).
+    caller's check (the MLD rows are affine by construction; an extension's terms are checked
+    by :class:`~hybobs_opt.mhe.formulation.MHEFormulation`).
+
+    Parameters
+    ----------
+    expr : casadi.SX
+        Column of expressions.
+    var, params : casadi.SX
+        Columns of symbols.
+
+    Returns
+    -------
+    (J_var, J_params, const) : ndarrays
+        ``expr = J_var var + J_params params + const``.
     """
     import casadi as ca
 
@@ -622,6 +635,23 @@ def mld_encoding(sym: MLDSymbols, system: PWASystem, T: int, extra_rows=None, pa
     bounds; every row is then normalised to a largest coefficient of one in ``v``.  ``extra_rows``
     ``(expr, lo, hi)`` are appended (an extension's affine constraints) and ``params`` is the SX
     column of its extra parameters (their map goes into ``BP``).
+
+    Parameters
+    ----------
+    sym : MLDSymbols
+        The symbolic rows (:func:`mld_expressions`).
+    system : PWASystem
+        The model.
+    T : int
+        Window length.
+    extra_rows : (casadi.SX, ndarray, ndarray), optional
+        Rows ``lo <= expr <= hi`` appended after the MLD rows.
+    params : casadi.SX, optional
+        The extension's parameters.
+
+    Returns
+    -------
+    MLDEncoding
     """
     import casadi as ca
 
