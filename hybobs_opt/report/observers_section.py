@@ -18,8 +18,11 @@ NOISY_STEPS, NOISE = 1500, 0.01
 #: three noise levels, in ``benchmarks/results/noise.json``).
 NOISE_STUDY_OBSERVERS = ("lookup", "lookup-noise", "kalman")
 
-#: Hidden gaps of the unknown-gap subsection (ten in ``benchmarks/results/unknown_gap.json``).
-GAP_DRAWS = 3
+#: Hidden gaps of the unknown-gap subsection and the bank's grid spacing (ten gaps on a grid of
+#: 0.002 rad in ``benchmarks/results/unknown_gap.json``); samples and noise-aware horizons of the
+#: noise study (3,000 samples, T = 4 and 6 there): the report is built in the test suite.
+GAP_DRAWS, GAP_REPORT_GRID_STEP = 2, 0.004
+NOISE_STUDY_STEPS, NOISE_STUDY_HORIZONS = 1500, (4,)
 
 
 def _noise_table(table: dict) -> str:
@@ -121,7 +124,8 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
     from ..studies.paper002_powertrain.plots import plot_noise_errors
 
     traces: dict = {}
-    study = run_noise_study("powertrain3", NOISE_LEVELS, STEPS, observers=NOISE_STUDY_OBSERVERS, traces=traces)
+    study = run_noise_study("powertrain3", NOISE_LEVELS, NOISE_STUDY_STEPS, observers=NOISE_STUDY_OBSERVERS,
+                            lookup_horizons=NOISE_STUDY_HORIZONS, traces=traces)
     plot_noise_errors(traces["truth"], {name: out for key, out in traces.items() if key != "truth" and key[0] == NOISE
                                         for name in [key[1]]}, out / "observers_noise_study.png", NOISE)
     body += [
@@ -132,12 +136,13 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "(1e-3), and flags a window observable only when exactly one full-rank sequence passes; its estimate "
         "carries the covariance of the weighted least-squares error. The Kalman filter is told the true mode "
         "sequence: the unattainable reference. Same scenario, "
-        f"{STEPS} samples, noise on the engine speed.</p>",
+        f"{NOISE_STUDY_STEPS} samples (the noise benchmark, <code>python -m benchmarks.bench_noise</code>, runs 3,000, "
+        "also at T = 6 and with the MIQP), noise on the engine speed.</p>",
         _noise_table(study),
         "<p>The RMS errors are over the samples each observer flags observable; the Mahalanobis distance uses the "
         "stated covariance of each flagged estimate (the paper's lookup states none). What the noise-aware flag "
         "proves: every other mode sequence of the model was rejected at the stated false-alarm probability; the "
-        "covariance is that of the error if the passing sequence is the true one. At 0.1 rad/s windows of 4 and 6 "
+        "covariance is that of the error if the passing sequence is the true one. At 0.1 rad/s windows of 4 "
         "samples (1 ms each) cannot tell the modes apart: the noise-aware observer says so rather than guessing.</p>",
         f"<img src='observers_noise_study.png' alt='{html.escape(_noise_alt(study, NOISE), quote=True)}'>",
     ]
@@ -146,7 +151,7 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
     from ..studies.paper002_powertrain.unknown_gap import run_unknown_gap_study
 
     gap_runs: list = []
-    gap = run_unknown_gap_study(GAP_DRAWS, STEPS, traces=gap_runs)
+    gap = run_unknown_gap_study(GAP_DRAWS, STEPS, grid_step=GAP_REPORT_GRID_STEP, traces=gap_runs)
     plot_gap_estimates(gap_runs[0][0], [(a, e) for _, a, e in gap_runs], out / "observers_unknown_gap.png")
     body += [
         "<h3>The backlash gap hidden from the observer</h3>",
