@@ -439,6 +439,11 @@ PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
 #: larger value would call states 10 % of the box apart "the same".
 MHE_UNIQUENESS_DELTA: float = 0.05
 
+#: With ``MHEObserver(noise_std=...)``: one minus the level of the confidence region whose extent
+#: decides ``observable`` (epsilon = chi2_n^-1(1 - this) of the whitened cost); the same default
+#: false-alarm probability as the noise-aware lookup observer.
+MHE_NOISE_FALSE_ALARM: float = 1e-3
+
 #: Epsilon of the uniqueness test (norm 2): an alternative counts when its cost is at most
 #: J* + this * S_y, S_y one sample's squared weighted output half-range (norms 1 / inf: the square
 #: roots).  Noise-free data give J* ~ 1e-30 S_y.  It sits above DAQP's accuracy on the MLD

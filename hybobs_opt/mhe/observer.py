@@ -87,7 +87,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_positive, as_vector
-from ..contract import (FALLBACK, INNOVATION_MARGIN, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
+from ..contract import (FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
                         judge_samples_against)
 from ..errors import ModelError
 from ..status import Status
@@ -99,6 +99,7 @@ from ..tolerances import (
     MHE_CERTIFIED_RTOL,
     MHE_CERTIFY_MAX_NODES,
     MHE_FEASIBILITY_TOL,
+    MHE_NOISE_FALSE_ALARM,
     MHE_INTEGRALITY_TOL,
     MHE_POLISH_SKIP_TOL,
     MHE_PROX_WEIGHT,
@@ -226,7 +227,20 @@ class MHEObserver(Observer):
         model explains the window (a bad sample, or noise above the tolerance): the step is
         ``fallback``.  Default: :data:`~hybobs_opt.contract.INNOVATION_MARGIN` of each output's
         range over the model, for noise-free data; set it to a few noise standard deviations for
-        noisy data.
+        noisy data (``noise_std`` does).
+    noise_std : float or (p,) array, optional
+        Standard deviation of white Gaussian output noise, per output (norm 2 only).  The output
+        weight becomes ``W_y = diag(1 / noise_std)`` (so ``output_weight`` must be omitted), the
+        fit tolerance defaults to :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``noise_std``, and
+        the uniqueness test's ``epsilon`` becomes the chi-square quantile ``chi2_n^-1(1 - false_alarm)``
+        of the whitened cost: ``observable`` then says that the likelihood-ratio confidence region
+        ``{x0 : J(x0) <= J* + epsilon}`` of the window-start state, of level ``1 - false_alarm``
+        for a linear-Gaussian window, holds no state ``delta`` away from the estimate -- a statistical
+        statement about the data, not the noise-free uniqueness of the default ``epsilon``.  Without
+        it the default ``epsilon`` (1e-12 of the output scale) calls a noisy optimum unique however
+        far the noise moved it.
+    false_alarm : float, default 1e-3
+        With ``noise_std``: ``1 -`` the level of that confidence region, in (0, 0.5).
 
     Notes
     -----
@@ -314,7 +328,8 @@ class MHEObserver(Observer):
                  prox_passes: int = DEFAULT_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
                  big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
-                 fit_tolerance=None, certify_time_budget: float | None = None, extend=None):
+                 fit_tolerance=None, certify_time_budget: float | None = None, extend=None, noise_std=None,
+                 false_alarm: float = MHE_NOISE_FALSE_ALARM):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -370,6 +385,11 @@ class MHEObserver(Observer):
         self.n, self.m, self.p = system.n, system.m, system.p
         self.state_names = system.state_names
         self.name = f"mhe-{'miqp' if norm == '2' else 'milp'}-{norm}"
+        self.noise_std, noise_epsilon = self._noise_model(noise_std, false_alarm, norm, output_weight)
+        if self.noise_std is not None:
+            output_weight = np.diag(1.0 / self.noise_std)
+            if fit_tolerance is None:
+                fit_tolerance = NOISE_FIT_SIGMAS * self.noise_std
         self._Wy = weight_matrix(np.eye(self.p) if output_weight is None else output_weight, self.p, "output_weight")
         self._Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
         self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
@@ -399,11 +419,36 @@ class MHEObserver(Observer):
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
-                                           build=self.check_uniqueness)
+                                           build=self.check_uniqueness, epsilon=noise_epsilon)
         self.uniqueness_epsilon = self._separated.epsilon
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight
         self.reset(x0)
+
+    def _noise_model(self, noise_std, false_alarm, norm: str, output_weight) -> tuple[np.ndarray | None, float | None]:
+        """The ``noise_std`` keyword as a ``(p,)`` array and the uniqueness ``epsilon`` it implies (or ``None``s)."""
+        if noise_std is None:
+            return None, None
+        if norm != "2":
+            raise ModelError("noise_std", "norm '2' (the chi-square confidence region is one of the squared 2-norm)",
+                             f"norm {norm!r}")
+        if output_weight is not None:
+            raise ModelError("output_weight", "omitted when noise_std is given (the weight is 1 / noise_std)",
+                             "both given")
+        if isinstance(noise_std, (str, bytes, bool)):
+            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them", repr(noise_std))
+        sigma = np.asarray(noise_std, dtype=float)
+        sigma = np.full(self.p, float(sigma)) if sigma.ndim == 0 else sigma
+        if sigma.shape != (self.p,) or not np.all(np.isfinite(sigma)) or not np.all(sigma > 0):
+            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them (one per output)",
+                             repr(noise_std))
+        if isinstance(false_alarm, bool) or not isinstance(false_alarm, (int, float, np.floating)) \
+                or not (0.0 < float(false_alarm) < 0.5):
+            raise ModelError("false_alarm", "a probability in (0, 0.5)", repr(false_alarm))
+        from scipy.stats import chi2
+
+        self.false_alarm = float(false_alarm)
+        return sigma, float(chi2.isf(self.false_alarm, self.n))
 
     def _fit_tolerance(self, value) -> np.ndarray | None:
         """The ``fit_tolerance`` keyword as a ``(p,)`` array (``None``: no output range to derive it from)."""

@@ -64,11 +64,14 @@ class SeparatedProgram:
         The user's solver options.
     build : bool
         ``False``: only ``epsilon`` is computed (``check_uniqueness=False``); no program is built.
+    epsilon : float, optional
+        The cost tolerance itself (norm 2), instead of the relative default below: the observer's
+        chi-square quantile with ``noise_std``.
 
     Attributes
     ----------
     epsilon : float
-        Cost tolerance: :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times one sample's
+        Cost tolerance: the ``epsilon`` given, else :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times one sample's
         squared weighted output half-range plus :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`
         (norms 1 / inf: the square root).
     prox_weight : float
@@ -78,13 +81,15 @@ class SeparatedProgram:
     """
 
     def __init__(self, model: WindowModel, res: StackedResidual, *, solver: str, delta: float, Js: float,
-                 eq_rows: np.ndarray, milp_problem: tuple | None, nslack: int, options: dict, build: bool = True):
+                 eq_rows: np.ndarray, milp_problem: tuple | None, nslack: int, options: dict, build: bool = True,
+                 epsilon: float | None = None):
         self.model, self.enc, self._res = model, model.enc, res
         self.n, self.T, self.norm, self.solver = model.n, model.T, model.norm, solver
         self.delta, self._Js, self._eq_rows = float(delta), float(Js), eq_rows
         self._milp_problem, self._nslack = milp_problem, nslack
         self.built = bool(build)
         self.prox_weight: float | None = None
+        self._epsilon_given = None if epsilon is None else float(epsilon)
         self._build(dict(options))
 
     def _build(self, options: dict) -> None:
@@ -114,7 +119,7 @@ class SeparatedProgram:
         hy = 0.5 * (rng[:, 1] - rng[:, 0])
         Wh = self.model.Wy * hy[None, :]
         S_y = float(np.max(np.einsum("ij,ij->j", Wh, Wh)))
-        eps2 = MHE_UNIQUENESS_COST_RTOL * S_y + MHE_UNIQUENESS_COST_ATOL
+        eps2 = MHE_UNIQUENESS_COST_RTOL * S_y + MHE_UNIQUENESS_COST_ATOL if self._epsilon_given is None else self._epsilon_given
         self.epsilon = eps2 if self.norm == "2" else float(np.sqrt(eps2))
         self._eps2 = eps2
         self.miqp = self.milp = None

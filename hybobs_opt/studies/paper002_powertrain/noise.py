@@ -9,8 +9,10 @@ deviation ``sigma`` (rad/s) added to the engine speed:
 * ``lookup-noise``: :class:`~hybobs_opt.observers.noise_lookup.NoiseAwareLookupObserver`
   (``T = 4`` by default: the residual test needs ``T p > n``; also ``T = 6`` as
   ``lookup-noise-T6``), at false-alarm ``1e-3``;
-* ``miqp``: the moving-horizon observer (10) with output weight ``1 / sigma`` and a fit
-  tolerance of :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``sigma``;
+* ``miqp``: the moving-horizon observer (10) told the noise level (``noise_std``: output weight
+  ``1 / sigma``, fit tolerance :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``sigma``, and
+  ``observable`` only when the 99.9 % confidence region of the window-start state lies within
+  ``delta``);
 * ``kalman``: :class:`~hybobs_opt.observers.kalman.ModeSequenceKalmanFilter`, told the *true*
   mode sequence -- the unattainable reference: no hybrid observer knows the modes.
 
@@ -30,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from hybobs_opt.contract import NOISE_FIT_SIGMAS, OBSERVABLE, ObserverTrace
+from hybobs_opt.contract import OBSERVABLE, ObserverTrace
 from hybobs_opt.errors import ModelError
 
 #: Output noise standard deviations of the study (rad/s), as in issue 18.
@@ -156,7 +158,7 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
                 from hybobs_opt.mhe import MHEObserver
 
                 n_run = min(steps, mhe_steps or steps)
-                obs = MHEObserver(plant, 3, norm="2", output_weight=1.0 / sigma, fit_tolerance=NOISE_FIT_SIGMAS * sigma)
+                obs = MHEObserver(plant, 3, norm="2", noise_std=sigma)
                 out, warm = timed_steps(obs, trace.u[:n_run], y[:n_run]), 2
             else:
                 obs = ModeSequenceKalmanFilter(plant, sigma, modes=trace.q)
@@ -186,8 +188,9 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
                       "noise reaches the estimate through the inverse of C_i, flagged observable",
             "lookup-noise": f"T = {', '.join(map(str, horizons))}: chi-square residual test and membership margins at the stated "
                             "false-alarm probability; observable only when exactly one full-rank mode sequence passes",
-            "miqp": "MIQP moving horizon, T = 3, output weight 1/sigma, fit tolerance 5 sigma; its uniqueness test "
-                    "is noise-free (epsilon relative to the output range), so noisy optima are still called unique",
+            "miqp": "MIQP moving horizon, T = 3, noise_std = sigma: output weight 1/sigma, fit tolerance 5 sigma, and "
+                    "observable only when the 99.9 % confidence region of the window-start state lies within delta "
+                    "(0.05 of the state box's half-widths)",
             "kalman": "time-varying Kalman filter told the true mode sequence: the unattainable reference",
         },
     }
