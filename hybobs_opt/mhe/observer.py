@@ -142,7 +142,10 @@ class MHEObserver(Observer):
         norms 1/inf, via highspy), ``"cbc"`` or ``"casadi-highs"`` (refused when highspy is loaded).
     output_weight, disturbance_weight, arrival_weight : scalar, vector or matrix, optional
         ``W_y`` (default identity: the paper's cost), ``W_w`` (adds disturbances ``w(k)``),
-        ``W_a`` (adds the arrival cost); see the module docstring.
+        ``W_a`` (adds the arrival cost); see the module docstring.  The arrival cost is a prior, and the uniqueness
+        program keeps it: with ``W_a`` the flag ``observable`` means unique *given the prior*, not
+        determined by the data alone (``info["uniqueness"]["includes_prior"]`` is then ``True``;
+        on model (16) with ``W_a = 1e-3`` two of 300 backlash windows were flagged so).
     x0 : (n,) array, optional
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
     solver_options : dict, optional
@@ -416,6 +419,10 @@ class MHEObserver(Observer):
         self._x_default = self.model.cx.copy()
         judge_samples_against(self, system)
         self.fit_tolerance = self._fit_tolerance(fit_tolerance)
+        # With an arrival cost the separated program keeps it: "unique" is then unique given the
+        # prior, a weaker claim than the data alone (info["uniqueness"]["includes_prior"]).  Posing
+        # it on the data alone needs the data-only minimum of each window, a second MIQP per step.
+        self.uniqueness_includes_prior = self._Wa is not None
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
@@ -631,6 +638,7 @@ class MHEObserver(Observer):
             if not self.check_uniqueness:
                 raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
             uq = self._separated.decide(U, Y, xs, out)
+            uq["includes_prior"] = self.uniqueness_includes_prior
             alt = uq.pop("alternative") if uq["status"] == "alternative" else None
             out = out.replace(uniqueness=uq, alternative=alt)
         return out
@@ -925,6 +933,7 @@ class MHEObserver(Observer):
                 return FALLBACK
             return OBSERVABLE
         uq = self._separated.decide(U, Y, xbar, result)
+        uq["includes_prior"] = self.uniqueness_includes_prior
         if uq["status"] == "alternative":
             info["alternative"] = uq.pop("alternative")
         info["uniqueness"] = uq

@@ -92,3 +92,15 @@ def test_noise_std_bad_input_names_the_field():
         MHEObserver(system, 4, noise_std=0.1, output_weight=2.0)
     with pytest.raises(ModelError, match="false_alarm"):
         MHEObserver(system, 4, noise_std=0.1, false_alarm=0.9)
+
+
+def test_the_uniqueness_answer_says_whether_it_includes_the_prior():
+    """With an arrival cost "unique" is unique given the prior (a weaker claim): info says so."""
+    system, U, X, Y, sigma = noisy_run(0.01)
+    U, Y = U[:12], Y[:12]
+    for weight, expected in ((None, False), (1e-3, True)):
+        obs = MHEObserver(system, 4, arrival_weight=weight, fit_tolerance=5 * sigma)
+        assert obs.uniqueness_includes_prior is expected
+        out = obs.run(U, Y)
+        judged = [i for i, f in zip(out.info, out.flags) if "uniqueness" in i]
+        assert judged and all(i["uniqueness"]["includes_prior"] is expected for i in judged)
