@@ -253,6 +253,29 @@ def judge_samples_against(observer: "Observer", system: Any, *, inputs: bool = T
     observer.state_range = state_range(system) if states else None
 
 
+def noise_std_vector(value, p: int, field: str = "noise_std") -> np.ndarray:
+    """Output-noise standard deviations as a ``(p,)`` array: a positive finite scalar (every output)
+    or one per output, in output units; anything else is a :class:`ModelError` naming ``field``."""
+    if value is None or isinstance(value, (str, bytes, bool)):
+        raise ModelError(field, f"a positive finite output-noise standard deviation (scalar or length {p})", repr(value))
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf" or arr.shape not in ((), (p,)):
+        raise ModelError(field, f"a positive finite output-noise standard deviation (scalar or length {p})",
+                         f"{arr.dtype} array of shape {arr.shape}")
+    arr = np.broadcast_to(arr.astype(float), (p,)).copy()
+    if not np.all(np.isfinite(arr) & (arr > 0)):
+        raise ModelError(field, "positive finite standard deviations (in output units)", repr(arr.tolist()))
+    return arr
+
+
+def false_alarm_probability(value, field: str = "false_alarm") -> float:
+    """A statistical test's false-alarm probability, in ``(0, 0.5)``, else a :class:`ModelError` naming ``field``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not (0.0 < float(value) < 0.5):
+        raise ModelError(field, "a probability in (0, 0.5)", repr(value))
+    return float(value)
+
+
 def sample_rows(X, width: int, field: str) -> np.ndarray:
     """A recorded trace as a float ``(N, width)`` array for a vectorised run: a row that is not
     ``width`` real numbers (a string, a wrong length, a complex value) becomes a NaN row, which every

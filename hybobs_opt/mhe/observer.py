@@ -87,8 +87,8 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_positive, as_vector
-from ..contract import (FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
-                        judge_samples_against)
+from ..contract import (FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate,
+                        Observer, checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -442,19 +442,10 @@ class MHEObserver(Observer):
         if output_weight is not None:
             raise ModelError("output_weight", "omitted when noise_std is given (the weight is 1 / noise_std)",
                              "both given")
-        if isinstance(noise_std, (str, bytes, bool)):
-            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them", repr(noise_std))
-        sigma = np.asarray(noise_std, dtype=float)
-        sigma = np.full(self.p, float(sigma)) if sigma.ndim == 0 else sigma
-        if sigma.shape != (self.p,) or not np.all(np.isfinite(sigma)) or not np.all(sigma > 0):
-            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them (one per output)",
-                             repr(noise_std))
-        if isinstance(false_alarm, bool) or not isinstance(false_alarm, (int, float, np.floating)) \
-                or not (0.0 < float(false_alarm) < 0.5):
-            raise ModelError("false_alarm", "a probability in (0, 0.5)", repr(false_alarm))
+        sigma = noise_std_vector(noise_std, self.p)
         from scipy.stats import chi2
 
-        self.false_alarm = float(false_alarm)
+        self.false_alarm = false_alarm_probability(false_alarm)
         return sigma, float(chi2.isf(self.false_alarm, self.n))
 
     def _fit_tolerance(self, value) -> np.ndarray | None:

@@ -44,7 +44,7 @@ from ..contract import (
     ObserverTrace,
     checked_state,
     judge_samples_against,
-    real_sample,
+    noise_std_vector,
 )
 from ..errors import ModelError
 from ..systems.pwa import PWASystem
@@ -126,19 +126,6 @@ def _prior_covariance(value, n: int) -> np.ndarray:
     return _covariance(arr, n, "P0", positive=True)
 
 
-def _noise_std(value, p: int) -> np.ndarray:
-    if value is None or isinstance(value, (str, bytes, bool)):
-        raise ModelError("noise_std", f"a positive finite output-noise standard deviation (scalar or length {p})", repr(value))
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iuf" or arr.shape not in ((), (p,)):
-        raise ModelError("noise_std", f"a positive finite output-noise standard deviation (scalar or length {p})",
-                         f"{arr.dtype} array of shape {arr.shape}")
-    arr = np.broadcast_to(arr.astype(float), (p,)).copy()
-    if not np.all(np.isfinite(arr) & (arr > 0)):
-        raise ModelError("noise_std", "positive finite standard deviations (in output units)", repr(arr.tolist()))
-    return arr
-
-
 class ModeSequenceKalmanFilter(Observer):
     """Time-varying Kalman filter of a PWA system (paper 002, eq. 1) told its true mode sequence.
 
@@ -200,7 +187,7 @@ class ModeSequenceKalmanFilter(Observer):
         self._C = np.array([md.C.reshape(self.p, self.n) for md in system.modes])
         self._D = np.array([(np.zeros((self.p, self.m)) if md.D is None else md.D.reshape(self.p, self.m)) for md in system.modes])
         self._c = np.array([(np.zeros(self.p) if md.c is None else md.c) for md in system.modes])
-        self.noise_std = _noise_std(noise_std, self.p)
+        self.noise_std = noise_std_vector(noise_std, self.p)
         self.R = np.diag(self.noise_std ** 2)
         self.Q = _covariance(process_std, self.n, "process_std", positive=False)
         if isinstance(observable_std, bool) or not isinstance(observable_std, (int, float, np.integer, np.floating)) \

@@ -59,7 +59,7 @@ from scipy.stats import chi2, norm
 
 from .._validate import as_instance
 from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
-                        judge_samples_against)
+                        false_alarm_probability, judge_samples_against, noise_std_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import max_slack
 from ..tolerances import LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, RANK_RTOL, ZERO_ROW_TOL
@@ -132,17 +132,8 @@ class NoiseAwareLookupObserver(Observer):
         if self.T * self.p <= self.n:
             raise ModelError("analysis", f"a horizon T with T p > n = {self.n} (the residual test needs more output "
                              f"samples than states; T >= {self.n // self.p + 1} here)", f"T = {self.T}, p = {self.p}")
-        sigma = np.asarray(noise_std, dtype=float) if not isinstance(noise_std, (str, bytes)) else np.array([np.nan])
-        if sigma.ndim == 0:
-            sigma = np.full(self.p, float(sigma))
-        if sigma.shape != (self.p,) or not np.all(np.isfinite(sigma)) or not np.all(sigma > 0):
-            raise ModelError("noise_std", f"a positive finite standard deviation, or {self.p} of them (one per output)",
-                             repr(noise_std))
-        if isinstance(false_alarm, bool) or not isinstance(false_alarm, (int, float, np.floating)) \
-                or not (0.0 < float(false_alarm) < 0.5):
-            raise ModelError("false_alarm", "a probability in (0, 0.5)", repr(false_alarm))
-        self.noise_std = sigma
-        self.false_alarm = float(false_alarm)
+        self.noise_std = noise_std_vector(noise_std, self.p)
+        self.false_alarm = false_alarm_probability(false_alarm)
         self.state_names = system.state_names
         judge_samples_against(self, system)
         t0 = time.perf_counter()
