@@ -63,7 +63,7 @@ LONG_COMMANDS = {
               [("lookup (batch)", "step"), ("miqp", "step")]),
     "synth": (["synth", "magnetic_piston", "--out", "gains.json"], [("LMI solves", "solve")]),
     "diagnose": (["diagnose", "vehicle_tracking"], [("LMI solves", "solve")]),
-    "report": (["report", "--section", "regions", "--out-dir", "rep"], [("report", "section")]),
+    "report": (["report", "--section", "drift", "--section", "examples", "--out-dir", "rep"], [("report", "section")]),
 }
 
 

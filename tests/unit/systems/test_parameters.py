@@ -98,3 +98,28 @@ def test_bad_arguments_name_the_field():
         augment_parameters(lambda gap: powertrain3(alpha=gap), {"alpha": (0.02, 0.08)})
     with pytest.raises(ModelError, match="params"):
         augment_parameters(lambda alpha: powertrain3(alpha=alpha), {"alpha": (0.02, 0.08)}).augment_state([0, 0, 0], {})
+
+
+def test_miqp_on_the_augmented_system_estimates_alpha_jointly(aug):
+    """The MIQP (10) of the augmented system has alpha as a bounded decision variable: on a window
+    through the whole gap its certified optimum returns the true alpha and state."""
+    from hybobs_opt.mhe import MHEObserver
+
+    an = analyse_observability(aug.system, 4)
+    obs = MHEObserver(aug.system, 4, check_uniqueness=False)
+    checked = 0
+    for i in an.index_set[:3]:
+        reg = an.regions[i]
+        centre, _ = Polytope(reg.H, reg.h).chebyshev_ball(an.enumeration.scale)
+        x, alpha, U = centre[:3].copy(), float(centre[3]), centre[4:].reshape(4, 1)
+        plant = powertrain3(alpha=alpha)
+        Y = []
+        for u in U:
+            Y.append(plant.output(x, u))
+            x = plant.step(x, u)
+        out = obs.solve_window(U, np.array(Y))
+        assert out["status"] == "optimal", out
+        np.testing.assert_allclose(out["x_start"][3], alpha, rtol=1e-6)
+        np.testing.assert_allclose(out["x_start"][:3], centre[:3], rtol=1e-6, atol=1e-6)
+        checked += 1
+    assert checked == min(3, len(an.index_set))
