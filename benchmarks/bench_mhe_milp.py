@@ -404,7 +404,6 @@ def reason(rec: dict) -> str:
     floor = rec.get("highs_floor", {})
     fl = floor.get("window_milp_s", {}).get("median")
     lp = floor.get("binaries_fixed_lp_s", {}).get("median")
-    med = {k: v["per_step_s"]["median"] for k, v in parts.items()}
     mean = {k: v["per_step_s"]["mean"] for k, v in parts.items()}
     ok = t["meets_median_budget"] and t["meets_p99_budget"]
     head = ("meets both targets" if ok else

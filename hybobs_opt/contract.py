@@ -253,6 +253,19 @@ def judge_samples_against(observer: "Observer", system: Any, *, inputs: bool = T
     observer.state_range = state_range(system) if states else None
 
 
+def trace_length(U, Y) -> int:
+    """The number of samples of a recorded trace ``U, Y`` (sequences of rows of the same length),
+    else a :class:`ModelError` naming ``U, Y``."""
+    try:
+        nu, ny = len(U), len(Y)
+    except TypeError:
+        raise ModelError("U, Y", "sequences of samples (one row per step)",
+                         f"{type(U).__name__} and {type(Y).__name__}") from None
+    if nu != ny:
+        raise ModelError("U, Y", "the same number of samples", f"{nu} and {ny}")
+    return nu
+
+
 def noise_std_vector(value, p: int, field: str = "noise_std") -> np.ndarray:
     """Output-noise standard deviations as a ``(p,)`` array: a positive finite scalar (every output)
     or one per output, in output units; anything else is a :class:`ModelError` naming ``field``."""
@@ -456,14 +469,7 @@ class Observer(ABC):
         ModelError
             If ``U`` and ``Y`` are not sequences of the same length.
         """
-        try:
-            nu, ny = len(U), len(Y)
-        except TypeError:
-            raise ModelError("U, Y", "sequences of samples (one row per step)",
-                             f"{type(U).__name__} and {type(Y).__name__}") from None
-        if nu != ny:
-            raise ModelError("U, Y", "the same number of samples", f"{nu} and {ny}")
-        N = nu
+        N = trace_length(U, Y)
         xs = np.full((N, self.n), np.nan)
         modes = np.full(N, -1)
         flags = np.empty(N, dtype=object)

@@ -45,6 +45,7 @@ from ..contract import (
     checked_state,
     judge_samples_against,
     noise_std_vector,
+    trace_length,
 )
 from ..errors import ModelError
 from ..systems.pwa import PWASystem
@@ -357,13 +358,7 @@ class ModeSequenceKalmanFilter(Observer):
             If ``U``, ``Y`` (and ``modes``) are not sequences of the same length, or ``modes`` is
             not a sequence of mode indices.
         """
-        try:
-            nu, ny = len(U), len(Y)
-        except TypeError:
-            raise ModelError("U, Y", "sequences of samples (one row per step)",
-                             f"{type(U).__name__} and {type(Y).__name__}") from None
-        if nu != ny:
-            raise ModelError("U, Y", "the same number of samples", f"{nu} and {ny}")
+        nu = trace_length(U, Y)
         seq = None if modes is None else self._mode_sequence(modes, "modes")
         if seq is not None and len(seq) != nu:
             raise ModelError("modes", f"one mode per sample ({nu})", f"{len(seq)} modes")
