@@ -444,6 +444,15 @@ MHE_UNIQUENESS_DELTA: float = 0.05
 #: false-alarm probability as the noise-aware lookup observer.
 MHE_NOISE_FALSE_ALARM: float = 1e-3
 
+#: ``augment_parameters``: relative tolerance of the checks that a parameter enters a PWA system
+#: affinely and only through its affine terms and guard offsets (the system data are computed in
+#: double precision from the parameter, so an affine dependence reproduces to ~1e-15).
+AFFINE_PARAMETER_RTOL: float = 1e-9
+
+#: ``ParameterBank``: a running innovation score below this (squared half-widths of the state
+#: box) is zero -- an exact model reconstructs to rounding (1e-16 per coordinate, squared).
+BANK_SCORE_ATOL: float = 1e-18
+
 #: Epsilon of the uniqueness test (norm 2): an alternative counts when its cost is at most
 #: J* + this * S_y, S_y one sample's squared weighted output half-range (norms 1 / inf: the square
 #: roots).  Noise-free data give J* ~ 1e-30 S_y.  It sits above DAQP's accuracy on the MLD

@@ -354,14 +354,8 @@ class MHEObserver(Observer):
             raise ModelError("certify_max_nodes", "an integer >= 1 (node QPs of the prefix search per window)",
                              repr(certify_max_nodes))
         self.certify_max_nodes = int(certify_max_nodes)
-        if certify_time_budget is not None:
-            if not (isinstance(certify_time_budget, (int, float, np.integer, np.floating))
-                    and not isinstance(certify_time_budget, bool) and np.isfinite(certify_time_budget)
-                    and certify_time_budget > 0):
-                raise ModelError("certify_time_budget", "None or a positive finite number of seconds",
-                                 repr(certify_time_budget))
-            certify_time_budget = float(certify_time_budget)
-        self.certify_time_budget = certify_time_budget
+        self.certify_time_budget = as_positive(certify_time_budget, "certify_time_budget",
+                                               "None or a positive finite number of seconds", allow_none=True)
         self.zero_cost_certificate = bool(zero_cost_certificate)
         if not isinstance(check_uniqueness, (bool, np.bool_)):
             raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
@@ -434,6 +428,7 @@ class MHEObserver(Observer):
 
     def _noise_model(self, noise_std, false_alarm, norm: str, output_weight) -> tuple[np.ndarray | None, float | None]:
         """The ``noise_std`` keyword as a ``(p,)`` array and the uniqueness ``epsilon`` it implies (or ``None``s)."""
+        self.false_alarm = None
         if noise_std is None:
             return None, None
         if norm != "2":

@@ -77,9 +77,7 @@ class _Sequence:
     """Offline data of one mode sequence (scaled and whitened; see the module docstring)."""
 
     index: int  # index in analysis.regions
-    rank: int
     threshold: float  # chi-square quantile of the residual test
-    kappa: float  # membership margin in standard deviations
     rows: slice  # its rows in the stacked table: [x_i (n) | residual (pT) | membership (k)]
     n_member: int
     member_tol: np.ndarray  # allowed value of each membership row (original units)
@@ -188,7 +186,7 @@ class NoiseAwareLookupObserver(Observer):
                 cov_last = (cov_last + cov_last.T) / 2
             k = reg.H.shape[0]
             box_margin = float(np.max(tol / row_norm)) if k else 0.0
-            seqs.append(_Sequence(idx, r, threshold, kappa, slice(row, row + n + p * T + k), k, tol, box_margin, null, cov_last,
+            seqs.append(_Sequence(idx, threshold, slice(row, row + n + p * T + k), k, tol, box_margin, null, cov_last,
                                   (reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1])))
             blocks += [Xz, Rz, Mz]
             offsets += [x0, r0, m0]

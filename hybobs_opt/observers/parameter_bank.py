@@ -33,11 +33,10 @@ import numpy as np
 
 from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, ObserverTrace, sample_rows
 from ..errors import ModelError
+from ..tolerances import BANK_SCORE_ATOL
 
 __all__ = ["ParameterBank", "ParameterBankTrace"]
 
-#: A score below this (squared half-widths) is zero: an exact model reconstructs to rounding.
-BANK_SCORE_ATOL: float = 1e-18
 
 
 @dataclass(frozen=True, eq=False)

@@ -31,11 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from ..tolerances import AFFINE_PARAMETER_RTOL
 from .polytope import Polytope
 from .pwa import PWAMode, PWASystem
 
-#: Relative tolerance of the checks that a parameter enters affinely and only where allowed.
-AFFINE_PARAMETER_RTOL: float = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
