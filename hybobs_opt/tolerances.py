@@ -76,6 +76,14 @@ LP_POINT_RTOL: float = 1e-6
 #: and the gain ``P^-1 Y`` is not determined by the answer.
 LYAPUNOV_MIN_RATIO: float = 1e-12
 
+#: Relative tolerance of the arrival-cost LMI's numpy re-check (:mod:`hybobs_opt.mhe.arrival`):
+#: the smallest eigenvalue of each block matrix, in the coordinates scaled by the first prior's
+#: standard deviations, over its largest.  Clarabel's interior point stops at a relative gap of
+#: about 1e-8; the answer is shrunk by 10 times this before the check, which every one of those
+#: LMIs tolerates (scaling Z by c < 1 keeps them), so a correct answer passes with room and a
+#: corrupted one (an entry moved by 1e-3) fails.
+ARRIVAL_LMI_RTOL: float = 1e-7
+
 #: The multipliers HiGHS returns with an "optimal" point must certify it: of the right sign,
 #: stationary and with a zero duality gap, each to this times the size of the terms summed (on
 #: the equilibrated LP, where data and variables are of order one).  HiGHS's dual feasibility

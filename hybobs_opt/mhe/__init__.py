@@ -9,9 +9,11 @@ prefix search :func:`search_sequences` (:mod:`hybobs_opt.mhe.certify`).  The pac
 runtime contract of :mod:`hybobs_opt.contract` and sits below the runtime-observer package.
 The problem is written once in CasADi (:class:`MHEFormulation`), from which every backend takes
 its matrices; an ``extend`` callable adds cost terms, constraints and parameters to it through
-an :class:`MHEExtension`.
+an :class:`MHEExtension`.  :func:`certified_arrival_prior` tunes the arrival weight from the
+noise level (an LMI: never more information than a Kalman filter has under any mode sequence).
 """
 
+from .arrival import ArrivalPrior, certified_arrival_prior
 from .certify import SequenceSearch, search_sequences
 from .formulation import MHEExtension, MHEFormulation
 from .mld import MLDEncoding, big_m_constants, encode_mld
@@ -19,5 +21,5 @@ from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
 from .uniqueness import SeparatedProgram
 
-__all__ = ["MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
-           "big_m_constants", "encode_mld", "search_sequences"]
+__all__ = ["ArrivalPrior", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
+           "big_m_constants", "certified_arrival_prior", "encode_mld", "search_sequences"]

@@ -146,6 +146,11 @@ class MHEObserver(Observer):
         program keeps it: with ``W_a`` the flag ``observable`` means unique *given the prior*, not
         determined by the data alone (``info["uniqueness"]["includes_prior"]`` is then ``True``;
         on model (16) with ``W_a = 1e-3`` two of 300 backlash windows were flagged so).
+        ``arrival_weight`` may also be an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior` of
+        :func:`~hybobs_opt.mhe.arrival.certified_arrival_prior`: the weight tuned from the noise
+        level (it must have been tuned for this observer's ``noise_std``), which never claims more
+        information than a Kalman filter has under any mode sequence (kept as
+        :attr:`arrival_prior`).
     x0 : (n,) array, optional
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
     solver_options : dict, optional
@@ -389,6 +394,9 @@ class MHEObserver(Observer):
                 fit_tolerance = NOISE_FIT_SIGMAS * self.noise_std
         self._Wy = weight_matrix(np.eye(self.p) if output_weight is None else output_weight, self.p, "output_weight")
         self._Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
+        self.arrival_prior = self._arrival_prior(arrival_weight)
+        if self.arrival_prior is not None:
+            arrival_weight = self.arrival_prior.weight
         self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
         # eq. (10) written once in CasADi; every matrix below is extracted from it
         self.formulation = MHEFormulation(system, self.T, norm, self._Wy, self._Ww, self._Wa, big_m=big_m,
@@ -442,6 +450,23 @@ class MHEObserver(Observer):
 
         self.false_alarm = false_alarm_probability(false_alarm)
         return sigma, float(chi2.isf(self.false_alarm, self.n))
+
+    def _arrival_prior(self, value):
+        """The ``arrival_weight`` keyword when it is an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior`
+        (checked against this observer's noise level), else ``None``."""
+        from .arrival import ArrivalPrior
+
+        if not isinstance(value, ArrivalPrior):
+            return None
+        if self.noise_std is None or value.noise_std.shape != self.noise_std.shape or not np.allclose(
+                value.noise_std, self.noise_std, rtol=1e-12, atol=0.0):
+            raise ModelError("arrival_weight", "an ArrivalPrior tuned for this observer's noise_std "
+                             f"({None if self.noise_std is None else self.noise_std.tolist()})",
+                             f"one tuned for noise_std {value.noise_std.tolist()}")
+        if value.information.shape != (self.n, self.n) or not value.verify():
+            raise ModelError("arrival_weight", f"a verified ArrivalPrior of a {self.n}-state system",
+                             "one that fails its re-check or has another size")
+        return value
 
     def _fit_tolerance(self, value) -> np.ndarray | None:
         """The ``fit_tolerance`` keyword as a ``(p,)`` array (``None``: no output range to derive it from)."""
