@@ -90,6 +90,17 @@ ARRIVAL_LMI_RTOL: float = 1e-7
 #: margin's slack absorbs it and costs a relative 1e-6 of information.
 ARRIVAL_CONTRACTION_MARGIN: float = 1e-6
 
+#: Floor of the standard deviations of the MHE's Kalman arrival prior
+#: (``MHEObserver(arrival_weight="kalman")``), relative to the state box's half-widths, added to
+#: the filter's covariance (a model-mismatch floor: the prior never claims more than this).
+#: Without process noise the filter's covariance shrinks without end along observable stretches
+#: and the arrival block of DAQP's Hessian grows with it.  Measured on the noisy bench of model
+#: (16) (sigma 0.01 rad/s, 1,500 samples): at 1e-6 the branch and bound's points failed their
+#: verification and the prefix search could not prove the relative gap in 1,269 windows
+#: (fallback); at 1e-4 and 1e-3 none failed (1,489 observable), with omega_l RMS 0.013 / 0.016
+#: rad/s and median steps 6.9 / 4.7 ms.
+MHE_ARRIVAL_MIN_STD_RTOL: float = 1e-3
+
 #: The multipliers HiGHS returns with an "optimal" point must certify it: of the right sign,
 #: stationary and with a zero duality gap, each to this times the size of the terms summed (on
 #: the equilibrated LP, where data and variables are of order one).  HiGHS's dual feasibility
@@ -135,6 +146,36 @@ REDUNDANCY_RTOL: float = 1e-7
 #: ``sqrt(d) * 1e-10``, which moves the set by far less than REDUNDANCY_RTOL inside the unit box.
 #: Near-parallel rows that straddle a grid line are simply left to the LP test.
 PARALLEL_ROW_TOL: float = 1e-10
+
+#: Library answers of vertex enumeration, convex hulls and redundancy removal (pycddlib, qhull:
+#: :mod:`hybobs_opt.geometry.vertices`) are checked in coordinates scaled so the vertices' box is
+#: [-1, 1]^d, with unit rows.  A returned vertex may violate a row by at most this, relative to
+#: ``1 + |b_i|``: both libraries compute vertices by eliminations on such data to about 1e-13, and
+#: the value is MEMBERSHIP_RTOL's, so a checked vertex passes every later membership test.
+VERTEX_CHECK_RTOL: float = 1e-9
+
+#: A row counts as tight (active) at a vertex when its slack is at most this, relative to
+#: ``1 + |b_i|``; it decides which rows define a vertex and which vertices lie on a facet.  Ten
+#: times VERTEX_CHECK_RTOL: a vertex may be off by that much in any row it is said to lie on.
+VERTEX_TIGHT_RTOL: float = 1e-8
+
+#: The rows tight at a vertex must determine it: their smallest singular value (unit rows,
+#: estimated from below by ``1 / ||A_T^-1||_F``) must exceed this.  Below it the tight rows are
+#: dependent to FULL_DIMENSION_RTOL's accuracy and the point is not a checkable vertex (the
+#: answer goes to the next path); random and structured polytopes have ratios above 1e-4.
+VERTEX_RANK_RTOL: float = 1e-7
+
+#: Two vertices closer than this (infinity norm, scaled coordinates) are the same vertex, and the
+#: far end of an edge walked from a vertex must land within this of a vertex of the set for the
+#: set to count as complete.  REDUNDANCY_RTOL's size: a vertex missed by less moves the set by less
+#: than the redundancy test itself can see; walked edges land within about 1e-12 of true vertices.
+VERTEX_SAME_RTOL: float = 1e-7
+
+#: A degenerate vertex (more than d tight rows) is checked by walking every extreme ray of its
+#: cone of feasible directions, found among the null directions of the (d-1)-subsets of its tight
+#: rows.  Above this many subsets (e.g. the 32 rows at a vertex of the 6-D cross-polytope give
+#: 201,376) the check gives up and the hand-written path answers instead.
+VERTEX_DEGENERATE_MAX_SUBSETS: int = 5000
 
 #: Iterative-hull projection: a support point found beyond a facet of the current hull by more
 #: than this (target coordinates scaled to the image's bounding box) is added and the hull is
@@ -408,6 +449,13 @@ MHE_CERTIFIED_RTOL: float = 1e-6
 #: (``fallback``).  Model (16) needs at most 18 at T = 3.
 MHE_CERTIFY_MAX_NODES: int = 20_000
 
+#: Rounding allowance of a weak-duality lower bound of a mode sequence's LP computed in numpy
+#: (solver ``"sequences"``, :mod:`hybobs_opt.mhe.sequence_lp`): the bound is lowered by this times
+#: the sum of the magnitudes of its terms.  Each term carries a relative rounding error of a few
+#: units of 2.2e-16 per product summed (at most a few hundred rows), so 1e-13 covers the
+#: accumulated error with a margin while staying far below MHE_CERTIFIED_RTOL.
+SEQUENCE_LP_BOUND_RTOL: float = 1e-13
+
 #: An extension's norm-2 cost term (``MHEObserver(extend=...)``) is convex when its Hessian's
 #: smallest eigenvalue is at least ``-MHE_EXTENSION_PSD_RTOL`` times its largest; eigenvalues
 #: below that (in absolute value) count as zero curvature.  The Hessian is exact (CasADi's
@@ -515,3 +563,45 @@ GAIN_BOUND_RTOL: float = 1e-6
 #: A state counts as an equilibrium (``lmi.impossibility``) when ``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)``
 #: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
 EQUILIBRIUM_RTOL: float = 1e-9
+
+# ---------------------------------------------------------------------- C export of the lookup observer
+# (paper 002, Algorithm 4.1; hybobs_opt.observers.c_export).  The double export uses the observer's
+# own tolerances above; these are the simplex of its B~_T LPs and the single-precision variant.
+
+#: The exported simplex of a B~_T LP (``max t``, rows unit-norm in scaled coordinates, entries of
+#: order one): a tableau entry is a pivot candidate above this, far above the rounding of a few
+#: pivots (~1e-15) and far below the entries of a non-degenerate piece.
+C_EXPORT_LP_PIVOT_TOL: float = 1e-11
+
+#: The exported simplex: a reduced cost counts as improving above this (rounding of the objective
+#: row after a few pivots is ~1e-15; a real improvement moves ``t`` by far more than 1e-12).
+C_EXPORT_LP_COST_TOL: float = 1e-12
+
+#: ``float32`` export: single precision resolves 2^-23 = 1.2e-7 of each term, and the table
+#: products sum O(10) terms of magnitude up to ``|Y|`` (candidates, residuals) or O(1) in scaled
+#: units (membership rows), so noise-free data leave residuals and memberships of ~1e-6.  The
+#: output equality of eq. (12) passes below this times ``max(1, |Y|_inf)`` (``output_rtol`` of the
+#: observer when that is larger).
+C_EXPORT_F32_OUTPUT_RTOL: float = 1e-5
+
+#: ``float32`` export: a candidate must lie this far inside its region's guard rows (scaled, unit
+#: rows): above the ~1e-6 rounding of a membership value in single precision, so that a candidate
+#: the data put exactly on a guard (the backlash entry) is rejected as in double precision.
+C_EXPORT_F32_INTERIOR_MARGIN: float = 1e-5
+
+#: ``float32`` export: the rows of ``U`` (and the bad-sample test of an input) are closed up to
+#: this: an input stored at its bound computes to within ~1e-7 of it in single precision.
+C_EXPORT_F32_INPUT_BOUND_TOL: float = 1e-5
+
+#: ``float32`` export: two candidates are the same state within this (scaled coordinates);
+#: single-precision candidates of one state differ by ~1e-6.
+C_EXPORT_F32_SAME_STATE_TOL: float = 1e-4
+
+#: ``float32`` export: membership of the ``B~_T`` screen rows and the LP's decision ``t > -tol``.
+C_EXPORT_F32_MEMBERSHIP_TOL: float = 1e-5
+
+#: ``float32`` export: pivot threshold of the simplex (entries of order one, rounding ~1e-7).
+C_EXPORT_F32_LP_PIVOT_TOL: float = 1e-5
+
+#: ``float32`` export: improving reduced cost of the simplex.
+C_EXPORT_F32_LP_COST_TOL: float = 1e-6

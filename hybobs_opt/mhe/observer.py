@@ -94,6 +94,7 @@ from ..status import Status
 from ..systems.pwa import PWASystem
 from ..tolerances import (
     MEMBERSHIP_RTOL,
+    MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_ABS_SUBOPT,
     MHE_BINARY_PROX_WEIGHT,
     MHE_CERTIFIED_RTOL,
@@ -150,7 +151,15 @@ class MHEObserver(Observer):
         :func:`~hybobs_opt.mhe.arrival.certified_arrival_prior`: the weight tuned from the noise
         level (it must have been tuned for this observer's ``noise_std``), which never claims more
         information than a Kalman filter has under any mode sequence (kept as
-        :attr:`arrival_prior`).
+        :attr:`arrival_prior`).  ``arrival_weight="kalman"`` (norm 2, solver ``"daqp"``, with
+        ``noise_std``) is the filtering update of Rao, Rawlings & Lee (2001): a Kalman filter
+        (:class:`~hybobs_opt.mhe.arrival.KalmanArrival`) runs behind the window on the samples
+        that left it, in the modes the windows' optima gave them, with ``R = noise_std^2`` and
+        ``Q = (W_w' W_w)^-1``; each window's prior ``x_bar`` is its prediction of the
+        window-start state and ``W_a`` the inverse square root of its covariance, so no sample
+        enters both the prior and the window (``info["arrival"]``: the prior and its standard
+        deviations).  The weight changes the MIQP's Hessian each window: DAQP's workspace is
+        updated in place, nothing is rebuilt.
     x0 : (n,) array, optional
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
     solver_options : dict, optional
@@ -249,6 +258,10 @@ class MHEObserver(Observer):
         far the noise moved it.
     false_alarm : float, default 1e-3
         With ``noise_std``: ``1 -`` the level of that confidence region, in (0, 0.5).
+    initial_std : float or (n,) array, optional
+        With ``arrival_weight="kalman"``: standard deviation of the error of the first prior (the
+        ``x0`` of :meth:`reset`), per state; default that of a uniform distribution over the state
+        box (``half-width / sqrt(3)``; the default ``x0`` is the box's centre).
 
     Notes
     -----
@@ -337,7 +350,7 @@ class MHEObserver(Observer):
                  big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
                  fit_tolerance=None, certify_time_budget: float | None = None, extend=None, noise_std=None,
-                 false_alarm: float = MHE_NOISE_FALSE_ALARM):
+                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -397,6 +410,10 @@ class MHEObserver(Observer):
         self.arrival_prior = self._arrival_prior(arrival_weight)
         if self.arrival_prior is not None:
             arrival_weight = self.arrival_prior.weight
+        self._kalman = self._kalman_arrival(arrival_weight, initial_std, disturbance_weight, extend)
+        if self._kalman is not None:
+            # built with W_a = I; each window sets the filter's weight (_set_arrival_weight)
+            arrival_weight = np.eye(self.n)
         self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
         # eq. (10) written once in CasADi; every matrix below is extracted from it
         self.formulation = MHEFormulation(system, self.T, norm, self._Wy, self._Ww, self._Wa, big_m=big_m,
@@ -415,6 +432,8 @@ class MHEObserver(Observer):
         self._build(dict(solver_options or {}))
         self.model = WindowModel(system, self.T, norm, self.enc, self._Wy, self._Ww, self._Wa, res=self._res,
                                  extension=self._ext)
+        if self._kalman is not None:
+            self._arrival_rows = self._locate_arrival_rows()
         Ub = system.input_bounds
         self._U_A = None if Ub is None else Ub.A
         self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
@@ -428,7 +447,13 @@ class MHEObserver(Observer):
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
-                                           build=self.check_uniqueness, epsilon=noise_epsilon)
+                                           build=self.check_uniqueness and self.solver != "sequences",
+                                           epsilon=noise_epsilon)
+        self._sequences = None
+        if self.solver == "sequences":
+            from .sequence_lp import SequenceLPSolver
+
+            self._sequences = SequenceLPSolver(self.model, self._zero_cost, self._separated)
         self.uniqueness_epsilon = self._separated.epsilon
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight
@@ -450,6 +475,99 @@ class MHEObserver(Observer):
 
         self.false_alarm = false_alarm_probability(false_alarm)
         return sigma, float(chi2.isf(self.false_alarm, self.n))
+
+    def _kalman_arrival(self, value, initial_std, disturbance_weight, extend):
+        """The :class:`~hybobs_opt.mhe.arrival.KalmanArrival` of ``arrival_weight="kalman"`` (else ``None``)."""
+        from .arrival import KalmanArrival, _std_vector
+
+        if not (isinstance(value, str) and value == "kalman"):
+            if initial_std is not None:
+                raise ModelError("initial_std", "given only with arrival_weight='kalman'", repr(initial_std))
+            return None
+        if self.noise_std is None or self.norm != "2" or self.solver != "daqp":
+            raise ModelError("arrival_weight", "'kalman' only with norm '2', solver 'daqp' and noise_std (the filter's "
+                             "R is noise_std^2; the weight changes the DAQP Hessian each window)",
+                             f"norm {self.norm!r}, solver {self.solver!r}, noise_std {self.noise_std}")
+        if extend is not None:
+            raise ModelError("extend", "None with arrival_weight='kalman'", "an extension")
+        half = self.system.scales()[0][: self.n]
+        if initial_std is None:
+            if not np.all(np.isfinite(half) & (half > 0)):
+                raise ModelError("initial_std", "given when the state box is unbounded or flat", repr(half.tolist()))
+            s0 = half / np.sqrt(3.0)  # a uniform distribution over the state box
+        else:
+            s0 = _std_vector(initial_std, self.n, "initial_std", "of the first prior's error, per state")
+        Q = None
+        if disturbance_weight is not None:
+            Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
+            WtW = Ww.T @ Ww
+            if np.linalg.matrix_rank(WtW) < self.n:
+                raise ModelError("disturbance_weight", "invertible with arrival_weight='kalman' (Q = (W_w' W_w)^-1)",
+                                 "a singular weight")
+            Q = np.linalg.inv(WtW)
+        self.initial_std = s0
+        return KalmanArrival(self.system, self.noise_std, Q, s0, MHE_ARRIVAL_MIN_STD_RTOL * half)
+
+    def _locate_arrival_rows(self) -> slice:
+        """The arrival block of the stacked residual, checked to be ``I (x0 - x_bar)`` as built."""
+        sl = dict(self._res.blocks).get("arrival")
+        xi = self.enc.slices["xi0"]
+        hx, cx = self.model.hx, self.model.cx
+        res = self._res
+        if sl is None or not (np.allclose(res.R[sl][:, xi], np.diag(hx)) and np.allclose(res.SX[sl], -np.eye(self.n))
+                              and np.allclose(res.r0[sl], cx)):
+            raise ModelError("arrival_weight", "an arrival block W_a (x0 - x_bar) in the formulation", "another layout")
+        self._Z = np.eye(self.n)  # the information of the weight the matrices now hold
+        return sl
+
+    def _set_arrival_weight(self, L: np.ndarray) -> None:
+        """Put ``W_a = L`` into every matrix that holds it: the residual rows, the window model, the
+        MIQP's Hessian (DAQP workspace updated in place) and the separated program's."""
+        sl, xi = self._arrival_rows, self.enc.slices["xi0"]
+        hx, cx = self.model.hx, self.model.cx
+        Z = L.T @ L
+        dH = 2.0 * (hx[:, None] * (Z - self._Z) * hx[None, :])
+        self._Hc[xi, xi] += dH
+        self._H[xi, xi] += dH / self._Js
+        self._backend.set_hessian(self._H)
+        res = self._res
+        res.R[sl, xi] = L * hx[None, :]
+        res.SX[sl] = -L
+        res.r0[sl] = L @ cx
+        self.model.Wa = L
+        self._Wa = L
+        self._Z = Z
+        if self._separated.built:
+            self._separated.refresh_hessian()
+
+    def _linear_term(self, pvec: np.ndarray, xbar: np.ndarray) -> np.ndarray:
+        """Norm 2: the cost's gradient at ``v = 0``; the formulation's, corrected for the arrival
+        weight of this window when it changes (the formulation holds ``W_a = I``)."""
+        g = self.formulation.linear_term(pvec)
+        if self._kalman is None:
+            return g
+        xi = self.enc.slices["xi0"]
+        g = g.copy()
+        g[xi] += 2.0 * self.model.hx * ((self._Z - np.eye(self.n)) @ (self.model.cx - xbar))
+        return g
+
+    def _estimate_covariance(self, result: WindowResult, xbar: np.ndarray) -> np.ndarray:
+        """Covariance of the estimate ``x(t)`` of a window (``arrival_weight="kalman"``): the inverse
+        of the whitened cost's information ``R' R`` in the window-start state (and disturbances) of
+        the optimal mode sequence, mapped to the last window sample -- the error's covariance if
+        that sequence is the true one and no guard row is active (the Gaussian posterior)."""
+        modes = result.modes
+        R = self.model.sequence_problem(modes, self._U, self._Y, xbar)[0]
+        n, T = self.n, self.T
+        nt = R.shape[1]
+        Px = np.zeros((n, nt))
+        Px[:, :n] = np.diag(self.model.hx)
+        for k in range(T - 1):
+            Px = self.system.modes[int(modes[k])].A @ Px
+            if nt > n:
+                Px[:, n + k * n: n + (k + 1) * n] += np.diag(self.model.hx)
+        cov = Px @ np.linalg.pinv(R.T @ R) @ Px.T
+        return 0.5 * (cov + cov.T)
 
     def _arrival_prior(self, value):
         """The ``arrival_weight`` keyword when it is an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior`
@@ -527,6 +645,9 @@ class MHEObserver(Observer):
         self._zero_cost = np.sqrt(MHE_ZERO_COST_RTOL) * js
         c, A, lb, ub, disc = form.lp_c, form.lp_A, form.lp_lb, form.lp_ub, form.lp_discrete
         self._milp = (c, A, lb, ub, disc)
+        if self.solver == "sequences":
+            self._backend = None  # the mode-prefix branch and bound of LPs is built after the window model
+            return
         self._backend = milp_backend(self.solver, c, A, lb, ub, disc, options, problem=f"MHE observer (norm {self.norm})")
 
     # ------------------------------------------------------------------ uniqueness programs
@@ -567,6 +688,8 @@ class MHEObserver(Observer):
         self._U = np.zeros((self.T, self.m))
         self._count = 0
         self._u_prev: np.ndarray | None = None
+        if self._kalman is not None:
+            self._kalman.reset(x0)
 
     def set_parameter(self, name: str, value) -> None:
         """Set an extension parameter (``ext.add_parameter``) for the coming windows.
@@ -648,7 +771,7 @@ class MHEObserver(Observer):
         if uniqueness and out.optimal:
             if not self.check_uniqueness:
                 raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
-            uq = self._separated.decide(U, Y, xs, out)
+            uq = self._uniqueness(U, Y, xs, out)
             uq["includes_prior"] = self.uniqueness_includes_prior
             alt = uq.pop("alternative") if uq["status"] == "alternative" else None
             out = out.replace(uniqueness=uq, alternative=alt)
@@ -694,6 +817,12 @@ class MHEObserver(Observer):
         return out.replace(residual_source=residuals, seconds=time.perf_counter() - t0)
 
     def _solve_certified(self, U, Y, x_start, Xg, mg, bounds, cold: bool) -> WindowResult:
+        if self._sequences is not None:
+            try:
+                out, self._sequences_ctx = self._sequences.solve(U, Y, x_start)
+            except Exception as exc:  # a crashing solver must not stop the observer loop
+                return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason=f"{type(exc).__name__}: {exc}")
+            return out
         model, res = self.model, self._res
         Uf, Yf = U.reshape(-1), Y.reshape(-1)
         lo, hi = bounds
@@ -822,7 +951,7 @@ class MHEObserver(Observer):
                 # linear term in the displacement d = v - vbar (the proximal term is centred at
                 # vbar): (H_c vbar + g(p)) / J_s, the cost's gradient at the warm start, with
                 # H_c = hessian(cost) and g(p) = gradient(cost) at v = 0 extracted from CasADi
-                f = (self._Hc @ vbar + self.formulation.linear_term(pvec)) / self._Js
+                f = (self._Hc @ vbar + self._linear_term(pvec, x_start)) / self._Js
                 if incumbent is not None:
                     if incumbent.states is Xg:  # the centre is the incumbent: d = 0
                         obj = 0.0
@@ -920,6 +1049,13 @@ class MHEObserver(Observer):
         sub = self._backend.abs_subopt
         return float(self._Js * (sub + float(self._eps @ np.maximum((enc.lb - vbar) ** 2, (enc.ub - vbar) ** 2))))
 
+    def _uniqueness(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, result: WindowResult) -> dict:
+        """The uniqueness answer of a certified optimum: the separated program, or with solver
+        ``"sequences"`` the separated LPs of :meth:`~hybobs_opt.mhe.sequence_lp.SequenceLPSolver.decide`."""
+        if self._sequences is not None:
+            return self._sequences.decide(U, Y, xbar, result, self._sequences_ctx)
+        return self._separated.decide(U, Y, xbar, result)
+
     def _decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, result: WindowResult, info: dict) -> str:
         """Flag of a certified optimum: the analysis's point query, else the separated program.
 
@@ -943,7 +1079,7 @@ class MHEObserver(Observer):
                 info["reason"] = f"analysis label {info['analysis_label']!r} at the estimate and check_uniqueness=False"
                 return FALLBACK
             return OBSERVABLE
-        uq = self._separated.decide(U, Y, xbar, result)
+        uq = self._uniqueness(U, Y, xbar, result)
         uq["includes_prior"] = self.uniqueness_includes_prior
         if uq["status"] == "alternative":
             info["alternative"] = uq.pop("alternative")
@@ -976,12 +1112,22 @@ class MHEObserver(Observer):
             Xg, mg = self._shifted(self._U)
         else:
             Xg, mg = self.model.simulate(self._start, self._U)
+        xbar = Xg[0]
+        if self._kalman is not None:
+            # the filter's prediction of the window-start state from the samples before the window
+            xbar = self._kalman.x.copy()
+            self._set_arrival_weight(self._kalman.weight())
         if not self._in_U(self._U):
             result = WindowResult(Status.NOT_CERTIFIED, reason="input outside U: the big-M constants do not hold there")
         else:
-            result = self._solve(self._U, self._Y, Xg[0], Xg, mg, cold=self._prev is None)
+            result = self._solve(self._U, self._Y, xbar, Xg, mg, cold=self._prev is None)
         info = result.to_dict()
         info["certified_optimum"] = result.optimal
+        if self._kalman is not None:
+            info["arrival"] = {"prior": xbar.tolist(), "std": self._kalman.std().tolist()}
+            # the sample leaving the window enters the filter, in the mode the window's answer gives it
+            q_first = int(result.modes[0]) if result.optimal else int(mg[0])
+            self._kalman.advance(self._U[0], self._Y[0], q_first)
         if result.optimal:
             states, modes = result.states, result.modes
             # the optimum fits the data whatever the flag: it warm-starts the next window
@@ -990,7 +1136,9 @@ class MHEObserver(Observer):
             if misfit is not None:
                 self._x, self._mode = x_pred, q_pred
                 return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, dict(info, reason=misfit))
-            flag = self._decide(self._U, self._Y, Xg[0], result, info)
+            flag = self._decide(self._U, self._Y, xbar, result, info)
+            if self._kalman is not None:
+                info["covariance"] = self._estimate_covariance(result, xbar).tolist()
             if flag == OBSERVABLE:
                 self._x, self._mode = states[-1].copy(), int(modes[-1])
                 return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
@@ -1013,6 +1161,8 @@ class MHEObserver(Observer):
         self._prev = None
         nxt, _, ok = self._open_loop(u)
         self._start = nxt.copy() if ok else self._x.copy()
+        if self._kalman is not None:
+            self._kalman.reset(self._start)  # the filter restarts with the window, from the first prior's spread
         return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason, "certified_optimum": False})
 
 

@@ -31,7 +31,9 @@ __all__ = ["Backend", "BackendOutcome", "BonminBackend", "CasadiDaqpBackend", "C
 
 #: Solvers of the MIQP (norm 2) and of the MILP (norms 1 / inf); the first one is the default.
 MIQP_SOLVERS = ("daqp", "casadi-daqp", "bonmin")
-MILP_SOLVERS = ("highs", "cbc", "casadi-highs")
+#: ``"sequences"`` is no MILP backend: the exact mode-prefix branch and bound of tiny LPs of
+#: :mod:`hybobs_opt.mhe.sequence_lp`, which the observer runs itself.
+MILP_SOLVERS = ("highs", "cbc", "casadi-highs", "sequences")
 
 
 def miqp_backend(solver: str, H: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: np.ndarray, discrete: np.ndarray,

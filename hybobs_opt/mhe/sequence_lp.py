@@ -1,0 +1,527 @@
+"""The 1-norm / inf-norm moving-horizon problem (paper 002, eq. 10) solved exactly without a MIP:
+a branch and bound over mode prefixes with one tiny condensed LP per node.
+
+With the mode sequence fixed, eq. (10) in the 1- or inf-norm is a linear program in the scaled
+window-start state and disturbances ``theta`` (:meth:`~hybobs_opt.mhe.window.WindowModel.sequence_problem`):
+
+    min ||R_s theta + r_s||   s.t.   G_s theta <= g_s,   lo <= theta <= hi.
+
+``R_s`` and ``G_s`` depend on the mode prefix ``s`` only; ``r_s`` and ``g_s`` are affine in the
+window data ``p = [U; Y; x_bar]``.  :class:`SequenceLPSolver` precomputes, once, for every node of
+the prefix tree (pruned of the prefixes whose rows no input of ``U`` can meet, proven by a
+certified LP), the matrices and these affine maps, so that a step computes every node's offsets with
+two matrix-vector products.
+
+Lower bounds are proven in numpy by weak LP duality with *any* multipliers: for ``|mu|_inf <= 1``
+(norm 1; the inf-norm: ``||mu_b||_1 <= 1`` per block of the cost, the dual norm) and ``lam >= 0``,
+every feasible ``theta`` has
+
+    ||R theta + r|| >= mu'r - lam'g + sum_j min(c_j lo_j, c_j hi_j),   c = R'mu + G'lam,
+
+and with ``mu = 0`` a positive right-hand side proves the node infeasible.  The multipliers are
+those of the node's last LP (of an earlier window: a warm start across windows) or, per step,
+of its LP solved by HiGHS (a persistent tiny model per node, presolve off); an LP's answer is
+used only after its point is checked against the rows and its bound recomputed from its
+multipliers.  The optimum of the window is the best leaf; it is certified when every node is
+closed with a gap within ``max(MHE_CERTIFIED_RTOL * cost, zero-cost floor)``.
+
+Uniqueness (the flag ``observable``, :mod:`hybobs_opt.mhe.uniqueness`) is decided in the same tree:
+every leaf whose bound is at most ``J* + epsilon`` gets the separated LPs
+``theta_j >= theta*_j + delta`` / ``theta_j <= theta*_j - delta`` (as column bounds); a verified
+point at cost ``<= J* + epsilon`` is an alternative, and ``unique`` needs every such LP closed
+above the threshold by a proven bound.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import ModelError, SolverError
+from ..status import Status
+from ..tolerances import MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TOL, MHE_MILP_FEASIBILITY_TOL, SEQUENCE_LP_BOUND_RTOL
+from .result import WindowResult
+
+__all__ = ["PREFIX_LP_RETRY", "SequenceLPSolver"]
+
+#: A mode prefix whose LP did not close it (its bound below the cutoff) is branched without an LP
+#: in the following windows, and its LP is tried again every this many windows: on model (16)
+#: at T = 3 a prefix of one or two samples fits a window of noisy data exactly (3 unknowns, fewer
+#: outputs), so its LP costs a solve and never prunes.  Skipping a bound never changes an answer,
+#: only which nodes are visited.
+PREFIX_LP_RETRY = 16
+
+
+class _Node:
+    """One mode prefix: its fixed matrices, affine offsets and the last proven multipliers."""
+
+    __slots__ = ("modes", "R", "G", "blocks", "r_sl", "g_sl", "z_sl", "children", "leaf", "Rinv", "lp",
+                 "mu", "lam", "sep", "fruitless")
+
+    def __init__(self, modes, R, G, blocks):
+        self.modes, self.R, self.G, self.blocks = tuple(modes), R, G, blocks
+        self.children: list[_Node] = []
+        self.leaf = False
+        self.Rinv = None
+        self.lp = None
+        self.mu = None
+        self.lam = None
+        self.sep: dict = {}
+        self.fruitless = 0  # windows since this prefix's LP last closed it (a prefix only)
+
+
+class SequenceLPSolver:
+    """Exact solver of the 1- / inf-norm window problem of eq. (10) (paper 002) by mode-prefix branch and bound.
+
+    Parameters
+    ----------
+    model : WindowModel
+        The window's model, weights and cost (norm ``"1"`` or ``"inf"``).
+    zero_cost : float
+        The zero-cost floor of the certified gap (original cost units).
+    separated : SeparatedProgram
+        The observer's separated program: its ``delta``, ``epsilon``, box of ``xi0`` and
+        :meth:`~hybobs_opt.mhe.uniqueness.SeparatedProgram.alternative` (the verification of an
+        alternative) are reused, no program of it is solved.
+
+    Raises
+    ------
+    ModelError
+        With an extension (``extend``): its rows and parameters are not in the precomputed maps.
+    """
+
+    def __init__(self, model, zero_cost: float, separated):
+        if model.extension is not None:
+            raise ModelError("extend", "None with solver 'sequences' (its per-prefix matrices are precomputed "
+                             "from the model alone; use solver 'highs' for an extended problem)", "an extension")
+        if model.norm not in ("1", "inf"):
+            raise ModelError("norm", "'1' or 'inf' for solver 'sequences'", repr(model.norm))
+        import highspy
+
+        self._hs = highspy
+        self.model, self.norm, self.zero_cost, self.sep = model, model.norm, float(zero_cost), separated
+        sysm, T, n, m, p = model.system, model.T, model.n, model.m, model.p
+        self.T, self.n = T, n
+        self.dist = model.Ww is not None and T > 1
+        self.nt = n + (n * (T - 1) if self.dist else 0)
+        self.np_ = T * m + T * p + n
+        enc = model.enc
+        self.lo = np.concatenate([enc.lb[enc.slices["xi0"]]] + ([enc.lb[enc.slices["omega"]]] if self.dist else []))
+        self.hi = np.concatenate([enc.ub[enc.slices["xi0"]]] + ([enc.ub[enc.slices["omega"]]] if self.dist else []))
+        t0 = time.perf_counter()
+        self.nodes: list[_Node] = []
+        Mr, mr, Mg, mg, Mz, mz = [], [], [], [], [], []
+        self._rows = [0, 0, 0]
+        self.pruned_offline = 0
+        self.roots = self._expand((), (Mr, mr, Mg, mg, Mz, mz))
+        self.Mr, self.mr = np.vstack(Mr), np.concatenate(mr)
+        self.Mg, self.mg = np.vstack(Mg), np.concatenate(mg)
+        self.Mz = np.vstack(Mz) if Mz else np.zeros((0, self.np_))
+        self.mz = np.concatenate(mz) if mz else np.zeros(0)
+        self.leaves = [nd for nd in self.nodes if nd.leaf]
+        self.build_seconds = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ offline
+    def _prefix_maps(self, modes):
+        """``R``, the affine map of ``r`` in ``p``, ``G`` (rows scaled to largest coefficient one), the
+        affine map of ``g``, and the theta-free rows' map, of the prefix ``modes`` (as
+        :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_problem`, with the data as a parameter)."""
+        mdl, sysm, T, n = self.model, self.model.system, self.T, self.n
+        m, p, np_ = mdl.m, mdl.p, self.np_
+        hx, cx, nt = mdl.hx, mdl.cx, self.nt
+        iU, iY, iX = 0, T * m, T * m + T * p
+        Px = np.zeros((n, nt))
+        Px[:, :n] = np.diag(hx)
+        px0, Bpx = cx.copy(), np.zeros((n, np_))
+        XA, Xb = mdl.X.A, mdl.X.b
+        R, Mr, mr, G, Mg, mg, blocks = [], [], [], [], [], [], []
+        for k, q in enumerate(modes):
+            md = sysm.modes[int(q)]
+            EU = np.zeros((m, np_))
+            EU[:, iU + k * m: iU + (k + 1) * m] = np.eye(m)
+            EY = np.zeros((p, np_))
+            EY[:, iY + k * p: iY + (k + 1) * p] = np.eye(p)
+            R.append(-mdl.Wy @ md.C @ Px)
+            Mr.append(mdl.Wy @ (EY - md.C @ Bpx - md.D @ EU))
+            mr.append(mdl.Wy @ (-md.C @ px0 - md.c))
+            blocks += [0] * p
+            Ga, gb = md.guard.A, md.guard.b
+            G.append(Ga[:, :n] @ Px)
+            Mg.append(-Ga[:, n:] @ EU - Ga[:, :n] @ Bpx)
+            mg.append(gb - Ga[:, :n] @ px0)
+            G.append(XA @ Px)
+            Mg.append(-XA @ Bpx)
+            mg.append(Xb - XA @ px0)
+            if k < T - 1:
+                px0 = md.A @ px0 + md.a
+                Bpx = md.A @ Bpx + md.B @ EU
+                Px = md.A @ Px
+                if self.dist:
+                    Px[:, n + k * n: n + (k + 1) * n] += np.diag(hx)
+        nb = 1
+        if self.dist:
+            Rw = np.zeros((n * (T - 1), nt))
+            Rw[:, n:] = np.kron(np.eye(T - 1), mdl.Ww @ np.diag(hx))
+            R.append(Rw)
+            Mr.append(np.zeros((n * (T - 1), np_)))
+            mr.append(np.zeros(n * (T - 1)))
+            blocks += [nb] * (n * (T - 1))
+            nb += 1
+        if mdl.Wa is not None:
+            Ra = np.zeros((n, nt))
+            Ra[:, :n] = mdl.Wa @ np.diag(hx)
+            R.append(Ra)
+            EX = np.zeros((n, np_))
+            EX[:, iX:iX + n] = np.eye(n)
+            Mr.append(-mdl.Wa @ EX)
+            mr.append(mdl.Wa @ cx)
+            blocks += [nb] * n
+        G, Mg, mg = np.vstack(G), np.vstack(Mg), np.concatenate(mg)
+        scale = np.max(np.abs(G), axis=1)
+        zero = scale == 0
+        Mz, mz = Mg[zero], mg[zero]
+        keep = ~zero
+        s = scale[keep]
+        return (np.vstack(R), np.vstack(Mr), np.concatenate(mr), G[keep] / s[:, None], Mg[keep] / s[:, None],
+                mg[keep] / s, Mz, mz, np.asarray(blocks, dtype=int))
+
+    def _possible(self, G, Mg, mg, Mz, mz) -> bool:
+        """Whether some input of ``U`` lets the prefix's rows hold (``False`` only when a certified
+        LP of :func:`~hybobs_opt.geometry.lp.solve_lp` proves that none does)."""
+        from ..geometry.lp import solve_lp
+
+        mdl, T, m, nt = self.model, self.T, self.model.m, self.nt
+        Ub = mdl.system.input_bounds
+        iU = slice(0, T * m)
+        # rows in (theta, U): G theta - Mg_U U <= mg (the guards and X rows see the data only through U)
+        A = np.vstack([np.hstack([G, -Mg[:, iU]]), np.hstack([np.zeros((Mz.shape[0], nt)), -Mz[:, iU]])])
+        b = np.concatenate([mg, mz])
+        if Ub is not None:
+            A = np.vstack([A, np.hstack([np.zeros((T * Ub.A.shape[0], nt)), np.kron(np.eye(T), Ub.A)])])
+            b = np.concatenate([b, np.tile(Ub.b, T)])
+        bounds = [(lo, hi) for lo, hi in zip(self.lo, self.hi)] + [(None, None)] * (T * m)
+        try:
+            out = solve_lp(np.zeros(A.shape[1]), A, b, bounds=bounds, problem="rows of a mode prefix for every input")
+        except SolverError:
+            return True
+        return out.status != Status.INFEASIBLE
+
+    def _expand(self, prefix, acc) -> list[_Node]:
+        out = []
+        for q in range(self.model.system.n_modes):
+            modes = prefix + (q,)
+            R, Mr, mr, G, Mg, mg, Mz, mz, blocks = self._prefix_maps(modes)
+            if not self._possible(G, Mg, mg, Mz, mz):
+                self.pruned_offline += 1
+                continue
+            nd = _Node(modes, R, G, blocks)
+            a, b, c = self._rows
+            nd.r_sl, nd.g_sl, nd.z_sl = slice(a, a + R.shape[0]), slice(b, b + G.shape[0]), slice(c, c + Mz.shape[0])
+            self._rows = [a + R.shape[0], b + G.shape[0], c + Mz.shape[0]]
+            for lst, val in zip(acc, (Mr, mr, Mg, mg, Mz, mz)):
+                lst.append(val)
+            self.nodes.append(nd)
+            if len(modes) == self.T:
+                nd.leaf = True
+                if R.shape[0] == R.shape[1] and np.linalg.matrix_rank(R) == R.shape[1]:
+                    nd.Rinv = np.linalg.inv(R)
+            else:
+                nd.children = self._expand(modes, acc)
+            out.append(nd)
+        return out
+
+    # ------------------------------------------------------------------ bounds and LPs
+    def _dual_bound(self, nd, mu, lam, r, g, lo, hi) -> float:
+        """The weak-duality lower bound of the node's LP with the multipliers ``(mu, lam)``, made
+        dual-feasible (``lam >= 0``, the dual-norm ball) and proven in numpy, minus rounding."""
+        lam = np.maximum(lam, 0.0)
+        if mu is None:
+            mu = np.zeros(r.size)
+        elif self.norm == "1":
+            mu = np.clip(mu, -1.0, 1.0)
+        else:
+            tot = np.bincount(nd.blocks, weights=np.abs(mu))
+            mu = mu / np.maximum(tot, 1.0)[nd.blocks]
+        c = nd.R.T @ mu + nd.G.T @ lam
+        box = np.minimum(c * lo, c * hi)
+        terms = mu * r
+        val = float(terms.sum() - lam @ g + box.sum())
+        size = float(np.abs(terms).sum() + np.abs(lam * g).sum() + np.abs(box).sum())
+        return val - SEQUENCE_LP_BOUND_RTOL * size
+
+    def _cost(self, nd, theta, r) -> float:
+        res = np.abs(nd.R @ theta + r)
+        if self.norm == "1":
+            return float(res.sum())
+        # the blocks (outputs, disturbances, arrival) are contiguous, in that order
+        return float(np.maximum.reduceat(res, np.flatnonzero(np.r_[True, np.diff(nd.blocks) != 0])).sum())
+
+    def _lp_model(self, nd):
+        """The node's persistent HiGHS LP in ``[theta; e]``: ``R theta - E e <= -r``,
+        ``R theta + E e >= -r``, ``G theta <= g``, ``lo <= theta <= hi``, ``e >= 0``."""
+        hs = self._hs
+        h = hs.Highs()
+        for key, val in (("output_flag", False), ("presolve", "off"),
+                         ("primal_feasibility_tolerance", MHE_MILP_FEASIBILITY_TOL),
+                         ("dual_feasibility_tolerance", MHE_MILP_FEASIBILITY_TOL)):
+            h.setOptionValue(key, val)
+        R, G = nd.R, nd.G
+        k, nt = R.shape
+        E = np.eye(k) if self.norm == "1" else np.eye(int(nd.blocks.max()) + 1)[nd.blocks]
+        ne = E.shape[1]
+        A = np.block([[R, -E], [R, E], [G, np.zeros((G.shape[0], ne))]])
+        inf = hs.kHighsInf
+        lp = hs.HighsLp()
+        nr, nc = A.shape
+        lp.num_col_, lp.num_row_ = nc, nr
+        lp.col_cost_ = np.r_[np.zeros(nt), np.ones(ne)]
+        lp.col_lower_ = np.r_[self.lo, np.zeros(ne)]
+        lp.col_upper_ = np.r_[self.hi, np.full(ne, inf)]
+        lp.row_lower_ = np.full(nr, -inf)
+        lp.row_upper_ = np.full(nr, inf)
+        lp.a_matrix_.format_ = hs.MatrixFormat.kRowwise
+        lp.a_matrix_.start_ = np.arange(0, nr * nc + 1, nc).astype(np.int32)
+        lp.a_matrix_.index_ = np.tile(np.arange(nc), nr).astype(np.int32)
+        lp.a_matrix_.value_ = A.reshape(-1).astype(float)
+        if h.passModel(lp) != hs.HighsStatus.kOk:
+            raise SolverError(f"HiGHS refused the LP of mode prefix {nd.modes}")
+        nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
+        return nd.lp
+
+    def _solve_lp(self, nd, r, g, lo, hi):
+        """The node's LP, checked: ``(bound, theta or None, cost or None, mu, lam)`` with ``bound`` proven
+        (``inf`` for an infeasibility proven by a verified ray), or ``None`` (no checked answer)."""
+        hs = self._hs
+        h, rows, k, cols = nd.lp if nd.lp is not None else self._lp_model(nd)
+        inf = hs.kHighsInf
+        ng = g.size
+        h.changeRowsBounds(rows.size, rows, np.r_[np.full(k, -inf), -r, np.full(ng, -inf)],
+                           np.r_[-r, np.full(k, inf), g])
+        h.changeColsBounds(cols.size, cols, lo, hi)
+        h.run()
+        st = h.getModelStatus()
+        if st not in (hs.HighsModelStatus.kOptimal, hs.HighsModelStatus.kInfeasible):
+            # HiGHS ends some warm re-solves of a degenerate LP with "unknown": once more from scratch
+            h.clearSolver()
+            h.run()
+            st = h.getModelStatus()
+        self.lp_solves += 1
+        if st == hs.HighsModelStatus.kInfeasible:
+            _, ok, ray = h.getDualRay()
+            ray = np.asarray(ray, dtype=float) if ok and len(ray) == rows.size else None
+            for cand in ([] if ray is None else [-ray[2 * k:], ray[2 * k:]]):
+                if self._dual_bound(nd, None, cand, r, g, lo, hi) > 0:
+                    return np.inf, None, None, None, cand
+            return None
+        if st != hs.HighsModelStatus.kOptimal:
+            return None
+        sol = h.getSolution()
+        x = np.asarray(sol.col_value, dtype=float)[: cols.size]
+        y = np.asarray(sol.row_dual, dtype=float)
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+            return None
+        if np.max(nd.G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL) or np.any(
+                x > hi + MHE_FEASIBILITY_TOL):
+            return None
+        x = np.clip(x, lo, hi)
+        mu, lam = -(y[:k] + y[k:2 * k]), -y[2 * k:]
+        bound = self._dual_bound(nd, mu, lam, r, g, lo, hi)
+        return bound, x, self._cost(nd, x, r), mu, lam
+
+    # ------------------------------------------------------------------ one window
+    def solve(self, U, Y, xbar) -> tuple[WindowResult, dict]:
+        """The certified optimum of one window (``WindowResult``) and the step's search data for :meth:`decide`."""
+        self.lp_solves = 0
+        pv = np.concatenate([U.reshape(-1), Y.reshape(-1), xbar])
+        r_all = self.Mr @ pv + self.mr
+        g_all = self.Mg @ pv + self.mg
+        z_ok = (self.Mz @ pv + self.mz) >= 0.0 if self.mz.size else np.zeros(0, dtype=bool)
+        lo, hi = self.lo, self.hi
+        ctx = {"r": r_all, "g": g_all, "z": z_ok, "bounds": {}}
+        best = (np.inf, None, None)  # cost, node, theta
+        # (i) zero-cost fast path: a square full-rank sequence whose exact fit meets its rows
+        for nd in self.leaves:
+            if nd.Rinv is None or (nd.z_sl.stop > nd.z_sl.start and not z_ok[nd.z_sl].all()):
+                continue
+            r = r_all[nd.r_sl]
+            th = -nd.Rinv @ r
+            # the rows to the LP solver's own tolerance: a fit that needs MHE_FEASIBILITY_TOL of slack
+            # in a guard is not claimed (its LP decides the sequence)
+            if np.all(th >= lo - MHE_MILP_FEASIBILITY_TOL) and np.all(th <= hi + MHE_MILP_FEASIBILITY_TOL) and np.max(
+                    nd.G @ th - g_all[nd.g_sl], initial=0.0) <= MHE_MILP_FEASIBILITY_TOL:
+                th = np.clip(th, lo, hi)
+                c = self._cost(nd, th, r)
+                if c < best[0]:
+                    best = (c, nd, th)
+                if c <= self.zero_cost:
+                    ctx["zero_fit"] = True
+                    break
+        failed = []
+        if best[0] > self.zero_cost:
+            # (ii)-(iii) depth-first branch and bound, warm bounds first, the node's LP where they fail
+            stack = list(reversed(self.roots))
+            while stack:
+                nd = stack.pop()
+                b = self._node_bound(nd, ctx, lo, hi, cutoff=best[0] - self._gap(best[0]))
+                if b is None:
+                    failed.append(nd.modes)
+                    continue
+                bound, th, cost = b
+                if th is not None and nd.leaf and cost < best[0]:
+                    best = (cost, nd, th)
+                if bound >= best[0] - self._gap(best[0]):
+                    continue
+                if nd.leaf:
+                    if th is None or bound < cost - self._gap(cost):
+                        failed.append(nd.modes)
+                    continue
+                stack.extend(reversed(nd.children))
+        cost, nd, th = best
+        detail = {"sequence_lps": self.lp_solves, "nodes": len(self.nodes)}
+        if failed:
+            return WindowResult(Status.NOT_CERTIFIED, solver="sequences", solver_detail=detail,
+                                reason=f"no checked LP answer for mode prefix(es) {failed[:3]}"), ctx
+        if nd is None:
+            return WindowResult(Status.INFEASIBLE, solver="sequences", solved_by="prefix search", solver_detail=detail,
+                                reason="no mode sequence is feasible (every prefix proven infeasible)"), ctx
+        mdl, T, n = self.model, self.T, self.n
+        x0 = mdl.cx + mdl.hx * th[:n]
+        W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
+        modes = np.array(nd.modes, dtype=int)
+        states = mdl.trajectory(x0, modes, U, W)
+        v = mdl.enc.pack(states, modes, U, W if mdl.enc.disturbances else None)
+        viol = mdl.enc.violation(v, U.reshape(-1))
+        if not viol <= MHE_FEASIBILITY_TOL:
+            return WindowResult(Status.NOT_CERTIFIED, solver="sequences", solver_detail=detail,
+                                reason=f"the best sequence's point failed verification (violation {viol:.3g})"), ctx
+        exact = mdl.cost(states, modes, U, Y, W, xbar)
+        ctx.update(J=exact, modes=nd.modes, theta=th)
+        return WindowResult(Status.OPTIMAL, solver="sequences",
+                            solved_by="zero-cost fit" if ctx.get("zero_fit") else "prefix search", polished=False,
+                            x_start=x0, states=states, modes=modes, w=W, cost=exact,
+                            gap_bound=self._gap(exact), verified_violation=float(viol), passes=0,
+                            solver_detail=detail), ctx
+
+    def _gap(self, cost: float) -> float:
+        return max(MHE_CERTIFIED_RTOL * cost, self.zero_cost) if np.isfinite(cost) else 0.0
+
+    def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, mults=None):
+        """``(bound, theta, cost)`` of a node (``theta``/``cost`` only when its LP was solved), or ``None``.
+
+        The stored multipliers of the node (or of ``key``: a separated LP) are tried first; the LP
+        is solved only when their bound does not reach ``cutoff``."""
+        if nd.z_sl.stop > nd.z_sl.start and not ctx["z"][nd.z_sl].all():
+            return np.inf, None, None  # a row without theta-coefficients fails: 0 <= g < 0
+        r, g = ctx["r"][nd.r_sl], ctx["g"][nd.g_sl]
+        stored = [(nd.mu, nd.lam)] if key is None else [nd.sep.get(key, (None, None))]
+        if key is not None and nd.Rinv is not None:
+            # a square full-rank sequence: mu = sign R^-T e_j (scaled into the dual ball) bounds the
+            # cost of moving theta_j by delta from the exact fit, with no LP
+            j, s = key
+            mu = s * nd.Rinv[j]
+            stored.append((mu / max(self._dual_norm(nd, mu), 1e-300), np.zeros(g.size)))
+        best = -np.inf
+        for mu, lam in stored:
+            if lam is None:
+                continue
+            b = self._dual_bound(nd, mu, lam, r, g, lo, hi)
+            if mu is None and b > 0:
+                return np.inf, None, None  # a verified infeasibility ray
+            best = max(best, b)
+            if b >= cutoff:
+                return b, None, None
+        if not nd.leaf and key is None and nd.fruitless and nd.fruitless % PREFIX_LP_RETRY:
+            # this prefix's LP did not close it in the last window: branch without solving it
+            nd.fruitless += 1
+            return best, None, None
+        out = self._solve_lp(nd, r, g, lo, hi)
+        if out is None:
+            return None
+        bound, th, cost, mu, lam = out
+        if key is None:
+            nd.mu, nd.lam = mu, lam
+            nd.fruitless = 0 if bound >= cutoff else nd.fruitless + 1
+        else:
+            nd.sep[key] = (mu, lam)
+        return bound, th, cost
+
+    def _dual_norm(self, nd, mu) -> float:
+        """The dual norm of ``mu`` (inf-norm for cost norm 1; the largest block 1-norm for norm inf)."""
+        if self.norm == "1":
+            return float(np.max(np.abs(mu), initial=0.0))
+        return float(np.max(np.bincount(nd.blocks, weights=np.abs(mu)), initial=0.0))
+
+    # ------------------------------------------------------------------ uniqueness
+    def decide(self, U, Y, xbar, opt: WindowResult, ctx: dict) -> dict:
+        """Is the window-start state unique (no state ``delta`` away with cost ``<= J* + epsilon``)?
+
+        Returns the dict of :meth:`~hybobs_opt.mhe.uniqueness.SeparatedProgram.decide`
+        (``status``, ``decided_by``, ``threshold``, ``separated_cost``, ``separated_cost_bound``,
+        ``alternative`` when one is found, ``seconds``).
+        """
+        t0 = time.perf_counter()
+        try:
+            out = self._decide(U, Y, xbar, opt, ctx)
+        except Exception as exc:  # a crashing solver must not stop the observer loop
+            out = {"status": "not certified", "reason": f"{type(exc).__name__}: {exc}"}
+        out["seconds"] = time.perf_counter() - t0
+        return out
+
+    def _decide(self, U, Y, xbar, opt, ctx) -> dict:
+        sep, n = self.sep, self.n
+        delta, eps = sep.delta, sep.epsilon
+        thr = float(opt.cost) + eps
+        base = {"delta": delta, "epsilon": eps, "threshold": thr, "separated_cost": None,
+                "separated_cost_bound": None}
+        xi_s = np.clip((opt.x_start - self.model.cx) / self.model.hx, sep._lbx, sep._ubx)
+        dirs = [(j, s) for j in range(n) for s in (1, -1)
+                if (xi_s[j] + delta <= sep._ubx[j] if s > 0 else xi_s[j] - delta >= sep._lbx[j])]
+        if not dirs:
+            return {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
+                    "separated_cost_bound": np.inf}
+        lps0 = self.lp_solves
+        lowest = np.inf
+        stack = list(reversed(self.roots))
+        while stack:
+            nd = stack.pop()
+            b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr, np.inf))
+            if b is None:
+                return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
+            if b[0] > thr:
+                lowest = min(lowest, b[0])
+                continue
+            if not nd.leaf:
+                stack.extend(reversed(nd.children))
+                continue
+            for j, s in dirs:
+                lo, hi = self.lo.copy(), self.hi.copy()
+                if s > 0:
+                    lo[j] = max(lo[j], xi_s[j] + delta)
+                else:
+                    hi[j] = min(hi[j], xi_s[j] - delta)
+                # a zero-cost fit of a square sequence already in the half-space is an alternative
+                bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr, np.inf), key=(j, s))
+                if bs is None:
+                    return {**base, "status": "not certified",
+                            "reason": f"no checked separated LP answer for modes {nd.modes}, direction {(j, s)}"}
+                bound, th, cost = bs
+                if bound > thr:
+                    lowest = min(lowest, bound)
+                    continue
+                if th is None or cost > thr:
+                    return {**base, "status": "not certified", "separated_cost_bound": min(lowest, bound),
+                            "reason": f"separated LP of modes {nd.modes} closed at {bound:.3g}, within the "
+                                      f"threshold {thr:.3g} but without a point below it"}
+                mdl, T = self.model, self.T
+                x0 = mdl.cx + mdl.hx * th[:n]
+                W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
+                alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xi_s)
+                if alt is not None and alt["cost"] <= thr:
+                    return {**base, "status": "alternative", "decided_by": "sequence LPs",
+                            "separated_cost": alt["cost"], "alternative": alt,
+                            "sequence_lps": self.lp_solves - lps0}
+                return {**base, "status": "not certified",
+                        "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
+        return {**base, "status": "unique", "decided_by": "sequence LPs (every prefix and direction closed)",
+                "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0}
