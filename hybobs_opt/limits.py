@@ -37,6 +37,12 @@ MAX_GRID_POINTS: int = 1_000_000
 #: solvers by far (it constrains nothing any more), and near 10^154 it overflows a double.
 MAX_GAIN_BOUND: float = 1e12
 
+#: Bytes of the ``static const`` tables of an exported lookup observer (``hybobs_opt.observers.c_export``,
+#: ``hybobs export``).  Model (17) at T = 5 needs 14 MB in double precision, already beyond the flash of
+#: most engine controllers; the C source is about 2.5 times larger than its tables and a compiler
+#: needs several times that in memory, so beyond 256 MiB nothing useful compiles.
+MAX_EXPORT_TABLE_BYTES: int = 256 * 1024 * 1024
+
 #: Local worker processes per core: each forked worker holds a copy of the package and the
 #: problem; more than a few per core only adds start-up time and memory.
 MAX_WORKERS_PER_CORE: int = 4

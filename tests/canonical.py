@@ -112,3 +112,34 @@ def rotation_pwa(angle: float) -> PWASystem:
              PWAMode(rot(-angle), B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0]]), np.zeros(1)), name="left"))
     return PWASystem(modes, Polytope.from_box([-10, -10], [10, 10]), Polytope.from_box([-1], [1]),
                      ("x1", "x2"), ("u",), ("y",), name="rotation")
+
+
+def deadzone_spring(Ts: float = 0.05, k: float = 4.0, c: float = 0.5, delta: float = 0.1) -> PWASystem:
+    """A drive and a load coupled by a spring with a dead zone (the dead-zone model of backlash,
+    Nordin & Gutman, Automatica 38(10), 2002, Sec. 2), Euler-discretised: ``x1`` the deflection,
+    ``x2`` the load speed (the output), ``u`` the drive speed.
+
+    ``x1+ = x1 + Ts (u - x2)``, ``x2+ = x2 + Ts (k dz(x1) - c x2)`` with ``dz(x1) = x1 - delta``
+    (mode ``push``, ``x1 >= delta``), ``0`` (``free``, ``|x1| <= delta``), ``x1 + delta`` (``pull``);
+    ``|x1| <= 1``, ``|x2| <= 3``, ``|u| <= 1``.  Known structure: in the dead zone the deflection
+    never reaches the output, so every window that stays in ``free`` has ``rank C_i = 1 < n`` and
+    ``B~_T`` has pieces (40 at T = 3, 96 at T = 4): a system outside the papers whose lookup observer
+    decides windows by its ``B~_T`` LPs.
+    """
+    A_free = np.array([[1.0, -Ts], [0.0, 1.0 - c * Ts]])
+    A_contact = np.array([[1.0, -Ts], [k * Ts, 1.0 - c * Ts]])
+    B, C = np.array([[Ts], [0.0]]), np.array([[0.0, 1.0]])
+    modes = (PWAMode(A_contact, B, np.array([0.0, -k * Ts * delta]), C,
+                     Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([-delta])), name="push"),
+             PWAMode(A_free, B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+                                                         np.array([delta, delta])), name="free"),
+             PWAMode(A_contact, B, np.array([0.0, k * Ts * delta]), C,
+                     Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([-delta])), name="pull"))
+    return PWASystem(modes, Polytope.from_box([-1.0, -3.0], [1.0, 3.0]), Polytope.from_box([-1.0], [1.0]),
+                     ("x1", "x2"), ("u",), ("y",), name="deadzone_spring")
+
+
+def deadzone_drive(steps: int, Ts: float = 0.05) -> np.ndarray:
+    """Drive speed of the dead-zone spring's scenario: two sines that cross the dead zone both ways."""
+    t = np.arange(steps) * Ts
+    return (0.8 * np.sin(0.7 * t) + 0.2 * np.sin(3.1 * t))[:, None]

@@ -60,7 +60,7 @@ from ..status import Status
 from ..systems.pwa import PWASystem
 from ..tolerances import ARRIVAL_CONTRACTION_MARGIN, ARRIVAL_LMI_RTOL
 
-__all__ = ["ArrivalPrior", "certified_arrival_prior"]
+__all__ = ["ArrivalPrior", "KalmanArrival", "certified_arrival_prior"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -299,3 +299,78 @@ def certified_arrival_prior(system: PWASystem, noise_std, *, disturbance_std=Non
                       "decay (the backlash of model (16): the twist integrates the load speed) leaves the "
                       "LMI no interior point along it, and the solver's answer then misses it by more "
                       "than the re-check allows")
+
+
+class KalmanArrival:
+    """The arrival cost of the moving-horizon observer by the filtering update (time-varying).
+
+    Rao, Rawlings & Lee (2001) give the arrival cost that makes a moving-horizon estimate of a
+    linear-Gaussian model equal the Kalman filter: the prior of the window-start state
+    ``x(t-T+1)`` is the filter's one-step prediction ``x^(t-T+1 | t-T)`` from the data *before*
+    the window, weighted by the inverse of its covariance ``P``.  This filter runs ``T - 1``
+    samples behind the observer along the mode sequence the observer estimated (the mode of the
+    sample leaving the window, from the window's certified optimum), with ``R = diag(noise_std^2)``
+    and process noise ``Q``:
+
+    ``x+ = A_q (x + K (y - C_q x - D_q u - c_q)) + B_q u + a_q``,
+    ``P+ = A_q (P - K C_q P) A_q' + Q``, ``K = P C_q' (C_q P C_q' + R)^-1``.
+
+    The prior is thus statistically consistent with the window's own data (no sample enters both),
+    unlike the previous window's smoothed estimate.  It is exact for the linear model of the
+    modes it is told; the modes are the observer's estimates, and the weight is the filter's
+    information, not a bound that holds under every mode sequence (that is
+    :func:`certified_arrival_prior`).
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model (eq. 1 of paper 002).
+    noise_std : (p,) array
+        Output noise standard deviations.
+    disturbance_cov : (n, n) array or None
+        ``Q`` (``None``: no process noise).
+    initial_std : (n,) array
+        Standard deviation of the first prior's error (the ``x0`` of a reset).
+    min_std : (n,) array
+        Floor of the prior's standard deviations (keeps the weight's conditioning, and the
+        observer's Hessian factorisable, after long observable stretches).
+    """
+
+    def __init__(self, system: PWASystem, noise_std: np.ndarray, disturbance_cov: np.ndarray | None,
+                 initial_std: np.ndarray, min_std: np.ndarray):
+        self.system = system
+        self.R = np.diag(np.asarray(noise_std, dtype=float) ** 2)
+        self.Q = None if disturbance_cov is None else np.asarray(disturbance_cov, dtype=float)
+        self.P0 = np.diag(np.asarray(initial_std, dtype=float) ** 2)
+        self._floor = np.diag(np.asarray(min_std, dtype=float) ** 2)
+        self.x = np.zeros(system.n)
+        self.P = self.P0.copy()
+
+    def reset(self, x0: np.ndarray) -> None:
+        """Start again from ``x0`` with the initial covariance."""
+        self.x = np.asarray(x0, dtype=float).copy()
+        self.P = self.P0.copy()
+
+    def advance(self, u: np.ndarray, y: np.ndarray, q: int) -> None:
+        """Take the sample ``(u, y)`` in mode ``q`` and predict the next state (Joseph form)."""
+        md = self.system.modes[int(q)]
+        C, P = md.C, self.P
+        S = C @ P @ C.T + self.R
+        K = np.linalg.solve(S, C @ P).T
+        x = self.x + K @ (y - C @ self.x - md.D @ u - md.c)
+        IKC = np.eye(P.shape[0]) - K @ C
+        Pf = IKC @ P @ IKC.T + K @ self.R @ K.T
+        self.x = md.A @ x + md.B @ u + md.a
+        Pn = md.A @ Pf @ md.A.T
+        if self.Q is not None:
+            Pn = Pn + self.Q
+        self.P = 0.5 * (Pn + Pn.T)
+
+    def weight(self) -> np.ndarray:
+        """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root)."""
+        w, V = np.linalg.eigh(self.P + self._floor)
+        return (V / np.sqrt(w)) @ V.T
+
+    def std(self) -> np.ndarray:
+        """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
+        return np.sqrt(np.diag(self.P))

@@ -158,6 +158,7 @@ class SeparatedProgram:
             if backend.probe():
                 self.miqp, self.prox_weight = backend, float(w)
                 self._eps = np.full(nv + nb, float(w))
+                self._H0 = H0
                 break
         if self.miqp is None:
             raise SolverError("uniqueness MIQP of the MHE observer", "daqp", "Hessian not factorised (exit -5)",
@@ -174,6 +175,19 @@ class SeparatedProgram:
         ub = np.concatenate([ub0, np.ones(nb)])
         disc = np.concatenate([disc0, np.ones(nb, dtype=bool)])
         self.milp = milp_backend(self.solver, c, A, lb, ub, disc, options, problem="uniqueness MILP of the MHE observer")
+
+    def refresh_hessian(self) -> None:
+        """Rebuild the MIQP's Hessian from the residual's current rows (a time-varying arrival cost
+        changes them in place; :class:`~hybobs_opt.mhe.arrival.KalmanArrival`).  The workspace
+        is updated, not rebuilt; ``Js`` (the objective's scale) stays the one of construction."""
+        if self.miqp is None:
+            return
+        nv = self.enc.n_vars
+        R = self._res.R
+        H0 = self._H0.copy()
+        H0[:nv, :nv] = 2.0 * (R.T @ R) / self._Js2
+        self._H0 = H0
+        self.miqp.set_hessian(H0 + 2.0 * self.prox_weight * np.eye(H0.shape[0]))
 
     def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult) -> dict:
         """Is the window-start state of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?

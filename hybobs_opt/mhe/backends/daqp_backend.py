@@ -80,6 +80,27 @@ class DaqpBackend:
         # on degenerate big-M vertices (see MHE_DAQP_CYCLE_TOL)
         self._settings = {"abs_subopt": MHE_ABS_SUBOPT, "eps_prox": 0.0, "cycle_tol": MHE_DAQP_CYCLE_TOL, **options}
 
+    def set_hessian(self, H: np.ndarray) -> None:
+        """Replace the Hessian (same size, positive definite) for the coming solves.
+
+        DAQP's workspace is updated in place (``Model.update(H=...)`` refactorises it; the
+        working set of the previous solve is kept as a warm start): the problem is not rebuilt.
+        Used by a time-varying arrival cost (:class:`~hybobs_opt.mhe.arrival.KalmanArrival`).
+
+        Parameters
+        ----------
+        H : (nv, nv) ndarray
+            The new Hessian.
+        """
+        H = np.ascontiguousarray(H, dtype=float)
+        if H.shape != self._H.shape:
+            raise ValueError(f"Hessian of shape {H.shape}, expected {self._H.shape}")
+        self._H = H
+        L = np.linalg.cholesky(H)
+        self._Linv = solve_triangular(L, np.eye(L.shape[0]), lower=True)
+        if self._ready:
+            self._model.update(H=self._H)
+
     @property
     def abs_subopt(self) -> float:
         return float(self._settings.get("abs_subopt", 0.0))

@@ -134,3 +134,97 @@ def test_bad_noise_levels_name_the_field(kwargs, field):
     plant = get_example("powertrain3").build()
     with pytest.raises(ModelError, match=field):
         certified_arrival_prior(plant, **kwargs)
+
+
+# ---------------------------------------------------------------- arrival_weight="kalman"
+def _lagging_prior(A, B, C, sigma, U, Y, s, x0, P0):
+    """Kalman prediction of x(s) from the samples 0..s-1 (written out, covariance form)."""
+    x, P = x0.copy(), P0.copy()
+    R = np.array([[sigma ** 2]])
+    for k in range(s):
+        K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+        x = A @ (x + K @ (Y[k] - C @ x)) + B @ U[k]
+        P = A @ (P - K @ C @ P) @ A.T
+    return x, P
+
+
+def test_kalman_arrival_window_equals_the_batch_least_squares_posterior():
+    """On a linear model (both modes alike, no row active) each window's estimate is the Gaussian
+    posterior of its data and the lagging filter's prior: batch least squares solved here."""
+    from hybobs_opt.tolerances import MHE_ARRIVAL_MIN_STD_RTOL
+
+    plant, A, C = _twin_linear()
+    B = np.array([[0.0], [1.0]])
+    sigma, T, N = 0.1, 3, 40
+    rng = np.random.default_rng(7)
+    U = rng.uniform(-0.5, 0.5, size=(N, 1))
+    x = np.array([2.0, -1.0])
+    X = []
+    for k in range(N):
+        X.append(x)
+        x = A @ x + B @ U[k]
+    X = np.array(X)
+    Y = X @ C.T + sigma * rng.standard_normal((N, 1))
+    obs = MHEObserver(plant, T, noise_std=sigma, arrival_weight="kalman")
+    half = np.full(2, 10.0)
+    P0 = np.diag((half / np.sqrt(3.0)) ** 2)
+    floor = np.diag((MHE_ARRIVAL_MIN_STD_RTOL * half) ** 2)
+    compared = 0
+    for t in range(N):
+        est = obs.step(U[t], Y[t])
+        if t < T - 1:
+            continue
+        s = t - T + 1
+        xbar, P = _lagging_prior(A, B, C, sigma, U, Y, s, np.zeros(2), P0)
+        assert np.allclose(est.info["arrival"]["prior"], xbar, rtol=1e-9, atol=1e-9)
+        # batch least squares in x(s): outputs of the window and the prior
+        rows, rhs = [], []
+        Phi, off = np.eye(2), np.zeros(2)
+        for k in range(s, t + 1):
+            rows.append(C @ Phi / sigma)
+            rhs.append((Y[k] - C @ off) / sigma)
+            Phi, off = A @ Phi, A @ off + B @ U[k]
+        W = np.linalg.cholesky(np.linalg.inv(P + floor)).T
+        rows.append(W)
+        rhs.append(W @ xbar)
+        xs = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+        assert est.info["certified_optimum"]
+        np.testing.assert_allclose(est.info["x_start"], xs, rtol=1e-6, atol=1e-6)
+        compared += 1
+    assert compared == N - T + 1
+
+
+def test_kalman_arrival_on_the_noisy_powertrain_states_a_consistent_covariance():
+    """Model (16), sigma = 0.01 rad/s, through the first backlash switches: the flagged estimates'
+    errors against the simulated truth stay within 5 of their stated standard deviations
+    (Mahalanobis distance)."""
+    from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
+
+    plant, trace, _, _ = bench_trace("powertrain3", 3, 1100, 0.0, 0)
+    sigma = 0.01
+    y = trace.y + sigma * np.random.default_rng(0).standard_normal(trace.y.shape)
+    obs = MHEObserver(plant, 3, noise_std=sigma, arrival_weight="kalman")
+    flagged, worst = 0, 0.0
+    for k in range(850, 1100):  # from the box's centre, 164 samples before the shaft leaves contact
+        est = obs.step(trace.u[k], y[k])
+        if est.flag == "observable":
+            err = est.x - trace.x[k]
+            cov = np.array(est.info["covariance"])
+            worst = max(worst, float(np.sqrt(err @ np.linalg.pinv(cov) @ err)))
+            flagged += 1
+    assert flagged > 200  # the same observer without the prior flags none (test_mhe_noise_std)
+    assert worst < 5.0
+
+
+def test_kalman_arrival_refuses_what_it_cannot_do():
+    plant = get_example("powertrain3").build()
+    with pytest.raises(ModelError, match="arrival_weight"):
+        MHEObserver(plant, 3, arrival_weight="kalman")  # no noise level
+    with pytest.raises(ModelError, match="arrival_weight"):
+        MHEObserver(plant, 3, norm="1", arrival_weight="kalman")
+    with pytest.raises(ModelError, match="initial_std"):
+        MHEObserver(plant, 3, noise_std=0.01, initial_std=1.0)  # only with the Kalman prior
+    with pytest.raises(ModelError, match="initial_std"):
+        MHEObserver(plant, 3, noise_std=0.01, arrival_weight="kalman", initial_std=[1.0, 2.0])
+    with pytest.raises(ModelError, match="arrival_weight"):
+        MHEObserver(plant, 3, noise_std=0.01, arrival_weight="kalmann")
