@@ -13,7 +13,7 @@ an :class:`MHEExtension`.  :func:`certified_arrival_prior` tunes the arrival wei
 noise level (an LMI: never more information than a Kalman filter has under any mode sequence).
 """
 
-from .arrival import ArrivalPrior, certified_arrival_prior
+from .arrival import ArrivalPrior, KalmanArrival, certified_arrival_prior
 from .certify import SequenceSearch, search_sequences
 from .formulation import MHEExtension, MHEFormulation
 from .mld import MLDEncoding, big_m_constants, encode_mld
@@ -21,5 +21,5 @@ from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
 from .uniqueness import SeparatedProgram
 
-__all__ = ["ArrivalPrior", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
+__all__ = ["ArrivalPrior", "KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
            "big_m_constants", "certified_arrival_prior", "encode_mld", "search_sequences"]
