@@ -443,9 +443,9 @@ class _Writer:
             "BTILDE": btilde, "N_PIECES": data.n_pieces, "N_REGIONS": s["n_regions"],
             "TOLS": "\n".join(f" *     {k:<16} {v!r}" for k, v in t.items() if v is not None),
             "PIVOTS": LP_PIVOTS_PER_LP,
-            "F32NOTE": (f"\n * Single precision: the candidates of eq. (13) round by at most {data.float32_rounding:.2g} of the states'"
-                        "\n * half-ranges; decisions within that of a region boundary or a piece of B~_T can differ from double."
-                        if f32 else ""),
+            "F32NOTE": ("\n * Single precision: the candidates of eq. (13) round by at most "
+                        f"{data.float32_rounding:.2g} of the states'\n * half-ranges; decisions within that of a "
+                        "region boundary or a piece of B~_T can differ from double." if f32 else ""),
         }
 
     def _t(self, template: str) -> str:
