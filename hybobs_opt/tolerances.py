@@ -177,6 +177,12 @@ VERTEX_SAME_RTOL: float = 1e-7
 #: 201,376) the check gives up and the hand-written path answers instead.
 VERTEX_DEGENERATE_MAX_SUBSETS: int = 5000
 
+#: qhull's volume of a hull is accepted when the sum of the volumes of its triangulated facets'
+#: simplices about the centroid, recomputed in numpy, agrees with it to this relative accuracy:
+#: both sum the same positive terms in different orders (rounding ~1e-15 per term), while a wrong
+#: or missing facet changes the sum by its simplex, a fraction of the whole far above this.
+HULL_VOLUME_RTOL: float = 1e-9
+
 #: Iterative-hull projection: a support point found beyond a facet of the current hull by more
 #: than this (target coordinates scaled to the image's bounding box) is added and the hull is
 #: rebuilt.  Ten times the LP feasibility tolerance, so LP noise cannot create endless near-
@@ -455,6 +461,13 @@ MHE_CERTIFY_MAX_NODES: int = 20_000
 #: units of 2.2e-16 per product summed (at most a few hundred rows), so 1e-13 covers the
 #: accumulated error with a margin while staying far below MHE_CERTIFIED_RTOL.
 SEQUENCE_LP_BOUND_RTOL: float = 1e-13
+
+#: Proximal weight of DAQP's LP mode on a mode sequence's LP (solver ``"sequences"``, cost per
+#: unit of the scaled variables): DAQP solves an LP as proximal-point QPs and needs a positive
+#: weight.  Nothing is taken from DAQP on trust: its point is checked against the rows and its
+#: cost recomputed, its multipliers give a bound proven in numpy, and when that bound is not
+#: within the certified gap of the point's cost the LP is solved again by HiGHS.
+SEQUENCE_LP_DAQP_PROX: float = 1e-6
 
 #: An extension's norm-2 cost term (``MHEObserver(extend=...)``) is convex when its Hessian's
 #: smallest eigenvalue is at least ``-MHE_EXTENSION_PSD_RTOL`` times its largest; eigenvalues

@@ -453,7 +453,8 @@ class MHEObserver(Observer):
         if self.solver == "sequences":
             from .sequence_lp import SequenceLPSolver
 
-            self._sequences = SequenceLPSolver(self.model, self._zero_cost, self._separated)
+            self._sequences = SequenceLPSolver(self.model, self._zero_cost, self._separated,
+                                               lp=(solver_options or {}).get("lp", "daqp"))
         self.uniqueness_epsilon = self._separated.epsilon
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight

@@ -40,10 +40,11 @@ import numpy as np
 
 from ..errors import ModelError, SolverError
 from ..status import Status
-from ..tolerances import MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TOL, MHE_MILP_FEASIBILITY_TOL, SEQUENCE_LP_BOUND_RTOL
+from ..tolerances import MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TOL, MHE_MILP_FEASIBILITY_TOL, SEQUENCE_LP_BOUND_RTOL, SEQUENCE_LP_DAQP_PROX
+from .backends.daqp_backend import DAQP_INF
 from .result import WindowResult
 
-__all__ = ["PREFIX_LP_RETRY", "SequenceLPSolver"]
+__all__ = ["INCUMBENT_TRIES", "PREFIX_LP_RETRY", "SequenceLPSolver"]
 
 #: A mode prefix whose LP did not close it (its bound below the cutoff) is branched without an LP
 #: in the following windows, and its LP is tried again every this many windows: on model (16)
@@ -52,19 +53,26 @@ __all__ = ["PREFIX_LP_RETRY", "SequenceLPSolver"]
 #: only which nodes are visited.
 PREFIX_LP_RETRY = 16
 
+#: Leaves whose LPs are tried (lowest cheap bound first) for an incumbent before the depth-first
+#: search; the search itself closes every node whatever the incumbent, so this only orders work.
+INCUMBENT_TRIES = 3
+
 
 class _Node:
     """One mode prefix: its fixed matrices, affine offsets and the last proven multipliers."""
 
     __slots__ = ("modes", "R", "G", "blocks", "r_sl", "g_sl", "z_sl", "children", "leaf", "Rinv", "lp",
-                 "mu", "lam", "sep", "fruitless")
+                 "mu", "lam", "sep", "fruitless", "K", "t", "daqp", "null", "index")
 
     def __init__(self, modes, R, G, blocks):
         self.modes, self.R, self.G, self.blocks = tuple(modes), R, G, blocks
         self.children: list[_Node] = []
         self.leaf = False
         self.Rinv = None
+        self.K = self.t = None
+        self.null = None  # left null vectors of R scaled into the dual ball (rows)
         self.lp = None
+        self.daqp = None
         self.mu = None
         self.lam = None
         self.sep: dict = {}
@@ -91,13 +99,18 @@ class SequenceLPSolver:
         With an extension (``extend``): its rows and parameters are not in the precomputed maps.
     """
 
-    def __init__(self, model, zero_cost: float, separated):
+    def __init__(self, model, zero_cost: float, separated, lp: str = "daqp"):
         if model.extension is not None:
             raise ModelError("extend", "None with solver 'sequences' (its per-prefix matrices are precomputed "
                              "from the model alone; use solver 'highs' for an extended problem)", "an extension")
         if model.norm not in ("1", "inf"):
             raise ModelError("norm", "'1' or 'inf' for solver 'sequences'", repr(model.norm))
         import highspy
+
+        if lp not in ("daqp", "highs"):
+            raise ModelError("solver_options['lp']", "'daqp' or 'highs' (the LP solver of solver 'sequences')", repr(lp))
+        self.lp_engine = lp
+        self.lp_solves = self.lp_fallbacks = 0
 
         self._hs = highspy
         self.model, self.norm, self.zero_cost, self.sep = model, model.norm, float(zero_cost), separated
@@ -120,6 +133,9 @@ class SequenceLPSolver:
         self.Mz = np.vstack(Mz) if Mz else np.zeros((0, self.np_))
         self.mz = np.concatenate(mz) if mz else np.zeros(0)
         self.leaves = [nd for nd in self.nodes if nd.leaf]
+        for i, nd in enumerate(self.nodes):
+            nd.index = i
+        self._structural_candidates()
         self.build_seconds = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ offline
@@ -222,13 +238,104 @@ class SequenceLPSolver:
             for lst, val in zip(acc, (Mr, mr, Mg, mg, Mz, mz)):
                 lst.append(val)
             self.nodes.append(nd)
+            # outputs the sequence cannot reproduce: mu in the left null space of R (R'mu = 0) bounds
+            # the cost by |mu'r| with no LP (the backlash sequences of model (16): the engine speed
+            # then evolves on its own, and noisy data break that relation)
+            u, sv, _ = np.linalg.svd(R)
+            rank = int(np.sum(sv > sv.max(initial=0.0) * R.shape[0] * np.finfo(float).eps)) if sv.size else 0
+            if rank < R.shape[0]:
+                Nl = u[:, rank:].T
+                nd.null = Nl / np.array([max(self._dual_norm(nd, row), 1e-300) for row in Nl])[:, None]
             if len(modes) == self.T:
                 nd.leaf = True
                 if R.shape[0] == R.shape[1] and np.linalg.matrix_rank(R) == R.shape[1]:
                     nd.Rinv = np.linalg.inv(R)
+                    # row i of G at the exact fit: multipliers lam = t_i e_i, mu = -t_i (G_i R^-1)'
+                    # make c = R'mu + G'lam = 0, so t_i times the row's violation is a bound
+                    nd.K = G @ nd.Rinv
+                    nd.t = 1.0 / np.maximum([self._dual_norm(nd, row) for row in nd.K], 1e-300)
             else:
                 nd.children = self._expand(modes, acc)
             out.append(nd)
+        return out
+
+    def _structural_candidates(self) -> None:
+        """Multipliers that depend on the node alone, stacked so that one sparse product per step
+        gives every node's best bound of them (``c = R'mu + G'lam`` and its box term are fixed):
+
+        * a square full-rank sequence, every row ``i`` of ``G``: ``lam = t_i e_i``,
+          ``mu = -t_i (G_i R^-1)'`` (``c ~ 0``; the bound is ``t_i`` times the row's violation at
+          the exact fit ``-R^-1 r``);
+        * every node whose ``R`` has a left null space, each null vector with both signs (the
+          part of the outputs the sequence cannot reproduce).
+        """
+        from scipy import sparse
+
+        shrink = 1.0 - 8 * np.finfo(float).eps  # strictly inside the dual ball despite rounding
+        rows_r, rows_g, box, owner = [], [], [], []
+        nr, ng = self._rows[0], self._rows[1]
+        for nd in self.nodes:
+            cands = []
+            if nd.Rinv is not None:
+                for i in range(nd.G.shape[0]):
+                    lam = np.zeros(nd.G.shape[0])
+                    lam[i] = nd.t[i] * shrink
+                    cands.append((-nd.t[i] * shrink * nd.K[i], lam))
+            if nd.null is not None:
+                for row in nd.null:
+                    cands += [(shrink * row, np.zeros(nd.G.shape[0])), (-shrink * row, np.zeros(nd.G.shape[0]))]
+            for mu, lam in cands:
+                c = nd.R.T @ mu + nd.G.T @ lam
+                a = np.zeros(nr)
+                a[nd.r_sl] = mu
+                b = np.zeros(ng)
+                b[nd.g_sl] = lam
+                rows_r.append(a)
+                rows_g.append(b)
+                box.append(float(np.minimum(c * self.lo, c * self.hi).sum()))
+                owner.append(nd.index)
+        self._cand_owner = np.asarray(owner, dtype=int)
+        if not owner:
+            self._Cr = None
+            return
+        self._Cr = sparse.csr_matrix(np.array(rows_r))
+        self._Cg = sparse.csr_matrix(np.array(rows_g))
+        self._aCr, self._aCg = abs(self._Cr), abs(self._Cg)
+        self._cbox = np.array(box)
+        self._cstarts = np.flatnonzero(np.r_[True, np.diff(self._cand_owner) != 0])
+        self._cnodes = self._cand_owner[self._cstarts]
+        # the exact fits of the square sequences in one product: theta = -Rinv r, G theta - g
+        sq = [nd for nd in self.leaves if nd.Rinv is not None]
+        self._sq = sq
+        if sq:
+            Ri = np.zeros((sum(nd.R.shape[1] for nd in sq), nr))
+            Gs = np.zeros((sum(nd.G.shape[0] for nd in sq), Ri.shape[0]))
+            gsel, tpos, gpos = [], 0, 0
+            self._sq_t, self._sq_g = [], []
+            for nd in sq:
+                k = nd.R.shape[1]
+                Ri[tpos:tpos + k, nd.r_sl] = -nd.Rinv
+                Gs[gpos:gpos + nd.G.shape[0], tpos:tpos + k] = nd.G
+                gsel.append(np.arange(nd.g_sl.start, nd.g_sl.stop))
+                self._sq_t.append(slice(tpos, tpos + k))
+                self._sq_g.append(slice(gpos, gpos + nd.G.shape[0]))
+                tpos, gpos = tpos + k, gpos + nd.G.shape[0]
+            self._Ri, self._Gs = sparse.csr_matrix(Ri), sparse.csr_matrix(Gs)
+            self._gsel = np.concatenate(gsel)
+            self._sq_gstart = np.array([sl.start for sl in self._sq_g])
+            self._sq_lo = np.concatenate([self.lo for _ in sq])
+            self._sq_hi = np.concatenate([self.hi for _ in sq])
+            self._sq_tstart = np.array([sl.start for sl in self._sq_t])
+
+    def _cheap_bounds(self, r_all, g_all) -> np.ndarray:
+        """Every node's best bound from :meth:`_structural_candidates` (``-inf`` without one), proven:
+        the weak-duality formula of :meth:`_dual_bound` with its rounding allowance."""
+        out = np.full(len(self.nodes), -np.inf)
+        if self._Cr is None:
+            return out
+        val = self._Cr @ r_all - self._Cg @ g_all + self._cbox
+        size = self._aCr @ np.abs(r_all) + self._aCg @ np.abs(g_all) + np.abs(self._cbox)
+        out[self._cnodes] = np.maximum.reduceat(val - SEQUENCE_LP_BOUND_RTOL * size, self._cstarts)
         return out
 
     # ------------------------------------------------------------------ bounds and LPs
@@ -239,15 +346,15 @@ class SequenceLPSolver:
         if mu is None:
             mu = np.zeros(r.size)
         elif self.norm == "1":
-            mu = np.clip(mu, -1.0, 1.0)
+            mu = np.minimum(np.maximum(mu, -1.0), 1.0)
         else:
             tot = np.bincount(nd.blocks, weights=np.abs(mu))
             mu = mu / np.maximum(tot, 1.0)[nd.blocks]
         c = nd.R.T @ mu + nd.G.T @ lam
         box = np.minimum(c * lo, c * hi)
-        terms = mu * r
-        val = float(terms.sum() - lam @ g + box.sum())
-        size = float(np.abs(terms).sum() + np.abs(lam * g).sum() + np.abs(box).sum())
+        ab = np.abs(box)
+        val = float(mu @ r - lam @ g + box.sum())
+        size = float(np.abs(mu) @ np.abs(r) + lam @ np.abs(g) + ab.sum())
         return val - SEQUENCE_LP_BOUND_RTOL * size
 
     def _cost(self, nd, theta, r) -> float:
@@ -289,9 +396,74 @@ class SequenceLPSolver:
         nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
         return nd.lp
 
+    def _daqp_model(self, nd):
+        """The node's persistent DAQP LP (``daqp.Model``, proximal point ``eps_prox``) in ``[theta; e]``:
+        simple bounds ``lo <= theta <= hi``, ``e >= 0``; rows as in :meth:`_lp_model`."""
+        import daqp
+
+        R, G = nd.R, nd.G
+        k, nt = R.shape
+        E = np.eye(k) if self.norm == "1" else np.eye(int(nd.blocks.max()) + 1)[nd.blocks]
+        ne = E.shape[1]
+        A = np.ascontiguousarray(np.block([[R, -E], [R, E], [G, np.zeros((G.shape[0], ne))]]))
+        nc = nt + ne
+        big = DAQP_INF
+        bu = np.r_[self.hi, np.full(ne, big), np.zeros(k), np.full(k, big), np.zeros(G.shape[0])]
+        bl = np.r_[self.lo, np.zeros(ne), np.full(k, -big), np.zeros(k), np.full(G.shape[0], -big)]
+        f = np.r_[np.zeros(nt), np.ones(ne)]
+        mdl = daqp.Model()
+        mdl.setup(np.zeros((nc, nc)), f, A, bu, bl, np.zeros(bu.size, dtype=np.int32))
+        mdl.settings = {**mdl.settings, "eps_prox": SEQUENCE_LP_DAQP_PROX}
+        nd.daqp = (mdl, bu, bl, k, nt, nc)
+        return nd.daqp
+
     def _solve_lp(self, nd, r, g, lo, hi):
         """The node's LP, checked: ``(bound, theta or None, cost or None, mu, lam)`` with ``bound`` proven
-        (``inf`` for an infeasibility proven by a verified ray), or ``None`` (no checked answer)."""
+        (``inf`` for an infeasibility proven by a verified ray), or ``None`` (no checked answer).
+
+        DAQP first (``lp="daqp"``); HiGHS when DAQP's answer does not pass the checks or its
+        multipliers' bound is not within the certified gap of its point's cost."""
+        self.lp_solves += 1
+        if self.lp_engine == "daqp":
+            out = self._solve_daqp(nd, r, g, lo, hi)
+            if out is not None and (out[1] is None or out[0] >= out[2] - self._gap(out[2])):
+                return out
+            self.lp_fallbacks += 1
+        return self._solve_highs(nd, r, g, lo, hi)
+
+    def _solve_daqp(self, nd, r, g, lo, hi):
+        from .backends.daqp_backend import daqp_flag
+
+        mdl, bu, bl, k, nt, nc = nd.daqp if nd.daqp is not None else self._daqp_model(nd)
+        bu[:nt], bl[:nt] = hi, lo
+        bu[nc:nc + k] = -r
+        bl[nc + k:nc + 2 * k] = -r
+        bu[nc + 2 * k:] = g
+        mdl.update(bupper=bu, blower=bl)
+        x, _, flag, info = mdl.solve()
+        status = daqp_flag(flag)
+        lam_all = np.asarray(info.get("lam", ()), dtype=float)
+        if lam_all.size != bu.size or not np.all(np.isfinite(lam_all)):
+            return None
+        lam_rows = lam_all[nc:]
+        if status == Status.INFEASIBLE:
+            for cand in (lam_rows[2 * k:], -lam_rows[2 * k:]):
+                if self._dual_bound(nd, None, cand, r, g, lo, hi) > 0:
+                    return np.inf, None, None, None, cand
+            return None
+        if status != Status.OPTIMAL:
+            return None
+        x = np.asarray(x, dtype=float)[:nt]
+        if not np.all(np.isfinite(x)):
+            return None
+        if np.max(nd.G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL) or np.any(
+                x > hi + MHE_FEASIBILITY_TOL):
+            return None
+        x = np.minimum(np.maximum(x, lo), hi)
+        mu, lam = lam_rows[:k] + lam_rows[k:2 * k], lam_rows[2 * k:]
+        return self._dual_bound(nd, mu, lam, r, g, lo, hi), x, self._cost(nd, x, r), mu, lam
+
+    def _solve_highs(self, nd, r, g, lo, hi):
         hs = self._hs
         h, rows, k, cols = nd.lp if nd.lp is not None else self._lp_model(nd)
         inf = hs.kHighsInf
@@ -306,7 +478,6 @@ class SequenceLPSolver:
             h.clearSolver()
             h.run()
             st = h.getModelStatus()
-        self.lp_solves += 1
         if st == hs.HighsModelStatus.kInfeasible:
             _, ok, ray = h.getDualRay()
             ray = np.asarray(ray, dtype=float) if ok and len(ray) == rows.size else None
@@ -332,33 +503,49 @@ class SequenceLPSolver:
     # ------------------------------------------------------------------ one window
     def solve(self, U, Y, xbar) -> tuple[WindowResult, dict]:
         """The certified optimum of one window (``WindowResult``) and the step's search data for :meth:`decide`."""
-        self.lp_solves = 0
+        self.lp_solves = self.lp_fallbacks = 0
         pv = np.concatenate([U.reshape(-1), Y.reshape(-1), xbar])
         r_all = self.Mr @ pv + self.mr
         g_all = self.Mg @ pv + self.mg
         z_ok = (self.Mz @ pv + self.mz) >= 0.0 if self.mz.size else np.zeros(0, dtype=bool)
         lo, hi = self.lo, self.hi
-        ctx = {"r": r_all, "g": g_all, "z": z_ok, "bounds": {}}
+        ctx = {"r": r_all, "g": g_all, "z": z_ok, "cheap": self._cheap_bounds(r_all, g_all), "fits": {}}
         best = (np.inf, None, None)  # cost, node, theta
-        # (i) zero-cost fast path: a square full-rank sequence whose exact fit meets its rows
-        for nd in self.leaves:
-            if nd.Rinv is None or (nd.z_sl.stop > nd.z_sl.start and not z_ok[nd.z_sl].all()):
-                continue
-            r = r_all[nd.r_sl]
-            th = -nd.Rinv @ r
-            # the rows to the LP solver's own tolerance: a fit that needs MHE_FEASIBILITY_TOL of slack
-            # in a guard is not claimed (its LP decides the sequence)
-            if np.all(th >= lo - MHE_MILP_FEASIBILITY_TOL) and np.all(th <= hi + MHE_MILP_FEASIBILITY_TOL) and np.max(
-                    nd.G @ th - g_all[nd.g_sl], initial=0.0) <= MHE_MILP_FEASIBILITY_TOL:
-                th = np.clip(th, lo, hi)
-                c = self._cost(nd, th, r)
+        # (i) zero-cost fast path: the square full-rank sequences whose exact fit meets their rows
+        # (to the LP solver's own tolerance: a fit that needs MHE_FEASIBILITY_TOL of slack in a guard
+        # is not claimed, its LP decides the sequence)
+        if self._sq:
+            th_all = self._Ri @ r_all
+            v = self._Gs @ th_all - g_all[self._gsel]
+            vmax = np.maximum.reduceat(v, self._sq_gstart)
+            out_box = np.maximum(self._sq_lo - th_all, th_all - self._sq_hi)
+            bmax = np.maximum.reduceat(out_box, self._sq_tstart)
+            for i in np.flatnonzero((vmax <= MHE_MILP_FEASIBILITY_TOL) & (bmax <= MHE_MILP_FEASIBILITY_TOL)):
+                nd = self._sq[i]
+                if nd.z_sl.stop > nd.z_sl.start and not z_ok[nd.z_sl].all():
+                    continue
+                th = np.minimum(np.maximum(th_all[self._sq_t[i]], lo), hi)
+                c = self._cost(nd, th, r_all[nd.r_sl])
+                ctx["fits"][nd.index] = (th, c)
                 if c < best[0]:
                     best = (c, nd, th)
-                if c <= self.zero_cost:
-                    ctx["zero_fit"] = True
-                    break
+            if best[0] <= self.zero_cost:
+                ctx["zero_fit"] = True
         failed = []
         if best[0] > self.zero_cost:
+            # an incumbent first: the LPs of the leaves in the order of their cheap bounds, until one
+            # has a point (then most nodes close on their cheap bounds against it)
+            cheap = []
+            for nd in self.leaves:
+                b = self._node_bound(nd, ctx, lo, hi, cutoff=np.inf, lp=False)
+                if b[0] < np.inf:
+                    cheap.append((b[0], id(nd), nd))
+            for _, _, nd in sorted(cheap)[:INCUMBENT_TRIES]:
+                b = self._node_bound(nd, ctx, lo, hi, cutoff=np.inf)
+                if b is not None and b[1] is not None:
+                    if b[2] < best[0]:
+                        best = (b[2], nd, b[1])
+                    break
             # (ii)-(iii) depth-first branch and bound, warm bounds first, the node's LP where they fail
             stack = list(reversed(self.roots))
             while stack:
@@ -378,7 +565,7 @@ class SequenceLPSolver:
                     continue
                 stack.extend(reversed(nd.children))
         cost, nd, th = best
-        detail = {"sequence_lps": self.lp_solves, "nodes": len(self.nodes)}
+        detail = {"sequence_lps": self.lp_solves, "lp_fallbacks": self.lp_fallbacks, "nodes": len(self.nodes)}
         if failed:
             return WindowResult(Status.NOT_CERTIFIED, solver="sequences", solver_detail=detail,
                                 reason=f"no checked LP answer for mode prefix(es) {failed[:3]}"), ctx
@@ -406,13 +593,17 @@ class SequenceLPSolver:
     def _gap(self, cost: float) -> float:
         return max(MHE_CERTIFIED_RTOL * cost, self.zero_cost) if np.isfinite(cost) else 0.0
 
-    def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, mults=None):
+    def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, lp: bool = True):
         """``(bound, theta, cost)`` of a node (``theta``/``cost`` only when its LP was solved), or ``None``.
 
         The stored multipliers of the node (or of ``key``: a separated LP) are tried first; the LP
         is solved only when their bound does not reach ``cutoff``."""
         if nd.z_sl.stop > nd.z_sl.start and not ctx["z"][nd.z_sl].all():
             return np.inf, None, None  # a row without theta-coefficients fails: 0 <= g < 0
+        if lp and not nd.leaf and key is None and nd.fruitless and nd.fruitless % PREFIX_LP_RETRY:
+            # this prefix's LP did not close it in an earlier window: branch without bounding it
+            nd.fruitless += 1
+            return -np.inf, None, None
         r, g = ctx["r"][nd.r_sl], ctx["g"][nd.g_sl]
         stored = [(nd.mu, nd.lam)] if key is None else [nd.sep.get(key, (None, None))]
         if key is not None and nd.Rinv is not None:
@@ -420,8 +611,22 @@ class SequenceLPSolver:
             # cost of moving theta_j by delta from the exact fit, with no LP
             j, s = key
             mu = s * nd.Rinv[j]
-            stored.append((mu / max(self._dual_norm(nd, mu), 1e-300), np.zeros(g.size)))
-        best = -np.inf
+            stored.insert(0, (mu / max(self._dual_norm(nd, mu), 1e-300), np.zeros(g.size)))
+        if key is None:
+            cheap = ctx["cheap"][nd.index]
+            if cheap >= cutoff:
+                return cheap, None, None
+            fit = ctx["fits"].get(nd.index)
+            if fit is not None:
+                # the exact fit meets the rows: cost ~0 at a point, and 0 is a bound (the cost is a norm)
+                return 0.0, fit[0], fit[1]
+        if key is not None and nd.Rinv is not None:
+            th = -nd.Rinv @ r
+            if np.all(th >= lo - MHE_MILP_FEASIBILITY_TOL) and np.all(th <= hi + MHE_MILP_FEASIBILITY_TOL) and np.max(
+                    nd.G @ th - g, initial=0.0) <= MHE_MILP_FEASIBILITY_TOL:
+                th = np.minimum(np.maximum(th, lo), hi)  # the exact fit lies in the separated half-space
+                return 0.0, th, self._cost(nd, th, r)
+        best = ctx["cheap"][nd.index] if key is None else -np.inf
         for mu, lam in stored:
             if lam is None:
                 continue
@@ -431,9 +636,7 @@ class SequenceLPSolver:
             best = max(best, b)
             if b >= cutoff:
                 return b, None, None
-        if not nd.leaf and key is None and nd.fruitless and nd.fruitless % PREFIX_LP_RETRY:
-            # this prefix's LP did not close it in the last window: branch without solving it
-            nd.fruitless += 1
+        if not lp:
             return best, None, None
         out = self._solve_lp(nd, r, g, lo, hi)
         if out is None:
@@ -506,6 +709,11 @@ class SequenceLPSolver:
                     return {**base, "status": "not certified",
                             "reason": f"no checked separated LP answer for modes {nd.modes}, direction {(j, s)}"}
                 bound, th, cost = bs
+                if bound <= thr and (th is None or cost > thr) and self.lp_engine == "daqp":
+                    # DAQP's proximal multipliers fall short near the threshold: HiGHS decides
+                    out = self._solve_highs(nd, ctx["r"][nd.r_sl], ctx["g"][nd.g_sl], lo, hi)
+                    if out is not None:
+                        bound, th, cost = out[0], out[1], out[2]
                 if bound > thr:
                     lowest = min(lowest, bound)
                     continue
