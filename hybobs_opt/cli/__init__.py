@@ -1,7 +1,7 @@
 """The ``hybobs`` command: a thin layer over the package, ``--json`` on every command.
 
 One module per command (``examples``, ``simulate``, ``report``, ``regions``, ``observe``,
-``bench``, ``diagnose``, ``synth``, ``model``, ``cache``), each with ``HELP``, ``add_arguments(parser)`` and
+``bench``, ``export``, ``diagnose``, ``synth``, ``model``, ``cache``), each with ``HELP``, ``add_arguments(parser)`` and
 ``run(args) -> exit code``.  Command modules import only the standard library at import time;
 the package (numpy, the solvers) is loaded inside ``run``, so ``hybobs --help`` and
 ``hybobs examples`` start without importing cvxpy, CasADi or numba.
@@ -36,6 +36,7 @@ COMMANDS: dict[str, str] = {
     "regions": "regions",
     "observe": "observe",
     "bench": "bench",
+    "export": "export",
     "diagnose": "diagnose",
     "synth": "synth",
     "model": "model",

@@ -4,7 +4,7 @@
 ==============================  ===========================================================
 observer                        paper, module
 ==============================  ===========================================================
-``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`)
+``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`; as C99: :mod:`.c_export`)
 ``NoiseAwareLookupObserver``    002 with noisy outputs: statistical tests per region (:mod:`.noise_lookup`)
 ``ParameterBank``               002 with an unknown parameter: lookup observers over a grid (:mod:`.parameter_bank`)
 ``MHEObserver``                 002, MIQP/MILP moving horizon (:mod:`hybobs_opt.mhe`)
@@ -26,6 +26,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("FALLBACK", "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "ObserverTrace"),
                     "hybobs_opt.contract"),
     **dict.fromkeys(("LookupObserver", "LookupTrace", "REASONS", "input_bound_rows"), "hybobs_opt.observers.lookup"),
+    **dict.fromkeys(("CExport", "export_lookup_c"), "hybobs_opt.observers.c_export"),
     **dict.fromkeys(("NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"), "hybobs_opt.observers.noise_lookup"),
     **dict.fromkeys(("ParameterBank", "ParameterBankTrace"), "hybobs_opt.observers.parameter_bank"),
     "MHEObserver": "hybobs_opt.mhe",

@@ -387,6 +387,21 @@ CAMPAIGN = [
     (["bench", PWA_MODEL, "--data", "{pwa.csv}", "--horizon", "1"], "eq. 8"),
     (["bench", PWA_MODEL, "--data", "{nosuch.csv}"], "readable CSV"),
     (["bench", "magnetic_piston", "--data", "{piston.csv}"], "pwa"),
+    # export
+    (["export", "powertrain3"], "--out-dir"),
+    (["export", "nosuch", "--out-dir", "{dir}/c"], "SYSTEM"),
+    (["export", "vehicle_tracking", "--out-dir", "{dir}/c"], "a PWA system"),
+    (["export", HYBRID_MODEL, "--out-dir", "{dir}/c"], "a PWA system"),
+    (["export", "powertrain3", "-T", "0", "--out-dir", "{dir}/c"], "--horizon"),
+    (["export", "powertrain3", "-T", "1000000", "--out-dir", "{dir}/c"], "MAX_HORIZON"),
+    (["export", "powertrain3", "-T", "2", "--out-dir", "{dir}/c"], "eq. 8"),
+    (["export", "powertrain3", "--out-dir", "{a_file}"], "--out-dir"),
+    (["export", "powertrain3", "--out", "{a_file}"], "--out-dir"),  # --out is the same option
+    (["export", "powertrain3", "--out-dir", "{dir}/c", "--max-bytes", "0"], "--max-bytes"),
+    (["export", "powertrain3", "--out-dir", "{dir}/c", "--max-ops", "-5"], "--max-ops"),
+    (["export", "powertrain3", "--out-dir", "{dir}/c", "--max-ops", "1.5"], "invalid int value"),
+    (["export", "powertrain3", "--out-dir", "{dir}/c", "--float32", "yes"], "unrecognized arguments"),
+    (["export", "powertrain3", "--out-dir", "{dir}/c", "--param", "gear_ratio=abc"], "--param gear_ratio"),
     # report
     (["report", "--out", "{dir}/rep", "--section", ""], "sliding_mode"),
     (["report", "--out", "{dir}/rep", "--horizon", "3"], "SYSTEM"),

@@ -140,6 +140,16 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["bench", "powertrain3"], "--data", [F("nosuch"), F("bin"), F("empty"), F("dir")]),
     (["bench", "driveline"], "--horizon", ["3"]),
     (["bench", "powertrain3"], "--param", ["nosuch=1", "gear_ratio=abc", "gear_ratio"]),
+    # export
+    (["export"], None, ["nosuch", "", F("bin"), F("empty"), "vehicle_tracking"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--horizon", NUMBER + ["0", "-1", "2", "1000000"]),
+    (["export", "powertrain3"], "--out-dir", [F("existing")]),
+    (["export", "vehicle_tracking"], "--out-dir", [F("dir") + "/c"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--float32", ["yes", "1"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--max-bytes", ["0", "-1", "abc", "1.5", ""]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--max-ops", ["0", "-1", "abc", "1e3"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--no-cache", ["1"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--param", ["nosuch=1", "gear_ratio=abc", "gear_ratio"]),
     # diagnose
     (["diagnose", "vehicle_tracking"], "--range", ["psi=1:0", "nosuch=0:1", "psi=abc", "psi=0:1e300", "psi", "psi=0:nan", "psi=:"]),
     (["diagnose", "vehicle_tracking"], "--coordinate", ["nosuch", ""]),
