@@ -1,0 +1,235 @@
+"""Solver ``"sequences"`` of the 1- / inf-norm MHE (paper 002, eq. 10; :mod:`hybobs_opt.mhe.sequence_lp`)
+against an independent exact reference.
+
+The reference is built here from the system matrices alone (it shares no code with
+``sequence_lp.py`` or ``window.py``): every mode sequence of the window is one LP in the
+window-start state, solved by ``scipy.optimize.linprog`` (HiGHS); the window's optimum is the best
+sequence.  Uniqueness: for every sequence whose least cost is within ``J* + epsilon``, the LPs with
+``+-(xi0_j - xi0*_j) >= delta`` (scaled by the half-widths of ``X``); the window is unique when none
+reaches ``J* + epsilon``.  Windows whose separated minimum lies within a small margin of the
+threshold (a tie no tolerance can decide) are counted and left out of the flag comparison.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from hybobs_opt import get_example
+from hybobs_opt.contract import NOISE_FIT_SIGMAS
+from hybobs_opt.errors import ModelError
+from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario
+from hybobs_opt.tolerances import MHE_CERTIFIED_RTOL
+
+from canonical import deadzone_drive, deadzone_spring
+
+NOISE = 0.01
+#: Margin (original cost units) around the uniqueness threshold inside which the reference calls
+#: a window a tie and the flags are not compared.
+TIE = 1e-6
+
+
+def _sequence_lp(system, modes, U, Y, norm, extra=None):
+    """``min ||y - y^||`` over the window-start state for the fixed ``modes`` (linprog, HiGHS):
+    ``(cost, x0)`` or ``(inf, None)`` when infeasible.  ``extra = (a, b)`` adds ``a' x0 >= b``."""
+    n, p = system.n, system.p
+    T = len(modes)
+    Phi, phi = np.eye(n), np.zeros(n)
+    Rrows, rvec, Arows, bvec = [], [], [], []
+    XA, Xb = system.state_bounds.A, system.state_bounds.b
+    for k, q in enumerate(modes):
+        md = system.modes[q]
+        # residual y_k - C x_k - D u_k - c = -C Phi x0 + (y_k - C phi - D u_k - c)
+        Rrows.append(-md.C @ Phi)
+        rvec.append(Y[k] - md.C @ phi - md.D @ U[k] - md.c)
+        Ga, gb = md.guard.A, md.guard.b
+        Arows.append(Ga[:, :n] @ Phi)
+        bvec.append(gb - Ga[:, n:] @ U[k] - Ga[:, :n] @ phi)
+        Arows.append(XA @ Phi)
+        bvec.append(Xb - XA @ phi)
+        Phi, phi = md.A @ Phi, md.A @ phi + md.B @ U[k] + md.a
+    R, r = np.vstack(Rrows), np.concatenate(rvec)
+    G, g = np.vstack(Arows), np.concatenate(bvec)
+    k = R.shape[0]
+    ns = k if norm == "1" else 1
+    E = np.eye(k) if norm == "1" else np.ones((k, 1))
+    # variables [x0; s]: R x0 + r <= E s, -(R x0 + r) <= E s, G x0 <= g
+    A_ub = np.block([[R, -E], [-R, -E], [G, np.zeros((G.shape[0], ns))]])
+    b_ub = np.concatenate([-r, r, g])
+    if extra is not None:
+        a, b = extra
+        A_ub = np.vstack([A_ub, np.r_[-a, np.zeros(ns)]])
+        b_ub = np.r_[b_ub, -b]
+    c = np.r_[np.zeros(n), np.ones(ns)]
+    out = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * n + [(0, None)] * ns, method="highs")
+    if out.status == 2:
+        return np.inf, None
+    assert out.status == 0, out.message
+    return float(out.fun), out.x[:n]
+
+
+def _reference(system, U, Y, norm, x_star, delta, eps, half):
+    """Brute force: the optimum over all sequences and whether a state ``delta`` away (scaled by
+    ``half``) reaches ``J* + eps`` (``None``: a tie within :data:`TIE`)."""
+    T = len(U)
+    costs = {}
+    for modes in itertools.product(range(system.n_modes), repeat=T):
+        costs[modes] = _sequence_lp(system, modes, U, Y, norm)[0]
+    J = min(costs.values())
+    thr = J + eps
+    lowest = np.inf
+    for modes, cost in sorted(costs.items(), key=lambda kv: kv[1]):
+        if cost > thr + TIE:
+            continue
+        for j in range(system.n):
+            for s in (1.0, -1.0):
+                a = np.zeros(system.n)
+                a[j] = s / half[j]
+                sep = _sequence_lp(system, modes, U, Y, norm, extra=(a, s * x_star[j] / half[j] + delta))[0]
+                lowest = min(lowest, sep)
+                if lowest < thr - TIE:
+                    return J, False  # an alternative: no need to look further
+    if abs(lowest - thr) <= TIE:
+        return J, None
+    return J, bool(lowest > thr)
+
+
+def _bench_data(steps=1500):
+    plant = get_example("powertrain3").build()
+    trace = backlash_scenario(plant, SCENARIO_TORQUES["powertrain3"], t_final=steps * plant.Ts)
+    Y = trace.y + np.random.default_rng(0).normal(0.0, NOISE, trace.y.shape)
+    return plant, trace.u, Y
+
+
+@pytest.fixture(scope="module")
+def bench():
+    return _bench_data()
+
+
+def _windows(count: int, T: int, steps: int = 1500) -> list[int]:
+    """Window starts: a third in the steady contact, the rest through the backlash rattle (900-1500)."""
+    a = np.linspace(0, 899 - T, count // 3).astype(int)
+    b = np.linspace(900, steps - T, count - count // 3).astype(int)
+    return sorted(set(a.tolist() + b.tolist()))
+
+
+def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
+    obs = MHEObserver(plant, T, norm=norm, solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    ref_obs = MHEObserver(plant, T, norm=norm, solver="highs", fit_tolerance=NOISE_FIT_SIGMAS * NOISE) \
+        if compare_highs else None
+    half = plant.scales()[0][: plant.n]
+    compared = ties = 0
+    for k0 in starts:
+        Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
+        out = obs.solve_window(Uw, Yw, uniqueness=True)
+        assert out.optimal, (k0, out.reason)
+        J, unique = _reference(plant, Uw, Yw, norm, out.x_start, obs.uniqueness_delta, obs.uniqueness_epsilon, half)
+        gap = max(MHE_CERTIFIED_RTOL * J, obs._zero_cost)
+        assert abs(out.cost - J) <= gap, (k0, out.cost, J)
+        status = out.uniqueness["status"]
+        assert status in ("unique", "alternative"), (k0, out.uniqueness)
+        if unique is None:
+            ties += 1
+        else:
+            compared += 1
+            assert (status == "unique") == unique, (k0, status, unique)
+        if status == "alternative":
+            alt = out.alternative
+            assert alt["cost"] <= out.cost + obs.uniqueness_epsilon + 1e-12
+            assert alt["distance"] >= obs.uniqueness_delta - 1e-6
+        if ref_obs is not None:
+            other = ref_obs.solve_window(Uw, Yw, uniqueness=True)
+            if other.optimal and other.uniqueness["status"] in ("unique", "alternative"):
+                assert abs(other.cost - out.cost) <= gap + max(MHE_CERTIFIED_RTOL * other.cost, ref_obs._zero_cost)
+                assert other.uniqueness["status"] == status, (k0, other.uniqueness, out.uniqueness)
+                if status == "unique":
+                    assert np.max(np.abs(other.x_start - out.x_start) / half) <= obs.uniqueness_delta
+    return compared, ties
+
+
+@pytest.mark.parametrize("norm", ["1", "inf"])
+def test_model16_T3_exact_against_brute_force_and_highs(bench, norm):
+    plant, U, Y = bench
+    starts = _windows(51, 3)
+    compared, ties = _check_against_reference(plant, U, Y, 3, norm, starts, compare_highs=True)
+    assert len(starts) >= 50 and compared >= 45, (compared, ties)
+
+
+@pytest.mark.parametrize("norm", ["1", "inf"])
+def test_model16_T4_exact_against_brute_force(bench, norm):
+    plant, U, Y = bench
+    starts = _windows(8, 4)
+    compared, ties = _check_against_reference(plant, U, Y, 4, norm, starts, compare_highs=False)
+    assert compared >= 6, (compared, ties)
+
+
+def test_deadzone_spring_exact_against_brute_force():
+    """A PWA system outside the papers (a dead-zone spring, tall windows T p > n: no exact fits, the
+    LP branch and bound decides every window)."""
+    plant = deadzone_spring()
+    steps = 160
+    u = deadzone_drive(steps)
+    from hybobs_opt import simulate_pwa
+
+    trace = simulate_pwa(plant, np.array([0.0, 0.0]), u)
+    Y = trace.y + np.random.default_rng(1).normal(0.0, 0.01, trace.y.shape)
+    T = 3
+    obs = MHEObserver(plant, T, norm="1", solver="sequences")
+    half = plant.scales()[0][: plant.n]
+    seen = set()
+    for k0 in range(0, steps - T, 9):
+        out = obs.solve_window(u[k0:k0 + T], Y[k0:k0 + T], uniqueness=True)
+        assert out.optimal, (k0, out.reason)
+        J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.x_start, obs.uniqueness_delta,
+                               obs.uniqueness_epsilon, half)
+        assert abs(out.cost - J) <= max(MHE_CERTIFIED_RTOL * J, obs._zero_cost), (k0, out.cost, J)
+        if unique is not None:
+            assert (out.uniqueness["status"] == "unique") == unique, (k0, out.uniqueness)
+        seen.add(out.uniqueness["status"])
+    assert "unique" in seen
+
+
+def test_observer_run_matches_highs_flags(bench):
+    """The observer loop (warm multipliers across windows, the prefix retries) gives the flags of
+    the MILP solver on a stretch with mode switches."""
+    plant, U, Y = bench
+    a = MHEObserver(plant, 3, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    b = MHEObserver(plant, 3, norm="1", solver="highs", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    flags = set()
+    for k in range(950, 1010):
+        ea, eb = a.step(U[k], Y[k]), b.step(U[k], Y[k])
+        assert ea.flag == eb.flag, (k, ea.info.get("reason"), eb.info.get("reason"))
+        flags.add(ea.flag)
+        if ea.flag == "observable":
+            assert np.allclose(ea.x, eb.x, rtol=1e-6, atol=1e-6)
+    assert {"observable", "unobservable"} <= flags
+
+
+@pytest.mark.parametrize("bad", [np.nan, 1e12])
+def test_bad_sample_is_fallback(bench, bad):
+    plant, U, Y = bench
+    obs = MHEObserver(plant, 3, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    for k in range(5):
+        obs.step(U[k], Y[k])
+    est = obs.step(U[5], np.array([bad]))
+    assert est.flag == "fallback"
+    est = obs.step(U[6], Y[6])
+    assert est.flag in ("fallback", "warming_up")
+
+
+def test_refusals_and_options(bench):
+    plant, U, Y = bench
+    with pytest.raises(ModelError, match="sequences"):
+        MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, extend=lambda ext: None)
+    with pytest.raises(ModelError, match="lp"):
+        MHEObserver(plant, 3, norm="1", solver="sequences", solver_options={"lp": "gurobi"})
+    with pytest.raises(ModelError, match="solver"):
+        MHEObserver(plant, 3, norm="2", solver="sequences")
+    # check_uniqueness=False: a certified optimum is observable without the separated LPs
+    obs = MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, solver_options={"lp": "highs"})
+    flags = [obs.step(U[k], Y[k]).flag for k in range(6)]
+    assert flags[2:] == ["observable"] * 4
