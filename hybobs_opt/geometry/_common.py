@@ -22,7 +22,7 @@ from ..tolerances import (
 )
 from .lp import row_range, solve_lp
 
-_METHODS = ("auto", "hull", "fm")
+_METHODS = ("auto", "hull", "fm", "vertices")
 
 
 def resolve_coordinate(coord: int | str, names: tuple[str, ...]) -> int:

@@ -18,7 +18,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from .._validate import as_int, as_items, as_matrix, as_names, as_vector
 from ..errors import ModelError
@@ -42,13 +41,19 @@ from ._common import (
     _unit_rows,
 )
 from .lp import row_range, solve_lp
-from .projection import image_of
-from .redundancy import irredundant
-from .volume import VolumeEstimate, monte_carlo_volume
+from .projection import _iterative_hull, image_of
+from .redundancy import facets_from_vertices, irredundant
+from .vertices import COUNTERS as LIBRARY_COUNTERS
+from .vertices import enumerate_vertices, hull_rows
+from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 
-#: Largest dimension for which :meth:`Polytope.vertices` and the exact :meth:`Polytope.volume`
-#: (qhull on the vertices) are offered; above it the volume is estimated by Monte Carlo.
-VERTEX_MAX_DIM: int = 4
+#: Largest dimension in which ``Polytope.volume(method="auto")`` is exact (qhull on the
+#: vertices); above it the volume is estimated by Monte Carlo.  ``method="exact"`` works in any
+#: dimension, but qhull's triangulated hull of a 6-D polytope can hold 10^5 simplices (0.3-0.8 s).
+EXACT_VOLUME_MAX_DIM: int = 4
+
+#: Old name of :data:`EXACT_VOLUME_MAX_DIM` (vertex enumeration is no longer limited to it).
+VERTEX_MAX_DIM: int = EXACT_VOLUME_MAX_DIM
 
 
 def _check_polytope(value, field: str) -> None:
@@ -141,6 +146,53 @@ class Polytope:
         """
         dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         return cls(np.zeros((0, dim)), np.zeros(0), as_names(names, "names", dim, "z"))
+
+    @classmethod
+    def from_vertices(cls, points: np.ndarray, names: Sequence[str] | None = None) -> "Polytope":
+        """The convex hull of a finite point set, as its facets (V -> H).
+
+        pycddlib answers first; its rows are used only when every point satisfies them and they
+        pass the vertex check of the polar set (each row a facet, none missing:
+        :func:`hybobs_opt.geometry.vertices.hull_rows`).  Otherwise (or without pycddlib, or for
+        a flat point set) the hull is built by the iterative-hull method of
+        :meth:`project`, whose support function over points is exact (no LPs).
+
+        Parameters
+        ----------
+        points : (n, d) array_like
+            The points (``n >= 1``, finite); points inside the hull are allowed.
+        names : sequence of str, optional
+            Coordinate names (``z1 ... zd`` by default).
+
+        Returns
+        -------
+        Polytope
+            Unit rows, one per facet; a lower-dimensional hull carries its affine hull as paired
+            rows ``N z <= n, -N z <= -n``.
+        """
+        X = as_matrix(points, "points", (None, None))
+        if X.shape[0] == 0:
+            raise ModelError("points", "at least one point", "none")
+        if not np.all(np.isfinite(X)):
+            raise ModelError("points", "finite coordinates", "a NaN or infinite entry")
+        d = X.shape[1]
+        names = as_names(names, "names", d, "z")
+        hull = hull_rows(X, op="from_vertices")
+        if hull is not None:
+            return cls(hull.H, hull.h, names)
+        mid, half = _unit_box_map(X.min(axis=0), X.max(axis=0))
+        Y = (X - mid) / half
+
+        def support(direction: np.ndarray) -> tuple[float, np.ndarray]:
+            vals = Y @ direction
+            k = int(np.argmax(vals))
+            return float(vals[k]), Y[k]
+
+        start = [Y[int(np.argmax(Y[:, i]))] for i in range(d)] + [Y[int(np.argmin(Y[:, i]))] for i in range(d)]
+        G, g, _ = _iterative_hull(support, start, d)
+        H = G / half
+        H, h = _unit_rows(H, g + H @ mid) if H.shape[0] else (H, g)
+        return cls(H, h, names)
 
     # ------------------------------------------------------------------ basic queries
     @property
@@ -424,6 +476,11 @@ class Polytope:
         v = np.zeros(k) if v is None else as_vector(v, "v", k)
         out_names = tuple(names) if names else ()
         _check_method(method)
+        if method == "vertices":
+            V = self.vertices()
+            if V.shape[0] == 0:
+                return Polytope.empty(k, out_names)
+            return Polytope.from_vertices(V @ M.T + v, out_names)
         if k == self.dim:
             sv = np.linalg.svd(M, compute_uv=False)
             if sv[0] > 0 and sv[-1] > RANK_RTOL * sv[0]:
@@ -457,9 +514,21 @@ class Polytope:
         -------
         Polytope
             Same set, a subset of the (normalised) rows; :meth:`empty` if the set is empty.
+
+        Notes
+        -----
+        First, the library path: the vertices from pycddlib or qhull, checked complete
+        (:func:`hybobs_opt.geometry.vertices.enumerate_vertices`), decide the facets, each kept row
+        with a checked witness point (:func:`hybobs_opt.geometry.redundancy.facets_from_vertices`).
+        Unbounded or flat sets, and answers that fail a check, go to the LP path above (counted in
+        :data:`hybobs_opt.geometry.vertices.COUNTERS`).  ``scale`` applies to the LP path; the
+        library path measures in the box of the vertices.
         """
         if self.n_constraints == 0:
             return self
+        kept = self._facets_by_vertices()
+        if isinstance(kept, Polytope):
+            return kept
         if scale is None:
             box = _box(self.A, self.b)
             if box is None:
@@ -480,6 +549,26 @@ class Polytope:
         A, b = _unit_rows(An[rows], bn[rows])
         return Polytope(A, b, self.names)
 
+    def _facets_by_vertices(self) -> "Polytope | None":
+        """:meth:`remove_redundant` from a checked vertex set, or ``None`` (the LP path decides)."""
+        enum = enumerate_vertices(self.A, self.b, op="remove_redundant")
+        if enum is None:
+            return None
+        if enum.status == "empty":
+            return Polytope.empty(self.dim, self.names)
+        if enum.status != "bounded":
+            LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, "unbounded set (decided by LPs)")
+            return None
+        sc, chk = enum.scaled, enum.checked
+        keep = facets_from_vertices(sc.A, sc.b, chk.Y, chk.tight)
+        if isinstance(keep, str):
+            LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, keep)
+            return None
+        rows = np.sort(enum.row_indices()[keep])
+        An, bn = _row_normalised(self.A, self.b)
+        A, b = _unit_rows(An[rows], bn[rows])  # the same arithmetic as the LP path's output
+        return Polytope(A, b, self.names)
+
     def project(
         self,
         coords: Sequence[int | str],
@@ -495,11 +584,15 @@ class Polytope:
         ----------
         coords : sequence of int or str
             Target coordinates (indices or names), in the order wanted in the result.
-        method : {"auto", "hull", "fm"}
+        method : {"auto", "hull", "fm", "vertices"}
             ``"hull"``: iterative convex hull of support points (bounded images only);
             ``"fm"``: Fourier-Motzkin elimination with LP redundancy removal after each step;
             ``"auto"``: ``"hull"`` when the target dimension is ``<= hull_max_dim`` and the image
-            is bounded, ``"fm"`` otherwise.
+            is bounded, ``"fm"`` otherwise;
+            ``"vertices"`` (opt-in, bounded sets of small dimension): the checked vertices of
+            :meth:`vertices`, projected, and the checked hull of :meth:`from_vertices` -- exact,
+            no LPs, but the vertex count grows quickly with the source dimension.  ``"auto"``
+            does not choose it: the analyses keep the path their results were validated on.
         hull_max_dim : int, optional
             Threshold of ``"auto"`` (default: :data:`hybobs_opt.geometry.projection.HULL_PROJECTION_MAX_DIM`).
 
@@ -564,16 +657,26 @@ class Polytope:
         _check_method(method)
         S = np.eye(d)[idx]
         names = tuple(self.names[i] for i in idx)
+        if method == "vertices":
+            src = self if E.shape[0] == 0 else Polytope(np.vstack([self.A, E, -E]), np.concatenate([self.b, e, -e]))
+            V = src.vertices()
+            if V.shape[0] == 0:
+                return Polytope.empty(len(idx), names)
+            return Polytope.from_vertices(V[:, idx], names)
         img = image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
         if img is None:
             return Polytope.empty(len(idx), names)
         return Polytope(img.H, img.h, names)
 
     def vertices(self) -> np.ndarray:
-        """Vertices of a bounded polytope of dimension ``<= VERTEX_MAX_DIM`` (4).
+        """Vertices of a bounded polytope, in any dimension.
 
-        Computed with the iterative-hull machinery of :meth:`project` (identity map): LP support
-        points whose hull is the polytope, reduced to the hull's vertices.
+        pycddlib or qhull enumerate them (:func:`hybobs_opt.geometry.vertices.enumerate_vertices`);
+        their answer is used only after a check in numpy: every vertex satisfies every row and
+        is a vertex, and every edge walked from a vertex ends on one of them, so none is missing
+        (an empty answer needs the LP layer's certificate).  If no library answer passes, the
+        iterative-hull machinery of :meth:`project` (identity map) computes them from LP support
+        points (counted in :data:`hybobs_opt.geometry.vertices.COUNTERS`).
 
         Returns
         -------
@@ -584,15 +687,19 @@ class Polytope:
         Raises
         ------
         ModelError
-            If ``d > VERTEX_MAX_DIM`` or the polytope is unbounded.
+            If the polytope is unbounded.
         """
         d = self.dim
-        if d > VERTEX_MAX_DIM:
-            raise ModelError("polytope", f"dimension <= {VERTEX_MAX_DIM} for vertex enumeration", f"dimension {d}")
-        img = image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
-        if img is None:
-            return np.zeros((0, d))
-        V = np.asarray(img.points, dtype=float)
+        enum = enumerate_vertices(self.A, self.b, op="vertices")
+        if enum is not None and enum.status == "unbounded":
+            raise ModelError("polytope", "a bounded polytope for vertex enumeration", "an unbounded set")
+        if enum is not None:
+            V = enum.points
+        else:
+            img = image_of(self.A, self.b, None, None, np.eye(d), np.zeros(d), "hull", d)
+            if img is None:
+                return np.zeros((0, d))
+            V = np.asarray(img.points, dtype=float)
         if d == 2 and len(V) > 2:
             c = V.mean(axis=0)
             V = V[np.argsort(np.arctan2(V[:, 1] - c[1], V[:, 0] - c[0]))]
@@ -604,9 +711,10 @@ class Polytope:
         Parameters
         ----------
         method : {"auto", "exact", "monte-carlo"}
-            ``"exact"``: qhull volume of the vertices (``d <= VERTEX_MAX_DIM``);
+            ``"exact"``: qhull volume of the checked vertices (any dimension; qhull's cost
+            grows steeply from 5-D);
             ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
-            ``"auto"``: exact when possible.
+            ``"auto"``: exact when ``d <= EXACT_VOLUME_MAX_DIM`` (4).
         n_samples : int
             Monte Carlo sample size.
         rng : numpy Generator or seed, optional
@@ -627,7 +735,7 @@ class Polytope:
             raise ModelError("method", "'auto', 'exact' or 'monte-carlo'", repr(method))
         d = self.dim
         if method == "auto":
-            method = "exact" if d <= VERTEX_MAX_DIM else "monte-carlo"
+            method = "exact" if d <= EXACT_VOLUME_MAX_DIM else "monte-carlo"
         if method == "exact":
             V = self.vertices()
             if len(V) <= d:
@@ -640,7 +748,7 @@ class Polytope:
             sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
             if np.sum(sv > AFFINE_HULL_RTOL) < d:
                 return VolumeEstimate(0.0, 0.0, "exact")
-            return VolumeEstimate(float(ConvexHull(Y).volume * np.prod(half)), 0.0, "exact")
+            return VolumeEstimate(float(checked_hull_volume(Y) * np.prod(half)), 0.0, "exact")
         box = _box(self.A, self.b)
         if box is None:
             return VolumeEstimate(0.0, 0.0, "monte-carlo", int(n_samples))

@@ -3,7 +3,8 @@
 One LP per row decides whether a row is implied by the others, accelerated by grouping parallel
 rows, ray-shooting certificates of non-redundancy from the Chebyshev centre, an optional qhull
 prefilter on the polar points (Fourier-Motzkin's thousands of rows) and Clarkson's algorithm
-(LPs over the rows already proved to be facets).  Used by
+(LPs over the rows already proved to be facets); and, faster, from a checked vertex set
+(:func:`facets_from_vertices`, the library path of :meth:`Polytope.remove_redundant`).  Used by
 :meth:`hybobs_opt.geometry.polytope.Polytope.remove_redundant` and the projections of
 :mod:`hybobs_opt.geometry.projection`.
 """
@@ -19,6 +20,7 @@ from ..tolerances import (
     PARALLEL_ROW_TOL,
     RAY_TIE_RTOL,
     REDUNDANCY_RTOL,
+    VERTEX_RANK_RTOL,
     ZERO_ROW_TOL,
 )
 from ._common import _lp
@@ -175,6 +177,71 @@ def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) ->
 _RAYS_PER_ROW = 20  # random rays per row for the non-redundancy certificates (cheap numpy work)
 _RAY_BUDGET = 4_000_000  # cap on rays x rows (~32 MB per array) for sets with thousands of rows
 _RAY_CAP = 1.0  # the LP test relaxes a row by 1 in unit-box coordinates: same cap for the rays
+
+
+def facets_from_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray, tight: np.ndarray) -> np.ndarray | str:
+    """Mask of the rows of ``{A y <= b}`` to keep, decided from its checked vertex set, or why not.
+
+    ``A`` holds unit rows in coordinates scaled to the vertices' box, ``Y`` the complete vertex
+    set of the (bounded) polytope and ``tight`` its vertex-row incidence, as
+    :func:`hybobs_opt.geometry.vertices.check_vertices` returns them.  Parallel rows are grouped
+    first as in :func:`irredundant` (the tightest kept).  A row is kept when it is a facet: its
+    tight vertices span an affine space of dimension ``d - 1``; every other row is implied, since
+    a full-dimensional polytope is the intersection of its facets' halfspaces and the vertex set is
+    complete.  Each kept row must also carry a certificate of non-redundancy checked in numpy: the
+    centroid of its facet pushed out by ``3 REDUNDANCY_RTOL (1 + |b_i|)`` satisfies every other
+    kept row and violates this one by more than REDUNDANCY_RTOL (1 + |b_i|), the tolerance of the
+    LP test of :func:`irredundant`.  A row without one (a near-duplicate, a facet thinner than the
+    tolerance) makes the answer a string, and the caller decides by LPs instead.
+
+    Returns
+    -------
+    (m,) bool array or str
+        The rows kept, or the reason the vertex set does not decide.
+    """
+    m, d = A.shape
+    n = Y.shape[0]
+    if n <= d:
+        return "fewer than d + 1 vertices: the set is not full-dimensional"
+    sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
+    if sv[-1] <= VERTEX_RANK_RTOL * sv[0]:
+        return "the vertices span less than the whole space: the set is not full-dimensional"
+    keys = np.round(A / PARALLEL_ROW_TOL).astype(np.int64)
+    order = np.lexsort(np.vstack([b, keys.T[::-1]]))
+    first = np.ones(m, dtype=bool)
+    first[1:] = np.any(keys[order][1:] != keys[order][:-1], axis=1)
+    cand = np.zeros(m, dtype=bool)
+    cand[order[first]] = True
+    count = tight.sum(axis=0)
+    cand &= count >= d
+    facet = np.zeros(m, dtype=bool)
+    ci = np.nonzero(cand)[0]
+    if ci.size:
+        if d == 1:
+            facet[ci] = True
+        else:
+            K = int(count[ci].max())
+            Tc = tight[:, ci]
+            idx = np.argsort(~Tc, axis=0, kind="stable")[:K].T  # (rows, K): tight vertices first
+            pad = np.arange(K)[None, :] >= count[ci][:, None]
+            idx = np.where(pad, idx[:, :1], idx)  # repeats of the first vertex add no dimension
+            Z = Y[idx] - Y[idx[:, :1]]
+            s = np.linalg.svd(Z, compute_uv=False)
+            facet[ci] = s[:, d - 2] > VERTEX_RANK_RTOL * np.maximum(s[:, 0], 1.0)
+    fi = np.nonzero(facet)[0]
+    if fi.size < d + 1:
+        return f"only {fi.size} facets found in dimension {d}"
+    Tf = tight[:, fi].astype(float)
+    centres = (Tf.T @ Y) / Tf.sum(axis=0)[:, None]
+    tol = REDUNDANCY_RTOL * (1.0 + np.abs(b[fi]))
+    Z = centres + 3.0 * tol[:, None] * A[fi]
+    V = Z @ A[fi].T - b[fi][None, :]  # V[k, j]: row j at the witness of row k
+    own = np.diagonal(V).copy()
+    np.fill_diagonal(V, -np.inf)
+    bad = (own <= tol) | np.any(V > 0.0, axis=1)
+    if bad.any():
+        return f"row {int(fi[np.argmax(bad)])} is a facet without a checked witness of non-redundancy"
+    return facet
 
 
 #: Old private name (kept for scripts that reached it).

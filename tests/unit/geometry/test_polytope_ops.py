@@ -354,8 +354,9 @@ def test_monte_carlo_volume_within_four_standard_errors():
     assert est.method == "monte-carlo" and est.n_samples == 400_000
     assert est.stderr > 0
     assert abs(est.value - 1 / 120) < 4 * est.stderr
-    with pytest.raises(ModelError, match="dimension"):
-        unit_simplex(5).vertices()
+    # vertex enumeration (and the exact volume) are no longer limited to d <= 4 (issue 19)
+    assert_same_points(unit_simplex(5).vertices(), np.vstack([np.zeros(5), np.eye(5)]))
+    assert unit_simplex(5).volume("exact").value == pytest.approx(1 / 120, rel=1e-9)
 
 
 # ---------------------------------------------------------------------- unions

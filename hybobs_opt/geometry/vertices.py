@@ -1,0 +1,636 @@
+"""Vertex enumeration (H -> V) and convex hulls (V -> H) on pycddlib and qhull, every answer checked.
+
+The libraries the field uses answer in floating point (cddlib's double description with its
+absolute zero of 1e-7, qhull's halfspace intersection), so nothing they return is used unchecked
+(DESIGN.md).  Both are handed unit rows (the units of each row removed), and their answer is
+checked in coordinates scaled so that the returned vertices' box is ``[-1, 1]^d``, with the named
+relative tolerances of :mod:`hybobs_opt.tolerances`:
+
+1. every point satisfies every row to VERTEX_CHECK_RTOL;
+2. every point is a vertex: its tight rows (slack <= VERTEX_TIGHT_RTOL) have rank ``d``, with
+   their smallest singular value above VERTEX_RANK_RTOL; points within VERTEX_SAME_RTOL of each
+   other are one vertex;
+3. no vertex is missing: every edge of the polytope leaving a returned vertex is walked (the
+   ``d`` edge directions of a simple vertex are the columns of ``-A_T^-1``; at a degenerate
+   vertex, the extreme rays of its cone of feasible directions, from the (d-1)-subsets of its
+   tight rows) and the ratio test must end it on a returned vertex.  The graph of a polytope is
+   connected (Balinski), so a vertex set closed under its edges is all of them.  An edge that no
+   row stops is a recession direction: a certificate that the set is unbounded.
+
+An empty answer is accepted only with an infeasibility certificate of the LP layer
+(:func:`~hybobs_opt.geometry.lp.solve_lp`).  The check costs a few numpy products of size
+(vertices x d) x rows and one k-d tree; an answer that fails it goes to the next path (the other
+library, then the library in the scaled coordinates, then the caller's hand-written path), and
+every fall-back is counted in :data:`COUNTERS` and logged on the ``hybobs_opt.geometry.vertices``
+logger.
+
+Which library answers first depends on the dimension (:data:`CDD_FIRST_MAX_DIM`): cddlib is the
+fastest on small problems, qhull's halfspace intersection (on an interior point from cddlib's LP)
+from 4-D up (measured in ``benchmarks/bench_polytope.py``).  Without pycddlib (the optional extra
+``[cdd]``) qhull answers alone, with the interior point from the LP layer.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import warnings
+from collections import Counter
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
+
+from ..tolerances import (
+    VERTEX_CHECK_RTOL,
+    VERTEX_DEGENERATE_MAX_SUBSETS,
+    VERTEX_RANK_RTOL,
+    VERTEX_SAME_RTOL,
+    VERTEX_TIGHT_RTOL,
+    ZERO_ROW_TOL,
+)
+from ._common import _row_normalised, _unit_box_map
+
+log = logging.getLogger(__name__)
+
+#: Dimensions up to which cddlib enumerates vertices first (qhull second); above it qhull first.
+#: Measured on random polytopes (benchmarks/bench_polytope.py): cddlib 0.06-0.2 ms at d = 2-3,
+#: below qhull's 0.08-0.1 ms plus the interior point; at d = 6 qhull is 3-6 x faster than cddlib.
+CDD_FIRST_MAX_DIM: int = 3
+
+_cdd_state: list = []  # [module or None], filled on first use
+
+
+def cdd_module():
+    """The ``cdd`` module of pycddlib >= 3 (``pycddlib`` or ``pycddlib-standalone``), or ``None``.
+
+    ``None`` when it is not installed or is an older pycddlib without the 3.x functions; the
+    geometry then uses qhull and the hand-written paths only.
+    """
+    if not _cdd_state:
+        try:
+            import cdd  # noqa: PLC0415 (optional dependency, imported on first use)
+        except ImportError:
+            cdd = None
+        if cdd is not None and not all(hasattr(cdd, f) for f in ("matrix_from_array", "polyhedron_from_matrix",
+                                                                  "copy_generators", "copy_inequalities",
+                                                                  "linprog_from_array")):
+            log.info("pycddlib found but without the 3.x API: not used")
+            cdd = None
+        _cdd_state.append(cdd)
+    return _cdd_state[0]
+
+
+@dataclass
+class LibraryCounters:
+    """How often a library answer was accepted, and how often (and why) another path answered.
+
+    ``accepted[op]`` counts accepted answers per operation and library (``"vertices:cdd"``),
+    ``fallbacks[op]`` answers that failed their check or could not be had (each logged with its
+    reason), ``reasons`` the last :data:`_MAX_REASONS` reasons.
+    """
+
+    accepted: Counter = field(default_factory=Counter)
+    fallbacks: Counter = field(default_factory=Counter)
+    reasons: list = field(default_factory=list)
+
+    def accept(self, op: str, source: str) -> None:
+        self.accepted[f"{op}:{source}"] += 1
+
+    def fallback(self, op: str, source: str, reason: str) -> None:
+        self.fallbacks[f"{op}:{source}"] += 1
+        self.reasons.append(f"{op} ({source}): {reason}")
+        del self.reasons[:-_MAX_REASONS]
+        log.info("geometry %s: the %s answer was not used: %s", op, source, reason)
+
+    def reset(self) -> None:
+        self.accepted.clear()
+        self.fallbacks.clear()
+        self.reasons.clear()
+
+    def snapshot(self) -> dict:
+        return {"accepted": dict(self.accepted), "fallbacks": dict(self.fallbacks), "reasons": list(self.reasons)}
+
+
+_MAX_REASONS = 50
+
+#: Process-wide counters of the library paths (each worker process has its own).
+COUNTERS = LibraryCounters()
+
+
+# ---------------------------------------------------------------------------------------------
+# The check
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CheckedVertices:
+    """A vertex set that passed the check, in the scaled coordinates of the check.
+
+    Attributes
+    ----------
+    Y : (n, d) array
+        The vertices (duplicates merged), scaled coordinates.
+    tight : (n, m) bool array
+        Which rows are tight at each vertex.
+    rays : (k, d) array
+        Unit recession directions found by the edge walk (``k > 0``: the set is unbounded).
+    """
+
+    Y: np.ndarray
+    tight: np.ndarray
+    rays: np.ndarray
+
+
+def check_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray) -> CheckedVertices | str:
+    """Check that ``Y`` is the complete vertex set of ``{y : A y <= b}`` (unit rows, scaled).
+
+    Parameters
+    ----------
+    A : (m, d) array
+        Unit rows, in coordinates where the set is of size about one.
+    b : (m,) array
+        Right-hand sides.
+    Y : (n, d) array
+        The candidate vertices (``n >= 1``).
+
+    Returns
+    -------
+    CheckedVertices or str
+        The checked set, or the reason it failed (a sentence).
+    """
+    m, d = A.shape
+    if Y.ndim != 2 or Y.shape[1] != d or Y.shape[0] == 0:
+        return f"no points of dimension {d}"
+    if not np.all(np.isfinite(Y)):
+        return "a point is not finite"
+    scale_b = 1.0 + np.abs(b)
+    S = b[None, :] - Y @ A.T
+    viol = S < -VERTEX_CHECK_RTOL * scale_b
+    if viol.any():
+        i, j = np.argwhere(viol)[0]
+        return f"point {i} violates row {j} by {-S[i, j]:.3g} (scaled)"
+    tree = cKDTree(Y)
+    if Y.shape[0] > 1:
+        pairs = tree.query_pairs(VERTEX_SAME_RTOL, p=np.inf, output_type="ndarray")
+        if pairs.size:
+            keep = np.ones(Y.shape[0], dtype=bool)
+            keep[pairs[:, 1]] = False
+            Y, S = Y[keep], S[keep]
+            tree = cKDTree(Y)
+    T = S <= VERTEX_TIGHT_RTOL * scale_b
+    count = T.sum(axis=1)
+    if np.any(count < d):
+        return f"point {int(np.argmax(count < d))} is tight on fewer than {d} rows: not a vertex"
+    simple = count == d
+    ev, er = [], []
+    if simple.any():
+        vi = np.nonzero(simple)[0]
+        rows = np.nonzero(T[vi])[1].reshape(-1, d)
+        try:
+            inv = np.linalg.inv(A[rows])
+        except np.linalg.LinAlgError:
+            return "the tight rows of a vertex are singular"
+        if np.any(np.sqrt(np.einsum("kij,kij->k", inv, inv)) * VERTEX_RANK_RTOL >= 1.0):
+            return "the tight rows of a vertex are nearly dependent"
+        ev.append(np.repeat(vi, d))
+        er.append(-np.swapaxes(inv, 1, 2).reshape(-1, d))  # row k of each block: -A_T^-1 e_k
+    for v in np.nonzero(~simple)[0]:
+        dirs = _cone_edges(A[T[v]], d)
+        if isinstance(dirs, str):
+            return f"vertex {v}: {dirs}"
+        ev.append(np.full(dirs.shape[0], v))
+        er.append(dirs)
+    EV = np.concatenate(ev)
+    ER = np.concatenate(er)
+    ER /= np.linalg.norm(ER, axis=1)[:, None]
+    P = ER @ A.T  # rate at which each row's slack is used up along each edge
+    blocking = (P > VERTEX_CHECK_RTOL) & ~T[EV]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(blocking, S[EV] / np.where(blocking, P, 1.0), np.inf)
+    step = t.min(axis=1)
+    ray = ~np.isfinite(step)
+    rays = ER[ray]
+    if rays.shape[0] and np.any(rays @ A.T > VERTEX_CHECK_RTOL):
+        return "an unblocked edge is not a recession direction"
+    ends = Y[EV[~ray]] + step[~ray, None] * ER[~ray]
+    if ends.shape[0]:
+        dist, _ = tree.query(ends, k=1, p=np.inf, distance_upper_bound=VERTEX_SAME_RTOL)
+        missing = ~np.isfinite(dist)
+        if missing.any():
+            k = int(np.argmax(missing))
+            return f"incomplete: the edge from vertex {EV[~ray][k]} ends at a point that is not in the set"
+    return CheckedVertices(Y, T, rays)
+
+
+def _cone_edges(AT: np.ndarray, d: int) -> np.ndarray | str:
+    """Unit extreme rays of ``{r : AT r <= 0}`` (a degenerate vertex's tight rows ``AT``)."""
+    t = AT.shape[0]
+    if d == 1:
+        cand = np.array([[1.0], [-1.0]])
+    else:
+        n_sub = math.comb(t, d - 1)
+        if n_sub > VERTEX_DEGENERATE_MAX_SUBSETS:
+            return f"degenerate with {t} tight rows ({n_sub} subsets to try)"
+        sub = np.array(list(combinations(range(t), d - 1)))
+        _, s, Vt = np.linalg.svd(AT[sub], full_matrices=True)
+        ok = s[:, -1] > VERTEX_RANK_RTOL * s[:, 0]
+        null = Vt[ok, -1, :]
+        cand = np.vstack([null, -null])
+    P = cand @ AT.T
+    cand = cand[np.all(P <= VERTEX_CHECK_RTOL, axis=1)]
+    if cand.shape[0] < d:
+        return "fewer than d edge directions"
+    _, first = np.unique(np.round(cand / VERTEX_SAME_RTOL), axis=0, return_index=True)
+    return cand[np.sort(first)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Scaling
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ScaledRows:
+    """Unit rows of ``{z : A z <= b}`` in coordinates ``y = (z - mid) / half``.
+
+    ``rows`` indexes the rows kept (the others are constant: ``0 <= b``); ``contradiction`` is
+    True when a constant row reads ``0 <= b`` with ``b`` negative beyond VERTEX_CHECK_RTOL.
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    mid: np.ndarray
+    half: np.ndarray
+    rows: np.ndarray
+    contradiction: bool
+
+
+def scale_rows(An: np.ndarray, bn: np.ndarray, mid: np.ndarray, half: np.ndarray) -> ScaledRows:
+    """Rows of unit norm ``(An, bn)`` written in ``y = (z - mid) / half`` and set to unit norm again."""
+    As = An * half
+    bs = bn - An @ mid
+    norms = np.linalg.norm(As, axis=1)
+    live = norms > ZERO_ROW_TOL * float(np.max(half))
+    contradiction = bool(np.any(~live & (bs < -VERTEX_CHECK_RTOL * (1.0 + np.abs(bs)))))
+    rows = np.nonzero(live)[0]
+    return ScaledRows(As[rows] / norms[rows, None], bs[rows] / norms[rows], mid, half, rows, contradiction)
+
+
+def _box_of(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return _unit_box_map(X.min(axis=0), X.max(axis=0))
+
+
+# ---------------------------------------------------------------------------------------------
+# The libraries
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Raw:
+    """A library's answer in the coordinates it was given: points, rays, lines (unchecked)."""
+
+    points: np.ndarray
+    rays: np.ndarray
+
+
+def _cdd_generators(A: np.ndarray, b: np.ndarray) -> _Raw:
+    cdd = cdd_module()
+    d = A.shape[1]
+    mat = cdd.matrix_from_array(np.hstack([b[:, None], -A]), rep_type=cdd.RepType.INEQUALITY)
+    gen = cdd.copy_generators(cdd.polyhedron_from_matrix(mat))
+    G = np.asarray(gen.array, dtype=float).reshape(-1, d + 1)
+    lines = np.zeros(G.shape[0], dtype=bool)
+    lines[list(gen.lin_set)] = True
+    is_point = (G[:, 0] != 0.0) & ~lines
+    pts = G[is_point, 1:] / G[is_point, :1]
+    R = G[~is_point, 1:]
+    R = np.vstack([R, -G[lines, 1:]])  # a line is two rays
+    return _Raw(pts, R)
+
+
+def interior_point(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """A Chebyshev centre of ``{A z <= b}`` (unit rows) and its radius, checked; ``None`` if none.
+
+    cddlib's LP when pycddlib is there (tens of microseconds), the LP layer otherwise; the
+    answer is used only if every row holds at the centre with the returned slack, up to
+    VERTEX_CHECK_RTOL, and the radius is positive.  The radius is capped at 1e6 times the
+    largest ``|b|`` (the set may be unbounded).
+    """
+    m, d = A.shape
+    cap = 1e6 * (1.0 + float(np.max(np.abs(b)))) if m else 1.0
+    cdd = cdd_module()
+    x = None
+    if cdd is not None:
+        arr = np.zeros((m + 2, d + 2))
+        arr[:m, 0] = b
+        arr[:m, 1 : d + 1] = -A
+        arr[:m, -1] = -1.0
+        arr[m, 0] = cap
+        arr[m, -1] = -1.0
+        arr[m + 1, -1] = 1.0  # objective: maximise the radius
+        lp = cdd.linprog_from_array(arr, obj_type=cdd.LPObjType.MAX)
+        cdd.linprog_solve(lp)
+        if lp.status == cdd.LPStatusType.OPTIMAL:
+            x = np.asarray(lp.primal_solution, dtype=float)
+    if x is None:
+        from .lp import solve_lp  # noqa: PLC0415
+
+        c = np.zeros(d + 1)
+        c[-1] = -1.0
+        res = solve_lp(c, np.hstack([A, np.ones((m, 1))]), b, bounds=[(None, None)] * d + [(None, cap)],
+                       problem="interior point for vertex enumeration")
+        if not res.optimal:
+            return None
+        x = res.x
+    centre, r = x[:d], float(x[-1])
+    if not (np.all(np.isfinite(x)) and r > 0.0):
+        return None
+    slack = b - A @ centre
+    if np.any(slack < r - VERTEX_CHECK_RTOL * (1.0 + np.abs(b))):
+        return None
+    return centre, r
+
+
+def _qhull_points(A: np.ndarray, b: np.ndarray) -> _Raw | str:
+    ip = interior_point(A, b)
+    if ip is None:
+        return "no interior point (empty or flat set)"
+    centre, r = ip
+    try:
+        # qhull divides by each row's slack at the centre: its warnings are the check's business
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            hs = HalfspaceIntersection(np.hstack([A, -b[:, None]]), centre)
+    except (QhullError, ValueError, RuntimeWarning) as exc:
+        return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+    return _Raw(np.asarray(hs.intersections, dtype=float), np.zeros((0, A.shape[1])))
+
+
+_LIBRARIES = {"cdd": _cdd_generators, "qhull": _qhull_points}
+
+
+def library_order(d: int) -> tuple[str, ...]:
+    """Libraries to try for vertex enumeration in dimension ``d``, first to last."""
+    if cdd_module() is None:
+        return ("qhull",)
+    return ("cdd", "qhull") if d <= CDD_FIRST_MAX_DIM else ("qhull", "cdd")
+
+
+# ---------------------------------------------------------------------------------------------
+# H -> V
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class VertexEnumeration:
+    """Checked answer of :func:`enumerate_vertices`.
+
+    Attributes
+    ----------
+    status : str
+        ``"bounded"`` (``points`` are all the vertices), ``"empty"`` (certified by an LP) or
+        ``"unbounded"`` (``rays`` holds recession directions, each checked).
+    points : (n, d) array
+        Vertices in the original coordinates (``n = 0`` unless bounded).
+    rays : (k, d) array
+        Unit recession directions in the original coordinates (unbounded only).
+    scaled : ScaledRows or None
+        The scaled rows of the check (bounded only).
+    checked : CheckedVertices or None
+        The check's vertex set and incidence (bounded only).
+    source : str
+        The library that answered.
+    rows : (m',) int array
+        Indices of the given rows that are not all-zero; ``scaled.rows`` indexes into these.
+    """
+
+    status: str
+    points: np.ndarray
+    rays: np.ndarray
+    scaled: ScaledRows | None
+    checked: CheckedVertices | None
+    source: str
+    rows: np.ndarray | None = None
+
+    def row_indices(self) -> np.ndarray:
+        """Indices into the given rows of the rows of ``scaled`` (and of ``checked.tight``'s columns)."""
+        return self.rows[self.scaled.rows]
+
+
+def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> VertexEnumeration | None:
+    """All vertices of ``{z : A z <= b}`` from pycddlib or qhull, checked; ``None`` if no library passed.
+
+    Parameters
+    ----------
+    A : (m, d) array
+        Constraint rows (any units; they are normalised).
+    b : (m,) array
+        Right-hand side.
+    op : str
+        Name of the calling operation in :data:`COUNTERS` and the log.
+
+    Returns
+    -------
+    VertexEnumeration or None
+        ``None`` when every library answer failed its check (each failure counted and logged):
+        the caller then runs its hand-written path.
+    """
+    An, bn = _row_normalised(A, b)
+    m, d = An.shape
+    norms = np.linalg.norm(An, axis=1)
+    const = norms == 0.0
+    if np.any(const & (bn < 0.0)):
+        return _empty(d, "rows")
+    live = np.nonzero(~const)[0]
+    An, bn = An[live], bn[live]
+    if An.shape[0] == 0:
+        return VertexEnumeration("unbounded", np.zeros((0, d)), np.eye(d), None, None, "rows", live)
+    order = library_order(d)
+    for source in order:
+        out = _try_library(source, An, bn, op, None)
+        if out is not None:
+            COUNTERS.accept(op, source)
+            return VertexEnumeration(out.status, out.points, out.rays, out.scaled, out.checked, out.source, live)
+    # Every library failed in the given units: once more in coordinates scaled by the LP bounding box.
+    from ._common import _box  # noqa: PLC0415
+
+    box = _box(An, bn)
+    if box is None or not (np.all(np.isfinite(box[0])) and np.all(np.isfinite(box[1]))):
+        return None  # empty or unbounded by the LPs: the caller's path reports it
+    mid, half = _unit_box_map(*box)
+    if _near_unit(mid, half):
+        return None
+    for source in order:
+        out = _try_library(source, An, bn, op, (mid, half))
+        if out is not None:
+            COUNTERS.accept(op, source)
+            return VertexEnumeration(out.status, out.points, out.rays, out.scaled, out.checked, out.source, live)
+    return None
+
+
+def _empty(d: int, source: str) -> VertexEnumeration:
+    return VertexEnumeration("empty", np.zeros((0, d)), np.zeros((0, d)), None, None, source)
+
+
+def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling) -> VertexEnumeration | None:
+    """One library on the unit rows, then (if its answer fails) on rows rescaled by that answer's box.
+
+    ``scaling`` is ``(mid, half)`` to hand the library the rows in ``(z - mid) / half`` from the
+    start (and not retry), or ``None`` for the given units.
+    """
+    d = An.shape[1]
+    mid, half = (np.zeros(d), np.ones(d)) if scaling is None else scaling
+    for attempt in range(1 if scaling is not None else 2):
+        sc = scale_rows(An, bn, mid, half)
+        try:
+            raw = _LIBRARIES[source](sc.A, sc.b)
+        except (ValueError, RuntimeError, MemoryError) as exc:  # a library error is a failed answer
+            raw = f"{type(exc).__name__}: {exc}"
+        if isinstance(raw, str):
+            COUNTERS.fallback(op, source, raw)
+            return None
+        pts = mid + raw.points * half
+        rays = raw.rays * half
+        if rays.shape[0]:
+            ok = _check_rays(An, rays)
+            if ok is not None:
+                return VertexEnumeration("unbounded", np.zeros((0, d)), ok, None, None, source)
+            COUNTERS.fallback(op, source, "a returned ray is not a recession direction")
+            return None
+        if pts.shape[0] == 0:
+            if _certified_empty(An, bn):
+                return _empty(d, source)
+            COUNTERS.fallback(op, source, "no vertex returned, but the set is not empty")
+            return None
+        new_mid, new_half = _box_of(pts)
+        sc = scale_rows(An, bn, new_mid, new_half)
+        checked = None if sc.contradiction else check_vertices(sc.A, sc.b, (pts - new_mid) / new_half)
+        if isinstance(checked, CheckedVertices):
+            if checked.rays.shape[0]:
+                return VertexEnumeration("unbounded", np.zeros((0, d)), _unit(checked.rays * new_half), None, None, source)
+            return VertexEnumeration("bounded", new_mid + checked.Y * new_half, np.zeros((0, d)), sc, checked, source)
+        reason = "a constant row is violated" if checked is None else checked
+        if attempt == 0 and not _near_unit(new_mid, new_half):
+            log.debug("geometry %s: %s answer failed its check in the given units (%s); retrying scaled", op, source, reason)
+            mid, half = new_mid, new_half
+            continue
+        COUNTERS.fallback(op, source, reason)
+        return None
+    return None
+
+
+def _near_unit(mid: np.ndarray, half: np.ndarray) -> bool:
+    """Is ``z -> (z - mid) / half`` close to the identity (nothing gained by rescaling)?"""
+    return bool(np.all(np.abs(np.log(half)) < 1.0) and np.all(np.abs(mid) <= 2.0 * half))
+
+
+def _unit(R: np.ndarray) -> np.ndarray:
+    return R / np.linalg.norm(R, axis=1)[:, None]
+
+
+def _check_rays(An: np.ndarray, R: np.ndarray) -> np.ndarray | None:
+    """Unit rays if each is a recession direction of ``{An z <= b}`` (unit rows) to VERTEX_CHECK_RTOL."""
+    norms = np.linalg.norm(R, axis=1)
+    if np.any(~np.isfinite(norms)) or np.any(norms == 0.0):
+        return None
+    U = R / norms[:, None]
+    if np.any(U @ An.T > VERTEX_CHECK_RTOL):
+        return None
+    return U
+
+
+def _certified_empty(An: np.ndarray, bn: np.ndarray) -> bool:
+    """True when the LP layer proves ``{An z <= bn}`` empty (a checked Farkas certificate)."""
+    from .lp import solve_lp  # noqa: PLC0415
+
+    res = solve_lp(np.zeros(An.shape[1]), An, bn, problem="emptiness test of a vertex enumeration")
+    return res.status == "infeasible"
+
+
+# ---------------------------------------------------------------------------------------------
+# V -> H
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class HullRows:
+    """Checked facets ``H z <= h`` (unit rows) of the convex hull of a point set."""
+
+    H: np.ndarray
+    h: np.ndarray
+    source: str
+
+
+def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
+    """Facets of ``conv(points)`` from pycddlib, checked; ``None`` if the answer failed (or no cdd).
+
+    The points are scaled to their box.  cddlib's inequalities are accepted when every point
+    satisfies every row (to VERTEX_CHECK_RTOL) and the rows pass the vertex check in the polar
+    set about the points' centroid ``c``, ``{y : (p - c)' y <= 1 for all points p}``, whose
+    vertices are the facets ``a / (h - a'c)`` of the hull: each row is then a facet, and none is
+    missing.  A hull that is not full-dimensional is left to the caller (cddlib answers it with
+    equalities).
+
+    Parameters
+    ----------
+    points : (n, d) array
+        The points (finite).
+    op : str
+        Name of the calling operation in :data:`COUNTERS` and the log.
+    """
+    cdd = cdd_module()
+    if cdd is None:
+        return None
+    X = np.asarray(points, dtype=float)
+    n, d = X.shape
+    mid, half = _box_of(X)
+    Y = (X - mid) / half
+    c = Y.mean(axis=0)
+    P = Y - c
+    if n <= d or np.linalg.matrix_rank(P, tol=VERTEX_RANK_RTOL * max(1.0, float(np.abs(P).max()))) < d:
+        COUNTERS.fallback(op, "cdd", "the points are not full-dimensional")
+        return None
+    try:
+        mat = cdd.matrix_from_array(np.hstack([np.ones((n, 1)), Y]), rep_type=cdd.RepType.GENERATOR)
+        ineq = cdd.copy_inequalities(cdd.polyhedron_from_matrix(mat))
+    except (ValueError, RuntimeError, MemoryError) as exc:
+        COUNTERS.fallback(op, "cdd", f"{type(exc).__name__}: {exc}")
+        return None
+    M = np.asarray(ineq.array, dtype=float).reshape(-1, d + 1)
+    if ineq.lin_set or M.shape[0] == 0:
+        COUNTERS.fallback(op, "cdd", "equalities in a full-dimensional hull")
+        return None
+    G, g = -M[:, 1:], M[:, 0]  # cdd's rows read g - G y >= 0
+    norms = np.linalg.norm(G, axis=1)
+    live = norms > ZERO_ROW_TOL
+    if np.any(~live & (g < 0)):
+        COUNTERS.fallback(op, "cdd", "a constant row is violated")
+        return None
+    G, g = G[live] / norms[live, None], g[live] / norms[live]
+    reason = _check_hull(G, g, P, c)
+    if reason is not None:
+        COUNTERS.fallback(op, "cdd", reason)
+        return None
+    # back to z: G (z - mid) / half <= g
+    H = G / half
+    h = g + H @ mid
+    hn = np.linalg.norm(H, axis=1)
+    COUNTERS.accept(op, "cdd")
+    return HullRows(H / hn[:, None], h / hn, "cdd")
+
+
+def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> str | None:
+    """``None`` when ``{G y <= g}`` is exactly the hull of the points ``c + P`` (scaled), else why not."""
+    viol = P @ G.T - (g - G @ c)[None, :]
+    if np.any(viol > VERTEX_CHECK_RTOL * (1.0 + np.abs(g))[None, :]):
+        return "a point violates a returned row"
+    depth = g - G @ c  # distance of the centroid to each row, > 0 for a full-dimensional hull
+    if np.any(depth <= VERTEX_RANK_RTOL):
+        return "the centroid lies on a returned row"
+    Y_polar = G / depth[:, None]
+    pn = np.linalg.norm(P, axis=1)
+    live = pn > VERTEX_SAME_RTOL
+    Apol = P[live] / pn[live, None]
+    bpol = 1.0 / pn[live]
+    pm, ph = _box_of(Y_polar)
+    sc = scale_rows(Apol, bpol, pm, ph)
+    checked = check_vertices(sc.A, sc.b, (Y_polar - pm) / ph)
+    if isinstance(checked, str):
+        return f"polar check: {checked}"
+    if checked.rays.shape[0]:
+        return "polar check: unbounded polar (the centroid is not interior)"
+    if checked.Y.shape[0] != G.shape[0]:
+        return "duplicate facets"
+    return None
