@@ -136,6 +136,13 @@ class SequenceLPSolver:
         for i, nd in enumerate(self.nodes):
             nd.index = i
         self._structural_candidates()
+        # the last LP's multipliers of every node, stacked like r_all / g_all (dual-feasible as
+        # stored), their box terms, and which nodes hold an infeasibility ray (mu = 0)
+        self._Wmu, self._Wlam = np.zeros(self._rows[0]), np.zeros(self._rows[1])
+        self._Wbox = np.full(len(self.nodes), -np.inf)
+        self._Wray = np.zeros(len(self.nodes), dtype=bool)
+        self._rstart = np.array([nd.r_sl.start for nd in self.nodes])
+        self._gstart = np.array([nd.g_sl.start for nd in self.nodes])
         self.build_seconds = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ offline
@@ -260,7 +267,7 @@ class SequenceLPSolver:
         return out
 
     def _structural_candidates(self) -> None:
-        """Multipliers that depend on the node alone, stacked so that one sparse product per step
+        """Multipliers that depend on the node alone, stacked so that one matrix product per step
         gives every node's best bound of them (``c = R'mu + G'lam`` and its box term are fixed):
 
         * a square full-rank sequence, every row ``i`` of ``G``: ``lam = t_i e_i``,
@@ -269,10 +276,8 @@ class SequenceLPSolver:
         * every node whose ``R`` has a left null space, each null vector with both signs (the
           part of the outputs the sequence cannot reproduce).
         """
-        from scipy import sparse
-
         shrink = 1.0 - 8 * np.finfo(float).eps  # strictly inside the dual ball despite rounding
-        rows_r, rows_g, box, owner = [], [], [], []
+        rows_r, tvec, gidx, box, owner = [], [], [], [], []
         nr, ng = self._rows[0], self._rows[1]
         for nd in self.nodes:
             cands = []
@@ -288,19 +293,19 @@ class SequenceLPSolver:
                 c = nd.R.T @ mu + nd.G.T @ lam
                 a = np.zeros(nr)
                 a[nd.r_sl] = mu
-                b = np.zeros(ng)
-                b[nd.g_sl] = lam
                 rows_r.append(a)
-                rows_g.append(b)
+                nz = np.flatnonzero(lam)
+                tvec.append(float(lam[nz[0]]) if nz.size else 0.0)  # lam has at most one nonzero
+                gidx.append(nd.g_sl.start + int(nz[0]) if nz.size else 0)
                 box.append(float(np.minimum(c * self.lo, c * self.hi).sum()))
                 owner.append(nd.index)
         self._cand_owner = np.asarray(owner, dtype=int)
         if not owner:
             self._Cr = None
             return
-        self._Cr = sparse.csr_matrix(np.array(rows_r))
-        self._Cg = sparse.csr_matrix(np.array(rows_g))
-        self._aCr, self._aCg = abs(self._Cr), abs(self._Cg)
+        self._Cr = np.array(rows_r)
+        self._aCr = np.abs(self._Cr)
+        self._ct, self._cg = np.array(tvec), np.array(gidx, dtype=int)
         self._cbox = np.array(box)
         self._cstarts = np.flatnonzero(np.r_[True, np.diff(self._cand_owner) != 0])
         self._cnodes = self._cand_owner[self._cstarts]
@@ -320,7 +325,7 @@ class SequenceLPSolver:
                 self._sq_t.append(slice(tpos, tpos + k))
                 self._sq_g.append(slice(gpos, gpos + nd.G.shape[0]))
                 tpos, gpos = tpos + k, gpos + nd.G.shape[0]
-            self._Ri, self._Gs = sparse.csr_matrix(Ri), sparse.csr_matrix(Gs)
+            self._Ri, self._Gs = Ri, Gs
             self._gsel = np.concatenate(gsel)
             self._sq_gstart = np.array([sl.start for sl in self._sq_g])
             self._sq_lo = np.concatenate([self.lo for _ in sq])
@@ -328,28 +333,48 @@ class SequenceLPSolver:
             self._sq_tstart = np.array([sl.start for sl in self._sq_t])
 
     def _cheap_bounds(self, r_all, g_all) -> np.ndarray:
-        """Every node's best bound from :meth:`_structural_candidates` (``-inf`` without one), proven:
-        the weak-duality formula of :meth:`_dual_bound` with its rounding allowance."""
+        """Every node's best bound from :meth:`_structural_candidates` and from its last LP's
+        multipliers (``-inf`` without one; ``inf`` for a verified infeasibility ray), proven: the
+        weak-duality formula of :meth:`_dual_bound` with its rounding allowance."""
         out = np.full(len(self.nodes), -np.inf)
-        if self._Cr is None:
-            return out
-        val = self._Cr @ r_all - self._Cg @ g_all + self._cbox
-        size = self._aCr @ np.abs(r_all) + self._aCg @ np.abs(g_all) + np.abs(self._cbox)
-        out[self._cnodes] = np.maximum.reduceat(val - SEQUENCE_LP_BOUND_RTOL * size, self._cstarts)
-        return out
+        if self._Cr is not None:
+            gl = g_all[self._cg]
+            val = self._Cr @ r_all - self._ct * gl + self._cbox
+            size = self._aCr @ np.abs(r_all) + self._ct * np.abs(gl) + np.abs(self._cbox)
+            out[self._cnodes] = np.maximum.reduceat(val - SEQUENCE_LP_BOUND_RTOL * size, self._cstarts)
+        ar, ag = np.abs(r_all), np.abs(g_all)
+        val = (np.add.reduceat(self._Wmu * r_all, self._rstart) - np.add.reduceat(self._Wlam * g_all, self._gstart)
+               + self._Wbox)
+        size = (np.add.reduceat(np.abs(self._Wmu) * ar, self._rstart) + np.add.reduceat(self._Wlam * ag, self._gstart)
+                + np.abs(self._Wbox))
+        with np.errstate(invalid="ignore"):
+            warm = val - SEQUENCE_LP_BOUND_RTOL * size
+        warm = np.where(np.isfinite(self._Wbox), warm, -np.inf)
+        warm = np.where(self._Wray & (warm > 0), np.inf, warm)
+        return np.maximum(out, warm)
+
+    def _store(self, nd, mu, lam) -> None:
+        """Keep ``(mu, lam)`` (made dual-feasible) as the node's warm multipliers."""
+        lam = np.maximum(lam, 0.0)
+        ray = mu is None
+        mu = np.zeros(nd.R.shape[0]) if ray else self._into_ball(nd, mu)
+        c = nd.R.T @ mu + nd.G.T @ lam
+        self._Wmu[nd.r_sl], self._Wlam[nd.g_sl] = mu, lam
+        self._Wbox[nd.index] = float(np.minimum(c * self.lo, c * self.hi).sum())
+        self._Wray[nd.index] = ray
+
+    def _into_ball(self, nd, mu):
+        if self.norm == "1":
+            return np.minimum(np.maximum(mu, -1.0), 1.0)
+        tot = np.bincount(nd.blocks, weights=np.abs(mu))
+        return mu / np.maximum(tot, 1.0)[nd.blocks]
 
     # ------------------------------------------------------------------ bounds and LPs
     def _dual_bound(self, nd, mu, lam, r, g, lo, hi) -> float:
         """The weak-duality lower bound of the node's LP with the multipliers ``(mu, lam)``, made
         dual-feasible (``lam >= 0``, the dual-norm ball) and proven in numpy, minus rounding."""
         lam = np.maximum(lam, 0.0)
-        if mu is None:
-            mu = np.zeros(r.size)
-        elif self.norm == "1":
-            mu = np.minimum(np.maximum(mu, -1.0), 1.0)
-        else:
-            tot = np.bincount(nd.blocks, weights=np.abs(mu))
-            mu = mu / np.maximum(tot, 1.0)[nd.blocks]
+        mu = np.zeros(r.size) if mu is None else self._into_ball(nd, mu)
         c = nd.R.T @ mu + nd.G.T @ lam
         box = np.minimum(c * lo, c * hi)
         ab = np.abs(box)
@@ -417,16 +442,17 @@ class SequenceLPSolver:
         nd.daqp = (mdl, bu, bl, k, nt, nc)
         return nd.daqp
 
-    def _solve_lp(self, nd, r, g, lo, hi):
+    def _solve_lp(self, nd, r, g, lo, hi, cutoff: float = np.inf):
         """The node's LP, checked: ``(bound, theta or None, cost or None, mu, lam)`` with ``bound`` proven
         (``inf`` for an infeasibility proven by a verified ray), or ``None`` (no checked answer).
 
         DAQP first (``lp="daqp"``); HiGHS when DAQP's answer does not pass the checks or its
-        multipliers' bound is not within the certified gap of its point's cost."""
+        multipliers' bound neither reaches ``cutoff`` nor lies within the certified gap of its
+        point's cost."""
         self.lp_solves += 1
         if self.lp_engine == "daqp":
             out = self._solve_daqp(nd, r, g, lo, hi)
-            if out is not None and (out[1] is None or out[0] >= out[2] - self._gap(out[2])):
+            if out is not None and (out[1] is None or out[0] >= cutoff or out[0] >= out[2] - self._gap(out[2])):
                 return out
             self.lp_fallbacks += 1
         return self._solve_highs(nd, r, g, lo, hi)
@@ -509,7 +535,8 @@ class SequenceLPSolver:
         g_all = self.Mg @ pv + self.mg
         z_ok = (self.Mz @ pv + self.mz) >= 0.0 if self.mz.size else np.zeros(0, dtype=bool)
         lo, hi = self.lo, self.hi
-        ctx = {"r": r_all, "g": g_all, "z": z_ok, "cheap": self._cheap_bounds(r_all, g_all), "fits": {}}
+        ctx = {"r": r_all, "g": g_all, "z": z_ok, "cheap": self._cheap_bounds(r_all, g_all), "fits": {},
+               "warm": {}, "solved": {}}
         best = (np.inf, None, None)  # cost, node, theta
         # (i) zero-cost fast path: the square full-rank sequences whose exact fit meets their rows
         # (to the LP solver's own tolerance: a fit that needs MHE_FEASIBILITY_TOL of slack in a guard
@@ -535,12 +562,10 @@ class SequenceLPSolver:
         if best[0] > self.zero_cost:
             # an incumbent first: the LPs of the leaves in the order of their cheap bounds, until one
             # has a point (then most nodes close on their cheap bounds against it)
-            cheap = []
-            for nd in self.leaves:
-                b = self._node_bound(nd, ctx, lo, hi, cutoff=np.inf, lp=False)
-                if b[0] < np.inf:
-                    cheap.append((b[0], id(nd), nd))
-            for _, _, nd in sorted(cheap)[:INCUMBENT_TRIES]:
+            cb = ctx["cheap"]
+            cheap = sorted((cb[nd.index], nd.index) for nd in self.leaves if cb[nd.index] < np.inf)
+            for _, i in cheap[:INCUMBENT_TRIES]:
+                nd = self.nodes[i]
                 b = self._node_bound(nd, ctx, lo, hi, cutoff=np.inf)
                 if b is not None and b[1] is not None:
                     if b[2] < best[0]:
@@ -591,7 +616,11 @@ class SequenceLPSolver:
                             solver_detail=detail), ctx
 
     def _gap(self, cost: float) -> float:
-        return max(MHE_CERTIFIED_RTOL * cost, self.zero_cost) if np.isfinite(cost) else 0.0
+        """The certified gap at ``cost``: ``max(MHE_CERTIFIED_RTOL * cost, zero-cost floor)`` (0 at inf)."""
+        if cost == np.inf:
+            return 0.0
+        g = MHE_CERTIFIED_RTOL * cost
+        return g if g > self.zero_cost else self.zero_cost
 
     def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, lp: bool = True):
         """``(bound, theta, cost)`` of a node (``theta``/``cost`` only when its LP was solved), or ``None``.
@@ -605,14 +634,11 @@ class SequenceLPSolver:
             nd.fruitless += 1
             return -np.inf, None, None
         r, g = ctx["r"][nd.r_sl], ctx["g"][nd.g_sl]
-        stored = [(nd.mu, nd.lam)] if key is None else [nd.sep.get(key, (None, None))]
-        if key is not None and nd.Rinv is not None:
-            # a square full-rank sequence: mu = sign R^-T e_j (scaled into the dual ball) bounds the
-            # cost of moving theta_j by delta from the exact fit, with no LP
-            j, s = key
-            mu = s * nd.Rinv[j]
-            stored.insert(0, (mu / max(self._dual_norm(nd, mu), 1e-300), np.zeros(g.size)))
+        stored = [] if key is None else [nd.sep.get(key, (None, None))]
         if key is None:
+            done = ctx["solved"].get(nd.index)
+            if done is not None:  # this node's LP was solved earlier in the step
+                return done
             cheap = ctx["cheap"][nd.index]
             if cheap >= cutoff:
                 return cheap, None, None
@@ -620,6 +646,8 @@ class SequenceLPSolver:
             if fit is not None:
                 # the exact fit meets the rows: cost ~0 at a point, and 0 is a bound (the cost is a norm)
                 return 0.0, fit[0], fit[1]
+            if not lp:
+                return cheap, None, None
         if key is not None and nd.Rinv is not None:
             th = -nd.Rinv @ r
             if np.all(th >= lo - MHE_MILP_FEASIBILITY_TOL) and np.all(th <= hi + MHE_MILP_FEASIBILITY_TOL) and np.max(
@@ -638,16 +666,41 @@ class SequenceLPSolver:
                 return b, None, None
         if not lp:
             return best, None, None
-        out = self._solve_lp(nd, r, g, lo, hi)
+        out = self._solve_lp(nd, r, g, lo, hi, cutoff)
         if out is None:
             return None
         bound, th, cost, mu, lam = out
         if key is None:
-            nd.mu, nd.lam = mu, lam
+            self._store(nd, mu, lam)
             nd.fruitless = 0 if bound >= cutoff else nd.fruitless + 1
+            ctx["solved"][nd.index] = (bound, th, cost)
         else:
             nd.sep[key] = (mu, lam)
         return bound, th, cost
+
+    def _separated_structural(self, nd, ctx, xi_s, delta, dirs, thr):
+        """Bounds of a square full-rank sequence's separated LPs (``theta_j`` moved by ``delta`` from
+        ``xi_s``, each direction of ``dirs``) from ``mu = s R^-T e_j`` scaled into the dual ball and
+        ``lam = 0`` (``None`` for another node): the cost of moving ``theta_j`` away from the exact
+        fit, proven by the weak-duality formula of :meth:`_dual_bound`, all directions at once."""
+        if nd.Rinv is None:
+            return None
+        r = ctx["r"][nd.r_sl]
+        M = nd.Rinv / np.maximum([self._dual_norm(nd, row) for row in nd.Rinv], 1e-300)[:, None]
+        M = M * (1.0 - 8 * np.finfo(float).eps)
+        js = np.array([j for j, _ in dirs])
+        ss = np.array([s for _, s in dirs], dtype=float)
+        MU = ss[:, None] * M[js]  # one multiplier per direction (rows)
+        C = MU @ nd.R  # c = R'mu, one row per direction
+        LO = np.tile(self.lo, (len(dirs), 1))
+        HI = np.tile(self.hi, (len(dirs), 1))
+        rows = np.arange(len(dirs))
+        LO[rows, js] = np.where(ss > 0, np.maximum(LO[rows, js], xi_s[js] + delta), LO[rows, js])
+        HI[rows, js] = np.where(ss < 0, np.minimum(HI[rows, js], xi_s[js] - delta), HI[rows, js])
+        box = np.minimum(C * LO, C * HI)
+        val = MU @ r + box.sum(axis=1)
+        size = np.abs(MU) @ np.abs(r) + np.abs(box).sum(axis=1)
+        return val - SEQUENCE_LP_BOUND_RTOL * size
 
     def _dual_norm(self, nd, mu) -> float:
         """The dual norm of ``mu`` (inf-norm for cost norm 1; the largest block 1-norm for norm inf)."""
@@ -686,8 +739,12 @@ class SequenceLPSolver:
         lps0 = self.lp_solves
         lowest = np.inf
         stack = list(reversed(self.roots))
+        cheap = ctx["cheap"]
         while stack:
             nd = stack.pop()
+            if cheap[nd.index] > thr:  # closed by a bound of the step's vectorised pass
+                lowest = min(lowest, cheap[nd.index])
+                continue
             b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr, np.inf))
             if b is None:
                 return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
@@ -697,7 +754,11 @@ class SequenceLPSolver:
             if not nd.leaf:
                 stack.extend(reversed(nd.children))
                 continue
-            for j, s in dirs:
+            closed = self._separated_structural(nd, ctx, xi_s, delta, dirs, thr)
+            for d, (j, s) in enumerate(dirs):
+                if closed is not None and closed[d] > thr:
+                    lowest = min(lowest, closed[d])
+                    continue
                 lo, hi = self.lo.copy(), self.hi.copy()
                 if s > 0:
                     lo[j] = max(lo[j], xi_s[j] + delta)
