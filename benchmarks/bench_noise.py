@@ -29,7 +29,7 @@ RESULTS = Path(__file__).resolve().parent / "results"
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_noise", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="300 samples, MHE on 100 (smoke test); results in results/quick/")
-    parser.add_argument("--mhe-steps", type=int, default=None, help="samples given to the MIQP observer (default: all)")
+    parser.add_argument("--mhe-steps", type=int, default=None, help="samples given to the MIQP observers (default: all)")
     args = parser.parse_args(argv)
     out_dir = RESULTS / "quick" if args.quick else RESULTS
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     criterion = {}
     for level in table["levels"]:
         for name, rec in level["observers"].items():
-            if name.startswith("lookup-noise"):
+            if name.startswith("lookup-noise") or name == "miqp-kalman":
                 criterion[f"{name} at {level['noise']:g}"] = {key: rec.get(key, 0),
                                                               "max_mahalanobis_flagged": rec.get("max_mahalanobis_flagged"),
                                                               "n_flagged_observable": rec["flags"]["observable"]}
