@@ -32,6 +32,14 @@ Runs (each ``MHEObserver(plant, 3, norm=..., solver=..., fit_tolerance=5 sigma)`
   bounds, warm HiGHS instance): the least a HiGHS call costs on this problem.
 * ``milp1_cbc`` (CBC through CasADi, if it loads) and ``miqp2_daqp`` (the norm-2 default, DAQP):
   the same, profiled.
+* ``milp1_sequences`` (``solver="sequences"``: :mod:`hybobs_opt.mhe.sequence_lp`, the exact
+  mode-prefix branch and bound of tiny condensed LPs, DAQP's LP mode with HiGHS as fallback),
+  ``milp1_sequences_highs_lp`` (the same with HiGHS for every LP), ``milpinf_highs`` and
+  ``milpinf_sequences`` (the inf-norm both ways): on the same samples in the same run, with the
+  flags, estimates and certified costs compared step by step with the HiGHS run of the same norm.
+
+Every run also records the thread CPU time of each step (``cpu``): on a shared machine the wall
+clock includes time the process waited for a core, which the CPU time does not.
 
 Per-step times are wall-clock on a shared machine (see the load averages); speed is measured, not
 asserted (DESIGN.md).
@@ -194,6 +202,7 @@ def run(plant, U, Y, *, norm: str, solver: str | None, profiled: bool, budget_s:
     if profiled:
         instrument(obs, probe)
     secs, flags, solved, decided = [], collections.Counter(), collections.Counter(), collections.Counter()
+    cpu, costs = [], []
     xs, fl = [], []
     parts: list[dict] = []
     calls: list[dict] = []
@@ -201,11 +210,15 @@ def run(plant, U, Y, *, norm: str, solver: str | None, profiled: bool, budget_s:
     t0 = time.perf_counter()
     for k in range(len(U)):
         probe.new_step()
+        c0 = time.thread_time()
         est = obs.step(U[k], Y[k])
+        c1 = time.thread_time()
         xs.append(est.x)
         fl.append(est.flag)
         if k >= T - 1:  # the warm-up steps solve nothing
             secs.append(est.seconds)
+            cpu.append(c1 - c0)
+            costs.append(est.info.get("cost", np.nan) if est.info.get("certified_optimum") else np.nan)
             flags[est.flag] += 1
             solved[str(est.info.get("solved_by"))] += 1
             uq = est.info.get("uniqueness")
@@ -221,7 +234,9 @@ def run(plant, U, Y, *, norm: str, solver: str | None, profiled: bool, budget_s:
     secs = np.array(secs)
     out = {"norm": norm, "solver": obs.solver, "solver_options": solver_options or {}, "T": T, "build_s": build_s, **timing(secs),
            "samples_run": k + 1, "wall_s": time.perf_counter() - t0, "flags": dict(flags), "solved_by": dict(solved),
-           "uniqueness_decided_by": dict(decided), "_x": np.array(xs), "_flags": fl}
+           "uniqueness_decided_by": dict(decided), "_x": np.array(xs), "_flags": fl, "_costs": np.array(costs, dtype=float),
+           "cpu": {k.replace("_step_s", "_cpu_step_s"): v for k, v in timing(np.array(cpu)).items()
+                   if k.endswith("_step_s")}}
     if profiled:
         out["wrapped_calls"] = probe.wrapped
         out["breakdown"] = breakdown(secs, parts, calls, nodes)
@@ -444,6 +459,20 @@ def reason(rec: dict) -> str:
         text += (f"  The observer with solver_options={HIGHS_VARIANTS['no_heuristics']}: median "
                  f"{1e3 * nh['median_step_s']:.2f} ms, p99 {1e3 * nh['p99_step_s']:.2f} ms, max {1e3 * nh['max_step_s']:.2f} ms "
                  f"({nh.get('flags_differing_steps')} steps with another flag than the default's).")
+    for key, label in (("milp1_sequences", "norm 1"), ("milp1_sequences_highs_lp", "norm 1, HiGHS LPs"),
+                       ("milpinf_sequences", "norm inf")):
+        sq = rec["runs"].get(key, {})
+        if "median_step_s" not in sq:
+            continue
+        cpu = sq.get("cpu", {})
+        ok = sq["meets_median_budget"] and sq["meets_p99_budget"]
+        text += (f"  Solver 'sequences' ({label}; mhe.sequence_lp, a mode-prefix branch and bound of tiny LPs, no MIP) "
+                 f"in the same run: median {1e3 * sq['median_step_s']:.2f} ms, p95 {1e3 * sq['p95_step_s']:.2f} ms, "
+                 f"p99 {1e3 * sq['p99_step_s']:.2f} ms, max {1e3 * sq['max_step_s']:.2f} ms wall "
+                 f"(thread CPU time median {1e3 * cpu.get('median_cpu_step_s', np.nan):.2f} ms, p99 "
+                 f"{1e3 * cpu.get('p99_cpu_step_s', np.nan):.2f} ms), {'meeting' if ok else 'missing'} "
+                 f"{'both targets' if ok else ('the p99 target' if sq['meets_median_budget'] else 'both targets')}; "
+                 f"{sq.get('flags_differing_steps')} steps with another flag than {sq.get('compared_with')}.")
     return text
 
 
@@ -493,7 +522,13 @@ def main(argv: list[str] | None = None) -> int:
     configs = [("milp1_highs", "1", None, False, None), ("milp1_highs_profiled", "1", None, True, None),
                ("milp1_highs_no_heuristics", "1", None, False, HIGHS_VARIANTS["no_heuristics"]),
                ("milp1_highs_no_heuristics_profiled", "1", None, True, HIGHS_VARIANTS["no_heuristics"]),
-               ("milp1_cbc", "1", "cbc", True, None), ("miqp2_daqp", "2", None, True, None)]
+               ("milp1_cbc", "1", "cbc", True, None), ("miqp2_daqp", "2", None, True, None),
+               # the exact mode-prefix branch and bound of tiny LPs (mhe.sequence_lp), beside HiGHS in the same
+               # run: its default LP engine (DAQP, HiGHS fallback) and HiGHS alone; the inf-norm both ways
+               ("milp1_sequences", "1", "sequences", False, None),
+               ("milp1_sequences_highs_lp", "1", "sequences", False, {"lp": "highs"}),
+               ("milpinf_highs", "inf", None, False, None), ("milpinf_sequences", "inf", "sequences", False, None)]
+    refs: dict = {}
     for key, norm, solver, profiled, options in configs:
         log(f"{key} ...")
         try:
@@ -501,15 +536,24 @@ def main(argv: list[str] | None = None) -> int:
                       solver_options=options)
         except Exception as exc:  # one failing configuration must not hide the others
             res = {"error": f"{type(exc).__name__}: {exc}"}
-        x_run, f_run = res.pop("_x", None), res.pop("_flags", None)
-        if key == "milp1_highs":
-            x_ref, f_ref = x_run, f_run
-        elif x_run is not None and "x_ref" in locals() and res.get("norm") == "1":
+        x_run, f_run, c_run = res.pop("_x", None), res.pop("_flags", None), res.pop("_costs", None)
+        if key in ("milp1_highs", "milpinf_highs"):
+            refs[res.get("norm")] = (key, x_run, f_run, c_run)
+        elif x_run is not None and res.get("norm") in refs:
+            ref_key, x_ref, f_ref, c_ref = refs[res["norm"]]
             n = min(len(x_run), len(x_ref))
             half = plant.scales()[0][: plant.n]
-            res["same_flags_as_milp1_highs"] = f_run[:n] == f_ref[:n]
+            res["compared_with"] = ref_key
+            res["same_flags_as_highs"] = f_run[:n] == f_ref[:n]
             res["flags_differing_steps"] = int(sum(a != b for a, b in zip(f_run[:n], f_ref[:n])))
-            res["max_scaled_estimate_difference_to_milp1_highs"] = float(np.max(np.abs(x_run[:n] - x_ref[:n]) / half))
+            res["max_scaled_estimate_difference_to_highs"] = float(np.max(np.abs(x_run[:n] - x_ref[:n]) / half))
+            both = [k for k in range(n) if f_run[k] == "observable" and f_ref[k] == "observable"]
+            res["max_scaled_estimate_difference_where_both_observable"] = float(
+                np.max(np.abs(x_run[both] - x_ref[both]) / half)) if both else None
+            m = min(len(c_run), len(c_ref))
+            d = np.abs(c_run[:m] - c_ref[:m])
+            res["certified_cost_difference_to_highs"] = {"max": float(np.nanmax(d)) if np.isfinite(d).any() else None,
+                                                          "windows_both_certified": int(np.isfinite(d).sum())}
         record["runs"][key] = res
         log(f"{key}: {json.dumps({k: res.get(k) for k in ('median_step_s', 'p95_step_s', 'p99_step_s', 'max_step_s', 'samples_run', 'error')})}")
     log("cProfile ...")

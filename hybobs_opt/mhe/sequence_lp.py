@@ -62,7 +62,7 @@ class _Node:
     """One mode prefix: its fixed matrices, affine offsets and the last proven multipliers."""
 
     __slots__ = ("modes", "R", "G", "blocks", "r_sl", "g_sl", "z_sl", "children", "leaf", "Rinv", "lp",
-                 "mu", "lam", "sep", "fruitless", "K", "t", "daqp", "null", "index")
+                 "sep", "fruitless", "ufruitless", "K", "t", "daqp", "null", "index")
 
     def __init__(self, modes, R, G, blocks):
         self.modes, self.R, self.G, self.blocks = tuple(modes), R, G, blocks
@@ -73,10 +73,9 @@ class _Node:
         self.null = None  # left null vectors of R scaled into the dual ball (rows)
         self.lp = None
         self.daqp = None
-        self.mu = None
-        self.lam = None
         self.sep: dict = {}
         self.fruitless = 0  # windows since this prefix's LP last closed it (a prefix only)
+        self.ufruitless = 0  # windows since this leaf's LP last closed it in the uniqueness test
 
 
 class SequenceLPSolver:
@@ -143,6 +142,7 @@ class SequenceLPSolver:
         self._Wray = np.zeros(len(self.nodes), dtype=bool)
         self._rstart = np.array([nd.r_sl.start for nd in self.nodes])
         self._gstart = np.array([nd.g_sl.start for nd in self.nodes])
+        self._last_alternative = None  # (leaf index, direction) of the last alternative found
         self.build_seconds = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ offline
@@ -442,17 +442,19 @@ class SequenceLPSolver:
         nd.daqp = (mdl, bu, bl, k, nt, nc)
         return nd.daqp
 
-    def _solve_lp(self, nd, r, g, lo, hi, cutoff: float = np.inf):
+    def _solve_lp(self, nd, r, g, lo, hi, cutoff: float = np.inf, tight: bool = True):
         """The node's LP, checked: ``(bound, theta or None, cost or None, mu, lam)`` with ``bound`` proven
         (``inf`` for an infeasibility proven by a verified ray), or ``None`` (no checked answer).
 
         DAQP first (``lp="daqp"``); HiGHS when DAQP's answer does not pass the checks or its
         multipliers' bound neither reaches ``cutoff`` nor lies within the certified gap of its
-        point's cost."""
+        point's cost (with ``tight=False``, the uniqueness test, a checked point at cost
+        ``<= cutoff`` is enough: it shows the node open whatever the bound)."""
         self.lp_solves += 1
         if self.lp_engine == "daqp":
             out = self._solve_daqp(nd, r, g, lo, hi)
-            if out is not None and (out[1] is None or out[0] >= cutoff or out[0] >= out[2] - self._gap(out[2])):
+            if out is not None and (out[1] is None or out[0] >= cutoff or out[0] >= out[2] - self._gap(out[2])
+                                    or (not tight and out[2] <= cutoff)):
                 return out
             self.lp_fallbacks += 1
         return self._solve_highs(nd, r, g, lo, hi)
@@ -622,7 +624,7 @@ class SequenceLPSolver:
         g = MHE_CERTIFIED_RTOL * cost
         return g if g > self.zero_cost else self.zero_cost
 
-    def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, lp: bool = True):
+    def _node_bound(self, nd, ctx, lo, hi, cutoff: float, key=None, lp: bool = True, tight: bool = True):
         """``(bound, theta, cost)`` of a node (``theta``/``cost`` only when its LP was solved), or ``None``.
 
         The stored multipliers of the node (or of ``key``: a separated LP) are tried first; the LP
@@ -666,7 +668,7 @@ class SequenceLPSolver:
                 return b, None, None
         if not lp:
             return best, None, None
-        out = self._solve_lp(nd, r, g, lo, hi, cutoff)
+        out = self._solve_lp(nd, r, g, lo, hi, cutoff, tight)
         if out is None:
             return None
         bound, th, cost, mu, lam = out
@@ -739,18 +741,33 @@ class SequenceLPSolver:
         lps0 = self.lp_solves
         lowest = np.inf
         stack = list(reversed(self.roots))
+        if self._last_alternative is not None:
+            # the sequence of the last window's alternative first: an alternative ends the search
+            stack.append(self.nodes[self._last_alternative[0]])
+            dirs.sort(key=lambda d: d != self._last_alternative[1])
         cheap = ctx["cheap"]
+        visited = set()
         while stack:
             nd = stack.pop()
+            if nd.index in visited:
+                continue
+            visited.add(nd.index)
             if cheap[nd.index] > thr:  # closed by a bound of the step's vectorised pass
                 lowest = min(lowest, cheap[nd.index])
                 continue
-            b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr, np.inf))
-            if b is None:
-                return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
-            if b[0] > thr:
-                lowest = min(lowest, b[0])
-                continue
+            if nd.leaf and nd.ufruitless % PREFIX_LP_RETRY:
+                # its own LP stayed within the threshold lately: straight to the separated LPs
+                nd.ufruitless += 1
+            else:
+                b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr, np.inf), tight=False)
+                if b is None:
+                    return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
+                if b[0] > thr:
+                    lowest = min(lowest, b[0])
+                    nd.ufruitless = 0
+                    continue
+                if nd.leaf and nd.index not in ctx["fits"] and b[1] is not None:
+                    nd.ufruitless += 1
             if not nd.leaf:
                 stack.extend(reversed(nd.children))
                 continue
@@ -765,7 +782,7 @@ class SequenceLPSolver:
                 else:
                     hi[j] = min(hi[j], xi_s[j] - delta)
                 # a zero-cost fit of a square sequence already in the half-space is an alternative
-                bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr, np.inf), key=(j, s))
+                bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr, np.inf), key=(j, s), tight=False)
                 if bs is None:
                     return {**base, "status": "not certified",
                             "reason": f"no checked separated LP answer for modes {nd.modes}, direction {(j, s)}"}
@@ -787,10 +804,12 @@ class SequenceLPSolver:
                 W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
                 alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xi_s)
                 if alt is not None and alt["cost"] <= thr:
+                    self._last_alternative = (nd.index, (j, s))
                     return {**base, "status": "alternative", "decided_by": "sequence LPs",
                             "separated_cost": alt["cost"], "alternative": alt,
                             "sequence_lps": self.lp_solves - lps0}
                 return {**base, "status": "not certified",
                         "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
+        self._last_alternative = None
         return {**base, "status": "unique", "decided_by": "sequence LPs (every prefix and direction closed)",
                 "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0}
