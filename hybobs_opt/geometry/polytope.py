@@ -701,7 +701,7 @@ class Polytope:
                 return np.zeros((0, d))
             V = np.asarray(img.points, dtype=float)
         if d == 2 and len(V) > 2:
-            c = V.mean(axis=0)
+            c = V.sum(axis=0) / V.shape[0]
             V = V[np.argsort(np.arctan2(V[:, 1] - c[1], V[:, 0] - c[0]))]
         return V
 

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
 
 from ..tolerances import (
+    FULL_DIMENSION_RTOL,
     VERTEX_CHECK_RTOL,
     VERTEX_DEGENERATE_MAX_SUBSETS,
     VERTEX_RANK_RTOL,
@@ -50,7 +51,9 @@ from ..tolerances import (
     VERTEX_TIGHT_RTOL,
     ZERO_ROW_TOL,
 )
+from . import _vertex_kernels as _K
 from ._common import _row_normalised, _unit_box_map
+from ._vertex_kernels import check_kernel, scale_and_check
 
 log = logging.getLogger(__name__)
 
@@ -144,6 +147,11 @@ class CheckedVertices:
 def check_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray) -> CheckedVertices | str:
     """Check that ``Y`` is the complete vertex set of ``{y : A y <= b}`` (unit rows, scaled).
 
+    The feasibility test, the merging of duplicates, the tight sets and the walk along the edges
+    of every simple vertex run in one compiled call
+    (:func:`hybobs_opt.geometry._vertex_kernels.check_kernel`); the edges of degenerate vertices
+    (more than ``d`` tight rows) are found and walked here in numpy.
+
     Parameters
     ----------
     A : (m, d) array
@@ -161,65 +169,67 @@ def check_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray) -> CheckedVertic
     m, d = A.shape
     if Y.ndim != 2 or Y.shape[1] != d or Y.shape[0] == 0:
         return f"no points of dimension {d}"
-    if not np.all(np.isfinite(Y)):
+    if not np.isfinite(Y).all():
         return "a point is not finite"
-    scale_b = 1.0 + np.abs(b)
-    S = b[None, :] - Y @ A.T
-    viol = S < -VERTEX_CHECK_RTOL * scale_b
-    if viol.any():
-        i, j = np.argwhere(viol)[0]
-        return f"point {i} violates row {j} by {-S[i, j]:.3g} (scaled)"
-    tree = cKDTree(Y)
-    if Y.shape[0] > 1:
-        pairs = tree.query_pairs(VERTEX_SAME_RTOL, p=np.inf, output_type="ndarray")
-        if pairs.size:
-            keep = np.ones(Y.shape[0], dtype=bool)
-            keep[pairs[:, 1]] = False
-            Y, S = Y[keep], S[keep]
-            tree = cKDTree(Y)
-    T = S <= VERTEX_TIGHT_RTOL * scale_b
-    count = T.sum(axis=1)
-    if np.any(count < d):
-        return f"point {int(np.argmax(count < d))} is tight on fewer than {d} rows: not a vertex"
-    simple = count == d
+    A = np.ascontiguousarray(A, dtype=float)
+    b = np.ascontiguousarray(b, dtype=float)
+    Y = np.ascontiguousarray(Y, dtype=float)
+    code, i, j, keep, T, deg, rays = check_kernel(A, b, Y, VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL,
+                                                  VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
+    return _finish_check(A, b, Y, code, i, j, keep, T, deg, rays)
+
+
+def _finish_check(A, b, Y, code, i, j, keep, T, deg, rays) -> CheckedVertices | str:
+    """The kernel's verdict as a reason, or the degenerate vertices' edges walked and the result."""
+    d = A.shape[1]
+    if code != _K.OK:
+        return _KERNEL_REASONS[code].format(i=i, j=j, d=d)
+    if deg.size:
+        reason = _walk_degenerate(A, b, Y, keep, T, deg, d)
+        if isinstance(reason, str):
+            return reason
+        if reason.shape[0]:
+            rays = np.vstack([rays, reason])
+    if rays.shape[0] and np.any(rays @ A.T > VERTEX_CHECK_RTOL):
+        return "an unblocked edge is not a recession direction"
+    return CheckedVertices(Y[keep], T[keep], rays)
+
+
+_KERNEL_REASONS = {
+    _K.INFEASIBLE: "point {i} violates row {j}",
+    _K.NOT_A_VERTEX: "point {i} is tight on fewer than {d} rows: not a vertex",
+    _K.SINGULAR: "the tight rows of vertex {i} are singular",
+    _K.NEARLY_DEPENDENT: "the tight rows of vertex {i} are nearly dependent",
+    _K.INCOMPLETE: "incomplete: edge {j} from vertex {i} ends at a point that is not in the set",
+}
+
+
+def _walk_degenerate(A, b, Y, keep, T, deg, d) -> np.ndarray | str:
+    """Walk the edges of the degenerate vertices ``deg``; their rays, or why the set fails."""
+    S = b[None, :] - Y[deg] @ A.T
     ev, er = [], []
-    if simple.any():
-        vi = np.nonzero(simple)[0]
-        rows = np.nonzero(T[vi])[1].reshape(-1, d)
-        try:
-            inv = np.linalg.inv(A[rows])
-        except np.linalg.LinAlgError:
-            return "the tight rows of a vertex are singular"
-        if np.any(np.sqrt(np.einsum("kij,kij->k", inv, inv)) * VERTEX_RANK_RTOL >= 1.0):
-            return "the tight rows of a vertex are nearly dependent"
-        ev.append(np.repeat(vi, d))
-        er.append(-np.swapaxes(inv, 1, 2).reshape(-1, d))  # row k of each block: -A_T^-1 e_k
-    for v in np.nonzero(~simple)[0]:
+    for k, v in enumerate(deg):
         dirs = _cone_edges(A[T[v]], d)
         if isinstance(dirs, str):
             return f"vertex {v}: {dirs}"
-        ev.append(np.full(dirs.shape[0], v))
+        ev.append(np.full(dirs.shape[0], k))
         er.append(dirs)
     EV = np.concatenate(ev)
     ER = np.concatenate(er)
     ER /= np.linalg.norm(ER, axis=1)[:, None]
-    P = ER @ A.T  # rate at which each row's slack is used up along each edge
-    blocking = (P > VERTEX_CHECK_RTOL) & ~T[EV]
+    P = ER @ A.T
+    blocking = (P > VERTEX_CHECK_RTOL) & ~T[deg][EV]
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(blocking, S[EV] / np.where(blocking, P, 1.0), np.inf)
     step = t.min(axis=1)
     ray = ~np.isfinite(step)
-    rays = ER[ray]
-    if rays.shape[0] and np.any(rays @ A.T > VERTEX_CHECK_RTOL):
-        return "an unblocked edge is not a recession direction"
-    ends = Y[EV[~ray]] + step[~ray, None] * ER[~ray]
+    ends = Y[deg][EV[~ray]] + step[~ray, None] * ER[~ray]
     if ends.shape[0]:
-        dist, _ = tree.query(ends, k=1, p=np.inf, distance_upper_bound=VERTEX_SAME_RTOL)
+        dist, _ = cKDTree(Y[keep]).query(ends, k=1, p=np.inf, distance_upper_bound=VERTEX_SAME_RTOL)
         missing = ~np.isfinite(dist)
         if missing.any():
-            k = int(np.argmax(missing))
-            return f"incomplete: the edge from vertex {EV[~ray][k]} ends at a point that is not in the set"
-    return CheckedVertices(Y, T, rays)
+            return f"incomplete: an edge from vertex {deg[EV[~ray][int(np.argmax(missing))]]} ends at a point that is not in the set"
+    return ER[ray]
 
 
 def _cone_edges(AT: np.ndarray, d: int) -> np.ndarray | str:
@@ -267,15 +277,24 @@ def scale_rows(An: np.ndarray, bn: np.ndarray, mid: np.ndarray, half: np.ndarray
     """Rows of unit norm ``(An, bn)`` written in ``y = (z - mid) / half`` and set to unit norm again."""
     As = An * half
     bs = bn - An @ mid
-    norms = np.linalg.norm(As, axis=1)
-    live = norms > ZERO_ROW_TOL * float(np.max(half))
+    norms = np.sqrt(np.einsum("ij,ij->i", As, As))
+    live = norms > ZERO_ROW_TOL * float(half.max())
+    if live.all():  # the usual case: no constant rows
+        return ScaledRows(As / norms[:, None], bs / norms, mid, half, np.arange(An.shape[0]), False)
     contradiction = bool(np.any(~live & (bs < -VERTEX_CHECK_RTOL * (1.0 + np.abs(bs)))))
     rows = np.nonzero(live)[0]
     return ScaledRows(As[rows] / norms[rows, None], bs[rows] / norms[rows], mid, half, rows, contradiction)
 
 
 def _box_of(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return _unit_box_map(X.min(axis=0), X.max(axis=0))
+    """``(mid, half)`` of the box of finite points, as :func:`~hybobs_opt.geometry._common._unit_box_map`."""
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    width = hi - lo
+    ref = float(width.max())
+    if ref <= 0.0:
+        ref = 2.0
+    half = np.where(width > FULL_DIMENSION_RTOL * ref, width / 2, ref / 2)
+    return (lo + hi) / 2, half
 
 
 # ---------------------------------------------------------------------------------------------
@@ -289,12 +308,17 @@ class _Raw:
     rays: np.ndarray
 
 
+_NO_RAYS = {d: np.zeros((0, d)) for d in range(1, 17)}
+
+
 def _cdd_generators(A: np.ndarray, b: np.ndarray) -> _Raw:
     cdd = cdd_module()
     d = A.shape[1]
     mat = cdd.matrix_from_array(np.hstack([b[:, None], -A]), rep_type=cdd.RepType.INEQUALITY)
     gen = cdd.copy_generators(cdd.polyhedron_from_matrix(mat))
     G = np.asarray(gen.array, dtype=float).reshape(-1, d + 1)
+    if not gen.lin_set and G.shape[0] and bool((G[:, 0] == 1.0).all()):  # the usual case: vertices only
+        return _Raw(G[:, 1:], _NO_RAYS[d] if d in _NO_RAYS else np.zeros((0, d)))
     lines = np.zeros(G.shape[0], dtype=bool)
     lines[list(gen.lin_set)] = True
     is_point = (G[:, 0] != 0.0) & ~lines
@@ -429,14 +453,19 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
         ``None`` when every library answer failed its check (each failure counted and logged):
         the caller then runs its hand-written path.
     """
-    An, bn = _row_normalised(A, b)
-    m, d = An.shape
-    norms = np.linalg.norm(An, axis=1)
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float)
+    m, d = A.shape
+    norms = np.sqrt(np.einsum("ij,ij->i", A, A))
     const = norms == 0.0
-    if np.any(const & (bn < 0.0)):
-        return _empty(d, "rows")
-    live = np.nonzero(~const)[0]
-    An, bn = An[live], bn[live]
+    if const.any():
+        if np.any(const & (b < 0.0)):
+            return _empty(d, "rows")
+        live = np.nonzero(~const)[0]
+        A, b, norms = A[live], b[live], norms[live]
+    else:
+        live = np.arange(m)
+    An, bn = A / norms[:, None], b / norms
     if An.shape[0] == 0:
         return VertexEnumeration("unbounded", np.zeros((0, d)), np.eye(d), None, None, "rows", live)
     order = library_order(d)
@@ -475,16 +504,15 @@ def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling) 
     d = An.shape[1]
     mid, half = (np.zeros(d), np.ones(d)) if scaling is None else scaling
     for attempt in range(1 if scaling is not None else 2):
-        sc = scale_rows(An, bn, mid, half)
+        sc = scale_rows(An, bn, mid, half) if attempt or scaling is not None else None
         try:
-            raw = _LIBRARIES[source](sc.A, sc.b)
+            raw = _LIBRARIES[source](An, bn) if sc is None else _LIBRARIES[source](sc.A, sc.b)
         except (ValueError, RuntimeError, MemoryError) as exc:  # a library error is a failed answer
             raw = f"{type(exc).__name__}: {exc}"
         if isinstance(raw, str):
             COUNTERS.fallback(op, source, raw)
             return None
-        pts = mid + raw.points * half
-        rays = raw.rays * half
+        pts, rays = (raw.points, raw.rays) if sc is None else (mid + raw.points * half, raw.rays * half)
         if rays.shape[0]:
             ok = _check_rays(An, rays)
             if ok is not None:
@@ -496,9 +524,14 @@ def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling) 
                 return _empty(d, source)
             COUNTERS.fallback(op, source, "no vertex returned, but the set is not empty")
             return None
-        new_mid, new_half = _box_of(pts)
-        sc = scale_rows(An, bn, new_mid, new_half)
-        checked = None if sc.contradiction else check_vertices(sc.A, sc.b, (pts - new_mid) / new_half)
+        if not np.isfinite(pts).all():
+            COUNTERS.fallback(op, source, "a point is not finite")
+            return None
+        (new_mid, new_half, As, bs, live, contradiction, Ys, code, i, j, keep, T, deg, kr) = scale_and_check(
+            An, bn, np.ascontiguousarray(pts, dtype=float), FULL_DIMENSION_RTOL, ZERO_ROW_TOL, VERTEX_CHECK_RTOL,
+            VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
+        sc = ScaledRows(As, bs, new_mid, new_half, np.nonzero(live)[0], contradiction)
+        checked = None if contradiction else _finish_check(As, bs, Ys, code, i, j, keep, T, deg, kr)
         if isinstance(checked, CheckedVertices):
             if checked.rays.shape[0]:
                 return VertexEnumeration("unbounded", np.zeros((0, d)), _unit(checked.rays * new_half), None, None, source)

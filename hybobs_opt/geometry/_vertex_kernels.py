@@ -1,0 +1,298 @@
+"""Compiled part of the vertex-set check of :mod:`hybobs_opt.geometry.vertices`.
+
+pycddlib answers a 2-D vertex enumeration in some 50 microseconds; the check in numpy took some
+thirty array calls (several hundred microseconds), so it would have cost more than the library.
+This kernel does the feasibility test, the merging of duplicates, the tight sets and the edge walk
+from every simple vertex in one compiled call; degenerate vertices (more than ``d`` tight rows,
+rare) are left to numpy.  numba caches it on disk.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Result codes of :func:`check_kernel` (0: passed; the others name the first failure).
+OK, INFEASIBLE, NOT_A_VERTEX, SINGULAR, NEARLY_DEPENDENT, INCOMPLETE = 0, 1, 2, 3, 4, 5
+
+
+@njit(cache=True)
+def _invert(M, out):
+    """Gauss-Jordan inverse of the small square ``M`` into ``out`` (partial pivoting); False if singular."""
+    d = M.shape[0]
+    W = M.copy()
+    for i in range(d):
+        for j in range(d):
+            out[i, j] = 1.0 if i == j else 0.0
+    for c in range(d):
+        p = c
+        best = abs(W[c, c])
+        for r in range(c + 1, d):
+            if abs(W[r, c]) > best:
+                best = abs(W[r, c])
+                p = r
+        if best == 0.0:
+            return False
+        if p != c:
+            for k in range(d):
+                W[c, k], W[p, k] = W[p, k], W[c, k]
+                out[c, k], out[p, k] = out[p, k], out[c, k]
+        piv = W[c, c]
+        for k in range(d):
+            W[c, k] /= piv
+            out[c, k] /= piv
+        for r in range(d):
+            if r != c:
+                f = W[r, c]
+                if f != 0.0:
+                    for k in range(d):
+                        W[r, k] -= f * W[c, k]
+                        out[r, k] -= f * out[c, k]
+    return True
+
+
+@njit(cache=True)
+def _key(w, point):
+    k = 0.0
+    for c in range(point.shape[0]):
+        k += w[c] * point[c]
+    return k
+
+
+@njit(cache=True)
+def _find(keys, order, Y, point, tol, w, window):
+    """Index of a row of ``Y`` within ``tol`` of ``point`` (infinity norm), or -1.
+
+    ``order`` sorts the candidate rows by their key ``w'y`` (a generic direction: vertices of one
+    facet of a box share a coordinate, never a key), ``keys`` holds the sorted keys; points within
+    ``tol`` have keys within ``window = tol |w|_1``.
+    """
+    kp = _key(w, point)
+    lo = np.searchsorted(keys, kp - window)
+    d = Y.shape[1]
+    for a in range(lo, keys.shape[0]):
+        if keys[a] > kp + window:
+            break
+        i = order[a]
+        ok = True
+        for c in range(d):
+            if abs(Y[i, c] - point[c]) > tol:
+                ok = False
+                break
+        if ok:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
+    """Check the candidate vertices ``Y`` of ``{y : A y <= b}`` (unit rows, scaled coordinates).
+
+    Returns ``(code, i, j, keep, tight, degenerate, rays)``: ``code`` is :data:`OK` or the first
+    failure (``i``, ``j``: the point and the row or edge concerned); ``keep`` marks the points left
+    after merging those within ``same_rtol``; ``tight`` (points x rows) the rows with slack at
+    most ``tight_rtol (1 + |b_j|)``; ``degenerate`` the kept points with more than ``d`` tight rows
+    (not walked here); ``rays`` the unit directions of edges that no row stops.
+    """
+    n, d = Y.shape
+    m = A.shape[0]
+    S = np.empty((n, m))
+    keep = np.ones(n, dtype=np.bool_)
+    tight = np.zeros((n, m), dtype=np.bool_)
+    empty_i = np.zeros(0, dtype=np.int64)
+    empty_r = np.zeros((0, d))
+    for i in range(n):
+        for j in range(m):
+            s = b[j]
+            for c in range(d):
+                s -= A[j, c] * Y[i, c]
+            S[i, j] = s
+            if s < -check_rtol * (1.0 + abs(b[j])):
+                return INFEASIBLE, i, j, keep, tight, empty_i, empty_r
+    w = np.empty(d)
+    wsum = 0.0
+    for c in range(d):
+        w[c] = 1.0 + 0.6180339887498949 * (c + 1) - np.floor(0.6180339887498949 * (c + 1))  # generic weights
+        wsum += w[c]
+    window = same_rtol * wsum
+    allkeys = np.empty(n)
+    for i in range(n):
+        allkeys[i] = _key(w, Y[i])
+    order = np.argsort(allkeys)
+    for a in range(n):
+        i = order[a]
+        if not keep[i]:
+            continue
+        for a2 in range(a + 1, n):
+            j = order[a2]
+            if allkeys[j] - allkeys[i] > window:
+                break
+            if keep[j]:
+                close = True
+                for c in range(d):
+                    if abs(Y[j, c] - Y[i, c]) > same_rtol:
+                        close = False
+                        break
+                if close:
+                    keep[j] = False
+    n_keep = 0
+    for a in range(n):
+        if keep[order[a]]:
+            n_keep += 1
+    korder = np.empty(n_keep, dtype=np.int64)
+    keys = np.empty(n_keep)
+    q = 0
+    for a in range(n):
+        i = order[a]
+        if keep[i]:
+            korder[q] = i
+            keys[q] = allkeys[i]
+            q += 1
+    count = np.zeros(n, dtype=np.int64)
+    n_deg = 0
+    for i in range(n):
+        if not keep[i]:
+            continue
+        for j in range(m):
+            if S[i, j] <= tight_rtol * (1.0 + abs(b[j])):
+                tight[i, j] = True
+                count[i] += 1
+        if count[i] < d:
+            return NOT_A_VERTEX, i, -1, keep, tight, empty_i, empty_r
+        if count[i] > d:
+            n_deg += 1
+    degenerate = np.empty(n_deg, dtype=np.int64)
+    rays = np.empty((n * d, d))
+    n_rays = 0
+    q = 0
+    M = np.empty((d, d))
+    inv = np.empty((d, d))
+    r = np.empty(d)
+    end = np.empty(d)
+    for i in range(n):
+        if not keep[i]:
+            continue
+        if count[i] > d:
+            degenerate[q] = i
+            q += 1
+            continue
+        k = 0
+        for j in range(m):
+            if tight[i, j]:
+                for c in range(d):
+                    M[k, c] = A[j, c]
+                k += 1
+        if not _invert(M, inv):
+            return SINGULAR, i, -1, keep, tight, empty_i, empty_r
+        fro = 0.0
+        for u in range(d):
+            for v in range(d):
+                fro += inv[u, v] * inv[u, v]
+        if np.sqrt(fro) * rank_rtol >= 1.0:
+            return NEARLY_DEPENDENT, i, -1, keep, tight, empty_i, empty_r
+        for e in range(d):  # edge e leaves the e-th tight row: r = -A_T^-1 e_e
+            nr = 0.0
+            for c in range(d):
+                r[c] = -inv[c, e]
+                nr += r[c] * r[c]
+            nr = np.sqrt(nr)
+            for c in range(d):
+                r[c] /= nr
+            tmin = np.inf
+            for j in range(m):
+                if tight[i, j]:
+                    continue
+                p = 0.0
+                for c in range(d):
+                    p += A[j, c] * r[c]
+                if p > check_rtol:
+                    t = S[i, j] / p
+                    if t < tmin:
+                        tmin = t
+            if tmin == np.inf:
+                for c in range(d):
+                    rays[n_rays, c] = r[c]
+                n_rays += 1
+                continue
+            for c in range(d):
+                end[c] = Y[i, c] + tmin * r[c]
+            if _find(keys, korder, Y, end, same_rtol, w, window) < 0:
+                return INCOMPLETE, i, e, keep, tight, empty_i, empty_r
+    return OK, -1, -1, keep, tight, degenerate, rays[:n_rays].copy()
+
+
+@njit(cache=True)
+def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
+    """Coordinates ``y = (z - mid) / half`` of the box of the points ``X``, and the rows in them.
+
+    ``half`` follows :func:`hybobs_opt.geometry._common._unit_box_map` (widths below
+    ``full_dimension_rtol`` times the largest take the largest).  Returns ``(mid, half, As, bs,
+    live, contradiction, Y)``: the unit rows ``As y <= bs`` of the rows that are not constant
+    (``live``), whether a constant row is violated, and the points in ``y``.
+    """
+    n, d = X.shape
+    m = An.shape[0]
+    lo = X[0].copy()
+    hi = X[0].copy()
+    for i in range(1, n):
+        for c in range(d):
+            if X[i, c] < lo[c]:
+                lo[c] = X[i, c]
+            if X[i, c] > hi[c]:
+                hi[c] = X[i, c]
+    ref = 0.0
+    for c in range(d):
+        if hi[c] - lo[c] > ref:
+            ref = hi[c] - lo[c]
+    if ref <= 0.0:
+        ref = 2.0
+    mid = (lo + hi) / 2
+    half = np.empty(d)
+    hmax = 0.0
+    for c in range(d):
+        w = hi[c] - lo[c]
+        half[c] = w / 2 if w > full_dimension_rtol * ref else ref / 2
+        if half[c] > hmax:
+            hmax = half[c]
+    As = np.empty((m, d))
+    bs = np.empty(m)
+    live = np.ones(m, dtype=np.bool_)
+    contradiction = False
+    q = 0
+    for j in range(m):
+        s = bn[j]
+        nn = 0.0
+        for c in range(d):
+            a = An[j, c] * half[c]
+            As[q, c] = a
+            nn += a * a
+            s -= An[j, c] * mid[c]
+        nn = np.sqrt(nn)
+        if nn <= zero_row_tol * hmax:
+            live[j] = False
+            if s < -check_rtol * (1.0 + abs(s)):
+                contradiction = True
+            continue
+        for c in range(d):
+            As[q, c] /= nn
+        bs[q] = s / nn
+        q += 1
+    Y = np.empty((n, d))
+    for i in range(n):
+        for c in range(d):
+            Y[i, c] = (X[i, c] - mid[c]) / half[c]
+    return mid, half, As[:q].copy(), bs[:q].copy(), live, contradiction, Y
+
+
+@njit(cache=True)
+def scale_and_check(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol):
+    """:func:`scale_to_box` then :func:`check_kernel` in one call (numba's argument unboxing costs
+    about as much as a small check).  Returns both results' fields in one tuple; the check is
+    skipped (code :data:`INFEASIBLE`, ``i = j = -1``) when a constant row is violated."""
+    mid, half, As, bs, live, contradiction, Y = scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol)
+    if contradiction:
+        n, d = X.shape
+        return (mid, half, As, bs, live, True, Y, INFEASIBLE, -1, -1, np.ones(n, dtype=np.bool_),
+                np.zeros((n, As.shape[0]), dtype=np.bool_), np.zeros(0, dtype=np.int64), np.zeros((0, d)))
+    code, i, j, keep, tight, degenerate, rays = check_kernel(As, bs, Y, check_rtol, tight_rtol, rank_rtol, same_rtol)
+    return mid, half, As, bs, live, False, Y, code, i, j, keep, tight, degenerate, rays
