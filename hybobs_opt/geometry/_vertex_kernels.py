@@ -296,3 +296,119 @@ def scale_and_check(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, ti
                 np.zeros((n, As.shape[0]), dtype=np.bool_), np.zeros(0, dtype=np.int64), np.zeros((0, d)))
     code, i, j, keep, tight, degenerate, rays = check_kernel(As, bs, Y, check_rtol, tight_rtol, rank_rtol, same_rtol)
     return mid, half, As, bs, live, False, Y, code, i, j, keep, tight, degenerate, rays
+
+
+@njit(cache=True)
+def _affine_rank_at_least(P, k, rank_rtol):
+    """Do the rows of ``P`` (points, each minus the first) span at least ``k`` dimensions?"""
+    if k <= 0:
+        return True
+    if P.shape[0] < k:
+        return False
+    s = np.linalg.svd(P, full_matrices=False)[1]
+    if s.shape[0] < k:
+        return False
+    return s[k - 1] > rank_rtol * max(s[0], 1.0)
+
+
+@njit(cache=True)
+def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
+    """The facets of a full-dimensional polytope from its complete, checked vertex set.
+
+    See :func:`hybobs_opt.geometry.redundancy.facets_from_vertices`.  Returns ``(code, row,
+    facet)``: code 0 with the mask of rows kept; 1 the vertices are flat; 2 fewer than ``d + 1``
+    facets; 3 ``row`` is a facet without a witness of non-redundancy.
+    """
+    m, d = A.shape
+    n = Y.shape[0]
+    facet = np.zeros(m, dtype=np.bool_)
+    if n <= d:
+        return 1, -1, facet
+    c = np.zeros(d)
+    for i in range(n):
+        for k in range(d):
+            c[k] += Y[i, k]
+    c /= n
+    Z = np.empty((n, d))
+    for i in range(n):
+        for k in range(d):
+            Z[i, k] = Y[i, k] - c[k]
+    s = np.linalg.svd(Z, full_matrices=False)[1]
+    if s[d - 1] <= rank_rtol * s[0]:
+        return 1, -1, facet
+    # parallel rows on a grid of spacing parallel_tol: the one with the smallest b (then index) stays
+    keys = np.empty((m, d), dtype=np.int64)
+    for j in range(m):
+        for k in range(d):
+            keys[j, k] = np.int64(np.round(A[j, k] / parallel_tol))
+    cand = np.ones(m, dtype=np.bool_)
+    for j in range(m):
+        for j2 in range(m):
+            if j2 == j or not (b[j2] < b[j] or (b[j2] == b[j] and j2 < j)):
+                continue
+            same = True
+            for k in range(d):
+                if keys[j2, k] != keys[j, k]:
+                    same = False
+                    break
+            if same:
+                cand[j] = False
+                break
+    n_f = 0
+    for j in range(m):
+        if not cand[j]:
+            continue
+        cnt = 0
+        for i in range(n):
+            if tight[i, j]:
+                cnt += 1
+        if cnt < d:
+            continue
+        if d == 1:
+            facet[j] = True
+            n_f += 1
+            continue
+        P = np.empty((cnt, d))
+        q = 0
+        first = -1
+        for i in range(n):
+            if tight[i, j]:
+                if first < 0:
+                    first = i
+                for k in range(d):
+                    P[q, k] = Y[i, k] - Y[first, k]
+                q += 1
+        if _affine_rank_at_least(P, d - 1, rank_rtol):
+            facet[j] = True
+            n_f += 1
+    if n_f < d + 1:
+        return 2, -1, facet
+    z = np.empty(d)
+    for j in range(m):
+        if not facet[j]:
+            continue
+        for k in range(d):
+            z[k] = 0.0
+        cnt = 0
+        for i in range(n):
+            if tight[i, j]:
+                for k in range(d):
+                    z[k] += Y[i, k]
+                cnt += 1
+        tol = redundancy_rtol * (1.0 + abs(b[j]))
+        for k in range(d):
+            z[k] = z[k] / cnt + 3.0 * tol * A[j, k]
+        own = -b[j]
+        for k in range(d):
+            own += A[j, k] * z[k]
+        if own <= tol:
+            return 3, j, facet
+        for j2 in range(m):
+            if j2 == j or not facet[j2]:
+                continue
+            v = -b[j2]
+            for k in range(d):
+                v += A[j2, k] * z[k]
+            if v > 0.0:
+                return 3, j, facet
+    return 0, -1, facet

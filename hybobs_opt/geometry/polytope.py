@@ -55,6 +55,11 @@ EXACT_VOLUME_MAX_DIM: int = 4
 #: Old name of :data:`EXACT_VOLUME_MAX_DIM` (vertex enumeration is no longer limited to it).
 VERTEX_MAX_DIM: int = EXACT_VOLUME_MAX_DIM
 
+#: Largest dimension in which :meth:`Polytope.remove_redundant` decides the facets from the
+#: checked vertex set (measured in 2-6 D, benchmarks/bench_polytope.py); above it the LPs decide,
+#: since the number of vertices can grow exponentially with the dimension, one LP per row cannot.
+LIBRARY_REDUNDANCY_MAX_DIM: int = 6
+
 
 def _check_polytope(value, field: str) -> None:
     if not isinstance(value, Polytope):
@@ -521,14 +526,16 @@ class Polytope:
         (:func:`hybobs_opt.geometry.vertices.enumerate_vertices`), decide the facets, each kept row
         with a checked witness point (:func:`hybobs_opt.geometry.redundancy.facets_from_vertices`).
         Unbounded or flat sets, and answers that fail a check, go to the LP path above (counted in
-        :data:`hybobs_opt.geometry.vertices.COUNTERS`).  ``scale`` applies to the LP path; the
+        :data:`hybobs_opt.geometry.vertices.COUNTERS`), and so does every set of dimension above
+        :data:`LIBRARY_REDUNDANCY_MAX_DIM`.  ``scale`` applies to the LP path; the
         library path measures in the box of the vertices.
         """
         if self.n_constraints == 0:
             return self
-        kept = self._facets_by_vertices()
-        if isinstance(kept, Polytope):
-            return kept
+        if self.dim <= LIBRARY_REDUNDANCY_MAX_DIM:
+            kept = self._facets_by_vertices()
+            if isinstance(kept, Polytope):
+                return kept
         if scale is None:
             box = _box(self.A, self.b)
             if box is None:

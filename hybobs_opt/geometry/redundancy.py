@@ -24,6 +24,7 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from ._common import _lp
+from ._vertex_kernels import facet_kernel
 from .lp import solve_lp
 
 #: Largest dimension in which Fourier-Motzkin's redundancy removal first drops rows by one qhull
@@ -194,53 +195,22 @@ def facets_from_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray, tight: np.
     LP test of :func:`irredundant`.  A row without one (a near-duplicate, a facet thinner than the
     tolerance) makes the answer a string, and the caller decides by LPs instead.
 
+    The work runs in one compiled call (:func:`hybobs_opt.geometry._vertex_kernels.facet_kernel`).
+
     Returns
     -------
     (m,) bool array or str
         The rows kept, or the reason the vertex set does not decide.
     """
-    m, d = A.shape
-    n = Y.shape[0]
-    if n <= d:
-        return "fewer than d + 1 vertices: the set is not full-dimensional"
-    sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
-    if sv[-1] <= VERTEX_RANK_RTOL * sv[0]:
+    code, row, facet = facet_kernel(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float),
+                                    np.ascontiguousarray(Y, dtype=float), np.ascontiguousarray(tight),
+                                    PARALLEL_ROW_TOL, VERTEX_RANK_RTOL, REDUNDANCY_RTOL)
+    if code == 1:
         return "the vertices span less than the whole space: the set is not full-dimensional"
-    keys = np.round(A / PARALLEL_ROW_TOL).astype(np.int64)
-    order = np.lexsort(np.vstack([b, keys.T[::-1]]))
-    first = np.ones(m, dtype=bool)
-    first[1:] = np.any(keys[order][1:] != keys[order][:-1], axis=1)
-    cand = np.zeros(m, dtype=bool)
-    cand[order[first]] = True
-    count = tight.sum(axis=0)
-    cand &= count >= d
-    facet = np.zeros(m, dtype=bool)
-    ci = np.nonzero(cand)[0]
-    if ci.size:
-        if d == 1:
-            facet[ci] = True
-        else:
-            K = int(count[ci].max())
-            Tc = tight[:, ci]
-            idx = np.argsort(~Tc, axis=0, kind="stable")[:K].T  # (rows, K): tight vertices first
-            pad = np.arange(K)[None, :] >= count[ci][:, None]
-            idx = np.where(pad, idx[:, :1], idx)  # repeats of the first vertex add no dimension
-            Z = Y[idx] - Y[idx[:, :1]]
-            s = np.linalg.svd(Z, compute_uv=False)
-            facet[ci] = s[:, d - 2] > VERTEX_RANK_RTOL * np.maximum(s[:, 0], 1.0)
-    fi = np.nonzero(facet)[0]
-    if fi.size < d + 1:
-        return f"only {fi.size} facets found in dimension {d}"
-    Tf = tight[:, fi].astype(float)
-    centres = (Tf.T @ Y) / Tf.sum(axis=0)[:, None]
-    tol = REDUNDANCY_RTOL * (1.0 + np.abs(b[fi]))
-    Z = centres + 3.0 * tol[:, None] * A[fi]
-    V = Z @ A[fi].T - b[fi][None, :]  # V[k, j]: row j at the witness of row k
-    own = np.diagonal(V).copy()
-    np.fill_diagonal(V, -np.inf)
-    bad = (own <= tol) | np.any(V > 0.0, axis=1)
-    if bad.any():
-        return f"row {int(fi[np.argmax(bad)])} is a facet without a checked witness of non-redundancy"
+    if code == 2:
+        return f"only {int(facet.sum())} facets found in dimension {A.shape[1]}"
+    if code == 3:
+        return f"row {row} is a facet without a checked witness of non-redundancy"
     return facet
 
 
