@@ -188,6 +188,12 @@ def instrument(obs, probe: Probe) -> None:
     probe.wrap(obs, "_certified_by_search", "prefix_search")
     probe.wrap(obs, "_solve", "window_other")
     probe.wrap(obs, "_decide", "uniqueness_other")
+    seq = getattr(obs, "_sequences", None)
+    if seq is not None:  # solver "sequences": its LPs by engine, the window's search and the uniqueness search
+        probe.wrap(seq, "_solve_daqp", "sequence_lp_daqp")
+        probe.wrap(seq, "_solve_highs", "sequence_lp_highs")
+        probe.wrap(seq, "solve", "sequence_window_search")
+        probe.wrap(seq, "decide", "sequence_uniqueness_search")
 
 
 def run(plant, U, Y, *, norm: str, solver: str | None, profiled: bool, budget_s: float | None = None,
@@ -473,6 +479,14 @@ def reason(rec: dict) -> str:
                  f"{1e3 * cpu.get('p99_cpu_step_s', np.nan):.2f} ms), {'meeting' if ok else 'missing'} "
                  f"{'both targets' if ok else ('the p99 target' if sq['meets_median_budget'] else 'both targets')}; "
                  f"{sq.get('flags_differing_steps')} steps with another flag than {sq.get('compared_with')}.")
+    prof = rec["runs"].get("milp1_sequences_profiled", {}).get("breakdown")
+    if prof:
+        parts = prof["parts"]
+        mean = {k: v["per_step_s"]["mean"] for k, v in parts.items()}
+        calls = {k: v["calls_per_step"]["mean"] for k, v in parts.items()}
+        text += ("  Where a 'sequences' step goes (norm 1, profiled, mean per step): "
+                 + ", ".join(f"{k} {1e3 * v:.3f} ms" + (f" ({calls[k]:.2f} calls)" if k.startswith("sequence_lp") else "")
+                             for k, v in sorted(mean.items(), key=lambda kv: -kv[1]) if v > 0) + ".")
     return text
 
 
@@ -526,6 +540,7 @@ def main(argv: list[str] | None = None) -> int:
                # the exact mode-prefix branch and bound of tiny LPs (mhe.sequence_lp), beside HiGHS in the same
                # run: its default LP engine (DAQP, HiGHS fallback) and HiGHS alone; the inf-norm both ways
                ("milp1_sequences", "1", "sequences", False, None),
+               ("milp1_sequences_profiled", "1", "sequences", True, None),
                ("milp1_sequences_highs_lp", "1", "sequences", False, {"lp": "highs"}),
                ("milpinf_highs", "inf", None, False, None), ("milpinf_sequences", "inf", "sequences", False, None)]
     refs: dict = {}

@@ -92,10 +92,24 @@ class SequenceLPSolver:
         :meth:`~hybobs_opt.mhe.uniqueness.SeparatedProgram.alternative` (the verification of an
         alternative) are reused, no program of it is solved.
 
+    lp : {"daqp", "highs"}
+        The LP engine: DAQP's LP mode (``daqp.Model`` per node) with HiGHS as fallback, or
+        HiGHS (a persistent ``highspy`` model per node, presolve off) for every LP.
+
+    Attributes
+    ----------
+    nodes : list
+        The mode prefixes kept (depth-first order); ``pruned_offline`` counts those dropped
+        because no input of ``U`` meets their rows (a certified LP of
+        :func:`~hybobs_opt.geometry.lp.solve_lp` each).
+    build_seconds : float
+        Time of the precomputation.
+
     Raises
     ------
     ModelError
-        With an extension (``extend``): its rows and parameters are not in the precomputed maps.
+        With an extension (``extend``): its rows and parameters are not in the precomputed maps;
+        with norm 2; with an unknown ``lp``.
     """
 
     def __init__(self, model, zero_cost: float, separated, lp: str = "daqp"):
@@ -530,7 +544,27 @@ class SequenceLPSolver:
 
     # ------------------------------------------------------------------ one window
     def solve(self, U, Y, xbar) -> tuple[WindowResult, dict]:
-        """The certified optimum of one window (``WindowResult``) and the step's search data for :meth:`decide`."""
+        """The certified optimum of one window of eq. (10) (paper 002) in the 1- / inf-norm.
+
+        Parameters
+        ----------
+        U : (T, m) ndarray
+            Window inputs.
+        Y : (T, p) ndarray
+            Window outputs.
+        xbar : (n,) ndarray
+            Arrival prior of the window-start state.
+
+        Returns
+        -------
+        WindowResult
+            ``OPTIMAL`` with the best leaf's trajectory (checked against the MLD rows) and
+            ``gap_bound`` (every other node closed by a proven bound within it),
+            ``INFEASIBLE`` (every sequence proven infeasible) or ``NOT_CERTIFIED`` (an LP
+            without a checked answer; ``reason``).
+        dict
+            The step's offsets, bounds and LP answers, which :meth:`decide` reuses.
+        """
         self.lp_solves = self.lp_fallbacks = 0
         pv = np.concatenate([U.reshape(-1), Y.reshape(-1), xbar])
         r_all = self.Mr @ pv + self.mr
