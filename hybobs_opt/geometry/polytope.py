@@ -572,9 +572,13 @@ class Polytope:
             LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, keep)
             return None
         rows = np.sort(enum.row_indices()[keep])
-        An, bn = _row_normalised(self.A, self.b)
-        A, b = _unit_rows(An[rows], bn[rows])  # the same arithmetic as the LP path's output
-        return Polytope(A, b, self.names)
+        An, bn = _row_normalised(self.A[rows], self.b[rows])  # row by row: the LP path's arithmetic
+        A, b = _unit_rows(An, bn)
+        out = object.__new__(Polytope)  # rows of this (validated) polytope: no second validation
+        object.__setattr__(out, "A", A)
+        object.__setattr__(out, "b", b)
+        object.__setattr__(out, "names", self.names)
+        return out
 
     def project(
         self,
