@@ -349,3 +349,89 @@ def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, x
             xs[t, i] = xcur[i]
         modes[t] = meta[1]
     return N
+
+
+# ---------------------------------------------------------------------------------- packed tables
+# The observer's tables and state packed into two contiguous arrays (``lookup.LookupObserver``):
+# ``F`` (float64) and ``I`` (int64).  ``I`` starts with a header of 4 ints per segment,
+# ``(offset, d0, d1, d2)``: the float segments (offsets into ``F``), then the int segments
+# (offsets into ``I``).  A call passes these two arrays instead of ~40 (numba unboxes every
+# array argument, a few tens of nanoseconds each); the kernels below cut the views and call the
+# kernels above, so every flag, mode and estimate is computed by the same operations in the same
+# order as with the separate arrays.
+FLOAT_SEGMENTS = ("reals", "table", "offset", "mthr", "sx", "bt_A", "bt_b", "Pl", "Gl", "pl",
+                  "mode_A", "mode_B", "mode_a", "guard", "guard_rhs", "in_A", "in_b", "x_lo", "x_hi",
+                  "ex_A", "ex_b", "cut_A", "cut_b", "x_c",
+                  "Ybuf", "Ubuf", "xcur", "uprev", "z", "xs0", "xnew")
+INT_SEGMENTS = ("ints", "meta", "mstarts", "bt_starts", "last_mode", "guard_starts", "ex_starts", "cut_count",
+                "survivors")
+HEADER = 4 * (len(FLOAT_SEGMENTS) + len(INT_SEGMENTS))
+#: ``step_packed``'s answer when ``u`` or ``y`` has the wrong length (nothing is changed).
+BAD_LENGTH = -1
+
+
+@njit(cache=True)
+def _v1(A, I, k):
+    o = I[4 * k]
+    return A[o:o + I[4 * k + 1]]
+
+
+@njit(cache=True)
+def _v2(A, I, k):
+    o, r, c = I[4 * k], I[4 * k + 1], I[4 * k + 2]
+    return A[o:o + r * c].reshape((r, c))
+
+
+@njit(cache=True)
+def _v3(A, I, k):
+    o, a, b, c = I[4 * k], I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]
+    return A[o:o + a * b * c].reshape((a, b, c))
+
+
+_NF = len(FLOAT_SEGMENTS)
+
+
+@njit(cache=True)
+def _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons):
+    return run_table(U, Y, start, _v1(I, I, _NF + 0), _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26),
+                     _v1(I, I, _NF + 1), _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30),
+                     _v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
+                     _v2(F, I, 5), _v1(F, I, 6), _v1(I, I, _NF + 3), _v3(F, I, 7), _v3(F, I, 8), _v2(F, I, 9),
+                     _v1(I, I, _NF + 4), _v3(F, I, 10), _v3(F, I, 11), _v2(F, I, 12), _v2(F, I, 13),
+                     _v1(F, I, 14), _v1(I, I, _NF + 5), _v2(F, I, 15), _v1(F, I, 16), _v1(F, I, 17),
+                     _v1(F, I, 18), _v2(F, I, 19), _v1(F, I, 20), _v1(I, I, _NF + 6), _v3(F, I, 21),
+                     _v2(F, I, 22), _v1(I, I, _NF + 7), _v1(F, I, 23), _v1(I, I, _NF + 8),
+                     xs, modes, flags, reasons)
+
+
+@njit("int64(float64[::1], float64[::1], int64, float64[::1], int64[::1])", cache=True)
+def step_packed(u, y, good, F, I):
+    """:func:`advance` on the packed tables and state; returns ``code | (mode + 1) << 3``.
+
+    ``good = 0`` marks a sample the caller found malformed (``REASON_BAD_SHAPE``); ``u`` and ``y``
+    are then NaN vectors of the right lengths.  A ``u`` or ``y`` of the wrong length returns
+    :data:`BAD_LENGTH` and leaves the state untouched (the caller builds the reason).  The mode
+    part is meaningless with ``CANDIDATE_CODE``, which the caller decides.
+    """
+    ints = _v1(I, I, _NF + 0)
+    if u.shape[0] != _v2(F, I, 25).shape[1] or y.shape[0] != _v2(F, I, 24).shape[1]:
+        return BAD_LENGTH
+    meta = _v1(I, I, _NF + 1)
+    ints[5] = good
+    code = advance(u, y, ints, _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26),
+                   meta, _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30),
+                   _v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
+                   _v2(F, I, 5), _v1(F, I, 6), _v1(I, I, _NF + 3), _v3(F, I, 7), _v3(F, I, 8), _v2(F, I, 9),
+                   _v1(I, I, _NF + 4), _v3(F, I, 10), _v3(F, I, 11), _v2(F, I, 12), _v2(F, I, 13),
+                   _v1(F, I, 14), _v1(I, I, _NF + 5), _v2(F, I, 15), _v1(F, I, 16), _v1(F, I, 17),
+                   _v1(F, I, 18), _v2(F, I, 19), _v1(F, I, 20), _v1(I, I, _NF + 6), _v3(F, I, 21),
+                   _v2(F, I, 22), _v1(I, I, _NF + 7), _v1(F, I, 23), _v1(I, I, _NF + 8))
+    ints[5] = 1
+    return code | ((meta[1] + 1) << 3)
+
+
+@njit("int64(float64[:, ::1], float64[:, ::1], int64, float64[::1], int64[::1], float64[:, ::1], int64[::1], "
+      "int64[::1], int64[::1])", cache=True)
+def run_packed(U, Y, start, F, I, xs, modes, flags, reasons):
+    """:func:`run_table` on the packed tables and state (same return value)."""
+    return _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons)

@@ -87,6 +87,7 @@ from ..tolerances import (
 from . import _lookup_kernels as K
 from .base import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state,
                    real_sample, sample_rows)
+from ..contract import timed_estimate
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
 REASONS = {
@@ -302,6 +303,70 @@ class LookupObserver(Observer):
                          pp.survivors)
         self._nan_u = np.full(self.m, np.nan)
         self._nan_y = np.full(self.p, np.nan)
+        self._pack(pp)
+
+    def _pack(self, pp: "_PairPieces") -> None:
+        """Copy the tables and the state into two contiguous arrays, ``_F`` (float) and ``_I`` (int).
+
+        The compiled step then takes four arguments instead of ~40 (see
+        ``_lookup_kernels.FLOAT_SEGMENTS``).  Every attribute that held a table or a piece of the
+        state (``_table``, ``_Ybuf``, ``_meta``, the pieces' cuts ...) becomes a view into the
+        packed arrays, so the Python parts (the ``B~_T`` LPs and their cuts, ``c_export``) read
+        and write the same memory as the kernel.
+        """
+        T, n, m, p = self.T, self.n, self.m, self.p
+        floats = {"reals": self._reals, "table": self._table, "offset": self._offset, "mthr": self._mthr,
+                  "sx": self._sx, "bt_A": self._bt_A, "bt_b": self._bt_b, "Pl": self._Pl, "Gl": self._Gl,
+                  "pl": self._pl, "mode_A": self._modeA, "mode_B": self._modeB, "mode_a": self._modea,
+                  "guard": self._guard, "guard_rhs": self._guard_rhs, "in_A": self._in_A, "in_b": self._in_b,
+                  "x_lo": self._x_lo, "x_hi": self._x_hi, "ex_A": pp.ex_A, "ex_b": pp.ex_b, "cut_A": pp.cut_A,
+                  "cut_b": pp.cut_b, "x_c": pp.cx,
+                  "Ybuf": np.zeros((T, p)), "Ubuf": np.zeros((T, m)), "xcur": np.zeros(n), "uprev": np.zeros(m),
+                  "z": np.zeros(T * (p + m)), "xs0": np.zeros(n), "xnew": np.zeros(n)}
+        ints = {"ints": self._ints, "meta": np.zeros(7, dtype=np.int64), "mstarts": self._mstarts,
+                "bt_starts": self._bt_starts, "last_mode": self._last_mode, "guard_starts": self._guard_starts,
+                "ex_starts": pp.ex_starts, "cut_count": pp.cut_count, "survivors": pp.survivors}
+        header = np.zeros(K.HEADER, dtype=np.int64)
+        f_size = 0
+        for k, name in enumerate(K.FLOAT_SEGMENTS):
+            a = np.asarray(floats[name], dtype=float)
+            header[4 * k : 4 * k + 1 + a.ndim] = (f_size, *a.shape)
+            f_size += a.size
+        i_size = K.HEADER
+        for k, name in enumerate(K.INT_SEGMENTS, start=len(K.FLOAT_SEGMENTS)):
+            a = np.asarray(ints[name])
+            header[4 * k : 4 * k + 1 + a.ndim] = (i_size, *a.shape)
+            i_size += a.size
+        F = np.zeros(f_size)
+        I = np.zeros(i_size, dtype=np.int64)
+        I[: K.HEADER] = header
+        views = {}
+        for k, name in enumerate(K.FLOAT_SEGMENTS):
+            a = np.asarray(floats[name], dtype=float)
+            v = F[header[4 * k] : header[4 * k] + a.size].reshape(a.shape)
+            v[...] = a
+            views[name] = v
+        for k, name in enumerate(K.INT_SEGMENTS, start=len(K.FLOAT_SEGMENTS)):
+            a = np.asarray(ints[name])
+            v = I[header[4 * k] : header[4 * k] + a.size].reshape(a.shape)
+            v[...] = a
+            views[name] = v
+        self._F, self._I = F, I
+        (self._reals, self._table, self._offset, self._mthr, self._sx, self._bt_A, self._bt_b, self._Pl, self._Gl,
+         self._pl, self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._in_A, self._in_b,
+         self._x_lo, self._x_hi) = (views[k] for k in K.FLOAT_SEGMENTS[:19])
+        self._ints, self._mstarts, self._bt_starts, self._last_mode, self._guard_starts = (
+            views["ints"], views["mstarts"], views["bt_starts"], views["last_mode"], views["guard_starts"])
+        pp.ex_A, pp.ex_b, pp.cut_A, pp.cut_b = views["ex_A"], views["ex_b"], views["cut_A"], views["cut_b"]
+        pp.ex_starts, pp.cut_count, pp.survivors = views["ex_starts"], views["cut_count"], views["survivors"]
+        self._Ybuf, self._Ubuf, self._xcur, self._uprev, self._z, self._xs0, self._xnew = (
+            views[k] for k in ("Ybuf", "Ubuf", "xcur", "uprev", "z", "xs0", "xnew"))
+        self._meta = views["meta"]
+        self._tables = (self._table, self._offset, self._mthr, self._mstarts, self._sx, self._bt_A, self._bt_b,
+                        self._bt_starts, self._Pl, self._Gl, self._pl, self._last_mode,
+                        self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts,
+                        self._in_A, self._in_b, self._x_lo, self._x_hi,
+                        pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, views["x_c"], pp.survivors)
 
     # ------------------------------------------------------------------ state
     def reset(self, x0: np.ndarray | None = None, **kwargs) -> None:
@@ -319,14 +384,11 @@ class LookupObserver(Observer):
         if x0 is None:
             x0 = self.analysis.enumeration.centre[: self.n]
         x0 = checked_state(x0, self.n)
-        self._xcur = x0.copy()
-        self._meta = np.array([0, -1, 0, 0, -1, 0, 0], dtype=np.int64)
-        self._Ybuf = np.zeros((self.T, self.p))
-        self._Ubuf = np.zeros((self.T, self.m))
-        self._uprev = np.zeros(self.m)
-        self._z = np.zeros(self.T * (self.p + self.m))
-        self._xs0 = np.zeros(self.n)
-        self._xnew = np.zeros(self.n)
+        # in place: the state lives in the packed arrays (see _pack)
+        self._xcur[:] = x0
+        self._meta[:] = (0, -1, 0, 0, -1, 0, 0)
+        for buf in (self._Ybuf, self._Ubuf, self._uprev, self._z, self._xs0, self._xnew):
+            buf[...] = 0.0
 
     # ------------------------------------------------------------------ online
     def _decide_candidate(self) -> int:
@@ -345,14 +407,20 @@ class LookupObserver(Observer):
         return K.OBSERVABLE_CODE
 
     def _advance(self, u: np.ndarray, y: np.ndarray, good: bool) -> int:
-        code = K.advance(u, y, self._ints if good else self._ints_bad, self._reals, self._Ybuf, self._Ubuf, self._xcur,
-                         self._meta, self._uprev, self._z, self._xs0, self._xnew, *self._tables)
+        """One compiled step on samples of the right lengths (``good=False``: a malformed one); the flag code."""
+        r = K.step_packed(u, y, 1 if good else 0, self._F, self._I)
+        code = r & 7
         if code == K.CANDIDATE_CODE:
             code = self._decide_candidate()
         return code
 
     def step(self, u, y) -> Estimate:
         """Algorithm 4.1 for one sample (compiled); a bad sample gives a ``fallback`` step with its reason.
+
+        ``Estimate.seconds`` is the wall time of the whole call up to the building of the
+        estimate (checks, kernel, ``B~_T`` LPs, the copy of the state).  A float64 1-D array
+        (e.g. a row of a C-ordered ``(N, m)`` array) goes straight to the compiled kernel; any other
+        sample is first checked and converted (:func:`~hybobs_opt.contract.real_sample`).
 
         Parameters
         ----------
@@ -361,7 +429,25 @@ class LookupObserver(Observer):
         y : (p,) array_like
             Output sample.
         """
-        t0 = time.perf_counter()
+        t0 = _perf_counter()
+        if type(u) is _ndarray and type(y) is _ndarray:
+            try:
+                r = _step_packed(u, y, 1, self._F, self._I)
+            except TypeError:  # not float64, not 1-D, not contiguous or read-only: the checked path
+                r = K.BAD_LENGTH
+            if r >= 0:
+                code = r & 7
+                if code == _CANDIDATE:
+                    code = self._decide_candidate()
+                    mode = int(self._meta[1])
+                else:
+                    mode = (r >> 3) - 1
+                info = {} if code in _PLAIN else self._info(code)
+                return timed_estimate(self._xcur.copy(), mode, _FLAGS[code], info, t0)
+        return self._checked_step(u, y, t0)
+
+    def _checked_step(self, u, y, t0: float) -> Estimate:
+        """:meth:`step` for a sample that is not two float64 vectors the kernel takes as they are."""
         reason = ""
         try:
             uu, yy = real_sample(u), real_sample(y)
@@ -371,9 +457,8 @@ class LookupObserver(Observer):
             reason = f"sample not numeric ({exc})"
         if reason:
             uu, yy = self._nan_u, self._nan_y
-        code = self._advance(uu, yy, not reason)
-        return Estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], time.perf_counter() - t0,
-                        self._info(code, reason))
+        code = self._advance(np.ascontiguousarray(uu), np.ascontiguousarray(yy), not reason)
+        return timed_estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], self._info(code, reason), t0)
 
     def _info(self, code: int, reason: str = "") -> dict:
         rc = int(self._meta[5])
@@ -428,9 +513,7 @@ class LookupObserver(Observer):
         chunk = 250 if progress else N
         while t < N:
             stop = min(N, t + chunk)
-            t = K.run_table(U[:stop], Y[:stop], t, self._ints, self._reals, self._Ybuf, self._Ubuf, self._xcur,
-                            self._meta, self._uprev, self._z, self._xs0, self._xnew, *self._tables,
-                            xs, modes, codes, reasons)
+            t = K.run_packed(U[:stop], Y[:stop], t, self._F, self._I, xs, modes, codes, reasons)
             if t < stop:  # a candidate whose B~_T test needs LPs
                 codes[t] = self._decide_candidate()
                 reasons[t] = self._meta[5]
@@ -456,6 +539,13 @@ class LookupObserver(Observer):
 
 _FLAGS = {K.OBSERVABLE_CODE: OBSERVABLE, K.UNOBSERVABLE_CODE: UNOBSERVABLE, K.FALLBACK_CODE: FALLBACK,
           K.WARMING_CODE: WARMING_UP, K.CANDIDATE_CODE: UNOBSERVABLE}
+# step()'s fast path: names bound once (each global or attribute lookup costs tens of nanoseconds)
+_perf_counter = time.perf_counter
+_ndarray = np.ndarray
+_step_packed = K.step_packed
+_CANDIDATE = K.CANDIDATE_CODE
+#: Flag codes whose ``info`` is always empty (the others may carry a reason or a note).
+_PLAIN = frozenset((K.OBSERVABLE_CODE, K.WARMING_CODE))
 
 
 def _max_margin(G: np.ndarray, g: np.ndarray, radius_bound: float, threshold: float, problem: str):
