@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
-from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
+from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
@@ -587,14 +587,15 @@ class HullRows:
 
 
 def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
-    """Facets of ``conv(points)`` from pycddlib, checked; ``None`` if the answer failed (or no cdd).
+    """Facets of ``conv(points)`` from pycddlib or qhull, checked; ``None`` if no answer passed.
 
-    The points are scaled to their box.  cddlib's inequalities are accepted when every point
+    The points are scaled to their box.  A library's inequalities are accepted when every point
     satisfies every row (to VERTEX_CHECK_RTOL) and the rows pass the vertex check in the polar
     set about the points' centroid ``c``, ``{y : (p - c)' y <= 1 for all points p}``, whose
     vertices are the facets ``a / (h - a'c)`` of the hull: each row is then a facet, and none is
-    missing.  A hull that is not full-dimensional is left to the caller (cddlib answers it with
-    equalities).
+    missing.  cddlib answers first up to :data:`CDD_FIRST_MAX_DIM`, qhull (``ConvexHull``, its
+    triangulated facets merged) first above it, where cddlib's V -> H is 5-10 x slower
+    (benchmarks/bench_polytope.py).  A hull that is not full-dimensional is left to the caller.
 
     Parameters
     ----------
@@ -603,45 +604,70 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
     op : str
         Name of the calling operation in :data:`COUNTERS` and the log.
     """
-    cdd = cdd_module()
-    if cdd is None:
-        return None
     X = np.asarray(points, dtype=float)
     n, d = X.shape
+    if n <= d:
+        COUNTERS.fallback(op, "cdd" if cdd_module() is not None else "qhull", "fewer than d + 1 points: not full-dimensional")
+        return None
     mid, half = _box_of(X)
     Y = (X - mid) / half
-    c = Y.mean(axis=0)
+    c = Y.sum(axis=0) / n
     P = Y - c
-    if n <= d or np.linalg.matrix_rank(P, tol=VERTEX_RANK_RTOL * max(1.0, float(np.abs(P).max()))) < d:
-        COUNTERS.fallback(op, "cdd", "the points are not full-dimensional")
-        return None
+    if cdd_module() is None:
+        order = ("qhull",)
+    else:
+        order = ("cdd", "qhull") if d <= CDD_FIRST_MAX_DIM else ("qhull", "cdd")
+    for source in order:
+        rows = _cdd_hull(Y) if source == "cdd" else _qhull_hull(Y)
+        if isinstance(rows, str):
+            COUNTERS.fallback(op, source, rows)
+            continue
+        G, g = rows
+        reason = _check_hull(G, g, P, c)
+        if reason is not None:
+            COUNTERS.fallback(op, source, reason)
+            continue
+        H = G / half  # back to z: G (z - mid) / half <= g
+        h = g + H @ mid
+        hn = np.sqrt(np.einsum("ij,ij->i", H, H))
+        COUNTERS.accept(op, source)
+        return HullRows(H / hn[:, None], h / hn, source)
+    return None
+
+
+def _cdd_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
+    """cddlib's facets ``G y <= g`` (unit rows) of the points ``Y``, unchecked, or why none."""
+    cdd = cdd_module()
+    n, d = Y.shape
     try:
         mat = cdd.matrix_from_array(np.hstack([np.ones((n, 1)), Y]), rep_type=cdd.RepType.GENERATOR)
         ineq = cdd.copy_inequalities(cdd.polyhedron_from_matrix(mat))
     except (ValueError, RuntimeError, MemoryError) as exc:
-        COUNTERS.fallback(op, "cdd", f"{type(exc).__name__}: {exc}")
-        return None
+        return f"{type(exc).__name__}: {exc}"
     M = np.asarray(ineq.array, dtype=float).reshape(-1, d + 1)
     if ineq.lin_set or M.shape[0] == 0:
-        COUNTERS.fallback(op, "cdd", "equalities in a full-dimensional hull")
-        return None
+        return "equalities: the points are not full-dimensional"
     G, g = -M[:, 1:], M[:, 0]  # cdd's rows read g - G y >= 0
-    norms = np.linalg.norm(G, axis=1)
+    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
     live = norms > ZERO_ROW_TOL
     if np.any(~live & (g < 0)):
-        COUNTERS.fallback(op, "cdd", "a constant row is violated")
-        return None
-    G, g = G[live] / norms[live, None], g[live] / norms[live]
-    reason = _check_hull(G, g, P, c)
-    if reason is not None:
-        COUNTERS.fallback(op, "cdd", reason)
-        return None
-    # back to z: G (z - mid) / half <= g
-    H = G / half
-    h = g + H @ mid
-    hn = np.linalg.norm(H, axis=1)
-    COUNTERS.accept(op, "cdd")
-    return HullRows(H / hn[:, None], h / hn, "cdd")
+        return "a constant row is violated"
+    return G[live] / norms[live, None], g[live] / norms[live]
+
+
+def _qhull_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
+    """qhull's facets ``G y <= g`` of the points ``Y`` (coplanar simplices merged), unchecked, or why none."""
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            eq = ConvexHull(Y).equations
+    except (QhullError, ValueError) as exc:
+        return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+    G, g = eq[:, :-1], -eq[:, -1]
+    # the simplices of one facet give the same plane up to rounding; keep one of each
+    _, first = np.unique(np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL), axis=0, return_index=True)
+    first = np.sort(first)
+    return G[first], g[first]
 
 
 def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> str | None:

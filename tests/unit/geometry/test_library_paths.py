@@ -276,7 +276,8 @@ def test_from_vertices_equals_the_hull_oracle(d, counters):
     margin = np.min((H.b[None, :] - X @ H.A.T), axis=1)
     X = X[np.abs(margin) > 1e-6 * np.max(hi - lo)]
     np.testing.assert_array_equal(H.contains(X), [in_hull(pts, x) for x in X])
-    assert counters.accepted["from_vertices:cdd"] == 1 and not counters.fallbacks
+    source = "cdd" if d <= vmod.CDD_FIRST_MAX_DIM else "qhull"  # qhull first from 4-D up
+    assert counters.accepted[f"from_vertices:{source}"] == 1 and not counters.fallbacks
 
 
 def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
@@ -290,9 +291,20 @@ def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
 
     monkeypatch.setattr(cdd, "copy_inequalities", lambda poly: Dropped(real(poly)))
     got = Polytope.from_vertices(pts)  # a facet dropped by "cdd": the polar check must see it
-    assert counters.fallbacks["from_vertices:cdd"] == 1
+    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.accepted["from_vertices:qhull"] == 1
     X = np.random.default_rng(2).uniform(-0.5, 1.5, size=(4000, 3))
     np.testing.assert_array_equal(got.contains(X), ref.contains(X))
+    import scipy.spatial
+
+    class Merged:  # qhull's answer with its first facet dropped: the next path must answer
+        def __init__(self, Y):
+            self.equations = scipy.spatial.ConvexHull(Y).equations[1:]
+
+    monkeypatch.setattr(vmod, "ConvexHull", Merged)
+    counters.reset()
+    got = Polytope.from_vertices(pts)
+    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
+    np.testing.assert_array_equal(got.contains(X), ref.contains(X))  # the hand-written hull
     monkeypatch.undo()
     seg = Polytope.from_vertices([[0, 0, 0], [1, 2, 3], [0.5, 1, 1.5]])  # flat: hand-written hull
     assert seg.contains(np.array([[0.25, 0.5, 0.75], [0.25, 0.5, 0.8], [1.1, 2.2, 3.3]])).tolist() == [True, False, False]
