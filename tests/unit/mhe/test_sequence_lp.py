@@ -123,7 +123,7 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
         if compare_highs else None
     half = plant.scales()[0][: plant.n]
     compared = ties = 0
-    for k0 in starts:
+    for i, k0 in enumerate(starts):
         Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
         out = obs.solve_window(Uw, Yw, uniqueness=True)
         assert out.optimal, (k0, out.reason)
@@ -141,7 +141,7 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
             alt = out.alternative
             assert alt["cost"] <= out.cost + obs.uniqueness_epsilon + 1e-12
             assert alt["distance"] >= obs.uniqueness_delta - 1e-6
-        if ref_obs is not None:
+        if ref_obs is not None and i % 2 == 0:  # every other window (the MILP costs ~30 ms a window)
             other = ref_obs.solve_window(Uw, Yw, uniqueness=True)
             if other.optimal and other.uniqueness["status"] in ("unique", "alternative"):
                 assert abs(other.cost - out.cost) <= gap + max(MHE_CERTIFIED_RTOL * other.cost, ref_obs._zero_cost)
@@ -162,9 +162,9 @@ def test_model16_T3_exact_against_brute_force_and_highs(bench, norm):
 @pytest.mark.parametrize("norm", ["1", "inf"])
 def test_model16_T4_exact_against_brute_force(bench, norm):
     plant, U, Y = bench
-    starts = _windows(8, 4)
+    starts = _windows(6, 4)
     compared, ties = _check_against_reference(plant, U, Y, 4, norm, starts, compare_highs=False)
-    assert compared >= 6, (compared, ties)
+    assert compared >= 5, (compared, ties)
 
 
 def test_deadzone_spring_exact_against_brute_force():
@@ -200,7 +200,7 @@ def test_observer_run_matches_highs_flags(bench):
     a = MHEObserver(plant, 3, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
     b = MHEObserver(plant, 3, norm="1", solver="highs", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
     flags = set()
-    for k in range(950, 1010):
+    for k in range(960, 1000):
         ea, eb = a.step(U[k], Y[k]), b.step(U[k], Y[k])
         assert ea.flag == eb.flag, (k, ea.info.get("reason"), eb.info.get("reason"))
         flags.add(ea.flag)
