@@ -125,7 +125,7 @@ COUNTERS = LibraryCounters()
 # ---------------------------------------------------------------------------------------------
 # The check
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class CheckedVertices:
     """A vertex set that passed the check, in the scaled coordinates of the check.
 
@@ -257,7 +257,7 @@ def _cone_edges(AT: np.ndarray, d: int) -> np.ndarray | str:
 # ---------------------------------------------------------------------------------------------
 # Scaling
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class ScaledRows:
     """Unit rows of ``{z : A z <= b}`` in coordinates ``y = (z - mid) / half``.
 
@@ -300,7 +300,7 @@ def _box_of(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # ---------------------------------------------------------------------------------------------
 # The libraries
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class _Raw:
     """A library's answer in the coordinates it was given: points, rays, lines (unchecked)."""
 
@@ -399,7 +399,7 @@ def library_order(d: int) -> tuple[str, ...]:
 # ---------------------------------------------------------------------------------------------
 # H -> V
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class VertexEnumeration:
     """Checked answer of :func:`enumerate_vertices`.
 
@@ -473,7 +473,8 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
         out = _try_library(source, An, bn, op, None)
         if out is not None:
             COUNTERS.accept(op, source)
-            return VertexEnumeration(out.status, out.points, out.rays, out.scaled, out.checked, out.source, live)
+            out.rows = live
+            return out
     # Every library failed in the given units: once more in coordinates scaled by the LP bounding box.
     from ._common import _box  # noqa: PLC0415
 
@@ -487,7 +488,8 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
         out = _try_library(source, An, bn, op, (mid, half))
         if out is not None:
             COUNTERS.accept(op, source)
-            return VertexEnumeration(out.status, out.points, out.rays, out.scaled, out.checked, out.source, live)
+            out.rows = live
+            return out
     return None
 
 
@@ -577,7 +579,7 @@ def _certified_empty(An: np.ndarray, bn: np.ndarray) -> bool:
 # ---------------------------------------------------------------------------------------------
 # V -> H
 # ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class HullRows:
     """Checked facets ``H z <= h`` (unit rows) of the convex hull of a point set."""
 
