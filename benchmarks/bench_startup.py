@@ -1,6 +1,13 @@
-"""Start-up time of the ``hybobs`` command (issue 13): ``hybobs --help`` and ``hybobs examples --json``.
+"""Start-up time of the ``hybobs`` command (issue 13) and first calls of the library (issue 19).
 
-Writes ``benchmarks/results/startup.json``.  Each command runs in a fresh Python process (a cold
+Writes ``benchmarks/results/startup.json``.
+
+``first_calls`` (issue 19): in fresh processes, with numba's cache directory empty (``cold``: every
+kernel compiles) and then present (``warm``), the wall times of ``from hybobs_opt import ...``,
+the first and second ``analyse_observability(powertrain3(), 3)`` (system construction
+included), the lookup observer's construction, its first ``step()`` against the median of the
+next 50, and its first and second ``run()`` (200 samples).  Target: a first call within 2 x the
+second.  Each command runs in a fresh Python process (a cold
 start of the interpreter and the package; the operating system's file cache is warm after the
 first run), ``repeats`` times; the median is compared with the 0.5 s target of issue 13.  Also
 recorded: which heavy modules each command imported (none of cvxpy, CasADi, numba may be), and
@@ -70,9 +77,64 @@ def heavy_modules_imported(argv: list[str]) -> list[str]:
     return out.split(",") if out else []
 
 
+_FIRST_CALLS_PROBE = r"""
+import json, statistics, sys, time
+t0 = time.perf_counter()
+from hybobs_opt import LookupObserver, analyse_observability, get_example, simulate_pwa
+import numpy as np
+rec = {"import_s": time.perf_counter() - t0}
+def analysis():
+    return analyse_observability(get_example("powertrain3").build(), 3)
+for k in ("first", "second"):
+    t0 = time.perf_counter(); an = analysis(); rec[f"analysis_{k}_s"] = time.perf_counter() - t0
+plant = an.system
+trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((260, 1), 40.0))
+U, Y = np.ascontiguousarray(trace.u), np.ascontiguousarray(trace.y)
+t0 = time.perf_counter(); obs = LookupObserver(an); rec["observer_build_s"] = time.perf_counter() - t0
+steps = []
+for k in range(51):
+    t0 = time.perf_counter(); obs.step(U[k], Y[k]); steps.append(time.perf_counter() - t0)
+rec["step_first_s"], rec["step_second_s"], rec["step_next_50_median_s"] = steps[0], steps[1], statistics.median(steps[1:])
+for k in ("first", "second"):
+    t0 = time.perf_counter(); obs.run(U[:200], Y[:200]); rec[f"run_{k}_s"] = time.perf_counter() - t0
+rec["numba_cache_dir"] = __import__("os").environ.get("NUMBA_CACHE_DIR")
+print(json.dumps(rec))
+"""
+
+
+def first_call_times(cache_dir: str) -> dict:
+    """The probe above in a fresh process whose numba cache is ``cache_dir`` (and the total wall time)."""
+    import os
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir}
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", _FIRST_CALLS_PROBE], check=True, capture_output=True, text=True, env=env)
+    rec = json.loads(out.stdout.strip().splitlines()[-1])
+    rec["process_s"] = time.perf_counter() - t0
+    rec["analysis_first_over_second"] = rec["analysis_first_s"] / rec["analysis_second_s"]
+    rec["step_first_over_next_median"] = rec["step_first_s"] / rec["step_next_50_median_s"]
+    rec["run_first_over_second"] = rec["run_first_s"] / rec["run_second_s"]
+    return rec
+
+
+def first_calls(warm_repeats: int) -> dict:
+    """``cold``: an empty numba cache (a new temporary directory); ``warm``: the same directory
+    afterwards, ``warm_repeats`` processes, the median of each figure."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="hybobs-numba-") as tmp:
+        cold = first_call_times(tmp)
+        warm_runs = [first_call_times(tmp) for _ in range(warm_repeats)]
+    warm = {k: statistics.median(r[k] for r in warm_runs) for k in warm_runs[0] if k != "numba_cache_dir"}
+    return {"cold": cold, "warm": warm, "warm_runs": warm_runs, "target_first_over_second_at_most": 2.0,
+            "warm_target_met": {k: warm[k] <= 2.0 for k in ("analysis_first_over_second", "step_first_over_next_median",
+                                                            "run_first_over_second")}}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_startup")
     parser.add_argument("--quick", action="store_true", help="3 repeats instead of 5")
+    parser.add_argument("--no-first-calls", action="store_true", help="skip the first-call measurement (minutes cold)")
     args = parser.parse_args(argv)
     repeats = 3 if args.quick else 5
     record: dict = {"benchmark": "hybobs start-up, cold processes", "command": " ".join(_hybobs()),
@@ -87,6 +149,12 @@ def main(argv: list[str] | None = None) -> int:
     floor = record["commands"]["python -c pass"]["median_s"]
     for label, rec in record["commands"].items():
         rec["above_interpreter_s"] = rec["median_s"] - floor
+    if not args.no_first_calls:
+        record["first_calls"] = first_calls(repeats)
+        record["load_average_at_end"] = list(__import__("os").getloadavg())
+        fc = record["first_calls"]
+        print(json.dumps({k: {q: v for q, v in fc[k].items() if q != "numba_cache_dir"} for k in ("cold", "warm")},
+                         indent=2))
     out_dir = RESULTS / "quick" if args.quick else RESULTS
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "startup.json").write_text(json.dumps(record, indent=2))

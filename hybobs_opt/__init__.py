@@ -17,9 +17,12 @@ cheap::
 
 from . import _compat
 from ._lazy import lazy_exports
+from ._numba_cache import configure as _configure_numba_cache
 from .errors import HybobsError, InfeasibleError, ModelError, SolverError
 
 _compat.install()
+# numba's compiled kernels go to the user's cache (hybobs_opt/_numba_cache.py); no numba import here
+_configure_numba_cache()
 
 # The example catalogue (cheap: no factory is imported) registers its names with
 # hybobs_opt.systems.resolve, so a saved result that names an example can be loaded anywhere.
@@ -61,6 +64,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("DaskExecutor", "ProcessExecutor", "SerialExecutor", "make_executor"), "hybobs_opt.executor"),
     **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),
     "PhaseProgress": "hybobs_opt.progress",
+    "warm_up": "hybobs_opt._warm_up",
     # the seed papers' examples
     **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.studies"),
 }

@@ -12,6 +12,13 @@ _TESTS = str(Path(__file__).resolve().parent)
 if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
 
+# numba's compiled kernels stay in the user's cache across sessions (hybobs_opt._numba_cache; compiling
+# them all takes minutes): fixed here, before HYBOBS_CACHE_DIR below would move them to a new directory.
+if "NUMBA_CACHE_DIR" not in os.environ:
+    from hybobs_opt._numba_cache import numba_cache_dir
+
+    os.environ["NUMBA_CACHE_DIR"] = numba_cache_dir()
+
 # The CLI's cache of analyses (hybobs_opt.cache) lives in a directory of this test session, never in
 # the user's ~/.cache: the CLI tests run through it (a second run of a system loads what the first
 # stored, so the suite checks cached answers too); the cache's own tests use their own directories.

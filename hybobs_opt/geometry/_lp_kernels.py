@@ -9,7 +9,15 @@ loops do that work in one compiled call each.  numba caches them on disk.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .._numba_cache import configure as _configure_cache
+from .._numba_cache import prepare_target as _prepare_target
+
+_configure_cache()  # the user's cache directory, before numba reads its configuration
+from numba import njit  # noqa: E402
+
+# numba's one-time set-up here, at import, rather than inside the first LP (see hybobs_opt._numba_cache)
+_prepare_target()
 
 
 @njit(cache=True)

@@ -8,7 +8,15 @@ tens of microseconds that a dozen small numpy calls cost.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .._numba_cache import configure as _configure_cache
+from .._numba_cache import prepare_target as _prepare_target
+
+_configure_cache()  # the user's cache directory, before numba reads its configuration
+from numba import njit  # noqa: E402
+
+# numba's one-time set-up here, at import, rather than inside the first step (see _numba_cache)
+_prepare_target()
 
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 

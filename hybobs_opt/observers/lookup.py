@@ -367,6 +367,12 @@ class LookupObserver(Observer):
                         self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts,
                         self._in_A, self._in_b, self._x_lo, self._x_hi,
                         pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, views["x_c"], pp.survivors)
+        # One call of each compiled entry point now, with nothing to do (a too long u; no rows), so the
+        # first step of a process does not pay numba's first dispatch (~0.1 ms): the tables are
+        # built here anyway.  The state is untouched.
+        K.step_packed(np.zeros(m + 1), self._nan_y, 1, F, I)
+        K.run_packed(np.zeros((0, m)), np.zeros((0, p)), 0, F, I, np.zeros((0, n)), np.zeros(0, dtype=np.int64),
+                     np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
     # ------------------------------------------------------------------ state
     def reset(self, x0: np.ndarray | None = None, **kwargs) -> None:

@@ -1,0 +1,74 @@
+"""Compile or load every numba kernel of the package once (issue 19; see :mod:`hybobs_opt._numba_cache`).
+
+``python -m hybobs_opt._warm_up`` after an install (or :func:`hybobs_opt.warm_up` in a service's
+start-up) fills the user's kernel cache, so no later process compiles anything.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+from ._numba_cache import NUMBA_CACHE_ENV
+
+__all__ = ["warm_up"]
+
+
+def warm_up() -> dict:
+    """Compile (empty cache) or load (cache present) every kernel of the package, on a small system.
+
+    Runs Algorithm 3.1 and the lookup observer (``step`` and ``run``, with ``B~_T`` LPs) on a
+    dead-zone spring (two states, three modes; Nordin & Gutman, Automatica 38(10), 2002), so the
+    kernels get exactly the argument types the package uses.  Call it once after installing (or in
+    a service's start-up); the cache is then warm for every later process.
+
+    Returns
+    -------
+    dict
+        Seconds per phase (``import``, ``system``, ``analysis``, ``observer``) and ``cache_dir``.
+    """
+    import numpy as np
+
+    t0 = time.perf_counter()
+    from .geometry.polytope import Polytope
+    from .observers.lookup import LookupObserver
+    from .regions import analyse_observability
+    from .sim import simulate_pwa
+    from .systems.pwa import PWAMode, PWASystem
+
+    out: dict = {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "import": time.perf_counter() - t0}
+    t0 = time.perf_counter()
+    Ts, k, c, delta = 0.05, 4.0, 0.5, 0.1
+    A_free = np.array([[1.0, -Ts], [0.0, 1.0 - c * Ts]])
+    A_contact = np.array([[1.0, -Ts], [k * Ts, 1.0 - c * Ts]])
+    B, C = np.array([[Ts], [0.0]]), np.array([[0.0, 1.0]])
+    modes = (PWAMode(A_contact, B, np.array([0.0, -k * Ts * delta]), C,
+                     Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([-delta])), name="push"),
+             PWAMode(A_free, B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+                                                         np.array([delta, delta])), name="free"),
+             PWAMode(A_contact, B, np.array([0.0, k * Ts * delta]), C,
+                     Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([-delta])), name="pull"))
+    plant = PWASystem(modes, Polytope.from_box([-1.0, -3.0], [1.0, 3.0]), Polytope.from_box([-1.0], [1.0]),
+                      ("x1", "x2"), ("u",), ("y",), name="warm_up_deadzone_spring")
+    out["system"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    analysis = analyse_observability(plant, 3)
+    out["analysis"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    U = (0.8 * np.sin(np.arange(300) * 0.05))[:, None]
+    Y = simulate_pwa(plant, np.zeros(2), U).y
+    obs = LookupObserver(analysis)
+    obs.run(U, Y)
+    obs.reset()
+    for t in range(U.shape[0]):
+        obs.step(U[t], Y[t])
+    obs.step([np.nan], [0.0])
+    out["observer"] = time.perf_counter() - t0
+    return out
+
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(warm_up(), indent=2))
