@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contract import NOISE_FIT_SIGMAS, noise_std_vector
+from ..contract import noise_std_vector
 from ..errors import ModelError, SolverError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -351,31 +351,29 @@ class KalmanArrival:
         self.x = np.asarray(x0, dtype=float).copy()
         self.P = self.P0.copy()
 
-    def advance(self, u: np.ndarray, y: np.ndarray, q: int) -> bool:
+    def advance(self, u: np.ndarray, y: np.ndarray, q: int) -> None:
         """Take the sample ``(u, y)`` in mode ``q`` and predict the next state (Joseph form).
 
-        An output whose innovation exceeds :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` of its
-        predicted standard deviation is not taken (prediction only): an outlier, or a mode the
-        window got wrong, would otherwise enter every later prior.  Returns whether it was taken.
+        Every sample is taken, however large its innovation: a filter that refuses samples once
+        its prior is wrong keeps it wrong.  Measured on the noisy bench at 0.001 rad/s: gating
+        innovations at 5 sigma put 6 start-up estimates beyond 5 sigma of their covariance
+        instead of 2, and with the mode of the filter's own estimate for unanswered windows it
+        let the prior drift 0.035 rad from the twist through a long backlash stay while stating
+        a standard deviation of 2.4e-4.  Outliers are the window's business: a certified optimum
+        that misses a sample by more than the fit tolerance is ``fallback``.
         """
         md = self.system.modes[int(q)]
         C, P = md.C, self.P
         S = C @ P @ C.T + self.R
-        nu = y - C @ self.x - md.D @ u - md.c
-        taken = bool(np.all(np.abs(nu) <= NOISE_FIT_SIGMAS * np.sqrt(np.diag(S))))
-        if taken:
-            K = np.linalg.solve(S, C @ P).T
-            x = self.x + K @ nu
-            IKC = np.eye(P.shape[0]) - K @ C
-            Pf = IKC @ P @ IKC.T + K @ self.R @ K.T
-        else:
-            x, Pf = self.x, P
+        K = np.linalg.solve(S, C @ P).T
+        x = self.x + K @ (y - C @ self.x - md.D @ u - md.c)
+        IKC = np.eye(P.shape[0]) - K @ C
+        Pf = IKC @ P @ IKC.T + K @ self.R @ K.T
         self.x = md.A @ x + md.B @ u + md.a
         Pn = md.A @ Pf @ md.A.T
         if self.Q is not None:
             Pn = Pn + self.Q
         self.P = 0.5 * (Pn + Pn.T)
-        return taken
 
     def weight(self) -> np.ndarray:
         """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root)."""

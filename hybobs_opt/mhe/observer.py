@@ -1137,7 +1137,8 @@ class MHEObserver(Observer):
         info["certified_optimum"] = result.optimal
         if self._kalman is not None:
             info["arrival"] = {"prior": xbar.tolist(), "std": self._kalman.std().tolist()}
-            # the sample leaving the window enters the filter, in the mode the window's answer gives it
+            # the sample leaving the window enters the filter, in the mode the window's answer gives
+            # it (without an answer: the warm start's, the previous answer shifted)
             q_first = int(result.modes[0]) if result.optimal else int(mg[0])
             self._kalman.advance(self._U[0], self._Y[0], q_first)
         if result.optimal:

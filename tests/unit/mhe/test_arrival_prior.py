@@ -229,22 +229,3 @@ def test_kalman_arrival_refuses_what_it_cannot_do():
     with pytest.raises(ModelError, match="arrival_weight"):
         MHEObserver(plant, 3, noise_std=0.01, arrival_weight="kalmann")
 
-
-def test_lagging_filter_does_not_take_an_outlier():
-    """An output 50 sigma off its prediction is not taken by the arrival filter (prediction only),
-    so it cannot enter the later priors; an ordinary one is."""
-    from hybobs_opt.mhe import KalmanArrival
-
-    plant, A, C = _twin_linear()
-    B = np.array([[0.0], [1.0]])
-    kf = KalmanArrival(plant, np.array([0.1]), None, np.array([0.5, 0.5]), np.full(2, 1e-3))
-    x0 = np.array([1.0, -1.0])
-    kf.reset(x0)
-    u = np.array([0.2])
-    y_pred = C @ x0
-    assert not kf.advance(u, y_pred + 50 * np.sqrt(0.5 ** 2 + 0.1 ** 2), 0)
-    np.testing.assert_allclose(kf.x, A @ x0 + B @ u)
-    np.testing.assert_allclose(kf.P, A @ np.diag([0.25, 0.25]) @ A.T)
-    kf.reset(x0)
-    assert kf.advance(u, y_pred + 0.1, 0)
-    assert kf.P[1, 1] < (A @ np.diag([0.25, 0.25]) @ A.T)[1, 1]
