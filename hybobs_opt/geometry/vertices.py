@@ -314,7 +314,8 @@ _NO_RAYS = {d: np.zeros((0, d)) for d in range(1, 17)}
 def _cdd_generators(A: np.ndarray, b: np.ndarray) -> _Raw:
     cdd = cdd_module()
     d = A.shape[1]
-    mat = cdd.matrix_from_array(np.hstack([b[:, None], -A]), rep_type=cdd.RepType.INEQUALITY)
+    # pycddlib reads a nested list 4-6 x faster than a numpy array (15 us against 63 us at 12 x 3)
+    mat = cdd.matrix_from_array(np.hstack([b[:, None], -A]).tolist(), rep_type=cdd.RepType.INEQUALITY)
     gen = cdd.copy_generators(cdd.polyhedron_from_matrix(mat))
     G = np.asarray(gen.array, dtype=float).reshape(-1, d + 1)
     if not gen.lin_set and G.shape[0] and bool((G[:, 0] == 1.0).all()):  # the usual case: vertices only
@@ -348,7 +349,7 @@ def interior_point(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float] | N
         arr[m, 0] = cap
         arr[m, -1] = -1.0
         arr[m + 1, -1] = 1.0  # objective: maximise the radius
-        lp = cdd.linprog_from_array(arr, obj_type=cdd.LPObjType.MAX)
+        lp = cdd.linprog_from_array(arr.tolist(), obj_type=cdd.LPObjType.MAX)
         cdd.linprog_solve(lp)
         if lp.status == cdd.LPStatusType.OPTIMAL:
             x = np.asarray(lp.primal_solution, dtype=float)
@@ -642,7 +643,7 @@ def _cdd_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
     cdd = cdd_module()
     n, d = Y.shape
     try:
-        mat = cdd.matrix_from_array(np.hstack([np.ones((n, 1)), Y]), rep_type=cdd.RepType.GENERATOR)
+        mat = cdd.matrix_from_array(np.hstack([np.ones((n, 1)), Y]).tolist(), rep_type=cdd.RepType.GENERATOR)
         ineq = cdd.copy_inequalities(cdd.polyhedron_from_matrix(mat))
     except (ValueError, RuntimeError, MemoryError) as exc:
         return f"{type(exc).__name__}: {exc}"
