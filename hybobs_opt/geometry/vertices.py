@@ -681,14 +681,20 @@ def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> s
     depth = g - G @ c  # distance of the centroid to each row, > 0 for a full-dimensional hull
     if np.any(depth <= VERTEX_RANK_RTOL):
         return "the centroid lies on a returned row"
-    Y_polar = G / depth[:, None]
-    pn = np.linalg.norm(P, axis=1)
+    Y_polar = np.ascontiguousarray(G / depth[:, None])
+    pn = np.sqrt(np.einsum("ij,ij->i", P, P))
     live = pn > VERTEX_SAME_RTOL
-    Apol = P[live] / pn[live, None]
-    bpol = 1.0 / pn[live]
-    pm, ph = _box_of(Y_polar)
-    sc = scale_rows(Apol, bpol, pm, ph)
-    checked = check_vertices(sc.A, sc.b, (Y_polar - pm) / ph)
+    if live.all():
+        Apol, bpol = np.ascontiguousarray(P / pn[:, None]), 1.0 / pn
+    else:
+        Apol, bpol = np.ascontiguousarray(P[live] / pn[live, None]), 1.0 / pn[live]
+    # the polar rows in the coordinates of the candidate polar vertices' box, checked: one kernel call
+    (_, _, As, bs, _, contradiction, Ys, code, i, j, keep, T, deg, rays) = scale_and_check(
+        Apol, bpol, Y_polar, FULL_DIMENSION_RTOL, ZERO_ROW_TOL, VERTEX_CHECK_RTOL,
+        VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
+    if contradiction:
+        return "polar check: a constant row is violated"
+    checked = _finish_check(As, bs, Ys, code, i, j, keep, T, deg, rays)
     if isinstance(checked, str):
         return f"polar check: {checked}"
     if checked.rays.shape[0]:
