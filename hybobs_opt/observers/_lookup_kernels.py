@@ -20,6 +20,10 @@ _prepare_target()
 
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 
+# The kernels of one step allocate nothing, so they are compiled without numba's reference
+# counting (``_nrt=False``): with it every call between them increfs and decrefs each of its array
+# arguments (42 for ``advance``), a quarter of the step's time (issue 19, measured on model 16).
+
 #: A unique candidate whose ``B~_T`` test (pair LPs, or the exact variant's LPs) is left to the
 #: caller: window-start state in ``xs0``, its region in ``meta[4]``.
 CANDIDATE_CODE = 4
@@ -41,7 +45,7 @@ NOTE_CLIPPED = 6  # unobservable step whose open-loop prediction was clipped to 
 # meta (int64) = [count, mode, has_previous_input, previous_input_good, region, reason, n_survivors]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, x_out):
     """Index of the unique consistent candidate (eqs. 12-14), or -1 (chi empty or card(chi) > 1).
 
@@ -99,7 +103,7 @@ def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_r
     return found
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def in_union(x, A, b, starts, tol):
     """Is ``x`` in one of the polytopes ``A[starts[k]:starts[k+1]] x <= b + tol``?"""
     P = starts.shape[0] - 1
@@ -117,7 +121,7 @@ def in_union(x, A, b, starts, tol):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
     """Pieces ``Proj_x(R_ij)`` of ``B~_T`` that the scaled state ``xs`` is not excluded from cheaply.
 
@@ -154,7 +158,7 @@ def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
     return cnt
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out):
     """``x_out = f_pwa(x, u)`` (eq. 1 of paper 002); returns the mode, or -1 outside ``X x U``."""
     n = x.shape[0]
@@ -185,7 +189,7 @@ def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def clip_box(x, lo, hi):
     """Clip ``x`` into ``[lo, hi]`` in place; True if a coordinate moved."""
     moved = False
@@ -199,7 +203,7 @@ def clip_box(x, lo, hi):
     return moved
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
     """State at the window's last sample from the window-start state (region ``k``'s affine map)."""
     n = x0.shape[0]
@@ -212,7 +216,7 @@ def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
         x_out[i] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
             table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
             mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
@@ -332,7 +336,7 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
     return UNOBSERVABLE_CODE if pred_ok else FALLBACK_CODE
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
               table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
               mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
