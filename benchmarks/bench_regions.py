@@ -11,7 +11,12 @@ Measured (medians over the stated number of repeats, with the ratio to the paper
     pair lists checked identical across executors;
 (c) model (17), T = 8: the same summary (no published figure);
 (d) model (17): share of X*_7 that is observable (paper: O_7 not obtained in 4 h), by sampling
-    with exact point queries under a time budget, with a 95 % Wilson interval, plus the Fig. 6 cut.
+    with exact point queries under a time budget, with a 95 % Wilson interval, plus the Fig. 6 cut;
+(e) issue 19, long horizons: model (17) at T = 7, 8, 9 on serial, 2 processes and a 2-worker Dask
+    LocalCluster in the same run (load average recorded around every run): pair LPs, times,
+    speed-ups, and the pair lists compared (sha256) with the ones recorded before the LP savings
+    (``results/regions_before_issue19.json``).  ``--only long_horizons`` runs this part alone and
+    updates its key of ``regions.json``.
 """
 
 from __future__ import annotations
@@ -364,6 +369,132 @@ def _bench_O7(analysis, ex, t0, budget, grid, system, T) -> dict:
     }
 
 
+# ---------------------------------------------------------------------------- (e)
+#: Issue 19's figures for model (17), pair LPs at T = 5..9 when it was filed (an older code base,
+#: before the face / same-state handling of the pair sets; the code of HEAD a0105dd needed more:
+#: results/regions_before_issue19.json).
+ISSUE19_FILED_LPS = {5: 2546, 6: 7070, 7: 21223, 8: 66026, 9: 216478}
+#: Issue 19's target: T = 9 serial under this many seconds.
+TARGET_T9_SERIAL = 120.0
+
+
+def _pair_list_hashes(analysis) -> dict:
+    import hashlib
+
+    lists = {"pairs": [[p.i, p.j] for p in analysis.pairs],
+             "thin": [list(p) for p in analysis.stats["pairs_dropped_thin"]],
+             "same": [list(p) for p in analysis.stats["pairs_dropped_same_state"]]}
+    return {f"sha256_{k}": hashlib.sha256(json.dumps(v, separators=(",", ":")).encode()).hexdigest() for k, v in lists.items()}
+
+
+def _load() -> list[float] | None:
+    return [round(x, 2) for x in os.getloadavg()] if hasattr(os, "getloadavg") else None
+
+
+def _merge_long_horizons(path: Path, header: dict, T: int | None, rec: dict | None) -> None:
+    """Read-modify-write of ``regions.json``'s ``model17_long_horizons`` under a file lock (runs of
+    different horizons may write concurrently; each result is saved as soon as it exists)."""
+    import fcntl
+
+    import tempfile
+
+    with open(Path(tempfile.gettempdir()) / "hybobs_bench_regions.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        record = json.loads(path.read_text()) if path.exists() else {"benchmark": "regions"}
+        part = record.setdefault("model17_long_horizons", {})
+        part.update({k: v for k, v in header.items() if k != "horizons"})
+        if T is not None:
+            part.setdefault("horizons", {})[str(T)] = rec
+        path.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
+
+
+def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: Path | None = None) -> dict:
+    """Model (17) at each horizon on each executor, one run each, in one process (same load).
+
+    With ``path``, every finished (horizon, executor) is merged into that ``regions.json`` at once."""
+    from hybobs_opt.regions import enumerate_modes
+    from hybobs_opt.regions.pair_geometry import RESCUED
+
+    before_path = RESULTS / "regions_before_issue19.json"
+    before = json.loads(before_path.read_text())["horizons"] if before_path.exists() else {}
+    out: dict = {"what": "analyse_observability(powertrain5(), T) for T in %s: serial, ProcessExecutor(2), "
+                         "DaskExecutor(local_workers=2) (cluster started once, excluded from the times); "
+                         "pair LPs and wall times of the pair tests (Algorithm 3.1 steps 1-3) on the same "
+                         "enumeration, pair lists compared with the code before the LP savings" % (list(Ts),),
+                 "issue19_filed_pair_lps": ISSUE19_FILED_LPS, "horizons": {}}
+    exes = {}
+    for kind in executors:
+        t0 = time.perf_counter()
+        try:
+            exes[kind] = (SerialExecutor() if kind == "serial" else ProcessExecutor(2) if kind == "processes"
+                          else DaskExecutor(local_workers=2))
+        except Exception as exc:  # a missing extra is reported, not fatal
+            out[f"{kind}_error"] = f"{type(exc).__name__}: {exc}"
+            continue
+        out[f"{kind}_startup_seconds"] = time.perf_counter() - t0
+    try:
+        for kind, ex in exes.items():  # warm the workers (imports, numba caches), not timed
+            if kind != "serial":
+                analyse_observability(enumerate_modes(powertrain5(), 5), executor=ex)
+        for T in Ts:
+            rec: dict = {"executors": {}}
+            enum = enumerate_modes(powertrain5(), T)
+            rec["n_regions"] = len(enum.regions)
+            rec["seconds_enumeration_serial"] = enum.seconds
+            for kind, ex in exes.items():
+                log(f"(e) model (17), T = {T}, {kind}")
+                r: dict = {"load_average_before": _load()}
+                COUNTERS.reset()
+                for key in RESCUED:
+                    RESCUED[key] = 0
+                t0 = time.perf_counter()
+                try:
+                    a = analyse_observability(enum, executor=ex)
+                except Exception as exc:
+                    r["error"] = f"{type(exc).__name__}: {exc}"
+                    rec["executors"][kind] = r
+                    continue
+                r["wall_seconds_pair_tests"] = time.perf_counter() - t0
+                r["load_average_after"] = _load()
+                r["n_pair_lps"] = a.n_pair_lps
+                r["n_pairs"], r["n_pairs_dropped_thin"] = len(a.pairs), len(a.stats["pairs_dropped_thin"])
+                r["n_pairs_dropped_same_state"] = len(a.stats["pairs_dropped_same_state"])
+                r["n_pairs_tested"], r["n_pairs_skipped_rank"] = a.n_pairs_tested, a.n_pairs_skipped_rank
+                if kind == "serial":
+                    r["highs_confirmations"] = COUNTERS.confirmed_by_highs
+                    r["decided_by_tight_daqp"] = RESCUED["tight_daqp"]
+                r.update(_pair_list_hashes(a))
+                rec["executors"][kind] = r
+                if path is not None:
+                    _merge_long_horizons(path, {"what": out["what"], "issue19_filed_pair_lps": ISSUE19_FILED_LPS}, T,
+                                         {**rec, "partial": True})
+            ser = rec["executors"].get("serial", {})
+            for kind, r in rec["executors"].items():
+                if kind != "serial" and "wall_seconds_pair_tests" in r and "wall_seconds_pair_tests" in ser:
+                    r["speedup_vs_serial"] = ser["wall_seconds_pair_tests"] / r["wall_seconds_pair_tests"]
+            hashes = [tuple(r.get(f"sha256_{k}") for k in ("pairs", "thin", "same")) for r in rec["executors"].values()
+                      if "sha256_pairs" in r]
+            rec["identical_across_executors"] = bool(hashes) and all(h == hashes[0] for h in hashes)
+            b = before.get(str(T))
+            if b is not None and hashes:
+                rec["before"] = {k: b[k] for k in ("n_pair_lps", "wall", "n_pairs", "n_thin", "n_same")}
+                rec["identical_to_before"] = hashes[0] == (b["sha256_pairs"], b["sha256_thin"], b["sha256_same"])
+                if "n_pair_lps" in ser:
+                    rec["lp_ratio_before_over_now"] = b["n_pair_lps"] / ser["n_pair_lps"]
+            if T in ISSUE19_FILED_LPS and "n_pair_lps" in ser:
+                rec["lp_ratio_issue19_filed_over_now"] = ISSUE19_FILED_LPS[T] / ser["n_pair_lps"]
+            if T == 9 and "wall_seconds_pair_tests" in ser:
+                rec["target_serial_seconds"] = TARGET_T9_SERIAL
+                rec["meets_target_serial"] = ser["wall_seconds_pair_tests"] + enum.seconds <= TARGET_T9_SERIAL
+            out["horizons"][str(T)] = rec
+            if path is not None:
+                _merge_long_horizons(path, {}, T, {**rec, "machine_load_at_end": _load()})
+    finally:
+        for ex in exes.values():
+            ex.close()
+    return out
+
+
 RESULTS_DIR = RESULTS  # reassigned for --quick
 
 
@@ -372,11 +503,24 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_regions", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny versions (smoke test); results in results/quick/")
     parser.add_argument("--no-dask", action="store_true", help="skip the Dask executor")
+    parser.add_argument("--only", choices=["long_horizons"], help="run one part and update its key of regions.json")
+    parser.add_argument("--horizons", type=int, nargs="+", help="horizons of --only long_horizons (default 7 8 9)")
+    parser.add_argument("--executors", nargs="+", choices=["serial", "processes", "dask"], help="executors of --only long_horizons")
     args = parser.parse_args(argv)
     quick = args.quick
     RESULTS_DIR = RESULTS / "quick" if quick else RESULTS
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
+    executors = ("serial", "processes") if args.no_dask else ("serial", "processes", "dask")
+    if args.only == "long_horizons":
+        path = RESULTS_DIR / "regions.json"
+        Ts = tuple(args.horizons) if args.horizons else ((5, 6) if quick else (7, 8, 9))
+        exs = tuple(args.executors) if args.executors else executors
+        _merge_long_horizons(path, {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "machine": _machine()}, None, None)
+        out = bench_long_horizons(Ts, exs, path)
+        _merge_long_horizons(path, {k: v for k, v in out.items() if k != "horizons"}, None, None)
+        log(f"wrote {path} ({time.perf_counter() - t_start:.0f} s)")
+        return 0
     record: dict = {
         "benchmark": "regions",
         "quick": quick,
@@ -387,7 +531,6 @@ def main(argv: list[str] | None = None) -> int:
         "notes": "medians over the stated repeats; the machine may be shared (see load_average); "
                  "ratio_to_paper = ours / paper (below 1 is faster)",
     }
-    executors = ("serial", "processes") if args.no_dask else ("serial", "processes", "dask")
     try:
         record["model16_T3"] = bench_model16_T3(3 if quick else 30)
     except Exception as exc:

@@ -628,3 +628,18 @@ C_EXPORT_F32_LP_COST_TOL: float = 1e-6
 #: its single-precision export flagged 402 of 3,000 windows observable that double precision places
 #: in B~_T.
 C_EXPORT_F32_MAX_ROUNDING: float = 0.05
+
+#: Regions (issue 19): the thin test of a pair set's projection (Algorithm 3.1, paper 002) skips its
+#: two width LPs when a certified Chebyshev ball of radius ``r`` already gives width
+#: ``>= 2 r |c| > 2 REGION_SLACK_TOL (1 + BALL_WIDTH_RTOL)``; the relative margin keeps the
+#: comparison away from the floating-point rounding of the LPs' own width bound (~1e-15 relative),
+#: so the skipped LPs could not have certified the set thin.
+BALL_WIDTH_RTOL: float = 1e-6
+
+#: Regions (issue 19): DAQP's primal tolerance of the last attempt at a Chebyshev LP of a pair set
+#: of Algorithm 3.1 before HiGHS (``pair_geometry._slack_lp``, when DAQP's default attempts do not
+#: decide).  A face (radius exactly 0) must be told from an empty set at ``-CLOSED_SET_TOL = -1e-7``
+#: by the slack *at the point*; DAQP's default (1e-6) leaves rows violated by ~2e-7-5e-7, 1e-11
+#: leaves ~1e-10 (model 16, T = 8, the LP HiGHS returned "Not Set" on; the faces of model 17 at
+#: T = 7 HiGHS's point put at slack -3.4e-6).  The bounds stay the numpy-certified ones.
+PAIR_LP_PRIMAL_TOL: float = 1e-11

@@ -16,6 +16,23 @@ thinner than ``2 REGION_SLACK_TOL`` (scaled), and it holds two different states 
 exact for PWA maps continuous across their guards, the unobservable side otherwise).  Pairs in
 which the outputs force ``x^ = x`` are left out and counted (``n_pairs_dropped_same_state``),
 like the thin ones (``n_pairs_dropped_thin``).
+
+LPs (issue 19).  Measured on model (17) before the savings (T = 6, 13,670 pair LPs): half were
+the two width LPs of the thin test of faces, 42 % Chebyshev LPs (one per pair that survives the
+rank screen, plus the affine-hull re-solves), 7 % distinct-state LPs; a third of the time went
+to HiGHS on faces DAQP's default tolerance could not decide.  Now (answers identical, see
+``tests/unit/regions/test_pair_lp_savings.py``): the width of a face along the direction its
+implicit equalities flatten is bounded from the very multipliers that certified those
+equalities (``pair_geometry._tight_width_bound``, no LP); the thin test is skipped when a
+certified Chebyshev ball is already too wide for it; undecided Chebyshev LPs get one more DAQP
+solve with a tight primal tolerance before HiGHS (``pair_geometry._slack_lp``).  Bounds from
+the prefix tree (an empty prefix pair set empties every extension: its Farkas certificate
+re-checks on the extension's rows) were tried and dropped: at T = 5 and 6 the parents' LPs cost
+as many LPs as they saved (half of the parent pairs are empty, with ~2 extensions each).
+The lists are those of the code before these savings (model 16 at T = 3..6, model 17 at
+T = 5, 6) except where that code was wrong: at T = 7 of model 17 it called two face pairs empty
+(four entries of the thin list) from HiGHS's point at slack -3.4e-6, taken as the radius
+without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL``.
 """
 
 from __future__ import annotations
@@ -29,10 +46,10 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry._lp_kernels import restricted_pair_rows, slack_lp_data
-from ..geometry.lp import COUNTERS, max_slack, row_range, solve_slack_lp
+from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
-from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, classify_pair, fixed_state_witness
+from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, _slack_lp, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 
 
@@ -617,7 +634,7 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
             if A.shape[0] == 1:
                 found.append((i, int(j), SLACK_CAP))
                 continue
-            res = solve_slack_lp(A, bu, bound, min_margin, problem)
+            res = _slack_lp(A, bu, bound, min_margin, problem)
             if res.lower > min_margin:
                 found.append((i, int(j), float(res.lower)))
             continue
@@ -633,15 +650,34 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     return found, thin, same
 
 
+def _pack_scaled(scaled, n: int) -> bytes:
+    """What the pair tests need of an enumeration, as one pickle of nine arrays.
+
+    :func:`_scaled_regions` concatenated over the regions (rows with offsets; output maps
+    stacked): the tasks of :func:`analyse_observability` receive this instead of the pickled
+    :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every step, are not needed
+    here), and rebuild nothing but views.
+    """
+    rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
+    packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
+              np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
+    return pickle.dumps(packed, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def _unpack_scaled(payload: bytes):
+    n, rows, Hx, HU, h, C, D, f = pickle.loads(payload)
+    return [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k]) for k, (a, b) in enumerate(zip(rows[:-1], rows[1:]))], n
+
+
 def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
-    """A chunk of ``i`` values; the enumeration arrives pickled (see :func:`analyse_observability`)."""
+    """A chunk of ``i`` values; the regions' scaled data arrive packed (:func:`_pack_scaled`) or as a list."""
     payload, full_rank, i_list = args
-    enum = pickle.loads(payload) if isinstance(payload, bytes) else payload
+    scaled, n = _unpack_scaled(payload) if isinstance(payload, bytes) else payload
     start = COUNTERS.total
-    algebra = _PairAlgebra(_scaled_regions(enum), enum.system.n)
+    algebra = _PairAlgebra(scaled, n)
     found, tested, skipped, thin, same = [], 0, 0, [], []
     for k, i in enumerate(i_list):
-        f, t, s, th, fc = _pairs_for_i(enum, algebra, full_rank, i)
+        f, t, s, th, fc = _pairs_for_i(None, algebra, full_rank, i)
         found.extend(f)
         tested += t
         skipped += s
@@ -693,14 +729,15 @@ def analyse_observability(
     sx = enum.scale[:n]
     full_rank = tuple(_rank(reg.C * sx[None, :]) == n for reg in enum.regions)
     I = [i for i, ok in enumerate(full_rank) if ok]
-    # Few large tasks: each one pickles the enumeration and rebuilds the class-pair algebra, and
-    # the interleaved split I[c::n_chunks] already balances the work.
+    # Few large tasks: each one rebuilds the class-pair algebra, and the interleaved split
+    # I[c::n_chunks] already balances the work.
     parallel = executor.n_workers > 1 and len(I) * len(enum.regions) > PARALLEL_MIN_PAIRS
     n_chunks = min(len(I), 2 * executor.n_workers) if parallel else 1
-    # One pickle of the enumeration, shipped as a single buffer: Dask serialises the ~4,000 small
-    # arrays of a ModeEnumeration one by one (0.9 s for four copies of model 17's at T = 7),
-    # while a bytes object costs one copy.
-    payload = pickle.dumps(enum, protocol=pickle.HIGHEST_PROTOCOL) if parallel else enum
+    # Only the scaled rows and output maps travel, packed into one buffer (_pack_scaled): Dask
+    # serialises the ~4,000 small arrays of a ModeEnumeration one by one (0.9 s for four copies
+    # of model 17's at T = 7), and the state maps are not needed by the pair tests.
+    scaled = _scaled_regions(enum)
+    payload = _pack_scaled(scaled, n) if parallel else (scaled, n)
     tasks = [(payload, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
     pair_progress = phase_callback(progress, "pair tests", "pair")
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through

@@ -31,19 +31,23 @@ Three questions decide whether ``Proj_x(R_ij)`` is a piece of ``B_T`` (up to mea
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import SolverError
 from ..geometry._lp_kernels import slack_lp_data, support_upper_bound
-from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, solve_slack_lp, verified_lp
-from ..status import Status
+from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
+from ..status import Status, is_optimal
 from ..tolerances import (
+    BALL_WIDTH_RTOL,
     CLOSED_SET_TOL,
     DISTINCT_STATE_TOL,
     EQUALITY_CONSISTENCY_RTOL,
     IMPLICIT_EQUALITY_RANK_RTOL,
     NEAR_ACTIVE_TOL,
+    PAIR_LP_PRIMAL_TOL,
     RANK_RTOL,
     REGION_SLACK_TOL,
     SLACK_CAP,
@@ -68,6 +72,91 @@ class PairVerdict:
     face: bool
 
 
+#: Per process: pair LPs that DAQP decided only with the tight primal tolerance (instead of
+#: HiGHS), and how many of them HiGHS could not solve at all (model 16, T = 8).
+RESCUED = {"tight_daqp": 0, "highs_failed": 0}
+
+#: DAQP settings of the last attempt before HiGHS (:func:`_slack_lp`): no proximal term, a
+#: tight primal tolerance.
+_TIGHT = {"primal_tol": PAIR_LP_PRIMAL_TOL}
+
+
+def _slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str):
+    """:func:`~hybobs_opt.geometry.lp.solve_slack_lp` with one more DAQP attempt before HiGHS.
+
+    The DAQP attempts of ``solve_slack_lp`` run first, unchanged (same calls, same answers).
+    When they do not decide ``threshold`` -- on a face of radius exactly 0, DAQP's default
+    primal tolerance (1e-6) leaves rows violated by ~2e-7, more than ``CLOSED_SET_TOL``, so
+    neither bound decides ``radius > -CLOSED_SET_TOL`` -- DAQP runs once more with a tight primal
+    tolerance (``PAIR_LP_PRIMAL_TOL``) and no proximal term; its answer is used when it passes
+    :func:`~hybobs_opt.geometry.lp.daqp_answer_ok` and its numpy-certified bounds
+    (:func:`~hybobs_opt.geometry._lp_kernels.slack_bounds`) decide.  Only then HiGHS, as before
+    (whose slack at its own point was used uncertified).  The answer is returned without
+    multipliers, like HiGHS's, so the callers take the same path as with HiGHS's answer.
+
+    This made three things possible: model (16) at ``T = 8``, where HiGHS returned "Not Set" /
+    "Solve error" with all three of its methods on one such LP and the analysis stopped; a
+    third of the time at ``T = 6`` of model (17) (398 of 9,130 pair LPs went to HiGHS); and
+    correct answers where HiGHS's point was poor: its slack there is only a lower bound, yet it
+    was used as the radius, and two face pairs of model (17) at ``T = 7`` (radius ~-1e-12) were
+    called empty from a point at slack -3.4e-6.  One LP is counted per call, as
+    ``solve_slack_lp`` does.
+    """
+    from ..geometry._lp_kernels import slack_bounds
+    from ..geometry.lp import SlackResult, _daqp_call, _daqp_optimal, _refined_upper_bound, daqp_answer_ok
+    from ..tolerances import DAQP_EPS_PROX
+
+    t0 = time.perf_counter()
+    k = A.shape[0] - 1
+    d = A.shape[1] - 1
+    f = np.zeros(d + 1)
+    f[d] = -1.0
+    COUNTERS.fast += 1
+    H, lower_bounds, sense = np.zeros((d + 1, d + 1)), np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32)
+    # -- the attempts of solve_slack_lp, verbatim
+    for eps_prox in (DAQP_EPS_PROX, None):
+        settings = {} if eps_prox is None else {"eps_prox": eps_prox}
+        out = _daqp_call(H, f, A, bu, lower_bounds, sense, **settings)
+        if out is None:
+            break
+        x, _, flag, info = out
+        if not _daqp_optimal(flag) or not daqp_answer_ok(A, bu, x, info.get("lam")):
+            continue
+        lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
+        w = np.asarray(x[:d], dtype=float)
+        if lower > threshold or upper <= threshold:
+            return SlackResult(lower, upper, w, "daqp", info["lam"], time.perf_counter() - t0)
+        upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
+        if upper <= threshold:
+            return SlackResult(lower, upper, w, "daqp+nnls", info["lam"], time.perf_counter() - t0)
+        break
+    # -- the tight attempt (new)
+    out = _daqp_call(H, f, A, bu, lower_bounds, sense, **_TIGHT)
+    if out is not None:
+        x, _, flag, info = out
+        lam = info.get("lam") if isinstance(info, dict) else None
+        if lam is not None and _daqp_optimal(flag) and daqp_answer_ok(A, bu, x, lam):
+            lower, upper = slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float), radius_bound, SLACK_CAP)
+            if lower > threshold or upper <= threshold:
+                RESCUED["tight_daqp"] += 1
+                return SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None, time.perf_counter() - t0)
+    # -- HiGHS, as solve_slack_lp does
+    COUNTERS.fast -= 1
+    COUNTERS.confirmed_by_highs += 1
+    try:
+        res = solve_lp(f, A, bu, problem=problem)
+    except SolverError:
+        RESCUED["highs_failed"] += 1
+        raise
+    if res.status == Status.INFEASIBLE:
+        return SlackResult(-np.inf, -np.inf, None, "highs", seconds=time.perf_counter() - t0)
+    if not is_optimal(res.status):
+        raise SolverError(problem, "HiGHS", res.status, hint="the slack LP is capped and cannot be unbounded: check the data for NaN")
+    w = res.x[:d]
+    slack = float(min(res.x[d], np.min(bu[:k] - A[:k, :d] @ w)))
+    return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
+
+
 def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str):
     """Certified Chebyshev LP of ``{Gs s <= gs}`` (rows renormalised, constant rows checked).
 
@@ -83,7 +172,7 @@ def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: f
         keep = None
     if A.shape[0] == 1:
         return SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep
-    res = solve_slack_lp(A, bu, radius_bound, threshold, problem)
+    res = _slack_lp(A, bu, radius_bound, threshold, problem)
     radius = res.lower if res.lower > threshold else res.upper
     return radius, res.w, A, bu, res.lam, keep
 
@@ -101,13 +190,15 @@ def _witness(centre, A: np.ndarray, bu: np.ndarray):
 
 
 def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray, lam, keep, centre,
-                   radius_bound: float):
+                   radius_bound: float, tight: dict | None = None):
     """The implicit equalities certified by the multipliers of a radius-``<= 0`` Chebyshev LP.
 
     ``A, bu, lam, keep, centre`` are what :func:`_chebyshev` returned for ``{Gs s <= gs}``.
     Returns ``(M, t0)`` with the affine hull within the current frame ``s = t0 + M t``,
     ``"empty"`` when the equalities found contradict each other, or ``None`` when no implicit
-    equality is certified (the caller then keeps the set: the safe side).
+    equality is certified (the caller then keeps the set: the safe side).  With a dict
+    ``tight``, the certified rows (indices into ``A``) and their slack bounds are stored in it
+    as ``tight["rows"]``, ``tight["slack"]`` (see :func:`_certified_implicit_rows`).
     """
     if keep is None or A.shape[0] <= 1:
         return None
@@ -115,7 +206,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     G, g = A[:-1, :d], bu[:-1]
     K = np.zeros(0, dtype=int)
     if lam is not None and np.all(np.isfinite(lam)):
-        K = _certified_implicit_rows(G, g, np.asarray(lam, dtype=float)[:-1], radius_bound)
+        K, beta = _certified_implicit_rows(G, g, np.asarray(lam, dtype=float)[:-1], radius_bound, with_bounds=True)
     if K.size == 0 and centre is not None and np.all(np.isfinite(centre)):
         # DAQP's proximal multipliers too coarse (or HiGHS answered): refit them on the active rows
         resid = g - G @ centre
@@ -124,9 +215,11 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
         if lam_fit is not None:
             full = np.zeros(G.shape[0])
             full[active] = lam_fit
-            K = _certified_implicit_rows(G, g, full, radius_bound)
+            K, beta = _certified_implicit_rows(G, g, full, radius_bound, with_bounds=True)
     if K.size == 0:
         return None
+    if tight is not None:
+        tight["rows"], tight["slack"] = K, beta
     E, e = Gs[keep[K]], gs[keep[K]]
     E, e = E / np.linalg.norm(E, axis=1)[:, None], e / np.linalg.norm(E, axis=1)
     U_, s, Vt = np.linalg.svd(E, full_matrices=True)
@@ -141,14 +234,16 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     return Vt[r:].T, t0
 
 
-def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radius_bound: float) -> np.ndarray:
+def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radius_bound: float,
+                             with_bounds: bool = False):
     """Rows certified by the multipliers ``lam >= 0`` to be tight on the whole set ``{G v <= g}``.
 
     For every feasible ``v`` (``|v| <= R``): ``sum_k lam_k (g_k - G_k v) <= lam'g + R |G'lam|``
     and every term is non-negative, so the slack of row ``k`` is at most
     ``(lam'g + R |G'lam|) / lam_k``.  Rows where that bound is below ``REGION_SLACK_TOL`` are
     implicit equalities to the region tolerance; no other row is taken.  ``g`` is relaxed by
-    ``CLOSED_SET_TOL`` first, the closed set the pair tests decide.
+    ``CLOSED_SET_TOL`` first, the closed set the pair tests decide.  With ``with_bounds``,
+    returns ``(rows, bounds)``: the slack bound of each certified row as well.
     """
     lam = np.where(np.isfinite(lam), np.maximum(lam, 0.0), 0.0)
     # the set reasoned about is the closed one relaxed by CLOSED_SET_TOL (non-empty by the LP
@@ -156,7 +251,29 @@ def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radi
     total = float((g + CLOSED_SET_TOL) @ lam + radius_bound * np.linalg.norm(G.T @ lam))
     with np.errstate(divide="ignore"):
         bound = np.where(lam > 0.0, max(total, 0.0) / np.where(lam > 0.0, lam, 1.0), np.inf)
-    return np.nonzero(bound <= REGION_SLACK_TOL)[0]
+    rows = np.nonzero(bound <= REGION_SLACK_TOL)[0]
+    return (rows, bound[rows]) if with_bounds else rows
+
+
+def _tight_width_bound(G: np.ndarray, rows: np.ndarray, slack: np.ndarray, c: np.ndarray, radius_bound: float) -> float:
+    """Upper bound on the width ``max c'v - min c'v`` over ``{G v <= g + CLOSED_SET_TOL, |v| <= R}``, no LP.
+
+    ``rows`` are rows certified by :func:`_certified_implicit_rows` on that very set, with
+    ``0 <= g_k + CLOSED_SET_TOL - G_k v <= slack_k`` for every point ``v`` of it: each ``G_k v``
+    ranges over an interval of length ``slack_k``.  Writing ``c = G_rows' alpha + rho`` (least
+    squares), ``c'v = alpha' G_rows v + rho'v`` ranges over at most
+    ``sum_k |alpha_k| slack_k + 2 R |rho|`` (Cauchy-Schwarz on the residual).  This proves the
+    same statement as the two LPs of :func:`~hybobs_opt.geometry.lp.certified_width_below` when
+    ``c`` lies in the span of the implicit equalities just found (the flat direction of a face
+    of ``R_ij``, issue 19: half of the pair LPs of model 17 at ``T = 6`` were such width LPs).
+    """
+    if rows.size == 0:
+        return np.inf
+    GK = G[rows]
+    alpha, *_ = np.linalg.lstsq(GK.T, c, rcond=None)
+    rho = c - GK.T @ alpha
+    val = float(np.abs(alpha) @ slack + 2.0 * radius_bound * np.linalg.norm(rho))
+    return val if np.isfinite(val) else np.inf
 
 
 def _nnls_multipliers(GA: np.ndarray) -> np.ndarray | None:
@@ -233,6 +350,8 @@ class _Frame:
         self.directions = directions or SubspaceDirections.of(self.Nh, n)
         self._lp = None
         self.centre = None
+        #: A certified inner radius of the set in this frame (a ball of it lies in the set), 0 if unknown.
+        self.ball = 0.0
 
     @property
     def lp(self):
@@ -254,6 +373,10 @@ class _Frame:
         if not thin_filter or A.shape[0] <= 1:
             return False
         c = self.directions.thinnest[part]
+        if self.ball * float(np.linalg.norm(c)) > REGION_SLACK_TOL * (1.0 + BALL_WIDTH_RTOL):
+            # a ball of radius `ball` lies in the set, so its width along c is at least
+            # 2 ball |c| > 2 REGION_SLACK_TOL: the width LPs could not certify thinness (no LP)
+            return False
         point = self.centre if self.centre is not None and self.centre.size == self.dim else None
         return certified_width_below(A[:-1, :-1], bu[:-1], c, radius_bound=self.R, width=2.0 * REGION_SLACK_TOL, point=point)
 
@@ -317,6 +440,8 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     frame._lp = (A, bu)
     verdicts = [EMPTY if p is None else "" for p in parts]
     face = radius <= REGION_SLACK_TOL
+    if not face:
+        frame.ball = float(radius)  # above the LP's threshold: the certified lower bound (a feasible ball)
     if not face:  # a ball in the equality subspace: its projections only need the thin test
         for k, p in enumerate(parts):
             if p is not None and frame.projection_thin(p, thin_filter):
@@ -333,6 +458,7 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     # multipliers of the LP above serve the first reduction: it is the same LP)
     relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
     checked: dict[int, bool] = {}
+    first_tight: dict = {}  # the implicit equalities certified by the first LP, on the set `relaxed`
 
     def confirmed_thin(p: int, NM: np.ndarray) -> bool:
         """Does the frame ``NM`` flatten projection ``p``, and is the original set certified thin there?"""
@@ -347,8 +473,12 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         if p in checked:
             return checked[p]
         c = np.ascontiguousarray(N[p * n:(p + 1) * n].T @ u)  # u'x in the coordinates of the first LP
-        thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
-                                                             width=2.0 * REGION_SLACK_TOL)
+        if relaxed is not None and "rows" in first_tight and \
+                _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) <= 2.0 * REGION_SLACK_TOL:
+            thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
+        else:
+            thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
+                                                                 width=2.0 * REGION_SLACK_TOL)
         checked[p] = thin
         return thin
 
@@ -357,7 +487,8 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         if radius > REGION_SLACK_TOL:
             break
         # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s)
-        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound + float(np.linalg.norm(s0)))
+        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound + float(np.linalg.norm(s0)),
+                             tight=first_tight if _ == 0 else None)
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
         if isinstance(red, str):
@@ -384,6 +515,8 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     if face:
         frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + float(np.linalg.norm(s0)))
         frame.centre = _witness(centre, A, bu) if centre is not None and centre.size else centre
+        if radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
+            frame.ball = float(radius)
         if frame.forces_same_state():
             return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
     distinct = None
@@ -413,7 +546,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
     if not ok:
         return False
     if A.shape[0] > 1:
-        res = solve_slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
+        res = _slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
         if res.lower <= -CLOSED_SET_TOL:
             return False
     Gr, gr = A[:-1, :-1], bu[:-1] + CLOSED_SET_TOL

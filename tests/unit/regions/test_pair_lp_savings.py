@@ -1,0 +1,130 @@
+"""Issue 19, fewer LPs in Algorithm 3.1 (paper 002): the same answers with fewer LPs.
+
+* The pair lists (pieces of ``B_T``, pairs dropped as thin, pairs dropped as same-state) equal the
+  ones recorded *before* the LP savings (``pair_lists_before_pruning.json``, HEAD a0105dd) for
+  model (16) at T = 3..6 and model (17) at T = 5 (T = 4 is below eq. (8) for model 17).
+* The LP-free width certificate (``_tight_width_bound``) never claims less than the true width
+  (LP oracle), and the Chebyshev-ball shortcut only skips LPs that could not certify thinness.
+* The Chebyshev LP on which HiGHS returned "Not Set" with all three methods (model 16, T = 8) is
+  decided, with bounds re-checked here in numpy.
+* Where they differ from before, the earlier answer was wrong: model (17) at T = 7 had two face
+  pairs (four entries of the thin list) called empty from an uncertified HiGHS point.
+"""
+
+import functools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from hybobs_opt.geometry._lp_kernels import slack_bounds
+from hybobs_opt.regions import analyse_observability
+from hybobs_opt.regions.pair_geometry import _certified_implicit_rows, _slack_lp, _tight_width_bound
+from hybobs_opt.studies import get_example
+from hybobs_opt.tolerances import CLOSED_SET_TOL, REGION_SLACK_TOL, SLACK_CAP
+
+HERE = Path(__file__).resolve().parent
+BEFORE = json.loads((HERE / "pair_lists_before_pruning.json").read_text())
+
+
+@functools.cache
+def analysis(name: str, T: int):
+    return analyse_observability(get_example(name).build(), T)
+
+
+@pytest.mark.parametrize("key", ["powertrain3_T3", "powertrain3_T4", "powertrain3_T5", "powertrain3_T6", "powertrain5_T5"])
+def test_pair_lists_identical_to_before(key):
+    name, T = key.rsplit("_T", 1)
+    a = analysis(name, int(T))
+    ref = BEFORE[key]
+    assert len(a.regions) == ref["n_regions"]
+    assert [bool(b) for b in a.full_rank] == ref["full_rank"]
+    assert [[p.i, p.j] for p in a.pairs] == ref["pairs"]
+    assert [list(p) for p in a.stats["pairs_dropped_thin"]] == ref["thin"]
+    assert [list(p) for p in a.stats["pairs_dropped_same_state"]] == ref["same"]
+    assert (a.n_pairs_tested, a.n_pairs_skipped_rank) == (ref["n_pairs_tested"], ref["n_pairs_skipped_rank"])
+    assert a.n_pair_lps <= ref["n_pair_lps"]
+
+
+def test_fewer_lps_model17_T5():
+    # 4,796 pair LPs before; 3,134 measured after (most width LPs of faces replaced by the
+    # multipliers' certificate); a margin for solver-version noise
+    assert analysis("powertrain5", 5).n_pair_lps <= 0.72 * BEFORE["powertrain5_T5"]["n_pair_lps"]
+
+
+def _lp_width(G, g, c):
+    lo = linprog(c, A_ub=G, b_ub=g, bounds=(None, None), method="highs")
+    hi = linprog(-c, A_ub=G, b_ub=g, bounds=(None, None), method="highs")
+    assert lo.status == 0 and hi.status == 0
+    return -hi.fun - lo.fun
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_tight_width_bound_is_an_upper_bound(seed):
+    """A box sliced by a slab of width ~0 (two opposite rows): the certificate bounds the width along
+    directions in the slab's normal span, and never below the LP width in any direction."""
+    rng = np.random.default_rng(seed)
+    d = 4
+    a = rng.normal(size=d)
+    a /= np.linalg.norm(a)
+    eps = 1e-9 * rng.uniform()
+    G = np.vstack([np.eye(d), -np.eye(d), a, -a])
+    g = np.concatenate([np.ones(2 * d), [0.1 + eps, -0.1]])
+    R = np.sqrt(d) + 0.2
+    # the multipliers of the max-slack LP of a flat set: the two slab rows, equal weights
+    lam = np.zeros(G.shape[0])
+    lam[-2:] = 0.5
+    rows, slack = _certified_implicit_rows(G, g, lam, R, with_bounds=True)
+    assert set(rows) == {2 * d, 2 * d + 1}
+    relaxed = g + CLOSED_SET_TOL
+    for c in (a, -3.0 * a, a + 1e-12 * rng.normal(size=d), rng.normal(size=d)):
+        bound = _tight_width_bound(G, rows, slack, c, R)
+        assert bound >= _lp_width(G, relaxed, c) - 1e-12
+    assert _tight_width_bound(G, rows, slack, a, R) <= 2 * REGION_SLACK_TOL  # certified thin, no LP
+    assert _tight_width_bound(G, rows, slack, rng.normal(size=d), R) > 2 * REGION_SLACK_TOL
+
+
+def test_model16_T8_face_lp_decided_with_certificate():
+    """The Chebyshev LP of a face pair of model (16) at T = 8 (radius 0 within ~1e-10) that stopped
+    the analysis with a SolverError: decided now, and the decision re-checked from the point."""
+    data = np.load(HERE / "model16_T8_face_lp.npz")
+    A, bu, R, th = data["A"], data["bu"], float(data["radius_bound"]), float(data["threshold"])
+    res = _slack_lp(A, bu, R, th, "model 16 T = 8 face")
+    assert res.solver.startswith("daqp")
+    d = A.shape[1] - 1
+    w = np.asarray(res.w, dtype=float)
+    # lower bound = the smallest slack of the (normalised) rows at the returned point, re-computed
+    slack_at_w = float(np.min(bu[:-1] - A[:-1, :d] @ w))
+    assert res.lower <= min(slack_at_w, SLACK_CAP) + 1e-15
+    assert res.lower > th  # a face, not empty: the pair set is closed-non-empty
+    assert slack_bounds(A, bu, np.append(w, res.lower), np.zeros(A.shape[0]), R, SLACK_CAP)[0] > th
+    # the LP's true optimum, by an independent solver, agrees that the radius is above the threshold
+    f = np.zeros(d + 1)
+    f[-1] = -1.0
+    ref = linprog(f, A_ub=A, b_ub=bu, bounds=(None, None), method="highs-ds")
+    if ref.status == 0:
+        assert -ref.fun > th
+
+
+def test_model17_T7_face_no_longer_called_empty():
+    """R_162,190 of model (17) at T = 7: a face (Chebyshev radius 0 in its equality subspace).
+
+    Before, DAQP's default tolerance could not decide it and HiGHS's point, at slack -3.4e-6, was
+    taken as the radius: the pair was called empty.  Its optimum is ~-1e-12 (HiGHS's dual simplex
+    with tight tolerances agrees); now the tight DAQP solve brackets it in a certified interval
+    above -CLOSED_SET_TOL, so the pair is kept (and then dropped as thin: four entries of the
+    thin list at T = 7 that the earlier code had missed)."""
+    data = np.load(HERE / "model17_T7_face_lp.npz")
+    A, bu, R, th = data["A"], data["bu"], float(data["radius_bound"]), float(data["threshold"])
+    res = _slack_lp(A, bu, R, th, "model 17 T = 7 face")
+    d = A.shape[1] - 1
+    w = np.asarray(res.w, dtype=float)
+    assert res.lower > th and res.lower <= float(np.min(bu[:-1] - A[:-1, :d] @ w)) + 1e-15
+    assert res.lower <= res.upper < 1e-9  # a face: radius 0 to the certified bracket
+    f = np.zeros(d + 1)
+    f[-1] = -1.0
+    ref = linprog(f, A_ub=A, b_ub=bu, bounds=(None, None), method="highs-ds",
+                  options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10})
+    assert ref.status == 0 and -ref.fun > th
