@@ -73,6 +73,20 @@ def log(msg: str) -> None:
     print(f"[bench_polytope] {msg}", file=sys.stderr, flush=True)
 
 
+def git_state() -> dict:
+    """The commit the run measured and whether ``hybobs_opt/geometry`` differed from it (a shared tree)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "hybobs_opt/geometry"], cwd=root,
+                               capture_output=True, text=True, timeout=10).stdout.splitlines()
+    except (OSError, subprocess.SubprocessError):
+        return {"head": None, "uncommitted_in_hybobs_opt_geometry": None}
+    return {"head": head, "uncommitted_in_hybobs_opt_geometry": [ln.strip() for ln in dirty]}
+
+
 def _load() -> list[float]:
     try:
         return [round(v, 2) for v in os.getloadavg()]
@@ -478,6 +492,7 @@ def main(argv: list[str] | None = None) -> int:
             "hybobs_vertices": "Polytope.project(method='vertices'): checked vertices projected, their 2-D hull",
         },
         "quick": args.quick,
+        "git": git_state(),
         "operations": ops,
         "machine": {**machine(), "load_average_at_end": _load(), "load_average_at_start_of_run": load_start,
                     "versions": versions(("numpy", "scipy", "pycddlib-standalone", "pycddlib", "polytope"))},
