@@ -533,7 +533,7 @@ class Polytope:
         if self.n_constraints == 0:
             return self
         if self.dim <= LIBRARY_REDUNDANCY_MAX_DIM:
-            kept = self._facets_by_vertices()
+            kept = self._facets_by_vertices(None if scale is None else _positive_scale(scale, self.dim))
             if isinstance(kept, Polytope):
                 return kept
         if scale is None:
@@ -556,8 +556,13 @@ class Polytope:
         A, b = _unit_rows(An[rows], bn[rows])
         return Polytope(A, b, self.names)
 
-    def _facets_by_vertices(self) -> "Polytope | None":
-        """:meth:`remove_redundant` from a checked vertex set, or ``None`` (the LP path decides)."""
+    def _facets_by_vertices(self, scale: np.ndarray | None) -> "Polytope | None":
+        """:meth:`remove_redundant` from a checked vertex set, or ``None`` (the LP path decides).
+
+        The facets are decided in the coordinates the LP path would use: ``z / scale`` when the
+        caller gives ``scale`` (a union's box: its tolerance is relative to that), else the box of
+        the vertices (the LP path's bounding box, up to the LPs' accuracy).
+        """
         enum = enumerate_vertices(self.A, self.b, op="remove_redundant")
         if enum is None:
             return None
@@ -567,7 +572,13 @@ class Polytope:
             LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, "unbounded set (decided by LPs)")
             return None
         sc, chk = enum.scaled, enum.checked
-        keep = facets_from_vertices(sc.A, sc.b, chk.Y, chk.tight)
+        if scale is None:
+            keep = facets_from_vertices(sc.A, sc.b, chk.Y, chk.tight)
+        else:
+            An, bn = _row_normalised(self.A[enum.row_indices()], self.b[enum.row_indices()])
+            As = An * scale
+            norms = np.sqrt(np.einsum("ij,ij->i", As, As))
+            keep = facets_from_vertices(As / norms[:, None], bn / norms, enum.points / scale, chk.tight)
         if isinstance(keep, str):
             LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, keep)
             return None
