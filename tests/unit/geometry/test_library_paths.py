@@ -341,3 +341,48 @@ def test_volume_check_catches_a_wrong_qhull_volume(monkeypatch):
     monkeypatch.setattr(volmod, "ConvexHull", Liar)
     # the plain hull's volume is refused; the joggled (QJ) hull's passes, within its joggle
     assert Polytope.from_box([0, 0, 0], [1, 2, 3]).volume().value == pytest.approx(6.0, rel=1e-9)
+
+
+def test_remove_redundant_with_a_caller_scale_decides_as_the_lp_path(monkeypatch, counters):
+    """A union passes its box as ``scale``: tolerances are relative to it, not to the piece.
+
+    A slab 2e-5 thin in y with one edge cut 6e-8 deep: relative to the union's box (scale 1) the
+    cut is below REDUNDANCY_RTOL, and both paths must drop the row (model (17)'s cut sets had such
+    pieces, where the vertex path, judging in the piece's own box, kept it).
+    """
+    thin = Polytope.from_box([0.0, 0.0, 0.0], [1.0, 2e-5, 1.0])
+    cut = np.array([[0.0, 1.0, 1.0]]) / math.sqrt(2)
+    P = thin.intersect(Polytope(cut, [(1.0 + 2e-5 - 6e-8) / math.sqrt(2)]))
+    scale = np.ones(3)
+    R = P.remove_redundant(scale)
+    assert counters.accepted["remove_redundant:cdd"] == 1
+    assert_same_rows(R, lp_path_scaled(P, scale, monkeypatch))
+    assert R.n_constraints == 6
+    rng = np.random.default_rng(31)
+    for d in (2, 3, 4):
+        A, b = random_polytope(rng, d, 4 * d)
+        P = Polytope(A, b)
+        s = np.full(d, 10.0)
+        assert_same_rows(P.remove_redundant(s), lp_path_scaled(P, s, monkeypatch))
+
+
+def lp_path_scaled(P, scale, monkeypatch):
+    with monkeypatch.context() as mp:
+        no_library(mp)
+        return P.remove_redundant(scale)
+
+
+# A piece of model (17)'s B_5 cut at omega_m = 90, omega_l = 30 (paper 002), and the union's scale.
+MODEL17_PIECE_A = [[-1.8894298371676007e-14, 1.0, 8.802392379036745e-18], [-1.0, -0.0, -0.0], [0.0004804495757086311, -0.9999998845839144, 6.023618435969363e-07], [0.0004268410029399047, -0.9999999089033552, -1.98854803572433e-07], [-0.0267315343086242, -0.9996425661999682, -0.0004060968469219711], [0.00047952138401743423, -0.9999998850294134, 6.34382196182315e-07], [0.0004196716825627809, -0.9999999119377951, -2.847181439997401e-07], [0.0003500415277343855, -0.9999999387346162, -1.3010007414248336e-06], [0.0004114233020837193, -0.9999999153653563, -3.8350484362500153e-07]]
+MODEL17_PIECE_B = [0.021264505001729758, 0.05, -0.021186050850984416, -0.02129388404030923, -0.07586346361200332, -0.02118156992932616, -0.021305410899524892, -0.0214420400646655, -0.021318621269549334]
+MODEL17_UNION_SCALE = [0.07128140598365582, 0.022390527220415582, 59.148892071161114]
+
+
+def test_model17_piece_with_the_union_scale_keeps_the_lp_paths_rows(monkeypatch, counters):
+    """Judged in the piece's own box (2e-5 thin in theta_cl), the vertex path kept a row the LP path
+    drops relative to the union's box; with the caller's scale both give the same rows, bit for bit."""
+    P = Polytope(np.array(MODEL17_PIECE_A), np.array(MODEL17_PIECE_B))
+    s = np.array(MODEL17_UNION_SCALE)
+    R = P.remove_redundant(s)
+    assert counters.accepted["remove_redundant:cdd"] + counters.accepted["remove_redundant:qhull"] == 1
+    assert_same_rows(R, lp_path_scaled(P, s, monkeypatch))
