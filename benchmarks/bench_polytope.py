@@ -170,8 +170,20 @@ def same_rows(R, S, size: float) -> bool:
 
 
 def polygon_vertices(A, b) -> np.ndarray:
-    """Vertices of a bounded 2-D ``{A x <= b}`` by brute force over pairs of rows."""
-    return brute_force_vertices(np.asarray(A, float), np.asarray(b, float).ravel())
+    """Vertices of a bounded 2-D ``{A x <= b}``: qhull's halfspace intersection, deduplicated.
+
+    (Brute force over pairs of rows is quadratic in the rows, and cddlib's block elimination
+    returns thousands of redundant rows from 6-D.)
+    """
+    A, b = np.asarray(A, float), np.asarray(b, float).ravel()
+    n = np.linalg.norm(A, axis=1)
+    A, b = A[n > 0] / n[n > 0, None], b[n > 0] / n[n > 0]
+    X = scipy_halfspaces(A, b).intersections
+    keep = []
+    for x in X:
+        if not keep or np.min(np.max(np.abs(np.array(keep) - x), axis=1)) > 1e-9:
+            keep.append(x)
+    return np.array(keep)
 
 
 # ---------------------------------------------------------------------- the implementations
