@@ -52,7 +52,7 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from . import _vertex_kernels as _K
-from ._common import _row_normalised, _unit_box_map
+from ._common import _unit_box_map
 from ._vertex_kernels import check_kernel, scale_and_check
 
 log = logging.getLogger(__name__)
