@@ -179,7 +179,7 @@ def plot_noise_errors(trace, outs: Mapping, path: str | Path, sigma: float, stat
         covs = [out.info[j].get("covariance") if j < len(out.info) else None for j in flagged]
         if flagged.size and all(c is not None for c in covs):
             band = np.full(n, np.nan)
-            band[flagged] = [sigmas * np.sqrt(max(c[i, i], 0.0)) for c in covs]
+            band[flagged] = [sigmas * np.sqrt(max(np.asarray(c, dtype=float)[i, i], 0.0)) for c in covs]
             ax.fill_between(t[:n], -band, band, color=f"C{k}", alpha=0.2, lw=0,
                             label=f"{sigmas:g} standard deviations of the stated covariance")
         ax.plot(t[flagged], e[flagged], ".", ms=2.5, color=f"C{k}",
