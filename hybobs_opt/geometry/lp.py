@@ -797,7 +797,8 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
     return solve_slack_lp(A, bu, radius_bound, threshold, problem)
 
 
-def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str) -> SlackResult:
+def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str, *,
+                   tight_attempt: dict | None = None) -> SlackResult:
     """DAQP on the data of :func:`~hybobs_opt._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback.
 
     The LP of :func:`max_slack` after its constant rows were handled: ``A`` is ``(k + 1) x (d + 1)``
@@ -817,6 +818,13 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     problem : str
         Name of the LP for error messages.
 
+    tight_attempt : dict, optional
+        DAQP settings of one more attempt when the default ones do not decide ``threshold``,
+        before HiGHS (the pair tests of Algorithm 3.1 pass a tight primal tolerance: on a face
+        of radius exactly 0 the default leaves rows violated by more than the closed-set
+        tolerance).  Its answer is used only when it passes :func:`daqp_answer_ok` and its
+        numpy-certified bounds decide; it is returned without multipliers (``solver`` ``"daqp
+        (tight)"``), like HiGHS's, so callers take HiGHS's path.
     Returns
     -------
     SlackResult
@@ -850,6 +858,17 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
         if upper <= threshold:
             return SlackResult(lower, upper, w, "daqp+nnls", info["lam"], time.perf_counter() - t0)
         break
+    if tight_attempt is not None:
+        out = _daqp_call(H, f, A, bu, lower_bounds, sense, **tight_attempt)
+        if out is not None:
+            x, _, flag, info = out
+            lam = info.get("lam") if isinstance(info, dict) else None
+            if lam is not None and _daqp_optimal(flag) and daqp_answer_ok(A, bu, x, lam):
+                lower, upper = slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float),
+                                            radius_bound, SLACK_CAP)
+                if lower > threshold or upper <= threshold:
+                    return SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None,
+                                       time.perf_counter() - t0)
     # Undecided (or DAQP failed): the robust solver decides.
     COUNTERS.fast -= 1
     COUNTERS.confirmed_by_highs += 1

@@ -31,7 +31,6 @@ Three questions decide whether ``Proj_x(R_ij)`` is a piece of ``B_T`` (up to mea
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +38,7 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry._lp_kernels import slack_lp_data, support_upper_bound
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
-from ..status import Status, is_optimal
+from ..status import Status
 from ..tolerances import (
     BALL_WIDTH_RTOL,
     CLOSED_SET_TOL,
@@ -102,59 +101,16 @@ def _slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: flo
     called empty from a point at slack -3.4e-6.  One LP is counted per call, as
     ``solve_slack_lp`` does.
     """
-    from ..geometry._lp_kernels import slack_bounds
-    from ..geometry.lp import SlackResult, _daqp_call, _daqp_optimal, _refined_upper_bound, daqp_answer_ok
-    from ..tolerances import DAQP_EPS_PROX
+    from ..geometry.lp import solve_slack_lp
 
-    t0 = time.perf_counter()
-    k = A.shape[0] - 1
-    d = A.shape[1] - 1
-    f = np.zeros(d + 1)
-    f[d] = -1.0
-    COUNTERS.fast += 1
-    H, lower_bounds, sense = np.zeros((d + 1, d + 1)), np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32)
-    # -- the attempts of solve_slack_lp, verbatim
-    for eps_prox in (DAQP_EPS_PROX, None):
-        settings = {} if eps_prox is None else {"eps_prox": eps_prox}
-        out = _daqp_call(H, f, A, bu, lower_bounds, sense, **settings)
-        if out is None:
-            break
-        x, _, flag, info = out
-        if not _daqp_optimal(flag) or not daqp_answer_ok(A, bu, x, info.get("lam")):
-            continue
-        lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
-        w = np.asarray(x[:d], dtype=float)
-        if lower > threshold or upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp", info["lam"], time.perf_counter() - t0)
-        upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
-        if upper <= threshold:
-            return SlackResult(lower, upper, w, "daqp+nnls", info["lam"], time.perf_counter() - t0)
-        break
-    # -- the tight attempt (new)
-    out = _daqp_call(H, f, A, bu, lower_bounds, sense, **_TIGHT)
-    if out is not None:
-        x, _, flag, info = out
-        lam = info.get("lam") if isinstance(info, dict) else None
-        if lam is not None and _daqp_optimal(flag) and daqp_answer_ok(A, bu, x, lam):
-            lower, upper = slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float), radius_bound, SLACK_CAP)
-            if lower > threshold or upper <= threshold:
-                RESCUED["tight_daqp"] += 1
-                return SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None, time.perf_counter() - t0)
-    # -- HiGHS, as solve_slack_lp does
-    COUNTERS.fast -= 1
-    COUNTERS.confirmed_by_highs += 1
     try:
-        res = solve_lp(f, A, bu, problem=problem)
+        res = solve_slack_lp(A, bu, radius_bound, threshold, problem, tight_attempt=_TIGHT)
     except SolverError:
         RESCUED["highs_failed"] += 1
         raise
-    if res.status == Status.INFEASIBLE:
-        return SlackResult(-np.inf, -np.inf, None, "highs", seconds=time.perf_counter() - t0)
-    if not is_optimal(res.status):
-        raise SolverError(problem, "HiGHS", res.status, hint="the slack LP is capped and cannot be unbounded: check the data for NaN")
-    w = res.x[:d]
-    slack = float(min(res.x[d], np.min(bu[:k] - A[:k, :d] @ w)))
-    return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
+    if res.solver == "daqp (tight)":
+        RESCUED["tight_daqp"] += 1
+    return res
 
 
 def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str):
