@@ -817,7 +817,6 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
         The caller's decision value (``slack > threshold``).
     problem : str
         Name of the LP for error messages.
-
     tight_attempt : dict, optional
         DAQP settings of one more attempt when the default ones do not decide ``threshold``,
         before HiGHS (the pair tests of Algorithm 3.1 pass a tight primal tolerance: on a face
@@ -825,6 +824,7 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
         tolerance).  Its answer is used only when it passes :func:`daqp_answer_ok` and its
         numpy-certified bounds decide; it is returned without multipliers (``solver`` ``"daqp
         (tight)"``), like HiGHS's, so callers take HiGHS's path.
+
     Returns
     -------
     SlackResult
