@@ -103,6 +103,82 @@ def slack_bounds(A, bu, x, lam, radius_bound, cap):
 
 
 @njit(cache=True)
+def answer_ok(A, b, x, lam, rtol):
+    """The numpy checks of :func:`hybobs_opt.geometry.lp.daqp_answer_ok` in one compiled loop.
+
+    ``x`` finite and every row ``A_k x - b_k <= rtol (1 + |b_k| + |A_k| |x|)``; ``lam`` finite and
+    ``min lam >= -rtol max(1, max |lam|)``.  Shapes are checked by the caller.
+    """
+    k, d = A.shape
+    for c in range(d):
+        if not np.isfinite(x[c]):
+            return False
+    big = 1.0
+    low = 0.0
+    for r in range(k):
+        v = lam[r]
+        if not np.isfinite(v):
+            return False
+        if abs(v) > big:
+            big = abs(v)
+        if v < low:
+            low = v
+    if low < -rtol * big:
+        return False
+    for r in range(k):
+        acc = -b[r]
+        scale = 1.0 + abs(b[r])
+        for c in range(d):
+            acc += A[r, c] * x[c]
+            scale += abs(A[r, c]) * abs(x[c])
+        if not acc <= rtol * scale:
+            return False
+    return True
+
+
+@njit(cache=True)
+def min_row_slack(A, bu, c):
+    """``min_k (bu_k - A_k[:-1] c)`` over the rows but the last of a slack LP's data (``+inf`` if none)."""
+    k = A.shape[0] - 1
+    d = A.shape[1] - 1
+    low = np.inf
+    for r in range(k):
+        v = bu[r]
+        for q in range(d):
+            v -= A[r, q] * c[q]
+        if v < low:
+            low = v
+    return low
+
+
+@njit(cache=True)
+def implicit_row_bounds(G, g, lam, radius_bound, relax):
+    """Slack bounds of the rows of ``{G v <= g + relax}`` from multipliers ``lam`` (see
+    :func:`hybobs_opt.regions.pair_geometry._certified_implicit_rows`): ``total / lam_k`` with
+    ``total = max(0, (g + relax)' lam + R |G' lam|)`` for ``lam_k > 0``, ``inf`` elsewhere; the
+    multipliers are clipped at zero and non-finite ones are dropped."""
+    k, d = G.shape
+    station = np.zeros(d)
+    total = 0.0
+    lam_c = np.zeros(k)
+    for r in range(k):
+        v = lam[r]
+        if np.isfinite(v) and v > 0.0:
+            lam_c[r] = v
+            total += (g[r] + relax) * v
+            for q in range(d):
+                station[q] += v * G[r, q]
+    total += radius_bound * np.sqrt(np.sum(station * station))
+    if total < 0.0:
+        total = 0.0
+    out = np.full(k, np.inf)
+    for r in range(k):
+        if lam_c[r] > 0.0:
+            out[r] = total / lam_c[r]
+    return out
+
+
+@njit(cache=True)
 def _restrict_rows(Hx, HU, h, N, w0, off, base, G, g):
     """Rows ``Hx y + HU U <= h`` of one region (``y`` = ``w[off:off + n]``) written as ``G v <= g``
     into rows ``base...`` of ``G, g``, for ``w = w0 + N v`` (``U`` = ``w[2n:]``)."""

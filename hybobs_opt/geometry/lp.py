@@ -601,13 +601,20 @@ def row_range(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
+from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
 from ..tolerances import DAQP_EPS_PROX, DAQP_POINT_RTOL, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
 
 
 def _daqp_optimal(flag: int) -> bool:
-    """DAQP's exit flag through the one status map and the one acceptance policy."""
-    return is_optimal(map_status(DAQP_STATUS, int(flag), solver="daqp"))
+    """DAQP's exit flag through the one status map and the one acceptance policy (memoised per flag)."""
+    flag = int(flag)
+    ok = _DAQP_OPTIMAL.get(flag)
+    if ok is None:
+        ok = _DAQP_OPTIMAL[flag] = is_optimal(map_status(DAQP_STATUS, flag, solver="daqp"))
+    return ok
+
+
+_DAQP_OPTIMAL: dict[int, bool] = {}
 
 
 @dataclass
@@ -647,13 +654,15 @@ def daqp_answer_ok(A: np.ndarray, b: np.ndarray, x, lam) -> bool:
     stationarity check: a poor multiplier only gives a weaker bound, and the caller then asks HiGHS.)
     Two matrix-vector products.
     """
+    if lam is None:
+        return False
+    A, b = np.asarray(A, dtype=float), np.asarray(b, dtype=float)
     x = np.asarray(x, dtype=float)
     lam = np.asarray(lam, dtype=float)
-    if x.shape != (A.shape[1],) or lam.shape != (A.shape[0],) or not (np.all(np.isfinite(x)) and np.all(np.isfinite(lam))):
+    if A.ndim != 2 or x.shape != (A.shape[1],) or lam.shape != (A.shape[0],) or b.shape != (A.shape[0],):
         return False
-    if np.min(lam, initial=0.0) < -DAQP_POINT_RTOL * max(1.0, float(np.max(np.abs(lam), initial=0.0))):
-        return False
-    return bool(np.all(A @ x - b <= DAQP_POINT_RTOL * (1.0 + np.abs(b) + np.abs(A) @ np.abs(x))))
+    # one compiled loop (issue 19: the numpy version cost twice the DAQP solve it checks)
+    return bool(answer_ok(A, b, x, lam, DAQP_POINT_RTOL))
 
 
 def daqp_infeasibility_ok(A: np.ndarray, b: np.ndarray, lam) -> bool:

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SolverError
-from ..geometry._lp_kernels import slack_lp_data, support_upper_bound
+from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, support_upper_bound
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
@@ -142,7 +142,7 @@ def _witness(centre, A: np.ndarray, bu: np.ndarray):
     c = np.asarray(centre, dtype=float)
     if c.shape != (A.shape[1] - 1,) or not np.all(np.isfinite(c)):
         return None
-    return c if float(np.min(bu[:-1] - A[:-1, :-1] @ c, initial=np.inf)) > -CLOSED_SET_TOL else None
+    return c if min_row_slack(A, bu, np.ascontiguousarray(c)) > -CLOSED_SET_TOL else None
 
 
 def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray, lam, keep, centre,
@@ -201,12 +201,10 @@ def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radi
     ``CLOSED_SET_TOL`` first, the closed set the pair tests decide.  With ``with_bounds``,
     returns ``(rows, bounds)``: the slack bound of each certified row as well.
     """
-    lam = np.where(np.isfinite(lam), np.maximum(lam, 0.0), 0.0)
     # the set reasoned about is the closed one relaxed by CLOSED_SET_TOL (non-empty by the LP
     # that produced lam): an exactly empty set would make every row "tight" vacuously
-    total = float((g + CLOSED_SET_TOL) @ lam + radius_bound * np.linalg.norm(G.T @ lam))
-    with np.errstate(divide="ignore"):
-        bound = np.where(lam > 0.0, max(total, 0.0) / np.where(lam > 0.0, lam, 1.0), np.inf)
+    bound = implicit_row_bounds(np.ascontiguousarray(G, dtype=float), np.ascontiguousarray(g, dtype=float),
+                                np.ascontiguousarray(lam, dtype=float), float(radius_bound), CLOSED_SET_TOL)
     rows = np.nonzero(bound <= REGION_SLACK_TOL)[0]
     return (rows, bound[rows]) if with_bounds else rows
 
