@@ -199,6 +199,12 @@ class LookupObserver(Observer):
             self._build_btilde(pieces)
         self.table_seconds = time.perf_counter() - t0
         self.reset()
+        # One whole step() on a sample without output (a fallback: open-loop prediction from the box
+        # centre, no B~_T test, nothing learnt), then a fresh reset: the user's first step runs on
+        # warm code.  Measured in a fresh process (issue 19): first step 18 us against 8 us for the
+        # second without it, 8 us against 6.5 us with it.
+        self.step(np.ascontiguousarray(self.analysis.enumeration.centre[self.n:self.n + self.m], dtype=float), self._nan_y)
+        self.reset()
 
     # ------------------------------------------------------------------ offline tables
     def _build_tables(self) -> None:
