@@ -32,7 +32,13 @@ as many LPs as they saved (half of the parent pairs are empty, with ~2 extension
 The lists are those of the code before these savings (model 16 at T = 3..6, model 17 at
 T = 5, 6) except where that code was wrong: at T = 7 of model 17 it called two face pairs empty
 (four entries of the thin list) from HiGHS's point at slack -3.4e-6, taken as the radius
-without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL``.
+without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL``; and where it
+measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 at
+T = 6 / 7 / 8 were pieces or same-state pairs whose projection an independent LP oracle,
+``scripts/check_t9_pair_lists.py``, finds lower-dimensional; every flat direction is tried now).
+Known leftover, on the safe side: when no implicit equality of a face is certified by the
+multipliers (4 pairs of 22,206 at T = 9), the set is kept whole and may be listed as a piece
+although it is lower-dimensional -- a set of measure zero added to ``B_T``.
 """
 
 from __future__ import annotations

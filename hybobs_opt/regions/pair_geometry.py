@@ -411,30 +411,47 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     # -- 2. affine hull: add implicit equalities until the set has a ball in its frame (the
     # multipliers of the LP above serve the first reduction: it is the same LP)
     relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
-    checked: dict[int, bool] = {}
+    thin_found: set[int] = set()  # projections certified thin (a fact about the set, whatever the frame)
+    tried: dict[int, list[np.ndarray]] = {}  # flat directions already measured, per projection
     first_tight: dict = {}  # the implicit equalities certified by the first LP, on the set `relaxed`
 
     def confirmed_thin(p: int, NM: np.ndarray) -> bool:
-        """Does the frame ``NM`` flatten projection ``p``, and is the original set certified thin there?"""
+        """Does the frame ``NM`` flatten projection ``p``, and is the original set certified thin there?
+
+        Every flat direction of the frame's projection not measured before is tried, thinnest first,
+        until one is certified.  The frames only shrink, so their flat spaces only grow: a direction
+        that was too wide stays flat and too wide, while the new ones may be thin (model 17, T = 9:
+        five pairs whose first flat direction was 2.2e-6 to 4.2e-6 wide on the relaxed set, and
+        whose final hull had three flat directions, were called pieces when only the first one was
+        tried; an independent LP oracle, scripts/check_t9_pair_lists.py, found them 2-dimensional).
+        """
+        if p in thin_found:
+            return True
         P = NM[p * n:(p + 1) * n]
-        if P.shape[1] >= n:
+        if P.shape[1] == 0:
+            Uu, flat = np.eye(n), list(range(n))
+        else:
             Uu, sv, _ = np.linalg.svd(P)
-            if sv[-1] > RANK_RTOL:
-                return False
-            u = Uu[:, -1]
-        else:
-            u = np.linalg.svd(P)[0][:, -1] if P.shape[1] else np.eye(n)[0]
-        if p in checked:
-            return checked[p]
-        c = np.ascontiguousarray(N[p * n:(p + 1) * n].T @ u)  # u'x in the coordinates of the first LP
-        if relaxed is not None and "rows" in first_tight and \
-                _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) <= 2.0 * REGION_SLACK_TOL:
-            thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
-        else:
-            thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
-                                                                 width=2.0 * REGION_SLACK_TOL)
-        checked[p] = thin
-        return thin
+            flat = [k for k in range(n - 1, -1, -1) if k >= sv.size or sv[k] <= RANK_RTOL]
+        if not flat:
+            return False
+        seen = tried.setdefault(p, [])
+        for k in flat:
+            u = Uu[:, k]
+            if any(abs(float(u @ v)) >= 1.0 - RANK_RTOL for v in seen):
+                continue
+            seen.append(u)
+            c = np.ascontiguousarray(N[p * n:(p + 1) * n].T @ u)  # u'x in the coordinates of the first LP
+            if relaxed is not None and "rows" in first_tight and \
+                    _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) <= 2.0 * REGION_SLACK_TOL:
+                thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
+            else:
+                thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
+                                                                     width=2.0 * REGION_SLACK_TOL)
+            if thin:
+                thin_found.add(p)
+                return True
+        return False
 
     M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
     for _ in range(Gv.shape[1]):
