@@ -36,9 +36,9 @@ without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL`
 measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 at
 T = 6 / 7 / 8 were pieces or same-state pairs whose projection an independent LP oracle,
 ``scripts/check_t9_pair_lists.py``, finds lower-dimensional; every flat direction is tried now).
-Known leftover, on the safe side: when no implicit equality of a face is certified by the
-multipliers (4 pairs of 22,206 at T = 9), the set is kept whole and may be listed as a piece
-although it is lower-dimensional -- a set of measure zero added to ``B_T``.
+Known leftover, on the safe side: a face whose projection is thin only along a combination of
+the flat directions tried is kept as a piece (model 17 at T = 9: 2 of 22,206 pieces, found by that
+oracle) -- a set of measure zero added to ``B_T``.
 """
 
 from __future__ import annotations

@@ -172,6 +172,12 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
             full = np.zeros(G.shape[0])
             full[active] = lam_fit
             K, beta = _certified_implicit_rows(G, g, full, radius_bound, with_bounds=True)
+    if K.size == 0 and centre is not None and np.all(np.isfinite(centre)) and \
+            float(np.min(g - G @ centre, initial=np.inf)) <= 0.0:
+        # No ball around the LP's point, so the set has implicit equalities, yet neither DAQP's
+        # multipliers nor their refit certify one (model 17, T = 9: 4 faces of radius ~-1e-12,
+        # then kept whole and listed as pieces although 2-dimensional): HiGHS's basic dual, once.
+        K, beta = _highs_implicit_rows(G, g, A, bu, radius_bound)
     if K.size == 0:
         return None
     if tight is not None:
@@ -188,6 +194,23 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     if np.linalg.norm(E @ t0 - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e)) + CLOSED_SET_TOL:
         return "empty"
     return Vt[r:].T, t0
+
+
+def _highs_implicit_rows(G: np.ndarray, g: np.ndarray, A: np.ndarray, bu: np.ndarray, radius_bound: float):
+    """:func:`_certified_implicit_rows` from the duals of the Chebyshev LP ``(A, bu)`` solved by HiGHS
+    (a basic solution: its multipliers sit on the rows that are tight), counted as one LP."""
+    from ..geometry.lp import solve_lp
+
+    f = np.zeros(A.shape[1])
+    f[-1] = -1.0
+    COUNTERS.confirmed_by_highs += 1
+    try:
+        res = solve_lp(f, A, bu, problem="implicit equalities of a face (HiGHS duals)")
+    except SolverError:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    if res.status != Status.OPTIMAL or res.duals is None or np.asarray(res.duals).shape != (A.shape[0],):
+        return np.zeros(0, dtype=int), np.zeros(0)
+    return _certified_implicit_rows(G, g, np.asarray(res.duals, dtype=float)[:-1], radius_bound, with_bounds=True)
 
 
 def _certified_implicit_rows(G: np.ndarray, g: np.ndarray, lam: np.ndarray, radius_bound: float,
