@@ -58,6 +58,23 @@ def slack_lp_data(G, g, zero_tol, cap):
 
 
 @njit(cache=True)
+def slack_lp_rows(G, g, zero_tol, cap):
+    """:func:`slack_lp_data` and the indices of the rows of ``G`` it kept (``keep``), from the same norms."""
+    A, bu, ok = slack_lp_data(G, g, zero_tol, cap)
+    keep = np.empty(A.shape[0] - 1 if ok else 0, dtype=np.int64)
+    if ok:
+        q = 0
+        for r in range(G.shape[0]):
+            s = 0.0
+            for c in range(G.shape[1]):
+                s += G[r, c] * G[r, c]
+            if np.sqrt(s) > zero_tol:
+                keep[q] = r
+                q += 1
+    return A, bu, ok, keep
+
+
+@njit(cache=True)
 def slack_bounds(A, bu, x, lam, radius_bound, cap):
     """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
 

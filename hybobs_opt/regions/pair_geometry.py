@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SolverError
-from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, support_upper_bound
+from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
@@ -120,12 +120,9 @@ def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: f
     DAQP data, its multipliers (``None`` if HiGHS answered) and the indices of the rows kept in
     ``A``; ``radius = -inf`` when a constant row is violated.
     """
-    A, bu, ok = slack_lp_data(Gs, gs, ZERO_ROW_TOL, SLACK_CAP)
+    A, bu, ok, keep = slack_lp_rows(Gs, gs, ZERO_ROW_TOL, SLACK_CAP)
     if not ok:
         return -np.inf, None, A, bu, None, None
-    keep = np.nonzero(np.linalg.norm(Gs, axis=1) > ZERO_ROW_TOL)[0]
-    if keep.size != A.shape[0] - 1:  # a row at the zero tolerance rounded the other way
-        keep = None
     if A.shape[0] == 1:
         return SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep
     res = _slack_lp(A, bu, radius_bound, threshold, problem)
@@ -183,7 +180,8 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     if tight is not None:
         tight["rows"], tight["slack"] = K, beta
     E, e = Gs[keep[K]], gs[keep[K]]
-    E, e = E / np.linalg.norm(E, axis=1)[:, None], e / np.linalg.norm(E, axis=1)
+    nrm = np.linalg.norm(E, axis=1)
+    E, e = E / nrm[:, None], e / nrm
     U_, s, Vt = np.linalg.svd(E, full_matrices=True)
     # Two tight rows with opposite normals pin one direction, not two: their normals differ by
     # rounding (1e-8), and that sliver of a singular value pins nothing (see the tolerance).
