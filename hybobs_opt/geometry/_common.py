@@ -74,8 +74,10 @@ def _lp(c, A, b, E=None, e=None, *, problem: str):
 
 def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows scaled to unit norm; zero rows dropped (callers only use this on non-empty sets)."""
-    norms = np.linalg.norm(A, axis=1)
+    norms = np.sqrt(np.add.reduce(A * A, axis=1))  # np.linalg.norm(A, axis=1)'s arithmetic, without its wrapper
     keep = norms > ZERO_ROW_TOL
+    if keep.all():
+        return A / norms[:, None], b / norms
     return A[keep] / norms[keep, None], b[keep] / norms[keep]
 
 
@@ -90,8 +92,9 @@ def _row_normalised(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
     b = np.asarray(b, dtype=float)
     if A.shape[0] == 0:
         return A, b
-    norms = np.linalg.norm(A, axis=1)
-    inv = np.where(norms > 0.0, 1.0 / np.where(norms > 0.0, norms, 1.0), 1.0)
+    norms = np.sqrt(np.add.reduce(A * A, axis=1))  # np.linalg.norm(A, axis=1)'s arithmetic, without its wrapper
+    pos = norms > 0.0
+    inv = 1.0 / norms if pos.all() else np.where(pos, 1.0 / np.where(pos, norms, 1.0), 1.0)
     return A * inv[:, None], b * inv
 
 

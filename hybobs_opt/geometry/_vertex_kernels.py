@@ -17,10 +17,15 @@ OK, INFEASIBLE, NOT_A_VERTEX, SINGULAR, NEARLY_DEPENDENT, INCOMPLETE = 0, 1, 2, 
 
 
 @njit(cache=True)
-def _invert(M, out):
-    """Gauss-Jordan inverse of the small square ``M`` into ``out`` (partial pivoting); False if singular."""
+def _invert(M, out, W):
+    """Gauss-Jordan inverse of the small square ``M`` into ``out`` (partial pivoting); False if singular.
+
+    ``W`` is a ``d x d`` workspace (overwritten), allocated once by the caller.
+    """
     d = M.shape[0]
-    W = M.copy()
+    for i in range(d):
+        for j in range(d):
+            W[i, j] = M[i, j]
     for i in range(d):
         for j in range(d):
             out[i, j] = 1.0 if i == j else 0.0
@@ -167,8 +172,11 @@ def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
     q = 0
     M = np.empty((d, d))
     inv = np.empty((d, d))
+    W = np.empty((d, d))
     r = np.empty(d)
     end = np.empty(d)
+    pv = np.empty(m)
+    At = np.ascontiguousarray(A.T)  # rows' coordinates contiguous over the rows: the products below vectorise
     for i in range(n):
         if not keep[i]:
             continue
@@ -182,7 +190,7 @@ def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
                 for c in range(d):
                     M[k, c] = A[j, c]
                 k += 1
-        if not _invert(M, inv):
+        if not _invert(M, inv, W):
             return SINGULAR, i, -1, keep, tight, empty_i, empty_r
         fro = 0.0
         for u in range(d):
@@ -198,17 +206,17 @@ def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
             nr = np.sqrt(nr)
             for c in range(d):
                 r[c] /= nr
-            tmin = np.inf
             for j in range(m):
-                if tight[i, j]:
-                    continue
-                p = 0.0
-                for c in range(d):
-                    p += A[j, c] * r[c]
-                if p > check_rtol:
-                    t = S[i, j] / p
-                    if t < tmin:
-                        tmin = t
+                pv[j] = 0.0
+            for c in range(d):
+                rc = r[c]
+                for j in range(m):
+                    pv[j] += At[c, j] * rc
+            tmin = np.inf  # ratio test over the rows that are not tight and block the edge (branch-free)
+            for j in range(m):
+                p = pv[j]
+                t = S[i, j] / p if (p > check_rtol and not tight[i, j]) else np.inf
+                tmin = min(tmin, t)
             if tmin == np.inf:
                 for c in range(d):
                     rays[n_rays, c] = r[c]
@@ -305,6 +313,23 @@ def _affine_rank_at_least(P, k, rank_rtol):
         return True
     if P.shape[0] < k:
         return False
+    if k == 1 and rank_rtol < 1.0:
+        # s[0] > rank_rtol max(s[0], 1) reads s[0] > rank_rtol; the largest singular value lies
+        # between the largest row norm and the Frobenius norm, which decide it without an SVD
+        # except in the gap between them (2-D facets: one SVD each saved, ~1 us)
+        big = 0.0
+        fro = 0.0
+        for i in range(P.shape[0]):
+            r = 0.0
+            for c in range(P.shape[1]):
+                r += P[i, c] * P[i, c]
+            fro += r
+            if r > big:
+                big = r
+        if np.sqrt(big) > rank_rtol:
+            return True
+        if np.sqrt(fro) <= rank_rtol:
+            return False
     s = np.linalg.svd(P, full_matrices=False)[1]
     if s.shape[0] < k:
         return False
@@ -412,3 +437,235 @@ def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
             if v > 0.0:
                 return 3, j, facet
     return 0, -1, facet
+
+
+@njit(cache=True)
+def points_to_box(X, full_dimension_rtol):
+    """The points ``X`` in the coordinates of their box, as ``vertices._box_of`` (issue 19: one call).
+
+    Returns ``(mid, half, Y, c, P)``: ``y = (x - mid) / half``, the centroid ``c`` of ``Y`` and
+    ``P = Y - c``.
+    """
+    n, d = X.shape
+    lo = X[0].copy()
+    hi = X[0].copy()
+    for i in range(1, n):
+        for k in range(d):
+            if X[i, k] < lo[k]:
+                lo[k] = X[i, k]
+            if X[i, k] > hi[k]:
+                hi[k] = X[i, k]
+    ref = 0.0
+    for k in range(d):
+        if hi[k] - lo[k] > ref:
+            ref = hi[k] - lo[k]
+    if ref <= 0.0:
+        ref = 2.0
+    mid = (lo + hi) / 2
+    half = np.empty(d)
+    for k in range(d):
+        w = hi[k] - lo[k]
+        half[k] = w / 2 if w > full_dimension_rtol * ref else ref / 2
+    Y = np.empty((n, d))
+    c = np.zeros(d)
+    for i in range(n):
+        for k in range(d):
+            Y[i, k] = (X[i, k] - mid[k]) / half[k]
+            c[k] += Y[i, k]
+    for k in range(d):
+        c[k] /= n
+    P = np.empty((n, d))
+    for i in range(n):
+        for k in range(d):
+            P[i, k] = Y[i, k] - c[k]
+    return mid, half, Y, c, P
+
+
+@njit(cache=True)
+def cdd_hull_rows(M, zero_row_tol):
+    """cddlib's inequality rows ``M = [g | -G]`` (``g - G y >= 0``) as unit rows ``G y <= g``.
+
+    Returns ``(violated, G, g)``: rows of norm at most ``zero_row_tol`` are dropped, and
+    ``violated`` is True when one of them reads ``0 <= g`` with ``g < 0``.
+    """
+    m = M.shape[0]
+    d = M.shape[1] - 1
+    G = np.empty((m, d))
+    g = np.empty(m)
+    q = 0
+    violated = False
+    for j in range(m):
+        nn = 0.0
+        for k in range(d):
+            nn += M[j, k + 1] * M[j, k + 1]
+        nn = np.sqrt(nn)
+        if not nn > zero_row_tol:
+            if M[j, 0] < 0.0:
+                violated = True
+            continue
+        for k in range(d):
+            G[q, k] = -M[j, k + 1] / nn
+        g[q] = M[j, 0] / nn
+        q += 1
+    return violated, G[:q].copy(), g[:q].copy()
+
+
+#: Result codes of :func:`hull_check` before its polar vertex check (0: go on to it).
+HULL_OK, HULL_POINT_VIOLATES, HULL_CENTROID_ON_ROW = 0, 1, 2
+
+
+@njit(cache=True)
+def hull_check(G, g, P, c, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol):
+    """The check of ``vertices._check_hull`` up to its polar vertex check, then that check, in one call.
+
+    ``{G y <= g}`` (unit rows) against the points ``c + P``: every point must satisfy every row
+    to ``check_rtol (1 + |g_j|)`` (else code :data:`HULL_POINT_VIOLATES`), the centroid ``c``
+    must lie deeper than ``rank_rtol`` in every row (else :data:`HULL_CENTROID_ON_ROW`); then the
+    polar rows ``(p - c)/|p - c| y <= 1/|p - c|`` (points within ``same_rtol`` of ``c`` left out)
+    and the candidate polar vertices ``G_j / depth_j`` go through :func:`scale_and_check`.
+    Returns ``(hull_code, n_rows)`` followed by :func:`scale_and_check`'s tuple (meaningful when
+    ``hull_code`` is :data:`HULL_OK`).
+    """
+    m, d = G.shape
+    n = P.shape[0]
+    depth = np.empty(m)
+    for j in range(m):
+        s = g[j]
+        for k in range(d):
+            s -= G[j, k] * c[k]
+        depth[j] = s
+    code0 = HULL_OK
+    for i in range(n):
+        if code0 != HULL_OK:
+            break
+        for j in range(m):
+            v = -depth[j]
+            for k in range(d):
+                v += P[i, k] * G[j, k]
+            if v > check_rtol * (1.0 + abs(g[j])):
+                code0 = HULL_POINT_VIOLATES
+                break
+    if code0 == HULL_OK:
+        for j in range(m):
+            if depth[j] <= rank_rtol:
+                code0 = HULL_CENTROID_ON_ROW
+                break
+    Ypol = np.empty((m, d))
+    for j in range(m):
+        for k in range(d):
+            Ypol[j, k] = G[j, k] / depth[j]
+    n_live = 0
+    pn = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for k in range(d):
+            s += P[i, k] * P[i, k]
+        pn[i] = np.sqrt(s)
+        if pn[i] > same_rtol:
+            n_live += 1
+    Apol = np.empty((n_live, d))
+    bpol = np.empty(n_live)
+    q = 0
+    for i in range(n):
+        if pn[i] > same_rtol:
+            for k in range(d):
+                Apol[q, k] = P[i, k] / pn[i]
+            bpol[q] = 1.0 / pn[i]
+            q += 1
+    if code0 != HULL_OK or n_live == 0:
+        Ypol = np.zeros((1, d))  # not checked: a placeholder of the right type
+        Apol = np.zeros((1, d))
+        bpol = np.ones(1)
+        if code0 == HULL_OK:
+            code0 = HULL_CENTROID_ON_ROW
+    return (code0, m) + scale_and_check(Apol, bpol, Ypol, full_dimension_rtol, zero_row_tol, check_rtol,
+                                          tight_rtol, rank_rtol, same_rtol)
+
+
+@njit(cache=True)
+def first_of_equal_rows(R):
+    """Mask of the rows of ``R`` that are the first (lowest index) of their group of identical rows.
+
+    What ``np.unique(R, axis=0, return_index=True)`` picks, without its sort of the whole rows:
+    rows are sorted (stably) by a generic key ``w'r``, identical rows have identical keys, and each
+    row is compared with the earlier rows of its run of equal keys only.
+    """
+    n, k = R.shape
+    keys = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for c in range(k):
+            s += (1.0 + 0.6180339887498949 * (c + 1) - np.floor(0.6180339887498949 * (c + 1))) * R[i, c]
+        keys[i] = s
+    order = np.argsort(keys, kind="mergesort")
+    first = np.ones(n, dtype=np.bool_)
+    start = 0
+    for a in range(n):
+        i = order[a]
+        if a > 0 and keys[i] != keys[order[a - 1]]:
+            start = a
+        for a2 in range(start, a):
+            i2 = order[a2]
+            if not first[i2]:
+                continue
+            same = True
+            for c in range(k):
+                if R[i2, c] != R[i, c]:
+                    same = False
+                    break
+            if same:
+                first[i] = False
+                break
+    return first
+
+
+@njit(cache=True)
+def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol,
+                      parallel_tol, redundancy_rtol, want_facets):
+    """:func:`scale_and_check` of a library's vertices, and what ``vertices._try_library`` builds from
+    a passed check, in one call (issue 19: a dozen small numpy operations around the check cost more
+    than the check at d = 2).
+
+    Returns :func:`scale_and_check`'s tuple (with ``live`` as the indices of the live rows) followed
+    by ``(Yk, Tk, points, fcode, frow, facet)``: the kept vertices, their tight rows and the
+    vertices in the given coordinates ``mid + Yk half``, filled when the check passed with simple
+    vertices only and no ray (``fast``); then, if ``want_facets``, :func:`facet_kernel` on that
+    vertex set (``fcode`` -1 when not decided here).
+    """
+    (mid, half, As, bs, live, contradiction, Y, code, i, j, keep, tight, degenerate, rays) = scale_and_check(
+        An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol)
+    n_live = 0
+    for a in range(live.shape[0]):
+        if live[a]:
+            n_live += 1
+    rows = np.empty(n_live, dtype=np.int64)
+    q = 0
+    for a in range(live.shape[0]):
+        if live[a]:
+            rows[q] = a
+            q += 1
+    d = X.shape[1]
+    fcode, frow = -1, -1
+    facet = np.zeros(As.shape[0], dtype=np.bool_)
+    fast = code == OK and not contradiction and degenerate.shape[0] == 0 and rays.shape[0] == 0
+    n_keep = 0
+    if fast:
+        for a in range(keep.shape[0]):
+            if keep[a]:
+                n_keep += 1
+    Yk = np.empty((n_keep, d))
+    Tk = np.empty((n_keep, tight.shape[1]), dtype=np.bool_)
+    pts = np.empty((n_keep, d))
+    if fast:
+        q = 0
+        for a in range(keep.shape[0]):
+            if keep[a]:
+                for c in range(d):
+                    Yk[q, c] = Y[a, c]
+                    pts[q, c] = mid[c] + Y[a, c] * half[c]
+                Tk[q] = tight[a]
+                q += 1
+        if want_facets:
+            fcode, frow, facet = facet_kernel(As, bs, Yk, Tk, parallel_tol, rank_rtol, redundancy_rtol)
+    return (fast, mid, half, As, bs, rows, contradiction, Y, code, i, j, keep, tight, degenerate, rays,
+            Yk, Tk, pts, fcode, frow, facet)

@@ -42,7 +42,7 @@ from ._common import (
 )
 from .lp import row_range, solve_lp
 from .projection import _iterative_hull, image_of
-from .redundancy import facets_from_vertices, irredundant
+from .redundancy import facet_verdict, facets_from_vertices, irredundant
 from .vertices import COUNTERS as LIBRARY_COUNTERS
 from .vertices import enumerate_vertices, hull_rows
 from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
@@ -184,6 +184,14 @@ class Polytope:
         names = as_names(names, "names", d, "z")
         hull = hull_rows(X, op="from_vertices")
         if hull is not None:
+            if cls is Polytope:  # checked unit rows (finite, float, (k, d) and (k,)) and validated names
+                hull.H.setflags(write=False)  # read-only, as the validation leaves them
+                hull.h.setflags(write=False)
+                out = object.__new__(cls)
+                object.__setattr__(out, "A", hull.H)
+                object.__setattr__(out, "b", hull.h)
+                object.__setattr__(out, "names", names)
+                return out
             return cls(hull.H, hull.h, names)
         mid, half = _unit_box_map(X.min(axis=0), X.max(axis=0))
         Y = (X - mid) / half
@@ -563,7 +571,7 @@ class Polytope:
         caller gives ``scale`` (a union's box: its tolerance is relative to that), else the box of
         the vertices (the LP path's bounding box, up to the LPs' accuracy).
         """
-        enum = enumerate_vertices(self.A, self.b, op="remove_redundant")
+        enum = enumerate_vertices(self.A, self.b, op="remove_redundant", facets=scale is None)
         if enum is None:
             return None
         if enum.status == "empty":
@@ -572,7 +580,9 @@ class Polytope:
             LIBRARY_COUNTERS.fallback("remove_redundant", enum.source, "unbounded set (decided by LPs)")
             return None
         sc, chk = enum.scaled, enum.checked
-        if scale is None:
+        if scale is None and enum.facets is not None:  # decided in the check's compiled call
+            keep = facet_verdict(*enum.facets, self.dim)
+        elif scale is None:
             keep = facets_from_vertices(sc.A, sc.b, chk.Y, chk.tight)
         else:
             An, bn = _row_normalised(self.A[enum.row_indices()], self.b[enum.row_indices()])

@@ -205,10 +205,15 @@ def facets_from_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray, tight: np.
     code, row, facet = facet_kernel(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float),
                                     np.ascontiguousarray(Y, dtype=float), np.ascontiguousarray(tight),
                                     PARALLEL_ROW_TOL, VERTEX_RANK_RTOL, REDUNDANCY_RTOL)
+    return facet_verdict(code, row, facet, A.shape[1])
+
+
+def facet_verdict(code: int, row: int, facet: np.ndarray, d: int) -> np.ndarray | str:
+    """:func:`facets_from_vertices`'s answer from :func:`~hybobs_opt.geometry._vertex_kernels.facet_kernel`'s result."""
     if code == 1:
         return "the vertices span less than the whole space: the set is not full-dimensional"
     if code == 2:
-        return f"only {int(facet.sum())} facets found in dimension {A.shape[1]}"
+        return f"only {int(facet.sum())} facets found in dimension {d}"
     if code == 3:
         return f"row {row} is a facet without a checked witness of non-redundancy"
     return facet

@@ -44,6 +44,8 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
+    PARALLEL_ROW_TOL,
+    REDUNDANCY_RTOL,
     VERTEX_CHECK_RTOL,
     VERTEX_DEGENERATE_MAX_SUBSETS,
     VERTEX_RANK_RTOL,
@@ -53,7 +55,14 @@ from ..tolerances import (
 )
 from . import _vertex_kernels as _K
 from ._common import _unit_box_map
-from ._vertex_kernels import check_kernel, scale_and_check
+from ._vertex_kernels import (
+    cdd_hull_rows,
+    check_enumeration,
+    check_kernel,
+    first_of_equal_rows,
+    hull_check,
+    points_to_box,
+)
 
 log = logging.getLogger(__name__)
 
@@ -315,11 +324,14 @@ def _cdd_generators(A: np.ndarray, b: np.ndarray) -> _Raw:
     cdd = cdd_module()
     d = A.shape[1]
     # pycddlib reads a nested list 4-6 x faster than a numpy array (15 us against 63 us at 12 x 3)
-    mat = cdd.matrix_from_array(np.hstack([b[:, None], -A]).tolist(), rep_type=cdd.RepType.INEQUALITY)
+    M = np.empty((A.shape[0], d + 1))
+    M[:, 0] = b
+    np.negative(A, out=M[:, 1:])
+    mat = cdd.matrix_from_array(M.tolist(), rep_type=cdd.RepType.INEQUALITY)
     gen = cdd.copy_generators(cdd.polyhedron_from_matrix(mat))
     G = np.asarray(gen.array, dtype=float).reshape(-1, d + 1)
     if not gen.lin_set and G.shape[0] and bool((G[:, 0] == 1.0).all()):  # the usual case: vertices only
-        return _Raw(G[:, 1:], _NO_RAYS[d] if d in _NO_RAYS else np.zeros((0, d)))
+        return _Raw(np.ascontiguousarray(G[:, 1:]), _NO_RAYS[d] if d in _NO_RAYS else np.zeros((0, d)))
     lines = np.zeros(G.shape[0], dtype=bool)
     lines[list(gen.lin_set)] = True
     is_point = (G[:, 0] != 0.0) & ~lines
@@ -421,6 +433,11 @@ class VertexEnumeration:
         The library that answered.
     rows : (m',) int array
         Indices of the given rows that are not all-zero; ``scaled.rows`` indexes into these.
+    facets : tuple or None
+        ``(code, row, mask)`` of :func:`~hybobs_opt.geometry._vertex_kernels.facet_kernel` on
+        ``scaled`` and ``checked``, when :func:`enumerate_vertices` was asked for it and decided
+        it in the check's compiled call (see
+        :func:`~hybobs_opt.geometry.redundancy.facet_verdict`); ``None`` otherwise.
     """
 
     status: str
@@ -430,13 +447,14 @@ class VertexEnumeration:
     checked: CheckedVertices | None
     source: str
     rows: np.ndarray | None = None
+    facets: tuple | None = None
 
     def row_indices(self) -> np.ndarray:
         """Indices into the given rows of the rows of ``scaled`` (and of ``checked.tight``'s columns)."""
         return self.rows[self.scaled.rows]
 
 
-def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> VertexEnumeration | None:
+def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices", facets: bool = False) -> VertexEnumeration | None:
     """All vertices of ``{z : A z <= b}`` from pycddlib or qhull, checked; ``None`` if no library passed.
 
     Parameters
@@ -447,6 +465,9 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
         Right-hand side.
     op : str
         Name of the calling operation in :data:`COUNTERS` and the log.
+    facets : bool
+        Also run the facet decision of :func:`~hybobs_opt.geometry.redundancy.facets_from_vertices`
+        in the check's compiled call (``VertexEnumeration.facets``; for ``remove_redundant``).
 
     Returns
     -------
@@ -471,7 +492,7 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
         return VertexEnumeration("unbounded", np.zeros((0, d)), np.eye(d), None, None, "rows", live)
     order = library_order(d)
     for source in order:
-        out = _try_library(source, An, bn, op, None)
+        out = _try_library(source, An, bn, op, None, facets)
         if out is not None:
             COUNTERS.accept(op, source)
             out.rows = live
@@ -486,7 +507,7 @@ def enumerate_vertices(A: np.ndarray, b: np.ndarray, op: str = "vertices") -> Ve
     if _near_unit(mid, half):
         return None
     for source in order:
-        out = _try_library(source, An, bn, op, (mid, half))
+        out = _try_library(source, An, bn, op, (mid, half), facets)
         if out is not None:
             COUNTERS.accept(op, source)
             out.rows = live
@@ -498,14 +519,14 @@ def _empty(d: int, source: str) -> VertexEnumeration:
     return VertexEnumeration("empty", np.zeros((0, d)), np.zeros((0, d)), None, None, source)
 
 
-def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling) -> VertexEnumeration | None:
+def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling, facets: bool = False) -> VertexEnumeration | None:
     """One library on the unit rows, then (if its answer fails) on rows rescaled by that answer's box.
 
     ``scaling`` is ``(mid, half)`` to hand the library the rows in ``(z - mid) / half`` from the
     start (and not retry), or ``None`` for the given units.
     """
     d = An.shape[1]
-    mid, half = (np.zeros(d), np.ones(d)) if scaling is None else scaling
+    mid, half = (None, None) if scaling is None else scaling  # (set before the second attempt)
     for attempt in range(1 if scaling is not None else 2):
         sc = scale_rows(An, bn, mid, half) if attempt or scaling is not None else None
         try:
@@ -530,10 +551,15 @@ def _try_library(source: str, An: np.ndarray, bn: np.ndarray, op: str, scaling) 
         if not np.isfinite(pts).all():
             COUNTERS.fallback(op, source, "a point is not finite")
             return None
-        (new_mid, new_half, As, bs, live, contradiction, Ys, code, i, j, keep, T, deg, kr) = scale_and_check(
-            An, bn, np.ascontiguousarray(pts, dtype=float), FULL_DIMENSION_RTOL, ZERO_ROW_TOL, VERTEX_CHECK_RTOL,
-            VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
-        sc = ScaledRows(As, bs, new_mid, new_half, np.nonzero(live)[0], contradiction)
+        # the check, the kept vertices and (for remove_redundant) the facets: one compiled call
+        (fast, new_mid, new_half, As, bs, rows, contradiction, Ys, code, i, j, keep, T, deg, kr, Yk, Tk, zk, fcode, frow,
+         fmask) = check_enumeration(An, bn, np.ascontiguousarray(pts, dtype=float), FULL_DIMENSION_RTOL, ZERO_ROW_TOL,
+                                    VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL,
+                                    PARALLEL_ROW_TOL, REDUNDANCY_RTOL, facets)
+        sc = ScaledRows(As, bs, new_mid, new_half, rows, contradiction)
+        if fast:  # the usual case (simple vertices, no ray): _finish_check's result without its steps
+            return VertexEnumeration("bounded", zk, np.zeros((0, d)), sc, CheckedVertices(Yk, Tk, kr), source,
+                                     facets=None if fcode < 0 else (fcode, frow, fmask))
         checked = None if contradiction else _finish_check(As, bs, Ys, code, i, j, keep, T, deg, kr)
         if isinstance(checked, CheckedVertices):
             if checked.rays.shape[0]:
@@ -612,10 +638,8 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
     if n <= d:
         COUNTERS.fallback(op, "cdd" if cdd_module() is not None else "qhull", "fewer than d + 1 points: not full-dimensional")
         return None
-    mid, half = _box_of(X)
-    Y = (X - mid) / half
-    c = Y.sum(axis=0) / n
-    P = Y - c
+    # the box, the scaled points, their centroid and the points about it: one compiled call
+    mid, half, Y, c, P = points_to_box(np.ascontiguousarray(X), FULL_DIMENSION_RTOL)
     if cdd_module() is None:
         order = ("qhull",)
     else:
@@ -650,12 +674,10 @@ def _cdd_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
     M = np.asarray(ineq.array, dtype=float).reshape(-1, d + 1)
     if ineq.lin_set or M.shape[0] == 0:
         return "equalities: the points are not full-dimensional"
-    G, g = -M[:, 1:], M[:, 0]  # cdd's rows read g - G y >= 0
-    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-    live = norms > ZERO_ROW_TOL
-    if np.any(~live & (g < 0)):
+    violated, G, g = cdd_hull_rows(M, ZERO_ROW_TOL)  # cdd's rows read g - G y >= 0; unit rows, zero rows dropped
+    if violated:
         return "a constant row is violated"
-    return G[live] / norms[live, None], g[live] / norms[live]
+    return G, g
 
 
 def _qhull_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
@@ -668,30 +690,24 @@ def _qhull_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
         return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
     G, g = eq[:, :-1], -eq[:, -1]
     # the simplices of one facet give the same plane up to rounding; keep one of each
-    _, first = np.unique(np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL), axis=0, return_index=True)
-    first = np.sort(first)
+    # (the first of each group of rows equal on the grid, as np.unique(..., axis=0, return_index=True)
+    # picked them: compiled, 190 us -> ~10 us on 300 rows at d = 5)
+    first = np.nonzero(first_of_equal_rows(np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL)))[0]
     return G[first], g[first]
 
 
 def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> str | None:
     """``None`` when ``{G y <= g}`` is exactly the hull of the points ``c + P`` (scaled), else why not."""
-    viol = P @ G.T - (g - G @ c)[None, :]
-    if np.any(viol > VERTEX_CHECK_RTOL * (1.0 + np.abs(g))[None, :]):
+    # the rows against the points, the centroid's depth, and the polar rows in the coordinates of
+    # the candidate polar vertices' box, checked: one compiled call (numpy's ~15 small array
+    # operations around it cost ~50 us at d = 2, five times the check itself)
+    (hcode, _, _, _, As, bs, _, contradiction, Ys, code, i, j, keep, T, deg, rays) = hull_check(
+        np.ascontiguousarray(G, dtype=float), np.ascontiguousarray(g, dtype=float), P, c, FULL_DIMENSION_RTOL,
+        ZERO_ROW_TOL, VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
+    if hcode == _K.HULL_POINT_VIOLATES:
         return "a point violates a returned row"
-    depth = g - G @ c  # distance of the centroid to each row, > 0 for a full-dimensional hull
-    if np.any(depth <= VERTEX_RANK_RTOL):
+    if hcode == _K.HULL_CENTROID_ON_ROW:
         return "the centroid lies on a returned row"
-    Y_polar = np.ascontiguousarray(G / depth[:, None])
-    pn = np.sqrt(np.einsum("ij,ij->i", P, P))
-    live = pn > VERTEX_SAME_RTOL
-    if live.all():
-        Apol, bpol = np.ascontiguousarray(P / pn[:, None]), 1.0 / pn
-    else:
-        Apol, bpol = np.ascontiguousarray(P[live] / pn[live, None]), 1.0 / pn[live]
-    # the polar rows in the coordinates of the candidate polar vertices' box, checked: one kernel call
-    (_, _, As, bs, _, contradiction, Ys, code, i, j, keep, T, deg, rays) = scale_and_check(
-        Apol, bpol, Y_polar, FULL_DIMENSION_RTOL, ZERO_ROW_TOL, VERTEX_CHECK_RTOL,
-        VERTEX_TIGHT_RTOL, VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
     if contradiction:
         return "polar check: a constant row is violated"
     checked = _finish_check(As, bs, Ys, code, i, j, keep, T, deg, rays)
