@@ -216,13 +216,24 @@ class ObservabilityAnalysis:
         return res.lower if res.lower > REGION_SLACK_TOL else res.upper
 
     def _x_boxes(self) -> np.ndarray:
-        """Bounding boxes of ``Proj_x(P_k)`` for a cheap pre-filter of point queries (computed once)."""
+        """Outer bounding boxes of ``Proj_x(P_k)`` for a cheap pre-filter of point queries (computed once).
+
+        Each side is a certified bound (:func:`_certified_box`, DAQP with HiGHS as the fallback):
+        a box may be a little wider than the projection, never narrower, so the pre-filter never
+        drops a region that contains the point.  (HiGHS through ``row_range`` cost 5.6 s of a
+        7.7 s cut of model 16 at T = 7: 1,674 LPs at 3.4 ms.)
+        """
         if self._xboxes is None:
             n = self.system.n
+            scale, centre = self.enumeration.scale, self.enumeration.centre
             boxes = np.empty((len(self.regions), 2, n))
             for k, reg in enumerate(self.regions):
-                rows = np.eye(n, reg.H.shape[1])
-                boxes[k] = row_range(reg.H, reg.h, rows, problem=f"bounding box of Proj_x(P_{k})", field=f"region {k}").T
+                box = _certified_box(reg.H * scale[None, :], reg.h - reg.H @ centre, n)
+                if box is None:  # a bound the multipliers do not certify: the checked HiGHS path
+                    rows = np.eye(n, reg.H.shape[1])
+                    boxes[k] = row_range(reg.H, reg.h, rows, problem=f"bounding box of Proj_x(P_{k})", field=f"region {k}").T
+                else:
+                    boxes[k] = centre[:n] + scale[:n] * box
             self._xboxes = boxes
         return self._xboxes
 
@@ -450,6 +461,37 @@ class ObservabilityAnalysis:
             "seconds": enum.seconds + self.seconds,
             "executor": self.stats.get("executor", "serial"),
         }
+
+
+def _certified_box(G: np.ndarray, g: np.ndarray, n: int) -> np.ndarray | None:
+    """``[lower; upper]`` (2 x n) of the first ``n`` coordinates of ``w`` over ``{G w <= g}``, certified.
+
+    ``G, g`` are a region in scaled coordinates (``w`` in the unit box, so ``|w| <= sqrt(d)``).
+    Each side is the weak-duality bound of :func:`~hybobs_opt.geometry._lp_kernels.support_upper_bound`
+    from the multipliers of one LP (:func:`~hybobs_opt.geometry.lp.verified_lp`: DAQP when its
+    answer verifies, HiGHS otherwise): valid for every point of the set whatever the solver's
+    accuracy.  ``None`` when an LP is not optimal.
+    """
+    from ..geometry._lp_kernels import support_upper_bound
+    from ..geometry.lp import verified_lp
+
+    G = np.ascontiguousarray(G, dtype=float)
+    g = np.ascontiguousarray(g, dtype=float)
+    d = G.shape[1]
+    R = float(np.sqrt(d))
+    box = np.empty((2, n))
+    for k in range(n):
+        for side, sign in ((1, 1.0), (0, -1.0)):
+            c = np.zeros(d)
+            c[k] = sign
+            ans = verified_lp(-c, G, g, problem=f"bounding box, coordinate {k}")
+            if ans.status != Status.OPTIMAL or ans.lam is None:
+                return None
+            bound = support_upper_bound(G, g, c, np.ascontiguousarray(ans.lam, dtype=float), R)
+            if not np.isfinite(bound):
+                return None
+            box[side, k] = sign * bound
+    return box
 
 
 # ---------------------------------------------------------------------- pair sets

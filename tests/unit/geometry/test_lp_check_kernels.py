@@ -83,3 +83,4 @@ def test_min_row_slack_and_implicit_row_bounds_equal_numpy(seed):
         assert np.array_equal(np.isinf(got), np.isinf(want))
         fin = np.isfinite(want)
         assert np.allclose(got[fin], want[fin], rtol=1e-12, atol=0.0)
+
