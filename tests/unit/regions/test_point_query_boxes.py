@@ -3,7 +3,6 @@
 import numpy as np
 
 
-
 def test_point_query_boxes_contain_the_projections():
     """The pre-filter boxes of ``ObservabilityAnalysis.regions_containing`` (certified DAQP bounds)
     contain every region's projection on x: each side checked against HiGHS at 1e-10 tolerances
