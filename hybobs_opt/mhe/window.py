@@ -17,6 +17,10 @@ from ..tolerances import MEMBERSHIP_RTOL, MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TO
 from .backends.daqp_backend import DAQP_INF, daqp_flag
 from .mld import MLDEncoding
 
+#: Mode prefixes whose rows :meth:`WindowModel._mode_rows` keeps (cleared when full): a few dozen
+#: are visited at the horizons of the papers; the bound only caps memory on long exotic runs.
+MODE_ROWS_CACHE_SIZE = 4096
+
 __all__ = ["WindowModel"]
 
 
@@ -170,25 +174,22 @@ class WindowModel:
         hx, cx = self.hx, self.cx
         dist = self.Ww is not None and T > 1
         nt = n + (n * (T - 1) if dist else 0)
-        Px = np.zeros((n, nt))
-        Px[:, :n] = np.diag(hx)
         px = cx.copy()
         Rrows, rvec, Grows, gvec = [], [], [], []
         XA, Xb = self.X.A, self.X.b
+        step_rows = self._mode_rows(modes, dist, nt)
         for k in range(len(modes)):
             md = sysm.modes[int(modes[k])]
-            Rrows.append(-self.Wy @ md.C @ Px)
+            Ry, Gg, GX = step_rows[k]
+            Rrows.append(Ry)
             rvec.append(self.Wy @ (Y[k] - md.C @ px - md.D @ U[k] - md.c))
             G, g = md.guard.A, md.guard.b
-            Grows.append(G[:, :n] @ Px)
+            Grows.append(Gg)
             gvec.append(g - G[:, n:] @ U[k] - G[:, :n] @ px)
-            Grows.append(XA @ Px)
+            Grows.append(GX)
             gvec.append(Xb - XA @ px)
             if k < T - 1:
                 px = md.A @ px + md.B @ U[k] + md.a
-                Px = md.A @ Px
-                if dist:
-                    Px[:, n + k * n: n + (k + 1) * n] += np.diag(hx)
         if dist:
             Rw = np.zeros((n * (T - 1), nt))
             Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
@@ -210,6 +211,36 @@ class WindowModel:
         norm = np.where(bad, np.abs(gg), norm)
         keep = keep | bad
         return np.vstack(Rrows), np.concatenate(rvec), G[keep] / norm[keep, None], gg[keep] / norm[keep], dist
+
+    def _mode_rows(self, modes, dist: bool, nt: int) -> list:
+        """Per step of ``modes``, the rows of :meth:`sequence_problem` that depend on the modes only:
+        ``(-Wy C Px, G_x Px, X_A Px)`` with ``Px`` the map of ``theta`` to the state at that step.
+
+        Cached per mode prefix (the branch and bound of :mod:`~hybobs_opt.mhe.certify` asks for
+        the same prefixes at every window: 72,129 calls for a few dozen prefixes in the report's
+        MHE runs); computed by the same expressions as before, so the rows are bit-identical.
+        """
+        key = (tuple(int(q) for q in modes), dist, nt, id(self.Wy))
+        cache = self.__dict__.setdefault("_rows_cache", {})
+        hit = cache.get(key)
+        if hit is not None:
+            return hit
+        sysm, T, n, hx = self.system, self.T, self.n, self.hx
+        Px = np.zeros((n, nt))
+        Px[:, :n] = np.diag(hx)
+        XA = self.X.A
+        out = []
+        for k in range(len(modes)):
+            md = sysm.modes[int(modes[k])]
+            out.append((-self.Wy @ md.C @ Px, md.guard.A[:, :n] @ Px, XA @ Px))
+            if k < T - 1:
+                Px = md.A @ Px
+                if dist:
+                    Px[:, n + k * n: n + (k + 1) * n] += np.diag(hx)
+        if len(cache) >= MODE_ROWS_CACHE_SIZE:
+            cache.clear()
+        cache[key] = out
+        return out
 
     # ------------------------------------------------------------------ extension
     def _setup_extension(self) -> None:
