@@ -50,6 +50,20 @@ infeasible some problems with full-dimensional solution sets (in its presolve; a
 setting (looser tolerance, another seed, columns permuted), and a candidate from either goes
 through the exact step.
 
+Shortcuts (same answers, fewer solver calls)
+--------------------------------------------
+- Before the first pair MILP of a sequence ``sigma``, the exact step is run on the candidate
+  ``sigma^ = sigma`` (the MILP's usual first answer on observable states: ``x^`` along the least
+  observable direction, at the MILP's row tolerance).  If it is rejected, its no-good cut is in the
+  MILP from the start, exactly as after the MILP had returned it; if it is accepted the MILPs run
+  as without it.  Window queries do the same with ``x``'s own simulated modes.
+- ``x``'s own sequences: the modes of a simulation with a constant input (mid, lowest, highest) are
+  a first candidate, decided by the same exact LP as the MILP's candidates and cut.
+- The MILPs and LPs go to scipy's HiGHS through :func:`_highs_call`, scipy's ``_highs_wrapper``
+  without its per-call option validation (cached here) and unused multipliers: the same model
+  arrays, options and solver calls, hence the same answers (the public ``milp`` / ``linprog`` are
+  used with another scipy version).
+
 Region rows
 -----------
 - *closed*: ``G w <= g + margin`` (a superset of any boundary convention);
@@ -87,6 +101,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+
+try:  # scipy's own HiGHS build, called as scipy.optimize.milp / linprog call it (see _highs_call)
+    import scipy
+
+    if tuple(scipy.__version__.split(".")[:2]) != ("1", "17"):  # the layout _highs_call was checked against
+        raise ImportError(scipy.__version__)
+    from scipy.optimize._highspy import _core as _hcore
+    from scipy.optimize._highspy import _highs_options as _hopt
+    from scipy.optimize._highspy._highs_wrapper import check_option as _check_option
+    from scipy.optimize._linprog_highs import _highs_to_scipy_status_message
+    from scipy.optimize._linprog_util import _check_result
+    from scipy.optimize._milp import _milp_iv
+except ImportError:  # another scipy layout: the public milp / linprog are used
+    _hcore = None
 
 __all__ = [
     "OracleError",
@@ -483,9 +511,9 @@ def _solve(M: _Model, lo, hi, kind: str, times: list, cuts=(), setting: int = 0)
         t = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            res = milp(np.zeros(M.nv), integrality=integ, bounds=Bounds(lb, ub),
-                       constraints=LinearConstraint(A, lo_, hi_),
-                       options={"time_limit": _TIME_LIMIT, **_HIGHS[setting], **extra})
+            res = (milp if _hcore is None else _milp_fast)(
+                np.zeros(M.nv), integrality=integ, bounds=Bounds(lb, ub), constraints=LinearConstraint(A, lo_, hi_),
+                options={"time_limit": _TIME_LIMIT, **_HIGHS[setting], **extra})
         if res.x is not None and setting == 1:
             xx = np.empty(M.nv)
             xx[perm] = res.x
@@ -514,9 +542,158 @@ def _solve(M: _Model, lo, hi, kind: str, times: list, cuts=(), setting: int = 0)
     raise OracleError(f"MILP ({kind}) failed with every setting: {messages}")
 
 
+# ------------------------------------------------------------ scipy's HiGHS without its per-call overhead
+# scipy.optimize.milp / linprog(method="highs") validate every option on every call (a new options
+# manager per option) and build multipliers that are not used here: on the small problems of the
+# tests that was half of the oracle's time.  _highs_call makes the same calls to the same HiGHS
+# build (scipy's), with the same model arrays (built by scipy's own input validation for the MILPs,
+# as linprog builds them for the LPs) and the same options; an option's validation is cached, the
+# decision (set it or skip it) being that of scipy's wrapper.  The status and point returned are
+# those of milp / linprog (same status mapping, same check of the LP's point).
+_OPTION_DECISIONS: dict = {}
+
+
+class _Result:
+    def __init__(self, status, message, x, fun):
+        self.status, self.message, self.x, self.fun = status, message, x, fun
+
+
+def _option_decision(key, val):
+    """scipy's ``_highs_wrapper`` option handling, cached: (set it?, value to set)."""
+    k = (key, type(val), repr(val))
+    hit = _OPTION_DECISIONS.get(k)
+    if hit is not None:
+        return hit
+    decision = (False, None)
+    if val is not None and key not in ("sense",):
+        opt_type = _hopt.HighsOptionsManager().get_option_type(key)
+        if opt_type != -1:
+            ok = True
+            if key in ("presolve", "parallel"):
+                if isinstance(val, bool):
+                    val = "on" if val else "off"
+                else:
+                    ok = False
+            if ok:
+                opt_type = _hcore.HighsOptionType(opt_type)
+                status, _ = _check_option(_hcore._Highs(), key, val)
+                if opt_type == _hcore.HighsOptionType.kBool and not isinstance(val, bool):
+                    ok = False
+                elif status == 0:
+                    decision = (True, val)
+    _OPTION_DECISIONS[k] = decision
+    return decision
+
+
+def _highs_call(c, indptr, indices, data, lhs, rhs, lb, ub, integrality, options):
+    """scipy's ``_highs_wrapper`` (same HiGHS calls): (HiGHS model status, message, x, row values, objective)."""
+    numcol, numrow = c.size, rhs.size
+    is_mip = integrality is not None and np.sum(integrality) > 0
+    lp = _hcore.HighsLp()
+    lp.num_col_ = numcol
+    lp.num_row_ = numrow
+    lp.a_matrix_.num_col_ = numcol
+    lp.a_matrix_.num_row_ = numrow
+    lp.a_matrix_.format_ = _hcore.MatrixFormat.kColwise
+    lp.col_cost_ = c
+    lp.col_lower_ = lb
+    lp.col_upper_ = ub
+    lp.row_lower_ = lhs
+    lp.row_upper_ = rhs
+    lp.a_matrix_.start_ = indptr
+    lp.a_matrix_.index_ = indices
+    lp.a_matrix_.value_ = data
+    if integrality.size > 0:
+        lp.integrality_ = [_hcore.HighsVarType(i) for i in integrality]
+    highs = _hcore._Highs()
+    highs_options = _hcore.HighsOptions()
+    for key, val in options.items():
+        use, v = _option_decision(key, val)
+        if use:
+            setattr(highs_options, key, v)
+    MS = _hcore.HighsModelStatus
+    if highs.passOptions(highs_options) == _hcore.HighsStatus.kError:
+        st = highs.getModelStatus()
+        return st, highs.modelStatusToString(st), None, None, None
+    if highs.passModel(lp) == _hcore.HighsStatus.kError:
+        st = MS.kModelError
+        return st, highs.modelStatusToString(st), None, None, None
+    if highs.run() == _hcore.HighsStatus.kError:
+        st = highs.getModelStatus()
+        return st, highs.modelStatusToString(st), None, None, None
+    st = highs.getModelStatus()
+    info = highs.getInfo()
+    limits = (MS.kTimeLimit, MS.kIterationLimit, MS.kSolutionLimit)
+    mip_fail = st not in (MS.kOptimal, *limits) or (st in limits and info.objective_function_value == _hcore.kHighsInf)
+    if (is_mip and mip_fail) or (not is_mip and st != MS.kOptimal):
+        msg = (f"model_status is {highs.modelStatusToString(st)}; "
+               f"primal_status is {highs.solutionStatusToString(info.primal_solution_status)}")
+        return st, msg, None, None, None
+    sol = highs.getSolution()
+    return st, highs.modelStatusToString(st), np.array(sol.col_value), np.asarray(sol.row_value), \
+        info.objective_function_value
+
+
+def _milp_fast(c, *, integrality, bounds, constraints, options):
+    """``scipy.optimize.milp`` through :func:`_highs_call` (status, message, x as milp's)."""
+    c, integ, lb, ub, indptr, indices, data, b_l, b_u, opts = _milp_iv(c, integrality, bounds, constraints, options)
+    st, msg, x, _, fun = _highs_call(c, indptr, indices, data, b_l, b_u, lb, ub, integ, opts)
+    status, message = _highs_to_scipy_status_message(st, msg)
+    return _Result(status, message, x, fun)
+
+
+def _replace_inf(x):
+    infs = np.isinf(x)
+    x[infs] = np.sign(x[infs]) * _hcore.kHighsInf
+    return x
+
+
+_LP_HIGHS_OPTIONS = None
+
+
+def _linprog_fast(c, A_ub, b_ub):
+    """``linprog(c, A_ub, b_ub, bounds=(None, None), method="highs", options=_LP_OPTIONS)`` through
+    :func:`_highs_call`: the arrays and options of scipy's ``_linprog_highs``, its status mapping
+    and its final ``_check_result``."""
+    global _LP_HIGHS_OPTIONS
+    if _LP_HIGHS_OPTIONS is None:
+        from scipy.optimize._highspy._core import HighsDebugLevel
+        from scipy.optimize._highspy._core import simplex_constants as s_c
+        _LP_HIGHS_OPTIONS = {
+            "presolve": True, "sense": None, "solver": None, "time_limit": None,
+            "highs_debug_level": HighsDebugLevel.kHighsDebugLevelNone,
+            "dual_feasibility_tolerance": _LP_OPTIONS["dual_feasibility_tolerance"], "ipm_optimality_tolerance": None,
+            "log_to_console": False, "mip_max_nodes": None, "output_flag": False,
+            "primal_feasibility_tolerance": _LP_OPTIONS["primal_feasibility_tolerance"],
+            "simplex_dual_edge_weight_strategy": None, "simplex_strategy": s_c.SimplexStrategy.kSimplexStrategyDual,
+            "ipm_iteration_limit": None, "simplex_iteration_limit": None, "mip_rel_gap": None}
+    c = np.array(c, dtype=float).ravel()
+    A_ub = np.array(A_ub, dtype=float)
+    b_ub = np.array(b_ub, dtype=float).ravel()
+    n = c.size
+    A = sparse.csc_array(np.vstack((A_ub, np.zeros((0, n)))))
+    lhs = _replace_inf(np.concatenate((-np.ones_like(b_ub) * np.inf, np.zeros(0))))
+    rhs = _replace_inf(np.concatenate((b_ub, np.zeros(0))))
+    bounds = np.column_stack([np.full(n, -np.inf), np.full(n, np.inf)])
+    lb, ub = bounds.T.copy()
+    st, msg, x, row_value, fun = _highs_call(c, A.indptr, A.indices, A.data, lhs, rhs, _replace_inf(lb), _replace_inf(ub),
+                                             np.empty(0).astype(np.uint8), _LP_HIGHS_OPTIONS)
+    status, message = _highs_to_scipy_status_message(st, msg)
+    if x is not None:
+        slack = np.array((rhs - row_value)[: b_ub.size])
+        con = np.array((rhs - row_value)[b_ub.size:])
+    else:
+        slack = con = None
+    status, message = _check_result(x, fun, status, slack, con, bounds, 1e-9, message, None)
+    return _Result(status, message, x, fun)
+
+
 def _lp(c, A_ub, b_ub, what: str):
     STATS["lps"] += 1
-    r = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * len(c), method="highs", options=_LP_OPTIONS)
+    if _hcore is not None:
+        r = _linprog_fast(c, A_ub, b_ub)
+    else:
+        r = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * len(c), method="highs", options=_LP_OPTIONS)
     if r.status in (0, 2):
         return r
     r = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * len(c), method="highs-ipm")
@@ -620,9 +797,29 @@ def _exact_pair(D: _Data, xs, seq0, seq1, mu: float, c: float, Us=None, Y0=None,
     return None
 
 
-def _search(D: _Data, M: _Model, lo, hi, kind: str, times: list, exact, counts: dict):
-    """MILP candidates + exact step + no-good cuts; negative answers confirmed by setting 1."""
+def _nogood_cut(M: _Model, seqs):
+    row = np.zeros(M.nv)
+    for tr, seq in zip(M.trajs, seqs):
+        row += tr.nogood(seq, M.nv)
+    return row, float(sum(len(sq) for sq in seqs) - 1)
+
+
+def _search(D: _Data, M: _Model, lo, hi, kind: str, times: list, exact, counts: dict, precut=None):
+    """MILP candidates + exact step + no-good cuts; negative answers confirmed by setting 1.
+
+    ``precut``: a candidate (sequences of ``M.trajs``) tried by the exact step before any MILP.
+    If the exact step rejects it, it is excluded by its no-good cut from the start, as it would be
+    after a MILP had returned it (the MILP's usual first candidate: ``x^`` following ``x``'s own
+    modes, at a distance of the MILP's row tolerance).  If the exact step accepts it, nothing
+    changes: the MILPs run as without ``precut`` (same witness).
+    """
     cuts, seen = [], set()
+    if precut is not None and exact(precut, None) is None:
+        seen.add(precut)
+        cuts.append(_nogood_cut(M, precut))
+        STATS["cuts"] += 1
+        STATS["precuts"] = STATS.get("precuts", 0) + 1
+        counts["cuts"] = counts.get("cuts", 0) + 1
     for setting in (0, 1):
         while True:
             sol = _solve(M, lo, hi, kind, times, cuts, setting)
@@ -643,10 +840,7 @@ def _search(D: _Data, M: _Model, lo, hi, kind: str, times: list, exact, counts: 
                     STATS.setdefault("confirmations_by_kind", {}).setdefault(kind, 0)
                     STATS["confirmations_by_kind"][kind] += 1
                 return found
-            row = np.zeros(M.nv)
-            for tr, seq in zip(M.trajs, seqs):
-                row += tr.nogood(seq, M.nv)
-            cuts.append((row, float(sum(len(sq) for sq in seqs) - 1)))
+            cuts.append(_nogood_cut(M, seqs))
             STATS["cuts"] += 1
             counts["cuts"] = counts.get("cuts", 0) + 1
             if len(cuts) > _MAX_CUTS:
@@ -824,6 +1018,26 @@ def _x_sequences(D: _Data, T: int, x, xs, mu: float, times: list) -> list:
     lo, hi, _ = _rhs(M, D, x, 0.0)
     tr = M.trajs[0]
     seqs, cuts, seen = [], [], set()
+    # a first candidate without a MILP: the modes of a simulation with the mid, lowest or highest
+    # constant input (first guard wins), decided by the same exact LP as the MILP's candidates
+    if D.m:
+        ulo, uhi = D.centre[D.n:] - D.half[D.n:], D.centre[D.n:] + D.half[D.n:]
+        trials = [np.tile(v, (T, 1)) for v in (D.centre[D.n:], ulo, uhi)]
+    else:
+        trials = [np.zeros((T, 0))]
+    for U in trials:
+        _, _, q_, s_ = simulate(D.system, x, U)
+        if np.all(np.isfinite(s_)):
+            sq = tuple(int(i) for i in q_)
+            seen.add(sq)
+            cuts.append((tr.nogood(sq, M.nv), float(T - 1)))
+            STATS["x_precuts"] = STATS.get("x_precuts", 0) + 1
+            t, Us = _max_slack(D, sq, xs)
+            if Us is None or t < -mu:
+                STATS["cuts"] += 1
+            else:
+                seqs.append((sq, t, Us))
+            break
     for setting in (0, 1):
         while True:
             sol = _solve(M, lo, hi, "x-sequences", times, cuts, setting)
@@ -903,7 +1117,7 @@ def analyse_state(system, T: int, x, *, delta: float = DELTA, margin: float = MA
                 r = _exact_pair(D, xs, sq, found[0], mu, c, prefer=prefer)
                 return None if r is None else (r[0], found[0])
 
-            r = _search(D, M, lo, hi, kind, times, exact, counts)
+            r = _search(D, M, lo, hi, kind, times, exact, counts, precut=(tuple(sq),))
             if r is not None:
                 theta, s1 = r
                 xh = theta[: D.n] * D.half[: D.n] + D.centre[: D.n]
@@ -977,6 +1191,7 @@ def analyse_window(system, T: int, x, U, *, delta: float = DELTA, margin: float 
     X[0] = x
     Y = np.empty((T, D.p))
     convention_dependent = False
+    seq_x = []  # x's own modes: the MILP's usual first (spurious) candidate for x^, tried exactly first
     for k in range(T):
         s = np.array([_slack(D, i, X[k], U[k]) for i in range(D.q)])
         near = np.nonzero(s >= -margin)[0]
@@ -984,6 +1199,7 @@ def analyse_window(system, T: int, x, U, *, delta: float = DELTA, margin: float 
             return done("infeasible", f"x's trajectory leaves the domain at step {k}", {"infeasible"})
         exact_in = np.nonzero(s >= 0.0)[0]
         i = int(exact_in[0]) if exact_in.size else int(near[np.argmax(s[near])])
+        seq_x.append(i)
         A, B, a, C, Dm, c = D.raw[i]
         X[k + 1] = A @ X[k] + B @ U[k] + a
         Y[k] = C @ X[k] + Dm @ U[k] + c
@@ -1010,7 +1226,7 @@ def analyse_window(system, T: int, x, U, *, delta: float = DELTA, margin: float 
             r = _exact_pair(D, xs, None, seqs[0], mu, c, Us=Us, Y0=Ys, prefer=prefer, mu_input=+margin)
             return None if r is None else (r[0], seqs)
 
-        r = _search(D, M, lo, hi, kind, times, exact, counts)
+        r = _search(D, M, lo, hi, kind, times, exact, counts, precut=(tuple(seq_x),))
         if r is None:
             return None
         theta, (s1,) = r
