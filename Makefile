@@ -14,6 +14,8 @@ $(STAMP): pyproject.toml constraints.txt
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,distributed,models,solvers,docs]'
+	@# compile the numba kernels once into the user's cache (otherwise every test worker compiles them)
+	$(PY) -m hybobs_opt._warm_up > /dev/null
 	@touch $(STAMP)
 
 install: $(STAMP)
