@@ -75,6 +75,21 @@ def slack_lp_rows(G, g, zero_tol, cap):
 
 
 @njit(cache=True)
+def min_row_slack(A, bu, c):
+    """``min_k (bu_k - A_k[:-1] c)`` over the rows but the last of a slack LP's data (``+inf`` if none)."""
+    k = A.shape[0] - 1
+    d = A.shape[1] - 1
+    low = np.inf
+    for r in range(k):
+        v = bu[r]
+        for q in range(d):
+            v -= A[r, q] * c[q]
+        if v < low:
+            low = v
+    return low
+
+
+@njit(cache=True)
 def slack_bounds(A, bu, x, lam, radius_bound, cap):
     """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
 
@@ -95,16 +110,11 @@ def slack_bounds(A, bu, x, lam, radius_bound, cap):
     for r in range(k + 1):
         if not np.isfinite(lam[r]):
             return -np.inf, np.inf
-    lower = cap
+    lower = min(cap, min_row_slack(A, bu, x))
     station = np.zeros(d)
     num = 0.0
     den = 0.0
     for r in range(k):
-        v = bu[r]
-        for c in range(d):
-            v -= A[r, c] * x[c]
-        if v < lower:
-            lower = v
         lr = lam[r] if lam[r] > 0.0 else 0.0
         if lr > 0.0:
             den += lr
@@ -151,21 +161,6 @@ def answer_ok(A, b, x, lam, rtol):
         if not acc <= rtol * scale:
             return False
     return True
-
-
-@njit(cache=True)
-def min_row_slack(A, bu, c):
-    """``min_k (bu_k - A_k[:-1] c)`` over the rows but the last of a slack LP's data (``+inf`` if none)."""
-    k = A.shape[0] - 1
-    d = A.shape[1] - 1
-    low = np.inf
-    for r in range(k):
-        v = bu[r]
-        for q in range(d):
-            v -= A[r, q] * c[q]
-        if v < low:
-            low = v
-    return low
 
 
 @njit(cache=True)

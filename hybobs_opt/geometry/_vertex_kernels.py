@@ -230,16 +230,20 @@ def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
 
 
 @njit(cache=True)
-def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
-    """Coordinates ``y = (z - mid) / half`` of the box of the points ``X``, and the rows in them.
+def _same_row(M, i, j):
+    """Are rows ``i`` and ``j`` of ``M`` equal entry for entry?"""
+    for c in range(M.shape[1]):
+        if M[i, c] != M[j, c]:
+            return False
+    return True
 
-    ``half`` follows :func:`hybobs_opt.geometry._common._unit_box_map` (widths below
-    ``full_dimension_rtol`` times the largest take the largest).  Returns ``(mid, half, As, bs,
-    live, contradiction, Y)``: the unit rows ``As y <= bs`` of the rows that are not constant
-    (``live``), whether a constant row is violated, and the points in ``y``.
-    """
+
+@njit(cache=True)
+def _box_mid_half(X, full_dimension_rtol):
+    """Centre and half-widths of the bounding box of the points ``X`` (rows), as
+    :func:`hybobs_opt.geometry._common._unit_box_map`: a width below ``full_dimension_rtol`` times
+    the largest takes the largest (2 when all are zero)."""
     n, d = X.shape
-    m = An.shape[0]
     lo = X[0].copy()
     hi = X[0].copy()
     for i in range(1, n):
@@ -256,10 +260,26 @@ def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
         ref = 2.0
     mid = (lo + hi) / 2
     half = np.empty(d)
-    hmax = 0.0
     for c in range(d):
         w = hi[c] - lo[c]
         half[c] = w / 2 if w > full_dimension_rtol * ref else ref / 2
+    return mid, half
+
+
+@njit(cache=True)
+def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
+    """Coordinates ``y = (z - mid) / half`` of the box of the points ``X``, and the rows in them.
+
+    ``half`` follows :func:`hybobs_opt.geometry._common._unit_box_map` (widths below
+    ``full_dimension_rtol`` times the largest take the largest).  Returns ``(mid, half, As, bs,
+    live, contradiction, Y)``: the unit rows ``As y <= bs`` of the rows that are not constant
+    (``live``), whether a constant row is violated, and the points in ``y``.
+    """
+    n, d = X.shape
+    m = An.shape[0]
+    mid, half = _box_mid_half(X, full_dimension_rtol)
+    hmax = 0.0
+    for c in range(d):
         if half[c] > hmax:
             hmax = half[c]
     As = np.empty((m, d))
@@ -371,12 +391,7 @@ def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
         for j2 in range(m):
             if j2 == j or not (b[j2] < b[j] or (b[j2] == b[j] and j2 < j)):
                 continue
-            same = True
-            for k in range(d):
-                if keys[j2, k] != keys[j, k]:
-                    same = False
-                    break
-            if same:
+            if _same_row(keys, j2, j):
                 cand[j] = False
                 break
     n_f = 0
@@ -447,25 +462,7 @@ def points_to_box(X, full_dimension_rtol):
     ``P = Y - c``.
     """
     n, d = X.shape
-    lo = X[0].copy()
-    hi = X[0].copy()
-    for i in range(1, n):
-        for k in range(d):
-            if X[i, k] < lo[k]:
-                lo[k] = X[i, k]
-            if X[i, k] > hi[k]:
-                hi[k] = X[i, k]
-    ref = 0.0
-    for k in range(d):
-        if hi[k] - lo[k] > ref:
-            ref = hi[k] - lo[k]
-    if ref <= 0.0:
-        ref = 2.0
-    mid = (lo + hi) / 2
-    half = np.empty(d)
-    for k in range(d):
-        w = hi[k] - lo[k]
-        half[k] = w / 2 if w > full_dimension_rtol * ref else ref / 2
+    mid, half = _box_mid_half(X, full_dimension_rtol)
     Y = np.empty((n, d))
     c = np.zeros(d)
     for i in range(n):
@@ -608,12 +605,7 @@ def first_of_equal_rows(R):
             i2 = order[a2]
             if not first[i2]:
                 continue
-            same = True
-            for c in range(k):
-                if R[i2, c] != R[i, c]:
-                    same = False
-                    break
-            if same:
+            if _same_row(R, i2, i):
                 first[i] = False
                 break
     return first
