@@ -33,12 +33,12 @@ The lists are those of the code before these savings (model 16 at T = 3..6, mode
 T = 5, 6) except where that code was wrong: at T = 7 of model 17 it called two face pairs empty
 (four entries of the thin list) from HiGHS's point at slack -3.4e-6, taken as the radius
 without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL``; and where it
-measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 at
-T = 6 / 7 / 8 were pieces or same-state pairs whose projection an independent LP oracle,
+measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 / 81 at
+T = 6 / 7 / 8 / 9 were pieces or same-state pairs whose projection an independent LP oracle,
 ``scripts/check_t9_pair_lists.py``, finds lower-dimensional; every flat direction is tried now).
 Known leftover, on the safe side: a face whose projection is thin only along a combination of
-the flat directions tried is kept as a piece (model 17 at T = 9: 2 of 22,206 pieces, found by that
-oracle) -- a set of measure zero added to ``B_T``.
+the flat directions tried is kept as a piece (model 17 at T = 9: 2 in a random 400 of the 22,125
+pieces, found by that oracle) -- a set of measure zero added to ``B_T``.
 """
 
 from __future__ import annotations
