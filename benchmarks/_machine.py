@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import platform
+import subprocess
 from importlib import metadata
 from pathlib import Path
 
@@ -21,6 +22,24 @@ def machine() -> dict:
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
     return {"platform": platform.platform(), "machine": platform.machine(), "cpu": cpu, "cpu_count": os.cpu_count(),
             "python": platform.python_version(), "load_average_at_start": list(load) if load else None}
+
+
+def git_state(measured: str) -> dict:
+    """The commit a run measured, and the uncommitted changes under ``measured`` (a folder of the
+    repository, e.g. ``"hybobs_opt/geometry"``) at that moment: the working tree may be shared.
+
+    Returns ``{"head": ..., "uncommitted_in_<measured with / as _>": [...]}`` (``None`` values
+    when git cannot be run).
+    """
+    root = Path(__file__).resolve().parents[1]
+    key = "uncommitted_in_" + measured.replace("/", "_")
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", measured], cwd=root,
+                               capture_output=True, text=True, timeout=10).stdout.splitlines()
+    except (OSError, subprocess.SubprocessError):
+        return {"head": None, key: None}
+    return {"head": head, key: [ln.strip() for ln in dirty]}
 
 
 def versions(packages) -> dict:

@@ -34,24 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ._machine import json_default, machine, versions
+from ._machine import git_state, json_default, machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 CFLAGS = ["-std=c99", "-O2"]
 SYSTEMS = (("powertrain3", 3), ("powertrain3", 5), ("powertrain5", 5))
 CLOCK_MONOTONIC = 1  # Linux
-
-
-def git_state() -> dict:
-    """The commit the run measured and whether the files it measures differed from it (a shared working tree)."""
-    root = Path(__file__).resolve().parents[1]
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "hybobs_opt/observers"], cwd=root,
-                               capture_output=True, text=True, timeout=10).stdout.splitlines()
-    except (OSError, subprocess.SubprocessError):
-        return {"head": None, "uncommitted_in_hybobs_opt_observers": None}
-    return {"head": head, "uncommitted_in_hybobs_opt_observers": [ln.strip() for ln in dirty]}
 
 
 def _stats(ns: np.ndarray) -> dict:
@@ -235,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
         "versions": versions(("hybobs_opt", "numpy", "numba")),
         "compiler": subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()[0],
         "cflags": CFLAGS,
-        "git": git_state(),
+        "git": git_state("hybobs_opt/observers"),
         "scenario": "bench_trace(example, T, steps, 0.0): the torque profile of 'hybobs bench' through the backlash, noise-free",
         "results": results,
         "seconds": time.perf_counter() - t_start,

@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._machine import json_default, machine, versions
+from ._machine import git_state, json_default, machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -71,20 +71,6 @@ SKIP_SECONDS = 20.0
 
 def log(msg: str) -> None:
     print(f"[bench_polytope] {msg}", file=sys.stderr, flush=True)
-
-
-def git_state() -> dict:
-    """The commit the run measured and whether ``hybobs_opt/geometry`` differed from it (a shared tree)."""
-    import subprocess
-
-    root = Path(__file__).resolve().parent.parent
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "hybobs_opt/geometry"], cwd=root,
-                               capture_output=True, text=True, timeout=10).stdout.splitlines()
-    except (OSError, subprocess.SubprocessError):
-        return {"head": None, "uncommitted_in_hybobs_opt_geometry": None}
-    return {"head": head, "uncommitted_in_hybobs_opt_geometry": [ln.strip() for ln in dirty]}
 
 
 def _load() -> list[float]:
@@ -504,7 +490,7 @@ def main(argv: list[str] | None = None) -> int:
             "hybobs_vertices": "Polytope.project(method='vertices'): checked vertices projected, their 2-D hull",
         },
         "quick": args.quick,
-        "git": git_state(),
+        "git": git_state("hybobs_opt/geometry"),
         "operations": ops,
         "machine": {**machine(), "load_average_at_end": _load(), "load_average_at_start_of_run": load_start,
                     "versions": versions(("numpy", "scipy", "pycddlib-standalone", "pycddlib", "polytope"))},
