@@ -456,7 +456,7 @@ def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
 
 @njit(cache=True)
 def points_to_box(X, full_dimension_rtol):
-    """The points ``X`` in the coordinates of their box, as ``vertices._box_of`` (issue 19: one call).
+    """The points ``X`` in the coordinates of their box (:func:`_box_mid_half`; issue 19: one call).
 
     Returns ``(mid, half, Y, c, P)``: ``y = (x - mid) / half``, the centroid ``c`` of ``Y`` and
     ``P = Y - c``.

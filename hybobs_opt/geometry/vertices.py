@@ -295,17 +295,6 @@ def scale_rows(An: np.ndarray, bn: np.ndarray, mid: np.ndarray, half: np.ndarray
     return ScaledRows(As[rows] / norms[rows, None], bs[rows] / norms[rows], mid, half, rows, contradiction)
 
 
-def _box_of(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(mid, half)`` of the box of finite points, as :func:`~hybobs_opt.geometry._common._unit_box_map`."""
-    lo, hi = X.min(axis=0), X.max(axis=0)
-    width = hi - lo
-    ref = float(width.max())
-    if ref <= 0.0:
-        ref = 2.0
-    half = np.where(width > FULL_DIMENSION_RTOL * ref, width / 2, ref / 2)
-    return (lo + hi) / 2, half
-
-
 # ---------------------------------------------------------------------------------------------
 # The libraries
 # ---------------------------------------------------------------------------------------------
