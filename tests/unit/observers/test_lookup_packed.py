@@ -146,8 +146,9 @@ def test_timed_estimate_equals_the_dataclass():
 def test_constructor_warm_up_step_leaves_no_trace(which):
     """The constructor's warm-up step (a sample without output, then a reset) changes nothing: the
     steps of a new observer equal those of one reset by hand after steps on other data, no LP was
-    counted and no cut learnt.  Model (16): the box centre is not a fixed point, so an un-reset
-    warm-up would show in the first estimates; the dead-zone spring's windows need B~_T LPs."""
+    counted and no cut learnt (model 16; the dead-zone spring, whose windows need B~_T LPs).
+    (Dropping the final reset alone does not fail this: a fallback step from a fresh state leaves
+    nothing the next steps read; the test guards what a user can see.)"""
     analysis, U, Y = _scenario(which)
     U, Y = U[:400], Y[:400]
     fresh = LookupObserver(analysis)
