@@ -317,3 +317,86 @@ def enumerate_modes(
     scale, centre = horizon_scaling(system, T)
     return ModeEnumeration(system, T, tuple(regions), scale, centre, n_lps, tested, total, time.perf_counter() - t0,
                            {"executor": executor.name if parallel else "serial", "split_depth": depth})
+
+
+@dataclass(frozen=True, eq=False)
+class PrefixSuperset:
+    """A polytope over ``(x, U)`` containing every region ``P_i`` whose mode sequence starts with ``prefix``.
+
+    ``H [x; U] <= h`` are the rows of the prefix's modes (the very rows its regions carry), the
+    domain at step ``len(prefix)`` and the input box at the later steps; ``C, D, f`` are the
+    first output rows shared bit for bit by all those regions (the later outputs depend on the
+    modes left free, so they are dropped).  A pair set built from two such supersets contains the
+    pair sets ``R_ij`` of all their regions (:mod:`~hybobs_opt.regions.pair_groups`).
+    """
+
+    prefix: tuple[int, ...]
+    H: np.ndarray
+    h: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    f: np.ndarray
+
+
+def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSuperset], np.ndarray] | None:
+    """The :class:`PrefixSuperset` of every distinct prefix of length ``depth`` of the regions' sequences.
+
+    Returns ``(supersets, index)`` with ``index[k]`` the superset of region ``k``, or ``None``
+    when the regions below one prefix do not share their first ``depth`` output rows (they
+    always do when built by :func:`enumerate_modes`).  The output rows kept are ``depth + 1``
+    when every region shares row ``depth`` with the others below its prefix (the modes' output
+    maps agree, as in the powertrains), else ``depth``.
+    """
+    system, T = enum.system, enum.T
+    if not 1 <= depth < T:
+        raise ModelError("depth", f"an integer in [1, {T - 1}]", repr(depth))
+    n, m = system.n, system.m
+    scale, centre = enum.scale, enum.centre
+    domain_rows = (system.domain.A, system.domain.b)
+    prefixes: dict[tuple[int, ...], int] = {}
+    index = np.empty(len(enum.regions), dtype=int)
+    for k, reg in enumerate(enum.regions):
+        index[k] = prefixes.setdefault(tuple(reg.sequence[:depth]), len(prefixes))
+    first = {}
+    for k in range(len(enum.regions)):
+        first.setdefault(int(index[k]), k)
+    q = depth + 1
+    for k, reg in enumerate(enum.regions):
+        ref = enum.regions[first[int(index[k])]]
+        if not (np.array_equal(reg.C[:depth], ref.C[:depth]) and np.array_equal(reg.D[:depth], ref.D[:depth])
+                and np.array_equal(reg.f[:depth], ref.f[:depth])):
+            return None
+        if q > depth and not (np.array_equal(reg.C[depth], ref.C[depth]) and np.array_equal(reg.D[depth], ref.D[depth])
+                              and reg.f[depth] == ref.f[depth]):
+            q = depth
+    nodes: dict[tuple[int, ...], _Node] = {(): _root(system, T)}
+
+    def node_of(prefix):
+        if prefix not in nodes:
+            nodes[prefix] = _child(system, T, node_of(prefix[:-1]), prefix[-1], domain_rows, (scale, centre))
+        return nodes[prefix]
+
+    Ax, Au = domain_rows[0][:, :n], domain_rows[0][:, n:]
+    box_rows = np.vstack([np.eye(m), -np.eye(m)])
+    out = []
+    for prefix, a in prefixes.items():
+        node = node_of(prefix)
+        ref = enum.regions[first[a]]
+        Hs, hs = [node.H], [node.h]
+        Ek = np.zeros((m, T * m))
+        Ek[:, depth * m:(depth + 1) * m] = np.eye(m)
+        # the domain at step `depth` (the state there is fixed by the prefix), as _child adds it
+        newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
+        newh = domain_rows[1] - Ax @ node.phi
+        reach = newH @ centre + np.abs(newH) @ scale
+        keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
+        Hs.append(newH[keep])
+        hs.append(newh[keep])
+        for k in range(depth + 1, T):  # later inputs: their box (every region below has it)
+            rows = np.zeros((2 * m, n + T * m))
+            rows[:, n + k * m:n + (k + 1) * m] = box_rows
+            cu, su = centre[n + k * m:n + (k + 1) * m], scale[n + k * m:n + (k + 1) * m]
+            Hs.append(rows)
+            hs.append(np.concatenate([cu + su, su - cu]))
+        out.append(PrefixSuperset(prefix, np.vstack(Hs), np.concatenate(hs), ref.C[:q], ref.D[:q], ref.f[:q]))
+    return out, index

@@ -124,7 +124,8 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
                               "n_prefixes_total": enum.n_prefixes_total, "seconds": enum.seconds},
         "analysis_stats": {"n_pair_lps": analysis.n_pair_lps, "n_pairs_tested": analysis.n_pairs_tested,
                            "n_pairs_skipped_rank": analysis.n_pairs_skipped_rank, "seconds": analysis.seconds,
-                           "n_pairs_dropped_thin": analysis.stats.get("n_pairs_dropped_thin")},
+                           "n_pairs_dropped_thin": analysis.stats.get("n_pairs_dropped_thin"),
+                           "n_pairs_ruled_out_by_group": analysis.stats.get("n_pairs_ruled_out_by_group")},
         "summary": analysis.summary(),
     }
     path = Path(path)
@@ -346,7 +347,10 @@ def _checked_analysis(data: dict[str, Any], system: PWASystem, where: str) -> Ob
     analysis = ObservabilityAnalysis(enum, tuple(full_rank), tuple(pairs), _count(st, "n_pair_lps", aw),
                                      _count(st, "n_pairs_tested", aw), _count(st, "n_pairs_skipped_rank", aw),
                                      _seconds(st, "seconds", aw),
-                                     {"n_pairs_dropped_thin": _count(st, "n_pairs_dropped_thin", aw, allow_none=True)})
+                                     {"n_pairs_dropped_thin": _count(st, "n_pairs_dropped_thin", aw, allow_none=True),
+                                      # absent from files written before the grouped pair tests
+                                      "n_pairs_ruled_out_by_group": _count(st, "n_pairs_ruled_out_by_group", aw, allow_none=True)
+                                      if "n_pairs_ruled_out_by_group" in st else None})
     _check_summary(data, analysis, where)
     for key in ("example", "params"):
         if key in data and not isinstance(data[key], (str, type(None)) if key == "example" else dict):
@@ -437,6 +441,8 @@ def _check_summary(data: dict, analysis: ObservabilityAnalysis, where: str) -> N
     keys = ("example", "horizon", "n_regions", "n_full_rank", "n_unobservable_pieces", "n_reduced_pieces", "n_lps",
             "n_lps_enumeration", "n_lps_pairs", "n_lps_avoided_by_pruning", "n_pairs_tested", "n_pairs_skipped_rank",
             "n_pairs_dropped_thin", "seconds_enumeration", "seconds_algorithm_3_1", "seconds")
+    if "n_pairs_ruled_out_by_group" in summary or ours["n_pairs_ruled_out_by_group"] is not None:
+        keys += ("n_pairs_ruled_out_by_group",)  # files written before the grouped pair tests have none
     for key in keys:
         if key not in summary or summary[key] != ours[key] or isinstance(summary[key], bool) != isinstance(ours[key], bool):
             raise ModelError(f"{where}: summary.{key}", f"{ours[key]!r} (from the file's regions, pairs and statistics)",

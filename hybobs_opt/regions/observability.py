@@ -36,6 +36,14 @@ without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL`
 measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 / 81 at
 T = 6 / 7 / 8 / 9 were pieces or same-state pairs whose projection an independent LP oracle,
 ``scripts/check_t9_pair_lists.py``, finds lower-dimensional; every flat direction is tried now).
+Grouped pair tests (the default since issue 19's last LP target): one test of the pair set of two
+mode-sequence prefixes' supersets rules out every pair below them when that set is empty, thin
+or same-state (:mod:`~hybobs_opt.regions.pair_groups`).  Model 17, pair LPs pair by pair ->
+grouped: 28,442 -> 10,812 at T = 7, 103,533 -> 30,889 at T = 8, 401,668 -> 86,127 at T = 9; the
+same pieces at T <= 8 (and model 16 at T = 3..7); at T = 9 three pieces of the pair-by-pair
+lists, (667, 615), (669, 617) and (590, 977), are ruled out by their groups, and the independent
+oracle finds all three lower-dimensional (thin along a combination of flat directions, the
+leftover below).  ``group_tests=False`` gives every pair's own verdict.
 Known leftover, on the safe side: a face whose projection is thin only along a combination of
 the flat directions tried is kept as a piece (model 17 at T = 9, found by that oracle: (576, 1108)
 among the entries that changed, and (604, 660) in a random sample of 400 of the 22,125 pieces)
@@ -52,12 +60,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
-from ..geometry._lp_kernels import restricted_pair_rows, slack_lp_data
+from ..geometry._lp_kernels import slack_lp_data
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
 from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, _slack_lp, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
+from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
+from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
 
 
 #: Below this many candidate pairs (``|I|`` times the number of regions) the pair tests run in the
@@ -129,7 +139,12 @@ class ObservabilityAnalysis:
     stats : dict
         ``executor``; ``n_pairs_dropped_thin`` and ``pairs_dropped_thin``: the non-empty
         ``R_ij`` left out of ``B_T`` because their projection on ``x`` is certified thinner
-        than ``2 REGION_SLACK_TOL`` (see :func:`_pair_lps`).
+        than ``2 REGION_SLACK_TOL`` (see :func:`_pair_lps`); ``pairs_dropped_same_state``
+        likewise for the outputs forcing ``x^ = x``; ``pairs_ruled_out_by_group``: pairs left
+        out of ``B_T`` by a group test (:mod:`~hybobs_opt.regions.pair_groups`) without a
+        verdict of their own (empty, thin or same-state), so the two lists before hold only the
+        pairs tested one by one; ``n_group_tests``, ``n_group_lps`` (included in
+        ``n_pair_lps``) and ``group_depths`` (the prefix lengths of the groups).
     _pair_cache : dict
         Internal cache of the pair lookups; leave it at its default.
     _xboxes : array or None
@@ -457,6 +472,7 @@ class ObservabilityAnalysis:
             "n_pairs_skipped_rank": self.n_pairs_skipped_rank,
             "n_pairs_dropped_thin": self.stats.get("n_pairs_dropped_thin"),
             "n_pairs_dropped_same_state": self.stats.get("n_pairs_dropped_same_state"),
+            "n_pairs_ruled_out_by_group": self.stats.get("n_pairs_ruled_out_by_group"),
             "seconds_enumeration": enum.seconds,
             "seconds_algorithm_3_1": self.seconds,
             "seconds": enum.seconds + self.seconds,
@@ -517,116 +533,21 @@ def _pair_set(enum: ModeEnumeration, i: int, j: int, slack: float) -> PairSet:
     return PairSet(i, j, G, g, E, e, slack)
 
 
-def _scaled_regions(enum: ModeEnumeration):
-    """Per region, the constraint rows and output maps in scaled coordinates (computed once per task)."""
-    n = enum.system.n
-    sx, su = enum.scale[:n], enum.scale[n:]
-    cx, cu = enum.centre[:n], enum.centre[n:]
-    out = []
-    for reg in enum.regions:
-        Hx, HU = reg.H[:, :n] * sx, reg.H[:, n:] * su
-        h = reg.h - reg.H[:, :n] @ cx - reg.H[:, n:] @ cu
-        # Unit rows in the scaled space, so that after restriction to an equality subspace the
-        # margin of the max-margin LP is a distance to every original constraint.
-        inv = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", Hx, Hx) + np.einsum("ij,ij->i", HU, HU)), np.finfo(float).tiny)
-        out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
-    return out
+def _candidates(algebra: _PairAlgebra, full_rank, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    r"""The pairs of Algorithm 3.1, step 3.1, for one ``i`` in ``I``, screened before any LP.
 
+    A pair whose output equalities cannot be solved for every ``x`` has a lower-dimensional
+    projection (:meth:`~hybobs_opt.regions.pair_algebra.PairAlgebra.screen`).  ``R_ji`` is
+    ``R_ij`` with ``x`` and ``x^`` swapped, so for ``j`` also in ``I`` one LP decides both; such
+    pairs are handled from ``i`` only for ``j > i``, reporting ``R_ji`` too when its own rank
+    screen passes.
 
-def _batched_rank(M: np.ndarray) -> np.ndarray:
-    s = np.linalg.svd(M, compute_uv=False)
-    top = np.maximum(s[:, :1], np.finfo(float).tiny)
-    return np.sum(s > RANK_RTOL * top, axis=1)
-
-
-class _PairAlgebra:
-    """The linear algebra of the pair tests, shared by the regions with the same output map.
-
-    The rank screen and the nullspace of the output equalities of ``R_ij`` depend on ``(C_i,
-    D_i, C_j, D_j)`` only, and mode sequences through modes with the same linear part share
-    them bit for bit (model 17, T = 7: 354 regions, 32 distinct ``(C, D)``).  Both are
-    computed once per pair of such classes, in batches, instead of once per pair of regions.
-    """
-
-    def __init__(self, scaled, n: int):
-        self.scaled = scaled
-        self.n = n
-        index: dict[bytes, int] = {}
-        self.cls = np.empty(len(scaled), dtype=int)
-        reps = []
-        for k, (_, _, _, C, D, _) in enumerate(scaled):
-            key = C.tobytes() + D.tobytes()
-            if key not in index:
-                index[key] = len(reps)
-                reps.append(k)
-            self.cls[k] = index[key]
-        self.C = np.stack([scaled[k][3] for k in reps])
-        self.D = np.stack([scaled[k][4] for k in reps])
-        n_cls = len(reps)
-        self._screened = np.zeros((n_cls, n_cls), dtype=bool)
-        self._screen = np.zeros((n_cls, n_cls), dtype=bool)
-        self._svd: dict[tuple[int, int], tuple] = {}  # see equality_svd
-
-    def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
-        r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
-
-        Only if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be
-        solvable for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
-        """
-        new = np.unique(bs[~self._screened[a, bs]])
-        if new.size:
-            Ca, Da = self.C[a], self.D[a]
-            Mj = np.concatenate([self.C[new], self.D[new] - Da], axis=2)
-            with_ci = np.concatenate([np.broadcast_to(Ca, (new.size,) + Ca.shape), Mj], axis=2)
-            self._screen[a, new] = _batched_rank(Mj) == _batched_rank(with_ci)
-            self._screened[a, new] = True
-        return self._screen[a, bs]
-
-    def screen_reversed(self, as_: np.ndarray, b: int) -> np.ndarray:
-        """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
-        for a in np.unique(as_[~self._screened[as_, b]]):
-            self.screen(int(a), np.array([b]))
-        return self._screen[as_, b]
-
-    def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
-        """``(U, s, Vt, rank, N, directions)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
-
-        ``E = U diag(s) Vt`` with numerical rank ``rank`` and nullspace basis ``N = Vt[rank:]'``;
-        ``directions`` is :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of ``N``
-        (ranks and thinnest functionals of the projections on ``x`` and ``x^``, and whether the
-        subspace moves them together), shared by every region pair of the two classes.
-        """
-        new = [b for b in np.unique(bs) if (a, int(b)) not in self._svd]
-        if new:
-            Ca, Da = self.C[a], self.D[a]
-            E = np.concatenate([np.broadcast_to(Ca, (len(new),) + Ca.shape), -self.C[new], Da - self.D[new]], axis=2)
-            U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
-            top = np.maximum(S_[:, :1], np.finfo(float).tiny)
-            ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
-            for k, b in enumerate(new):
-                r = int(ranks[k])
-                N = np.ascontiguousarray(Vt[k][r:].T)
-                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r, N,
-                                          SubspaceDirections.of(N, self.n))
-        return [self._svd[(a, int(b))] for b in bs]
-
-
-def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list, list]:
-    r"""Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``.
-
-    Pairs are screened before any LP (:meth:`_PairAlgebra.screen`): a pair whose output
-    equalities cannot be solved for every ``x`` has a lower-dimensional projection.
-
-    ``R_ji`` is ``R_ij`` with ``x`` and ``x^`` swapped, so for ``j`` also in ``I`` one LP decides
-    both; this task handles such pairs only for ``j > i`` and reports ``R_ji`` too when its own
-    rank screen passes.
-
-    Returns ``(pairs_found as (i, j, margin), n_pairs_tested, n_pairs_skipped_by_rank,
-    pairs_dropped_thin, pairs_dropped_same_state)``.
+    Returns ``(js, want_ij, want_ji, n_pairs_tested, n_pairs_skipped_by_rank)`` with the ``js``
+    that pass a screen.
     """
     js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
     if js.size == 0:
-        return [], 0, 0, [], []
+        return js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
     sym = np.array([bool(full_rank[j]) for j in js])
@@ -635,8 +556,17 @@ def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int
     ok = ok_ij | ok_ji
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
-    sel = np.nonzero(ok)[0]
-    found, thin, same = _pair_lps(enum, algebra, i, js[sel], ok_ij[sel], ok_ji[sel])
+    return js[ok], ok_ij[ok].copy(), ok_ji[ok].copy(), n_tested, n_skipped
+
+
+def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list, list]:
+    """Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``, pair by pair (:func:`_candidates`, :func:`_pair_lps`).
+
+    Returns ``(pairs_found as (i, j, margin), n_pairs_tested, n_pairs_skipped_by_rank,
+    pairs_dropped_thin, pairs_dropped_same_state)``.
+    """
+    js, ok_ij, ok_ji, n_tested, n_skipped = _candidates(algebra, full_rank, i)
+    found, thin, same = _pair_lps(enum, algebra, i, js, ok_ij, ok_ji)
     return found, n_tested, n_skipped, thin, same
 
 
@@ -663,18 +593,10 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     if js.size == 0:
         return found, thin, same
     n = algebra.n
-    HxI, HUI, hI, _, _, fI = algebra.scaled[i]
-    svds = algebra.equality_svd(algebra.cls[i], algebra.cls[js])
-    radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
-    for k, j in enumerate(js):
-        U_, S_, Vt, r, N, directions = svds[k]
-        HxJ, HUJ, hJ, _, _, fJ = algebra.scaled[j]
-        # variables w = (x, x^, U), scaled; equalities C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i
-        Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
-                                                      EQUALITY_CONSISTENCY_RTOL)
-        if not consistent:
+    for k, (j, rows) in enumerate(zip(js, algebra.restricted_rows(i, js))):
+        if rows is None:
             continue  # the outputs can never be equal
-        bound = radius0 + float(np.linalg.norm(w0))
+        Gv, gv, w0, N, directions, bound = rows
         problem = f"R_{i},{j} (Algorithm 3.1, step 3.1.1)"
         if min_margin is not None:
             A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
@@ -699,42 +621,63 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     return found, thin, same
 
 
-def _pack_scaled(scaled, n: int) -> bytes:
-    """What the pair tests need of an enumeration, as one pickle of nine arrays.
-
-    :func:`_scaled_regions` concatenated over the regions (rows with offsets; output maps
-    stacked): the tasks of :func:`analyse_observability` receive this instead of the pickled
-    :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every step, are not needed
-    here), and rebuild nothing but views.
-    """
-    rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
-    packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
-              np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
-    return pickle.dumps(packed, protocol=pickle.HIGHEST_PROTOCOL)
-
-
-def _unpack_scaled(payload: bytes):
-    n, rows, Hx, HU, h, C, D, f = pickle.loads(payload)
-    return [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k]) for k, (a, b) in enumerate(zip(rows[:-1], rows[1:]))], n
-
-
 def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
-    """A chunk of ``i`` values; the regions' scaled data arrive packed (:func:`_pack_scaled`) or as a list."""
-    payload, full_rank, i_list = args
+    """A chunk of ``i`` values; the regions' scaled data arrive packed (:func:`_pack_scaled`) or as a list.
+
+    With group levels (:mod:`~hybobs_opt.regions.pair_groups`), the group tests run first over
+    all the chunk's candidate pairs, then every pair they leave undecided is tested on its own.
+    """
+    payload, full_rank, i_list, level_data = args
     scaled, n = _unpack_scaled(payload) if isinstance(payload, bytes) else payload
     start = COUNTERS.total
     algebra = _PairAlgebra(scaled, n)
-    found, tested, skipped, thin, same = [], 0, 0, [], []
-    for k, i in enumerate(i_list):
-        f, t, s, th, fc = _pairs_for_i(None, algebra, full_rank, i)
+    per_i = [_candidates(algebra, full_rank, i) for i in i_list]
+    tested = sum(c[3] for c in per_i)
+    skipped = sum(c[4] for c in per_i)
+    ruled: list = []
+    n_group_tests = group_lps = 0
+    if level_data:
+        levels = []
+        for depth, data, index in level_data:
+            sc, _ = _unpack_scaled(data) if isinstance(data, bytes) else (data, n)
+            levels.append(GroupLevel(depth, _PairAlgebra(sc, n), index))
+        caller = np.concatenate([np.full(c[0].size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
+        other = np.concatenate([c[0] for c in per_i] + [np.zeros(0, dtype=int)])
+        want_ij = np.concatenate([c[1] for c in per_i] + [np.zeros(0, dtype=bool)])
+        want_ji = np.concatenate([c[2] for c in per_i] + [np.zeros(0, dtype=bool)])
+        g0 = COUNTERS.total
+        ruled, n_group_tests = rule_out_by_groups(levels, caller, other, want_ij, want_ji)
+        group_lps = COUNTERS.total - g0
+        offsets = np.cumsum([0] + [c[0].size for c in per_i])
+        per_i = [(c[0], want_ij[a:b], want_ji[a:b]) + c[3:] for c, a, b in zip(per_i, offsets[:-1], offsets[1:])]
+    found, thin, same = [], [], []
+    for k, (i, (js, ok_ij, ok_ji, *_)) in enumerate(zip(i_list, per_i)):
+        keep = ok_ij | ok_ji
+        f, th, fc = _pair_lps(None, algebra, i, js[keep], ok_ij[keep], ok_ji[keep])
         found.extend(f)
-        tested += t
-        skipped += s
         thin.extend(th)
         same.extend(fc)
         if progress:
             progress(k + 1, len(i_list))
-    return found, COUNTERS.total - start, tested, skipped, thin, same
+    return found, COUNTERS.total - start, tested, skipped, thin, same, ruled, n_group_tests, group_lps
+
+
+def _chunks(I: list[int], n_chunks: int, top_index: np.ndarray | None) -> list[list[int]]:
+    """Split ``I`` into ``n_chunks`` tasks; with group tests, the regions below one shortest prefix stay together.
+
+    A group of pairs is tested by the task of its callers, so keeping a prefix's regions in one
+    task tests every group once, whatever the executor (the same LPs, the same counts).  The
+    prefixes go to the task with the fewest regions so far, largest first (deterministic).
+    """
+    if top_index is None:
+        return [I[c::n_chunks] for c in range(n_chunks) if I[c::n_chunks]]
+    by_top: dict[int, list[int]] = {}
+    for i in I:
+        by_top.setdefault(int(top_index[i]), []).append(i)
+    chunks: list[list[int]] = [[] for _ in range(n_chunks)]
+    for top in sorted(by_top, key=lambda t: (-len(by_top[t]), t)):
+        min(chunks, key=len).extend(by_top[top])
+    return [sorted(c) for c in chunks if c]
 
 
 def analyse_observability(
@@ -743,6 +686,7 @@ def analyse_observability(
     *,
     executor=None,
     progress: Callable[[int, int], None] | None = None,
+    group_tests: bool = True,
 ) -> ObservabilityAnalysis:
     """Run mode enumeration (if needed) and Algorithm 3.1 of paper 002.
 
@@ -758,6 +702,12 @@ def analyse_observability(
         ``I``); a :class:`~hybobs_opt.progress.PhaseProgress` also follows the mode enumeration
         (phase ``"mode enumeration"``, unit ``"prefix"``) and reports the pair tests as phase
         ``"pair tests"``, unit ``"pair"``.
+    group_tests : bool
+        Rule out families of pairs with one test of their prefixes' supersets first
+        (:mod:`~hybobs_opt.regions.pair_groups`; model 17 at T = 8: 3.3 x fewer pair LPs, the
+        same pieces).  The pairs a group rules out are not classified one by one: they are
+        listed in ``stats["pairs_ruled_out_by_group"]``, not among the thin or same-state ones.
+        ``False`` classifies every pair on its own (the full thin / same-state lists).
     """
     from ..executor import resolve_executor
     from ..progress import phase_callback
@@ -782,12 +732,18 @@ def analyse_observability(
     # I[c::n_chunks] already balances the work.
     parallel = executor.n_workers > 1 and len(I) * len(enum.regions) > PARALLEL_MIN_PAIRS
     n_chunks = min(len(I), 2 * executor.n_workers) if parallel else 1
+    if not isinstance(group_tests, bool):
+        raise ModelError("group_tests", "True or False", repr(group_tests))
+    level_data = group_level_data(enum, group_depths(enum.T, n, enum.system.p)) if group_tests and I else []
     # Only the scaled rows and output maps travel, packed into one buffer (_pack_scaled): Dask
     # serialises the ~4,000 small arrays of a ModeEnumeration one by one (0.9 s for four copies
     # of model 17's at T = 7), and the state maps are not needed by the pair tests.
     scaled = _scaled_regions(enum)
     payload = _pack_scaled(scaled, n) if parallel else (scaled, n)
-    tasks = [(payload, full_rank, I[c::n_chunks]) for c in range(n_chunks) if I[c::n_chunks]]
+    if parallel:
+        level_data = [(depth, _pack_scaled(sc, n), index) for depth, sc, index in level_data]
+    chunks = _chunks(I, n_chunks, level_data[0][2] if level_data else None)
+    tasks = [(payload, full_rank, chunk, level_data) for chunk in chunks]
     pair_progress = phase_callback(progress, "pair tests", "pair")
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
     if pair_progress is not None:
@@ -801,19 +757,26 @@ def analyse_observability(
                                (lambda done, total: pair_progress(done * len(enum.regions), n_candidates)))
                    for t in tasks]
     pairs: list = []
-    n_lps = tested = skipped = 0
+    n_lps = tested = skipped = n_group_tests = group_lps = 0
     thin: list = []
     same: list = []
-    for found, lps, n_tested, n_skipped, dropped, dropped_same in results:
+    ruled: list = []
+    for found, lps, n_tested, n_skipped, dropped, dropped_same, by_group, g_tests, g_lps in results:
         pairs.extend(found)
         n_lps += lps
         tested += n_tested
         skipped += n_skipped
         thin.extend(dropped)
         same.extend(dropped_same)
+        ruled.extend(by_group)
+        n_group_tests += g_tests
+        group_lps += g_lps
     pairs.sort()  # same order on every executor
     pairs = [_pair_set(enum, *t) for t in pairs]
     return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
                                  {"executor": executor.name if parallel else "serial", "n_pairs_dropped_thin": len(thin),
                                   "pairs_dropped_thin": tuple(sorted(thin)), "n_pairs_dropped_same_state": len(same),
-                                  "pairs_dropped_same_state": tuple(sorted(same))})
+                                  "pairs_dropped_same_state": tuple(sorted(same)),
+                                  "group_depths": tuple(int(d) for d, *_ in level_data),
+                                  "n_group_tests": n_group_tests, "n_group_lps": group_lps,
+                                  "n_pairs_ruled_out_by_group": len(ruled), "pairs_ruled_out_by_group": tuple(sorted(ruled))})

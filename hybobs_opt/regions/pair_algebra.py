@@ -1,0 +1,157 @@
+"""The linear algebra shared by the pair tests of Algorithm 3.1 (paper 002), eq. (4) regions in scaled coordinates.
+
+The regions' rows and output maps in scaled coordinates (:func:`scaled_rows`), packed for the
+workers (:func:`pack_scaled`), and :class:`PairAlgebra`: the rank screen and the nullspace of the
+output equalities of ``R_ij``, computed once per pair of output-map classes.
+"""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+
+from ..geometry._lp_kernels import restricted_pair_rows
+from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
+from .pair_geometry import SubspaceDirections
+
+
+def scaled_rows(regions, n: int, scale: np.ndarray, centre: np.ndarray):
+    """Per region (anything with ``H, h, C, D, f`` over ``(x, U)``), its rows and output map in scaled coordinates."""
+    sx, su = scale[:n], scale[n:]
+    cx, cu = centre[:n], centre[n:]
+    out = []
+    for reg in regions:
+        Hx, HU = reg.H[:, :n] * sx, reg.H[:, n:] * su
+        h = reg.h - reg.H[:, :n] @ cx - reg.H[:, n:] @ cu
+        # Unit rows in the scaled space, so that after restriction to an equality subspace the
+        # margin of the max-margin LP is a distance to every original constraint.
+        inv = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", Hx, Hx) + np.einsum("ij,ij->i", HU, HU)), np.finfo(float).tiny)
+        out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
+    return out
+
+
+def _scaled_regions(enum):
+    """Per region of an enumeration, the constraint rows and output maps in scaled coordinates (computed once per task)."""
+    return scaled_rows(enum.regions, enum.system.n, enum.scale, enum.centre)
+
+
+def _batched_rank(M: np.ndarray) -> np.ndarray:
+    s = np.linalg.svd(M, compute_uv=False)
+    top = np.maximum(s[:, :1], np.finfo(float).tiny)
+    return np.sum(s > RANK_RTOL * top, axis=1)
+
+
+class PairAlgebra:
+    """The linear algebra of the pair tests, shared by the regions with the same output map.
+
+    The rank screen and the nullspace of the output equalities of ``R_ij`` depend on ``(C_i,
+    D_i, C_j, D_j)`` only, and mode sequences through modes with the same linear part share
+    them bit for bit (model 17, T = 7: 354 regions, 32 distinct ``(C, D)``).  Both are
+    computed once per pair of such classes, in batches, instead of once per pair of regions.
+    """
+
+    def __init__(self, scaled, n: int):
+        self.scaled = scaled
+        self.n = n
+        index: dict[bytes, int] = {}
+        self.cls = np.empty(len(scaled), dtype=int)
+        reps = []
+        for k, (_, _, _, C, D, _) in enumerate(scaled):
+            key = C.tobytes() + D.tobytes()
+            if key not in index:
+                index[key] = len(reps)
+                reps.append(k)
+            self.cls[k] = index[key]
+        self.C = np.stack([scaled[k][3] for k in reps])
+        self.D = np.stack([scaled[k][4] for k in reps])
+        n_cls = len(reps)
+        self._screened = np.zeros((n_cls, n_cls), dtype=bool)
+        self._screen = np.zeros((n_cls, n_cls), dtype=bool)
+        self._svd: dict[tuple[int, int], tuple] = {}  # see equality_svd
+
+    def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
+        r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
+
+        Only if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be
+        solvable for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
+        """
+        new = np.unique(bs[~self._screened[a, bs]])
+        if new.size:
+            Ca, Da = self.C[a], self.D[a]
+            Mj = np.concatenate([self.C[new], self.D[new] - Da], axis=2)
+            with_ci = np.concatenate([np.broadcast_to(Ca, (new.size,) + Ca.shape), Mj], axis=2)
+            self._screen[a, new] = _batched_rank(Mj) == _batched_rank(with_ci)
+            self._screened[a, new] = True
+        return self._screen[a, bs]
+
+    def screen_reversed(self, as_: np.ndarray, b: int) -> np.ndarray:
+        """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
+        for a in np.unique(as_[~self._screened[as_, b]]):
+            self.screen(int(a), np.array([b]))
+        return self._screen[as_, b]
+
+    def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
+        """``(U, s, Vt, rank, N, directions)`` for ``E = [C_i, -C_j, D_i - D_j]`` (scaled), per class in ``bs``.
+
+        ``E = U diag(s) Vt`` with numerical rank ``rank`` and nullspace basis ``N = Vt[rank:]'``;
+        ``directions`` is :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of ``N``
+        (ranks and thinnest functionals of the projections on ``x`` and ``x^``, and whether the
+        subspace moves them together), shared by every region pair of the two classes.
+        """
+        new = [b for b in np.unique(bs) if (a, int(b)) not in self._svd]
+        if new:
+            Ca, Da = self.C[a], self.D[a]
+            E = np.concatenate([np.broadcast_to(Ca, (len(new),) + Ca.shape), -self.C[new], Da - self.D[new]], axis=2)
+            U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
+            top = np.maximum(S_[:, :1], np.finfo(float).tiny)
+            ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
+            for k, b in enumerate(new):
+                r = int(ranks[k])
+                N = np.ascontiguousarray(Vt[k][r:].T)
+                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r, N,
+                                          SubspaceDirections.of(N, self.n))
+        return [self._svd[(a, int(b))] for b in bs]
+
+    def restricted_rows(self, i: int, js) -> list:
+        """The rows of ``R_ij`` on its output-equality subspace, per ``j`` in ``js`` (scaled ``w = (x, x^, U)``).
+
+        ``None`` where the output equalities ``C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i`` have
+        no solution, else ``(Gv, gv, w0, N, directions, radius_bound)``: ``Gv v <= gv`` on
+        ``w = w0 + N v``, the :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of
+        ``N`` and a bound on ``|v|`` over the set (the scaled variables lie in the unit box).
+        """
+        js = np.asarray(js, dtype=int)
+        if js.size == 0:
+            return []
+        HxI, HUI, hI, _, _, fI = self.scaled[i]
+        radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
+        out = []
+        for j, (U_, S_, Vt, r, N, directions) in zip(js, self.equality_svd(self.cls[i], self.cls[js])):
+            HxJ, HUJ, hJ, _, _, fJ = self.scaled[j]
+            Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
+                                                          EQUALITY_CONSISTENCY_RTOL)
+            out.append((Gv, gv, w0, N, directions, radius0 + float(np.linalg.norm(w0))) if consistent else None)
+        return out
+
+
+def pack_scaled(scaled, n: int) -> bytes:
+    """What the pair tests need of an enumeration, as one pickle of nine arrays.
+
+    :func:`scaled_rows` concatenated over the regions (rows with offsets; output maps
+    stacked): the tasks of :func:`~hybobs_opt.regions.observability.analyse_observability` receive this instead of the pickled
+    :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every step, are not needed
+    here), and rebuild nothing but views.
+    """
+    rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
+    packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
+              np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
+    return pickle.dumps(packed, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def unpack_scaled(payload: bytes):
+    n, rows, Hx, HU, h, C, D, f = pickle.loads(payload)
+    return [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k]) for k, (a, b) in enumerate(zip(rows[:-1], rows[1:]))], n
+
+
+_PairAlgebra = PairAlgebra  # the name before the pair algebra had a module of its own

@@ -1,0 +1,131 @@
+"""Grouped pair tests of Algorithm 3.1 (paper 002): one pair set of two prefix supersets rules out a family of pairs.
+
+The regions below a mode-sequence prefix all lie in its superset
+(:class:`~hybobs_opt.regions.enumeration.PrefixSuperset`: the prefix's rows, the domain at the
+next step, the input box after it, and the output rows they share).  So the pair set of two
+supersets ``A`` and ``B``, ``S_AB = {(x, x^, U) : (x, U) in A, (x^, U) in B, equal shared
+outputs}``, contains every ``R_ij`` with ``i`` below ``A`` and ``j`` below ``B``: when
+:func:`~hybobs_opt.regions.pair_geometry.classify_pair` finds the projection of ``S_AB`` on
+``x`` empty, lower-dimensional (thin, certified) or confined to ``x^ = x``, the projection of
+every such ``R_ij`` is too, and none of them is a piece of ``B_T``; likewise on ``x^`` for the
+``R_ji``.  Each verdict is a property of the set that subsets inherit (an empty set, a certified
+width along a direction, a certified ``|x - x^|`` bound, the rank of an affine hull), so the
+pieces found are those of the pair-by-pair tests.  What the groups do not give is the kind of
+each pair they rule out (empty, thin or same-state): those pairs are listed apart
+(``pairs_ruled_out_by_group``); ``analyse_observability(..., group_tests=False)`` classifies
+every pair one by one.
+
+Levels run from the shortest prefix to the longest (``T - 1``: the last mode free, which for
+the powertrains changes no output); a group is tested when it holds at least two pairs still
+undecided that fall into at least two groups of the next level (else the next level's test is
+as cheap and tighter).  The shortest prefix is ``ceil(n / p) - 2`` modes (at least 1): with fewer
+shared outputs the sets were never ruled out on model (17).
+
+Measured on model (17) (issue 19; pair LPs, group LPs included): T = 7, 28,442 pair by pair to
+about 11,000; T = 8, 103,533 to about 31,500, with the same pieces.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .pair_algebra import PairAlgebra, scaled_rows
+from .pair_geometry import PIECE, classify_pair
+
+
+@dataclass(eq=False)
+class GroupLevel:
+    """The supersets of one prefix length: their :class:`PairAlgebra` and the superset of each region."""
+
+    depth: int
+    algebra: PairAlgebra
+    index: np.ndarray
+
+
+def group_depths(T: int, n: int, p: int) -> list[int]:
+    """Prefix lengths of the group tests for horizon ``T``, shortest first (see the module docstring)."""
+    shortest = max(1, math.ceil(n / p) - 2)
+    return list(range(shortest, T))
+
+
+def group_level_data(enum, depths) -> list[tuple[int, list, np.ndarray]]:
+    """Per prefix length, ``(depth, scaled superset rows, region -> superset)``, what the tasks need.
+
+    Prefix lengths whose regions do not share their leading output rows are skipped.
+    """
+    from .enumeration import prefix_supersets
+
+    n = enum.system.n
+    out = []
+    for depth in depths:
+        built = prefix_supersets(enum, depth)
+        if built is None:
+            continue
+        supersets, index = built
+        out.append((depth, scaled_rows(supersets, n, enum.scale, enum.centre), index))
+    return out
+
+
+def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.ndarray, want_ij: np.ndarray,
+                       want_ji: np.ndarray) -> tuple[list[tuple[int, int]], int]:
+    """Run the group tests over the candidate pairs ``(caller[k], other[k])``; clears the wants they decide.
+
+    ``want_ij[k]``: ``R_ij`` (projection on ``x`` of the caller's region) is still to be decided;
+    ``want_ji[k]``: ``R_ji`` too (the same set, projected on ``x^``).  Both arrays are updated in
+    place.  Returns the ordered pairs ruled out (``(i, j)`` for ``R_ij``, ``(j, i)`` for ``R_ji``)
+    and the number of groups tested.
+    """
+    ruled: list[tuple[int, int]] = []
+    n_tests = 0
+    for li, level in enumerate(levels):
+        live = np.nonzero(want_ij | want_ji)[0]
+        if live.size < 2:
+            break
+        n_sup = len(level.algebra.scaled)
+        keys = level.index[caller[live]] * n_sup + level.index[other[live]]
+        groups, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+        if li + 1 < len(levels):
+            nxt = levels[li + 1]
+            sub = nxt.index[caller[live]] * len(nxt.algebra.scaled) + nxt.index[other[live]]
+            pairs = np.unique(np.stack([inverse, sub]), axis=1)
+            n_children = np.bincount(pairs[0], minlength=groups.size)
+        else:
+            n_children = counts
+        order = np.argsort(inverse, kind="stable")
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        alg = level.algebra
+        for g in np.nonzero((counts >= 2) & (n_children >= 2))[0]:
+            members = live[order[bounds[g]:bounds[g + 1]]]
+            a, b = divmod(int(groups[g]), n_sup)
+            wa, wb = bool(want_ij[members].any()), bool(want_ji[members].any())
+            ok_a = wa and bool(alg.screen(alg.cls[a], np.array([alg.cls[b]]))[0])
+            ok_b = wb and bool(alg.screen(alg.cls[b], np.array([alg.cls[a]]))[0])
+            done_a, done_b = wa and not ok_a, wb and not ok_b  # rank: lower-dimensional, no LP
+            if ok_a or ok_b:
+                n_tests += 1
+                rows = alg.restricted_rows(a, [b])[0]
+                if rows is None:  # the shared outputs can never be equal
+                    done_a, done_b = wa, wb
+                else:
+                    Gv, gv, w0, N, directions, bound = rows
+                    verdict = classify_pair(Gv, gv, N, w0, alg.n, bound, ok_a, ok_b,
+                                            problem=f"group of pairs below prefixes {a}, {b} of length {level.depth} "
+                                                    "(Algorithm 3.1, grouped step 3.1.1)",
+                                            directions=directions)
+                    done_a = done_a or (ok_a and verdict.verdict != PIECE)
+                    done_b = done_b or (ok_b and verdict.verdict_ji != PIECE)
+            if done_a:
+                hit = members[want_ij[members]]
+                ruled.extend((int(caller[k]), int(other[k])) for k in hit)
+                want_ij[hit] = False
+            if done_b:
+                hit = members[want_ji[members]]
+                ruled.extend((int(other[k]), int(caller[k])) for k in hit)
+                want_ji[hit] = False
+    return ruled, n_tests
+
+
+__all__ = ["GroupLevel", "group_depths", "group_level_data", "rule_out_by_groups"]
