@@ -42,6 +42,7 @@ from hybobs_opt.report.regions_section import PAPER_002, fig6_planes
 from ._machine import machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
+ROOT = Path(__file__).resolve().parents[1]
 
 #: Targets of the issue (seconds), checked in the JSON (never asserted).
 TARGET_MODEL16_T3 = 0.020
@@ -383,8 +384,19 @@ def _pair_list_hashes(analysis) -> dict:
 
     lists = {"pairs": [[p.i, p.j] for p in analysis.pairs],
              "thin": [list(p) for p in analysis.stats["pairs_dropped_thin"]],
-             "same": [list(p) for p in analysis.stats["pairs_dropped_same_state"]]}
+             "same": [list(p) for p in analysis.stats["pairs_dropped_same_state"]],
+             "ruled_out_by_group": [list(p) for p in analysis.stats.get("pairs_ruled_out_by_group", ())]}
     return {f"sha256_{k}": hashlib.sha256(json.dumps(v, separators=(",", ":")).encode()).hexdigest() for k, v in lists.items()}
+
+
+def _pair_oracle():
+    """``oracle(enum, a, b, exact)`` of scripts/check_t9_pair_lists.py (its own pair sets and LPs)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("check_pair_lists", ROOT / "scripts" / "check_t9_pair_lists.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.oracle
 
 
 def _load() -> list[float] | None:
@@ -408,10 +420,14 @@ def _merge_long_horizons(path: Path, header: dict, T: int | None, rec: dict | No
         path.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
 
 
-def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: Path | None = None) -> dict:
+def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: Path | None = None,
+                        pair_by_pair: bool = True) -> dict:
     """Model (17) at each horizon on each executor, one run each, in one process (same load).
 
-    With ``path``, every finished (horizon, executor) is merged into that ``regions.json`` at once."""
+    The analyses run with the grouped pair tests (the default); with ``pair_by_pair`` a serial run
+    with ``group_tests=False`` follows on the same enumeration: its LPs, time and pieces against
+    the grouped run's.  With ``path``, every finished (horizon, executor) is merged into that
+    ``regions.json`` at once."""
     from hybobs_opt.regions import enumerate_modes
     from hybobs_opt.regions.pair_geometry import RESCUED
 
@@ -419,8 +435,9 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
     before = json.loads(before_path.read_text())["horizons"] if before_path.exists() else {}
     out: dict = {"what": "analyse_observability(powertrain5(), T) for T in %s: serial, ProcessExecutor(2), "
                          "DaskExecutor(local_workers=2) (cluster started once, excluded from the times); "
-                         "pair LPs and wall times of the pair tests (Algorithm 3.1 steps 1-3) on the same "
-                         "enumeration, pair lists compared with the code before the LP savings" % (list(Ts),),
+                         "pair LPs and wall times of the pair tests (Algorithm 3.1 steps 1-3, grouped pair tests) on the "
+                         "same enumeration; then serial pair by pair (group_tests=False) for the LP count and pieces "
+                         "without groups; pair lists compared with the code before the LP savings" % (list(Ts),),
                  "issue19_filed_pair_lps": ISSUE19_FILED_LPS, "horizons": {}}
     exes = {}
     for kind in executors:
@@ -460,7 +477,10 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
                 r["n_pairs"], r["n_pairs_dropped_thin"] = len(a.pairs), len(a.stats["pairs_dropped_thin"])
                 r["n_pairs_dropped_same_state"] = len(a.stats["pairs_dropped_same_state"])
                 r["n_pairs_tested"], r["n_pairs_skipped_rank"] = a.n_pairs_tested, a.n_pairs_skipped_rank
+                for key in ("n_pairs_ruled_out_by_group", "n_group_tests", "n_group_lps", "group_depths"):
+                    r[key] = a.stats.get(key)
                 if kind == "serial":
+                    grouped_pieces = [(p.i, p.j) for p in a.pairs]
                     r["highs_confirmations"] = COUNTERS.confirmed_by_highs
                     r["decided_by_tight_daqp"] = RESCUED["tight_daqp"]
                 r.update(_pair_list_hashes(a))
@@ -472,13 +492,36 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
             for kind, r in rec["executors"].items():
                 if kind != "serial" and "wall_seconds_pair_tests" in r and "wall_seconds_pair_tests" in ser:
                     r["speedup_vs_serial"] = ser["wall_seconds_pair_tests"] / r["wall_seconds_pair_tests"]
-            hashes = [tuple(r.get(f"sha256_{k}") for k in ("pairs", "thin", "same")) for r in rec["executors"].values()
-                      if "sha256_pairs" in r]
+            if pair_by_pair and "n_pair_lps" in ser:
+                # the same enumeration, every pair tested on its own (group_tests=False)
+                log(f"(e) model (17), T = {T}, serial, pair by pair")
+                COUNTERS.reset()
+                t0 = time.perf_counter()
+                b1 = analyse_observability(enum, group_tests=False)
+                wall1 = time.perf_counter() - t0
+                one = [(p.i, p.j) for p in b1.pairs]
+                only_one, only_grouped = sorted(set(one) - set(grouped_pieces)), sorted(set(grouped_pieces) - set(one))
+                rec["pair_by_pair"] = {"wall_seconds_pair_tests": wall1, "n_pair_lps": b1.n_pair_lps,
+                                       "n_pairs": len(one), "n_pairs_dropped_thin": len(b1.stats["pairs_dropped_thin"]),
+                                       "n_pairs_dropped_same_state": len(b1.stats["pairs_dropped_same_state"]),
+                                       "pieces_identical_to_grouped": one == grouped_pieces,
+                                       "pieces_only_pair_by_pair": only_one, "pieces_only_grouped": only_grouped,
+                                       "lp_ratio_pair_by_pair_over_grouped": b1.n_pair_lps / ser["n_pair_lps"],
+                                       "wall_ratio_pair_by_pair_over_grouped": wall1 / ser["wall_seconds_pair_tests"],
+                                       **_pair_list_hashes(b1)}
+                if only_one or only_grouped:  # who is right: the independent LP oracle decides each one
+                    oracle = _pair_oracle()
+                    rec["pair_by_pair"]["oracle_labels_of_differing_pieces"] = {
+                        f"{a_},{b_}": oracle(enum, a_, b_, exact=False)["label"] for a_, b_ in only_one + only_grouped}
+            hashes = [tuple(r.get(f"sha256_{k}") for k in ("pairs", "thin", "same", "ruled_out_by_group"))
+                      for r in rec["executors"].values() if "sha256_pairs" in r]
             rec["identical_across_executors"] = bool(hashes) and all(h == hashes[0] for h in hashes)
             b = before.get(str(T))
-            if b is not None and hashes:
+            if b is not None and "pair_by_pair" in rec:  # every pair's own verdict, as the code before had
+                one = rec["pair_by_pair"]
                 rec["before"] = {k: b[k] for k in ("n_pair_lps", "wall", "n_pairs", "n_thin", "n_same")}
-                rec["identical_to_before"] = hashes[0] == (b["sha256_pairs"], b["sha256_thin"], b["sha256_same"])
+                rec["identical_to_before"] = (one["sha256_pairs"], one["sha256_thin"], one["sha256_same"]) == \
+                    (b["sha256_pairs"], b["sha256_thin"], b["sha256_same"])
                 if "n_pair_lps" in ser:
                     rec["lp_ratio_before_over_now"] = b["n_pair_lps"] / ser["n_pair_lps"]
             if T in ISSUE19_FILED_LPS and "n_pair_lps" in ser:
