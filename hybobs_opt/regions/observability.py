@@ -52,7 +52,7 @@ among the entries that changed, and (604, 660) in a random sample of 400 of the 
 
 from __future__ import annotations
 
-import pickle
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -533,7 +533,7 @@ def _pair_set(enum: ModeEnumeration, i: int, j: int, slack: float) -> PairSet:
     return PairSet(i, j, G, g, E, e, slack)
 
 
-def _candidates(algebra: _PairAlgebra, full_rank, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
     r"""The pairs of Algorithm 3.1, step 3.1, for one ``i`` in ``I``, screened before any LP.
 
     A pair whose output equalities cannot be solved for every ``x`` has a lower-dimensional
@@ -543,9 +543,10 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int) -> tuple[np.ndarray, n
     screen passes.
 
     Returns ``(js, want_ij, want_ji, n_pairs_tested, n_pairs_skipped_by_rank)`` with the ``js``
-    that pass a screen.
+    that pass a screen; with ``allowed`` (a mask over the regions) only those ``j`` are candidates.
     """
-    js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)], dtype=int)
+    js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)
+                   and (allowed is None or allowed[j])], dtype=int)
     if js.size == 0:
         return js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0
     ci, cj = algebra.cls[i], algebra.cls[js]
@@ -621,26 +622,49 @@ def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarr
     return found, thin, same
 
 
-def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
+#: Per worker process: the unpacked regions and their pair algebras of the last analysis, keyed
+#: by a digest of the packed data (the tasks of one analysis share them; the algebras' SVD
+#: caches then fill once per worker instead of once per task).
+_WORKER_STATE: dict = {}
+
+
+def _task_state(payload, level_data, token: str | None):
+    """``(PairAlgebra of the regions, [GroupLevel, ...])`` for a task, rebuilt unless cached under ``token``."""
+    if token is not None and _WORKER_STATE.get("token") == token:
+        return _WORKER_STATE["state"]
+    scaled, n = _unpack_scaled(payload) if isinstance(payload, bytes) else payload
+    levels = []
+    for depth, data, index in level_data or ():
+        sc = _unpack_scaled(data)[0] if isinstance(data, bytes) else data
+        levels.append(GroupLevel(depth, _PairAlgebra(sc, n), index))
+    state = (_PairAlgebra(scaled, n), levels)
+    if token is not None:
+        _WORKER_STATE.clear()
+        _WORKER_STATE.update(token=token, state=state)
+    return state
+
+
+def _pairs_task(args, shared=None, progress: Callable[[int, int], None] | None = None):
     """A chunk of ``i`` values; the regions' scaled data arrive packed (:func:`_pack_scaled`) or as a list.
 
     With group levels (:mod:`~hybobs_opt.regions.pair_groups`), the group tests run first over
     all the chunk's candidate pairs, then every pair they leave undecided is tested on its own.
     """
-    payload, full_rank, i_list, level_data = args
-    scaled, n = _unpack_scaled(payload) if isinstance(payload, bytes) else payload
+    if shared is not None:  # (i_list, blocks) here, the data common to the tasks apart
+        args = (shared[0], shared[1], args[0], shared[2], args[1], shared[3])
+    payload, full_rank, i_list, level_data, blocks, token = args
     start = COUNTERS.total
-    algebra = _PairAlgebra(scaled, n)
-    per_i = [_candidates(algebra, full_rank, i) for i in i_list]
+    algebra, levels = _task_state(payload, level_data, token)
+    if blocks is None:
+        per_i = [_candidates(algebra, full_rank, i) for i in i_list]
+    else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
+        top = level_data[0][2]
+        per_i = [_candidates(algebra, full_rank, i, blocks[top[i]][top]) for i in i_list]
     tested = sum(c[3] for c in per_i)
     skipped = sum(c[4] for c in per_i)
     ruled: list = []
     n_group_tests = group_lps = 0
-    if level_data:
-        levels = []
-        for depth, data, index in level_data:
-            sc, _ = _unpack_scaled(data) if isinstance(data, bytes) else (data, n)
-            levels.append(GroupLevel(depth, _PairAlgebra(sc, n), index))
+    if levels:
         caller = np.concatenate([np.full(c[0].size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
         other = np.concatenate([c[0] for c in per_i] + [np.zeros(0, dtype=int)])
         want_ij = np.concatenate([c[1] for c in per_i] + [np.zeros(0, dtype=bool)])
@@ -662,22 +686,38 @@ def _pairs_task(args, progress: Callable[[int, int], None] | None = None):
     return found, COUNTERS.total - start, tested, skipped, thin, same, ruled, n_group_tests, group_lps
 
 
-def _chunks(I: list[int], n_chunks: int, top_index: np.ndarray | None) -> list[list[int]]:
-    """Split ``I`` into ``n_chunks`` tasks; with group tests, the regions below one shortest prefix stay together.
+def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray | None) -> list[tuple[list[int], np.ndarray | None, int]]:
+    """Split the pair tests into ``n_chunks`` tasks: ``(i_list, blocks, size)``, largest first.
 
-    A group of pairs is tested by the task of its callers, so keeping a prefix's regions in one
-    task tests every group once, whatever the executor (the same LPs, the same counts).  The
-    prefixes go to the task with the fewest regions so far, largest first (deterministic).
+    Without group tests, ``I`` is dealt out (``I[c::n_chunks]``).  With them, the candidate pairs
+    are cut into blocks by the shortest prefixes of both regions: every group of pairs lies in
+    one block (its pairs share both prefixes), so each group is tested once, whatever the split,
+    and the LP counts are those of a serial run.  ``blocks[a, b]``: the task takes the pairs
+    whose caller lies below prefix ``a`` and whose other region below prefix ``b``.  Blocks go to
+    the task with the smallest estimated size (caller regions times other regions), largest
+    first; the tasks are returned largest first, so that the workers, which take the next task
+    when they finish one, end close together (model 17, T = 9: one prefix held 40 % of the LPs).
+    ``size`` counts the candidate pairs ``(i, j)``, ``i`` in ``I``, for progress reports.
     """
     if top_index is None:
-        return [I[c::n_chunks] for c in range(n_chunks) if I[c::n_chunks]]
-    by_top: dict[int, list[int]] = {}
-    for i in I:
-        by_top.setdefault(int(top_index[i]), []).append(i)
-    chunks: list[list[int]] = [[] for _ in range(n_chunks)]
-    for top in sorted(by_top, key=lambda t: (-len(by_top[t]), t)):
-        min(chunks, key=len).extend(by_top[top])
-    return [sorted(c) for c in chunks if c]
+        return [(I[c::n_chunks], None, len(I[c::n_chunks]) * n_regions) for c in range(n_chunks) if I[c::n_chunks]]
+    n_top = int(top_index.max()) + 1
+    callers = np.bincount(top_index[np.asarray(I, dtype=int)], minlength=n_top)
+    below = np.bincount(top_index, minlength=n_top)
+    keys = [(int(a), int(b)) for a in np.nonzero(callers)[0] for b in range(n_top)]
+    cost = {k: int(callers[k[0]]) * int(below[k[1]]) for k in keys}
+    load = [0] * n_chunks
+    blocks = [np.zeros((n_top, n_top), dtype=bool) for _ in range(n_chunks)]
+    for k in sorted(keys, key=lambda k: (-cost[k], k)):
+        c = min(range(n_chunks), key=lambda c: (load[c], c))
+        blocks[c][k] = True
+        load[c] += cost[k]
+    out = []
+    for c in sorted(range(n_chunks), key=lambda c: (-load[c], c)):
+        mine = [i for i in I if blocks[c][top_index[i]].any()]
+        if mine:
+            out.append((mine, blocks[c], load[c]))
+    return out
 
 
 def analyse_observability(
@@ -742,18 +782,33 @@ def analyse_observability(
     payload = _pack_scaled(scaled, n) if parallel else (scaled, n)
     if parallel:
         level_data = [(depth, _pack_scaled(sc, n), index) for depth, sc, index in level_data]
-    chunks = _chunks(I, n_chunks, level_data[0][2] if level_data else None)
-    tasks = [(payload, full_rank, chunk, level_data) for chunk in chunks]
+    if parallel and level_data:
+        n_chunks = 8 * executor.n_workers  # blocks of very different costs: more tasks than workers
+    chunks = _chunks(I, len(enum.regions), n_chunks, level_data[0][2] if level_data and parallel else None)
+    token = None
+    if parallel:
+        import hashlib
+
+        digest = hashlib.blake2b(payload, digest_size=16)
+        for _, data, index in level_data:
+            digest.update(data)
+            digest.update(np.ascontiguousarray(index).tobytes())
+        token = digest.hexdigest()
+    shared = (payload, full_rank, level_data, token)
+    tasks = [(i_list, blocks) for i_list, blocks, _ in chunks]
     pair_progress = phase_callback(progress, "pair tests", "pair")
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
     if pair_progress is not None:
         pair_progress(0, n_candidates)
     if parallel:
-        per_task = [len(t[2]) * len(enum.regions) for t in tasks]
-        results = executor.map(_pairs_task, tasks, progress=None if pair_progress is None else
-                               (lambda done, total: pair_progress(sum(per_task[:done]), n_candidates)))
+        per_task = [size for *_, size in chunks]
+        report = None if pair_progress is None else (lambda done, total: pair_progress(sum(per_task[:done]), n_candidates))
+        if hasattr(executor, "map_shared"):
+            results = executor.map_shared(_pairs_task, tasks, shared, progress=report)
+        else:  # an executor of the user's with map only: the common data travel in every task
+            results = executor.map(functools.partial(_pairs_task, shared=shared), tasks, progress=report)
     else:  # one task in this process: report progress per region of I
-        results = [_pairs_task(t, None if pair_progress is None else
+        results = [_pairs_task(t, shared, None if pair_progress is None else
                                (lambda done, total: pair_progress(done * len(enum.regions), n_candidates)))
                    for t in tasks]
     pairs: list = []

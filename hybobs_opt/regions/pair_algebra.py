@@ -85,6 +85,13 @@ class PairAlgebra:
             self._screened[a, new] = True
         return self._screen[a, bs]
 
+    def screen_pairs(self, as_: np.ndarray, bs: np.ndarray) -> np.ndarray:
+        """:meth:`screen` elementwise for the class pairs ``(as_[k], bs[k])``, in one batch per class of ``as_``."""
+        as_, bs = np.asarray(as_, dtype=int), np.asarray(bs, dtype=int)
+        for a in np.unique(as_):
+            self.screen(int(a), np.unique(bs[as_ == a]))
+        return self._screen[as_, bs]
+
     def screen_reversed(self, as_: np.ndarray, b: int) -> np.ndarray:
         """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
         for a in np.unique(as_[~self._screened[as_, b]]):

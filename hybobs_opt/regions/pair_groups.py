@@ -97,12 +97,15 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
         order = np.argsort(inverse, kind="stable")
         bounds = np.concatenate([[0], np.cumsum(counts)])
         alg = level.algebra
-        for g in np.nonzero((counts >= 2) & (n_children >= 2))[0]:
+        tested = np.nonzero((counts >= 2) & (n_children >= 2))[0]
+        ca, cb = alg.cls[groups[tested] // n_sup], alg.cls[groups[tested] % n_sup]
+        screen_a, screen_b = alg.screen_pairs(ca, cb), alg.screen_pairs(cb, ca)
+        for t, g in enumerate(tested):
             members = live[order[bounds[g]:bounds[g + 1]]]
             a, b = divmod(int(groups[g]), n_sup)
             wa, wb = bool(want_ij[members].any()), bool(want_ji[members].any())
-            ok_a = wa and bool(alg.screen(alg.cls[a], np.array([alg.cls[b]]))[0])
-            ok_b = wb and bool(alg.screen(alg.cls[b], np.array([alg.cls[a]]))[0])
+            ok_a = wa and bool(screen_a[t])
+            ok_b = wb and bool(screen_b[t])
             done_a, done_b = wa and not ok_a, wb and not ok_b  # rank: lower-dimensional, no LP
             if ok_a or ok_b:
                 n_tests += 1

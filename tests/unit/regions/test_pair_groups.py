@@ -218,6 +218,53 @@ def test_executors_give_identical_results(always_parallel):
     assert (serial.stats["n_group_tests"], serial.stats["n_group_lps"]) == (procs.stats["n_group_tests"], procs.stats["n_group_lps"])
 
 
+class _MapOnlyExecutor:
+    """A user's executor with ``map`` only (no ``map_shared``): the tasks then carry the common data."""
+
+    name = "map-only"
+
+    def __init__(self):
+        self._inner = ProcessExecutor(2)
+        self.n_workers = 2
+        self.calls = 0
+
+    def map(self, fn, items, progress=None):
+        self.calls += 1
+        return self._inner.map(fn, items, progress)
+
+    def close(self):
+        self._inner.close()
+
+
+def test_executor_with_map_only_gives_identical_results(always_parallel):
+    """The split into blocks, the per-worker state keyed by the data's digest and the shared data
+    all take the other path here (``functools.partial``); the answers and LP counts must not move."""
+    plant = system("powertrain5")
+    serial = analyse_observability(plant, 5, executor=SerialExecutor())
+    ex = _MapOnlyExecutor()
+    try:
+        other = analyse_observability(plant, 5, executor=ex)
+    finally:
+        ex.close()
+    assert ex.calls >= 1 and other.stats["executor"] == "map-only"
+    assert _keys(serial) == _keys(other)
+    assert serial.stats["pairs_ruled_out_by_group"] == other.stats["pairs_ruled_out_by_group"]
+    assert serial.n_pair_lps == other.n_pair_lps
+
+
+def _shared_sum(item, shared):
+    return item * shared[0] + shared[1]
+
+
+@pytest.mark.parametrize("make", [SerialExecutor, lambda: ProcessExecutor(2)], ids=["serial", "processes"])
+def test_map_shared_passes_the_common_argument_to_every_call(make):
+    ex = make()
+    try:
+        assert ex.map_shared(_shared_sum, range(7), (3, 1)) == [3 * k + 1 for k in range(7)]
+    finally:
+        getattr(ex, "close", lambda: None)()
+
+
 @pytest.mark.parametrize("bad", ["yes", 1, None])
 def test_group_tests_must_be_a_bool(bad):
     with pytest.raises(ModelError, match="group_tests"):

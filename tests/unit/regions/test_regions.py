@@ -410,6 +410,9 @@ def test_dask_local_cluster_gives_identical_results(always_parallel):
     assert dask.stats["executor"] == "dask" and dask.enumeration.stats["executor"] == "dask"
     assert [r.sequence for r in serial.regions] == [r.sequence for r in dask.regions]
     assert _pair_keys(serial) == _pair_keys(dask)
+    # the grouped pair tests on the cluster (data scattered once, DaskExecutor.map_shared)
+    assert serial.stats["pairs_ruled_out_by_group"] == dask.stats["pairs_ruled_out_by_group"]
+    assert serial.stats["n_pairs_ruled_out_by_group"] > 0 and serial.n_pair_lps == dask.n_pair_lps
 
 
 def test_save_load_roundtrip(tmp_path, pt3_T3):
