@@ -25,6 +25,9 @@ demo: $(STAMP)
 	@echo "Open $(CURDIR)/out/report/index.html"
 
 test: $(STAMP)
+	@# compile (or load) the kernels first: a kernel source edited since the install would otherwise
+	@# run as plain Python in every test worker (see hybobs_opt/_numba_cache.py)
+	$(PY) -m hybobs_opt._warm_up > /dev/null
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 bench: $(STAMP)

@@ -2,8 +2,9 @@
 
 Writes ``benchmarks/results/startup.json``.
 
-``first_calls`` (issue 19): in fresh processes, with numba's cache directory empty (``cold``: every
-kernel compiles) and then present (``warm``), the wall times of ``from hybobs_opt import ...``,
+``first_calls`` (issue 19): in fresh processes, with numba's cache directory empty (``cold``: the
+kernels run as plain Python in that process while a background process compiles them into the
+cache, see ``hybobs_opt._numba_cache``; the wait for it is recorded) and then present (``warm``), the wall times of ``from hybobs_opt import ...``,
 the first and second ``analyse_observability(powertrain3(), 3)`` (system construction
 included), the lookup observer's construction, its first ``step()`` against the median of the
 next 50, and its first and second ``run()`` (200 samples).  Target: a first call within 2 x the
@@ -98,6 +99,8 @@ rec["step_first_s"], rec["step_second_s"], rec["step_next_50_median_s"] = steps[
 for k in ("first", "second"):
     t0 = time.perf_counter(); obs.run(U[:200], Y[:200]); rec[f"run_{k}_s"] = time.perf_counter() - t0
 rec["numba_cache_dir"] = __import__("os").environ.get("NUMBA_CACHE_DIR")
+from hybobs_opt._numba_cache import kernels_compiled
+rec["kernels_compiled"] = kernels_compiled()
 print(json.dumps(rec))
 """
 
@@ -122,12 +125,24 @@ def first_calls(warm_repeats: int) -> dict:
     afterwards, ``warm_repeats`` processes, the median of each figure."""
     import tempfile
 
+    import os
+
     with tempfile.TemporaryDirectory(prefix="hybobs-numba-") as tmp:
         cold = first_call_times(tmp)
+        # the cold process ran its kernels as Python and started the background compilation
+        # (hybobs_opt._numba_cache): wait for it (its lock file goes) before the warm runs
+        t0 = time.perf_counter()
+        lock = os.path.join(tmp, "hybobs-warm-up.lock")
+        while os.path.exists(lock) and time.perf_counter() - t0 < 600:
+            time.sleep(0.5)
+        cold["background_compile_wait_s"] = time.perf_counter() - t0
         warm_runs = [first_call_times(tmp) for _ in range(warm_repeats)]
-    warm = {k: statistics.median(r[k] for r in warm_runs) for k in warm_runs[0] if k != "numba_cache_dir"}
+    warm = {k: statistics.median(r[k] for r in warm_runs) for k in warm_runs[0] if k not in ("numba_cache_dir", "kernels_compiled")}
+    warm["kernels_compiled"] = warm_runs[-1].get("kernels_compiled")
     return {"cold": cold, "warm": warm, "warm_runs": warm_runs, "target_first_over_second_at_most": 2.0,
             "warm_target_met": {k: warm[k] <= 2.0 for k in ("analysis_first_over_second", "step_first_over_next_median",
+                                                            "run_first_over_second")},
+            "cold_target_met": {k: cold[k] <= 2.0 for k in ("analysis_first_over_second", "step_first_over_next_median",
                                                             "run_first_over_second")}}
 
 

@@ -36,7 +36,18 @@ import sys
 #: numba's environment variable for its cache directory.
 NUMBA_CACHE_ENV = "NUMBA_CACHE_DIR"
 
-__all__ = ["NUMBA_CACHE_ENV", "configure", "numba_cache_dir", "prepare_target"]
+__all__ = ["KERNELS_ENV", "NUMBA_CACHE_ENV", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
+           "prepare_target"]
+
+#: ``auto`` (default): a kernel module whose compiled kernels are in the cache uses them; one whose
+#: cache is empty or stale runs its kernels as plain Python in this process and starts one
+#: background process that compiles them into the cache (:func:`finalize_kernels`).
+#: ``compiled``: always numba (compiling on first use, as before).  ``python``: never numba.
+KERNELS_ENV = "HYBOBS_KERNELS"
+#: Set to ``0`` to keep ``auto`` from starting the background compilation.
+BACKGROUND_ENV = "HYBOBS_BACKGROUND_WARM_UP"
+#: A background compilation younger than this (seconds) is not started again (its lock file).
+WARM_UP_LOCK_SECONDS = 900.0
 
 
 def numba_cache_dir() -> str:
@@ -82,3 +93,133 @@ def prepare_target() -> None:
     cpu_target.typing_context.refresh()
     cpu_target.target_context.refresh()
     _prepared = True
+
+
+# ---------------------------------------------------------------------- kernels: compiled or not
+_COMPILED: dict[str, bool] = {}  # module name -> its kernels are numba dispatchers
+_background_started = False
+
+
+def kernel(*signatures, **options):
+    """Mark a function as a numba kernel (``numba.njit(*signatures, **options)``); :func:`finalize_kernels` decides.
+
+    The function is returned unchanged: until the module calls :func:`finalize_kernels`, nothing is
+    compiled or loaded (an eager signature would otherwise compile at import: 15 s of the 16 s
+    cold import of the lookup observer).
+    """
+    def mark(fn):
+        fn._hybobs_kernel = (signatures, options)
+        return fn
+    return mark
+
+
+def _cache_has(fn) -> bool:
+    """Does numba's cache hold a compiled version of ``fn`` for its current source (index fresh, non-empty)?"""
+    try:
+        from numba.core.caching import FunctionCache
+
+        return bool(FunctionCache(fn)._cache_file._load_index())
+    except Exception:  # numba's cache API moved: take the cache as warm (the behaviour before)
+        return True
+
+
+def finalize_kernels(namespace: dict) -> bool:
+    """Turn the module's :func:`kernel` functions into numba dispatchers, or keep them Python (issue 19).
+
+    With ``HYBOBS_KERNELS=auto`` (the default) the module's kernels are compiled -- that is,
+    loaded from the cache in milliseconds -- when the cache holds any of them for the current
+    source; otherwise (a fresh install, an edited source) they stay plain Python functions in
+    this process, which runs at once instead of compiling for tens of seconds, and one background
+    process (``python -m hybobs_opt._warm_up``, lock file in the cache directory) compiles every
+    kernel into the cache for the next processes.  The answers are the same either way (the same
+    code; ``tests/unit/test_kernel_modes.py`` checks analyses and observers against each other).
+    Returns whether the kernels are compiled.
+    """
+    marked = {name: fn for name, fn in namespace.items() if callable(fn) and hasattr(fn, "_hybobs_kernel")}
+    mode = os.environ.get(KERNELS_ENV, "auto").strip().lower() or "auto"
+    if mode not in ("auto", "compiled", "python"):
+        from .errors import ModelError
+
+        raise ModelError(KERNELS_ENV, "'auto', 'compiled' or 'python'", repr(os.environ[KERNELS_ENV]))
+    compiled = mode == "compiled" or (mode == "auto" and any(_cache_has(fn) for fn in marked.values()))
+    if compiled:
+        from numba import njit
+
+        prepare_target()
+        for name, fn in marked.items():
+            signatures, options = fn._hybobs_kernel
+            namespace[name] = njit(*signatures, **options)(fn)
+    else:
+        for name, fn in marked.items():
+            if fn._hybobs_kernel[0]:
+                namespace[name] = _typed_python(fn, fn._hybobs_kernel[0])
+        if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0":
+            start_background_warm_up()
+    _COMPILED[namespace.get("__name__", "?")] = compiled
+    return compiled
+
+
+def _typed_python(fn, signatures):
+    """``fn`` in Python, refusing (``TypeError``) the arguments its explicit numba signatures refuse.
+
+    Callers rely on the dispatcher's ``TypeError`` for arguments of another dtype, dimension or
+    memory layout, or read-only arrays (the lookup observer then takes its checked path for the
+    sample), so the Python kernel must refuse the same ones, not compute on them.
+    """
+    import functools
+
+    import numpy as np
+    from numba.core import sigutils, types
+
+    accepted = [sigutils.normalize_signature(sig)[0] for sig in signatures]
+
+    def fits(value, ty) -> bool:
+        if isinstance(ty, types.Array):
+            return (isinstance(value, np.ndarray) and value.dtype == np.dtype(str(ty.dtype)) and value.ndim == ty.ndim
+                    and (ty.layout != "C" or value.flags.c_contiguous) and (not ty.mutable or value.flags.writeable))
+        if isinstance(ty, types.Integer):
+            return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+        if isinstance(ty, types.Float):
+            return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+        return True
+
+    @functools.wraps(fn)
+    def checked(*args):
+        if not any(len(args) == len(sig) and all(fits(a, t) for a, t in zip(args, sig)) for sig in accepted):
+            raise TypeError(f"{fn.__name__}: no matching signature for the argument types (as numba's dispatcher)")
+        return fn(*args)
+
+    return checked
+
+
+def kernels_compiled() -> dict[str, bool]:
+    """Per kernel module imported so far: are its kernels compiled (numba) or plain Python?"""
+    return dict(_COMPILED)
+
+
+def start_background_warm_up() -> bool:
+    """Start ``python -m hybobs_opt._warm_up`` detached, once per cache (lock file); True if started."""
+    global _background_started
+    if _background_started:
+        return False
+    _background_started = True
+    import subprocess
+    import time
+
+    cache = os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir()
+    lock = os.path.join(cache, "hybobs-warm-up.lock")
+    try:
+        os.makedirs(cache, exist_ok=True)
+        if os.path.exists(lock) and time.time() - os.path.getmtime(lock) < WARM_UP_LOCK_SECONDS:
+            return False  # another process is compiling the kernels
+        with open(lock, "w") as f:
+            f.write(str(os.getpid()))
+    except OSError:
+        return False  # no writable cache: numba falls back on its own locations, compile there on use
+    env = {**os.environ, KERNELS_ENV: "compiled", NUMBA_CACHE_ENV: cache, "HYBOBS_WARM_UP_LOCK": lock}
+    try:
+        subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, stdin=subprocess.DEVNULL,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    except OSError:
+        return False
+    return True

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import time
 
-from ._numba_cache import NUMBA_CACHE_ENV
+from ._numba_cache import KERNELS_ENV, NUMBA_CACHE_ENV, kernels_compiled
 
 __all__ = ["warm_up"]
 
@@ -22,12 +22,29 @@ def warm_up() -> dict:
     kernels get exactly the argument types the package uses.  Call it once after installing (or in
     a service's start-up); the cache is then warm for every later process.
 
+    When this process already runs some kernels as plain Python (``HYBOBS_KERNELS=auto`` found
+    their cache empty: see :func:`hybobs_opt._numba_cache.finalize_kernels`), the compilation runs
+    in a child process (``python -m hybobs_opt._warm_up``) and fills the cache for the next
+    processes; this one keeps its Python kernels.
+
     Returns
     -------
     dict
-        Seconds per phase (``import``, ``system``, ``analysis``, ``observer``) and ``cache_dir``.
+        Seconds per phase (``import``, ``system``, ``analysis``, ``observer``, ``polytope``),
+        ``cache_dir`` and ``kernels_compiled`` (per kernel module).
     """
     import numpy as np
+
+    if not all(kernels_compiled().values()) or os.environ.get(KERNELS_ENV, "auto").strip().lower() == "python":
+        import subprocess
+        import sys
+
+        t0 = time.perf_counter()
+        env = {**os.environ, KERNELS_ENV: "compiled"}
+        subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, check=True, stdout=subprocess.DEVNULL)
+        return {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "child_process": time.perf_counter() - t0,
+                "kernels_compiled": kernels_compiled()}
+    os.environ[KERNELS_ENV] = "compiled"  # the kernel modules imported from here on compile (or load)
 
     t0 = time.perf_counter()
     from .geometry.polytope import Polytope
@@ -64,6 +81,13 @@ def warm_up() -> dict:
         obs.step(U[t], Y[t])
     obs.step([np.nan], [0.0])
     out["observer"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    # the vertex kernels (H/V conversions, redundancy, exact volume, checked by numpy)
+    box = Polytope.from_box([-1.0, -2.0, -0.5], [1.0, 2.0, 0.5])
+    Polytope(np.vstack([box.A, [[1.0, 1.0, 1.0]]]), np.concatenate([box.b, [1.5]])).remove_redundant().volume("exact")
+    Polytope.from_vertices(box.vertices())
+    out["polytope"] = time.perf_counter() - t0
+    out["kernels_compiled"] = kernels_compiled()
     return out
 
 
@@ -71,4 +95,10 @@ def warm_up() -> dict:
 if __name__ == "__main__":
     import json
 
-    print(json.dumps(warm_up(), indent=2))
+    os.environ[KERNELS_ENV] = "compiled"
+    try:
+        print(json.dumps(warm_up(), indent=2))
+    finally:
+        lock = os.environ.get("HYBOBS_WARM_UP_LOCK")  # set by _numba_cache.start_background_warm_up
+        if lock and os.path.exists(lock):
+            os.remove(lock)

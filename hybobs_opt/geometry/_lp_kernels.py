@@ -11,16 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from .._numba_cache import configure as _configure_cache
-from .._numba_cache import prepare_target as _prepare_target
+from .._numba_cache import finalize_kernels as _finalize_kernels
+from .._numba_cache import kernel
 
 _configure_cache()  # the user's cache directory, before numba reads its configuration
-from numba import njit  # noqa: E402
-
-# numba's one-time set-up here, at import, rather than inside the first LP (see hybobs_opt._numba_cache)
-_prepare_target()
 
 
-@njit(cache=True)
+
+@kernel(cache=True)
 def slack_lp_data(G, g, zero_tol, cap):
     """``max t  s.t.  G_k w / |G_k| + t <= g_k / |G_k|,  t <= cap`` as DAQP data ``(A, bu)``.
 
@@ -57,7 +55,7 @@ def slack_lp_data(G, g, zero_tol, cap):
     return A, bu, True
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def slack_lp_rows(G, g, zero_tol, cap):
     """:func:`slack_lp_data` and the indices of the rows of ``G`` it kept (``keep``), from the same norms."""
     A, bu, ok = slack_lp_data(G, g, zero_tol, cap)
@@ -74,7 +72,7 @@ def slack_lp_rows(G, g, zero_tol, cap):
     return A, bu, ok, keep
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def min_row_slack(A, bu, c):
     """``min_k (bu_k - A_k[:-1] c)`` over the rows but the last of a slack LP's data (``+inf`` if none)."""
     k = A.shape[0] - 1
@@ -89,7 +87,7 @@ def min_row_slack(A, bu, c):
     return low
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def slack_bounds(A, bu, x, lam, radius_bound, cap):
     """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
 
@@ -129,7 +127,7 @@ def slack_bounds(A, bu, x, lam, radius_bound, cap):
     return lower, (num + radius_bound * np.sqrt(np.sum(station * station))) / den
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def answer_ok(A, b, x, lam, rtol):
     """The numpy checks of :func:`hybobs_opt.geometry.lp.daqp_answer_ok` in one compiled loop.
 
@@ -163,7 +161,7 @@ def answer_ok(A, b, x, lam, rtol):
     return True
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def implicit_row_bounds(G, g, lam, radius_bound, relax):
     """Slack bounds of the rows of ``{G v <= g + relax}`` from multipliers ``lam`` (see
     :func:`hybobs_opt.regions.pair_geometry._certified_implicit_rows`): ``total / lam_k`` with
@@ -190,7 +188,7 @@ def implicit_row_bounds(G, g, lam, radius_bound, relax):
     return out
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _restrict_rows(Hx, HU, h, N, w0, off, base, G, g):
     """Rows ``Hx y + HU U <= h`` of one region (``y`` = ``w[off:off + n]``) written as ``G v <= g``
     into rows ``base...`` of ``G, g``, for ``w = w0 + N v`` (``U`` = ``w[2n:]``)."""
@@ -215,7 +213,7 @@ def _restrict_rows(Hx, HU, h, N, w0, off, base, G, g):
         g[base + row] = acc
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consistency_rtol):
     """Constraints of ``R_ij`` restricted to its output-equality subspace ``w = w0 + N v``.
 
@@ -262,7 +260,7 @@ def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consiste
     return G, g, w0, True
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def support_upper_bound(A, b, c, lam, radius_bound):
     """Certified upper bound on ``max c'v`` over ``{A v <= b, |v| <= R}`` from multipliers ``lam``.
 
@@ -283,3 +281,7 @@ def support_upper_bound(A, b, c, lam, radius_bound):
             for q in range(d):
                 resid[q] -= lr * A[r, q]
     return val + radius_bound * np.sqrt(np.sum(resid * resid))
+
+
+# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
+_finalize_kernels(globals())

@@ -10,13 +10,17 @@ rare) are left to numpy.  numba caches it on disk.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .._numba_cache import configure as _configure_cache
+from .._numba_cache import finalize_kernels as _finalize_kernels
+from .._numba_cache import kernel
+
+_configure_cache()  # the user's cache directory, before numba reads its configuration
 
 #: Result codes of :func:`check_kernel` (0: passed; the others name the first failure).
 OK, INFEASIBLE, NOT_A_VERTEX, SINGULAR, NEARLY_DEPENDENT, INCOMPLETE = 0, 1, 2, 3, 4, 5
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _invert(M, out, W):
     """Gauss-Jordan inverse of the small square ``M`` into ``out`` (partial pivoting); False if singular.
 
@@ -56,7 +60,7 @@ def _invert(M, out, W):
     return True
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _key(w, point):
     k = 0.0
     for c in range(point.shape[0]):
@@ -64,7 +68,7 @@ def _key(w, point):
     return k
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _find(keys, order, Y, point, tol, w, window):
     """Index of a row of ``Y`` within ``tol`` of ``point`` (infinity norm), or -1.
 
@@ -89,7 +93,7 @@ def _find(keys, order, Y, point, tol, w, window):
     return -1
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
     """Check the candidate vertices ``Y`` of ``{y : A y <= b}`` (unit rows, scaled coordinates).
 
@@ -229,7 +233,7 @@ def check_kernel(A, b, Y, check_rtol, tight_rtol, rank_rtol, same_rtol):
     return OK, -1, -1, keep, tight, degenerate, rays[:n_rays].copy()
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _same_row(M, i, j):
     """Are rows ``i`` and ``j`` of ``M`` equal entry for entry?"""
     for c in range(M.shape[1]):
@@ -238,7 +242,7 @@ def _same_row(M, i, j):
     return True
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _box_mid_half(X, full_dimension_rtol):
     """Centre and half-widths of the bounding box of the points ``X`` (rows), as
     :func:`hybobs_opt.geometry._common._unit_box_map`: a width below ``full_dimension_rtol`` times
@@ -266,7 +270,7 @@ def _box_mid_half(X, full_dimension_rtol):
     return mid, half
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
     """Coordinates ``y = (z - mid) / half`` of the box of the points ``X``, and the rows in them.
 
@@ -312,7 +316,7 @@ def scale_to_box(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol):
     return mid, half, As[:q].copy(), bs[:q].copy(), live, contradiction, Y
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def scale_and_check(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol):
     """:func:`scale_to_box` then :func:`check_kernel` in one call (numba's argument unboxing costs
     about as much as a small check).  Returns both results' fields in one tuple; the check is
@@ -326,7 +330,7 @@ def scale_and_check(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, ti
     return mid, half, As, bs, live, False, Y, code, i, j, keep, tight, degenerate, rays
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _affine_rank_at_least(P, k, rank_rtol):
     """Do the rows of ``P`` (points, each minus the first) span at least ``k`` dimensions?"""
     if k <= 0:
@@ -356,7 +360,7 @@ def _affine_rank_at_least(P, k, rank_rtol):
     return s[k - 1] > rank_rtol * max(s[0], 1.0)
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
     """The facets of a full-dimensional polytope from its complete, checked vertex set.
 
@@ -454,7 +458,7 @@ def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
     return 0, -1, facet
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def points_to_box(X, full_dimension_rtol):
     """The points ``X`` in the coordinates of their box (:func:`_box_mid_half`; issue 19: one call).
 
@@ -478,7 +482,7 @@ def points_to_box(X, full_dimension_rtol):
     return mid, half, Y, c, P
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def cdd_hull_rows(M, zero_row_tol):
     """cddlib's inequality rows ``M = [g | -G]`` (``g - G y >= 0``) as unit rows ``G y <= g``.
 
@@ -511,7 +515,7 @@ def cdd_hull_rows(M, zero_row_tol):
 HULL_OK, HULL_POINT_VIOLATES, HULL_CENTROID_ON_ROW = 0, 1, 2
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def hull_check(G, g, P, c, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol):
     """The check of ``vertices._check_hull`` up to its polar vertex check, then that check, in one call.
 
@@ -579,7 +583,7 @@ def hull_check(G, g, P, c, full_dimension_rtol, zero_row_tol, check_rtol, tight_
                                           tight_rtol, rank_rtol, same_rtol)
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def first_of_equal_rows(R):
     """Mask of the rows of ``R`` that are the first (lowest index) of their group of identical rows.
 
@@ -611,7 +615,7 @@ def first_of_equal_rows(R):
     return first
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol,
                       parallel_tol, redundancy_rtol, want_facets):
     """:func:`scale_and_check` of a library's vertices, and what ``vertices._try_library`` builds from
@@ -661,3 +665,7 @@ def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, 
             fcode, frow, facet = facet_kernel(As, bs, Yk, Tk, parallel_tol, rank_rtol, redundancy_rtol)
     return (fast, mid, half, As, bs, rows, contradiction, Y, code, i, j, keep, tight, degenerate, rays,
             Yk, Tk, pts, fcode, frow, facet)
+
+
+# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
+_finalize_kernels(globals())

@@ -10,13 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from .._numba_cache import configure as _configure_cache
-from .._numba_cache import prepare_target as _prepare_target
+from .._numba_cache import finalize_kernels as _finalize_kernels
+from .._numba_cache import kernel
 
 _configure_cache()  # the user's cache directory, before numba reads its configuration
-from numba import njit  # noqa: E402
 
-# numba's one-time set-up here, at import, rather than inside the first step (see _numba_cache)
-_prepare_target()
 
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 
@@ -45,7 +43,7 @@ NOTE_CLIPPED = 6  # unobservable step whose open-loop prediction was clipped to 
 # meta (int64) = [count, mode, has_previous_input, previous_input_good, region, reason, n_survivors]
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, x_out):
     """Index of the unique consistent candidate (eqs. 12-14), or -1 (chi empty or card(chi) > 1).
 
@@ -103,7 +101,7 @@ def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_r
     return found
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def in_union(x, A, b, starts, tol):
     """Is ``x`` in one of the polytopes ``A[starts[k]:starts[k+1]] x <= b + tol``?"""
     P = starts.shape[0] - 1
@@ -121,7 +119,7 @@ def in_union(x, A, b, starts, tol):
     return False
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
     """Pieces ``Proj_x(R_ij)`` of ``B~_T`` that the scaled state ``xs`` is not excluded from cheaply.
 
@@ -158,7 +156,7 @@ def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
     return cnt
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out):
     """``x_out = f_pwa(x, u)`` (eq. 1 of paper 002); returns the mode, or -1 outside ``X x U``."""
     n = x.shape[0]
@@ -189,7 +187,7 @@ def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out
     return -1
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def clip_box(x, lo, hi):
     """Clip ``x`` into ``[lo, hi]`` in place; True if a coordinate moved."""
     moved = False
@@ -203,7 +201,7 @@ def clip_box(x, lo, hi):
     return moved
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
     """State at the window's last sample from the window-start state (region ``k``'s affine map)."""
     n = x0.shape[0]
@@ -216,7 +214,7 @@ def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
         x_out[i] = acc
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
             table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
             mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
@@ -336,7 +334,7 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
     return UNOBSERVABLE_CODE if pred_ok else FALLBACK_CODE
 
 
-@njit(cache=True, _nrt=False)
+@kernel(cache=True, _nrt=False)
 def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
               table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
               mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
@@ -382,19 +380,19 @@ HEADER = 4 * (len(FLOAT_SEGMENTS) + len(INT_SEGMENTS))
 BAD_LENGTH = -1
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _v1(A, I, k):
     o = I[4 * k]
     return A[o:o + I[4 * k + 1]]
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _v2(A, I, k):
     o, r, c = I[4 * k], I[4 * k + 1], I[4 * k + 2]
     return A[o:o + r * c].reshape((r, c))
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _v3(A, I, k):
     o, a, b, c = I[4 * k], I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]
     return A[o:o + a * b * c].reshape((a, b, c))
@@ -403,7 +401,7 @@ def _v3(A, I, k):
 _NF = len(FLOAT_SEGMENTS)
 
 
-@njit(cache=True)
+@kernel(cache=True)
 def _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons):
     return run_table(U, Y, start, _v1(I, I, _NF + 0), _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26),
                      _v1(I, I, _NF + 1), _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30),
@@ -416,7 +414,7 @@ def _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons):
                      xs, modes, flags, reasons)
 
 
-@njit("int64(float64[::1], float64[::1], int64, float64[::1], int64[::1])", cache=True)
+@kernel("int64(float64[::1], float64[::1], int64, float64[::1], int64[::1])", cache=True)
 def step_packed(u, y, good, F, I):
     """:func:`advance` on the packed tables and state; returns ``code | (mode + 1) << 3``.
 
@@ -442,8 +440,12 @@ def step_packed(u, y, good, F, I):
     return code | ((meta[1] + 1) << 3)
 
 
-@njit("int64(float64[:, ::1], float64[:, ::1], int64, float64[::1], int64[::1], float64[:, ::1], int64[::1], "
+@kernel("int64(float64[:, ::1], float64[:, ::1], int64, float64[::1], int64[::1], float64[:, ::1], int64[::1], "
       "int64[::1], int64[::1])", cache=True)
 def run_packed(U, Y, start, F, I, xs, modes, flags, reasons):
     """:func:`run_table` on the packed tables and state (same return value)."""
     return _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons)
+
+
+# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
+_finalize_kernels(globals())

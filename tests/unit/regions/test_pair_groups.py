@@ -199,14 +199,17 @@ def always_parallel(monkeypatch):
     monkeypatch.setattr(observability, "PARALLEL_MIN_PAIRS", 0)
 
 
-def test_executors_give_identical_results(always_parallel):
-    plant = system("powertrain5")
-    serial = analyse_observability(plant, 5, executor=SerialExecutor())
-    ex = ProcessExecutor(2)
+def _serial_and(executor, plant, T):
+    """The analysis on the serial executor and on ``executor`` (closed afterwards)."""
+    serial = analyse_observability(plant, T, executor=SerialExecutor())
     try:
-        procs = analyse_observability(plant, 5, executor=ex)
+        return serial, analyse_observability(plant, T, executor=executor)
     finally:
-        ex.close()
+        executor.close()
+
+
+def test_executors_give_identical_results(always_parallel):
+    serial, procs = _serial_and(ProcessExecutor(2), system("powertrain5"), 5)
     assert procs.stats["executor"] == "processes" and serial.stats["executor"] == "serial"
     assert [r.sequence for r in serial.regions] == [r.sequence for r in procs.regions]
     assert _keys(serial) == _keys(procs)
@@ -239,13 +242,8 @@ class _MapOnlyExecutor:
 def test_executor_with_map_only_gives_identical_results(always_parallel):
     """The split into blocks, the per-worker state keyed by the data's digest and the shared data
     all take the other path here (``functools.partial``); the answers and LP counts must not move."""
-    plant = system("powertrain5")
-    serial = analyse_observability(plant, 5, executor=SerialExecutor())
     ex = _MapOnlyExecutor()
-    try:
-        other = analyse_observability(plant, 5, executor=ex)
-    finally:
-        ex.close()
+    serial, other = _serial_and(ex, system("powertrain5"), 5)
     assert ex.calls >= 1 and other.stats["executor"] == "map-only"
     assert _keys(serial) == _keys(other)
     assert serial.stats["pairs_ruled_out_by_group"] == other.stats["pairs_ruled_out_by_group"]
