@@ -44,14 +44,22 @@ def warm_up() -> dict:
         subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, check=True, stdout=subprocess.DEVNULL)
         return {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "child_process": time.perf_counter() - t0,
                 "kernels_compiled": kernels_compiled()}
-    os.environ[KERNELS_ENV] = "compiled"  # the kernel modules imported from here on compile (or load)
-
     t0 = time.perf_counter()
-    from .geometry.polytope import Polytope
-    from .observers.lookup import LookupObserver
-    from .regions import analyse_observability
-    from .sim import simulate_pwa
-    from .systems.pwa import PWAMode, PWASystem
+    before = os.environ.get(KERNELS_ENV)
+    os.environ[KERNELS_ENV] = "compiled"  # the kernel modules imported here compile (or load)
+    try:
+        from .geometry import _lp_kernels, _vertex_kernels  # noqa: F401
+        from .geometry.polytope import Polytope
+        from .observers import _lookup_kernels  # noqa: F401
+        from .observers.lookup import LookupObserver
+        from .regions import analyse_observability
+        from .sim import simulate_pwa
+        from .systems.pwa import PWAMode, PWASystem
+    finally:  # this process's later children choose for themselves
+        if before is None:
+            os.environ.pop(KERNELS_ENV, None)
+        else:
+            os.environ[KERNELS_ENV] = before
 
     out: dict = {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "import": time.perf_counter() - t0}
     t0 = time.perf_counter()

@@ -35,6 +35,9 @@ print(json.dumps({"env": env_after_import, "config": config.CACHE_DIR, "numba_at
 
 def _run(env_extra: dict, drop=("NUMBA_CACHE_DIR", "HYBOBS_CACHE_DIR", "XDG_CACHE_HOME")) -> dict:
     env = {k: v for k, v in os.environ.items() if k not in drop}
+    # these cases are about where compiled kernels go: compile even into an empty cache (with the
+    # default "auto" an empty cache runs the kernels as Python; tests/unit/test_kernel_modes.py)
+    env["HYBOBS_KERNELS"] = "compiled"
     env.update(env_extra)
     out = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, env=env, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
@@ -103,5 +106,8 @@ def test_warm_up_runs_every_phase():
     import hybobs_opt
 
     out = hybobs_opt.warm_up()
-    assert set(out) == {"cache_dir", "import", "system", "analysis", "observer"}
+    assert set(out) == {"cache_dir", "import", "system", "analysis", "observer", "polytope", "kernels_compiled"}
+    assert out["kernels_compiled"] == {"hybobs_opt.geometry._lp_kernels": True, "hybobs_opt.geometry._vertex_kernels": True,
+                                       "hybobs_opt.observers._lookup_kernels": True}
+    assert "HYBOBS_KERNELS" not in os.environ or os.environ["HYBOBS_KERNELS"] != "compiled"  # no side effect left
     assert out["cache_dir"] == os.environ.get("NUMBA_CACHE_DIR", "")
