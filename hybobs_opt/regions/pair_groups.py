@@ -21,8 +21,10 @@ undecided that fall into at least two groups of the next level (else the next le
 as cheap and tighter).  The shortest prefix is ``ceil(n / p) - 2`` modes (at least 1): with fewer
 shared outputs the sets were never ruled out on model (17).
 
-Measured on model (17) (issue 19; pair LPs, group LPs included): T = 7, 28,442 pair by pair to
-about 11,000; T = 8, 103,533 to about 31,500, with the same pieces.
+Measured on model (17) (issue 19, ``benchmarks/results/regions.json``; pair LPs, group LPs
+included, pair by pair -> grouped): 28,442 -> 10,812 at T = 7, 103,533 -> 30,889 at T = 8,
+401,668 -> 86,127 at T = 9, with the same pieces at T = 7 and 8; at T = 9 three pair-by-pair
+pieces are ruled out, all lower-dimensional by an independent LP oracle.
 """
 
 from __future__ import annotations
