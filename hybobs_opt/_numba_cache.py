@@ -177,10 +177,9 @@ def _typed_python(fn, signatures):
         if isinstance(ty, types.Array):
             return (isinstance(value, np.ndarray) and value.dtype == np.dtype(str(ty.dtype)) and value.ndim == ty.ndim
                     and (ty.layout != "C" or value.flags.c_contiguous) and (not ty.mutable or value.flags.writeable))
-        if isinstance(ty, types.Integer):
-            return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-        if isinstance(ty, types.Float):
-            return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+        if isinstance(ty, (types.Integer, types.Float)):
+            # numba converts any real scalar (bool, int, float) to an integer or float parameter
+            return isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating))
         return True
 
     @functools.wraps(fn)

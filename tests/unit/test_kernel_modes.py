@@ -226,12 +226,7 @@ def test_bad_samples_same_flags_and_reasons_in_python_mode(python_mode, compiled
 
 # ------------------------------------------------------------------ 3. _typed_python
 # numba's dispatcher with an explicit ``int64`` scalar in the signature converts a bool or a float
-# argument (``True``, ``1.0``) instead of refusing it, while ``_typed_python`` refuses both.  The
-# package itself always passes a Python ``int`` there, so the observer is unaffected, but the
-# wrapper does not refuse *exactly* what numba refuses: recorded as strict expected failures (they
-# turn into errors the day the two agree).
-_SCALAR_DIVERGENCE = pytest.mark.xfail(strict=True, reason="numba converts a bool/float to int64; _typed_python "
-                                                          "refuses it (harmless: the package passes an int)")
+# argument (``True``, ``1.0``) instead of refusing it; ``_typed_python`` accepts them as well.
 _STEP_CASES = {
     "valid": lambda u, y, ro, F, I: (u, y, 1, F, I),
     "u_int64": lambda u, y, ro, F, I: (u.astype(np.int64), y, 1, F, I),
@@ -258,8 +253,7 @@ def packed_tables():
     return obs._F.copy(), obs._I.copy(), obs.m, obs.p
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=_SCALAR_DIVERGENCE) if c in ("good_bool", "good_float")
-                                  else c for c in _STEP_CASES])
+@pytest.mark.parametrize("case", list(_STEP_CASES))
 def test_typed_python_refuses_what_numba_refuses(packed_tables, case):
     from hybobs_opt._numba_cache import _typed_python
     from hybobs_opt.observers import _lookup_kernels as K
