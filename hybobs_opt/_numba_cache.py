@@ -141,7 +141,10 @@ def finalize_kernels(namespace: dict) -> bool:
         from .errors import ModelError
 
         raise ModelError(KERNELS_ENV, "'auto', 'compiled' or 'python'", repr(os.environ[KERNELS_ENV]))
-    compiled = mode == "compiled" or (mode == "auto" and any(_cache_has(fn) for fn in marked.values()))
+    # an unwritable cache would keep every process on Python kernels: compile then, as numba does
+    # (it falls back on its own locations)
+    compiled = mode == "compiled" or (mode == "auto" and (any(_cache_has(fn) for fn in marked.values())
+                                                          or not _cache_writable()))
     if compiled:
         from numba import njit
 
@@ -189,6 +192,16 @@ def _typed_python(fn, signatures):
         return fn(*args)
 
     return checked
+
+
+def _cache_writable() -> bool:
+    """Can the background compilation write to the package's numba cache directory?"""
+    cache = os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir()
+    try:
+        os.makedirs(cache, exist_ok=True)
+    except OSError:
+        return False
+    return os.access(cache, os.W_OK | os.X_OK)
 
 
 def kernels_compiled() -> dict[str, bool]:

@@ -179,6 +179,16 @@ def test_forced_python_mode_ignores_the_cache(tmp_path):
     assert out == {m: False for m in KERNEL_MODULES}
 
 
+def test_an_unwritable_cache_compiles_in_the_foreground(tmp_path):
+    """No background compile can fill an unwritable cache, so Python kernels would stay forever:
+    the module compiles instead (numba falls back on its own cache locations), as before."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    code = "import json, hybobs_opt._numba_cache as nc\nimport hybobs_opt.geometry._lp_kernels\nprint(json.dumps(nc.kernels_compiled()))"
+    out = json.loads(_child(code, _env(blocker / "cache")).stdout.strip().splitlines()[-1])
+    assert out == {"hybobs_opt.geometry._lp_kernels": True}
+
+
 @pytest.mark.parametrize("key", ["p3_T4", "p5_T5"])
 def test_analysis_same_in_python_and_compiled(python_mode, compiled_mode, key):
     py, nb = python_mode[key], compiled_mode[key]
