@@ -33,6 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", "--save", dest="save", metavar="FILE",
                    help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its old name")
     p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
+    p.add_argument("--pair-by-pair", action="store_true",
+                   help="classify every pair set on its own (no grouped pair tests: the full counts of thin and "
+                        "same-state pairs, more LPs); computed afresh, not cached")
     add_executor_arguments(p)
     add_cache_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
@@ -81,7 +84,13 @@ def run(args: argparse.Namespace) -> int:
     progress, close = phase_bars(not args.json)
     try:
         with as_options({"horizon T": "--horizon"}), command_cache(args) as cache:
-            analysis = cached_analysis(system, args.horizon, executor=executor, progress=progress)
+            if args.pair_by_pair:  # not what the cache holds (the grouped analysis): computed here
+                from ..regions import analyse_observability
+
+                analysis = analyse_observability(system, args.horizon, executor=executor, progress=progress,
+                                                 group_tests=False)
+            else:
+                analysis = cached_analysis(system, args.horizon, executor=executor, progress=progress)
     finally:
         close()
         executor.close()

@@ -18,6 +18,25 @@ def test_cli_regions_json_and_query(capsys, tmp_path):
     assert out["observable"] == [False, True]  # inside the band / in contact
 
 
+def test_cli_regions_pair_by_pair_gives_every_pair_its_own_verdict(capsys):
+    """``--pair-by-pair``: the same pieces, nothing ruled out by a group, the full thin / same-state
+    counts (those of ``analyse_observability(..., group_tests=False)``) and more LPs."""
+    from hybobs_opt import get_example
+    from hybobs_opt.regions import analyse_observability
+
+    base = ["regions", "powertrain3", "--horizon", "5", "--json", "--executor", "serial", "--no-cache"]
+    assert main(base) == 0
+    grouped = json.loads(capsys.readouterr().out)
+    assert main(base + ["--pair-by-pair"]) == 0
+    single = json.loads(capsys.readouterr().out)
+    ref = analyse_observability(get_example("powertrain3").build(), 5, group_tests=False)
+    assert single["n_unobservable_pieces"] == grouped["n_unobservable_pieces"] == ref.n_unobservable_pieces
+    assert single["n_pairs_ruled_out_by_group"] == 0 < grouped["n_pairs_ruled_out_by_group"]
+    assert single["n_pairs_dropped_thin"] == ref.stats["n_pairs_dropped_thin"] > grouped["n_pairs_dropped_thin"]
+    assert single["n_pairs_dropped_same_state"] == ref.stats["n_pairs_dropped_same_state"]
+    assert single["n_lps_pairs"] == ref.n_pair_lps > grouped["n_lps_pairs"]
+
+
 @pytest.mark.parametrize(
     "argv, fragment",
     [
