@@ -116,6 +116,7 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     # --no-cache is a flag: a value after it is an unknown argument
     (["observe", "powertrain3"], "--no-cache", ["yes"]),
     (["regions", "powertrain3", "-T", "3"], "--no-cache", ["1"]),
+    (["regions", "powertrain3", "-T", "3"], "--pair-by-pair", ["1", "yes"]),
     (["bench", "powertrain3", "--steps", "5"], "--no-cache", ["true"]),
     (["observe", "powertrain3"], "--param", ["gear_ratio=0.1", "nosuch=1"]),
     (["observe", "powertrain3"], "--horizon", ["3", "0", "abc"]),
