@@ -232,6 +232,10 @@ def start_background_warm_up() -> bool:
     try:
         subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, stdin=subprocess.DEVNULL,
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    except OSError:
+    except OSError:  # no compilation runs: the lock must not keep the next processes from trying
+        try:
+            os.remove(lock)
+        except OSError:
+            pass
         return False
     return True

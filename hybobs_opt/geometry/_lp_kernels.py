@@ -17,7 +17,6 @@ from .._numba_cache import kernel
 _configure_cache()  # the user's cache directory, before numba reads its configuration
 
 
-
 @kernel(cache=True)
 def slack_lp_data(G, g, zero_tol, cap):
     """``max t  s.t.  G_k w / |G_k| + t <= g_k / |G_k|,  t <= cap`` as DAQP data ``(A, bu)``.

@@ -10,6 +10,7 @@ rare) are left to numpy.  numba caches it on disk.
 from __future__ import annotations
 
 import numpy as np
+
 from .._numba_cache import configure as _configure_cache
 from .._numba_cache import finalize_kernels as _finalize_kernels
 from .._numba_cache import kernel

@@ -15,7 +15,6 @@ from .._numba_cache import kernel
 
 _configure_cache()  # the user's cache directory, before numba reads its configuration
 
-
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 
 # The kernels of one step allocate nothing, so they are compiled without numba's reference

@@ -162,6 +162,24 @@ def _root(system: PWASystem, T: int) -> _Node:
                  np.zeros((0, n)), np.zeros((0, T * m)), np.zeros(0))
 
 
+def _step_rows(node: _Node, Ek: np.ndarray, rows_A: np.ndarray, rows_b: np.ndarray, n: int, box=None):
+    """Rows ``rows_A [x_k; u_k] <= rows_b`` at the step after ``node`` written over ``(x, U)``.
+
+    ``x_k`` is the node's state map and ``u_k = Ek U``.  With ``box = (scale, centre)``, rows that
+    cannot be active anywhere in the box ``X x U^T`` are implied by it and dropped (interval
+    arithmetic, exact); the box's own rows reach their bound and are kept.
+    """
+    Ax, Au = rows_A[:, :n], rows_A[:, n:]
+    newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
+    newh = rows_b - Ax @ node.phi
+    if box is not None:
+        scale, centre = box
+        reach = newH @ centre + np.abs(newH) @ scale
+        keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
+        newH, newh = newH[keep], newh[keep]
+    return newH, newh
+
+
 def _child(system: PWASystem, T: int, node: _Node, i: int, domain_rows, box=None) -> _Node:
     """Extend ``node`` by mode ``i`` at step ``k = len(node.seq)``."""
     n, m = system.n, system.m
@@ -169,24 +187,14 @@ def _child(system: PWASystem, T: int, node: _Node, i: int, domain_rows, box=None
     mode = system.modes[i]
     Ek = np.zeros((m, T * m))
     Ek[:, k * m : (k + 1) * m] = np.eye(m)
-    rows_A = np.vstack([mode.guard.A, domain_rows[0]])
-    rows_b = np.concatenate([mode.guard.b, domain_rows[1]])
-    Ax, Au = rows_A[:, :n], rows_A[:, n:]
-    newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
-    newh = rows_b - Ax @ node.phi
+    newH, newh = _step_rows(node, Ek, np.vstack([mode.guard.A, domain_rows[0]]),
+                            np.concatenate([mode.guard.b, domain_rows[1]]), n, box)
     C = np.vstack([node.C, mode.C @ node.Phi])
     D = np.vstack([node.D, mode.C @ node.Gamma + mode.D @ Ek])
     f = np.concatenate([node.f, mode.C @ node.phi + mode.c])
     Phi = mode.A @ node.Phi
     Gamma = mode.A @ node.Gamma + mode.B @ Ek
     phi = mode.A @ node.phi + mode.a
-    if box is not None:
-        # Rows that cannot be active anywhere in the box X x U^T are implied by it: drop them
-        # (interval arithmetic, exact).  The box's own rows reach their bound and are kept.
-        scale, centre = box
-        reach = newH @ centre + np.abs(newH) @ scale
-        keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
-        newH, newh = newH[keep], newh[keep]
     return _Node(node.seq + (i,), Phi, Gamma, phi, np.vstack([node.H, newH]), np.concatenate([node.h, newh]), C, D, f,
                  (node.Phi, node.Gamma, node.phi))
 
@@ -376,7 +384,6 @@ def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSupe
             nodes[prefix] = _child(system, T, node_of(prefix[:-1]), prefix[-1], domain_rows, (scale, centre))
         return nodes[prefix]
 
-    Ax, Au = domain_rows[0][:, :n], domain_rows[0][:, n:]
     box_rows = np.vstack([np.eye(m), -np.eye(m)])
     out = []
     for prefix, a in prefixes.items():
@@ -386,12 +393,9 @@ def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSupe
         Ek = np.zeros((m, T * m))
         Ek[:, depth * m:(depth + 1) * m] = np.eye(m)
         # the domain at step `depth` (the state there is fixed by the prefix), as _child adds it
-        newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
-        newh = domain_rows[1] - Ax @ node.phi
-        reach = newH @ centre + np.abs(newH) @ scale
-        keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
-        Hs.append(newH[keep])
-        hs.append(newh[keep])
+        newH, newh = _step_rows(node, Ek, domain_rows[0], domain_rows[1], n, (scale, centre))
+        Hs.append(newH)
+        hs.append(newh)
         for k in range(depth + 1, T):  # later inputs: their box (every region below has it)
             rows = np.zeros((2 * m, n + T * m))
             rows[:, n + k * m:n + (k + 1) * m] = box_rows

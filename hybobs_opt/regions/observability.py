@@ -64,7 +64,7 @@ from ..geometry._lp_kernels import slack_lp_data
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
-from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, SubspaceDirections, _slack_lp, classify_pair, fixed_state_witness
+from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, _slack_lp, classify_pair, fixed_state_witness
 from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
 from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
@@ -73,6 +73,9 @@ from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_sca
 #: Below this many candidate pairs (``|I|`` times the number of regions) the pair tests run in the
 #: calling process whatever the executor (model 16, T = 5: about 5,000 candidates, 0.1 s serial).
 PARALLEL_MIN_PAIRS = 6000
+#: Tasks per worker of the grouped pair tests (:func:`_chunks`): their blocks differ in cost by
+#: 10 x or more (model 17, T = 9), so the workers take many small tasks rather than one each.
+GROUPED_TASKS_PER_WORKER = 8
 
 
 def _rank(M: np.ndarray) -> int:
@@ -560,17 +563,6 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     return js[ok], ok_ij[ok].copy(), ok_ji[ok].copy(), n_tested, n_skipped
 
 
-def _pairs_for_i(enum: ModeEnumeration, algebra: _PairAlgebra, full_rank, i: int) -> tuple[list[tuple[int, int, float]], int, int, list, list]:
-    """Steps 3.1-3.2 of Algorithm 3.1 for one ``i`` in ``I``, pair by pair (:func:`_candidates`, :func:`_pair_lps`).
-
-    Returns ``(pairs_found as (i, j, margin), n_pairs_tested, n_pairs_skipped_by_rank,
-    pairs_dropped_thin, pairs_dropped_same_state)``.
-    """
-    js, ok_ij, ok_ji, n_tested, n_skipped = _candidates(algebra, full_rank, i)
-    found, thin, same = _pair_lps(enum, algebra, i, js, ok_ij, ok_ji)
-    return found, n_tested, n_skipped, thin, same
-
-
 def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
               report_ji: np.ndarray, thin_filter: bool = True,
               min_margin: float | None = None) -> tuple[list[tuple[int, int, float]], list, list]:
@@ -783,7 +775,7 @@ def analyse_observability(
     if parallel:
         level_data = [(depth, _pack_scaled(sc, n), index) for depth, sc, index in level_data]
     if parallel and level_data:
-        n_chunks = 8 * executor.n_workers  # blocks of very different costs: more tasks than workers
+        n_chunks = GROUPED_TASKS_PER_WORKER * executor.n_workers
     chunks = _chunks(I, len(enum.regions), n_chunks, level_data[0][2] if level_data and parallel else None)
     token = None
     if parallel:

@@ -159,6 +159,3 @@ def pack_scaled(scaled, n: int) -> bytes:
 def unpack_scaled(payload: bytes):
     n, rows, Hx, HU, h, C, D, f = pickle.loads(payload)
     return [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k]) for k, (a, b) in enumerate(zip(rows[:-1], rows[1:]))], n
-
-
-_PairAlgebra = PairAlgebra  # the name before the pair algebra had a module of its own
