@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from ..errors import ModelError, SolverError
+from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
 from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_EQUILIBRATION_SWEEPS, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
 
@@ -149,7 +150,7 @@ def solve_lp(
             if defect is None:
                 x = sc.D * z
                 duals = -_marginals(res, "ineqlin", sc.A.shape[0]) * sc.r_ub / sc.cn
-                return LPResult(Status.OPTIMAL, x, float(c @ x), method, time.perf_counter() - t0,
+                return LPResult(Status.OPTIMAL, x, dot(c, x), method, time.perf_counter() - t0,
                                 _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x), duals=_full_duals(duals, sc))
             messages.append(f"{method}: status optimal but {defect}")
             continue
@@ -236,10 +237,10 @@ def _farkas_ok(A, b, E, e, y, w) -> bool:
         return False
     if np.any(y < 0.0):
         return False
-    r = A.T @ y + E.T @ w
-    size = np.abs(A).T @ y + np.abs(E).T @ np.abs(w)
-    gap = float(b @ y + e @ w)
-    gap_size = float(np.abs(b) @ y + np.abs(e) @ np.abs(w))
+    r = mm(A.T, y) + mm(E.T, w)
+    size = mm(np.abs(A).T, y) + mm(np.abs(E).T, np.abs(w))
+    gap = dot(b, y) + dot(e, w)
+    gap_size = dot(np.abs(b), y) + dot(np.abs(e), np.abs(w))
     if gap_size == 0.0:
         return False
     return bool(np.all(np.abs(r) <= LP_CERTIFICATE_RTOL * np.max(size, initial=0.0))
@@ -252,12 +253,12 @@ def _ray_ok(A, b, E, e, c, z0, d) -> bool:
     if _rows_defect(A, b, E, e, z0) is not None:
         return False
     nd = np.abs(d)
-    cd = float(c @ d)
-    if not cd < -LP_CERTIFICATE_RTOL * float(np.abs(c) @ nd):
+    cd = dot(c, d)
+    if not cd < -LP_CERTIFICATE_RTOL * dot(np.abs(c), nd):
         return False
     scale = max(float(np.max(nd, initial=0.0)), _TINY)
-    return bool(np.all(A @ d <= LP_CERTIFICATE_RTOL * (np.abs(A) @ nd + scale))
-                and np.all(np.abs(E @ d) <= LP_CERTIFICATE_RTOL * (np.abs(E) @ nd + scale)))
+    return bool(np.all(mm(A, d) <= LP_CERTIFICATE_RTOL * (mm(np.abs(A), nd) + scale))
+                and np.all(np.abs(mm(E, d)) <= LP_CERTIFICATE_RTOL * (mm(np.abs(E), nd) + scale)))
 
 
 _TINY = float(np.finfo(float).tiny)
@@ -274,8 +275,8 @@ def _rows_defect(A, b, E, e, z) -> str | None:
     for label, M, v, eq in (("inequality", A, b, False), ("equality", E, e, True)):
         if M.shape[0] == 0:
             continue
-        r = M @ z - v
-        allowed = LP_POINT_RTOL * (1.0 + np.abs(v) + np.abs(M) @ az)
+        r = mm(M, z) - v
+        allowed = LP_POINT_RTOL * (1.0 + np.abs(v) + mm(np.abs(M), az))
         excess = (np.abs(r) if eq else r) - allowed
         if np.any(excess > 0):
             k = int(np.argmax(excess))
@@ -421,8 +422,8 @@ def _optimality_defect(sc: _Scaled, res, z: np.ndarray, fun) -> str | None:
     defect = _rows_defect(np.vstack([sc.A, Ab]), np.concatenate([sc.b, bb]), sc.E, sc.e, z)
     if defect is not None:
         return defect
-    cz = float(sc.c @ z)
-    size = float(np.abs(sc.c) @ np.abs(z))
+    cz = dot(sc.c, z)
+    size = dot(np.abs(sc.c), np.abs(z))
     if abs(cz - fun) > LP_DUAL_RTOL * (1.0 + abs(cz) + size):
         return f"its objective {fun:.9g} is not c'x = {cz:.9g}"
     m_ub, m_eq = _marginals(res, "ineqlin", sc.A.shape[0]), _marginals(res, "eqlin", sc.E.shape[0])
@@ -431,19 +432,19 @@ def _optimality_defect(sc: _Scaled, res, z: np.ndarray, fun) -> str | None:
         return "no finite dual multipliers were returned"
     m_lo = np.where(np.isfinite(sc.lo), m_lo, 0.0)
     m_hi = np.where(np.isfinite(sc.hi), m_hi, 0.0)
-    dual_size = float(np.max(np.abs(sc.A).T @ np.abs(m_ub) + np.abs(sc.E).T @ np.abs(m_eq) + np.abs(m_lo) + np.abs(m_hi)
+    dual_size = float(np.max(mm(np.abs(sc.A).T, np.abs(m_ub)) + mm(np.abs(sc.E).T, np.abs(m_eq)) + np.abs(m_lo) + np.abs(m_hi)
                              + np.abs(sc.c), initial=0.0))
     sign = max(float(np.max(m_ub, initial=0.0)), float(np.max(-m_lo, initial=0.0)), float(np.max(m_hi, initial=0.0)))
     if sign > LP_DUAL_RTOL * max(dual_size, 1.0):
         return "a dual multiplier has the wrong sign"
-    station = sc.c - sc.A.T @ m_ub - sc.E.T @ m_eq - m_lo - m_hi
+    station = sc.c - mm(sc.A.T, m_ub) - mm(sc.E.T, m_eq) - m_lo - m_hi
     if np.max(np.abs(station), initial=0.0) > LP_DUAL_RTOL * max(dual_size, 1.0):
         return f"the dual multipliers are not stationary (residual {np.max(np.abs(station)):.3g})"
     lo_f = np.where(np.isfinite(sc.lo), sc.lo, 0.0)
     hi_f = np.where(np.isfinite(sc.hi), sc.hi, 0.0)
-    dual = float(sc.b @ m_ub + sc.e @ m_eq + lo_f @ m_lo + hi_f @ m_hi)
-    gap_size = (1.0 + abs(cz) + size + float(np.abs(sc.b) @ np.abs(m_ub) + np.abs(sc.e) @ np.abs(m_eq)
-                                            + np.abs(lo_f) @ np.abs(m_lo) + np.abs(hi_f) @ np.abs(m_hi)))
+    dual = dot(sc.b, m_ub) + dot(sc.e, m_eq) + dot(lo_f, m_lo) + dot(hi_f, m_hi)
+    gap_size = (1.0 + abs(cz) + size + dot(np.abs(sc.b), np.abs(m_ub)) + dot(np.abs(sc.e), np.abs(m_eq))
+                + dot(np.abs(lo_f), np.abs(m_lo)) + dot(np.abs(hi_f), np.abs(m_hi)))
     if abs(cz - dual) > LP_DUAL_RTOL * gap_size:
         return f"the duality gap {cz - dual:.3g} is not zero (the point is not optimal)"
     return None
@@ -502,7 +503,7 @@ def _point_residuals(A_ub, b_ub, A_eq, b_eq, bounds, x: np.ndarray) -> dict[str,
     for label, A, b, eq in (("inequality", A_ub, b_ub, False), ("equality", A_eq, b_eq, True)):
         if A is None or np.size(A) == 0:
             continue
-        r = np.atleast_2d(np.asarray(A, dtype=float)) @ x - np.asarray(b, dtype=float).reshape(-1)
+        r = mm(np.atleast_2d(np.asarray(A, dtype=float)), x) - np.asarray(b, dtype=float).reshape(-1)
         out[label] = float(np.max(np.abs(r) if eq else np.maximum(r, 0.0), initial=0.0))
     worst = 0.0
     for k, (lo, hi) in enumerate(_bound_pairs(bounds, x.size)):
@@ -889,7 +890,7 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     w = res.x[:d]
     # HiGHS's point has passed solve_lp's feasibility check; its certified value is the smallest
     # row slack at that point (the LP's t may exceed it by the solver's primal tolerance).
-    slack = float(min(res.x[d], np.min(bu[:k] - A[:k, :d] @ w)))
+    slack = float(min(res.x[d], np.min(bu[:k] - mm(A[:k, :d], w))))
     return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
 
 
@@ -927,7 +928,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         if ans.status != Status.OPTIMAL:
             return False  # empty or unbounded: not certified (the safe answer)
         v, lam = ans.v, ans.lam
-        if point is not None and sign > 0 and float(c @ (v - point)) > width:
+        if point is not None and sign > 0 and dot(c, v - point) > width:
             return False
         total += support_upper_bound(A, b, sign * c, np.ascontiguousarray(lam, dtype=float), radius_bound)
     return total <= width
@@ -940,9 +941,7 @@ def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver
     feasible ``w`` (``||w|| <= R``) by ``g' lambda + R ||G' lambda||``: weak duality with the
     stationarity residual bounded by Cauchy-Schwarz.
     """
-    from scipy.optimize import nnls
-
-    resid = gn - Gn @ w
+    resid = gn - mm(Gn, w)
     # Active rows are those at the solver's own slack value (its point may violate a row by its
     # primal tolerance, so the smallest residual is not a reliable anchor).
     active = np.nonzero(resid <= t_solver + NEAR_ACTIVE_TOL)[0]
@@ -960,7 +959,7 @@ def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver
     if total <= 0:
         return np.inf
     lam = lam / total
-    return float(gn[active] @ lam + radius_bound * np.linalg.norm(GA.T @ lam))
+    return dot(gn[active], lam) + radius_bound * norm(mm(GA.T, lam))
 
 
 #: Former private name of :func:`solve_slack_lp` (kept: ``regions`` and ``observers`` import it).

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
+from ..geometry._reproducible import matmul as mm
 from ..geometry.lp import COUNTERS, max_slack
 from ..systems.pwa import PWASystem
 from ..tolerances import BOX_IMPLIED_RTOL, REGION_SLACK_TOL
@@ -170,11 +171,11 @@ def _step_rows(node: _Node, Ek: np.ndarray, rows_A: np.ndarray, rows_b: np.ndarr
     arithmetic, exact); the box's own rows reach their bound and are kept.
     """
     Ax, Au = rows_A[:, :n], rows_A[:, n:]
-    newH = np.hstack([Ax @ node.Phi, Ax @ node.Gamma + Au @ Ek])
-    newh = rows_b - Ax @ node.phi
+    newH = np.hstack([mm(Ax, node.Phi), mm(Ax, node.Gamma) + mm(Au, Ek)])
+    newh = rows_b - mm(Ax, node.phi)
     if box is not None:
         scale, centre = box
-        reach = newH @ centre + np.abs(newH) @ scale
+        reach = mm(newH, centre) + mm(np.abs(newH), scale)
         keep = reach > newh - BOX_IMPLIED_RTOL * (1.0 + np.abs(newh))
         newH, newh = newH[keep], newh[keep]
     return newH, newh
@@ -189,19 +190,19 @@ def _child(system: PWASystem, T: int, node: _Node, i: int, domain_rows, box=None
     Ek[:, k * m : (k + 1) * m] = np.eye(m)
     newH, newh = _step_rows(node, Ek, np.vstack([mode.guard.A, domain_rows[0]]),
                             np.concatenate([mode.guard.b, domain_rows[1]]), n, box)
-    C = np.vstack([node.C, mode.C @ node.Phi])
-    D = np.vstack([node.D, mode.C @ node.Gamma + mode.D @ Ek])
-    f = np.concatenate([node.f, mode.C @ node.phi + mode.c])
-    Phi = mode.A @ node.Phi
-    Gamma = mode.A @ node.Gamma + mode.B @ Ek
-    phi = mode.A @ node.phi + mode.a
+    C = np.vstack([node.C, mm(mode.C, node.Phi)])
+    D = np.vstack([node.D, mm(mode.C, node.Gamma) + mm(mode.D, Ek)])
+    f = np.concatenate([node.f, mm(mode.C, node.phi) + mode.c])
+    Phi = mm(mode.A, node.Phi)
+    Gamma = mm(mode.A, node.Gamma) + mm(mode.B, Ek)
+    phi = mm(mode.A, node.phi) + mode.a
     return _Node(node.seq + (i,), Phi, Gamma, phi, np.vstack([node.H, newH]), np.concatenate([node.h, newh]), C, D, f,
                  (node.Phi, node.Gamma, node.phi))
 
 
 def _slack(node: _Node, scale: np.ndarray, centre: np.ndarray) -> float:
     G = node.H * scale[None, :]
-    g = node.h - node.H @ centre
+    g = node.h - mm(node.H, centre)
     res = max_slack(G, g, radius_bound=np.sqrt(scale.size), threshold=REGION_SLACK_TOL,
                     problem=f"region of mode prefix {node.seq}")
     return res.lower if res.lower > REGION_SLACK_TOL else res.upper

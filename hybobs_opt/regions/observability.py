@@ -61,6 +61,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry._lp_kernels import slack_lp_data
+from ..geometry._reproducible import lstsq, matmul as mm, norm, numerical_rank, row_norms, svd
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
@@ -81,16 +82,15 @@ GROUPED_TASKS_PER_WORKER = 8
 def _rank(M: np.ndarray) -> int:
     if M.size == 0:
         return 0
-    s = np.linalg.svd(M, compute_uv=False)
-    return int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny)))
+    return numerical_rank(svd(M, compute_uv=False), RANK_RTOL)
 
 
 def _nullspace(M: np.ndarray) -> tuple[np.ndarray, int]:
     """Orthonormal basis of ``ker M`` (columns) and ``rank M`` with the relative threshold."""
     if M.shape[0] == 0:
         return np.eye(M.shape[1]), 0
-    _, s, Vt = np.linalg.svd(M)
-    r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
+    _, s, Vt = svd(M)
+    r = numerical_rank(s, RANK_RTOL)
     return Vt[r:].T, r
 
 
@@ -229,7 +229,7 @@ class ObservabilityAnalysis:
         scale, centre = self.enumeration.scale, self.enumeration.centre
         Hx, HU = reg.H[:, :n], reg.H[:, n:]
         G = HU * scale[None, n:]
-        g = reg.h - Hx @ x - HU @ centre[n:]
+        g = reg.h - mm(Hx, x) - mm(HU, centre[n:])
         res = max_slack(G, g, radius_bound=np.sqrt(G.shape[1]), threshold=REGION_SLACK_TOL,
                         problem=f"x in Proj_x(P_{k})")
         return res.lower if res.lower > REGION_SLACK_TOL else res.upper
@@ -247,7 +247,7 @@ class ObservabilityAnalysis:
             scale, centre = self.enumeration.scale, self.enumeration.centre
             boxes = np.empty((len(self.regions), 2, n))
             for k, reg in enumerate(self.regions):
-                box = _certified_box(reg.H * scale[None, :], reg.h - reg.H @ centre, n)
+                box = _certified_box(reg.H * scale[None, :], reg.h - mm(reg.H, centre), n)
                 if box is None:  # a bound the multipliers do not certify: the checked HiGHS path
                     rows = np.eye(n, reg.H.shape[1])
                     boxes[k] = row_range(reg.H, reg.h, rows, problem=f"bounding box of Proj_x(P_{k})", field=f"region {k}").T
@@ -277,17 +277,17 @@ class ObservabilityAnalysis:
         scale, centre = horizon_scaling(self.system, self.T, copies_of_x=2)
         G, g, E, e = pair_constraints(ri, rj, n)
         # fix x: variables are (x^, U); unit rows in the scaled space before the projection
-        Gv, gv = G[:, n:] * scale[None, n:], g - G[:, :n] @ x - G[:, n:] @ centre[n:]
-        inv = 1.0 / np.maximum(np.linalg.norm(G * scale[None, :], axis=1), np.finfo(float).tiny)
+        Gv, gv = G[:, n:] * scale[None, n:], g - mm(G[:, :n], x) - mm(G[:, n:], centre[n:])
+        inv = 1.0 / np.maximum(row_norms(G * scale[None, :]), np.finfo(float).tiny)
         Gv, gv = Gv * inv[:, None], gv * inv
-        Ev, ev = E[:, n:] * scale[None, n:], e - E[:, :n] @ x - E[:, n:] @ centre[n:]
+        Ev, ev = E[:, n:] * scale[None, n:], e - mm(E[:, :n], x) - mm(E[:, n:], centre[n:])
         N, r = _nullspace(Ev)
-        w0, *_ = np.linalg.lstsq(Ev, ev, rcond=None)
-        if Ev.shape[0] and np.linalg.norm(Ev @ w0 - ev) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(ev)):
+        w0 = lstsq(Ev, ev)
+        if Ev.shape[0] and norm(mm(Ev, w0) - ev) > EQUALITY_CONSISTENCY_RTOL * (1.0 + norm(ev)):
             return False  # the outputs cannot match
         x_scaled = (x - centre[:n]) / scale[:n]
-        return fixed_state_witness(Gv @ N, gv - Gv @ w0, N, w0, x_scaled, n,
-                                   radius_bound=np.sqrt(Gv.shape[1]) + np.linalg.norm(w0), problem=f"R_{i},{j} at fixed x")
+        return fixed_state_witness(mm(Gv, N), gv - mm(Gv, w0), N, w0, x_scaled, n,
+                                   radius_bound=np.sqrt(Gv.shape[1]) + norm(w0), problem=f"R_{i},{j} at fixed x")
 
     def is_observable(self, x) -> bool:
         """Exact test of Definition 2.2 (up to measure zero) at one state, by LPs, without projections.

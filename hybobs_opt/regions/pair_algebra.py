@@ -12,6 +12,7 @@ import pickle
 import numpy as np
 
 from ..geometry._lp_kernels import restricted_pair_rows
+from ..geometry._reproducible import matmul as mm, norm, numerical_rank, row_norms, svd
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
 from .pair_geometry import SubspaceDirections
 
@@ -23,11 +24,11 @@ def scaled_rows(regions, n: int, scale: np.ndarray, centre: np.ndarray):
     out = []
     for reg in regions:
         Hx, HU = reg.H[:, :n] * sx, reg.H[:, n:] * su
-        h = reg.h - reg.H[:, :n] @ cx - reg.H[:, n:] @ cu
+        h = reg.h - mm(reg.H[:, :n], cx) - mm(reg.H[:, n:], cu)
         # Unit rows in the scaled space, so that after restriction to an equality subspace the
         # margin of the max-margin LP is a distance to every original constraint.
-        inv = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->i", Hx, Hx) + np.einsum("ij,ij->i", HU, HU)), np.finfo(float).tiny)
-        out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + reg.C @ cx + reg.D @ cu))
+        inv = 1.0 / np.maximum(row_norms(np.hstack([Hx, HU])), np.finfo(float).tiny)
+        out.append((Hx * inv[:, None], HU * inv[:, None], h * inv, reg.C * sx, reg.D * su, reg.f + mm(reg.C, cx) + mm(reg.D, cu)))
     return out
 
 
@@ -37,9 +38,7 @@ def _scaled_regions(enum):
 
 
 def _batched_rank(M: np.ndarray) -> np.ndarray:
-    s = np.linalg.svd(M, compute_uv=False)
-    top = np.maximum(s[:, :1], np.finfo(float).tiny)
-    return np.sum(s > RANK_RTOL * top, axis=1)
+    return np.array([numerical_rank(svd(Mk, compute_uv=False), RANK_RTOL) for Mk in M], dtype=int)
 
 
 class PairAlgebra:
@@ -110,14 +109,11 @@ class PairAlgebra:
         if new:
             Ca, Da = self.C[a], self.D[a]
             E = np.concatenate([np.broadcast_to(Ca, (len(new),) + Ca.shape), -self.C[new], Da - self.D[new]], axis=2)
-            U_, S_, Vt = np.linalg.svd(E, full_matrices=True)
-            top = np.maximum(S_[:, :1], np.finfo(float).tiny)
-            ranks = np.sum(S_ > RANK_RTOL * top, axis=1)
             for k, b in enumerate(new):
-                r = int(ranks[k])
-                N = np.ascontiguousarray(Vt[k][r:].T)
-                self._svd[(a, int(b))] = (np.ascontiguousarray(U_[k]), S_[k], np.ascontiguousarray(Vt[k]), r, N,
-                                          SubspaceDirections.of(N, self.n))
+                U_, S_, Vt = svd(E[k], full_matrices=True)
+                r = numerical_rank(S_, RANK_RTOL)
+                N = np.ascontiguousarray(Vt[r:].T)
+                self._svd[(a, int(b))] = (U_, S_, Vt, r, N, SubspaceDirections.of(N, self.n))
         return [self._svd[(a, int(b))] for b in bs]
 
     def restricted_rows(self, i: int, js) -> list:
@@ -138,7 +134,7 @@ class PairAlgebra:
             HxJ, HUJ, hJ, _, _, fJ = self.scaled[j]
             Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
                                                           EQUALITY_CONSISTENCY_RTOL)
-            out.append((Gv, gv, w0, N, directions, radius0 + float(np.linalg.norm(w0))) if consistent else None)
+            out.append((Gv, gv, w0, N, directions, radius0 + norm(w0)) if consistent else None)
         return out
 
 

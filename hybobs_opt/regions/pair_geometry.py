@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
+from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, row_norms, svd
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
@@ -162,7 +163,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
         K, beta = _certified_implicit_rows(G, g, np.asarray(lam, dtype=float)[:-1], radius_bound, with_bounds=True)
     if K.size == 0 and centre is not None and np.all(np.isfinite(centre)):
         # DAQP's proximal multipliers too coarse (or HiGHS answered): refit them on the active rows
-        resid = g - G @ centre
+        resid = g - mm(G, centre)
         active = np.nonzero(resid <= float(np.min(resid)) + NEAR_ACTIVE_TOL)[0]
         lam_fit = _nnls_multipliers(G[active])
         if lam_fit is not None:
@@ -170,7 +171,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
             full[active] = lam_fit
             K, beta = _certified_implicit_rows(G, g, full, radius_bound, with_bounds=True)
     if K.size == 0 and centre is not None and np.all(np.isfinite(centre)) and \
-            float(np.min(g - G @ centre, initial=np.inf)) <= 0.0:
+            float(np.min(g - mm(G, centre), initial=np.inf)) <= 0.0:
         # No ball around the LP's point, so the set has implicit equalities, yet neither DAQP's
         # multipliers nor their refit certify one (model 17, T = 9: 4 faces of radius ~-1e-12,
         # then kept whole and listed as pieces although 2-dimensional): HiGHS's basic dual, once.
@@ -180,16 +181,16 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
     if tight is not None:
         tight["rows"], tight["slack"] = K, beta
     E, e = Gs[keep[K]], gs[keep[K]]
-    nrm = np.linalg.norm(E, axis=1)
+    nrm = row_norms(E)
     E, e = E / nrm[:, None], e / nrm
-    U_, s, Vt = np.linalg.svd(E, full_matrices=True)
+    U_, s, Vt = svd(E, full_matrices=True)
     # Two tight rows with opposite normals pin one direction, not two: their normals differ by
     # rounding (1e-8), and that sliver of a singular value pins nothing (see the tolerance).
     r = int(np.sum(s > IMPLICIT_EQUALITY_RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
     if r == 0:
         return None
-    t0 = Vt[:r].T @ ((U_[:, :r].T @ e) / s[:r])
-    if np.linalg.norm(E @ t0 - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + np.linalg.norm(e)) + CLOSED_SET_TOL:
+    t0 = mm(Vt[:r].T, mm(U_[:, :r].T, e) / s[:r])
+    if norm(mm(E, t0) - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + norm(e)) + CLOSED_SET_TOL:
         return "empty"
     return Vt[r:].T, t0
 
@@ -245,16 +246,14 @@ def _tight_width_bound(G: np.ndarray, rows: np.ndarray, slack: np.ndarray, c: np
     if rows.size == 0:
         return np.inf
     GK = G[rows]
-    alpha, *_ = np.linalg.lstsq(GK.T, c, rcond=None)
-    rho = c - GK.T @ alpha
-    val = float(np.abs(alpha) @ slack + 2.0 * radius_bound * np.linalg.norm(rho))
+    alpha = lstsq(GK.T, c)
+    rho = c - mm(GK.T, alpha)
+    val = float(mm(np.abs(alpha), slack) + 2.0 * radius_bound * norm(rho))
     return val if np.isfinite(val) else np.inf
 
 
 def _nnls_multipliers(GA: np.ndarray) -> np.ndarray | None:
     """``lam >= 0``, ``sum lam = 1`` minimising ``|GA' lam|`` (non-negative least squares)."""
-    from scipy.optimize import nnls
-
     M = np.vstack([GA.T, np.ones((1, GA.shape[0]))])
     rhs = np.zeros(M.shape[0])
     rhs[-1] = 1.0
@@ -276,7 +275,7 @@ def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: 
         if ans.status != Status.OPTIMAL:
             return False
         v = ans.v
-        if sign * (c @ v + c0) > bound and np.all(Gs @ v <= gs + CLOSED_SET_TOL):
+        if sign * (mm(c, v) + c0) > bound and np.all(mm(Gs, v) <= gs + CLOSED_SET_TOL):
             return False  # a (nearly) feasible point already has the two states apart
         if support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * c0 > bound:
             return False
@@ -306,9 +305,9 @@ class SubspaceDirections:
                 full.append(False)
                 thin.append(np.zeros(P.shape[1]))
                 continue
-            Uu, sv, _ = np.linalg.svd(P)
+            Uu, sv, _ = svd(P)
             full.append(bool(sv[-1] > RANK_RTOL))
-            thin.append(np.ascontiguousarray(P.T @ Uu[:, -1]))
+            thin.append(mm(P.T, Uu[:, -1]))
         same = bool(np.max(np.abs(N[:n] - N[n:2 * n]), initial=0.0) <= RANK_RTOL)
         return SubspaceDirections((full[0], full[1]), (thin[0], thin[1]), same)
 
@@ -319,8 +318,8 @@ class _Frame:
     def __init__(self, Gv, gv, N, w0, M, s0, n: int, radius_bound: float, directions: "SubspaceDirections | None" = None):
         self.n, self.R = n, radius_bound
         self.M, self.s0 = M, s0
-        self.Nh, self.wh = (N, w0) if M is None else (N @ M, w0 + N @ s0)
-        self.Gs, self.gs = (Gv, gv) if M is None else (Gv @ M, gv - Gv @ s0)
+        self.Nh, self.wh = (N, w0) if M is None else (mm(N, M), w0 + mm(N, s0))
+        self.Gs, self.gs = (Gv, gv) if M is None else (mm(Gv, M), gv - mm(Gv, s0))
         self.dim = self.Nh.shape[1]
         self.directions = directions or SubspaceDirections.of(self.Nh, n)
         self._lp = None
@@ -348,7 +347,7 @@ class _Frame:
         if not thin_filter or A.shape[0] <= 1:
             return False
         c = self.directions.thinnest[part]
-        if self.ball * float(np.linalg.norm(c)) > REGION_SLACK_TOL * (1.0 + BALL_WIDTH_RTOL):
+        if self.ball * norm(c) > REGION_SLACK_TOL * (1.0 + BALL_WIDTH_RTOL):
             # a ball of radius `ball` lies in the set, so its width along c is at least
             # 2 ball |c| > 2 REGION_SLACK_TOL: the width LPs could not certify thinness (no LP)
             return False
@@ -363,7 +362,7 @@ class _Frame:
         if self.directions.same_state_directions:
             return bool(np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
         if self.centre is not None and self.centre.size == self.dim and \
-                np.max(np.abs(Dm @ self.centre + d0)) > DISTINCT_STATE_TOL:
+                np.max(np.abs(mm(Dm, self.centre) + d0)) > DISTINCT_STATE_TOL:
             return True
         A, bu = self.lp
         if A.shape[0] <= 1:
@@ -452,17 +451,17 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         if P.shape[1] == 0:
             Uu, flat = np.eye(n), list(range(n))
         else:
-            Uu, sv, _ = np.linalg.svd(P)
+            Uu, sv, _ = svd(P)
             flat = [k for k in range(n - 1, -1, -1) if k >= sv.size or sv[k] <= RANK_RTOL]
         if not flat:
             return False
         seen = tried.setdefault(p, [])
         for k in flat:
             u = Uu[:, k]
-            if any(abs(float(u @ v)) >= 1.0 - RANK_RTOL for v in seen):
+            if any(abs(dot(u, v)) >= 1.0 - RANK_RTOL for v in seen):
                 continue
             seen.append(u)
-            c = np.ascontiguousarray(N[p * n:(p + 1) * n].T @ u)  # u'x in the coordinates of the first LP
+            c = mm(N[p * n:(p + 1) * n].T, u)  # u'x in the coordinates of the first LP
             if relaxed is not None and "rows" in first_tight and \
                     _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) <= 2.0 * REGION_SLACK_TOL:
                 thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
@@ -479,33 +478,33 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         if radius > REGION_SLACK_TOL:
             break
         # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s)
-        red = _affine_reduce(Gv @ M, gv - Gv @ s0, A, bu, lam, keep, centre, radius_bound + float(np.linalg.norm(s0)),
+        red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), A, bu, lam, keep, centre, radius_bound + norm(s0),
                              tight=first_tight if _ == 0 else None)
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
         if isinstance(red, str):
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
         M2, t0 = red
-        s0, M = s0 + M @ t0, M @ M2
+        s0, M = s0 + mm(M, t0), mm(M, M2)
         # the hull only shrinks from here: once a wanted projection loses rank it is lower-dimensional,
         # which a width certificate on the original set confirms (the reduction only proposes)
-        NM = N @ M
+        NM = mm(N, M)
         for k, p in enumerate(parts):
             if p is not None and not verdicts[k] and confirmed_thin(p, NM):
                 verdicts[k] = LOWER_DIMENSIONAL
         if all(v for v in verdicts):
             return PairVerdict(*verdicts, radius, True)
         if M.shape[1] == 0:
-            if np.min(gv - Gv @ s0, initial=np.inf) < -CLOSED_SET_TOL:
+            if np.min(gv - mm(Gv, s0), initial=np.inf) < -CLOSED_SET_TOL:
                 return PairVerdict(EMPTY, EMPTY, -np.inf, True)
             radius, centre = 0.0, np.zeros(0)
             break
-        radius, centre, A, bu, lam, keep = _chebyshev(Gv @ M, gv - Gv @ s0, radius_bound + float(np.linalg.norm(s0)),
+        radius, centre, A, bu, lam, keep = _chebyshev(mm(Gv, M), gv - mm(Gv, s0), radius_bound + norm(s0),
                                                       REGION_SLACK_TOL, problem + " (affine hull)")
         if radius == -np.inf:
             return PairVerdict(EMPTY, EMPTY, -np.inf, True)
     if face:
-        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + float(np.linalg.norm(s0)))
+        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + norm(s0))
         frame.centre = _witness(centre, A, bu) if centre is not None and centre.size else centre
         if radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
             frame.ball = float(radius)
@@ -557,7 +556,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
             ans = verified_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
             if ans.status == Status.OPTIMAL and ans.solver == "daqp":
                 v = ans.v
-                if sign * (c @ v + d0[k]) > DISTINCT_STATE_TOL and np.all(Gr @ v <= gr + CLOSED_SET_TOL):
+                if sign * (mm(c, v) + d0[k]) > DISTINCT_STATE_TOL and np.all(mm(Gr, v) <= gr + CLOSED_SET_TOL):
                     return True
                 if support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) \
                         + sign * d0[k] <= DISTINCT_STATE_TOL:
@@ -566,7 +565,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
                 COUNTERS.confirmed_by_highs += 1
                 out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
                 ans = VerifiedLP(out.status, out.x, out.duals, "highs")
-            if ans.status == Status.OPTIMAL and sign * (c @ ans.v + d0[k]) > DISTINCT_STATE_TOL:
+            if ans.status == Status.OPTIMAL and sign * (mm(c, ans.v) + d0[k]) > DISTINCT_STATE_TOL:
                 return True
     return False
 

@@ -1,0 +1,339 @@
+"""Linear algebra that gives the same bits on every x86-64 CPU: products, norms, SVD, least squares, NNLS.
+
+NumPy's ``@``, ``np.linalg`` and SciPy's ``nnls`` run on OpenBLAS / LAPACK, whose kernels are
+chosen at run time for the CPU (Haswell, SkylakeX, Zen, ...), use FMA or not, split sums by the
+vector width and by the number of threads: the last bits of a product differ between machines.
+Algorithm 3.1 takes decisions from those bits (a rank, a flat direction of a nullspace, a
+certified width at its threshold), so its pair lists differed between an Intel and an AMD
+machine.  The functions here compute every dot product as a left-to-right sum of correctly
+rounded products, with no fused multiply-add and no reordering: numba kernels compiled without
+``fastmath`` (LLVM neither contracts nor reassociates then), and, while the kernels are not
+compiled, NumPy element-wise operations performing the same operations in the same order
+(``tests/unit/geometry/test_reproducible.py`` checks the two bit for bit).  The SVD is the
+one-sided Jacobi method of Hestenes (Demmel & Veselic, SIAM J. Matrix Anal. Appl. 13(4), 1992),
+which needs nothing but such sums, square roots and rotations; its null-space completion is a
+fixed Gram-Schmidt sweep over the unit vectors, so a degenerate subspace gets the same basis on
+every machine.  They are for the small matrices of the decision paths (tens of rows), not for
+speed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._numba_cache import finalize_kernels, kernel
+
+#: Relative orthogonality at which the Jacobi sweeps stop (a pair of columns is rotated while
+#: ``|a_p'a_q| > JACOBI_TOL * |a_p| |a_q|``); a few units of rounding, as LAPACK's ``dgesvj``.
+JACOBI_TOL = 4.0 * np.finfo(float).eps
+#: Sweeps after which the Jacobi iteration stops even if a pair is still above the tolerance
+#: (quadratic convergence takes 5-10 on the matrices here; the answer is deterministic either way).
+JACOBI_MAX_SWEEPS = 60
+
+
+@kernel(cache=True)
+def _matmul_kernel(A, B):
+    """``A @ B`` (2-D, float64) with every entry summed over the inner index from first to last."""
+    m, k = A.shape
+    n = B.shape[1]
+    C = np.zeros((m, n))
+    for i in range(m):
+        for t in range(k):
+            a = A[i, t]
+            for j in range(n):
+                C[i, j] += a * B[t, j]
+    return C
+
+
+def _matmul_numpy(A, B):
+    """:func:`_matmul_kernel` in NumPy: the same products, added in the same order."""
+    C = np.zeros((A.shape[0], B.shape[1]))
+    for t in range(A.shape[1]):
+        C += A[:, t:t + 1] * B[t:t + 1, :]
+    return C
+
+
+@kernel(cache=True)
+def _jacobi_kernel(W, V, tol, max_sweeps):
+    """One-sided Jacobi: rotate the columns of ``W`` (and ``V``) in place until they are orthogonal.
+
+    Cyclic order ``(0, 1), (0, 2), ..., (k-2, k-1)``; returns the number of sweeps done.
+    """
+    m, k = W.shape
+    for sweep in range(max_sweeps):
+        rotated = False
+        for p in range(k - 1):
+            for q in range(p + 1, k):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for i in range(m):
+                    alpha += W[i, p] * W[i, p]
+                for i in range(m):
+                    beta += W[i, q] * W[i, q]
+                for i in range(m):
+                    gamma += W[i, p] * W[i, q]
+                if gamma == 0.0 or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = 1.0 / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+                if zeta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(1.0 + t * t)
+                s = c * t
+                for i in range(m):
+                    wp = W[i, p]
+                    wq = W[i, q]
+                    W[i, p] = c * wp - s * wq
+                    W[i, q] = s * wp + c * wq
+                for i in range(k):
+                    vp = V[i, p]
+                    vq = V[i, q]
+                    V[i, p] = c * vp - s * vq
+                    V[i, q] = s * vp + c * vq
+        if not rotated:
+            return sweep + 1
+    return max_sweeps
+
+
+def _seq_sum(x: np.ndarray) -> float:
+    """``x[0] + x[1] + ...`` from first to last, as the kernels' loops add (``+ 0.0``: their sum starts at +0)."""
+    return float(np.cumsum(x)[-1]) + 0.0 if x.size else 0.0
+
+
+def _jacobi_numpy(W, V, tol, max_sweeps):
+    """:func:`_jacobi_kernel` in NumPy: the same operations in the same order (rows vectorised)."""
+    k = W.shape[1]
+    for sweep in range(max_sweeps):
+        rotated = False
+        for p in range(k - 1):
+            for q in range(p + 1, k):
+                wp, wq = W[:, p].copy(), W[:, q].copy()
+                alpha, beta, gamma = _seq_sum(wp * wp), _seq_sum(wq * wq), _seq_sum(wp * wq)
+                if gamma == 0.0 or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = 1.0 / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+                if zeta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(1.0 + t * t)
+                s = c * t
+                W[:, p], W[:, q] = c * wp - s * wq, s * wp + c * wq
+                vp, vq = V[:, p].copy(), V[:, q].copy()
+                V[:, p], V[:, q] = c * vp - s * vq, s * vp + c * vq
+        if not rotated:
+            return sweep + 1
+    return max_sweeps
+
+
+@kernel(cache=True)
+def _complete_kernel(Q, r):
+    """Columns ``r..`` of the square ``Q`` filled, in place, with an orthonormal completion of its first ``r``.
+
+    Each new column is the unit vector ``e_t`` farthest from the span so far (the smallest
+    ``sum_c Q[t, c]^2``, the first such ``t``), orthogonalised by classical Gram-Schmidt applied
+    twice and normalised: a fixed rule, so the completion of a degenerate space is the same on
+    every machine (and its residual keeps at least ``sqrt(1 / d)`` of its length).
+    """
+    d = Q.shape[0]
+    v = np.zeros(d)
+    coef = np.zeros(d)
+    for filled in range(r, d):
+        best = 0
+        best_w = np.inf
+        for t in range(d):
+            acc = 0.0
+            for c in range(filled):
+                acc += Q[t, c] * Q[t, c]
+            if acc < best_w:
+                best_w = acc
+                best = t
+        for i in range(d):
+            v[i] = 0.0
+        v[best] = 1.0
+        for _ in range(2):
+            for c in range(filled):
+                acc = 0.0
+                for i in range(d):
+                    acc += Q[i, c] * v[i]
+                coef[c] = acc
+            for i in range(d):
+                acc = 0.0
+                for c in range(filled):
+                    acc += Q[i, c] * coef[c]
+                v[i] = v[i] - acc
+        nv = 0.0
+        for i in range(d):
+            nv += v[i] * v[i]
+        nv = np.sqrt(nv)
+        for i in range(d):
+            Q[i, filled] = v[i] / nv
+    return d
+
+
+def _complete_numpy(Q, r):
+    """:func:`_complete_kernel` in NumPy: the same operations in the same order."""
+    d = Q.shape[0]
+    for filled in range(r, d):
+        P = Q[:, :filled]
+        weight = np.cumsum(P * P, axis=1)[:, -1] + 0.0 if filled else np.zeros(d)
+        best = int(np.argmin(weight))
+        v = np.zeros(d)
+        v[best] = 1.0
+        for _ in range(2):
+            coef = _matmul_numpy(np.ascontiguousarray(P.T), v.reshape(-1, 1))
+            v = v - _matmul_numpy(P, coef)[:, 0]
+        Q[:, filled] = v / np.sqrt(_seq_sum(v * v))
+    return d
+
+
+COMPILED = finalize_kernels(globals())
+_matmul = _matmul_kernel if COMPILED else _matmul_numpy
+_jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
+_complete = _complete_kernel if COMPILED else _complete_numpy
+
+
+def _as2d(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
+
+
+def matmul(a, b) -> np.ndarray:
+    """``a @ b`` for 1-D and 2-D float arrays, the same bits on every CPU (see the module docstring)."""
+    A, B = _as2d(a), _as2d(b)
+    if A.ndim > 2 or B.ndim > 2 or A.ndim == 0 or B.ndim == 0:
+        raise ValueError(f"matmul: 1-D or 2-D operands expected, got shapes {A.shape} and {B.shape}")
+    C = _matmul(A.reshape(1, -1) if A.ndim == 1 else A, B.reshape(-1, 1) if B.ndim == 1 else B)
+    if A.ndim == 1 and B.ndim == 1:
+        return C[0, 0]
+    if A.ndim == 1:
+        return C[0]
+    if B.ndim == 1:
+        return C[:, 0]
+    return C
+
+
+def dot(a, b) -> float:
+    """``a @ b`` of two vectors as a Python float."""
+    return float(matmul(np.ravel(a), np.ravel(b)))
+
+
+def norm(x) -> float:
+    """Euclidean norm of a vector (all entries of an array), summed left to right."""
+    v = np.ravel(np.asarray(x, dtype=float))
+    return float(np.sqrt(_seq_sum(v * v)))
+
+
+def row_norms(X) -> np.ndarray:
+    """Euclidean norm of each row of a 2-D array."""
+    X = _as2d(X)
+    acc = np.zeros(X.shape[0])
+    for t in range(X.shape[1]):
+        acc = acc + X[:, t] * X[:, t]
+    return np.sqrt(acc)
+
+
+def _svd_tall(A: np.ndarray):
+    """SVD of ``A`` (``m >= k``): ``(U m x m, s k, V k x k)`` with ``A = U[:, :k] diag(s) V'``, ``s`` descending."""
+    m, k = A.shape
+    W = A.copy()
+    V = np.eye(k)
+    _jacobi(W, V, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    s = np.sqrt(np.cumsum(W * W, axis=0)[-1] + 0.0)
+    order = np.argsort(-s, kind="stable")
+    s, W, V = s[order], W[:, order], V[:, order]
+    U = np.zeros((m, m))
+    r = 0
+    while r < k and s[r] > 0.0:
+        U[:, r] = W[:, r] / s[r]
+        r += 1
+    _complete(U, r)
+    return U, s, V
+
+
+def svd(a, full_matrices: bool = True, compute_uv: bool = True):
+    """``np.linalg.svd`` of a 2-D float array, the same bits on every CPU (one-sided Jacobi).
+
+    Returns ``(U, s, Vt)`` like NumPy (``s`` descending; ``full_matrices=False`` keeps the first
+    ``min(m, k)`` columns of ``U`` and rows of ``Vt``), or ``s`` alone with ``compute_uv=False``.
+    The signs and, within a repeated singular value, the basis may differ from LAPACK's.
+    """
+    A = _as2d(a)
+    if A.ndim != 2:
+        raise ValueError(f"svd: a 2-D array expected, got shape {A.shape}")
+    m, k = A.shape
+    if min(m, k) == 0:
+        s = np.zeros(0)
+        if not compute_uv:
+            return s
+        return np.eye(m)[:, :m if full_matrices else 0], s, np.eye(k)[:k if full_matrices else 0]
+    if m >= k:
+        U, s, V = _svd_tall(A)
+    else:
+        V, s, U = _svd_tall(np.ascontiguousarray(A.T))
+    if not compute_uv:
+        return s
+    p = min(m, k)
+    if not full_matrices:
+        U, V = U[:, :p], V[:, :p]
+    return np.ascontiguousarray(U), s, np.ascontiguousarray(V.T)
+
+
+def numerical_rank(s: np.ndarray, rtol: float) -> int:
+    """Singular values above ``rtol`` times the largest (descending ``s``)."""
+    if s.size == 0:
+        return 0
+    return int(np.sum(s > rtol * max(float(s[0]), np.finfo(float).tiny)))
+
+
+def lstsq(a, b, rcond: float | None = None) -> np.ndarray:
+    """Minimum-norm least-squares solution of ``a x = b`` (``b`` a vector), as ``np.linalg.lstsq(a, b, rcond=None)``."""
+    A = _as2d(a)
+    m, k = A.shape
+    U, s, Vt = svd(A, full_matrices=False)
+    cut = (np.finfo(float).eps * max(m, k) if rcond is None else rcond) * (float(s[0]) if s.size else 0.0)
+    r = int(np.sum(s > cut))
+    coef = matmul(np.ascontiguousarray(U[:, :r].T), np.asarray(b, dtype=float)) / s[:r]
+    return matmul(np.ascontiguousarray(Vt[:r].T), coef) if r else np.zeros(k)
+
+
+def nnls(a, b, max_iter: int | None = None) -> tuple[np.ndarray, float]:
+    """``min |a x - b|, x >= 0`` by the active-set method of Lawson & Hanson (1974, ch. 23), as ``scipy.optimize.nnls``.
+
+    Returns ``(x, residual norm)``; raises ``RuntimeError`` when the iteration limit
+    (``3 k`` by default, SciPy's) is reached, as SciPy does.
+    """
+    A = _as2d(a)
+    b = np.asarray(b, dtype=float)
+    m, k = A.shape
+    limit = 3 * k if max_iter is None else max_iter
+    x = np.zeros(k)
+    passive = np.zeros(k, dtype=bool)
+    At = np.ascontiguousarray(A.T)
+    tol = 10.0 * np.finfo(float).eps * max(m, k) * max(float(np.max(np.abs(A), initial=0.0)), 1.0)
+    it = 0
+    w = matmul(At, b - matmul(A, x))
+    while not passive.all() and np.max(np.where(passive, -np.inf, w)) > tol:
+        j = int(np.argmax(np.where(passive, -np.inf, w)))
+        passive[j] = True
+        while True:
+            it += 1
+            if it > limit:
+                raise RuntimeError("nnls: iteration limit reached")
+            idx = np.nonzero(passive)[0]
+            z = np.zeros(k)
+            z[idx] = lstsq(A[:, idx], b)
+            if np.all(z[idx] > 0.0):
+                x = z
+                break
+            neg = idx[z[idx] <= 0.0]
+            alpha = float(np.min(x[neg] / (x[neg] - z[neg])))
+            x = x + alpha * (z - x)
+            passive &= ~((x <= tol) & passive)
+            x[~passive] = 0.0
+        w = matmul(At, b - matmul(A, x))
+    return x, norm(matmul(A, x) - b)
+
+
+__all__ = ["COMPILED", "dot", "lstsq", "matmul", "nnls", "norm", "numerical_rank", "row_norms", "svd"]
