@@ -48,7 +48,7 @@ def warm_up() -> dict:
     before = os.environ.get(KERNELS_ENV)
     os.environ[KERNELS_ENV] = "compiled"  # the kernel modules imported here compile (or load)
     try:
-        from .geometry import _lp_kernels, _vertex_kernels  # noqa: F401
+        from .geometry import _lp_kernels, _reproducible, _vertex_kernels  # noqa: F401
         from .geometry.polytope import Polytope
         from .observers import _lookup_kernels  # noqa: F401
         from .observers.lookup import LookupObserver

@@ -263,12 +263,19 @@ def oracle(enum, a: int, b: int, exact: bool = True) -> dict:
     out = {"pair": [a, b], "rank_E": P.rank_E, "E_sv_min_kept": float(P.E_sv[P.rank_E - 1]) if P.rank_E else None,
            "E_sv_first_dropped": float(P.E_sv[P.rank_E]) if P.rank_E < P.E_sv.size else None,
            "eq_residual": P.eq_residual, "box_from_rows": P.box_from_rows}
-    # the equality subspace alone forces x = x^ ?
+    # the equality subspace alone forces x = x^ ?  A rank test: the rows x - x^ lie in the row
+    # space of E when appending them leaves the numerical rank unchanged (|N_x - N_x^| in
+    # LAPACK's basis is about eps / s_min(E) and crosses 1e-12 with the basis when an equality's
+    # singular value is small: 1e-7 of the largest on the PWA piston)
     Nd = P.N[:n] - P.N[n:2 * n]
     out["subspace_moves_x_minus_xhat"] = float(np.max(np.abs(Nd), initial=0.0))
+    J = np.zeros((n, d))
+    J[:, :n], J[:, n:2 * n] = np.eye(n), -np.eye(n)
+    s_EJ = np.linalg.svd(np.vstack([P.E_full, J]), compute_uv=False)
+    rank_EJ = int(np.sum(s_EJ > 1e-12 * s_EJ[0]))
+    out["E_with_x_minus_xhat_sv_at_rank"] = float(s_EJ[P.rank_E] / s_EJ[0]) if P.rank_E < s_EJ.size else None
     w0E_ = np.linalg.lstsq(P.E, P.e, rcond=None)[0]
-    out["subspace_forces_same"] = bool(out["subspace_moves_x_minus_xhat"] <= 1e-12
-                                       and np.max(np.abs(w0E_[:n] - w0E_[n:2 * n])) <= DISTINCT_STATE_TOL)
+    out["subspace_forces_same"] = bool(rank_EJ == P.rank_E and np.max(np.abs(w0E_[:n] - w0E_[n:2 * n])) <= DISTINCT_STATE_TOL)
     if out["subspace_forces_same"]:
         # the code's convention (pair_geometry.classify_pair): outputs that force x^ = x make the
         # pair "same state" before (and without) any emptiness test

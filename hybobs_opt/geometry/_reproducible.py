@@ -54,10 +54,12 @@ def _matmul_numpy(A, B):
 
 
 @kernel(cache=True)
-def _jacobi_kernel(W, V, tol, max_sweeps):
+def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
     """One-sided Jacobi: rotate the columns of ``W`` (and ``V``) in place until they are orthogonal.
 
-    Cyclic order ``(0, 1), (0, 2), ..., (k-2, k-1)``; returns the number of sweeps done.
+    Cyclic order ``(0, 1), (0, 2), ..., (k-2, k-1)``; a pair with a column whose squared norm is
+    at most ``negligible`` is left alone (that column is zero to working precision: its direction
+    is rounding, and rotating it against itself never converges).  Returns the sweeps done.
     """
     m, k = W.shape
     for sweep in range(max_sweeps):
@@ -73,7 +75,8 @@ def _jacobi_kernel(W, V, tol, max_sweeps):
                     beta += W[i, q] * W[i, q]
                 for i in range(m):
                     gamma += W[i, p] * W[i, q]
-                if gamma == 0.0 or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                if alpha <= negligible or beta <= negligible or gamma == 0.0 \
+                        or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
                     continue
                 rotated = True
                 zeta = (beta - alpha) / (2.0 * gamma)
@@ -102,7 +105,7 @@ def _seq_sum(x: np.ndarray) -> float:
     return float(np.cumsum(x)[-1]) + 0.0 if x.size else 0.0
 
 
-def _jacobi_numpy(W, V, tol, max_sweeps):
+def _jacobi_numpy(W, V, tol, negligible, max_sweeps):
     """:func:`_jacobi_kernel` in NumPy: the same operations in the same order (rows vectorised)."""
     k = W.shape[1]
     for sweep in range(max_sweeps):
@@ -111,7 +114,8 @@ def _jacobi_numpy(W, V, tol, max_sweeps):
             for q in range(p + 1, k):
                 wp, wq = W[:, p].copy(), W[:, q].copy()
                 alpha, beta, gamma = _seq_sum(wp * wp), _seq_sum(wq * wq), _seq_sum(wp * wq)
-                if gamma == 0.0 or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                if alpha <= negligible or beta <= negligible or gamma == 0.0 \
+                        or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
                     continue
                 rotated = True
                 zeta = (beta - alpha) / (2.0 * gamma)
@@ -235,12 +239,25 @@ def row_norms(X) -> np.ndarray:
 
 
 def _svd_tall(A: np.ndarray):
-    """SVD of ``A`` (``m >= k``): ``(U m x m, s k, V k x k)`` with ``A = U[:, :k] diag(s) V'``, ``s`` descending."""
+    """SVD of ``A`` (``m >= k``): ``(U m x m, s k, V k x k)`` with ``A = U[:, :k] diag(s) V'``, ``s`` descending.
+
+    ``A`` is scaled by a power of two (exact) so that its largest entry is about 1; singular
+    values at most ``eps max(m, k) |A|_F`` -- LAPACK's rank cut-off -- are returned as exactly 0,
+    their left vectors taken from the Gram-Schmidt completion (a column of that size carries no
+    direction, only rounding).
+    """
     m, k = A.shape
-    W = A.copy()
+    big = float(np.max(np.abs(A), initial=0.0))
+    if not np.isfinite(big):
+        raise ValueError("svd: the matrix has a non-finite entry")
+    unit = float(np.exp2(np.round(np.log2(big)))) if big > 0.0 else 1.0
+    W = A / unit
     V = np.eye(k)
-    _jacobi(W, V, JACOBI_TOL, JACOBI_MAX_SWEEPS)
-    s = np.sqrt(np.cumsum(W * W, axis=0)[-1] + 0.0)
+    fro2 = float(np.cumsum(np.ravel(W * W))[-1])
+    cut2 = (np.finfo(float).eps * max(m, k)) ** 2 * fro2
+    _jacobi(W, V, JACOBI_TOL, cut2, JACOBI_MAX_SWEEPS)
+    s2 = np.cumsum(W * W, axis=0)[-1] + 0.0
+    s = np.where(s2 > cut2, np.sqrt(s2), 0.0)
     order = np.argsort(-s, kind="stable")
     s, W, V = s[order], W[:, order], V[:, order]
     U = np.zeros((m, m))
@@ -248,6 +265,7 @@ def _svd_tall(A: np.ndarray):
     while r < k and s[r] > 0.0:
         U[:, r] = W[:, r] / s[r]
         r += 1
+    s = s * unit
     _complete(U, r)
     return U, s, V
 

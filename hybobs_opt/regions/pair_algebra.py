@@ -113,7 +113,7 @@ class PairAlgebra:
                 U_, S_, Vt = svd(E[k], full_matrices=True)
                 r = numerical_rank(S_, RANK_RTOL)
                 N = np.ascontiguousarray(Vt[r:].T)
-                self._svd[(a, int(b))] = (U_, S_, Vt, r, N, SubspaceDirections.of(N, self.n))
+                self._svd[(a, int(b))] = (U_, S_, Vt, r, N, SubspaceDirections.of(N, self.n, (E[k], r)))
         return [self._svd[(a, int(b))] for b in bs]
 
     def restricted_rows(self, i: int, js) -> list:

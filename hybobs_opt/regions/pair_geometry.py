@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
-from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, row_norms, svd
+from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
@@ -290,6 +290,13 @@ class SubspaceDirections:
     rank ``n``; ``thinnest[k]``: the functional ``c`` on the frame's coordinates along which
     that projection of a unit ball is thinnest; ``same_state_directions``: the frame moves ``x``
     and ``x^`` together (``N_x = N_x^``).
+
+    With the equalities ``E`` whose nullspace ``N`` spans (and their numerical rank), the last
+    is a rank test: the rows ``x - x^`` lie in the row space of ``E`` when appending them leaves
+    the rank unchanged.  That decision does not depend on how accurately ``N`` was computed:
+    with an equality of singular value 1e-7 (the PWA piston), ``|N_x - N_x^|`` is about
+    ``eps / 1e-7`` in LAPACK's basis and 1e-16 in the Jacobi one, on either side of
+    ``RANK_RTOL``, while the ranks agree.
     """
 
     full_rank: tuple[bool, bool]
@@ -297,7 +304,7 @@ class SubspaceDirections:
     same_state_directions: bool
 
     @staticmethod
-    def of(N: np.ndarray, n: int) -> "SubspaceDirections":
+    def of(N: np.ndarray, n: int, equalities: tuple[np.ndarray, int] | None = None) -> "SubspaceDirections":
         full, thin = [], []
         for part in (slice(0, n), slice(n, 2 * n)):
             P = N[part]
@@ -308,7 +315,13 @@ class SubspaceDirections:
             Uu, sv, _ = svd(P)
             full.append(bool(sv[-1] > RANK_RTOL))
             thin.append(mm(P.T, Uu[:, -1]))
-        same = bool(np.max(np.abs(N[:n] - N[n:2 * n]), initial=0.0) <= RANK_RTOL)
+        if equalities is None:
+            same = bool(np.max(np.abs(N[:n] - N[n:2 * n]), initial=0.0) <= RANK_RTOL)
+        else:
+            E, rank = equalities
+            J = np.zeros((n, E.shape[1]))
+            J[:, :n], J[:, n:2 * n] = np.eye(n), -np.eye(n)
+            same = numerical_rank(svd(np.vstack([E, J]), compute_uv=False), RANK_RTOL) == rank
         return SubspaceDirections((full[0], full[1]), (thin[0], thin[1]), same)
 
 

@@ -38,8 +38,8 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-KERNEL_MODULES = ("hybobs_opt.geometry._lp_kernels", "hybobs_opt.geometry._vertex_kernels",
-                  "hybobs_opt.observers._lookup_kernels")
+KERNEL_MODULES = ("hybobs_opt.geometry._lp_kernels", "hybobs_opt.geometry._reproducible",
+                  "hybobs_opt.geometry._vertex_kernels", "hybobs_opt.observers._lookup_kernels")
 
 # The same computation runs in the child (Python kernels) and in this process (compiled kernels):
 # ``results()`` returns a JSON-able dict.
@@ -115,7 +115,7 @@ def results():
 
 CHILD = PROBE + r'''
 import hybobs_opt._numba_cache as nc
-import hybobs_opt.observers._lookup_kernels, hybobs_opt.geometry._vertex_kernels, hybobs_opt.geometry._lp_kernels
+import hybobs_opt.observers._lookup_kernels, hybobs_opt.geometry._vertex_kernels, hybobs_opt.geometry._lp_kernels, hybobs_opt.geometry._reproducible
 out = results()
 out["compiled"] = nc.kernels_compiled()
 print(json.dumps(out))
