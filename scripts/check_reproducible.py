@@ -14,13 +14,13 @@ machine, by environment variables read at start-up:
 Each set-up runs the reference computations in a child process: the pair lists (sha256 of
 ``[[i, j], ...]`` for the pieces, the thin and the same-state pairs) and LP counts of
 ``analyse_observability`` on model (17) at T = 5, 6, 7 (grouped) and T = 5 pair by pair, on
-model (16) at T = 5 pair by pair, and the labels of 200 states (``classify_many``).  Every
-set-up must give the same answers as the first, and the first the answers recorded in
-``tests/reproducibility_reference.json`` (written with ``--record``; with ``--long`` the
-reference also holds model 17 at T = 8, for the recorded machine's numbers in
-``benchmarks/results/regions.json``).  A difference is printed and the exit status is 1.
+model (16) at T = 5 pair by pair, and the labels of 200 states (``classify_many``); the machine
+as it is also runs model (17) at T = 8 (grouped).  Every set-up must give the same answers as
+the first, and the first the answers recorded in ``tests/reproducibility_reference.json``
+(written with ``--record``; the counts of ``benchmarks/results/regions.json`` and the README
+are these).  A difference is printed and the exit status is 1.
 
-Run: ``.venv/bin/python scripts/check_reproducible.py [--record] [--long] [--setups NAME ...]``.
+Run: ``.venv/bin/python scripts/check_reproducible.py [--record] [--setups NAME ...]``.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "tests" / "reproducibility_reference.json"
 
-#: (model, horizon, grouped pair tests) of the reference computations; the long ones with --long.
+#: (model, horizon, grouped pair tests) of the reference computations; the long ones on the machine as it is only.
 CASES = [("powertrain5", 5, True), ("powertrain5", 6, True), ("powertrain5", 7, True), ("powertrain5", 5, False),
          ("powertrain3", 5, False)]
 LONG_CASES = [("powertrain5", 8, True)]
@@ -122,7 +122,6 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--child", help=argparse.SUPPRESS)
     p.add_argument("--record", action="store_true", help="write the first set-up's answers as the reference")
-    p.add_argument("--long", action="store_true", help="also model 17 at T = 8 (as-is set-up only)")
     p.add_argument("--setups", nargs="*", help="only these set-ups (names as printed)")
     args = p.parse_args(argv)
     if args.child:
@@ -136,7 +135,7 @@ def main(argv=None) -> int:
             plan = {k: v for k, v in plan.items() if k in args.setups or k == "as_is"}
         first = None
         for name, env_changes in plan.items():
-            cases = CASES + (LONG_CASES if args.long and name == "as_is" else [])
+            cases = CASES + (LONG_CASES if name == "as_is" else [])
             t0 = time.perf_counter()
             got = run_setup(env_changes, cases)
             print(f"{name:45s} {time.perf_counter() - t0:6.1f} s  {env_changes}", flush=True)

@@ -200,7 +200,8 @@ _complete = _complete_kernel if COMPILED else _complete_numpy
 
 
 def _as2d(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=float)
+    a = np.asarray(a, dtype=float)
+    return a if a.ndim == 0 else np.ascontiguousarray(a)
 
 
 def matmul(a, b) -> np.ndarray:

@@ -1,0 +1,176 @@
+"""The reproducible linear algebra of the decision paths (``hybobs_opt.geometry._reproducible``).
+
+Oracles: plain Python float loops in the documented order (bit for bit: the products are defined
+as those sums), LAPACK through NumPy and SciPy's NNLS (to rounding: another algorithm), and
+child processes with other OpenBLAS kernels (bit for bit: the point of the module).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.optimize import nnls as scipy_nnls
+
+from hybobs_opt.geometry import _reproducible as R
+
+
+def _python_matmul(A, B):
+    """``A @ B`` by Python floats (IEEE double, no FMA), each entry summed over the inner index in order."""
+    m, k = A.shape
+    n = B.shape[1]
+    C = [[0.0] * n for _ in range(m)]
+    for i in range(m):
+        for j in range(n):
+            acc = 0.0
+            for t in range(k):
+                acc += float(A[i, t]) * float(B[t, j])
+            C[i][j] = acc
+    return np.array(C, dtype=float).reshape(m, n)
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 1), (3, 7, 2), (9, 19, 9), (19, 9, 1), (4, 0, 3), (0, 3, 2)])
+def test_matmul_is_the_ordered_sum_bit_for_bit(shape):
+    m, k, n = shape
+    rng = np.random.default_rng(sum(shape))
+    A = rng.normal(size=(m, k)) * 10.0 ** rng.integers(-8, 8, size=(m, k))
+    B = rng.normal(size=(k, n)) * 10.0 ** rng.integers(-8, 8, size=(k, n))
+    want = _python_matmul(A, B)
+    assert np.array_equal(R.matmul(A, B), want)
+    assert np.array_equal(R._matmul_numpy(A, B), want)  # the mirror used while kernels are not compiled
+    if m and n:
+        assert np.array_equal(R.matmul(A[0], B), want[0])  # vector @ matrix
+        assert np.array_equal(R.matmul(A, B[:, 0]), want[:, 0])  # matrix @ vector
+        assert R.dot(A[0], B[:, 0]) == want[0, 0]
+    assert np.all(np.abs(R.matmul(A, B) - A @ B) <= 1e-13 * (np.abs(A) @ np.abs(B)))
+
+
+def test_matmul_refuses_what_is_not_a_vector_or_matrix():
+    with pytest.raises(ValueError, match="1-D or 2-D"):
+        R.matmul(np.zeros((2, 2, 2)), np.zeros(2))
+    with pytest.raises(ValueError, match="1-D or 2-D"):
+        R.matmul(np.float64(2.0), np.zeros(2))
+
+
+def test_norms_are_ordered_sums():
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(5, 7))
+    for row, value in zip(X, R.row_norms(X)):
+        acc = 0.0
+        for v in row:
+            acc += float(v) * float(v)
+        assert value == np.sqrt(acc)
+        assert R.norm(row) == np.sqrt(acc)
+
+
+def _graded(rng, m, k):
+    """``m x k`` with singular values spread over up to 40 decades (LAPACK's answer as the reference)."""
+    p = min(m, k)
+    Q1 = np.linalg.qr(rng.normal(size=(m, m)))[0]
+    Q2 = np.linalg.qr(rng.normal(size=(k, k)))[0]
+    sv = np.sort(10.0 ** (-rng.uniform(0, 40, size=p)))[::-1] * 10.0 ** rng.uniform(-5, 5)
+    return (Q1[:, :p] * sv) @ Q2[:, :p].T
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_svd_against_lapack(seed):
+    rng = np.random.default_rng(seed)
+    m, k = (int(v) for v in rng.integers(1, 16, size=2))
+    A = _graded(rng, m, k) if seed % 2 else rng.normal(size=(m, k))
+    if seed % 3 == 0 and m > 2:
+        A[-1] = A[0] - A[1]  # an exact dependence
+    U, s, Vt = R.svd(A)
+    s_ref = np.linalg.svd(A, compute_uv=False)
+    p = min(m, k)
+    assert U.shape == (m, m) and s.shape == (p,) and Vt.shape == (k, k)
+    assert np.all(np.diff(s) <= 0.0) and np.all(s >= 0.0)
+    assert np.max(np.abs(s - s_ref)) <= 1e-13 * s_ref[0]
+    assert np.max(np.abs(U.T @ U - np.eye(m))) <= 1e-13
+    assert np.max(np.abs(Vt @ Vt.T - np.eye(k))) <= 1e-13
+    assert np.max(np.abs((U[:, :p] * s) @ Vt[:p] - A)) <= 1e-13 * s_ref[0]
+    r = R.numerical_rank(s, 1e-12)
+    assert r == int(np.sum(s_ref > 1e-12 * s_ref[0])) or abs(np.log10(s_ref[r - 1 if r else 0] / s_ref[0]) + 12) < 0.5
+    if r < k:  # the nullspace basis: A N = 0 to rounding
+        assert np.max(np.abs(A @ Vt[r:].T)) <= 1e-12 * s_ref[0]
+    Uf, sf, Vtf = R.svd(A, full_matrices=False)
+    assert Uf.shape == (m, p) and Vtf.shape == (p, k)
+    assert np.array_equal(R.svd(A, compute_uv=False), s)
+
+
+def test_svd_of_degenerate_matrices():
+    for A in (np.zeros((3, 5)), np.zeros((0, 4)), np.ones((4, 1)), np.eye(3)):
+        U, s, Vt = R.svd(A)
+        m, k = A.shape
+        assert U.shape == (m, m) and Vt.shape == (k, k)
+        assert np.allclose(U.T @ U, np.eye(m)) and np.allclose(Vt @ Vt.T, np.eye(k))
+        assert np.allclose(s, np.linalg.svd(A, compute_uv=False))
+    with pytest.raises(ValueError, match="non-finite"):
+        R.svd(np.array([[1.0, np.nan]]))
+
+
+def test_jacobi_and_completion_mirrors_are_the_kernels_bit_for_bit():
+    """The NumPy mirrors (used while the kernels are not compiled) and the kernels do the same operations."""
+    rng = np.random.default_rng(11)
+    for m, k in ((19, 9), (7, 7), (12, 3)):
+        A = _graded(rng, m, k)
+        W1, V1, W2, V2 = A.copy(), np.eye(k), A.copy(), np.eye(k)
+        n1 = R._jacobi_kernel(W1, V1, R.JACOBI_TOL, 1e-300, R.JACOBI_MAX_SWEEPS)
+        n2 = R._jacobi_numpy(W2, V2, R.JACOBI_TOL, 1e-300, R.JACOBI_MAX_SWEEPS)
+        assert n1 == n2 and np.array_equal(W1, W2) and np.array_equal(V1, V2)
+        Q1 = np.zeros((m, m))
+        Q1[:, :2] = np.linalg.qr(rng.normal(size=(m, 2)))[0]
+        Q2 = Q1.copy()
+        R._complete_kernel(Q1, 2)
+        R._complete_numpy(Q2, 2)
+        assert np.array_equal(Q1, Q2)
+        assert np.allclose(Q1.T @ Q1, np.eye(m), atol=1e-14)
+
+
+def test_lstsq_and_nnls_against_numpy_and_scipy():
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        m, k = (int(v) for v in rng.integers(1, 10, size=2))
+        A, b = rng.normal(size=(m, k)), rng.normal(size=m)
+        if trial % 4 == 0 and k > 1:
+            A[:, -1] = A[:, 0]  # rank-deficient: the minimum-norm solution
+        assert np.allclose(R.lstsq(A, b), np.linalg.lstsq(A, b, rcond=None)[0], atol=1e-10)
+        x, res = R.nnls(A, b)
+        x_ref, res_ref = scipy_nnls(A, b)
+        assert np.all(x >= 0.0)
+        assert res == pytest.approx(res_ref, rel=1e-9, abs=1e-12)
+        # the KKT conditions of the non-negative least-squares problem, checked directly
+        grad = A.T @ (A @ x - b)
+        assert np.all(grad >= -1e-9 * (1 + np.abs(A).T @ np.abs(b)))
+        assert np.all(np.abs(grad[x > 0]) <= 1e-9 * (1 + np.abs(A).T @ np.abs(b))[x > 0])
+
+
+_CHILD = r"""
+import hashlib, json, numpy as np
+from hybobs_opt.geometry import _reproducible as R
+rng = np.random.default_rng(7)
+out = []
+for m, k in ((9, 19), (19, 9), (6, 6)):
+    A = rng.normal(size=(m, k)) * 10.0 ** rng.integers(-6, 6, size=(m, k))
+    U, s, Vt = R.svd(A)
+    C = R.matmul(A, A.T)
+    out.append(hashlib.sha256(U.tobytes() + s.tobytes() + Vt.tobytes() + C.tobytes() + R.lstsq(A, A[:, 0]).tobytes()).hexdigest())
+print(json.dumps(out))
+"""
+
+
+def test_same_bits_with_other_blas_kernels_and_thread_counts():
+    """What differs between CPUs can be chosen on one: OpenBLAS's kernels and threads, NumPy's SIMD."""
+    answers = {}
+    for name, env in {"as_is": {}, "haswell": {"OPENBLAS_CORETYPE": "Haswell"},
+                      "prescott_1_thread": {"OPENBLAS_CORETYPE": "Prescott", "OPENBLAS_NUM_THREADS": "1"},
+                      "numpy_without_avx2": {"NPY_DISABLE_CPU_FEATURES": "AVX2 FMA3 AVX512F AVX512CD AVX512_SKX"}}.items():
+        proc = subprocess.run([sys.executable, "-c", _CHILD], env={**os.environ, **env}, capture_output=True, text=True)
+        if name == "numpy_without_avx2" and proc.returncode != 0 and "NPY_DISABLE_CPU_FEATURES" in proc.stderr:
+            continue  # a CPU without these features: nothing to disable
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        answers[name] = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert len({json.dumps(v) for v in answers.values()}) == 1, answers
