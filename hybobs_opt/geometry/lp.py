@@ -121,6 +121,12 @@ def solve_lp(
         bounds = (None, None)
     t0 = time.perf_counter()
     sc = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds)
+    attempts = [(sc, method) for method in ("highs", "highs-ipm", "highs-ds")]
+    # last: rows to unit norm only.  Column scaling can blow a rounding residue of a restricted row
+    # (1e-27 where exact arithmetic gives 0) up or a real entry down below HiGHS's small-value
+    # threshold (1e-9), and then every method solves another problem (model 17, T = 8, pair by
+    # pair: a row violated by 4.4e-6 at each answer)
+    attempts.append((_equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps=0), "highs-ds"))
     bad_ub = np.nonzero(sc.zero_ub < 0)[0]
     bad_eq = np.nonzero(sc.zero_eq != 0)[0]
     if bad_ub.size or bad_eq.size:  # a constant row 0 <= b < 0 (or 0 = e != 0): infeasible as posed
@@ -135,8 +141,8 @@ def solve_lp(
         return LPResult(Status.INFEASIBLE, None, None, "numpy", time.perf_counter() - t0, certificate=cert)
     messages = []
     last_exc: BaseException | None = None
-    sb = sc.bounds()
-    for method in ("highs", "highs-ipm", "highs-ds"):
+    for sc, method in attempts:
+        sb = sc.bounds()
         try:
             res = _call_linprog(sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
             status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
@@ -163,7 +169,7 @@ def solve_lp(
         messages.append(f"{method}: {res.status} {getattr(res, 'message', '')}")
     raise SolverError(
         problem,
-        "HiGHS (scipy.optimize.linprog: highs, highs-ipm, highs-ds)",
+        "HiGHS (scipy.optimize.linprog: highs, highs-ipm, highs-ds; highs-ds on the rows scaled to unit norm only)",
         "; ".join(messages),
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients"
              + ("; the solver itself raised (chained below): check the installed scipy/HiGHS" if last_exc is not None else ""),
@@ -333,7 +339,7 @@ class _Scaled:
         return np.vstack([self.A, Ab]), np.concatenate([self.b, bb])
 
 
-def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds) -> _Scaled:
+def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps: int = LP_EQUILIBRATION_SWEEPS) -> _Scaled:
     """Scale rows and columns of the LP by powers of two so that its entries are about 1 (a few
     geometric-mean sweeps, then every row to unit infinity norm exactly); the cost to unit norm.
 
@@ -367,7 +373,7 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds) -> _Scaled:
         # entries at rounding level of their row (a restricted row's 1e-22 where exact arithmetic
         # gives 0) carry no unit: they would drag the geometric mean down
         nz = absM > LP_SCALING_NOISE_RTOL * np.max(absM, axis=1, keepdims=True)
-        for _ in range(LP_EQUILIBRATION_SWEEPS):
+        for _ in range(sweeps):
             # geometric-mean scaling (sqrt of the largest times the smallest non-zero entry): it
             # recovers the units of a matrix that is a diagonal rescaling of a well-scaled one
             # (states in other units), which the max-norm balance does not once a row holds a

@@ -229,3 +229,23 @@ def test_model17_T9_faces_found_lower_dimensional():
     oracle = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(oracle)
     assert [oracle.oracle(enum, *p, exact=False)["label"] for p in ((583, 635), (718, 210))] == ["thin", "thin"]
+
+
+def test_model17_T8_chebyshev_lp_solved_where_column_scaling_misleads_highs():
+    """The Chebyshev LP of R_6,642 of model (17) at T = 8 (pair by pair; radius ~-1.5e-13, a face),
+    that DAQP did not decide: on the equilibrated LP every HiGHS method returned a point violating
+    a row by 4.4e-6 (column scaling had moved entries across HiGHS's 1e-9 small-value threshold),
+    and the analysis stopped with a SolverError.  solve_lp's last attempt, rows scaled to unit norm
+    only, is checked like the others; its optimum agrees with HiGHS on the data as they are."""
+    from hybobs_opt.geometry.lp import solve_lp
+    from hybobs_opt.status import Status
+
+    data = np.load(HERE / "model17_T8_pair_lp.npz")
+    c, A, b = data["c"], data["A"], data["b"]
+    res = solve_lp(c, A, b, problem="model 17 T = 8, R_6,642")
+    assert res.status == Status.OPTIMAL
+    assert np.max(A @ res.x - b) <= 1e-9
+    ref = linprog(c, A_ub=A, b_ub=b, bounds=(None, None), method="highs-ds",
+                  options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10})
+    assert ref.status == 0 and abs(res.objective - ref.fun) <= 1e-9
+    assert -res.objective > -CLOSED_SET_TOL  # a face: not empty
