@@ -17,37 +17,22 @@ exact for PWA maps continuous across their guards, the unobservable side otherwi
 which the outputs force ``x^ = x`` are left out and counted (``n_pairs_dropped_same_state``),
 like the thin ones (``n_pairs_dropped_thin``).
 
-LPs (issue 19).  Measured on model (17) before the savings (T = 6, 13,670 pair LPs): half were
-the two width LPs of the thin test of faces, 42 % Chebyshev LPs (one per pair that survives the
-rank screen, plus the affine-hull re-solves), 7 % distinct-state LPs; a third of the time went
-to HiGHS on faces DAQP's default tolerance could not decide.  Now (answers identical, see
-``tests/unit/regions/test_pair_lp_savings.py``): the width of a face along the direction its
-implicit equalities flatten is bounded from the very multipliers that certified those
-equalities (``pair_geometry._tight_width_bound``, no LP); the thin test is skipped when a
-certified Chebyshev ball is already too wide for it; undecided Chebyshev LPs get one more DAQP
-solve with a tight primal tolerance before HiGHS (``pair_geometry._slack_lp``).  Bounds from
-the prefix tree (an empty prefix pair set empties every extension: its Farkas certificate
-re-checks on the extension's rows) were tried and dropped: at T = 5 and 6 the parents' LPs cost
-as many LPs as they saved (half of the parent pairs are empty, with ~2 extensions each).
-The lists are those of the code before these savings (model 16 at T = 3..6, model 17 at
-T = 5, 6) except where that code was wrong: at T = 7 of model 17 it called two face pairs empty
-(four entries of the thin list) from HiGHS's point at slack -3.4e-6, taken as the radius
-without a bound; their radius is ~-1e-12, now certified above ``-CLOSED_SET_TOL``; and where it
-measured one flat direction of a face only (model 17: 9 entries at T = 5, 2 / 2 / 17 / 81 at
-T = 6 / 7 / 8 / 9 were pieces or same-state pairs whose projection an independent LP oracle,
-``scripts/check_t9_pair_lists.py``, finds lower-dimensional; every flat direction is tried now).
-Grouped pair tests (the default since issue 19's last LP target): one test of the pair set of two
-mode-sequence prefixes' supersets rules out every pair below them when that set is empty, thin
-or same-state (:mod:`~hybobs_opt.regions.pair_groups`).  Model 17, pair LPs pair by pair ->
-grouped: 28,442 -> 10,812 at T = 7, 103,533 -> 30,889 at T = 8, 401,668 -> 86,127 at T = 9; the
-same pieces at T <= 8 (and model 16 at T = 3..7); at T = 9 three pieces of the pair-by-pair
-lists, (667, 615), (669, 617) and (590, 977), are ruled out by their groups, and the independent
-oracle finds all three lower-dimensional (thin along a combination of flat directions, the
-leftover below).  ``group_tests=False`` gives every pair's own verdict.
+LPs.  The width of a face along the direction its implicit equalities flatten is bounded from
+the very multipliers that certified those equalities (``pair_geometry._tight_width_bound``, no
+LP); the thin test is skipped when a certified Chebyshev ball is already too wide for it;
+undecided Chebyshev LPs get one more DAQP solve with a tight primal tolerance before HiGHS
+(``pair_geometry._slack_lp``).  Grouped pair tests (the default): one test of the pair set of
+two mode-sequence prefixes' supersets rules out every pair below them when that set is empty,
+thin or same-state (:mod:`~hybobs_opt.regions.pair_groups`); ``group_tests=False`` gives every
+pair's own verdict.
+
+Every value a decision compares with a tolerance is computed by
+:mod:`~hybobs_opt.geometry._reproducible` (a fixed summation order, no fused multiply-add, a
+Jacobi SVD) rather than by OpenBLAS / LAPACK, whose kernels differ between CPUs: the lists and
+LP counts are the same on every x86-64 machine (``scripts/check_reproducible.py``).
+
 Known leftover, on the safe side: a face whose projection is thin only along a combination of
-the flat directions tried is kept as a piece (model 17 at T = 9, found by that oracle: (576, 1108)
-among the entries that changed, and (604, 660) in a random sample of 400 of the 22,125 pieces)
--- a set of measure zero added to ``B_T``.
+the flat directions tried is kept as a piece -- a set of measure zero added to ``B_T``.
 """
 
 from __future__ import annotations

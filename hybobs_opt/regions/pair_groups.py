@@ -21,10 +21,8 @@ undecided that fall into at least two groups of the next level (else the next le
 as cheap and tighter).  The shortest prefix is ``ceil(n / p) - 2`` modes (at least 1): with fewer
 shared outputs the sets were never ruled out on model (17).
 
-Measured on model (17) (issue 19, ``benchmarks/results/regions.json``; pair LPs, group LPs
-included, pair by pair -> grouped): 28,442 -> 10,812 at T = 7, 103,533 -> 30,889 at T = 8,
-401,668 -> 86,127 at T = 9, with the same pieces at T = 7 and 8; at T = 9 three pair-by-pair
-pieces are ruled out, all lower-dimensional by an independent LP oracle.
+The LP counts with and without groups are measured in ``benchmarks/results/regions.json``
+(``model17_long_horizons``).
 """
 
 from __future__ import annotations
