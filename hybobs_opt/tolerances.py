@@ -643,3 +643,17 @@ BALL_WIDTH_RTOL: float = 1e-6
 #: leaves ~1e-10 (model 16, T = 8, the LP HiGHS returned "Not Set" on; the faces of model 17 at
 #: T = 7 HiGHS's point put at slack -3.4e-6).  The bounds stay the numpy-certified ones.
 PAIR_LP_PRIMAL_TOL: float = 1e-11
+
+# ---------------------------------------------------------------------- decisions near a threshold
+
+#: A decision taken from certified floating-point bounds (a Chebyshev radius against its
+#: threshold, a width against ``2 REGION_SLACK_TOL``, ``|x - x^|`` against DISTINCT_STATE_TOL) is
+#: taken in floats only when the bound clears the threshold by this much (scaled units, rows of
+#: unit norm); inside the band the LP is re-decided in rational arithmetic
+#: (:mod:`hybobs_opt.geometry.exact_lp`).  The bounds are rigorous up to the rounding of their own
+#: evaluation, about 1e-15 for the data of order one here: a thousand times that.
+EXACT_DECISION_MARGIN: float = 1e-12
+
+#: An LP value taken from HiGHS's point (not a certified bound: its rows hold to LP_POINT_RTOL)
+#: that lies within this of the caller's threshold is re-decided in rational arithmetic.
+HIGHS_DECISION_BAND: float = 1e-6

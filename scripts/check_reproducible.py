@@ -14,7 +14,9 @@ machine, by environment variables read at start-up:
 Each set-up runs the reference computations in a child process: the pair lists (sha256 of
 ``[[i, j], ...]`` for the pieces, the thin and the same-state pairs) and LP counts of
 ``analyse_observability`` on model (17) at T = 5, 6, 7 (grouped) and T = 5 pair by pair, on
-model (16) at T = 5 pair by pair, and the labels of 200 states (``classify_many``); the machine
+model (16) at T = 5 pair by pair, the labels of 200 states (``classify_many``), and the flags and
+estimates (bit for bit) of the lookup observer on 1,500 samples of the backlash scenario of
+model (16), noise-free and with output noise; the machine
 as it is also runs model (17) at T = 8 (grouped).  Every set-up must give the same answers as
 the first, and the first the answers recorded in ``tests/reproducibility_reference.json``
 (written with ``--record``; the counts of ``benchmarks/results/regions.json`` and the README
@@ -73,6 +75,21 @@ def child(cases) -> dict:
     labels = [str(v) for v in a.classify_many(X)]
     out["powertrain3_T5_labels"] = {"sha256": hashlib.sha256(",".join(labels).encode()).hexdigest(),
                                     "counts": {k: labels.count(k) for k in sorted(set(labels))}}
+    # the lookup observer (Algorithm 4.1) on the backlash scenario, noise-free and with output noise
+    from hybobs_opt import LookupObserver
+    from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario
+
+    plant = get_example("powertrain3").build()
+    trace = backlash_scenario(plant, SCENARIO_TORQUES["powertrain3"], 1.5)
+    obs = LookupObserver(analyse_observability(plant, 3))
+    noisy = trace.y + 0.01 * np.random.default_rng(7).standard_normal(trace.y.shape)
+    for name, Y in (("clean", trace.y), ("noisy", noisy)):
+        run = obs.run(trace.u, Y)
+        flags = [str(f) for f in run.flags]
+        out[f"powertrain3_T3_lookup_{name}"] = {
+            "flags_sha256": hashlib.sha256(",".join(flags).encode()).hexdigest(),
+            "estimates_sha256": hashlib.sha256(np.ascontiguousarray(run.x_hat, dtype=float).tobytes()).hexdigest(),
+            "counts": {k: flags.count(k) for k in sorted(set(flags))}}
     return out
 
 

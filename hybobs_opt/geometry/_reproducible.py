@@ -317,6 +317,14 @@ def lstsq(a, b, rcond: float | None = None) -> np.ndarray:
     return matmul(np.ascontiguousarray(Vt[:r].T), coef) if r else np.zeros(k)
 
 
+def pinv(a, rcond: float = 1e-15) -> np.ndarray:
+    """Moore-Penrose pseudo-inverse, as ``np.linalg.pinv(a)`` (singular values below ``rcond`` times the largest dropped)."""
+    A = _as2d(a)
+    U, s, Vt = svd(A, full_matrices=False)
+    r = int(np.sum(s > rcond * (float(s[0]) if s.size else 0.0)))
+    return matmul(np.ascontiguousarray(Vt[:r].T) / s[:r], np.ascontiguousarray(U[:, :r].T)) if r else np.zeros((A.shape[1], A.shape[0]))
+
+
 def nnls(a, b, max_iter: int | None = None) -> tuple[np.ndarray, float]:
     """``min |a x - b|, x >= 0`` by the active-set method of Lawson & Hanson (1974, ch. 23), as ``scipy.optimize.nnls``.
 
@@ -355,4 +363,4 @@ def nnls(a, b, max_iter: int | None = None) -> tuple[np.ndarray, float]:
     return x, norm(matmul(A, x) - b)
 
 
-__all__ = ["COMPILED", "dot", "lstsq", "matmul", "nnls", "norm", "numerical_rank", "row_norms", "svd"]
+__all__ = ["COMPILED", "dot", "lstsq", "matmul", "nnls", "norm", "numerical_rank", "pinv", "row_norms", "svd"]

@@ -609,7 +609,8 @@ def row_range(
 import daqp  # noqa: E402
 
 from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
-from ..tolerances import DAQP_EPS_PROX, DAQP_POINT_RTOL, NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL  # noqa: E402
+from ..tolerances import (DAQP_EPS_PROX, DAQP_POINT_RTOL, EXACT_DECISION_MARGIN, HIGHS_DECISION_BAND,  # noqa: E402
+                          NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL)
 
 
 def _daqp_optimal(flag: int) -> bool:
@@ -865,14 +866,18 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
             continue
         lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
         w = np.asarray(x[:d], dtype=float)
-        if lower > threshold or upper <= threshold:
+        if lower > threshold + EXACT_DECISION_MARGIN or upper <= threshold - EXACT_DECISION_MARGIN:
             return SlackResult(lower, upper, w, "daqp", info["lam"], time.perf_counter() - t0)
+        if lower > threshold or upper <= threshold:  # decided, but within the margin: exactly
+            return _exact_slack(A, bu, x, threshold, SlackResult(lower, upper, w, "daqp", info["lam"], 0.0), t0, info["lam"])
         # Refine the dual on the rows active at DAQP's point (non-negative least squares on the
         # stationarity conditions): a slack of exactly zero (two regions that only touch) needs
         # multipliers more exact than a proximal solve may return.
         upper = min(upper, _refined_upper_bound(A[:k, :d], bu[:k], w, float(x[d]), radius_bound))
-        if upper <= threshold:
+        if upper <= threshold - EXACT_DECISION_MARGIN:
             return SlackResult(lower, upper, w, "daqp+nnls", info["lam"], time.perf_counter() - t0)
+        if upper <= threshold:
+            return _exact_slack(A, bu, x, threshold, SlackResult(lower, upper, w, "daqp+nnls", info["lam"], 0.0), t0, info["lam"])
         break
     if tight_attempt is not None:
         out = _daqp_call(H, f, A, bu, lower_bounds, sense, **tight_attempt)
@@ -882,9 +887,11 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
             if lam is not None and _daqp_optimal(flag) and daqp_answer_ok(A, bu, x, lam):
                 lower, upper = slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float),
                                             radius_bound, SLACK_CAP)
+                found = SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None, 0.0)
+                if lower > threshold + EXACT_DECISION_MARGIN or upper <= threshold - EXACT_DECISION_MARGIN:
+                    return SlackResult(lower, upper, found.w, found.solver, None, time.perf_counter() - t0)
                 if lower > threshold or upper <= threshold:
-                    return SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None,
-                                       time.perf_counter() - t0)
+                    return _exact_slack(A, bu, x, threshold, found, t0, lam)
     # Undecided (or DAQP failed): the robust solver decides.
     COUNTERS.fast -= 1
     COUNTERS.confirmed_by_highs += 1
@@ -897,7 +904,39 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     # HiGHS's point has passed solve_lp's feasibility check; its certified value is the smallest
     # row slack at that point (the LP's t may exceed it by the solver's primal tolerance).
     slack = float(min(res.x[d], np.min(bu[:k] - mm(A[:k, :d], w))))
+    found = SlackResult(slack, slack, w, "highs")
+    if abs(slack - threshold) <= HIGHS_DECISION_BAND:  # HiGHS's point decides nothing this close
+        return _exact_slack(A, bu, res.x, threshold, found, t0, res.duals)
     return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
+
+
+def _exact_slack(A: np.ndarray, bu: np.ndarray, hint: np.ndarray, threshold: float, found: SlackResult,
+                 t0: float, duals=None) -> SlackResult:
+    """The max-slack LP re-decided in rational arithmetic against ``threshold`` (:mod:`.exact_lp`).
+
+    Returns a result whose ``lower > threshold`` exactly when the exact optimum is; when the exact
+    solve cannot settle it, ``found`` (the floating-point answer) as it was, counted in
+    :data:`~hybobs_opt.geometry.exact_lp.EXACT` as undecided.
+    """
+    from fractions import Fraction
+
+    from .exact_lp import EXACT, exact_lp_optimum
+
+    d = A.shape[1] - 1
+    cost = np.zeros(d + 1)
+    cost[d] = -1.0
+    value = exact_lp_optimum(cost, A, bu, np.asarray(hint, dtype=float), duals)
+    if value is None:
+        EXACT.undecided += 1
+        return SlackResult(found.lower, found.upper, found.w, found.solver, found.lam, time.perf_counter() - t0)
+    EXACT.decided += 1
+    radius = -value
+    f = float(radius)
+    if radius > Fraction(threshold):
+        f = max(f, float(np.nextafter(threshold, np.inf)))
+    else:
+        f = min(f, threshold)
+    return SlackResult(f, f, found.w, found.solver + " (exact)", found.lam, time.perf_counter() - t0)
 
 
 def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float,
@@ -906,8 +945,11 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
 
     Two DAQP LPs (maximise and minimise ``c'v``); each optimum is bounded from the solver's
     multipliers (:func:`~hybobs_opt._lp_kernels.support_upper_bound`, valid for every feasible
-    ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  ``False`` means "not
-    certified" (wider, or a solve that did not finish): callers must treat it as the safe answer.
+    ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  When that bound is within
+    ``EXACT_DECISION_MARGIN`` of ``width`` (its own rounding could decide), the width is decided
+    in rational arithmetic (:mod:`~hybobs_opt.geometry.exact_lp`) on the LP as posed.  ``False``
+    means "not certified" (wider, multipliers too loose to prove it narrower, a solve that did not
+    finish, or an exact solve that could not settle it): callers must treat it as the safe answer.
     When DAQP fails (or returns non-finite numbers), HiGHS's duals are used for the same bound.
     With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
     is already more than ``width`` away from it along ``c``.
@@ -928,6 +970,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         A (nearly) feasible point that allows skipping the second LP.
     """
     total = 0.0
+    points = []
     for sign in (1.0, -1.0):
         # DAQP when its answer verifies, else HiGHS (checked): both give multipliers for the bound
         ans = verified_lp(-sign * c, A, b, problem="width LP (certified_width_below)")
@@ -936,8 +979,27 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         v, lam = ans.v, ans.lam
         if point is not None and sign > 0 and dot(c, v - point) > width:
             return False
+        points.append((v, lam))
         total += support_upper_bound(A, b, sign * c, np.ascontiguousarray(lam, dtype=float), radius_bound)
-    return total <= width
+    if abs(total - width) > EXACT_DECISION_MARGIN:
+        return total <= width
+    return _exact_width_below(A, b, c, points, width)  # the certificate is too close to decide: exactly
+
+
+def _exact_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, points: list, width: float) -> bool:
+    """``max c'v - min c'v <= width`` over ``{A v <= b}`` decided in rational arithmetic; not certified
+    (``False``, the safe answer) when the exact solves cannot settle it (counted)."""
+    from fractions import Fraction
+
+    from .exact_lp import EXACT, exact_lp_optimum
+
+    top = exact_lp_optimum(-np.asarray(c, dtype=float), A, b, *points[0])
+    bottom = exact_lp_optimum(np.asarray(c, dtype=float), A, b, *points[1])
+    if top is None or bottom is None:
+        EXACT.undecided += 1
+        return False
+    EXACT.decided += 1
+    return -top - bottom <= Fraction(width)
 
 
 def _refined_upper_bound(Gn: np.ndarray, gn: np.ndarray, w: np.ndarray, t_solver: float, radius_bound: float) -> float:

@@ -67,8 +67,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import nnls
 
+from ..geometry._reproducible import dot, matmul as mm, nnls, norm, numerical_rank, pinv, row_norms, svd
 from .._validate import as_instance, as_items, as_positive
 from ..errors import ModelError
 from ..geometry.lp import solve_slack_lp
@@ -227,19 +227,20 @@ class LookupObserver(Observer):
         self._last = []
         for i in self.I:
             reg = an.regions[i]
-            Cp = np.linalg.pinv(reg.C)  # eq. (13)
-            Q = np.eye(p * T) - reg.C @ Cp  # residual of the output equality (12)
+            Cp = pinv(reg.C)  # eq. (13)
+            Q = np.eye(p * T) - mm(reg.C, Cp)  # residual of the output equality (12)
             # x_i = Cp Y - Cp D U - Cp f
-            blocks_x.append(np.hstack([Cp, -Cp @ reg.D]))
-            off_x.append(-Cp @ reg.f)
-            blocks_r.append(np.hstack([Q, -Q @ reg.D]))
-            off_r.append(-Q @ reg.f)
+            blocks_x.append(np.hstack([Cp, -mm(Cp, reg.D)]))
+            off_x.append(-mm(Cp, reg.f))
+            blocks_r.append(np.hstack([Q, -mm(Q, reg.D)]))
+            off_r.append(-mm(Q, reg.f))
             # [x_i; U] in P_i  <=>  Hx (Cp Y - Cp D U - Cp f) + HU U <= h, rows unit in scaled coordinates
             Hx, HU = reg.H[:, :n], reg.H[:, n:]
-            norm = np.linalg.norm(reg.H * scale[None, :], axis=1)
-            norm = np.where(norm > 0, norm, 1.0)
-            Mi = np.hstack([Hx @ Cp, HU - Hx @ Cp @ reg.D]) / norm[:, None]
-            mi = (reg.h + Hx @ Cp @ reg.f) / norm
+            rn = row_norms(reg.H * scale[None, :])
+            rn = np.where(rn > 0, rn, 1.0)
+            HxCp = mm(Hx, Cp)
+            Mi = np.hstack([HxCp, HU - mm(HxCp, reg.D)]) / rn[:, None]
+            mi = (reg.h + mm(HxCp, reg.f)) / rn
             blocks_m.append(Mi)
             off_m.append(-mi)
             closed = input_bound_rows(reg.H, reg.h, self.system, T, scale, centre)
@@ -258,7 +259,7 @@ class LookupObserver(Observer):
         # the input set U, rows unit in scaled input coordinates (bad-sample test)
         if m and self.system.input_bounds is not None:
             IA, Ib = self.system.input_bounds.A, self.system.input_bounds.b
-            inrm = np.linalg.norm(IA * scale[None, n : n + m], axis=1)
+            inrm = row_norms(IA * scale[None, n : n + m])
             inrm = np.where(inrm > 0, inrm, 1.0)
             self._in_A, self._in_b = np.ascontiguousarray(IA / inrm[:, None]), np.ascontiguousarray(Ib / inrm)
         else:
@@ -273,10 +274,10 @@ class LookupObserver(Observer):
         for k, P in enumerate(pieces):
             if P.dim != self.n:
                 raise ModelError(f"b_tilde[{k}]", f"a polytope over the {self.n} states", f"dimension {P.dim}")
-            norm = np.linalg.norm(P.A * sx[None, :], axis=1)
-            norm = np.where(norm > 0, norm, 1.0)
-            rows.append(P.A / norm[:, None])
-            rhs.append(P.b / norm)
+            rn = row_norms(P.A * sx[None, :])
+            rn = np.where(rn > 0, rn, 1.0)
+            rows.append(P.A / rn[:, None])
+            rhs.append(P.b / rn)
             starts.append(r)
             r += P.n_constraints
         self.b_tilde = tuple(pieces)
@@ -614,21 +615,21 @@ def input_bound_rows(H: np.ndarray, h: np.ndarray, system, T: int, scale: np.nda
     if m == 0 or system.input_bounds is None or H.shape[0] == 0:
         return out
     Hs = H * scale[None, :]
-    hs = h - H @ centre
-    rn = np.linalg.norm(Hs, axis=1)
-    xn = np.linalg.norm(Hs[:, :n], axis=1)
+    hs = h - mm(H, centre)
+    rn = row_norms(Hs)
+    xn = row_norms(Hs[:, :n])
     IA, Ib = system.input_bounds.A, system.input_bounds.b
     su, cu = scale[n : n + m], centre[n : n + m]
     IAs = IA * su[None, :]
-    inrm = np.maximum(np.linalg.norm(IAs, axis=1), np.finfo(float).tiny)
-    IAs, Ibs = IAs / inrm[:, None], (Ib - IA @ cu) / inrm
+    inrm = np.maximum(row_norms(IAs), np.finfo(float).tiny)
+    IAs, Ibs = IAs / inrm[:, None], (Ib - mm(IA, cu)) / inrm
     for r in np.nonzero((rn > 0) & (xn <= ZERO_ROW_TOL * rn))[0]:
         blocks = Hs[r, n:].reshape(T, m) / rn[r]
-        active = np.nonzero(np.linalg.norm(blocks, axis=1) > ZERO_ROW_TOL)[0]
+        active = np.nonzero(row_norms(blocks) > ZERO_ROW_TOL)[0]
         if active.size != 1:
             continue
         a, b = blocks[active[0]], hs[r] / rn[r]
-        if np.any((np.linalg.norm(IAs - a[None, :], axis=1) <= ZERO_ROW_TOL * 10) & (np.abs(Ibs - b) <= ZERO_ROW_TOL * 10 * (1 + np.abs(b)))):
+        if np.any((row_norms(IAs - a[None, :]) <= ZERO_ROW_TOL * 10) & (np.abs(Ibs - b) <= ZERO_ROW_TOL * 10 * (1 + np.abs(b)))):
             out[r] = True
     return out
 
@@ -669,33 +670,33 @@ class _PairPieces:
             if progress and (k % 50 == 0 or k + 1 == len(pairs)):
                 progress(k + 1, len(pairs))
             G = pair.G * scale[None, :]
-            g = pair.g - pair.G @ centre
-            gn = np.maximum(np.linalg.norm(G, axis=1), np.finfo(float).tiny)
+            g = pair.g - mm(pair.G, centre)
+            gn = np.maximum(row_norms(G), np.finfo(float).tiny)
             G, g = G / gn[:, None], g / gn
             E = pair.E * scale[None, :]
-            e = pair.e - pair.E @ centre
-            en = np.maximum(np.linalg.norm(E, axis=1), np.finfo(float).tiny)
+            e = pair.e - mm(pair.E, centre)
+            en = np.maximum(row_norms(E), np.finfo(float).tiny)
             E, e = E / en[:, None], e / en
             Gx, Gw, Ex, Ew = G[:, :n], G[:, n:], E[:, :n], E[:, n:]
-            Uu, S, Vt = np.linalg.svd(Ew) if Ew.shape[0] else (np.zeros((0, 0)), np.zeros(0), np.eye(Ew.shape[1]))
-            r = int(np.sum(S > RANK_RTOL * max(S[0], np.finfo(float).tiny))) if S.size else 0
+            Uu, S, Vt = svd(Ew) if Ew.shape[0] else (np.zeros((0, 0)), np.zeros(0), np.eye(Ew.shape[1]))
+            r = numerical_rank(S, RANK_RTOL)
             # consistency rows  Q (e - Ex x) = 0  (left nullspace of Ew)
             Q = Uu[:, r:].T
-            Qx, q0 = -Q @ Ex, Q @ e
-            qn = np.linalg.norm(Qx, axis=1)
+            Qx, q0 = -mm(Q, Ex), mm(Q, e)
+            qn = row_norms(Qx)
             const = qn <= ZERO_ROW_TOL
             if np.any(np.abs(q0[const]) > tol):
                 continue  # the outputs can never be equal: an empty piece
             Qx, q0 = Qx[~const] / qn[~const, None], q0[~const] / qn[~const]
             # particular solution w0(x) = P0 + P1 x, nullspace N
             Ur, Sr, Vr = Uu[:, :r], S[:r], Vt[:r].T
-            P0 = Vr @ ((Ur.T @ e) / Sr)
-            P1 = -Vr @ ((Ur.T @ Ex) / Sr[:, None])
-            N = Vt[r:].T
-            A = Gw @ N
-            b0 = g - Gw @ P0
-            B1 = -(Gx + Gw @ P1)
-            zero = np.linalg.norm(A, axis=1) <= ZERO_ROW_TOL
+            P0 = mm(Vr, mm(Ur.T, e) / Sr)
+            P1 = -mm(Vr, mm(Ur.T, Ex) / Sr[:, None])
+            N = np.ascontiguousarray(Vt[r:].T)
+            A = mm(Gw, N)
+            b0 = g - mm(Gw, P0)
+            B1 = -(Gx + mm(Gw, P1))
+            zero = row_norms(A) <= ZERO_ROW_TOL
             # screen rows over scaled x:  -B1 x <= b0 (x-only rows),  +-(Qx x + q0) <= 0
             xa, xb = np.vstack([-B1[zero], Qx, -Qx]), np.concatenate([b0[zero], -q0, q0])
             # A candidate lies in its region, so in the state box [-1, 1]^n: rows the box implies
@@ -805,7 +806,7 @@ class _PairPieces:
         tol = LOOKUP_MEMBERSHIP_TOL
         for q in order:
             A, b0, B1 = self.lp[q]
-            b = b0 + B1 @ xs
+            b = b0 + mm(B1, xs)
             self.n_lps += 1
             if A.shape[0] == 0:
                 inside = True
@@ -824,7 +825,7 @@ class _PairPieces:
         """Cache the cut of an LP that excluded ``x`` (see the class docstring), if it certifies."""
         if w is None or A.shape[1] == 0:
             return
-        resid = b - A @ w
+        resid = b - mm(A, w)
         t = float(np.min(resid))
         active = np.nonzero(resid <= t + NEAR_ACTIVE_TOL)[0]
         M = np.vstack([A[active].T, np.ones((1, active.size))])
@@ -837,10 +838,10 @@ class _PairPieces:
         if lam.sum() <= 0:
             return
         lam = lam / lam.sum()
-        slack = self.radius * float(np.linalg.norm(A[active].T @ lam))
-        a_cut = -(lam @ B1[active])
-        b_cut = float(lam @ b0[active]) + slack + LOOKUP_MEMBERSHIP_TOL
-        if not float(a_cut @ xs) > b_cut:
+        slack = self.radius * norm(mm(A[active].T, lam))
+        a_cut = -mm(lam, B1[active])
+        b_cut = dot(lam, b0[active]) + slack + LOOKUP_MEMBERSHIP_TOL
+        if not dot(a_cut, xs) > b_cut:
             return  # the multipliers do not certify the exclusion of xs itself: no use as a cut
         c = int(self._cut_next[q])
         self.cut_A[q, c] = a_cut
@@ -875,15 +876,15 @@ class _ExactTest:
         for j in analysis.rank_deficient:
             reg = analysis.regions[j]
             E = reg.C * sx[None, :]
-            Uu, s, Vt = np.linalg.svd(E)
-            r = int(np.sum(s > RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
-            rn = np.maximum(np.linalg.norm(reg.H * scale[None, :], axis=1), np.finfo(float).tiny)
+            Uu, s, Vt = svd(E)
+            r = numerical_rank(s, RANK_RTOL)
+            rn = np.maximum(row_norms(reg.H * scale[None, :]), np.finfo(float).tiny)
             Gx = reg.H[:, :n] * sx[None, :] / rn[:, None]
             HU = reg.H[:, n:] / rn[:, None]
-            h = (reg.h - reg.H[:, :n] @ cx) / rn
-            xrow = np.linalg.norm(Gx, axis=1) > ZERO_ROW_TOL
-            N = Vt[r:].T
-            self.data.append((j, reg.D, reg.f + reg.C @ cx, Uu[:, :r], s[:r], Vt[:r].T, N, Gx[xrow], HU[xrow], h[xrow],
+            h = (reg.h - mm(reg.H[:, :n], cx)) / rn
+            xrow = row_norms(Gx) > ZERO_ROW_TOL
+            N = np.ascontiguousarray(Vt[r:].T)
+            self.data.append((j, reg.D, reg.f + mm(reg.C, cx), np.ascontiguousarray(Uu[:, :r]), s[:r], np.ascontiguousarray(Vt[:r].T), N, Gx[xrow], HU[xrow], h[xrow],
                               HU[~xrow], h[~xrow], float(np.sqrt(n) * (1.0 + 10 * LOOKUP_MEMBERSHIP_TOL))))
         self.n_tests = self.n_lps = 0
 
@@ -893,20 +894,20 @@ class _ExactTest:
         ytol = self.output_rtol * max(1.0, float(np.max(np.abs(Y))))
         tol = LOOKUP_MEMBERSHIP_TOL
         for (j, D, f, Ur, sr, Vr, N, Gx, HUx, hx, HU0, h0, radius) in self.data:
-            if HU0.shape[0] and np.any(HU0 @ U - h0 > tol):
+            if HU0.shape[0] and np.any(mm(HU0, U) - h0 > tol):
                 continue  # the inputs themselves leave P_j
-            e = Y - D @ U - f
-            coef = Ur.T @ e
-            if np.linalg.norm(e - Ur @ coef) > ytol:
+            e = Y - mm(D, U) - f
+            coef = mm(Ur.T, e)
+            if norm(e - mm(Ur, coef)) > ytol:
                 continue  # no state of P_j has these outputs
-            v0 = Vr @ (coef / sr)
-            b = hx - HUx @ U - Gx @ v0
+            v0 = mm(Vr, coef / sr)
+            b = hx - mm(HUx, U) - mm(Gx, v0)
             self.n_lps += 1
             if N.shape[1] == 0:
                 if np.all(b >= -tol):
                     return True
                 continue
-            value, _ = _max_margin(Gx @ N, b, radius + float(np.linalg.norm(v0)), -tol, f"lookup exact test, region {j}")
+            value, _ = _max_margin(mm(Gx, N), b, radius + norm(v0), -tol, f"lookup exact test, region {j}")
             if value > -tol:
                 return True
         return False

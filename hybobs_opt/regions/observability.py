@@ -46,6 +46,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry._lp_kernels import slack_lp_data
+from ..geometry.exact_lp import EXACT
 from ..geometry._reproducible import lstsq, matmul as mm, norm, numerical_rank, row_norms, svd
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
@@ -132,7 +133,11 @@ class ObservabilityAnalysis:
         out of ``B_T`` by a group test (:mod:`~hybobs_opt.regions.pair_groups`) without a
         verdict of their own (empty, thin or same-state), so the two lists before hold only the
         pairs tested one by one; ``n_group_tests``, ``n_group_lps`` (included in
-        ``n_pair_lps``) and ``group_depths`` (the prefix lengths of the groups).
+        ``n_pair_lps``) and ``group_depths`` (the prefix lengths of the groups);
+        ``n_decisions_exact``: pair decisions whose floating-point bound lay too close to its
+        threshold and were re-decided in rational arithmetic
+        (:mod:`~hybobs_opt.geometry.exact_lp`), ``n_decisions_exact_undecided``: those the exact
+        solve could not settle, decided on the safe side.
     _pair_cache : dict
         Internal cache of the pair lookups; leave it at its default.
     _xboxes : array or None
@@ -461,6 +466,7 @@ class ObservabilityAnalysis:
             "n_pairs_dropped_thin": self.stats.get("n_pairs_dropped_thin"),
             "n_pairs_dropped_same_state": self.stats.get("n_pairs_dropped_same_state"),
             "n_pairs_ruled_out_by_group": self.stats.get("n_pairs_ruled_out_by_group"),
+            "n_decisions_exact": self.stats.get("n_decisions_exact"),
             "seconds_enumeration": enum.seconds,
             "seconds_algorithm_3_1": self.seconds,
             "seconds": enum.seconds + self.seconds,
@@ -641,6 +647,7 @@ def _pairs_task(args, shared=None, progress: Callable[[int, int], None] | None =
     skipped = sum(c[4] for c in per_i)
     ruled: list = []
     n_group_tests = group_lps = 0
+    exact0 = (EXACT.decided, EXACT.undecided)
     if levels:
         caller = np.concatenate([np.full(c[0].size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
         other = np.concatenate([c[0] for c in per_i] + [np.zeros(0, dtype=int)])
@@ -660,7 +667,8 @@ def _pairs_task(args, shared=None, progress: Callable[[int, int], None] | None =
         same.extend(fc)
         if progress:
             progress(k + 1, len(i_list))
-    return found, COUNTERS.total - start, tested, skipped, thin, same, ruled, n_group_tests, group_lps
+    exact = (EXACT.decided - exact0[0], EXACT.undecided - exact0[1])
+    return found, COUNTERS.total - start, tested, skipped, thin, same, ruled, n_group_tests, group_lps, exact
 
 
 def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray | None) -> list[tuple[list[int], np.ndarray | None, int]]:
@@ -789,11 +797,13 @@ def analyse_observability(
                                (lambda done, total: pair_progress(done * len(enum.regions), n_candidates)))
                    for t in tasks]
     pairs: list = []
-    n_lps = tested = skipped = n_group_tests = group_lps = 0
+    n_lps = tested = skipped = n_group_tests = group_lps = n_exact = n_exact_undecided = 0
     thin: list = []
     same: list = []
     ruled: list = []
-    for found, lps, n_tested, n_skipped, dropped, dropped_same, by_group, g_tests, g_lps in results:
+    for found, lps, n_tested, n_skipped, dropped, dropped_same, by_group, g_tests, g_lps, exact in results:
+        n_exact += exact[0]
+        n_exact_undecided += exact[1]
         pairs.extend(found)
         n_lps += lps
         tested += n_tested
@@ -811,4 +821,5 @@ def analyse_observability(
                                   "pairs_dropped_same_state": tuple(sorted(same)),
                                   "group_depths": tuple(int(d) for d, *_ in level_data),
                                   "n_group_tests": n_group_tests, "n_group_lps": group_lps,
-                                  "n_pairs_ruled_out_by_group": len(ruled), "pairs_ruled_out_by_group": tuple(sorted(ruled))})
+                                  "n_pairs_ruled_out_by_group": len(ruled), "pairs_ruled_out_by_group": tuple(sorted(ruled)),
+                                  "n_decisions_exact": n_exact, "n_decisions_exact_undecided": n_exact_undecided})

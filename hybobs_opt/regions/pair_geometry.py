@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
 from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
+from ..geometry.exact_lp import decide_above
 from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
@@ -45,6 +46,8 @@ from ..tolerances import (
     CLOSED_SET_TOL,
     DISTINCT_STATE_TOL,
     EQUALITY_CONSISTENCY_RTOL,
+    EXACT_DECISION_MARGIN,
+    HIGHS_DECISION_BAND,
     IMPLICIT_EQUALITY_RANK_RTOL,
     NEAR_ACTIVE_TOL,
     PAIR_LP_PRIMAL_TOL,
@@ -269,16 +272,21 @@ def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: 
     """Is ``|c's + c0| <= bound`` certified on ``{Gs s <= gs}`` (two LPs and their multipliers)?
 
     Each LP is DAQP's when its answer verifies in numpy, HiGHS's otherwise (:func:`verified_lp`).
+    A bound within ``EXACT_DECISION_MARGIN`` of ``bound`` is re-decided in rational arithmetic
+    (:func:`~hybobs_opt.geometry.exact_lp.decide_above`); undecided, the answer is "not certified".
     """
     for sign in (1.0, -1.0):
         ans = verified_lp(-sign * c, Gs, gs, problem="distinct-state LP")
         if ans.status != Status.OPTIMAL:
             return False
         v = ans.v
-        if sign * (mm(c, v) + c0) > bound and np.all(mm(Gs, v) <= gs + CLOSED_SET_TOL):
+        if sign * (mm(c, v) + c0) > bound + EXACT_DECISION_MARGIN and np.all(mm(Gs, v) <= gs + CLOSED_SET_TOL):
             return False  # a (nearly) feasible point already has the two states apart
-        if support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * c0 > bound:
+        top = support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * c0
+        if top > bound + EXACT_DECISION_MARGIN:
             return False
+        if top > bound - EXACT_DECISION_MARGIN and decide_above(sign * c, Gs, gs, v, bound - sign * c0, maximise=True, duals=ans.lam) is not False:
+            return False  # above, or undecided: not certified
     return True
 
 
@@ -476,7 +484,8 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
             seen.append(u)
             c = mm(N[p * n:(p + 1) * n].T, u)  # u'x in the coordinates of the first LP
             if relaxed is not None and "rows" in first_tight and \
-                    _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) <= 2.0 * REGION_SLACK_TOL:
+                    _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) \
+                    <= 2.0 * REGION_SLACK_TOL - EXACT_DECISION_MARGIN:
                 thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
             else:
                 thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
@@ -569,17 +578,27 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
             ans = verified_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
             if ans.status == Status.OPTIMAL and ans.solver == "daqp":
                 v = ans.v
-                if sign * (mm(c, v) + d0[k]) > DISTINCT_STATE_TOL and np.all(mm(Gr, v) <= gr + CLOSED_SET_TOL):
+                if sign * (mm(c, v) + d0[k]) > DISTINCT_STATE_TOL + EXACT_DECISION_MARGIN and np.all(mm(Gr, v) <= gr + CLOSED_SET_TOL):
                     return True
-                if support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) \
-                        + sign * d0[k] <= DISTINCT_STATE_TOL:
+                top = support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * d0[k]
+                if top <= DISTINCT_STATE_TOL - EXACT_DECISION_MARGIN:
                     continue
+                if top <= DISTINCT_STATE_TOL + EXACT_DECISION_MARGIN:  # too close for floats: exactly
+                    above = decide_above(sign * c, Gr, gr, v, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.lam)
+                    if above is False:
+                        continue
+                    return True  # above, or undecided (the unobservable side)
                 COUNTERS.fast -= 1
                 COUNTERS.confirmed_by_highs += 1
                 out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
                 ans = VerifiedLP(out.status, out.x, out.duals, "highs")
-            if ans.status == Status.OPTIMAL and sign * (mm(c, ans.v) + d0[k]) > DISTINCT_STATE_TOL:
-                return True
+            if ans.status == Status.OPTIMAL:
+                value = sign * (mm(c, ans.v) + d0[k])
+                if abs(value - DISTINCT_STATE_TOL) <= HIGHS_DECISION_BAND:  # HiGHS's point: too close, exactly
+                    if decide_above(sign * c, Gr, gr, ans.v, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.lam) is not False:
+                        return True
+                elif value > DISTINCT_STATE_TOL:
+                    return True
     return False
 
 

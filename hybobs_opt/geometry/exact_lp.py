@@ -1,0 +1,225 @@
+"""The optimum of a small LP in rational arithmetic, for decisions too close to their threshold.
+
+A decision such as "the Chebyshev radius exceeds ``-CLOSED_SET_TOL``" is taken from floating-point
+bounds when they clear the threshold by a margin
+(:data:`~hybobs_opt.tolerances.EXACT_DECISION_MARGIN`); inside that band the float values no
+longer say on which side the optimum lies, and the LP is re-decided here on its data as posed,
+each float read as the rational number it is (``float.as_integer_ratio``).
+
+The method is the textbook one for an LP ``min c'v s.t. A v <= b`` with ``d`` variables: a vertex
+is ``d`` linearly independent tight rows (a basis); it is optimal when it satisfies every row and
+the multipliers ``y_B`` of ``A_B' y_B = -c`` are non-negative (then ``c'v`` is the optimum by
+weak duality: both are checked exactly).  The first basis is taken from a floating-point solution
+(its rows by increasing slack); when its multipliers are not all non-negative, primal simplex
+pivots with Bland's rule (smallest row index first: no cycling) move to a better vertex; when it
+violates rows (rounding put the float point a hair outside), dual simplex pivots, Bland's rule
+too, repair it.  A first basis that is neither gets a phase 1: dual simplex on an artificial
+cost for which it is dual feasible, until a feasible vertex is reached.  When the pivots run
+out or the LP is infeasible or unbounded, the answer is ``None`` and the caller takes the safe
+side of its decision.  Cost: ``d`` x ``d`` rational solves and one exact pass over
+the rows per pivot, milliseconds for the pair sets of Algorithm 3.1 (``d <= 20``, a few hundred
+rows).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+import numpy as np
+
+#: Simplex pivots after which :func:`exact_lp_optimum` gives up (``None``).
+MAX_EXACT_PIVOTS = 60
+
+
+@dataclass
+class ExactCounters:
+    """Decisions re-decided in rational arithmetic, and those it could not settle (safe side taken)."""
+
+    decided: int = 0
+    undecided: int = 0
+
+    def reset(self) -> None:
+        self.decided = 0
+        self.undecided = 0
+
+
+#: Process-wide counters (each worker process has its own).
+EXACT = ExactCounters()
+
+
+def _fractions(a) -> list:
+    return [Fraction(float(v)) for v in np.ravel(a)]
+
+
+def _solve(M: list[list[Fraction]], r: list[Fraction]) -> list[Fraction] | None:
+    """``M x = r`` for a square ``M`` by Gaussian elimination over the rationals; ``None`` if singular."""
+    n = len(M)
+    aug = [row[:] + [r[i]] for i, row in enumerate(M)]
+    for col in range(n):
+        piv = next((i for i in range(col, n) if aug[i][col] != 0), None)
+        if piv is None:
+            return None
+        aug[col], aug[piv] = aug[piv], aug[col]
+        p = aug[col][col]
+        for i in range(col + 1, n):
+            f = aug[i][col]
+            if f:
+                f = f / p
+                rowi, rowc = aug[i], aug[col]
+                for j in range(col, n + 1):
+                    rowi[j] -= f * rowc[j]
+    x = [Fraction(0)] * n
+    for i in range(n - 1, -1, -1):
+        acc = aug[i][n]
+        for j in range(i + 1, n):
+            acc -= aug[i][j] * x[j]
+        x[i] = acc / aug[i][i]
+    return x
+
+
+def _dot(a: list[Fraction], b: list[Fraction]) -> Fraction:
+    return sum((x * y for x, y in zip(a, b) if x and y), Fraction(0))
+
+
+def _independent_rows(A: list[list[Fraction]], order, d: int) -> list[int] | None:
+    """The first ``d`` rows in ``order`` that are linearly independent (exact), or ``None``."""
+    echelon: list[tuple[int, list[Fraction]]] = []  # (pivot column, row reduced)
+    chosen = []
+    for i in order:
+        v = A[i][:]
+        for col, row in echelon:
+            if v[col]:
+                f = v[col] / row[col]
+                v = [a - f * b for a, b in zip(v, row)]
+        col = next((j for j, a in enumerate(v) if a), None)
+        if col is None:
+            continue
+        echelon.append((col, v))
+        chosen.append(int(i))
+        if len(chosen) == d:
+            return chosen
+    return None
+
+
+def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
+    """The exact optimum of ``min c'v s.t. A v <= b`` (float data read exactly), or ``None``.
+
+    Parameters
+    ----------
+    c : (d,) array
+        Cost.
+    A : (k, d) array
+        Rows; the LP must have a vertex optimum (``A`` of rank ``d``, a bounded optimum).
+    b : (k,) array
+        Right-hand side.
+    hint : (d,) array
+        A floating-point solution: its tightest rows make the first basis.
+    duals : (k,) array, optional
+        The solver's multipliers of the rows: rows with positive multipliers are taken first (the
+        first basis is then dual feasible as a rule, and dual simplex pivots repair the rows it
+        violates by rounding).
+
+    Returns
+    -------
+    Fraction or None
+        The optimal value, proven by an exactly feasible vertex and exactly non-negative
+        multipliers; ``None`` when the rows have rank below ``d``, the first basis is neither
+        primal nor dual feasible, the LP is infeasible or unbounded along the pivots, or more than
+        :data:`MAX_EXACT_PIVOTS` pivots are needed.
+    """
+    from ._reproducible import matmul
+
+    A = np.ascontiguousarray(A, dtype=float)
+    b = np.ascontiguousarray(b, dtype=float)
+    c = np.ascontiguousarray(c, dtype=float)
+    k, d = A.shape
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b)) and np.all(np.isfinite(c))):
+        return None
+    slack = b - matmul(A, np.asarray(hint, dtype=float))
+    key = np.where(np.isfinite(slack), slack, np.inf)
+    if duals is not None and np.shape(duals) == (k,) and np.all(np.isfinite(duals)):
+        lam = np.asarray(duals, dtype=float)
+        key = np.where(lam > 0.0, -1.0 - lam / (1.0 + float(np.max(lam))), np.abs(key))
+    order = np.argsort(key, kind="stable")
+    Af = [_fractions(row) for row in A]
+    bf = _fractions(b)
+    cf = _fractions(c)
+    basis = _independent_rows(Af, order, d)
+    if basis is None:
+        return None
+    phase_one = None  # the real cost while phase 1 runs on an artificial one
+    for _ in range(MAX_EXACT_PIVOTS + 1):
+        AB = [Af[i] for i in basis]
+        v = _solve(AB, [bf[i] for i in basis])
+        ABt = [[AB[r][j] for r in range(d)] for j in range(d)]
+        y = _solve(ABt, [-x for x in cf])
+        if v is None or y is None:
+            return None
+        in_basis = set(basis)
+        violated = [i for i in range(k) if i not in in_basis and _dot(Af[i], v) > bf[i]]
+        negative = [r for r in range(d) if y[r] < 0]
+        if not violated and not negative and phase_one is None:
+            return _dot(cf, v)
+        if violated and negative:
+            # phase 1: a cost for which this basis is dual feasible (every multiplier 1); dual simplex
+            # pivots on it reach a feasible vertex (or prove the LP infeasible), then phase 2 resumes
+            if phase_one is not None:
+                return None
+            phase_one = cf
+            cf = [-sum((AB[r][j] for r in range(d)), Fraction(0)) for j in range(d)]
+            continue
+        if not violated and phase_one is not None:  # feasible vertex reached: the real cost again
+            cf, phase_one = phase_one, None
+            continue
+        if violated:
+            # dual simplex (Bland): the violated row of smallest index enters; the basic row whose
+            # multiplier reaches zero first leaves (ties: smallest row index)
+            enter = violated[0]
+            alpha = _solve(ABt, Af[enter])  # A_enter = sum_r alpha_r A_B[r]
+            best, best_t = None, None
+            for r in range(d):
+                if alpha[r] > 0:
+                    t = y[r] / alpha[r]
+                    if best_t is None or t < best_t or (t == best_t and basis[r] < basis[best]):
+                        best, best_t = r, t
+            if best is None:
+                return None  # the LP is infeasible
+            basis[best] = enter
+            continue
+        # primal simplex (Bland): the basic row of smallest index with a negative multiplier leaves
+        leave = min(negative, key=lambda r: basis[r])
+        e = [Fraction(0)] * d
+        e[leave] = Fraction(-1)
+        step = _solve(AB, e)  # move off row `leave`, keep the other basic rows tight
+        best, best_t = None, None
+        for i in range(k):
+            if i in in_basis:
+                continue
+            rate = _dot(Af[i], step)
+            if rate > 0:
+                t = (bf[i] - _dot(Af[i], v)) / rate
+                if best_t is None or t < best_t:
+                    best, best_t = i, t
+        if best is None:
+            return None  # unbounded along this edge
+        basis[leave] = best
+    return None
+
+
+def decide_above(c, A, b, hint, threshold: float, maximise: bool, duals=None) -> bool | None:
+    """Is the optimum of ``max c'v`` (``maximise``) or ``min c'v`` over ``{A v <= b}`` above ``threshold``?
+
+    Exact (:func:`exact_lp_optimum`), counted in :data:`EXACT`; ``None`` when it cannot be decided.
+    """
+    cost = -np.asarray(c, dtype=float) if maximise else np.asarray(c, dtype=float)
+    value = exact_lp_optimum(cost, A, b, hint, duals)
+    if value is None:
+        EXACT.undecided += 1
+        return None
+    EXACT.decided += 1
+    opt = -value if maximise else value
+    return opt > Fraction(float(threshold))
+
+
+__all__ = ["EXACT", "ExactCounters", "MAX_EXACT_PIVOTS", "decide_above", "exact_lp_optimum"]
