@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
+from ..geometry._reproducible import matmul as mm
 from ..systems.pwa import PWASystem
 from .trace import Trace
 
@@ -55,8 +56,9 @@ def simulate_pwa_batch(system: PWASystem, X0: np.ndarray, U: np.ndarray) -> tupl
             if not np.any(sel):
                 continue
             x, u = X[sel, t], U[sel, t]
-            X[sel, t + 1] = x @ mode.A.T + u @ mode.B.T + mode.a
-            Y[sel, t] = x @ mode.C.T + u @ mode.D.T + mode.c
+            # products in a fixed order (hybobs_opt.geometry._reproducible): the same trajectory on every CPU
+            X[sel, t + 1] = mm(x, mode.A.T) + mm(u, mode.B.T) + mode.a
+            Y[sel, t] = mm(x, mode.C.T) + mm(u, mode.D.T) + mode.c
     return X, Q, Y
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ModelError
+from ..geometry._reproducible import matmul as mm
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 from ._model_io import ModelDictMixin
 from ._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, real_array
@@ -267,7 +268,7 @@ class PWASystem(ModelDictMixin):
         """
         Z = self._xu(np.atleast_2d(X), None if U is None else np.atleast_2d(U))
         table, rhs, starts = self._mode_table
-        inside = np.maximum.reduceat(Z @ table.T - rhs, starts, axis=1) <= 0.0
+        inside = np.maximum.reduceat(mm(Z, table.T) - rhs, starts, axis=1) <= 0.0
         return np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
 
     def mode_of(self, x: Sequence[float], u: Sequence[float] | None = None) -> int:
@@ -303,7 +304,7 @@ class PWASystem(ModelDictMixin):
         i = self.mode_of(x, u)
         mode = self.modes[i]
         uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
-        return mode.A @ np.asarray(x, dtype=float) + mode.B @ uu + mode.a
+        return mm(mode.A, np.asarray(x, dtype=float)) + mm(mode.B, uu) + mode.a
 
     def output(self, x, u=None) -> np.ndarray:
         """Output ``C_i x + D_i u + c_i`` with ``i = mode_of(x, u)`` (eq. 1).
@@ -318,7 +319,7 @@ class PWASystem(ModelDictMixin):
         i = self.mode_of(x, u)
         mode = self.modes[i]
         uu = np.zeros(0) if u is None else np.atleast_1d(np.asarray(u, dtype=float))
-        return mode.C @ np.asarray(x, dtype=float) + mode.D @ uu + mode.c
+        return mm(mode.C, np.asarray(x, dtype=float)) + mm(mode.D, uu) + mode.c
 
     def scales(self) -> tuple[np.ndarray, np.ndarray]:
         """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md.
