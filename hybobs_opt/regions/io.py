@@ -125,7 +125,8 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
         "analysis_stats": {"n_pair_lps": analysis.n_pair_lps, "n_pairs_tested": analysis.n_pairs_tested,
                            "n_pairs_skipped_rank": analysis.n_pairs_skipped_rank, "seconds": analysis.seconds,
                            "n_pairs_dropped_thin": analysis.stats.get("n_pairs_dropped_thin"),
-                           "n_pairs_ruled_out_by_group": analysis.stats.get("n_pairs_ruled_out_by_group")},
+                           "n_pairs_ruled_out_by_group": analysis.stats.get("n_pairs_ruled_out_by_group"),
+                           "n_decisions_exact": analysis.stats.get("n_decisions_exact")},
         "summary": analysis.summary(),
     }
     path = Path(path)
@@ -350,7 +351,10 @@ def _checked_analysis(data: dict[str, Any], system: PWASystem, where: str) -> Ob
                                      {"n_pairs_dropped_thin": _count(st, "n_pairs_dropped_thin", aw, allow_none=True),
                                       # absent from files written before the grouped pair tests
                                       "n_pairs_ruled_out_by_group": _count(st, "n_pairs_ruled_out_by_group", aw, allow_none=True)
-                                      if "n_pairs_ruled_out_by_group" in st else None})
+                                      if "n_pairs_ruled_out_by_group" in st else None,
+                                      # absent from files written before the exact re-decisions
+                                      "n_decisions_exact": _count(st, "n_decisions_exact", aw, allow_none=True)
+                                      if "n_decisions_exact" in st else None})
     _check_summary(data, analysis, where)
     for key in ("example", "params"):
         if key in data and not isinstance(data[key], (str, type(None)) if key == "example" else dict):
@@ -443,6 +447,8 @@ def _check_summary(data: dict, analysis: ObservabilityAnalysis, where: str) -> N
             "n_pairs_dropped_thin", "seconds_enumeration", "seconds_algorithm_3_1", "seconds")
     if "n_pairs_ruled_out_by_group" in summary or ours["n_pairs_ruled_out_by_group"] is not None:
         keys += ("n_pairs_ruled_out_by_group",)  # files written before the grouped pair tests have none
+    if "n_decisions_exact" in summary or ours["n_decisions_exact"] is not None:
+        keys += ("n_decisions_exact",)  # nor those written before the exact re-decisions
     for key in keys:
         if key not in summary or summary[key] != ours[key] or isinstance(summary[key], bool) != isinstance(ours[key], bool):
             raise ModelError(f"{where}: summary.{key}", f"{ours[key]!r} (from the file's regions, pairs and statistics)",
