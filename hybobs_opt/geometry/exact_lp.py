@@ -48,46 +48,65 @@ class ExactCounters:
 EXACT = ExactCounters()
 
 
-def _fractions(a) -> list:
-    return [Fraction(float(v)) for v in np.ravel(a)]
+def _integer_rows(A: np.ndarray, b: np.ndarray) -> tuple[list[list[int]], list[int]]:
+    """Each row ``A_i v <= b_i`` times the power of two that makes it integer (the same inequality, exactly)."""
+    rows, rhs = [], []
+    for a_row, b_i in zip(A, b):
+        ratios = [float(x).as_integer_ratio() for x in a_row] + [float(b_i).as_integer_ratio()]
+        den = max(q for _, q in ratios)  # powers of two: the largest is a multiple of the others
+        ints = [p * (den // q) for p, q in ratios]
+        rows.append(ints[:-1])
+        rhs.append(ints[-1])
+    return rows, rhs
 
 
-def _solve(M: list[list[Fraction]], r: list[Fraction]) -> list[Fraction] | None:
-    """``M x = r`` for a square ``M`` by Gaussian elimination over the rationals; ``None`` if singular."""
+def _solve_int(M: list[list[int]], r: list[int]) -> tuple[list[int], int] | None:
+    """``M x = r`` over the rationals for an integer square ``M``: ``(p, q)`` with ``x = p / q``, ``q > 0``.
+
+    Fraction-free Gaussian elimination (Bareiss): every intermediate stays an integer; ``None`` if singular.
+    """
     n = len(M)
+    if n == 0:
+        return [], 1
     aug = [row[:] + [r[i]] for i, row in enumerate(M)]
+    prev = 1
     for col in range(n):
         piv = next((i for i in range(col, n) if aug[i][col] != 0), None)
         if piv is None:
             return None
         aug[col], aug[piv] = aug[piv], aug[col]
-        p = aug[col][col]
+        pc = aug[col]
+        p = pc[col]
         for i in range(col + 1, n):
-            f = aug[i][col]
-            if f:
-                f = f / p
-                rowi, rowc = aug[i], aug[col]
-                for j in range(col, n + 1):
-                    rowi[j] -= f * rowc[j]
-    x = [Fraction(0)] * n
+            ri = aug[i]
+            f = ri[col]
+            for j in range(col + 1, n + 1):
+                ri[j] = (ri[j] * p - f * pc[j]) // prev
+            ri[col] = 0
+        prev = p
+    det = aug[n - 1][n - 1]
+    # back substitution with the common denominator det: x_i = num_i / det, num_i integers
+    num = [0] * n
     for i in range(n - 1, -1, -1):
-        acc = aug[i][n]
+        acc = aug[i][n] * det
         for j in range(i + 1, n):
-            acc -= aug[i][j] * x[j]
-        x[i] = acc / aug[i][i]
-    return x
+            acc -= aug[i][j] * num[j]
+        num[i] = acc // aug[i][i]
+    if det < 0:
+        num, det = [-x for x in num], -det
+    return num, det
 
 
-def _dot(a: list[Fraction], b: list[Fraction]) -> Fraction:
-    return sum((x * y for x, y in zip(a, b) if x and y), Fraction(0))
+def _dot_int(a: list[int], b: list[int]) -> int:
+    return sum(x * y for x, y in zip(a, b))
 
 
-def _independent_rows(A: list[list[Fraction]], order, d: int) -> list[int] | None:
+def _independent_rows(A: list[list[int]], order, d: int) -> list[int] | None:
     """The first ``d`` rows in ``order`` that are linearly independent (exact), or ``None``."""
     echelon: list[tuple[int, list[Fraction]]] = []  # (pivot column, row reduced)
     chosen = []
     for i in order:
-        v = A[i][:]
+        v = [Fraction(x) for x in A[i]]
         for col, row in echelon:
             if v[col]:
                 f = v[col] / row[col]
@@ -142,45 +161,50 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
         lam = np.asarray(duals, dtype=float)
         key = np.where(lam > 0.0, -1.0 - lam / (1.0 + float(np.max(lam))), np.abs(key))
     order = np.argsort(key, kind="stable")
-    Af = [_fractions(row) for row in A]
-    bf = _fractions(b)
-    cf = _fractions(c)
-    basis = _independent_rows(Af, order, d)
+    Ai, bi = _integer_rows(A, b)
+    cden = max(float(x).as_integer_ratio()[1] for x in c)
+    ci = [p * (cden // q) for p, q in (float(x).as_integer_ratio() for x in c)]  # c = ci / cden
+    basis = _independent_rows(Ai, order, d)
     if basis is None:
         return None
     phase_one = None  # the real cost while phase 1 runs on an artificial one
     for _ in range(MAX_EXACT_PIVOTS + 1):
-        AB = [Af[i] for i in basis]
-        v = _solve(AB, [bf[i] for i in basis])
+        AB = [Ai[i] for i in basis]
         ABt = [[AB[r][j] for r in range(d)] for j in range(d)]
-        y = _solve(ABt, [-x for x in cf])
-        if v is None or y is None:
+        sol = _solve_int(AB, [bi[i] for i in basis])
+        dual = _solve_int(ABt, [-x for x in ci])  # the multipliers up to a positive factor: their signs count
+        if sol is None or dual is None:
             return None
+        v, q = sol
+        y = dual[0]
         in_basis = set(basis)
-        violated = [i for i in range(k) if i not in in_basis and _dot(Af[i], v) > bf[i]]
+        violated = [i for i in range(k) if i not in in_basis and _dot_int(Ai[i], v) > bi[i] * q]
         negative = [r for r in range(d) if y[r] < 0]
         if not violated and not negative and phase_one is None:
-            return _dot(cf, v)
+            return Fraction(_dot_int(ci, v), q * cden)
         if violated and negative:
             # phase 1: a cost for which this basis is dual feasible (every multiplier 1); dual simplex
             # pivots on it reach a feasible vertex (or prove the LP infeasible), then phase 2 resumes
             if phase_one is not None:
                 return None
-            phase_one = cf
-            cf = [-sum((AB[r][j] for r in range(d)), Fraction(0)) for j in range(d)]
+            phase_one = ci
+            ci = [-sum(AB[r][j] for r in range(d)) for j in range(d)]
             continue
         if not violated and phase_one is not None:  # feasible vertex reached: the real cost again
-            cf, phase_one = phase_one, None
+            ci, phase_one = phase_one, None
             continue
         if violated:
             # dual simplex (Bland): the violated row of smallest index enters; the basic row whose
             # multiplier reaches zero first leaves (ties: smallest row index)
             enter = violated[0]
-            alpha = _solve(ABt, Af[enter])  # A_enter = sum_r alpha_r A_B[r]
+            alpha_sol = _solve_int(ABt, Ai[enter])  # A_enter = sum_r alpha_r A_B[r]
+            if alpha_sol is None:
+                return None
+            alpha = alpha_sol[0]
             best, best_t = None, None
             for r in range(d):
                 if alpha[r] > 0:
-                    t = y[r] / alpha[r]
+                    t = Fraction(y[r], alpha[r])  # the positive denominators are common to all r
                     if best_t is None or t < best_t or (t == best_t and basis[r] < basis[best]):
                         best, best_t = r, t
             if best is None:
@@ -189,16 +213,19 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
             continue
         # primal simplex (Bland): the basic row of smallest index with a negative multiplier leaves
         leave = min(negative, key=lambda r: basis[r])
-        e = [Fraction(0)] * d
-        e[leave] = Fraction(-1)
-        step = _solve(AB, e)  # move off row `leave`, keep the other basic rows tight
+        e = [0] * d
+        e[leave] = -1
+        step_sol = _solve_int(AB, e)  # move off row `leave`, keep the other basic rows tight
+        if step_sol is None:
+            return None
+        step = step_sol[0]
         best, best_t = None, None
         for i in range(k):
             if i in in_basis:
                 continue
-            rate = _dot(Af[i], step)
+            rate = _dot_int(Ai[i], step)
             if rate > 0:
-                t = (bf[i] - _dot(Af[i], v)) / rate
+                t = Fraction(bi[i] * q - _dot_int(Ai[i], v), rate * q)  # up to the common positive factor
                 if best_t is None or t < best_t:
                     best, best_t = i, t
         if best is None:
