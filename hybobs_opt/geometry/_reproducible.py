@@ -54,6 +54,21 @@ def _matmul_numpy(A, B):
 
 
 @kernel(cache=True)
+def _jacobi_rotation(alpha, beta, gamma, tol, negligible):
+    """The rotation ``(rotate, c, s)`` that makes two columns orthogonal, from their squared norms
+    ``alpha``, ``beta`` and product ``gamma``; ``rotate`` is False when they already are (to
+    ``tol``) or one of them is negligible (Rutishauser's formulas, as LAPACK's ``dgesvj``)."""
+    if alpha <= negligible or beta <= negligible or gamma == 0.0 or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+        return False, 1.0, 0.0
+    zeta = (beta - alpha) / (2.0 * gamma)
+    t = 1.0 / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+    if zeta < 0.0:
+        t = -t
+    c = 1.0 / np.sqrt(1.0 + t * t)
+    return True, c, c * t
+
+
+@kernel(cache=True)
 def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
     """One-sided Jacobi: rotate the columns of ``W`` (and ``V``) in place until they are orthogonal.
 
@@ -75,16 +90,10 @@ def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
                     beta += W[i, q] * W[i, q]
                 for i in range(m):
                     gamma += W[i, p] * W[i, q]
-                if alpha <= negligible or beta <= negligible or gamma == 0.0 \
-                        or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                rotate, c, s = _jacobi_rotation(alpha, beta, gamma, tol, negligible)
+                if not rotate:
                     continue
                 rotated = True
-                zeta = (beta - alpha) / (2.0 * gamma)
-                t = 1.0 / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
-                if zeta < 0.0:
-                    t = -t
-                c = 1.0 / np.sqrt(1.0 + t * t)
-                s = c * t
                 for i in range(m):
                     wp = W[i, p]
                     wq = W[i, q]
@@ -114,16 +123,10 @@ def _jacobi_numpy(W, V, tol, negligible, max_sweeps):
             for q in range(p + 1, k):
                 wp, wq = W[:, p].copy(), W[:, q].copy()
                 alpha, beta, gamma = _seq_sum(wp * wp), _seq_sum(wq * wq), _seq_sum(wp * wq)
-                if alpha <= negligible or beta <= negligible or gamma == 0.0 \
-                        or abs(gamma) <= tol * np.sqrt(alpha) * np.sqrt(beta):
+                rotate, c, s = _jacobi_rotation(alpha, beta, gamma, tol, negligible)
+                if not rotate:
                     continue
                 rotated = True
-                zeta = (beta - alpha) / (2.0 * gamma)
-                t = 1.0 / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
-                if zeta < 0.0:
-                    t = -t
-                c = 1.0 / np.sqrt(1.0 + t * t)
-                s = c * t
                 W[:, p], W[:, q] = c * wp - s * wq, s * wp + c * wq
                 vp, vq = V[:, p].copy(), V[:, q].copy()
                 V[:, p], V[:, q] = c * vp - s * vq, s * vp + c * vq
