@@ -92,6 +92,16 @@ def child(cases) -> dict:
             "flags_sha256": hashlib.sha256(",".join(flags).encode()).hexdigest(),
             "estimates_sha256": hashlib.sha256(np.ascontiguousarray(run.x_hat, dtype=float).tobytes()).hexdigest(),
             "counts": {k: flags.count(k) for k in sorted(set(flags))}}
+    # the MIQP moving-horizon observer (eq. 10) with its uniqueness program, on 400 samples of the same
+    # data around the first backlash crossing: its flags (the estimates are solver optima, equal to the
+    # solvers' accuracy only, so not compared bit for bit)
+    from hybobs_opt import MHEObserver
+
+    for name, Y in (("clean", trace.y), ("noisy", noisy)):
+        run = MHEObserver(plant, 3).run(trace.u[800:1200], Y[800:1200])
+        flags = [str(f) for f in run.flags]
+        out[f"powertrain3_T3_miqp_{name}"] = {"flags_sha256": hashlib.sha256(",".join(flags).encode()).hexdigest(),
+                                               "counts": {k: flags.count(k) for k in sorted(set(flags))}}
     return out
 
 
