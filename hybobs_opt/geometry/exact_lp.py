@@ -10,15 +10,16 @@ The method is the textbook one for an LP ``min c'v s.t. A v <= b`` with ``d`` va
 is ``d`` linearly independent tight rows (a basis); it is optimal when it satisfies every row and
 the multipliers ``y_B`` of ``A_B' y_B = -c`` are non-negative (then ``c'v`` is the optimum by
 weak duality: both are checked exactly).  The first basis is taken from a floating-point solution
-(its rows by increasing slack); when its multipliers are not all non-negative, primal simplex
+(the rows the solver's multipliers hold first, then the others by increasing slack); when its multipliers are not all non-negative, primal simplex
 pivots with Bland's rule (smallest row index first: no cycling) move to a better vertex; when it
 violates rows (rounding put the float point a hair outside), dual simplex pivots, Bland's rule
 too, repair it.  A first basis that is neither gets a phase 1: dual simplex on an artificial
 cost for which it is dual feasible, until a feasible vertex is reached.  When the pivots run
 out or the LP is infeasible or unbounded, the answer is ``None`` and the caller takes the safe
-side of its decision.  Cost: ``d`` x ``d`` rational solves and one exact pass over
-the rows per pivot, milliseconds for the pair sets of Algorithm 3.1 (``d <= 20``, a few hundred
-rows).
+side of its decision.  Every row is scaled by a power of two to integers (the same inequality),
+and each basis is solved by fraction-free (Bareiss) elimination: ``d`` x ``d`` integer solves and
+one exact pass over the rows per pivot, about a millisecond for the pair sets of Algorithm 3.1
+(``d <= 20``, a few hundred rows).
 """
 
 from __future__ import annotations
