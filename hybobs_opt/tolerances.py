@@ -541,6 +541,27 @@ MHE_UNIQUENESS_COST_RTOL: float = 1e-12
 #: the relative term larger.
 MHE_UNIQUENESS_COST_ATOL: float = 1e-20
 
+#: Decision band of the uniqueness test, as a fraction of epsilon: a separated cost within
+#: ``max(this * epsilon, MHE_DECISION_BAND_COST_RTOL * |J* + epsilon|)`` of the threshold
+#: ``J* + epsilon`` is neither an alternative nor proof of uniqueness.  The window is then "not
+#: certified" (a fallback, the safe side) whatever the rounding, so that a machine whose BLAS
+#: rounds differently cannot flip the flag.  Noise-free data: a residual near 1e-6 of the output
+#: range (a cost near epsilon) carries a rounding of ~1e-16 of the range, 2e-10 of the cost, well
+#: inside 1e-6; the separated costs of model (16)'s observable windows (8.9e-11 S_y) lie 1e7
+#: bands away.
+MHE_DECISION_BAND_EPS_RTOL: float = 1e-6
+
+#: Second term of the decision band: a fraction of the threshold itself, above the rounding of a
+#: large cost (a sum of many squares, ~1e-15 of its value).
+MHE_DECISION_BAND_COST_RTOL: float = 1e-12
+
+
+def mhe_decision_band(threshold: float, epsilon: float) -> float:
+    """Half-width of the band around the uniqueness threshold ``J* + epsilon`` inside which the
+    MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""
+    return max(MHE_DECISION_BAND_EPS_RTOL * abs(float(epsilon)), MHE_DECISION_BAND_COST_RTOL * abs(float(threshold)))
+
+
 #: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  The cutoff
 #: J* + epsilon is widened by the term's largest value at an integral point of the box (sum of
 #: the squared box ranges ~50 on model 16: 5e-12 S_y, five times epsilon); a minimum in that band

@@ -30,6 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--horizon", "-T", type=int, default=None,
                    help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="with a PWA SYSTEM: compare the observers on this log")
+    p.add_argument("--quick", action="store_true",
+                   help="a preview of the report of every result: every section and figure from fewer samples (about a third of the time)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
@@ -43,6 +45,9 @@ def run(args: argparse.Namespace) -> int:
         for option in ("param", "data", "horizon"):
             if getattr(args, option) is not None:
                 raise ModelError(f"--{option}", "a SYSTEM as well (it applies to the report of one system)", "no SYSTEM")
+    elif args.quick:
+        raise ModelError("--quick", "no --quick with SYSTEM (it previews the report of every result)", "--quick")
+    if args.system is None:
         if args.section:
             from ..report.html import section_keys
 
@@ -83,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         if named is None:
             from ..report import build_report
 
-            result = build_report(args.out, progress=update, only=args.section)
+            result = build_report(args.out, progress=update, only=args.section, quick=args.quick)
         else:
             from ..report.system_report import build_system_report
 

@@ -19,6 +19,8 @@ speed.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._numba_cache import finalize_kernels, kernel
@@ -196,10 +198,53 @@ def _complete_numpy(Q, r):
     return d
 
 
+@kernel(cache=True)
+def _singular_values_kernel(Ms, tol, max_sweeps):
+    """Singular values (descending) of each tall matrix ``Ms[b]`` (``m >= k``): the operations of
+    :func:`_svd_tall` without its vectors, for a whole batch in one call."""
+    nb, m, k = Ms.shape
+    out = np.zeros((nb, k))
+    eps = np.finfo(np.float64).eps
+    for b in range(nb):
+        big = 0.0
+        for i in range(m):
+            for j in range(k):
+                a = abs(Ms[b, i, j])
+                if a > big:
+                    big = a
+        # any power of two gives the same bits (the scaling is exact); frexp's is one
+        unit = math.ldexp(1.0, math.frexp(big)[1]) if big > 0.0 else 1.0
+        W = np.empty((m, k))
+        fro2 = 0.0
+        for i in range(m):
+            for j in range(k):
+                W[i, j] = Ms[b, i, j] / unit
+                fro2 += W[i, j] * W[i, j]
+        cut2 = (eps * max(m, k)) ** 2 * fro2
+        V = np.eye(k)
+        _jacobi_kernel(W, V, tol, cut2, max_sweeps)
+        s = np.zeros(k)
+        for j in range(k):
+            s2 = 0.0
+            for i in range(m):
+                s2 += W[i, j] * W[i, j]
+            s[j] = np.sqrt(s2) if s2 > cut2 else 0.0
+        s = np.sort(s)[::-1]
+        for j in range(k):
+            out[b, j] = s[j] * unit
+    return out
+
+
+def _singular_values_numpy(Ms, tol, max_sweeps):
+    """:func:`_singular_values_kernel` in NumPy, one matrix at a time."""
+    return np.array([_svd_tall(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
+
+
 COMPILED = finalize_kernels(globals())
 _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
+_singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
 
 
 def _as2d(a) -> np.ndarray:
@@ -300,6 +345,30 @@ def svd(a, full_matrices: bool = True, compute_uv: bool = True):
     if not full_matrices:
         U, V = U[:, :p], V[:, :p]
     return np.ascontiguousarray(U), s, np.ascontiguousarray(V.T)
+
+
+def singular_values(stack) -> np.ndarray:
+    """Singular values (descending) of each matrix of a ``(B, m, k)`` stack, as ``(B, min(m, k))``:
+    the bits of :func:`svd` with ``compute_uv=False`` on each, in one call."""
+    M = np.asarray(stack, dtype=float)
+    if M.ndim != 3:
+        raise ValueError(f"singular_values: a (B, m, k) stack expected, got shape {M.shape}")
+    if not np.all(np.isfinite(M)):
+        raise ValueError("svd: the matrix has a non-finite entry")
+    if M.shape[1] < M.shape[2]:
+        M = M.transpose(0, 2, 1)
+    if M.shape[0] == 0 or M.shape[2] == 0:
+        return np.zeros((M.shape[0], M.shape[2]))
+    return _singular_values(np.ascontiguousarray(M), JACOBI_TOL, JACOBI_MAX_SWEEPS)
+
+
+def numerical_ranks(S: np.ndarray, rtol: float) -> np.ndarray:
+    """:func:`numerical_rank` of each row of ``S`` (rows of descending singular values)."""
+    S = np.asarray(S, dtype=float)
+    if S.shape[1] == 0:
+        return np.zeros(S.shape[0], dtype=int)
+    top = np.maximum(S[:, 0], np.finfo(float).tiny)
+    return np.count_nonzero(S > rtol * top[:, None], axis=1)
 
 
 def numerical_rank(s: np.ndarray, rtol: float) -> int:

@@ -40,7 +40,14 @@ import numpy as np
 
 from ..errors import ModelError, SolverError
 from ..status import Status
-from ..tolerances import MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TOL, MHE_MILP_FEASIBILITY_TOL, SEQUENCE_LP_BOUND_RTOL, SEQUENCE_LP_DAQP_PROX
+from ..tolerances import (
+    MHE_CERTIFIED_RTOL,
+    MHE_FEASIBILITY_TOL,
+    MHE_MILP_FEASIBILITY_TOL,
+    SEQUENCE_LP_BOUND_RTOL,
+    SEQUENCE_LP_DAQP_PROX,
+    mhe_decision_band,
+)
 from .backends.daqp_backend import DAQP_INF
 from .result import WindowResult
 
@@ -764,7 +771,11 @@ class SequenceLPSolver:
         sep, n = self.sep, self.n
         delta, eps = sep.delta, sep.epsilon
         thr = float(opt.cost) + eps
-        base = {"delta": delta, "epsilon": eps, "threshold": thr, "separated_cost": None,
+        # a cost within the band of thr decides nothing (a fallback): bounds must clear thr_hi,
+        # an alternative must cost at most thr_lo
+        band = mhe_decision_band(thr, eps)
+        thr_lo, thr_hi = thr - band, thr + band
+        base = {"delta": delta, "epsilon": eps, "threshold": thr, "decision_band": band, "separated_cost": None,
                 "separated_cost_bound": None}
         xi_s = np.clip((opt.x_start - self.model.cx) / self.model.hx, sep._lbx, sep._ubx)
         dirs = [(j, s) for j in range(n) for s in (1, -1)
@@ -786,17 +797,17 @@ class SequenceLPSolver:
             if nd.index in visited:
                 continue
             visited.add(nd.index)
-            if cheap[nd.index] > thr:  # closed by a bound of the step's vectorised pass
+            if cheap[nd.index] > thr_hi:  # closed by a bound of the step's vectorised pass
                 lowest = min(lowest, cheap[nd.index])
                 continue
             if nd.leaf and nd.ufruitless % PREFIX_LP_RETRY:
                 # its own LP stayed within the threshold lately: straight to the separated LPs
                 nd.ufruitless += 1
             else:
-                b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr, np.inf), tight=False)
+                b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr_hi, np.inf), tight=False)
                 if b is None:
                     return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
-                if b[0] > thr:
+                if b[0] > thr_hi:
                     lowest = min(lowest, b[0])
                     nd.ufruitless = 0
                     continue
@@ -805,9 +816,9 @@ class SequenceLPSolver:
             if not nd.leaf:
                 stack.extend(reversed(nd.children))
                 continue
-            closed = self._separated_structural(nd, ctx, xi_s, delta, dirs, thr)
+            closed = self._separated_structural(nd, ctx, xi_s, delta, dirs, thr_hi)
             for d, (j, s) in enumerate(dirs):
-                if closed is not None and closed[d] > thr:
+                if closed is not None and closed[d] > thr_hi:
                     lowest = min(lowest, closed[d])
                     continue
                 lo, hi = self.lo.copy(), self.hi.copy()
@@ -816,20 +827,20 @@ class SequenceLPSolver:
                 else:
                     hi[j] = min(hi[j], xi_s[j] - delta)
                 # a zero-cost fit of a square sequence already in the half-space is an alternative
-                bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr, np.inf), key=(j, s), tight=False)
+                bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr_hi, np.inf), key=(j, s), tight=False)
                 if bs is None:
                     return {**base, "status": "not certified",
                             "reason": f"no checked separated LP answer for modes {nd.modes}, direction {(j, s)}"}
                 bound, th, cost = bs
-                if bound <= thr and (th is None or cost > thr) and self.lp_engine == "daqp":
+                if bound <= thr_hi and (th is None or cost > thr_hi) and self.lp_engine == "daqp":
                     # DAQP's proximal multipliers fall short near the threshold: HiGHS decides
                     out = self._solve_highs(nd, ctx["r"][nd.r_sl], ctx["g"][nd.g_sl], lo, hi)
                     if out is not None:
                         bound, th, cost = out[0], out[1], out[2]
-                if bound > thr:
+                if bound > thr_hi:
                     lowest = min(lowest, bound)
                     continue
-                if th is None or cost > thr:
+                if th is None or cost > thr_hi:
                     return {**base, "status": "not certified", "separated_cost_bound": min(lowest, bound),
                             "reason": f"separated LP of modes {nd.modes} closed at {bound:.3g}, within the "
                                       f"threshold {thr:.3g} but without a point below it"}
@@ -837,11 +848,15 @@ class SequenceLPSolver:
                 x0 = mdl.cx + mdl.hx * th[:n]
                 W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
                 alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xi_s)
-                if alt is not None and alt["cost"] <= thr:
+                if alt is not None and alt["cost"] <= thr_lo:
                     self._last_alternative = (nd.index, (j, s))
                     return {**base, "status": "alternative", "decided_by": "sequence LPs",
                             "separated_cost": alt["cost"], "alternative": alt,
                             "sequence_lps": self.lp_solves - lps0}
+                if alt is not None and alt["cost"] <= thr_hi:
+                    return {**base, "status": "not certified", "in_decision_band": True, "separated_cost": alt["cost"],
+                            "reason": f"separated cost {alt['cost']:.6g} within the decision band {band:.3g} of "
+                                      f"J* + epsilon = {thr:.6g} (decided to the safe side)"}
                 return {**base, "status": "not certified",
                         "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
         self._last_alternative = None

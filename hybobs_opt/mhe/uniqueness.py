@@ -25,6 +25,7 @@ from ..tolerances import (
     MHE_UNIQUENESS_COST_ATOL,
     MHE_UNIQUENESS_COST_RTOL,
     MHE_UNIQUENESS_PROX_WEIGHT,
+    mhe_decision_band,
 )
 from .backends import DaqpBackend, milp_backend
 from .residual import StackedResidual
@@ -293,7 +294,12 @@ class SeparatedProgram:
         delta, eps = self.delta, self.epsilon
         J = float(opt.cost)
         thr = J + eps
-        base = {"delta": delta, "epsilon": eps, "threshold": thr, "separated_cost": None, "separated_cost_bound": None}
+        # a cost within the band of thr decides nothing (a fallback); outside it, below is an
+        # alternative and every bound is proven above thr_hi
+        band = mhe_decision_band(thr, eps)
+        thr_lo, thr_hi = thr - band, thr + band
+        base = {"delta": delta, "epsilon": eps, "threshold": thr, "decision_band": band, "separated_cost": None,
+                "separated_cost_bound": None}
         xi_s = np.clip((opt.x_start - self.model.cx) / self.model.hx, self._lbx, self._ubx)
         allowed = np.zeros(nb, dtype=bool)
         allowed[0::2] = xi_s + delta <= self._ubx
@@ -320,7 +326,7 @@ class SeparatedProgram:
                 alt = None if pol is None else self.alternative(pol[0], opt.modes, U, Y, xbar, pol[1], xi_s)
                 if alt is not None:
                     cands.append(alt)
-                    if alt["cost"] <= thr:
+                    if alt["cost"] <= thr_lo:
                         return {**base, "status": "alternative", "decided_by": "optimal mode sequence",
                                 "separated_cost": alt["cost"], "alternative": alt}
         # 2. the separated mixed-integer programs over every mode sequence
@@ -337,7 +343,7 @@ class SeparatedProgram:
         #     since J_1 >= ||r||_2 and J_inf >= ||r||_inf >= ||r||_2 / sqrt(N) (N residual
         #     entries): no separated point with ||r||_2^2 <= thr2 proves J > thr
         nres = res.R.shape[0]
-        thr2 = thr if self.norm == "2" else (thr**2 if self.norm == "1" else nres * thr**2)
+        thr2 = thr_hi if self.norm == "2" else (thr_hi**2 if self.norm == "1" else nres * thr_hi**2)
         lo_u = np.concatenate([lo, sep_lo, [1.0]])
         hi_u = np.concatenate([hi, np.full(nb, np.inf), [1.0]])
         rstar = res.R @ vstar + rp
@@ -383,7 +389,7 @@ class SeparatedProgram:
             alt, why, combo, lower = self.verified(out.v, U, Y, xbar, xi_s, allowed, lo, hi, polish=True)
             if alt is not None:
                 cands.append(alt)
-            if alt is None or alt["cost"] <= thr or self.norm != "2" or lower is None or not lower > thr:
+            if alt is None or alt["cost"] <= thr_hi or self.norm != "2" or lower is None or not lower > thr_hi:
                 decided = False
                 break
             modes, kd = combo
@@ -405,32 +411,32 @@ class SeparatedProgram:
         detail["solver_solves"] = solves
         if decided:
             by = "branch-and-bound" if self.norm == "2" else "norm-2 bound (MIQP)"
-            return {**base, **detail, "status": "unique", "decided_by": by, "separated_cost_bound": thr,
+            return {**base, **detail, "status": "unique", "decided_by": by, "separated_cost_bound": thr_hi,
                     "separated_cost": min((c["cost"] for c in cands), default=None)}
-        if self.norm != "2" and not any(c["cost"] <= thr for c in cands):
+        if self.norm != "2" and not any(c["cost"] <= thr_hi for c in cands):
             # 2b. norms 1 / inf: the MILP decides
             rps = rp / self._Js
             lo_m = np.concatenate([lo, np.full(2 * nres, -np.inf), sep_lo, [1.0]])
             hi_m = np.concatenate([hi, -rps, rps, np.full(nb, np.inf), [1.0]])
             ncol = nv + self._nslack
-            bound = thr / self._Js
+            bound = thr_hi / self._Js
             # the cutoff and the target are HiGHS's (CasADi's plugins take neither)
             out = self.milp.solve(None, lo_m, hi_m, cutoff=bound, target=bound,
                                   col_bounds=(ncol + np.arange(nb), np.zeros(nb), allowed.astype(float)))
             detail = {**detail, **{f"milp_{k}": v for k, v in out.detail.items()}}
             if out.status == "infeasible":
                 return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
-                        "separated_cost_bound": thr}
+                        "separated_cost_bound": thr_hi}
             if out.status in ("optimal", "feasible"):
                 alt, why, _, _ = self.verified(np.concatenate([out.v[:nv], out.v[ncol:]]), U, Y, xbar,
                                                           xi_s, allowed, lo, hi, polish=False)
                 if alt is not None:
                     cands.append(alt)
-                if out.status == "optimal" and not any(c["cost"] <= thr for c in cands):
+                if out.status == "optimal" and not any(c["cost"] <= thr_hi for c in cands):
                     # a MILP optimum (zero gap, no proximal bias): its bound is the separated
                     # minimum (HiGHS's dual bound, else its optimal objective)
                     lb = self._Js * float(out.detail.get("dual_bound", out.detail.get("objective", -np.inf)))
-                    if lb > thr:
+                    if lb > thr_hi:
                         return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
                                 "separated_cost": min((c["cost"] for c in cands), default=None),
                                 "separated_cost_bound": lb}
@@ -439,11 +445,15 @@ class SeparatedProgram:
         if cands:
             alt = min(cands, key=lambda c: c["cost"])
             base["separated_cost"] = alt["cost"]
-            if alt["cost"] <= thr:
+            if alt["cost"] <= thr_lo:
                 if alt["cost"] < J - max((opt.gap_bound or 0.0), 0.0) - eps:
                     return {**base, **detail, "status": "not certified",
                             "reason": "a separated state beats the certified optimum (optimum not global)"}
                 return {**base, **detail, "status": "alternative", "decided_by": "branch-and-bound", "alternative": alt}
+            if alt["cost"] <= thr_hi:
+                return {**base, **detail, "status": "not certified", "in_decision_band": True,
+                        "reason": f"separated cost {alt['cost']:.6g} within the decision band {band:.3g} of "
+                                  f"J* + epsilon = {thr:.6g} (decided to the safe side)"}
         return {**base, **detail, "status": "not certified",
                 "reason": why or "separated minimum within the solver's accuracy of J* + epsilon"}
 

@@ -167,6 +167,10 @@ def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarr
     rec["n_flagged_observable"] = int(flagged.sum())
     rec["n_flagged_unobservable"] = int(np.count_nonzero(out.flags == "unobservable"))
     rec["n_fallback"] = int(np.count_nonzero(out.flags == "fallback"))
+    # windows whose separated cost fell in the decision band of the uniqueness threshold: decided
+    # to the safe side (fallback) so that no rounding can flip them
+    rec["n_uniqueness_in_decision_band"] = sum(
+        1 for inf in out.info if isinstance(inf, dict) and (inf.get("uniqueness") or {}).get("in_decision_band"))
     for name in interval_states:
         if name in state_names:
             i = state_names.index(name)

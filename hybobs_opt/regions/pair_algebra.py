@@ -12,7 +12,7 @@ import pickle
 import numpy as np
 
 from ..geometry._lp_kernels import restricted_pair_rows
-from ..geometry._reproducible import matmul as mm, norm, numerical_rank, row_norms, svd
+from ..geometry._reproducible import matmul as mm, norm, numerical_rank, numerical_ranks, row_norms, singular_values, svd
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
 from .pair_geometry import SubspaceDirections
 
@@ -38,7 +38,7 @@ def _scaled_regions(enum):
 
 
 def _batched_rank(M: np.ndarray) -> np.ndarray:
-    return np.array([numerical_rank(svd(Mk, compute_uv=False), RANK_RTOL) for Mk in M], dtype=int)
+    return numerical_ranks(singular_values(M), RANK_RTOL)
 
 
 class PairAlgebra:

@@ -14,8 +14,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..errors import HybobsError
-from .section import _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
+from ..errors import HybobsError, ModelError
+from .section import _QUICK, _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
 
 def wrap_tables(body: str) -> str:
     """Wrap every ``<table>`` of ``body`` in a ``<div class='table-wrap'>`` that scrolls sideways.
@@ -45,18 +45,39 @@ def _load_builtin_sections() -> None:
     from . import sections  # noqa: F401  registers the built-in sections
 
 
-def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = None, only: list[str] | None = None) -> dict[str, Any]:
+def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = None, only: list[str] | None = None,
+                 *, quick: bool = False) -> dict[str, Any]:
     """Build ``out_dir/index.html`` (with PNG figures) from every registered section.
 
     A section that fails is reported in the page with its error instead of aborting the report.
 
+    Parameters
+    ----------
+    out_dir : str or Path
+        Directory of ``index.html``, ``summary.json`` and the figures (created if missing).
+    progress : callable, optional
+        Called with the key of each section (and of its phases) as it starts.
+    only : list of str, optional
+        Keys of the sections to build (:func:`section_keys`); default every one.
+    quick : bool, default False
+        A preview: every section, table and figure, from fewer samples (shorter runs, coarser
+        grids, fewer timing repeats), about a third of the time.  The page says so in its title.
+
     Returns
     -------
     dict
-        ``{"index": path, "sections": [{"key", "title", "ok", "summary", "figures", "seconds"}]}``
+        ``{"index": path, "quick": bool, "sections": [{"key", "title", "ok", "summary", "figures", "seconds"}]}``
     """
+    if not isinstance(quick, bool):
+        raise ModelError("quick", "True or False", repr(quick))
     _load_builtin_sections()
-    return assemble_report(out_dir, [(k, b) for k, b in _SECTIONS if not only or k in only], progress)
+    token = _QUICK.set(quick)
+    try:
+        title = "hybobs_opt report (quick preview: fewer samples)" if quick else "hybobs_opt report"
+        out = assemble_report(out_dir, [(k, b) for k, b in _SECTIONS if not only or k in only], progress, title=title)
+    finally:
+        _QUICK.reset(token)
+    return {**out, "quick": quick}
 
 
 def assemble_report(out_dir: str | Path, builders: list[tuple[str, SectionBuilder]],

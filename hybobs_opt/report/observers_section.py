@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..studies.paper002_powertrain.bench import run_bench
-from .section import ReportSection, register_section
+from .section import ReportSection, register_section, samples
 
 #: Steps of the scenario (1 ms each) and of the MHE runs (they cost milliseconds per step).
 STEPS, MHE_STEPS = 3000, 3000
@@ -88,16 +88,21 @@ def _alt(summary: dict, steps: int, noise: float) -> str:
 
 
 def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
+    # the quick preview still runs through the first change of contact (sample 1,014)
+    steps, mhe_steps = samples(STEPS, 1200), samples(MHE_STEPS, 1200)
+    noisy_steps = samples(NOISY_STEPS, 600)
+    study_steps, study_mhe_steps = samples(NOISE_STUDY_STEPS, 1200), samples(NOISE_STUDY_MHE_STEPS, 300)
+    gap_draws = samples(GAP_DRAWS, 1)
     progress("observers/noise-free")
-    clean = run_bench("powertrain3", 3, STEPS, 0.0, ["lookup", "miqp", "milp"], mhe_steps=MHE_STEPS,
+    clean = run_bench("powertrain3", 3, steps, 0.0, ["lookup", "miqp", "milp"], mhe_steps=mhe_steps,
                       plot=str(out / "observers_fig7_9.png"))
     progress("observers/noisy")
-    noisy = run_bench("powertrain3", 3, NOISY_STEPS, NOISE, ["lookup", "miqp"], mhe_steps=MHE_STEPS,
+    noisy = run_bench("powertrain3", 3, noisy_steps, NOISE, ["lookup", "miqp"], mhe_steps=mhe_steps,
                       plot=str(out / "observers_noisy.png"))
     lk = clean["observers"]["lookup"]
     body = [
         "<p>Model (16), T = 3, the torque profile of the scenario (the shaft crosses the backlash), "
-        f"{STEPS} samples, every observer on all of them (each moving-horizon step is a mixed-integer "
+        f"{steps} samples, every observer on all of them (each moving-horizon step is a mixed-integer "
         "program). The paper reports 3 s per MIQP step and 31 ms per lookup step (Matlab, Pentium 4).</p>",
         _table(clean),
         f"<p>Lookup batch throughput: {lk.get('batch_steps_per_s', 0):,.0f} steps/s "
@@ -116,19 +121,19 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "proved there is none; 'unobservable' means it found one (info['alternative']).</p>",
         "<p>The figure: errors on a log scale (an exact estimate is drawn at the floor 1e-16); below each observer's "
         "errors, its flag on a separate axis, the observable steps shaded green.</p>",
-        f"<img src='observers_fig7_9.png' alt='{html.escape(_alt(clean, STEPS, 0.0), quote=True)}'>",
+        f"<img src='observers_fig7_9.png' alt='{html.escape(_alt(clean, steps, 0.0), quote=True)}'>",
         f"<h3>With output noise (sigma = {NOISE} rad/s)</h3>",
         _table(noisy),
         f"<p>{html.escape(noisy.get('note', ''))}</p>",
-        f"<img src='observers_noisy.png' alt='{html.escape(_alt(noisy, NOISY_STEPS, NOISE), quote=True)}'>",
+        f"<img src='observers_noisy.png' alt='{html.escape(_alt(noisy, noisy_steps, NOISE), quote=True)}'>",
     ]
     progress("observers/noise study")
     from ..studies.paper002_powertrain.noise import NOISE_LEVELS, run_noise_study
     from ..studies.paper002_powertrain.plots import plot_noise_errors
 
     traces: dict = {}
-    study = run_noise_study("powertrain3", NOISE_LEVELS, NOISE_STUDY_STEPS, observers=NOISE_STUDY_OBSERVERS,
-                            lookup_horizons=NOISE_STUDY_HORIZONS, traces=traces, mhe_steps=NOISE_STUDY_MHE_STEPS)
+    study = run_noise_study("powertrain3", NOISE_LEVELS, study_steps, observers=NOISE_STUDY_OBSERVERS,
+                            lookup_horizons=NOISE_STUDY_HORIZONS, traces=traces, mhe_steps=study_mhe_steps)
     plot_noise_errors(traces["truth"], {name: out for key, out in traces.items() if key != "truth" and key[0] == NOISE
                                         for name in [key[1]]}, out / "observers_noise_study.png", NOISE)
     body += [
@@ -140,10 +145,10 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "carries the covariance of the weighted least-squares error. The moving-horizon MIQP with the arrival cost "
         "tuned from the noise level (<code>MHEObserver(noise_std=sigma, arrival_weight='kalman')</code>, T = 3) "
         "takes as each window's prior a Kalman filter's prediction from the samples before the window, in the mode "
-        f"sequence the windows estimated, weighted by its inverse covariance (first {NOISE_STUDY_MHE_STEPS} samples); "
+        f"sequence the windows estimated, weighted by its inverse covariance (first {study_mhe_steps} samples); "
         "its flag means unique given that prior, and its estimates state their posterior covariance. The Kalman filter "
         "is told the true mode sequence: the unattainable reference. Same scenario, "
-        f"{NOISE_STUDY_STEPS} samples (the noise benchmark, <code>python -m benchmarks.bench_noise</code>, runs 3,000, "
+        f"{study_steps} samples (the noise benchmark, <code>python -m benchmarks.bench_noise</code>, runs 3,000, "
         "also at T = 6 and with the MIQP), noise on the engine speed.</p>",
         _noise_table(study),
         "<p>The RMS errors are over the samples each observer flags observable; the Mahalanobis distance uses the "
@@ -158,11 +163,11 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
     from ..studies.paper002_powertrain.unknown_gap import run_unknown_gap_study
 
     gap_runs: list = []
-    gap = run_unknown_gap_study(GAP_DRAWS, STEPS, grid_step=GAP_REPORT_GRID_STEP, traces=gap_runs)
+    gap = run_unknown_gap_study(gap_draws, steps, grid_step=GAP_REPORT_GRID_STEP, traces=gap_runs)
     plot_gap_estimates(gap_runs[0][0], [(a, e) for _, a, e in gap_runs], out / "observers_unknown_gap.png")
     body += [
         "<h3>The backlash gap hidden from the observer</h3>",
-        f"<p>{GAP_DRAWS} gaps drawn in [0.02, 0.08] rad (the twist bound widened to "
+        f"<p>{gap_draws} gaps drawn in [0.02, 0.08] rad (the twist bound widened to "
         f"{gap['theta_max']:g} rad: the scenario twists the shaft beyond 0.2 rad when alpha &gt; 0.055); a bank of "
         f"{gap['grid']['n']} lookup observers over the interval (<code>ParameterBank</code>), scored by the jump between "
         "each one's prediction and its next reconstruction, estimates the gap; the state estimate comes from a lookup "

@@ -35,7 +35,7 @@ from ..studies.paper002_powertrain.figures import (  # noqa: F401  (old names of
 from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
 from ..regions import analyse_observability, compute_cut, plot_cut  # noqa: F401  (plot_cut: old name here)
 from .plots import CUT_COLOURS, plot_region_cut
-from .section import ReportSection, register_section
+from .section import ReportSection, register_section, samples
 
 #: Published figures of paper 002 (Sections 6-7), quoted for comparison only.
 PAPER_002 = {
@@ -139,7 +139,7 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
 
     t_start = time.perf_counter()
     tau16 = TABLE1["gear_ratio"]
-    grid = list(REPORT_GRID)
+    grid = [samples(REPORT_GRID[0], 13), samples(REPORT_GRID[1], 9)]
     specs = [
         {"model": 16, "T": 7, "gear_ratio": tau16, "grid": grid, "fig": "4b"},
         {"model": 16, "T": 7, "gear_ratio": 0.5, "grid": grid, "fig": "5a", "fit_omega_m": True},
@@ -158,7 +158,7 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
 
     # timings of model (16), T = 3 against the paper's (median of repeated runs in this process)
     progress("regions: timing model (16), T = 3")
-    runs = [analyse_observability(powertrain3(), 3).summary() for _ in range(7)]
+    runs = [analyse_observability(powertrain3(), 3).summary() for _ in range(samples(7, 3))]
     t_enum = statistics.median(r["seconds_enumeration"] for r in runs)
     t_alg = statistics.median(r["seconds_algorithm_3_1"] for r in runs)
 

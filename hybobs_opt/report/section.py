@@ -7,6 +7,7 @@ A section module builds a :class:`ReportSection` and calls :func:`register_secti
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,21 @@ class ReportSection:
 
 
 _SECTIONS: list[tuple[str, SectionBuilder]] = []
+
+#: Whether the report being built is the quick preview (``build_report(quick=True)``).
+_QUICK: ContextVar[bool] = ContextVar("hybobs_report_quick", default=False)
+
+
+def samples(full: int, quick: int) -> int:
+    """A section's sample count: ``full`` in the report, ``quick`` in the quick preview
+    (``build_report(quick=True)``, ``hybobs report --quick``): every table and figure, from fewer
+    samples."""
+    return quick if _QUICK.get() else full
+
+
+def is_quick() -> bool:
+    """Whether the report being built is the quick preview."""
+    return _QUICK.get()
 
 
 def register_section(key: str, builder: SectionBuilder) -> None:

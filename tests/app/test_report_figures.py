@@ -1,6 +1,7 @@
 """The built report (``hybobs report``): its links, images, alt texts, tables and figures (issue 17).
 
-One full report is built for the module (about a minute and a half, ``slow``) while every
+One report is built for the module -- the quick preview (``build_report(quick=True)``: every
+section, table and figure of the full report from fewer samples, ``slow``) -- while every
 ``Figure.savefig`` is intercepted, so the axes of every figure are inspected as drawn: each has
 data, its quantity and its unit (where the paper gives one), no ``"x 10"`` display scaling, and the
 flags of the observer figure sit on their own labelled axes.  The fast tests below check the
@@ -66,7 +67,8 @@ def record_axes(fig) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def built_report(tmp_path_factory):
-    """The full report, built once, with the axes of every figure it saved."""
+    """The report (the quick preview: the full report's sections from fewer samples), built once,
+    with the axes of every figure it saved."""
     from matplotlib.figure import Figure
 
     from hybobs_opt.report import build_report
@@ -81,9 +83,10 @@ def built_report(tmp_path_factory):
 
     Figure.savefig = savefig
     try:
-        result = build_report(out)
+        result = build_report(out, quick=True)
     finally:
         Figure.savefig = original
+    assert result["quick"] is True
     assert all(s["ok"] for s in result["sections"]), [s["error"] for s in result["sections"] if not s["ok"]]
     return SimpleNamespace(dir=out, html=(out / "index.html").read_text(), figures=figures, result=result)
 
@@ -228,6 +231,28 @@ def test_report_numbers_come_from_the_run(built_report):
     # the timing table had a row read from the repository's benchmarks/results/regions.json
     assert "regions.json" not in built_report.html
     assert "benchmarks/results" not in built_report.html
+
+
+@pytest.mark.slow
+def test_quick_preview_says_so_and_states_its_sample_counts(built_report):
+    """The preview's title says what it is, and its text states the sample counts it ran (the
+    observer table's steps column and the prose agree with the run's summary)."""
+    assert "quick preview" in built_report.html.split("</h1>")[0]
+    obs = next(s for s in built_report.result["sections"] if s["key"] == "observers")["summary"]
+    steps = obs["noise_free"]["steps"]
+    assert steps < 3000 and f"{steps} samples" in built_report.html
+
+
+def test_quick_is_validated_and_refused_with_a_system(tmp_path, capsys):
+    from hybobs_opt.cli import main
+    from hybobs_opt.errors import ModelError
+    from hybobs_opt.report import build_report
+
+    with pytest.raises(ModelError, match="quick"):
+        build_report(tmp_path, quick="yes")
+    assert main(["report", "powertrain3", "--quick", "--out-dir", str(tmp_path / "r")]) != 0
+    assert "--quick" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
 
 
 # ---------------------------------------------------------------------------- fast: the checker

@@ -385,8 +385,10 @@ def test_the_valid_bases_build():
 # ---------------------------------------------------------------------------------- the defects, one line each
 
 def _ctor(kind, **changes):
-    ctor, valid, _, _ = specs()[kind]
-    return lambda: ctor(**{**valid(), **changes})
+    def call():  # the specs build example systems: at test time, not at collection
+        ctor, valid, _, _ = specs()[kind]
+        return ctor(**{**valid(), **changes})
+    return call
 
 
 def _reset(kind, **kwargs):

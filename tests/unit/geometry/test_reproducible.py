@@ -130,6 +130,32 @@ def test_jacobi_and_completion_mirrors_are_the_kernels_bit_for_bit():
         assert np.allclose(Q1.T @ Q1, np.eye(m), atol=1e-14)
 
 
+def test_batched_singular_values_are_the_svds_bits():
+    """The batch kernel (the rank screen of the pair algebra) and its NumPy mirror give the bits
+    of :func:`svd` on each matrix, tall, wide, rank-deficient and graded, and LAPACK's values to
+    rounding; ``numerical_ranks`` is ``numerical_rank`` row by row."""
+    rng = np.random.default_rng(17)
+    for nb, m, k in ((30, 6, 4), (30, 4, 6), (12, 9, 9), (5, 12, 1), (3, 0, 2), (0, 3, 2)):
+        M = np.stack([_graded(rng, m, k) for _ in range(nb)]) if m and nb else np.zeros((nb, m, k))
+        if nb and k > 1 and m:
+            M[::3, :, -1] = 2.0 * M[::3, :, 0]  # rank deficient
+            M[1::4] *= 1e-200  # tiny scale: the power-of-two scaling keeps the bits
+        S = R.singular_values(M)
+        assert S.shape == (nb, min(m, k))
+        per = np.array([R.svd(Mk, compute_uv=False) for Mk in M]).reshape(S.shape)
+        assert np.array_equal(S, per)
+        tall = np.ascontiguousarray(M if m >= k else M.transpose(0, 2, 1))
+        if nb and min(m, k):
+            assert np.array_equal(R._singular_values_numpy(tall, R.JACOBI_TOL, R.JACOBI_MAX_SWEEPS),
+                                  R._singular_values_kernel(tall, R.JACOBI_TOL, R.JACOBI_MAX_SWEEPS))
+            ref = np.linalg.svd(M, compute_uv=False)
+            assert np.allclose(S, ref, rtol=1e-12, atol=1e-13 * np.max(ref, axis=1, keepdims=True).max())
+        ranks = R.numerical_ranks(S, 1e-9)
+        assert ranks.tolist() == [R.numerical_rank(s, 1e-9) for s in S]
+    with pytest.raises(ValueError, match="non-finite"):
+        R.singular_values(np.array([[[1.0, np.inf]]]))
+
+
 def test_lstsq_and_nnls_against_numpy_and_scipy():
     rng = np.random.default_rng(5)
     for trial in range(30):

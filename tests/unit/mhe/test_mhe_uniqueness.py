@@ -344,3 +344,55 @@ def test_flag_agrees_with_the_exact_window_classifier_on_model16():
         agree = counts[(OBSERVABLE, OBSERVABLE)] + counts[(UNOBSERVABLE, UNOBSERVABLE)]
         assert counts[(OBSERVABLE, OBSERVABLE)] >= 120 and counts[(UNOBSERVABLE, UNOBSERVABLE)] >= 50, (norm, counts)
         assert agree >= 0.99 * decided, (norm, counts)
+
+
+# ------------------------------------------------------------------ the decision band
+def band_window(case):
+    """A window whose separated minimum is clearly above the threshold (``direction``: unique) or
+    below it (``mirror``: the mirror state fits as well as the estimate)."""
+    T = 3
+    if case == "mirror":
+        system = mirror_system()
+        U, _, Y, _ = mirror_data(system, N=T)
+        return system, U, Y
+    system = direction_pwa(11, 2)
+    rng = np.random.default_rng(12)
+    x = rng.uniform(-0.9, 0.9, size=2)
+    U = rng.uniform(-1, 1, size=(T, 1))
+    Y = np.empty((T, 1))
+    for k in range(T):
+        Y[k] = system.output(x, U[k]) + 0.02 * rng.normal()
+        x = system.step(x, U[k])
+    return system, U, Y
+
+
+@pytest.mark.parametrize("case", ["direction", "mirror"])
+@pytest.mark.parametrize("norm,solver", [("2", "daqp"), ("1", "highs"), ("1", "sequences")])
+def test_a_separated_minimum_in_the_decision_band_decides_nothing(monkeypatch, case, norm, solver):
+    """A separated minimum within the decision band of ``J* + epsilon`` is neither an alternative
+    nor uniqueness (the safe side, whatever the rounding); outside a narrow band the verdict is
+    the enumeration's.  The band is widened on purpose around the enumerated minimum."""
+    from hybobs_opt.mhe import sequence_lp, uniqueness
+    from hybobs_opt.tolerances import mhe_decision_band
+
+    system, U, Y = band_window(case)
+    T = U.shape[0]
+    bm = big_m_constants(system)
+    x0 = np.array([0.1, -0.3])
+    obs = MHEObserver(system, T, norm=norm, solver=solver, big_m=bm)
+    out = obs.solve_window(U, Y, x_start=x0, uniqueness=True)
+    uq = out["uniqueness"]
+    assert uq["decision_band"] == mhe_decision_band(uq["threshold"], uq["epsilon"]) > 0.0
+    ref = separated_minimum(system, U, Y, out["x_start"], obs.uniqueness_delta, norm)
+    thr = uq["threshold"]
+    gap = abs(ref - thr)
+    assert (ref < thr) == (case == "mirror") and gap > 0.5 * uq["epsilon"], (ref, thr)
+    verdicts = {}
+    for name, width in (("inside", 2.0 * gap), ("outside", 0.25 * gap)):
+        for module in (uniqueness, sequence_lp):
+            monkeypatch.setattr(module, "mhe_decision_band", lambda thr, eps, w=width: w)
+        obs = MHEObserver(system, T, norm=norm, solver=solver, big_m=bm)
+        verdicts[name] = obs.solve_window(U, Y, x_start=x0, uniqueness=True)["uniqueness"]
+        assert verdicts[name]["decision_band"] == width
+    assert verdicts["inside"]["status"] == "not certified", verdicts["inside"]
+    assert verdicts["outside"]["status"] == ("alternative" if case == "mirror" else "unique"), verdicts["outside"]
