@@ -438,7 +438,9 @@ class SequenceLPSolver:
         lp.a_matrix_.index_ = np.tile(np.arange(nc), nr).astype(np.int32)
         lp.a_matrix_.value_ = A.reshape(-1).astype(float)
         if h.passModel(lp) != hs.HighsStatus.kOk:
-            raise SolverError(f"HiGHS refused the LP of mode prefix {nd.modes}")
+            raise SolverError(f"sequence LP of mode prefix {tuple(int(q) for q in nd.modes)} (solver 'sequences')",
+                              "highs", "model refused by passModel",
+                              hint="solver_options={'lp': 'daqp'}, or solver='highs' (the MILP of eq. (10))")
         nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
         return nd.lp
 

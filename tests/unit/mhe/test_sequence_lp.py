@@ -233,3 +233,44 @@ def test_refusals_and_options(bench):
     obs = MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, solver_options={"lp": "highs"})
     flags = [obs.step(U[k], Y[k]).flag for k in range(6)]
     assert flags[2:] == ["observable"] * 4
+
+
+def test_a_refused_lp_is_a_fallback_that_names_the_problem(bench):
+    """The one SolverError the module raises (HiGHS refusing a prefix LP) carries the problem, the
+    solver, the status and what to try; inside the observer it is a fallback with that reason,
+    never a crash or a flag."""
+    from hybobs_opt.errors import SolverError
+
+    plant, U, Y = bench
+    obs = MHEObserver(plant, 3, norm="1", solver="sequences", solver_options={"lp": "highs"})
+    seq = obs._sequences
+    real = seq._hs
+
+    class RefusingHighs:
+        def __init__(self):
+            self._h = real.Highs()
+
+        def passModel(self, lp):  # noqa: N802 - HiGHS's name
+            return real.HighsStatus.kError
+
+        def __getattr__(self, name):
+            return getattr(self._h, name)
+
+    class RefusingModule:
+        Highs = RefusingHighs
+
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+    seq._hs = RefusingModule()
+    for nd in seq.nodes:
+        nd.lp = None
+    with pytest.raises(SolverError) as exc:
+        seq._lp_model(seq.nodes[0])
+    err = exc.value
+    assert err.solver == "highs" and "passModel" in err.status and "mode prefix" in err.problem
+    assert "daqp" in str(err)
+    flags = [obs.step(U[k], Y[k]) for k in range(6)]
+    assert all(e.flag in ("warming_up", "fallback") for e in flags), [e.flag for e in flags]
+    reasons = " ".join(str(e.info.get("reason", "")) for e in flags[2:])
+    assert "SolverError" in reasons and "TypeError" not in reasons, reasons
