@@ -19,10 +19,11 @@ Mignone & Morari (2002), "Moving horizon estimation for hybrid systems", IEEE TA
 
 Flags (the runtime contract of :mod:`hybobs_opt.contract`):
 
-* ``observable`` -- the window-start state is *unique*: a certified global optimum of (10) (see
-  below) and no other admissible window-start state at least ``delta`` away (inf-norm, in units
-  of the half-widths of ``X``, :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a
-  cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
+* ``observable`` -- the window trajectory is *unique*, the reported current state ``x(t)`` and the
+  window start among it: a certified global optimum of (10) (see below) and no other admissible
+  window trajectory with a state at least ``delta`` away from the optimum's at the same step
+  (inf-norm, in units of the half-widths of ``X``,
+  :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
   one sample's squared weighted output half-range, with the floor
   :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`; norms 1 / inf: the square roots),
   proven by a second, separated mixed-integer program (Notes of :class:`MHEObserver`); ``x`` is
@@ -34,7 +35,8 @@ Flags (the runtime contract of :mod:`hybobs_opt.contract`):
   the flag has the old meaning: a certified optimum only, not a unique one.
 * ``unobservable`` -- either the solver certified that the window has *no* model trajectory in
   ``X`` (infeasible), or the optimum is not unique: ``info["alternative"]`` holds another
-  window-start state (``x_start``, ``cost``, ``modes``, ``distance``) at least ``delta`` away
+  window trajectory (``x_start``, ``states``, ``cost``, ``modes``, ``distance``, and the
+  ``step`` where it is farthest) with a state at least ``delta`` away
   whose cost is within ``epsilon`` of the optimum, re-checked in numpy (or the analysis says the
   estimate is unobservable).  The data cannot tell the state: open-loop prediction is used.
 * ``fallback`` -- a bad sample, an input outside ``U`` (where the big-M constants are not valid),
@@ -232,12 +234,12 @@ class MHEObserver(Observer):
     big_m : BigMConstants, optional
         Precomputed constants (share them between MHE instances of the same system).
     check_uniqueness : bool
-        ``True`` (default): flag ``observable`` only when the window-start state is unique (the
-        separated program, see Notes).  ``False``: no second program; ``observable`` then means
+        ``True`` (default): flag ``observable`` only when the window trajectory -- the reported
+        state and the window start among it -- is unique (the separated program, see Notes).  ``False``: no second program; ``observable`` then means
         only "certified optimum" (the flag's old meaning), unless ``analysis`` decides.
     uniqueness_delta : float
-        Separation ``delta`` of an alternative window-start state (inf-norm, units of the
-        half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
+        Separation ``delta`` of an alternative window state from the optimum's at the same step
+        (inf-norm, units of the half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
     analysis : ObservabilityAnalysis, optional
         A saved analysis of Algorithm 3.1 for this system and ``T``
         (:func:`hybobs_opt.regions.analyse_observability`).  Its point query
@@ -276,11 +278,16 @@ class MHEObserver(Observer):
 
     Notes
     -----
-    Uniqueness (the flag ``observable``).  After the optimum ``J*`` with window-start state
-    ``xi0*`` (scaled), a second mixed-integer program on the same MLD rows asks for the least
-    cost of a window-start state with ``||xi0 - xi0*||_inf >= delta``: ``2 n`` direction
-    binaries with ``sum = 1`` and big-M rows choose the coordinate and side (the box of ``X``
-    bounds ``M``).  It is built once at construction and re-solved per step:
+    Uniqueness (the flag ``observable``).  After the optimum ``J*`` with window states ``xi_k*``
+    (scaled), a second mixed-integer program on the same MLD rows asks for the least cost of a
+    window trajectory with ``||xi_k - xi_k*||_inf >= delta`` at some step ``k`` (the window start,
+    the reported state ``k = T - 1`` or any between; a state is affine in the MLD variables):
+    ``2 n T`` direction binaries with ``sum = 1`` and big-M rows choose the step, coordinate and
+    side (the box of ``X`` bounds ``M``).  Separating the window start alone is not enough: a
+    rotation can keep a mirror image within ``delta`` at the start and far at the reported state.
+    A separated cost within the decision band of the threshold
+    (:func:`~hybobs_opt.tolerances.mhe_decision_band`) decides nothing: the step is a
+    ``fallback``, whatever the rounding.  It is built once at construction and re-solved per step:
 
     1. a cheap sufficient test for an *alternative* first: when the optimal mode sequence's own
        least-squares map has a direction whose cost over ``delta`` is below ``epsilon`` (the
@@ -458,7 +465,7 @@ class MHEObserver(Observer):
         self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
                                            Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
                                            nslack=self._nslack, options=dict(solver_options or {}),
-                                           build=self.check_uniqueness and self.solver != "sequences",
+                                           build=self.check_uniqueness,
                                            epsilon=noise_epsilon)
         self._sequences = None
         if self.solver == "sequences":

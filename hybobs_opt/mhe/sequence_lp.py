@@ -28,8 +28,11 @@ closed with a gap within ``max(MHE_CERTIFIED_RTOL * cost, zero-cost floor)``.
 Uniqueness (the flag ``observable``, :mod:`hybobs_opt.mhe.uniqueness`) is decided in the same tree:
 every leaf whose bound is at most ``J* + epsilon`` gets the separated LPs
 ``theta_j >= theta*_j + delta`` / ``theta_j <= theta*_j - delta`` (as column bounds); a verified
-point at cost ``<= J* + epsilon`` is an alternative, and ``unique`` needs every such LP closed
-above the threshold by a proven bound.
+point at cost ``<= J* + epsilon`` is an alternative, and a unique window start needs every such
+LP closed above the threshold by a proven bound.  The later window states (the reported one
+among them) are then separated by the MILP of
+:class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` on HiGHS: a state after the window start is
+an affine map of ``theta`` that depends on the mode sequence, not a column bound.
 """
 
 from __future__ import annotations
@@ -437,7 +440,10 @@ class SequenceLPSolver:
         lp.a_matrix_.start_ = np.arange(0, nr * nc + 1, nc).astype(np.int32)
         lp.a_matrix_.index_ = np.tile(np.arange(nc), nr).astype(np.int32)
         lp.a_matrix_.value_ = A.reshape(-1).astype(float)
-        if h.passModel(lp) != hs.HighsStatus.kOk:
+        # kWarning: HiGHS dropped entries below its small_matrix_value (1e-9; the rotation system's
+        # products leave 1e-17 residues).  Harmless: every answer is checked against the exact
+        # rows in numpy (feasibility, and the bound from the multipliers by weak duality).
+        if h.passModel(lp) not in (hs.HighsStatus.kOk, hs.HighsStatus.kWarning):
             raise SolverError(f"sequence LP of mode prefix {tuple(int(q) for q in nd.modes)} (solver 'sequences')",
                               "highs", "model refused by passModel",
                               hint="solver_options={'lp': 'daqp'}, or solver='highs' (the MILP of eq. (10))")
@@ -779,12 +785,13 @@ class SequenceLPSolver:
         thr_lo, thr_hi = thr - band, thr + band
         base = {"delta": delta, "epsilon": eps, "threshold": thr, "decision_band": band, "separated_cost": None,
                 "separated_cost_bound": None}
-        xi_s = np.clip((opt.x_start - self.model.cx) / self.model.hx, sep._lbx, sep._ubx)
+        xs = sep.optimum_states(opt)
+        xi_s = xs[0]
         dirs = [(j, s) for j in range(n) for s in (1, -1)
                 if (xi_s[j] + delta <= sep._ubx[j] if s > 0 else xi_s[j] - delta >= sep._lbx[j])]
         if not dirs:
-            return {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
-                    "separated_cost_bound": np.inf}
+            return self._later_states(U, Y, xbar, opt, {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
+                                                         "separated_cost_bound": np.inf})
         lps0 = self.lp_solves
         lowest = np.inf
         stack = list(reversed(self.roots))
@@ -849,7 +856,7 @@ class SequenceLPSolver:
                 mdl, T = self.model, self.T
                 x0 = mdl.cx + mdl.hx * th[:n]
                 W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
-                alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xi_s)
+                alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xs)
                 if alt is not None and alt["cost"] <= thr_lo:
                     self._last_alternative = (nd.index, (j, s))
                     return {**base, "status": "alternative", "decided_by": "sequence LPs",
@@ -862,5 +869,21 @@ class SequenceLPSolver:
                 return {**base, "status": "not certified",
                         "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
         self._last_alternative = None
-        return {**base, "status": "unique", "decided_by": "sequence LPs (every prefix and direction closed)",
-                "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0}
+        return self._later_states(U, Y, xbar, opt, {
+            **base, "status": "unique", "decided_by": "sequence LPs (every prefix and direction closed)",
+            "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0})
+
+    def _later_states(self, U, Y, xbar, opt, start: dict) -> dict:
+        """The window start is unique (``start``): the later window states -- the reported current
+        state among them -- are separated by the MILP of :class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram`."""
+        if self.T == 1:
+            return start
+        later = self.sep.decide(U, Y, xbar, opt, steps=range(1, self.T))
+        later.pop("seconds", None)
+        if later["status"] == "unique":
+            return {**start, "decided_by": f"{start['decided_by']}; later states: {later['decided_by']}",
+                    "separated_cost_bound": min(start["separated_cost_bound"], later["separated_cost_bound"])}
+        out = {**later, "sequence_lps": start.get("sequence_lps", 0)}
+        if later["status"] != "alternative":
+            out["reason"] = f"{later.get('reason', '?')} (later window states; the window start is unique)"
+        return out

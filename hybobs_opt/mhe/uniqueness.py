@@ -4,8 +4,11 @@ moving-horizon observer (paper 002, eq. 10 and Section 4.1).
 Section 4.1 of paper 002 (Bemporad, Ferrari-Trecate & Morari, 2000) explains that one minimiser
 of (10) cannot tell whether ``x(t-T+1)`` is observable.  :class:`SeparatedProgram` asks the
 question that can: after the certified optimum ``J*`` with window-start state ``xi0*`` (scaled),
-is there an admissible window-start state with ``||xi0 - xi0*||_inf >= delta`` whose cost is at
-most ``J* + epsilon``?  It is a second mixed-integer program on the same MLD rows, built once and
+is there an admissible window trajectory, one of whose states -- the window start, the reported
+current state or any between -- is at least ``delta`` away from the optimum's (``||xi_k -
+xi_k*||_inf >= delta``, scaled), whose cost is at most ``J* + epsilon``?  Separating the window
+start alone is not enough: on ``y = x2`` with a rotation, the mirror state stays within ``delta``
+at the window start and is far from the reported state.  It is a second mixed-integer program on the same MLD rows, built once and
 re-solved per window; the Notes of :class:`~hybobs_opt.mhe.observer.MHEObserver` describe the
 three stages (a QP along weak directions of the optimal sequence, the norm-2 MIQP with a cutoff,
 and for norms 1 / inf the MILP).  Every point a solver returns is re-checked in numpy before it
@@ -97,11 +100,13 @@ class SeparatedProgram:
         """Build the separated program: eq. (10) on the same MLD rows plus ``||xi0 - xi0*||_inf >= delta``.
 
         Direction binaries ``b = (b_1+, b_1-, ..., b_n+, b_n-)`` with ``sum b = 1`` choose the
-        coordinate and side of the separation, through the big-M rows
-        ``+-(xi0_j - xi0*_j) >= delta - M (1 - b_j+-)`` with ``M = delta + max_j (ub_j - lb_j)``
-        (``xi0*`` is clipped to the box of ``X``, so ``M`` is valid wherever ``b = 0``).  The rows'
-        matrix is fixed; ``xi0*`` enters only their bounds, so every program is built once here
-        and re-solved each step.  Every norm gets the norm-2 MIQP for DAQP (its own workspace,
+        coordinate and side of the separation, one pair per state of the window: the big-M rows
+        ``+-(xi_k,j - xi_k,j*) >= delta - M (1 - b_kj+-)`` on the scaled window states ``xi_k =
+        (Xmap_k v + Xoff_k - c) / h`` (affine in the MLD variables ``v``), with ``M = delta`` plus
+        the largest range of a scaled state over the variables' bounds (``xi_k*`` is clipped to
+        the box of ``X``, so ``M`` is valid wherever ``b = 0``).  The rows' matrix is fixed; the
+        optimum's states enter only their bounds, so every program is built once here and
+        re-solved each step.  Every norm gets the norm-2 MIQP for DAQP (its own workspace,
         proximal weight :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`): for norm 2
         it decides, for norms 1 / inf it is a sufficient bound (see :meth:`decide`); norms
         1 / inf also get the MILP with the slacks of the MILP of the observer, which decides.
@@ -111,9 +116,15 @@ class SeparatedProgram:
         xi = enc.slices["xi0"]
         self._lbx, self._ubx = enc.lb[xi].copy(), enc.ub[xi].copy()
         delta = self.delta
-        M = delta + float(np.max(self._ubx - self._lbx))
+        # scaled window states xi_k = Smap[k] v + soff[k]
+        hx, cx = self.model.hx, self.model.cx
+        self._Smap = enc.Xmap / hx[None, :, None]
+        self._soff = (enc.Xoff - cx[None, :]) / hx[None, :]
+        span = np.where(enc.discrete, 1.0, enc.ub - enc.lb)
+        reach = np.abs(self._Smap) @ np.where(np.isfinite(span), span, 0.0)  # range of xi_k,j over the box of v
+        M = delta + float(max(np.max(self._ubx - self._lbx), np.max(reach)))
         self._M = M
-        nb = 2 * n
+        nb = 2 * n * self.T
         self._nb = nb
         # output scale of epsilon: one sample's squared weighted half-range of the outputs
         rng = enc.big_m.output_range
@@ -127,11 +138,11 @@ class SeparatedProgram:
         if not self.built:
             return
         # separation rows (scaled by 1 / M: largest coefficient one) and the one-hot row of b
+        # direction d = 2 (k n + j) (+1 for the minus side): state k, coordinate j
+        rows = self._Smap.reshape(self.T * n, nv) / M
         Sx = np.zeros((nb, nv))
-        Sb = np.zeros((nb, nb))
-        for j in range(n):
-            Sx[2 * j, xi.start + j], Sb[2 * j, 2 * j] = 1.0 / M, -1.0
-            Sx[2 * j + 1, xi.start + j], Sb[2 * j + 1, 2 * j + 1] = -1.0 / M, -1.0
+        Sx[0::2], Sx[1::2] = rows, -rows
+        Sb = -np.eye(nb)
         one = np.concatenate([np.zeros(nv), np.ones(nb)])[None, :]
         A = np.vstack([np.hstack([enc.A, np.zeros((enc.n_constraints, nb))]), np.hstack([Sx, Sb]), one])
         eq = np.concatenate([self._eq_rows, np.zeros(nb, dtype=bool), [True]])
@@ -175,7 +186,9 @@ class SeparatedProgram:
         lb = np.concatenate([lb0, np.zeros(nb)])
         ub = np.concatenate([ub0, np.ones(nb)])
         disc = np.concatenate([disc0, np.ones(nb, dtype=bool)])
-        self.milp = milp_backend(self.solver, c, A, lb, ub, disc, options, problem="uniqueness MILP of the MHE observer")
+        # solver "sequences" separates the later window states on HiGHS's MILP (its LPs bound the start)
+        solver, opts = ("highs", {}) if self.solver == "sequences" else (self.solver, options)
+        self.milp = milp_backend(solver, c, A, lb, ub, disc, opts, problem="uniqueness MILP of the MHE observer")
 
     def refresh_hessian(self) -> None:
         """Rebuild the MIQP's Hessian from the residual's current rows (a time-varying arrival cost
@@ -190,15 +203,17 @@ class SeparatedProgram:
         self._H0 = H0
         self.miqp.set_hessian(H0 + 2.0 * self.prox_weight * np.eye(H0.shape[0]))
 
-    def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult) -> dict:
-        """Is the window-start state of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?
+    def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult, steps=None) -> dict:
+        """Is the window trajectory of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?
 
-        Returns a dict with ``status`` ``"unique"`` (no admissible window-start state at least
-        ``delta`` away, inf-norm in units of the half-widths of ``X``, has cost ``<= J* +
-        epsilon``), ``"alternative"`` (one has: ``alternative`` holds it, verified in numpy) or
-        ``"not certified"`` (``reason``); ``decided_by``, ``separated_cost`` (exact cost of the
-        alternative found, else ``None``), ``separated_cost_bound`` (a proven lower bound of the
-        separated minimum), ``threshold = J* + epsilon`` and ``seconds``.
+        Returns a dict with ``status`` ``"unique"`` (no admissible window trajectory with a state
+        at least ``delta`` away from the optimum's at the same step, inf-norm in units of the
+        half-widths of ``X``, has cost ``<= J* + epsilon``: the reported current state and the
+        window start are both unique), ``"alternative"`` (one has: ``alternative`` holds it, with
+        the ``step`` where it is farthest, verified in numpy) or ``"not certified"`` (``reason``);
+        ``decided_by``, ``separated_cost`` (exact cost of the alternative found, else ``None``),
+        ``separated_cost_bound`` (a proven lower bound of the separated minimum), ``threshold =
+        J* + epsilon``, ``decision_band`` and ``seconds``.
 
         Parameters
         ----------
@@ -210,42 +225,79 @@ class SeparatedProgram:
             Prior estimate of the window-start state (the arrival-cost term of the cost).
         opt : WindowResult
             The certified optimum of the window problem.
+        steps : iterable of int, optional
+            Window steps whose states are separated (default every one, ``0 .. T-1``).
         """
         t0 = time.perf_counter()
         try:
-            out = self._decide(U, Y, xbar, opt)
+            out = self._decide(U, Y, xbar, opt, steps)
         except Exception as exc:  # a crashing solver must not stop the observer loop
             out = {"status": "not certified", "reason": f"{type(exc).__name__}: {exc}"}
         out["seconds"] = time.perf_counter() - t0
         return out
 
-    def separation_rows(self, xi_s: np.ndarray, j: int, sign: int) -> tuple[np.ndarray, np.ndarray]:
-        """``sign (xi0_j - xi_s_j) >= delta`` as a row ``G xi0 <= g``.
+    def separation_rows(self, xs: np.ndarray, direction: int, modes=None, U=None) -> tuple[np.ndarray, np.ndarray]:
+        """``sign (xi_k,j - xs_k,j) >= delta`` for the direction ``d = 2 (k n + j) (+1)`` as a row
+        ``G theta <= g`` in the variables ``theta = [xi0; omega]`` of one mode sequence.
 
         Parameters
         ----------
-        xi_s : (n,) ndarray
-            Scaled window-start state of the optimum.
-        j : int
-            Index of the state coordinate.
-        sign : {1, -1}
-            Direction of the separation along coordinate ``j``.
+        xs : (T, n) ndarray
+            Scaled window states of the optimum (clipped to the box of ``X``).
+        direction : int
+            Index of the direction.
+        modes : (T,) int array_like, optional
+            The mode sequence (needed for a state after the window start, an affine map of
+            ``theta`` that depends on the modes).
+        U : (T, m) ndarray, optional
+            Window inputs (with ``modes``).
 
         Returns
         -------
-        G : (1, n) ndarray
-            The row.
+        G : (1, n) or (1, n_theta) ndarray
+            The row (on ``xi0`` alone for the window start).
         g : (1,) ndarray
             Its right-hand side.
         """
-        G = np.zeros((1, self.n))
-        G[0, j] = -float(sign)
-        return G, np.array([-float(sign) * xi_s[j] - self.delta])
+        k, j, sign = self.direction(direction)
+        if k == 0:
+            G = np.zeros((1, self.n))
+            G[0, j] = -float(sign)
+            return G, np.array([-float(sign) * xs[0, j] - self.delta])
+        Pv, pv = self.model._vmap(modes, U)
+        a = self._Smap[k, j]
+        return (-float(sign) * (a @ Pv))[None, :], np.array([float(sign) * (a @ pv + self._soff[k, j] - xs[k, j]) - self.delta])
 
-    def alternative(self, x0, modes, U, Y, xbar, W, xi_s) -> dict | None:
+    def direction(self, d: int) -> tuple[int, int, int]:
+        """``(k, j, sign)`` of direction ``d``: window step, state coordinate, side."""
+        kj, side = divmod(int(d), 2)
+        k, j = divmod(kj, self.n)
+        return k, j, (1 if side == 0 else -1)
+
+    def scaled_states(self, states: np.ndarray) -> np.ndarray:
+        """``(T, n)`` window states scaled by the box of ``X`` (``(x - c) / h``)."""
+        return (np.asarray(states, dtype=float) - self.model.cx) / self.model.hx
+
+    def optimum_states(self, opt: WindowResult) -> np.ndarray:
+        """The optimum's scaled window states, clipped to the box of ``X`` (the centres of the separation)."""
+        return np.clip(self.scaled_states(opt.states), self._lbx, self._ubx)
+
+    def allowed(self, xs: np.ndarray, steps=None) -> np.ndarray:
+        """Directions that leave room in the box of ``X`` (``xs_k,j +- delta`` inside), on the
+        window ``steps`` (default all)."""
+        ok = np.zeros((self.T, self.n, 2), dtype=bool)
+        ok[:, :, 0] = xs + self.delta <= self._ubx
+        ok[:, :, 1] = xs - self.delta >= self._lbx
+        if steps is not None:
+            mask = np.zeros(self.T, dtype=bool)
+            mask[list(steps)] = True
+            ok[~mask] = False
+        return ok.reshape(-1)
+
+    def alternative(self, x0, modes, U, Y, xbar, W, xs) -> dict | None:
         """A verified alternative: a model trajectory from ``x0`` with ``modes`` (and ``W``) that
-        satisfies the MLD rows to :data:`MHE_FEASIBILITY_TOL`, is ``delta`` away from the
-        optimum's window-start state (to the same tolerance) and has its exact cost; else ``None``.
+        satisfies the MLD rows to :data:`MHE_FEASIBILITY_TOL`, has a state ``delta`` away from the
+        optimum's state at the same step (to the same tolerance) and has its exact cost; else ``None``.
 
         Parameters
         ----------
@@ -261,14 +313,15 @@ class SeparatedProgram:
             Prior estimate of the window-start state (arrival cost).
         W : (T - 1, n) ndarray
             Disturbances of the candidate trajectory.
-        xi_s : (n,) ndarray
-            Scaled window-start state of the optimum.
+        xs : (T, n) ndarray
+            Scaled window states of the optimum.
 
         Returns
         -------
         dict or None
-            ``x_start``, ``cost``, ``modes``, ``states``, ``w`` and ``distance`` (inf-norm, scaled) of
-            the verified alternative, or ``None``.
+            ``x_start``, ``cost``, ``modes``, ``states``, ``w``, ``distance`` (the largest inf-norm
+            distance of a window state, scaled) and ``step`` (where it is largest) of the verified
+            alternative, or ``None``.
         """
         if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(W))):
             return None
@@ -279,16 +332,18 @@ class SeparatedProgram:
         v = self.enc.pack(states, modes, U, W if self.enc.disturbances else None)
         if not (self.enc.violation(v, U.reshape(-1)) <= MHE_FEASIBILITY_TOL):
             return None
-        dist = float(np.max(np.abs((x0 - self.model.cx) / self.model.hx - xi_s)))
+        gaps = np.max(np.abs(self.scaled_states(states) - xs), axis=1)
+        step = int(np.argmax(gaps))
+        dist = float(gaps[step])
         if not (dist >= self.delta - MHE_FEASIBILITY_TOL):
             return None
         cost = self.model.cost(states, modes, U, Y, W, xbar)
         if not np.isfinite(cost):
             return None
         return {"x_start": x0.copy(), "cost": cost, "modes": modes.copy(), "states": states, "w": W,
-                "distance": dist}
+                "distance": dist, "step": step}
 
-    def _decide(self, U, Y, xbar, opt: WindowResult) -> dict:
+    def _decide(self, U, Y, xbar, opt: WindowResult, steps=None) -> dict:
         enc, res = self.enc, self._res
         n, nv, nb, T = self.n, enc.n_vars, self._nb, self.T
         delta, eps = self.delta, self.epsilon
@@ -300,10 +355,8 @@ class SeparatedProgram:
         thr_lo, thr_hi = thr - band, thr + band
         base = {"delta": delta, "epsilon": eps, "threshold": thr, "decision_band": band, "separated_cost": None,
                 "separated_cost_bound": None}
-        xi_s = np.clip((opt.x_start - self.model.cx) / self.model.hx, self._lbx, self._ubx)
-        allowed = np.zeros(nb, dtype=bool)
-        allowed[0::2] = xi_s + delta <= self._ubx
-        allowed[1::2] = xi_s - delta >= self._lbx
+        xs = self.optimum_states(opt)
+        allowed = self.allowed(xs, steps)
         if not allowed.any():
             return {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
                     "separated_cost_bound": np.inf}
@@ -317,13 +370,13 @@ class SeparatedProgram:
         sv = np.concatenate([sv, np.zeros(Vt.shape[0] - sv.size)])
         weak = sv * delta <= np.sqrt(self._eps2)
         if weak.any():
+            # the window start's directions (d < 2 n) along the weak directions
             reach = np.max(np.abs(Vt[weak][:, :n]), axis=0)
-            order = [k for k in np.argsort(-np.repeat(reach, 2), kind="stable") if allowed[k] and reach[k // 2] > 0]
-            for k in order:
-                j, sign = int(k // 2), (1 if k % 2 == 0 else -1)
+            order = [d for d in np.argsort(-np.repeat(reach, 2), kind="stable") if allowed[d] and reach[d // 2] > 0]
+            for d in order:
                 pol = self.model.polish(opt.modes, U, Y, xbar, opt.x_start, opt.w,
-                                   extra=self.separation_rows(xi_s, j, sign), problem=prob, bound=True)
-                alt = None if pol is None else self.alternative(pol[0], opt.modes, U, Y, xbar, pol[1], xi_s)
+                                        extra=self.separation_rows(xs, d), problem=prob, bound=True)
+                alt = None if pol is None else self.alternative(pol[0], opt.modes, U, Y, xbar, pol[1], xs)
                 if alt is not None:
                     cands.append(alt)
                     if alt["cost"] <= thr_lo:
@@ -335,8 +388,9 @@ class SeparatedProgram:
         rp = res.offset(Yf, Uf, xbar, self.model.params)
         M = self._M
         sep_lo = np.empty(nb)
-        sep_lo[0::2] = (xi_s + delta - M) / M
-        sep_lo[1::2] = (-xi_s + delta - M) / M
+        soff = self._soff.reshape(-1)
+        sep_lo[0::2] = (xs.reshape(-1) + delta - M - soff) / M
+        sep_lo[1::2] = (-xs.reshape(-1) + delta - M + soff) / M
         vstar = enc.pack(opt.states, opt.modes, U, opt.w if enc.disturbances else None)
         detail: dict = {}
         # 2a. the norm-2 MIQP with a cutoff: for norm 2 the decision; for norms 1 / inf a bound,
@@ -386,7 +440,7 @@ class SeparatedProgram:
             if out.status != "optimal":
                 why, decided = f"solver status {out.detail.get('status')!r}", False
                 break
-            alt, why, combo, lower = self.verified(out.v, U, Y, xbar, xi_s, allowed, lo, hi, polish=True)
+            alt, why, combo, lower = self.verified(out.v, U, Y, xbar, xs, allowed, lo, hi, polish=True)
             if alt is not None:
                 cands.append(alt)
             if alt is None or alt["cost"] <= thr_hi or self.norm != "2" or lower is None or not lower > thr_hi:
@@ -429,7 +483,7 @@ class SeparatedProgram:
                         "separated_cost_bound": thr_hi}
             if out.status in ("optimal", "feasible"):
                 alt, why, _, _ = self.verified(np.concatenate([out.v[:nv], out.v[ncol:]]), U, Y, xbar,
-                                                          xi_s, allowed, lo, hi, polish=False)
+                                                          xs, allowed, lo, hi, polish=False)
                 if alt is not None:
                     cands.append(alt)
                 if out.status == "optimal" and not any(c["cost"] <= thr_hi for c in cands):
@@ -457,7 +511,7 @@ class SeparatedProgram:
         return {**base, **detail, "status": "not certified",
                 "reason": why or "separated minimum within the solver's accuracy of J* + epsilon"}
 
-    def verified(self, w, U, Y, xbar, xi_s, allowed, lo, hi, polish: bool) -> tuple:
+    def verified(self, w, U, Y, xbar, xs, allowed, lo, hi, polish: bool) -> tuple:
         """Check a solver's point ``w = [v; b]`` of the separated program before trusting it.
 
         Finite, every MLD row within :data:`MHE_FEASIBILITY_TOL`, integral binaries (one mode per
@@ -478,10 +532,11 @@ class SeparatedProgram:
             Window outputs.
         xbar : (n,) ndarray
             Prior estimate of the window-start state (arrival cost).
-        xi_s : (n,) ndarray
-            Scaled window-start state of the optimum.
-        allowed : (2 n,) bool ndarray
-            Admissible separation directions (``+`` and ``-`` per coordinate, interleaved).
+        xs : (T, n) ndarray
+            Scaled window states of the optimum.
+        allowed : (2 n T,) bool ndarray
+            Admissible separation directions (``+`` and ``-`` per state coordinate and window
+            step, interleaved; :meth:`direction`).
         lo, hi : ndarray
             Row bounds of the MLD encoding for ``U`` (:meth:`MLDEncoding.bounds`).
         polish : bool
@@ -500,22 +555,22 @@ class SeparatedProgram:
         b = np.round(b)
         if not ((v[enc.discrete].reshape(T, -1).sum(axis=1) == 1).all() and b.sum() == 1 and allowed[b == 1].all()):
             return None, "separated solution: binaries not one-hot", None, None
-        k = int(np.argmax(b))
-        j, sign = k // 2, (1 if k % 2 == 0 else -1)
-        if not (sign * (v[enc.slices["xi0"]][j] - xi_s[j]) >= self.delta - MHE_FEASIBILITY_TOL):
+        d = int(np.argmax(b))
+        k, j, sign = self.direction(d)
+        if not (sign * (self._Smap[k, j] @ v + self._soff[k, j] - xs[k, j]) >= self.delta - MHE_FEASIBILITY_TOL):
             return None, "separated solution is not delta away", None, None
         modes = enc.modes(v)
         x0, W = enc.states(v)[0], enc.disturbance(v)
-        cands = [self.alternative(x0, modes, U, Y, xbar, W, xi_s)]
+        cands = [self.alternative(x0, modes, U, Y, xbar, W, xs)]
         exact = None
         if polish:
             # the solver's point carries the (tiny) proximal bias: the exact QP of its sequence
             # and direction, with a lower bound of its minimum proven from the multipliers
-            pol = self.model.polish(modes, U, Y, xbar, x0, W, extra=self.separation_rows(xi_s, j, sign), bound=True)
+            pol = self.model.polish(modes, U, Y, xbar, x0, W, extra=self.separation_rows(xs, d, modes, U), bound=True)
             if pol is not None:
-                cands.append(self.alternative(pol[0], modes, U, Y, xbar, pol[1], xi_s))
+                cands.append(self.alternative(pol[0], modes, U, Y, xbar, pol[1], xs))
                 exact = pol[3]
         cands = [c for c in cands if c is not None]
         if not cands:
-            return None, "separated solution: no verified model trajectory", (modes, k), exact
-        return min(cands, key=lambda c: c["cost"]), None, (modes, k), exact
+            return None, "separated solution: no verified model trajectory", (modes, d), exact
+        return min(cands, key=lambda c: c["cost"]), None, (modes, d), exact

@@ -351,8 +351,8 @@ class WindowModel:
         The QP of eq. (10) with the modes fixed, solved by DAQP (proximal iterations when the
         sequence leaves directions of the state unobserved).  For norm 2 it is exact; for norms
         1 / inf it gives a feasible point of the sequence (an incumbent), optimal when it fits
-        the data exactly.  ``extra = (G_e, g_e)`` adds rows ``G_e xi0 <= g_e`` on the scaled
-        window-start state (the separation of the uniqueness test); ``problem`` is
+        the data exactly.  ``extra = (G_e, g_e)`` adds rows ``G_e theta <= g_e`` (``G_e`` with
+        ``n`` columns: on the scaled window-start state alone; the separation of the uniqueness test); ``problem`` is
         :meth:`sequence_problem` of the same arguments, when already built.  Returns
         ``(x0, W, states)`` or ``None`` if not certified.
 
@@ -369,7 +369,7 @@ class WindowModel:
         R, r, G, gg, dist = self.sequence_problem(modes, U, Y, xbar) if problem is None else problem
         if extra is not None:
             Ge = np.zeros((extra[0].shape[0], G.shape[1]))
-            Ge[:, :n] = extra[0]
+            Ge[:, :extra[0].shape[1]] = extra[0]
             G, gg = np.vstack([G, Ge]), np.concatenate([gg, extra[1]])
         theta0 = np.concatenate([(x0 - cx) / hx] + ([(W / hx).reshape(-1)] if dist else []))
         solved = self.sequence_qp((R, r, G, gg, dist), theta0, bound)
