@@ -120,9 +120,9 @@ class SeparatedProgram:
         hx, cx = self.model.hx, self.model.cx
         self._Smap = enc.Xmap / hx[None, :, None]
         self._soff = (enc.Xoff - cx[None, :]) / hx[None, :]
-        span = np.where(enc.discrete, 1.0, enc.ub - enc.lb)
-        reach = np.abs(self._Smap) @ np.where(np.isfinite(span), span, 0.0)  # range of xi_k,j over the box of v
-        M = delta + float(max(np.max(self._ubx - self._lbx), np.max(reach)))
+        # every window state lies in X (the MLD's rows; the start by its bounds when X is a box),
+        # hence in the box of X: the box's widest range bounds every separation row
+        M = delta + float(np.max(self._ubx - self._lbx))
         self._M = M
         nb = 2 * n * self.T
         self._nb = nb

@@ -7,6 +7,8 @@
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -375,6 +377,26 @@ def check_coordinate_names(state_names: tuple[str, ...], input_names: tuple[str,
             raise ModelError(f"{label}.names", f"the system's coordinate names {list(want)} (or no names)", f"{list(given)}")
 
 
+#: Outcomes of :func:`check_partition` by the digest of everything it reads (guards, domain,
+#: names), most recent last: a study builds the same system many times, and each check costs a
+#: Chebyshev-ball LP per pair of guards plus the polytope differences.
+_PARTITION_OUTCOMES: OrderedDict[bytes, tuple | None] = OrderedDict()
+_PARTITION_OUTCOMES_MAX = 256
+
+
+def _partition_key(system: PWASystem, overlaps: bool) -> bytes:
+    h = hashlib.sha256(b"overlaps" if overlaps else b"cover")
+    polys = [system.domain] + [mode.guard for mode in system.modes]
+    for P in polys:
+        for arr in (P.A, P.b):
+            a = np.ascontiguousarray(arr, dtype=float)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+    names = [mode.name for mode in system.modes] + list(system.state_names) + list(system.input_names)
+    h.update("\x00".join(names).encode("utf-8", "surrogatepass"))
+    return h.digest()
+
+
 def check_partition(system: PWASystem, overlaps: bool = True) -> None:
     """Prove that the guards of ``system`` cover ``X x U`` and (``overlaps=True``) do not overlap.
 
@@ -397,6 +419,28 @@ def check_partition(system: PWASystem, overlaps: bool = True) -> None:
     ModelError
         Naming the two modes that overlap, or the gap, with a point inside it (``x``, ``u`` by name).
     """
+    key = _partition_key(system, overlaps)
+    if key in _PARTITION_OUTCOMES:
+        _PARTITION_OUTCOMES.move_to_end(key)
+        failure = _PARTITION_OUTCOMES[key]
+        if failure is not None:
+            raise ModelError(*failure)
+        return
+    try:
+        _check_partition(system, overlaps)
+    except ModelError as exc:
+        _remember_partition(key, (exc.field, exc.expected, exc.got))
+        raise
+    _remember_partition(key, None)
+
+
+def _remember_partition(key: bytes, outcome: tuple | None) -> None:
+    _PARTITION_OUTCOMES[key] = outcome
+    while len(_PARTITION_OUTCOMES) > _PARTITION_OUTCOMES_MAX:
+        _PARTITION_OUTCOMES.popitem(last=False)
+
+
+def _check_partition(system: PWASystem, overlaps: bool) -> None:
     from ..geometry.difference import polytope_difference
 
     domain = system.domain

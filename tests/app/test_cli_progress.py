@@ -67,6 +67,7 @@ LONG_COMMANDS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(LONG_COMMANDS))
 def test_long_command_shows_bars_with_units(name, tmp_path):
     args, expected = LONG_COMMANDS[name]
@@ -89,6 +90,7 @@ def test_json_draws_nothing(name, tmp_path):
     json.loads(out)
 
 
+@pytest.mark.slow
 def test_second_observe_starts_from_the_cache_and_says_so(tmp_path):
     args = ["observe", "powertrain5"]
     code, _, first = run_in_pty(args, tmp_path)

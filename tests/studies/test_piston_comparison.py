@@ -50,6 +50,7 @@ def test_fit_is_continuous_and_within_its_stated_error(n_pieces):
         piston_sensor_fit(5)
 
 
+@pytest.mark.slow
 def test_lookup_reconstructs_the_pwa_state_exactly(result):
     lk = result["lookup"]
     assert lk["T"] == 3  # T = 2 meets T p >= n but its regions have rank 2 < n = 3

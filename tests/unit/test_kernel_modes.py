@@ -161,6 +161,7 @@ def compiled_mode() -> dict:
     return out
 
 
+@pytest.mark.slow
 # ------------------------------------------------------------------ 1. same answers
 def test_python_mode_child_runs_every_kernel_module_as_python(python_mode, compiled_mode):
     assert set(python_mode["compiled"]) == set(KERNEL_MODULES)

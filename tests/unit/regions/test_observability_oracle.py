@@ -192,6 +192,7 @@ def test_known_spurious_unobservable_states():
         assert analysis.classify(x) in v.allowed, (x, analysis.classify(x), v.reason)
 
 
+@pytest.mark.slow
 # ------------------------------------------------------------------------------------ random systems
 @settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), n=st.integers(2, 4), n_modes=st.integers(2, 3), extra=st.integers(0, 3))

@@ -256,6 +256,7 @@ def test_pairs_forcing_the_same_state_are_left_out_and_counted():
             assert res.status == 2 or -res.fun <= 1e-5, (i, j, d, -res.fun)
 
 
+@pytest.mark.slow
 def test_reduced_pairs_all_dimensions_returns_every_nonempty_pair():
     """Model 16, T = 3: every closed R_ij with i in I and j not in I (48, counted here with HiGHS)."""
     analysis = analyse_observability(powertrain3(), 3)

@@ -264,3 +264,35 @@ def test_verdict_agrees_with_the_brute_force_grid(index):
         first = np.argmax(np.stack([inside(g, CENTROIDS) for g in guards], axis=1), axis=1)
         np.testing.assert_array_equal(s.modes_of(CENTROIDS), first)
     system(guards, "none")
+
+
+def test_a_repeated_check_gives_the_first_verdict_and_a_changed_guard_is_checked_again(monkeypatch):
+    """The verdicts are remembered by a digest of the guards, the domain and the names: the same
+    system again gives the same error (same field and text) without re-solving; one guard moved
+    by one ulp is a new system and is checked from scratch; the memory is bounded."""
+    import hybobs_opt.systems.pwa as pwa
+
+    monkeypatch.setattr(pwa, "_PARTITION_OUTCOMES", type(pwa._PARTITION_OUTCOMES)())
+    calls = []
+    real = pwa._check_partition
+    monkeypatch.setattr(pwa, "_check_partition", lambda s, o: (calls.append(s.name), real(s, o))[1])
+    messages = []
+    for _ in range(2):
+        with pytest.raises(ModelError) as info:
+            system(GAP)
+        messages.append((info.value.field, str(info.value)))
+    assert messages[0] == messages[1] and len(calls) == 1
+    good = [([[1, 0]], [0.0]), ([[-1, 0]], [0.0])]
+    system(good)
+    system(good)
+    assert len(calls) == 2
+    moved = [([[1, 0]], [np.nextafter(0.0, 1.0)]), ([[-1, 0]], [0.0])]
+    system(moved)
+    assert len(calls) == 3
+    with pytest.raises(ModelError) as info:  # the overlap of the moved guard is below the tolerance; OVERLAP is not
+        system(OVERLAP)
+    assert "g0, g1" in str(info.value) and len(calls) == 4
+    monkeypatch.setattr(pwa, "_PARTITION_OUTCOMES_MAX", 2)
+    for k in range(3):
+        system([([[1, 0]], [0.1 * k]), ([[-1, 0]], [-0.1 * k])])
+    assert len(pwa._PARTITION_OUTCOMES) == 2
