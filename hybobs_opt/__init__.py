@@ -55,6 +55,7 @@ _EXPORTS: dict[str, str] = {
     # runtime observers
     **dict.fromkeys(("Estimate", "Observer", "ObserverTrace"), "hybobs_opt.contract"),
     "MHEObserver": "hybobs_opt.mhe",
+    "SetMembershipObserver": "hybobs_opt.mhe",
     "observe_log": "hybobs_opt.observers.recorded",
     **dict.fromkeys(("ContinuousObserver", "DriftObserver", "HybridObserver", "LocationObserver", "LookupObserver",
                      "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver", "deadbeat_gains",

@@ -26,7 +26,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fit-tolerance", type=float, default=None, metavar="Y",
                    help="with --data and a moving-horizon observer: the largest output residual a window may "
                         "leave (noisy logs: about 5 noise standard deviations; default 1e-3 of each output's range)")
-    p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample")
+    p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
+                   help="with --data and --observer set_membership: the bound on an output's noise in its units "
+                        "(repeatable; a bare VALUE bounds every output; outputs not named: 0)")
+    p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
+                   "(and radius_<state> per state with the set-membership observer)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     add_cache_argument(p)
@@ -39,7 +43,7 @@ def _observer_help() -> str:
 
     per_example = "; ".join(f"{ex.name}: {', '.join(ex.observers)}" for ex in list_examples() if ex.observers)
     return ("observer kind, the first listed is the default. On an example's scenario: " + per_example
-            + ". With --data: lookup, miqp, milp, milp_inf for a PWA system (default lookup); switched for a "
+            + ". With --data: lookup, miqp, milp, milp_inf, set_membership for a PWA system (default lookup); switched for a "
             "scalar-nonlinear one")
 
 
@@ -77,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 def _observe(named, args: argparse.Namespace) -> dict:
     """The summary of the example's scenario, or of the run on ``--data``."""
     if args.data is None:
-        for option in ("horizon", "regions", "out", "gains", "fit_tolerance"):
+        for option in ("horizon", "regions", "out", "gains", "fit_tolerance", "noise_bound"):
             if getattr(args, option) is not None:
                 flag = "--" + option.replace("_", "-")
                 raise ModelError(flag, "--data LOG.csv as well (it applies to a recorded log)", "no --data")
@@ -174,16 +178,50 @@ def observe_recorded(named, args) -> dict:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
     with as_options({"observer": "--observer"}):
         check_observer_kinds([kind])
-    if args.fit_tolerance is not None and kind == "lookup":
-        raise ModelError("--fit-tolerance", "no value for the lookup observer (it belongs to miqp, milp, milp_inf)",
+    if args.fit_tolerance is not None and kind in ("lookup", "set_membership"):
+        raise ModelError("--fit-tolerance", f"no value for the {kind} observer (it belongs to miqp, milp, milp_inf"
+                         + ("; the set-membership observer takes --noise-bound" if kind == "set_membership" else "") + ")",
                          repr(args.fit_tolerance))
+    noise_bound = _noise_bound(args.noise_bound, named.system, kind)
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
         with as_options({"horizon T": "--horizon", "horizon": "--horizon", "fit_tolerance": "--fit-tolerance"}):
             trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress,
-                                     fit_tolerance=args.fit_tolerance)[kind]
+                                     fit_tolerance=args.fit_tolerance, noise_bound=noise_bound)[kind]
     finally:
         close()
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}
     return _write_outputs(summary, trace, log, args, f"{named.label}: {kind} on {args.data}")
+
+
+def _noise_bound(entries, system, kind: str):
+    """``--noise-bound`` as the set-membership observer's ``noise_bound`` (a number or a dict by output name)."""
+    if kind != "set_membership":
+        if entries:
+            raise ModelError("--noise-bound", "no value for the observer " + repr(kind)
+                             + " (it belongs to --observer set_membership)", repr(entries[0]))
+        return None
+    if not entries:
+        raise ModelError("--noise-bound", "a bound on the outputs' noise for the set-membership observer "
+                         "(NAME=VALUE per output, or one VALUE; 0 for noise-free data)", "none")
+    from ..mhe.set_membership import noise_bound_vector
+
+    names = tuple(system.output_names)
+    bound: dict[str, float] = {}
+    for entry in entries:
+        name, sep, value = entry.partition("=")
+        if not sep:
+            name, value = "", entry
+        try:
+            number = float(value)
+        except ValueError:
+            raise ModelError("--noise-bound", "NAME=VALUE with a number VALUE (or one number)", repr(entry)) from None
+        for nm in ([name] if name else names):
+            if nm in bound:
+                raise ModelError("--noise-bound", "each output once", repr(entry))
+            bound[nm] = number
+    with as_options({"noise_bound": "--noise-bound"}):
+        noise_bound_vector(bound, names)
+    return bound
+

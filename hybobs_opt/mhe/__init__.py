@@ -11,6 +11,8 @@ The problem is written once in CasADi (:class:`MHEFormulation`), from which ever
 its matrices; an ``extend`` callable adds cost terms, constraints and parameters to it through
 an :class:`MHEExtension`.  :func:`certified_arrival_prior` tunes the arrival weight from the
 noise level (an LMI: never more information than a Kalman filter has under any mode sequence).
+:class:`SetMembershipObserver` states, under a bound on the output noise, the box of every state
+consistent with the window: an estimate with a certified radius.
 """
 
 from .arrival import ArrivalPrior, KalmanArrival, certified_arrival_prior
@@ -19,7 +21,8 @@ from .formulation import MHEExtension, MHEFormulation
 from .mld import MLDEncoding, big_m_constants, encode_mld
 from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
+from .set_membership import SetMembershipObserver, noise_bound_vector
 from .uniqueness import SeparatedProgram
 
-__all__ = ["ArrivalPrior", "KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "WindowResult",
-           "big_m_constants", "certified_arrival_prior", "encode_mld", "search_sequences"]
+__all__ = ["ArrivalPrior", "KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "SetMembershipObserver",
+           "WindowResult", "big_m_constants", "certified_arrival_prior", "encode_mld", "noise_bound_vector", "search_sequences"]

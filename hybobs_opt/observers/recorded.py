@@ -19,7 +19,8 @@ from ..contract import FLAGS, OBSERVABLE, ObserverTrace
 from ..errors import ModelError
 
 #: Observer kinds for PWA systems, and the norm of the moving-horizon ones.
-PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1", "milp_inf": "inf"}
+PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1", "milp_inf": "inf",
+                                        "set_membership": None}
 
 #: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
 #: in a summary against a noise-free log.
@@ -41,10 +42,22 @@ def check_observer_kinds(kinds: Sequence[str]) -> list[str]:
 
 
 def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
-                      progress: Callable[[str, str, int, int], None] | None = None, fit_tolerance=None):
+                      progress: Callable[[str, str, int, int], None] | None = None, fit_tolerance=None,
+                      noise_bound=None):
     """The observer ``kind`` for ``system``; the lookup observer uses ``analysis`` (of horizon ``horizon``),
-    the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data)."""
+    the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data), the
+    set-membership one ``noise_bound`` (:class:`~hybobs_opt.mhe.SetMembershipObserver`)."""
     check_observer_kinds([kind])
+    if (noise_bound is None) == (kind == "set_membership"):
+        raise ModelError("noise_bound", "a bound on each output's noise for the set-membership observer (0 for "
+                         "noise-free data), and for no other observer", f"{noise_bound!r} with observer {kind!r}")
+    if kind == "set_membership":
+        if fit_tolerance is not None:
+            raise ModelError("fit_tolerance", "no value for the set-membership observer (it takes noise_bound)",
+                             repr(fit_tolerance))
+        from ..mhe import SetMembershipObserver
+
+        return SetMembershipObserver(system, horizon, noise_bound)
     if kind == "lookup" and fit_tolerance is not None:
         raise ModelError("fit_tolerance", "no value for the lookup observer (it belongs to the moving-horizon observers)",
                          repr(fit_tolerance))
@@ -73,6 +86,10 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
                            "flag_counts": trace.flag_counts(), "run_seconds": seconds,
                            "seconds_per_sample": seconds / max(1, trace.n_steps), **trace.timing()}
     rec["n_flagged_observable"] = rec["flag_counts"][OBSERVABLE]
+    radii = np.array([inf["radius"] for inf in trace.info if isinstance(inf, dict) and "radius" in inf])
+    if radii.size:  # the set-membership observer: certified radii per state
+        rec["radius_median"] = np.median(radii, axis=0).tolist()
+        rec["radius_max"] = radii.max(axis=0).tolist()
     if log.X is not None:
         flagged = trace.flags == OBSERVABLE
         err = np.abs(trace.x_hat - log.X)
@@ -81,6 +98,11 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
         rec["max_abs_error_observable"] = err[flagged].max(axis=0).tolist() if flagged.any() else None
         rec["max_rel_error_observable"] = float(rel[flagged].max()) if flagged.any() else None
         rec["n_flagged_observable_wrong"] = int(np.count_nonzero(rel[flagged].max(axis=1) > WRONG_ESTIMATE_RTOL)) if flagged.any() else 0
+        if radii.size:
+            R = np.array([inf.get("radius", np.full(log.X.shape[1], np.nan)) if isinstance(inf, dict) else
+                          np.full(log.X.shape[1], np.nan) for inf in trace.info])
+            has = np.all(np.isfinite(R), axis=1)
+            rec["n_outside_radius"] = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
     else:
         rec["has_true_states"] = False
     return rec
@@ -88,7 +110,7 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
 
 def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
                 progress: Callable[[str, str, int, int], None] | None = None,
-                fit_tolerance=None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
+                fit_tolerance=None, noise_bound=None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
     """Run each observer of ``kinds`` on ``log``: ``{kind: (trace, summary)}``.
 
     ``analysis`` (Algorithm 3.1 at ``horizon``) is computed here when the lookup observer needs it
@@ -102,7 +124,7 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
         The recorded inputs and outputs (:func:`~hybobs_opt.sim.log.read_log`).
     kinds : sequence of str
         Observer names, keys of :data:`PWA_OBSERVERS` (``"lookup"``, ``"miqp"``, ``"milp"``,
-        ``"milp_inf"``).
+        ``"milp_inf"``, ``"set_membership"``).
     horizon : int
         Window length ``T`` (samples) of every observer.
     analysis : ObservabilityAnalysis, optional
@@ -113,6 +135,9 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
     fit_tolerance : optional
         Passed to the moving-horizon observers (:class:`~hybobs_opt.mhe.MHEObserver`), not to the
         lookup observer.
+    noise_bound : optional
+        Bound on each output's noise, for the set-membership observer
+        (:class:`~hybobs_opt.mhe.SetMembershipObserver`) only.
 
     Raises
     ------
@@ -131,7 +156,8 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
     out = {}
     for kind in kinds:
         obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress,
-                                fit_tolerance=None if kind == "lookup" else fit_tolerance)
+                                fit_tolerance=None if kind in ("lookup", "set_membership") else fit_tolerance,
+                                noise_bound=noise_bound if kind == "set_membership" else None)
         trace, seconds = run_on_log(obs, log)
         rec = log_summary(trace, log, seconds)
         rec["solver"] = getattr(obs, "solver", "none (lookup table)")

@@ -159,7 +159,9 @@ def read_log(path: str | Path, system) -> SignalLog:
 
 
 def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Path:
-    """Write an :class:`~hybobs_opt.contract.ObserverTrace` as CSV: ``[t,] states..., mode, flag``.
+    """Write an :class:`~hybobs_opt.contract.ObserverTrace` as CSV: ``[t,] states..., mode, flag``,
+    and ``radius_<state>`` per state when the observer states certified radii (the
+    set-membership observer; empty where a step has none).
 
     Parameters
     ----------
@@ -177,10 +179,17 @@ def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Pat
     """
     path = Path(path)
     names = list(trace.state_names) or [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]
+    infos = list(trace.info) if len(trace.info) == trace.n_steps else [{}] * trace.n_steps
+    radii = any(isinstance(inf, dict) and "radius" in inf for inf in infos)
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow((["t"] if t is not None else []) + names + ["mode", "flag"])
+        w.writerow((["t"] if t is not None else []) + names + ["mode", "flag"]
+                   + ([f"radius_{nm}" for nm in names] if radii else []))
         for k in range(trace.n_steps):
             head = [repr(float(t[k]))] if t is not None else []
-            w.writerow(head + [repr(float(v)) for v in trace.x_hat[k]] + [int(trace.mode[k]), str(trace.flags[k])])
+            tail = []
+            if radii:
+                r = infos[k].get("radius") if isinstance(infos[k], dict) else None
+                tail = [repr(float(v)) for v in r] if r is not None else [""] * len(names)
+            w.writerow(head + [repr(float(v)) for v in trace.x_hat[k]] + [int(trace.mode[k]), str(trace.flags[k])] + tail)
     return path

@@ -121,6 +121,11 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["observe", "powertrain3"], "--param", ["gear_ratio=0.1", "nosuch=1"]),
     (["observe", "powertrain3"], "--horizon", ["3", "0", "abc"]),
     (["observe", "powertrain3"], "--fit-tolerance", ["0.1", "-1", "abc", "nan"]),
+    # --noise-bound: without --data, with another observer, or not a bound on a named output
+    (["observe", "powertrain3"], "--noise-bound", ["0.1"]),
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp"], "--noise-bound", ["0.1"]),
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "set_membership"], "--noise-bound",
+     ["-1", "abc", "nan", "z=0.1", "y=", "y=inf"]),
     (["observe", "powertrain3"], "--regions", [F("nosuch"), F("bin")]),
     (["observe", "powertrain3"], "--gains", [F("nosuch"), F("text.json")]),
     (["observe", "driveline"], "--plot", [F("dir") + "/o.xyz", F("dir")]),

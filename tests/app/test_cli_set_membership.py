@@ -1,0 +1,70 @@
+"""``hybobs observe SYSTEM --data LOG --observer set_membership --noise-bound NAME=VALUE``: the
+certified radii reach the CSV and the JSON, and the true states of the log lie within them."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from hybobs_opt.cli import main
+from hybobs_opt.sim import simulate_pwa
+from hybobs_opt.systems import load_model
+
+MODEL = Path(__file__).resolve().parents[2] / "examples/models/bemporad_morari_rotation.toml"
+
+
+def _log(path: Path, bound: float, N: int = 40) -> np.ndarray:
+    system = load_model(MODEL)
+    rng = np.random.default_rng(11)
+    U = rng.uniform(-1, 1, size=(N, 1))
+    tr = simulate_pwa(system, np.array([3.0, -2.0]), U)
+    Y = tr.y + rng.uniform(-bound, bound, size=tr.y.shape)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t", "u", "y", "x1", "x2"])
+        for k in range(N):
+            w.writerow([k, U[k, 0], Y[k, 0], tr.x[k, 0], tr.x[k, 1]])
+    return tr.x
+
+
+def test_radii_reach_the_csv_and_json_and_hold_the_true_states(tmp_path, capsys):
+    X = _log(tmp_path / "log.csv", 0.02)
+    out = tmp_path / "est.csv"
+    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "set_membership",
+                 "--noise-bound", "y=0.02", "-T", "3", "--out", str(out), "--json"])
+    assert code == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["n_outside_radius"] == 0 and len(rec["radius_max"]) == 2
+    assert abs(rec["radius_max"][1] - 0.02) <= 1e-9  # y = x2: the radius of x2 is the noise bound
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0]) == ["t", "x1", "x2", "mode", "flag", "radius_x1", "radius_x2"]
+    checked = 0
+    for k, row in enumerate(rows):
+        if row["flag"] == "warming_up":
+            assert row["radius_x1"] == ""
+            continue
+        est = np.array([float(row["x1"]), float(row["x2"])])
+        radius = np.array([float(row["radius_x1"]), float(row["radius_x2"])])
+        assert np.all(np.abs(est - X[k]) <= radius + 1e-9)
+        # the mirror image fits as well as the truth: the radius of x1 is at least |x1|
+        assert radius[0] >= abs(X[k, 0]) - 0.05
+        assert (row["flag"] == "observable") == bool(np.all(radius <= [0.5, 0.5]))
+        checked += 1
+    assert checked == len(rows) - 2
+
+
+def test_noise_bound_is_required_by_set_membership_and_refused_elsewhere(tmp_path, capsys):
+    _log(tmp_path / "log.csv", 0.0, N=6)
+    base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
+    assert main(base + ["--observer", "set_membership"]) == 2
+    assert "--noise-bound" in capsys.readouterr().err
+    assert main(base + ["--observer", "miqp", "--noise-bound", "0.1"]) == 2
+    assert "set_membership" in capsys.readouterr().err
+    assert main(base + ["--observer", "set_membership", "--noise-bound", "z=0.1"]) == 2
+    assert "'z'" in capsys.readouterr().err
+    assert main(base + ["--observer", "set_membership", "--noise-bound", "0.1", "--fit-tolerance", "0.1"]) == 2
+    assert "--noise-bound" in capsys.readouterr().err
+    assert main(base + ["--observer", "set_membership", "--noise-bound", "0"]) == 0
