@@ -556,6 +556,13 @@ MHE_DECISION_BAND_EPS_RTOL: float = 1e-6
 MHE_DECISION_BAND_COST_RTOL: float = 1e-12
 
 
+#: The set-membership observer's box is widened on each side by this fraction of the state box's
+#: half-widths: its MILPs hold their rows to HiGHS's feasibility tolerance (1e-9, scaled), so a
+#: bound is exact to about that level, not to the last bit.  Model (16) noise-free: the true state
+#: was up to 3e-11 outside the unpadded box (omega_l, half-width 50: 6e-13 of it).
+SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
+
+
 def mhe_decision_band(threshold: float, epsilon: float) -> float:
     """Half-width of the band around the uniqueness threshold ``J* + epsilon`` inside which the
     MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..status import Status
-from ..tolerances import MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL, MHE_UNIQUENESS_DELTA
+from ..tolerances import MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL, MHE_UNIQUENESS_DELTA, SET_MEMBERSHIP_BOX_RTOL
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
 from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, judge_samples_against
@@ -105,8 +105,10 @@ class SetMembershipObserver(Observer):
 
     Each bound is HiGHS's dual bound of its MILP (zero gap), whose extreme point is re-checked in
     numpy: MLD rows and output bounds within :data:`~hybobs_opt.tolerances.MHE_FEASIBILITY_TOL`,
-    binaries integral, and its value within the reported bound.  HiGHS's feasibility tolerance
-    (1e-9) only widens ``S_t``: the box can only grow.
+    binaries integral, and its value within the reported bound.  The MILPs hold their rows to
+    HiGHS's feasibility tolerance, so each side of the box is widened by ``box_pad``
+    (:data:`~hybobs_opt.tolerances.SET_MEMBERSHIP_BOX_RTOL` of the state box's half-widths):
+    noise-free, a unique state has a radius of ``box_pad``, not 0.
     """
 
     name = "set-membership"
@@ -129,6 +131,8 @@ class SetMembershipObserver(Observer):
         self.enc = encode_mld(system, self.T)
         half, centre = system.scales()
         self.tolerance = self._tolerance(tolerance, half[:self.n])
+        #: widening of each side of the box (model units): the MILPs' feasibility tolerance
+        self.box_pad = SET_MEMBERSHIP_BOX_RTOL * half[:self.n]
         # the data enter through the row bounds only (outputs within the stated bound): judge the
         # inputs and the estimate against the model, not the outputs, which the noise may push out
         judge_samples_against(self, system, outputs=False)
@@ -273,7 +277,7 @@ class SetMembershipObserver(Observer):
                 seq = tuple(int(q) for q in enc.modes(v))
                 if seq not in seqs:
                     seqs.append(seq)
-        return {"status": "ok", "lower": lower, "upper": upper, "mode_sequences": seqs,
+        return {"status": "ok", "lower": lower - self.box_pad, "upper": upper + self.box_pad, "mode_sequences": seqs,
                 "seconds": time.perf_counter() - t0}
 
     def _check_point(self, v, Uf, Yf, lo, hi, beta) -> str | None:

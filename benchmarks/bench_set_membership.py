@@ -1,0 +1,167 @@
+"""The set-membership observer's certified radii: do they hold, how often is a step flagged, what
+does a step cost against the MIQP moving-horizon observer.
+
+Run ``python -m benchmarks.bench_set_membership`` (full, several minutes) or ``--quick`` (results
+in ``benchmarks/results/quick/``).  Writes ``benchmarks/results/set_membership.json``:
+
+* **coverage**: on four PWA systems -- model (16) of paper 002 on its backlash scenario, model (17)
+  on its own, the dead-zone spring of the warm-up (Nordin & Gutman 2002) and the rotation system
+  with ``y = x2`` (Bemporad & Morari 1999) -- noise-free and with uniform output noise at the
+  stated bound (0.1 % and 1 % of the output range): the number of steps whose true state lies
+  outside the stated radius (must be 0), the flag counts and the radii's median and largest
+  value per state.  On the rotation system every state has a mirror image with the same outputs:
+  a step is flagged only when the mirror is within the tolerance.
+* **timing**: per-step median of :class:`~hybobs_opt.mhe.SetMembershipObserver` against
+  :class:`~hybobs_opt.mhe.MHEObserver` (norm 2, the default) on model (16) at T = 3 and 5, the
+  same samples, one run (ratios, not absolute speed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ._machine import json_default, machine, versions
+
+RESULTS = Path(__file__).resolve().parent / "results"
+MODELS = Path(__file__).resolve().parents[1] / "examples" / "models"
+
+
+def _deadzone_spring():
+    from hybobs_opt.systems import Polytope, PWAMode, PWASystem
+
+    Ts, k, c, delta = 0.05, 4.0, 0.5, 0.1
+    A_free = np.array([[1.0, -Ts], [0.0, 1.0 - c * Ts]])
+    A_contact = np.array([[1.0, -Ts], [k * Ts, 1.0 - c * Ts]])
+    B, C = np.array([[Ts], [0.0]]), np.array([[0.0, 1.0]])
+    modes = (PWAMode(A_contact, B, np.array([0.0, -k * Ts * delta]), C,
+                     Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([-delta])), name="push"),
+             PWAMode(A_free, B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+                                                         np.array([delta, delta])), name="free"),
+             PWAMode(A_contact, B, np.array([0.0, k * Ts * delta]), C,
+                     Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([-delta])), name="pull"))
+    return PWASystem(modes, Polytope.from_box([-1.0, -3.0], [1.0, 3.0]), Polytope.from_box([-1.0], [1.0]),
+                     ("x1", "x2"), ("u",), ("y",), name="deadzone_spring")
+
+
+def _cases(steps: int) -> dict:
+    """``name -> (system, U, X, Y)`` noise-free runs of ``steps`` samples."""
+    from hybobs_opt import get_example, simulate_pwa
+    from hybobs_opt.studies.paper002_powertrain.systems import backlash_torque_profile
+    from hybobs_opt.systems import load_model
+
+    out = {}
+    p16 = get_example("powertrain3").build()
+    start = 600  # through the first change of contact (sample 1,014)
+    U = backlash_torque_profile(np.arange(start + steps) * p16.Ts)[:, None]
+    tr = simulate_pwa(p16, np.array([0.06, 39.0, 3.25]), U)
+    out["model16"] = (p16, U[start:], tr.x[start:], tr.y[start:])
+    p17 = get_example("powertrain5").build()
+    ex = get_example("powertrain5")
+    sc = ex.scenario(p17)
+    n17 = min(steps, len(sc.u))
+    out["model17"] = (p17, np.asarray(sc.u, float).reshape(len(sc.u), -1)[:n17], np.asarray(sc.x)[:n17],
+                      np.asarray(sc.y, float).reshape(len(sc.u), -1)[:n17])
+    spring = _deadzone_spring()
+    t = np.arange(steps) * 0.05
+    U = (0.8 * np.sin(0.7 * t) + 0.2 * np.sin(3.1 * t))[:, None]
+    tr = simulate_pwa(spring, np.array([0.3, 0.0]), U)
+    out["deadzone_spring"] = (spring, U, tr.x, tr.y)
+    rot = load_model(MODELS / "bemporad_morari_rotation.toml")
+    U = np.random.default_rng(0).uniform(-1, 1, size=(steps, 1))
+    tr = simulate_pwa(rot, np.array([3.0, -2.0]), U)
+    out["rotation_y_x2"] = (rot, U, tr.x, tr.y)
+    return out
+
+
+def coverage(steps: int, T: int, log) -> dict:
+    from hybobs_opt.mhe import SetMembershipObserver
+    from hybobs_opt.systems.ranges import output_range
+
+    table = {}
+    rng = np.random.default_rng(2026)
+    for name, (system, U, X, Y) in _cases(steps).items():
+        lo, hi = output_range(system)
+        for level in (0.0, 0.001, 0.01):
+            beta = level * (hi - lo)
+            Yn = Y + rng.uniform(-1.0, 1.0, size=Y.shape) * beta
+            obs = SetMembershipObserver(system, T, beta)
+            t0 = time.perf_counter()
+            run = obs.run(U, Yn)
+            seconds = time.perf_counter() - t0
+            R = np.array([inf["radius"] if "radius" in inf else np.full(system.n, np.nan) for inf in run.info])
+            has = np.all(np.isfinite(R), axis=1)
+            err = np.abs(run.x_hat - X)
+            outside = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
+            flags = {f: int(np.count_nonzero(run.flags == f)) for f in ("observable", "unobservable", "fallback", "warming_up")}
+            key = f"{name} T={T} noise={level:g}"
+            table[key] = {"samples": int(len(U)), "noise_bound": beta.tolist(), "n_outside_radius": outside,
+                          "flags": flags, "radius_median": np.nanmedian(R, axis=0).tolist() if has.any() else None,
+                          "radius_max": np.nanmax(R, axis=0).tolist() if has.any() else None,
+                          "tolerance": obs.tolerance.tolist(), "seconds_per_step": seconds / len(U)}
+            log(f"{key}: outside {outside}, flags {flags}, {1e3 * seconds / len(U):.1f} ms/step")
+    return table
+
+
+def timing(steps: int, log) -> dict:
+    from hybobs_opt import MHEObserver, get_example, simulate_pwa
+    from hybobs_opt.mhe import SetMembershipObserver
+    from hybobs_opt.studies.paper002_powertrain.systems import backlash_torque_profile
+
+    plant = get_example("powertrain3").build()
+    U = backlash_torque_profile(np.arange(800 + steps) * plant.Ts)[:, None]
+    tr = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    U, Y = U[800:], tr.y[800:]
+    out = {}
+    for T in (3, 5):
+        rec = {}
+        for name, make in (("miqp", lambda: MHEObserver(plant, T)),
+                           ("set_membership", lambda: SetMembershipObserver(plant, T, 0.0))):
+            run = make().run(U, Y)
+            secs = [s for s, f in zip(run.seconds, run.flags) if f != "warming_up"]
+            rec[name] = {"median_step_s": statistics.median(secs), "flagged_observable": int(np.count_nonzero(run.flags == "observable")),
+                         "steps": int(len(U))}
+        rec["ratio_set_membership_to_miqp"] = rec["set_membership"]["median_step_s"] / rec["miqp"]["median_step_s"]
+        out[f"T={T}"] = rec
+        log(f"timing T={T}: {rec}")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_set_membership", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="60 samples per case (smoke test); results in results/quick/")
+    args = parser.parse_args(argv)
+    out_dir = RESULTS / "quick" if args.quick else RESULTS
+    out_dir.mkdir(parents=True, exist_ok=True)
+    steps = 60 if args.quick else 450
+    t0 = time.perf_counter()
+
+    def log(msg: str) -> None:
+        print(f"[bench_set_membership] {msg} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+
+    record = {
+        "benchmark": "set_membership",
+        "quick": args.quick,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "machine": machine(),
+        "versions": versions(("hybobs_opt", "numpy", "scipy", "highspy", "daqp")),
+        "coverage": coverage(steps, 3, log),
+        "timing": timing(40 if args.quick else 200, log),
+    }
+    record["total_outside_radius"] = sum(r["n_outside_radius"] for r in record["coverage"].values())
+    record["total_samples"] = sum(r["samples"] for r in record["coverage"].values())
+    record["seconds"] = time.perf_counter() - t0
+    path = out_dir / "set_membership.json"
+    path.write_text(json.dumps(record, indent=1, default=json_default) + "\n")
+    log(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
