@@ -14,7 +14,7 @@ from ._common import (add_cache_argument, add_system_argument, as_options, check
                       print_json)
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
-OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf")
+OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf", "set_membership")
 DEFAULT_OBSERVERS = "lookup,miqp,milp"
 #: Samples of the bench scenario when --steps is not given (3 s at 1 ms).
 DEFAULT_STEPS = 3000
@@ -33,6 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise", type=float, default=0.0, help="standard deviation of output noise (rad/s)")
     p.add_argument("--observers", default=DEFAULT_OBSERVERS,
                    help=f"comma-separated, among: {', '.join(OBSERVER_NAMES)} (default {DEFAULT_OBSERVERS})")
+    p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
+                   help="with --data and set_membership in --observers: the bound on an output's noise in its units "
+                        "(repeatable; a bare VALUE bounds every output)")
     p.add_argument("--mhe-steps", type=int, default=None,
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
     p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
@@ -58,6 +61,13 @@ def run(args: argparse.Namespace) -> int:
         if args.data is None and not args.noise:
             raise ModelError("--seed", "--noise as well (the seed draws the output noise)", "no --noise")
     named = load_system(args)
+    if "set_membership" in observers and args.data is None:
+        raise ModelError("--observers", "set_membership with --data only (the bench scenarios have no noise bound)",
+                         repr(args.observers))
+    from .observe import _noise_bound
+
+    args.noise_bound = _noise_bound(args.noise_bound, named.system,
+                                    "set_membership" if "set_membership" in observers else observers[0])
     with command_cache(args) as cache:
         summary = _bench(named, args, observers)
     if cache is not None and cache.events:
@@ -72,6 +82,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {name:<9} median {1e6 * rec['median_step_s']:9.1f} us  p95 {1e6 * rec['p95_step_s']:9.1f} us  "
               f"flagged unobservable {rec['n_flagged_unobservable']:5d}  max rel. error where flagged observable "
               f"{'n/a' if err is None else f'{err:.2e}'}  [{rec['solver']}]")
+        if "radius_max" in rec:
+            print(f"  {'':<9} certified radius: median {rec['radius_median']}, largest {rec['radius_max']}; "
+                  f"true state outside it: {rec.get('n_outside_radius', 'n/a')}")
     if "note" in summary:
         print("note:", summary["note"])
     return 0
@@ -132,7 +145,8 @@ def bench_recorded(named, args, observers: list[str]) -> dict:
     progress, close = phase_bars(not args.json)
     try:
         with as_options({"horizon T": "--horizon", "horizon": "--horizon"}):
-            runs = observe_log(named.system, log, observers, horizon, analysis, progress=progress)
+            runs = observe_log(named.system, log, observers, horizon, analysis, progress=progress,
+                               noise_bound=args.noise_bound)
     finally:
         close()
     results = {}

@@ -160,7 +160,7 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
                                 noise_bound=noise_bound if kind == "set_membership" else None)
         trace, seconds = run_on_log(obs, log)
         rec = log_summary(trace, log, seconds)
-        rec["solver"] = getattr(obs, "solver", "none (lookup table)")
+        rec["solver"] = getattr(obs, "solver", "highs (MILPs)" if kind == "set_membership" else "none (lookup table)")
         out[kind] = (trace, rec)
     return out
 

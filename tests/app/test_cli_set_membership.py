@@ -70,3 +70,19 @@ def test_noise_bound_is_required_by_set_membership_and_refused_elsewhere(tmp_pat
     assert main(base + ["--observer", "set_membership", "--noise-bound", "0.1", "--fit-tolerance", "0.1"]) == 2
     assert "--noise-bound" in capsys.readouterr().err
     assert main(base + ["--observer", "set_membership", "--noise-bound", "0"]) == 0
+
+
+def test_bench_compares_radius_and_error_on_a_log(tmp_path, capsys):
+    _log(tmp_path / "log.csv", 0.01, N=30)
+    code = main(["bench", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--observers",
+                 "miqp,set_membership", "--noise-bound", "0.01", "--json"])
+    assert code == 0
+    rec = json.loads(capsys.readouterr().out)["observers"]
+    sm = rec["set_membership"]
+    assert sm["n_outside_radius"] == 0 and "radius_max" in sm and "radius_max" not in rec["miqp"]
+    assert sm["solver"] == "highs (MILPs)"
+    assert main(["bench", str(MODEL), "--observers", "set_membership", "--noise-bound", "0.01"]) == 2
+    assert "--data" in capsys.readouterr().err
+    assert main(["bench", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "miqp",
+                 "--noise-bound", "0.01"]) == 2
+    assert "set_membership" in capsys.readouterr().err

@@ -138,6 +138,8 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["bench", "powertrain3"], "--noise", NUMBER + ["-1"]),
     (["bench", "powertrain3"], "--observers", ["", ",,", "nosuch", "lookup,lookup", "lookup,,milp", "LOOKUP"]),
     (["bench", "powertrain3"], "--mhe-steps", ["0", "-5", "abc", "1.5"]),
+    (["bench", "powertrain3"], "--noise-bound", ["0.1"]),
+    (["bench", PWA_MODEL, "--data", F("nosuch"), "--observers", "set_membership"], "--noise-bound", ["-1", "z=1", "abc"]),
     (["bench", "powertrain3", "--observers", "lookup"], "--mhe-steps", ["5"]),
     (["bench", "powertrain3"], "--seed", ["3", "-1", "abc"]),
     (["bench", "powertrain3", "--noise", "0.1"], "--seed", ["-1", "abc", "1.5", "1e300"]),
