@@ -8,8 +8,8 @@ is there an admissible window trajectory, one of whose states -- the window star
 current state or any between -- is at least ``delta`` away from the optimum's (``||xi_k -
 xi_k*||_inf >= delta``, scaled), whose cost is at most ``J* + epsilon``?  Separating the window
 start alone is not enough: on ``y = x2`` with a rotation, the mirror state stays within ``delta``
-at the window start and is far from the reported state.  It is a second mixed-integer program on the same MLD rows, built once and
-re-solved per window; the Notes of :class:`~hybobs_opt.mhe.observer.MHEObserver` describe the
+at the window start and is far from the reported state.  It is a second mixed-integer program on
+the same MLD rows, built once and re-solved per window; the Notes of :class:`~hybobs_opt.mhe.observer.MHEObserver` describe the
 three stages (a QP along weak directions of the optimal sequence, the norm-2 MIQP with a cutoff,
 and for norms 1 / inf the MILP).  Every point a solver returns is re-checked in numpy before it
 counts as an alternative.
@@ -97,14 +97,16 @@ class SeparatedProgram:
         self._build(dict(options))
 
     def _build(self, options: dict) -> None:
-        """Build the separated program: eq. (10) on the same MLD rows plus ``||xi0 - xi0*||_inf >= delta``.
+        """Build the separated program: eq. (10) on the same MLD rows plus ``||xi_k - xi_k*||_inf >= delta``
+        at some window step ``k``.
 
-        Direction binaries ``b = (b_1+, b_1-, ..., b_n+, b_n-)`` with ``sum b = 1`` choose the
-        coordinate and side of the separation, one pair per state of the window: the big-M rows
-        ``+-(xi_k,j - xi_k,j*) >= delta - M (1 - b_kj+-)`` on the scaled window states ``xi_k =
-        (Xmap_k v + Xoff_k - c) / h`` (affine in the MLD variables ``v``), with ``M = delta`` plus
-        the largest range of a scaled state over the variables' bounds (``xi_k*`` is clipped to
-        the box of ``X``, so ``M`` is valid wherever ``b = 0``).  The rows' matrix is fixed; the
+        Direction binaries ``b`` (``2 n T``: a side of each coordinate of each window state, see
+        :meth:`direction`) with ``sum b = 1`` choose the step, coordinate and side of the
+        separation, through the big-M rows ``+-(xi_k,j - xi_k,j*) >= delta - M (1 - b_kj+-)`` on
+        the scaled window states ``xi_k = (Xmap_k v + Xoff_k - c) / h`` (affine in the MLD
+        variables ``v``), with ``M = delta + max_j (ub_j - lb_j)`` over the box of ``X`` (every
+        window state lies in ``X`` by the MLD's rows, and ``xi_k*`` is clipped to the box, so
+        ``M`` is valid wherever ``b = 0``).  The rows' matrix is fixed; the
         optimum's states enter only their bounds, so every program is built once here and
         re-solved each step.  Every norm gets the norm-2 MIQP for DAQP (its own workspace,
         proximal weight :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`): for norm 2
