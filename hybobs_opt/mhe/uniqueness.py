@@ -377,7 +377,7 @@ class SeparatedProgram:
             order = [d for d in np.argsort(-np.repeat(reach, 2), kind="stable") if allowed[d] and reach[d // 2] > 0]
             for d in order:
                 pol = self.model.polish(opt.modes, U, Y, xbar, opt.x_start, opt.w,
-                                        extra=self.separation_rows(xs, d), problem=prob, bound=True)
+                                        extra=self.separation_rows(xs, d), problem=prob, bound=True, robust=True)
                 alt = None if pol is None else self.alternative(pol[0], opt.modes, U, Y, xbar, pol[1], xs)
                 if alt is not None:
                     cands.append(alt)
@@ -568,7 +568,8 @@ class SeparatedProgram:
         if polish:
             # the solver's point carries the (tiny) proximal bias: the exact QP of its sequence
             # and direction, with a lower bound of its minimum proven from the multipliers
-            pol = self.model.polish(modes, U, Y, xbar, x0, W, extra=self.separation_rows(xs, d, modes, U), bound=True)
+            pol = self.model.polish(modes, U, Y, xbar, x0, W, extra=self.separation_rows(xs, d, modes, U), bound=True,
+                                    robust=True)
             if pol is not None:
                 cands.append(self.alternative(pol[0], modes, U, Y, xbar, pol[1], xs))
                 exact = pol[3]

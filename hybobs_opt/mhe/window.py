@@ -345,7 +345,7 @@ class WindowModel:
             gvec.append(ap[dn] - lo[dn])
 
     def polish(self, modes, U, Y, xbar, x0, W, extra: tuple[np.ndarray, np.ndarray] | None = None,
-                problem: tuple | None = None, bound: bool = False):
+                problem: tuple | None = None, bound: bool = False, robust: bool = False):
         """Least-squares problem of the mode sequence ``modes``, warm-started at ``(x0, W)``.
 
         The QP of eq. (10) with the modes fixed, solved by DAQP (proximal iterations when the
@@ -372,7 +372,7 @@ class WindowModel:
             Ge[:, :extra[0].shape[1]] = extra[0]
             G, gg = np.vstack([G, Ge]), np.concatenate([gg, extra[1]])
         theta0 = np.concatenate([(x0 - cx) / hx] + ([(W / hx).reshape(-1)] if dist else []))
-        solved = self.sequence_qp((R, r, G, gg, dist), theta0, bound)
+        solved = self.sequence_qp((R, r, G, gg, dist), theta0, bound, robust)
         if solved is None or solved[0] is None:
             return None
         theta, lower = solved
@@ -383,7 +383,7 @@ class WindowModel:
             return x0p, Wp, states
         return x0p, Wp, states, lower
 
-    def sequence_qp(self, problem: tuple, theta0: np.ndarray | None = None, bound: bool = False):
+    def sequence_qp(self, problem: tuple, theta0: np.ndarray | None = None, bound: bool = False, robust: bool = False):
         """The QP of :meth:`sequence_problem`'s ``problem``: ``(theta, lower)``, ``(None, inf)`` or ``None``.
 
         Parameters
@@ -395,6 +395,11 @@ class WindowModel:
         bound : bool
             Run the proximal iterations to convergence and prove a lower bound (see
             :meth:`polish`); otherwise ``lower`` is ``None``.
+        robust : bool
+            With ``bound``: when the bound stays weak, prove a second one from Clarabel's answer
+            and from the exact KKT solutions of more active sets (the uniqueness test, whose
+            decision must not depend on the rounding of one solver's last pivots; a Clarabel
+            solve costs milliseconds, so the exact search over mode prefixes does without).
 
         Returns
         -------
@@ -466,6 +471,29 @@ class WindowModel:
                 cost_p, lower_p = proven(theta_p, lam_p)
                 if lower_p > lower:
                     theta, lower = theta_p, lower_p
+        if robust and cost - lower > 0.1 * MHE_CERTIFIED_RTOL * cost:
+            # still weak: DAQP's multipliers carry the rounding of its last pivots (the bound of one
+            # QP of model (16) was 5.2e-7 with one BLAS and -3.4e-4 with another).  Clarabel's
+            # multipliers give a second bound; any (theta, lam >= 0) gives a valid one, so the
+            # larger is kept
+            conic = _conic_qp(R, r, G, gg)
+            if conic is not None and not isinstance(conic, str):
+                theta_c, lam_c = np.asarray(conic[0], dtype=float), np.maximum(np.asarray(conic[1], dtype=float) / scale, 0.0)
+                if (theta_c.shape == theta.shape and lam_c.shape == gg.shape and np.all(np.isfinite(theta_c))
+                        and np.all(np.isfinite(lam_c))):
+                    lower = max(lower, proven(theta_c, lam_c)[1])
+                    pairs = [(theta, lam), (theta_c, lam_c)]
+                else:
+                    pairs = [(theta, lam)]
+            else:
+                pairs = [(theta, lam)]
+            # the exact KKT point of each candidate active set: the bound holds at any point with
+            # any multipliers >= 0, so these need not meet the other rows
+            for th0, lam0 in pairs:
+                for act in _active_sets(G, gg, th0, lam0, more=True):
+                    solved = _kkt_solve(H, f, G, gg, act)
+                    if solved is not None:
+                        lower = max(lower, proven(*solved)[1])
         return theta, lower
 
     @staticmethod
@@ -505,6 +533,43 @@ class WindowModel:
         return self.enc.violation(v, np.asarray(U).reshape(-1), bounds=bounds)
 
 
+def _kkt_solve(H: np.ndarray, f: np.ndarray, G: np.ndarray, g: np.ndarray, act: np.ndarray):
+    """The KKT system of the QP with the rows ``act`` active, by least squares: ``(theta, lam)``
+    with ``lam >= 0`` (zero off ``act``), or ``None`` (a negative or non-finite multiplier).  The
+    point need not meet the other rows."""
+    nt, na = H.shape[0], int(act.sum())
+    Ga = G[act]
+    K = np.zeros((nt + na, nt + na))
+    K[:nt, :nt], K[:nt, nt:], K[nt:, :nt] = H, Ga.T, Ga
+    sol = np.linalg.lstsq(K, np.concatenate([-f, g[act]]), rcond=None)[0]
+    tp, lp = sol[:nt], np.zeros(g.size)
+    lp[act] = sol[nt:]
+    if not (np.all(np.isfinite(sol)) and np.all(lp >= 0.0)):
+        return None
+    return tp, lp
+
+
+def _active_sets(G: np.ndarray, g: np.ndarray, theta: np.ndarray, lam: np.ndarray, more: bool) -> list[np.ndarray]:
+    """Candidate active sets at a solver's answer: the rows with a positive multiplier (an
+    active-set solver's); ``more``: the rows an interior-point solver leaves at its accuracy (met
+    to 1e-9 with a positive multiplier, or a multiplier within 1e-6 of the largest: the others are
+    ~complementarity / slack, which the bound pays for times the problem's scale), none (the
+    unconstrained minimiser), and the rows nearest to the point one and two at a time (an
+    ill-conditioned QP leaves both solvers short of the optimum with no row met yet)."""
+    out = [lam > 0.0]
+    if more:
+        slack = g - G @ theta
+        met = slack <= 1e-9 * (1.0 + np.abs(g))
+        out += [met & (lam > 0.0), lam > 1e-6 * float(np.max(lam, initial=0.0)), met, np.zeros(g.size, dtype=bool)]
+        near = [int(i) for i in np.argsort(slack, kind="stable")[:4]]
+        out += [np.isin(np.arange(g.size), [i]) for i in near]
+        out += [np.isin(np.arange(g.size), [near[a], near[b]]) for a, b in ((0, 1), (0, 2), (1, 2)) if b < len(near)]
+    unique: dict[bytes, np.ndarray] = {}
+    for act in out:
+        unique.setdefault(act.tobytes(), act)
+    return list(unique.values())
+
+
 def _kkt_polish(H: np.ndarray, f: np.ndarray, G: np.ndarray, g: np.ndarray, theta: np.ndarray,
                 lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The QP's point and multipliers re-solved exactly on the solver's active set, when that is
@@ -517,17 +582,10 @@ def _kkt_polish(H: np.ndarray, f: np.ndarray, G: np.ndarray, g: np.ndarray, thet
     squares, brings the residual to rounding; nothing is trusted that the caller does not
     re-check (the bound is recomputed from the polished pair in numpy).
     """
-    act = lam > 0.0
-    nt, na = H.shape[0], int(act.sum())
-    Ga = G[act]
-    K = np.zeros((nt + na, nt + na))
-    K[:nt, :nt], K[:nt, nt:], K[nt:, :nt] = H, Ga.T, Ga
-    sol = np.linalg.lstsq(K, np.concatenate([-f, g[act]]), rcond=None)[0]
-    tp, lp = sol[:nt], np.zeros_like(lam)
-    lp[act] = sol[nt:]
-    if not (np.all(np.isfinite(sol)) and np.all(lp >= 0.0) and np.max(G @ tp - g, initial=0.0) <= MHE_FEASIBILITY_TOL):
+    solved = _kkt_solve(H, f, G, g, lam > 0.0)
+    if solved is None or np.max(G @ solved[0] - g, initial=0.0) > MHE_FEASIBILITY_TOL:
         return theta, lam
-    return tp, lp
+    return solved
 
 
 def _conic_qp(R: np.ndarray, r: np.ndarray, G: np.ndarray, g: np.ndarray):

@@ -449,3 +449,28 @@ def test_the_reported_state_is_separated_not_only_the_window_start(rotation_log,
             assert alt["distance"] >= delta * (1 - 1e-6) and 0 <= alt["step"] < T
     assert blind_spot >= 5, blind_spot  # the case the window-start test missed is in the log
     assert flags[UNOBSERVABLE] >= 150 and flags[OBSERVABLE] <= 10, dict(flags)
+
+
+def test_a_weak_qp_bound_is_proven_again_for_the_uniqueness_test():
+    """A QP of the uniqueness test on model (16) (T = 3, noisy data; stored from a run with
+    OpenBLAS's Haswell kernels): its curvature spans 1e-6 of the largest, DAQP and Clarabel stop
+    short of the optimum, and the bound from their multipliers was -3.4e-4 under the separation
+    threshold 9e-8 on one BLAS and 5.2e-7 above it on another -- a flag that changed with the
+    CPU.  With ``robust=True`` the bound is proven again from more active sets: valid (below the
+    optimum of an independent high-accuracy solve, cvxpy + Clarabel) and tight."""
+    from pathlib import Path
+
+    from hybobs_opt.mhe.window import WindowModel
+
+    data = np.load(Path(__file__).with_name("weak_bound_qp.npz"))
+    R, r, G, g = data["R"], data["r"], data["G"], data["g"]
+    x = cp.Variable(R.shape[1])
+    ref = cp.Problem(cp.Minimize(cp.sum_squares(R @ x + r)), [G @ x <= g, x >= -1, x <= 1])
+    ref.solve(solver=cp.CLARABEL, tol_gap_abs=1e-15, tol_gap_rel=1e-13, tol_feas=1e-13, max_iter=500)
+    assert ref.status == cp.OPTIMAL
+    obs = MHEObserver(powertrain3(), 3)
+    model: WindowModel = obs.model
+    for robust in (False, True):
+        theta, lower = model.sequence_qp((R, r, G, g, False), None, bound=True, robust=robust)
+        assert lower <= ref.value * (1 + 1e-9) + 1e-18, (robust, lower, ref.value)  # a valid bound
+    assert lower >= 0.99 * ref.value, (lower, ref.value)  # robust: tight
