@@ -64,9 +64,9 @@ def run(args: argparse.Namespace) -> int:
     if "set_membership" in observers and args.data is None:
         raise ModelError("--observers", "set_membership with --data only (the bench scenarios have no noise bound)",
                          repr(args.observers))
-    from .observe import _noise_bound
+    from .observe import noise_bound_option
 
-    args.noise_bound = _noise_bound(args.noise_bound, named.system,
+    args.noise_bound = noise_bound_option(args.noise_bound, named.system,
                                     "set_membership" if "set_membership" in observers else observers[0])
     with command_cache(args) as cache:
         summary = _bench(named, args, observers)

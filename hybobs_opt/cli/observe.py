@@ -182,7 +182,7 @@ def observe_recorded(named, args) -> dict:
         raise ModelError("--fit-tolerance", f"no value for the {kind} observer (it belongs to miqp, milp, milp_inf"
                          + ("; the set-membership observer takes --noise-bound" if kind == "set_membership" else "") + ")",
                          repr(args.fit_tolerance))
-    noise_bound = _noise_bound(args.noise_bound, named.system, kind)
+    noise_bound = noise_bound_option(args.noise_bound, named.system, kind)
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
@@ -195,7 +195,7 @@ def observe_recorded(named, args) -> dict:
     return _write_outputs(summary, trace, log, args, f"{named.label}: {kind} on {args.data}")
 
 
-def _noise_bound(entries, system, kind: str):
+def noise_bound_option(entries, system, kind: str):
     """``--noise-bound`` as the set-membership observer's ``noise_bound`` (a number or a dict by output name)."""
     if kind != "set_membership":
         if entries:

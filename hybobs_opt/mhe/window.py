@@ -352,7 +352,8 @@ class WindowModel:
         sequence leaves directions of the state unobserved).  For norm 2 it is exact; for norms
         1 / inf it gives a feasible point of the sequence (an incumbent), optimal when it fits
         the data exactly.  ``extra = (G_e, g_e)`` adds rows ``G_e theta <= g_e`` (``G_e`` with
-        ``n`` columns: on the scaled window-start state alone; the separation of the uniqueness test); ``problem`` is
+        ``n`` columns: on the scaled window-start state alone), the separation of the uniqueness
+        test; ``problem`` is
         :meth:`sequence_problem` of the same arguments, when already built.  Returns
         ``(x0, W, states)`` or ``None`` if not certified.
 
