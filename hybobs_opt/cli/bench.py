@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     from .observe import noise_bound_option
 
     args.noise_bound = noise_bound_option(args.noise_bound, named.system,
-                                    "set_membership" if "set_membership" in observers else observers[0])
+                                          "set_membership" if "set_membership" in observers else observers[0])
     with command_cache(args) as cache:
         summary = _bench(named, args, observers)
     if cache is not None and cache.events:
