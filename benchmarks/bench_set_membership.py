@@ -5,7 +5,7 @@ Run ``python -m benchmarks.bench_set_membership`` (full, several minutes) or ``-
 in ``benchmarks/results/quick/``).  Writes ``benchmarks/results/set_membership.json``:
 
 * **coverage**: on four PWA systems -- model (16) of paper 002 on its backlash scenario, model (17)
-  on its own, the dead-zone spring of the warm-up (Nordin & Gutman 2002) and the rotation system
+  on its own, the dead-zone spring of the tests (``tests/canonical.py``, Nordin & Gutman 2002) and the rotation system
   with ``y = x2`` (Bemporad & Morari 1999) -- noise-free and with uniform output noise at the
   stated bound (0.1 % and 1 % of the output range): the number of steps whose true state lies
   outside the stated radius (must be 0), the flag counts and the radii's median and largest
@@ -27,27 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
+from tests.canonical import deadzone_drive, deadzone_spring
+
 from ._machine import json_default, machine, versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MODELS = Path(__file__).resolve().parents[1] / "examples" / "models"
-
-
-def _deadzone_spring():
-    from hybobs_opt.systems import Polytope, PWAMode, PWASystem
-
-    Ts, k, c, delta = 0.05, 4.0, 0.5, 0.1
-    A_free = np.array([[1.0, -Ts], [0.0, 1.0 - c * Ts]])
-    A_contact = np.array([[1.0, -Ts], [k * Ts, 1.0 - c * Ts]])
-    B, C = np.array([[Ts], [0.0]]), np.array([[0.0, 1.0]])
-    modes = (PWAMode(A_contact, B, np.array([0.0, -k * Ts * delta]), C,
-                     Polytope(np.array([[-1.0, 0.0, 0.0]]), np.array([-delta])), name="push"),
-             PWAMode(A_free, B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
-                                                         np.array([delta, delta])), name="free"),
-             PWAMode(A_contact, B, np.array([0.0, k * Ts * delta]), C,
-                     Polytope(np.array([[1.0, 0.0, 0.0]]), np.array([-delta])), name="pull"))
-    return PWASystem(modes, Polytope.from_box([-1.0, -3.0], [1.0, 3.0]), Polytope.from_box([-1.0], [1.0]),
-                     ("x1", "x2"), ("u",), ("y",), name="deadzone_spring")
 
 
 def _cases(steps: int) -> dict:
@@ -68,9 +53,8 @@ def _cases(steps: int) -> dict:
     n17 = min(steps, len(sc.u))
     out["model17"] = (p17, np.asarray(sc.u, float).reshape(len(sc.u), -1)[:n17], np.asarray(sc.x)[:n17],
                       np.asarray(sc.y, float).reshape(len(sc.u), -1)[:n17])
-    spring = _deadzone_spring()
-    t = np.arange(steps) * 0.05
-    U = (0.8 * np.sin(0.7 * t) + 0.2 * np.sin(3.1 * t))[:, None]
+    spring = deadzone_spring()
+    U = deadzone_drive(steps)
     tr = simulate_pwa(spring, np.array([0.3, 0.0]), U)
     out["deadzone_spring"] = (spring, U, tr.x, tr.y)
     rot = load_model(MODELS / "bemporad_morari_rotation.toml")

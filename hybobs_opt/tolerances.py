@@ -563,6 +563,19 @@ MHE_DECISION_BAND_COST_RTOL: float = 1e-12
 SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
 
 
+#: The set-membership observer's check of an extreme point against its MILP's dual bound: the
+#: point's value may lie this much (relative to ``1 + |value|``) beyond the bound -- HiGHS's
+#: feasibility tolerance, not a disagreement.
+SET_MEMBERSHIP_BOUND_RTOL: float = 1e-7
+
+#: Candidate active sets of an interior-point answer (the uniqueness test's robust QP bound): a
+#: row counts as met within this fraction of ``1 + |g|`` ...
+KKT_ACTIVE_SLACK_RTOL: float = 1e-9
+#: ... or when its multiplier is within this fraction of the largest.  Any candidate that passes
+#: the checks is a KKT point, so these choose where to look, never what is accepted.
+KKT_ACTIVE_MULTIPLIER_RTOL: float = 1e-6
+
+
 def mhe_decision_band(threshold: float, epsilon: float) -> float:
     """Half-width of the band around the uniqueness threshold ``J* + epsilon`` inside which the
     MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""

@@ -31,7 +31,13 @@ import numpy as np
 
 from ..errors import ModelError
 from ..status import Status
-from ..tolerances import MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL, MHE_UNIQUENESS_DELTA, SET_MEMBERSHIP_BOX_RTOL
+from ..tolerances import (
+    MHE_FEASIBILITY_TOL,
+    MHE_INTEGRALITY_TOL,
+    MHE_UNIQUENESS_DELTA,
+    SET_MEMBERSHIP_BOUND_RTOL,
+    SET_MEMBERSHIP_BOX_RTOL,
+)
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
 from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, judge_samples_against
@@ -61,11 +67,15 @@ def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.nd
     if isinstance(value, (bool, np.bool_)) or isinstance(value, (str, bytes)):
         raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value))
     try:
+        complex_input = np.iscomplexobj(np.asarray(value))
+    except (TypeError, ValueError):
+        complex_input = False  # ragged or non-numeric: refused below
+    if complex_input:
+        raise ModelError(field, "real bounds", repr(value))
+    try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value)) from None
-    if np.iscomplexobj(np.asarray(value)):
-        raise ModelError(field, "real bounds", repr(value))
     arr = np.broadcast_to(arr, (p,)).copy() if arr.ndim == 0 else arr
     if arr.shape != (p,) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise ModelError(field, f"{p} finite bounds >= 0 (outputs {list(names)}), in the outputs' units", repr(value))
@@ -261,10 +271,10 @@ class SetMembershipObserver(Observer):
                 if side == 1:
                     bound = -bound
                 bound = bound + self._last_off[j] if np.isfinite(bound) else np.nan
-                scale = 1.0 + abs(value)
+                slack = SET_MEMBERSHIP_BOUND_RTOL * (1.0 + abs(value))
                 if why is None and not np.isfinite(bound):
                     why = "no finite dual bound"
-                if why is None and (bound < value - 1e-7 * scale if side == 0 else bound > value + 1e-7 * scale):
+                if why is None and (bound < value - slack if side == 0 else bound > value + slack):
                     why = f"dual bound {bound:.9g} on the wrong side of the point's value {value:.9g}"
                 if why is not None:
                     return {"status": "not certified", "seconds": time.perf_counter() - t0,

@@ -13,7 +13,13 @@ import numpy as np
 
 from ..systems.pwa import PWASystem
 from ..status import Status
-from ..tolerances import MEMBERSHIP_RTOL, MHE_CERTIFIED_RTOL, MHE_FEASIBILITY_TOL
+from ..tolerances import (
+    KKT_ACTIVE_MULTIPLIER_RTOL,
+    KKT_ACTIVE_SLACK_RTOL,
+    MEMBERSHIP_RTOL,
+    MHE_CERTIFIED_RTOL,
+    MHE_FEASIBILITY_TOL,
+)
 from .backends.daqp_backend import DAQP_INF, daqp_flag
 from .mld import MLDEncoding
 
@@ -553,15 +559,17 @@ def _kkt_solve(H: np.ndarray, f: np.ndarray, G: np.ndarray, g: np.ndarray, act: 
 def _active_sets(G: np.ndarray, g: np.ndarray, theta: np.ndarray, lam: np.ndarray, more: bool) -> list[np.ndarray]:
     """Candidate active sets at a solver's answer: the rows with a positive multiplier (an
     active-set solver's); ``more``: the rows an interior-point solver leaves at its accuracy (met
-    to 1e-9 with a positive multiplier, or a multiplier within 1e-6 of the largest: the others are
+    to :data:`~hybobs_opt.tolerances.KKT_ACTIVE_SLACK_RTOL` with a positive multiplier, or a
+    multiplier within :data:`~hybobs_opt.tolerances.KKT_ACTIVE_MULTIPLIER_RTOL` of the largest: the others are
     ~complementarity / slack, which the bound pays for times the problem's scale), none (the
     unconstrained minimiser), and the rows nearest to the point one and two at a time (an
     ill-conditioned QP leaves both solvers short of the optimum with no row met yet)."""
     out = [lam > 0.0]
     if more:
         slack = g - G @ theta
-        met = slack <= 1e-9 * (1.0 + np.abs(g))
-        out += [met & (lam > 0.0), lam > 1e-6 * float(np.max(lam, initial=0.0)), met, np.zeros(g.size, dtype=bool)]
+        met = slack <= KKT_ACTIVE_SLACK_RTOL * (1.0 + np.abs(g))
+        out += [met & (lam > 0.0), lam > KKT_ACTIVE_MULTIPLIER_RTOL * float(np.max(lam, initial=0.0)), met,
+                np.zeros(g.size, dtype=bool)]
         near = [int(i) for i in np.argsort(slack, kind="stable")[:4]]
         out += [np.isin(np.arange(g.size), [i]) for i in near]
         out += [np.isin(np.arange(g.size), [near[a], near[b]]) for a, b in ((0, 1), (0, 2), (1, 2)) if b < len(near)]

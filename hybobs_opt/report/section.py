@@ -38,10 +38,6 @@ def samples(full: int, quick: int) -> int:
     return quick if _QUICK.get() else full
 
 
-def is_quick() -> bool:
-    """Whether the report being built is the quick preview."""
-    return _QUICK.get()
-
 
 def register_section(key: str, builder: SectionBuilder) -> None:
     """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``."""

@@ -155,7 +155,7 @@ def test_data_that_contradict_the_bound_are_a_fallback_and_bad_input_is_refused(
     flags = [obs.step(U[k], Y[k]) for k in range(8)]
     assert flags[5].flag == FALLBACK and "noise bound" in flags[5].info["reason"]
     assert obs.step([np.nan], [0.0]).flag == FALLBACK
-    for bad in (-1.0, np.nan, "x", [1.0, 2.0], True, {"nosuch": 1.0}):
+    for bad in (-1.0, np.nan, "x", [1.0, 2.0], True, {"nosuch": 1.0}, 1j, [[1.0], [2.0, 3.0]]):
         with pytest.raises(ModelError, match="noise_bound"):
             SetMembershipObserver(system, 3, bad)
     for bad in (0.0, -1.0, [1.0], {"nosuch": 1.0}):
