@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import time
 
-from ._numba_cache import KERNELS_ENV, NUMBA_CACHE_ENV, kernels_compiled
+from ._numba_cache import BACKGROUND_ENV, KERNELS_ENV, NUMBA_CACHE_ENV, kernels_compiled
 
 __all__ = ["warm_up"]
 
@@ -30,7 +30,7 @@ def warm_up() -> dict:
     Returns
     -------
     dict
-        Seconds per phase (``import``, ``system``, ``analysis``, ``observer``, ``polytope``),
+        Seconds per phase (``import``, ``system``, ``analysis``, ``lookup_kernels``, ``observer``, ``polytope``),
         ``cache_dir`` and ``kernels_compiled`` (per kernel module).
     """
     import numpy as np
@@ -47,19 +47,17 @@ def warm_up() -> dict:
     t0 = time.perf_counter()
     before = os.environ.get(KERNELS_ENV)
     os.environ[KERNELS_ENV] = "compiled"  # the kernel modules imported here compile (or load)
+    # the lookup kernels compile at import (their signatures are declared): a child process does it
+    # on the second core while this one compiles the geometry kernels on first use below
+    lookup_child = _start_lookup_child()
     try:
         from .geometry import _lp_kernels, _reproducible, _vertex_kernels  # noqa: F401
         from .geometry.polytope import Polytope
-        from .observers import _lookup_kernels  # noqa: F401
-        from .observers.lookup import LookupObserver
         from .regions import analyse_observability
         from .sim import simulate_pwa
         from .systems.pwa import PWAMode, PWASystem
     finally:  # this process's later children choose for themselves
-        if before is None:
-            os.environ.pop(KERNELS_ENV, None)
-        else:
-            os.environ[KERNELS_ENV] = before
+        _restore(before)
 
     out: dict = {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "import": time.perf_counter() - t0}
     t0 = time.perf_counter()
@@ -80,6 +78,16 @@ def warm_up() -> dict:
     analysis = analyse_observability(plant, 3)
     out["analysis"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    if lookup_child is not None:
+        lookup_child.wait()  # its cache entries are written: the import below loads them
+    os.environ[KERNELS_ENV] = "compiled"
+    try:
+        from .observers import _lookup_kernels  # noqa: F401
+        from .observers.lookup import LookupObserver
+    finally:
+        _restore(before)
+    out["lookup_kernels"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
     U = (0.8 * np.sin(np.arange(300) * 0.05))[:, None]
     Y = simulate_pwa(plant, np.zeros(2), U).y
     obs = LookupObserver(analysis)
@@ -98,6 +106,27 @@ def warm_up() -> dict:
     out["kernels_compiled"] = kernels_compiled()
     return out
 
+
+def _restore(before: str | None) -> None:
+    if before is None:
+        os.environ.pop(KERNELS_ENV, None)
+    else:
+        os.environ[KERNELS_ENV] = before
+
+
+def _start_lookup_child():
+    """``import hybobs_opt.observers._lookup_kernels`` in a child process (None if it cannot start)."""
+    import subprocess
+    import sys
+
+    if "hybobs_opt.observers._lookup_kernels" in sys.modules:
+        return None
+    env = {**os.environ, KERNELS_ENV: "compiled", BACKGROUND_ENV: "0"}
+    try:
+        return subprocess.Popen([sys.executable, "-c", "import hybobs_opt.observers._lookup_kernels"], env=env,
+                                stdout=subprocess.DEVNULL)
+    except OSError:
+        return None  # the import below compiles them in this process
 
 
 if __name__ == "__main__":

@@ -116,7 +116,7 @@ def test_warm_up_runs_every_phase():
     in_process = all(_numba_cache.kernels_compiled()[m] for m in kernels) and os.environ.get("HYBOBS_KERNELS") != "python"
     out = hybobs_opt.warm_up()
     if in_process:
-        assert set(out) == {"cache_dir", "import", "system", "analysis", "observer", "polytope", "kernels_compiled"}
+        assert set(out) == {"cache_dir", "import", "system", "analysis", "lookup_kernels", "observer", "polytope", "kernels_compiled"}
         assert {m: out["kernels_compiled"][m] for m in kernels} == {m: True for m in kernels}
     else:
         assert set(out) == {"cache_dir", "child_process", "kernels_compiled"}
