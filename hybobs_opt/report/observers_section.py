@@ -91,7 +91,7 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
     # the quick preview still runs through the first change of contact (sample 1,014)
     steps, mhe_steps = samples(STEPS, 1200), samples(MHE_STEPS, 1200)
     noisy_steps = samples(NOISY_STEPS, 600)
-    study_steps, study_mhe_steps = samples(NOISE_STUDY_STEPS, 1200), samples(NOISE_STUDY_MHE_STEPS, 300)
+    study_steps, study_mhe_steps = samples(NOISE_STUDY_STEPS, 1200), samples(NOISE_STUDY_MHE_STEPS, 120)
     gap_draws = samples(GAP_DRAWS, 1)
     progress("observers/noise-free")
     clean = run_bench("powertrain3", 3, steps, 0.0, ["lookup", "miqp", "milp"], mhe_steps=mhe_steps,
