@@ -301,6 +301,79 @@ def noise_std_vector(value, p: int, field: str = "noise_std") -> np.ndarray:
     return arr
 
 
+def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.ndarray:
+    """The bound on each output's noise as a ``(p,)`` array of finite values ``>= 0``.
+
+    Parameters
+    ----------
+    value : float, sequence of p floats, or dict of output name to float
+        One bound for every output, one per output, or by name (outputs not named: 0).
+    output_names : sequence of str
+        The model's output names.
+    field : str
+        Name of the argument in error messages.
+    """
+    names = tuple(output_names)
+    p = len(names)
+    if isinstance(value, dict):
+        unknown = [k for k in value if k not in names]
+        if unknown:
+            raise ModelError(field, f"output names among {list(names)}", repr(unknown[0]))
+        value = [value.get(nm, 0.0) for nm in names]
+    if isinstance(value, (bool, np.bool_)) or isinstance(value, (str, bytes)):
+        raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value))
+    try:
+        complex_input = np.iscomplexobj(np.asarray(value))
+    except (TypeError, ValueError):
+        complex_input = False  # ragged or non-numeric: refused below
+    if complex_input:
+        raise ModelError(field, "real bounds", repr(value))
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value)) from None
+    arr = np.broadcast_to(arr, (p,)).copy() if arr.ndim == 0 else arr
+    if arr.shape != (p,) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise ModelError(field, f"{p} finite bounds >= 0 (outputs {list(names)}), in the outputs' units", repr(value))
+    return arr
+
+
+def radius_tolerance_vector(value, state_names, default: np.ndarray, field: str = "tolerance") -> np.ndarray:
+    """The largest radius per state for the flag ``observable`` as a ``(n,)`` array of finite values ``> 0``.
+
+    Parameters
+    ----------
+    value : None, float, sequence of n floats, or dict of state name to float
+        ``None``: ``default``; one radius for every state, one per state, or by name (states not
+        named: their ``default``), in the states' units.
+    state_names : sequence of str
+        The model's state names.
+    default : (n,) ndarray
+        The radii used where ``value`` names none.
+    field : str
+        Name of the argument in error messages.
+    """
+    names = tuple(state_names)
+    n = len(names)
+    if value is None:
+        return np.asarray(default, dtype=float).copy()
+    if isinstance(value, dict):
+        unknown = [k for k in value if k not in names]
+        if unknown:
+            raise ModelError(field, f"state names among {list(names)}", repr(unknown[0]))
+        value = [value.get(nm, d) for nm, d in zip(names, default)]
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise ModelError(field, "a radius > 0 per state (a number, n numbers or a dict by state name)", repr(value))
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(field, "a radius > 0 per state", repr(value)) from None
+    arr = np.broadcast_to(arr, (n,)).copy() if arr.ndim == 0 else arr
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ModelError(field, f"{n} finite radii > 0 (states {list(names)})", repr(value))
+    return arr
+
+
 def false_alarm_probability(value, field: str = "false_alarm") -> float:
     """A statistical test's false-alarm probability, in ``(0, 0.5)``, else a :class:`ModelError` naming ``field``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \

@@ -568,6 +568,13 @@ SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
 #: feasibility tolerance, not a disagreement.
 SET_MEMBERSHIP_BOUND_RTOL: float = 1e-7
 
+#: Bounded-noise lookup observer (``NoiseAwareLookupObserver(noise_bound=...)``): a residual row of a
+#: mode sequence may exceed its noise bound by this much, relative to ``1 + max |residual|`` in
+#: whitened units, and the sequence still counts as fitting -- the rounding of the table's
+#: arithmetic (a few ulps of the data), never a decision the noise could take.  Wider only keeps
+#: more candidate sequences, hence a larger radius: the safe side.
+BOUNDED_RESIDUAL_RTOL: float = 1e-9
+
 #: Candidate active sets of an interior-point answer (the uniqueness test's robust QP bound): a
 #: row counts as met within this fraction of ``1 + |g|`` ...
 KKT_ACTIVE_SLACK_RTOL: float = 1e-9

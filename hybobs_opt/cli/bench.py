@@ -34,8 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--observers", default=DEFAULT_OBSERVERS,
                    help=f"comma-separated, among: {', '.join(OBSERVER_NAMES)} (default {DEFAULT_OBSERVERS})")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
-                   help="with --data and set_membership in --observers: the bound on an output's noise in its units "
-                        "(repeatable; a bare VALUE bounds every output)")
+                   help="with --data, for set_membership (required) and lookup (radii under bounded noise) in --observers: "
+                        "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output)")
     p.add_argument("--mhe-steps", type=int, default=None,
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
     p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
@@ -66,8 +66,10 @@ def run(args: argparse.Namespace) -> int:
                          repr(args.observers))
     from .observe import noise_bound_option
 
-    args.noise_bound = noise_bound_option(args.noise_bound, named.system,
-                                          "set_membership" if "set_membership" in observers else observers[0])
+    args.noise_bound = noise_bound_option(args.noise_bound, named.system, observers)
+    if args.noise_bound is not None and args.data is None:
+        raise ModelError("--noise-bound", "--data as well (the bench scenarios' noise is Gaussian: --noise)",
+                         repr(args.noise_bound))
     with command_cache(args) as cache:
         summary = _bench(named, args, observers)
     if cache is not None and cache.events:

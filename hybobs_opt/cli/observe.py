@@ -27,10 +27,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --data and a moving-horizon observer: the largest output residual a window may "
                         "leave (noisy logs: about 5 noise standard deviations; default 1e-3 of each output's range)")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
-                   help="with --data and --observer set_membership: the bound on an output's noise in its units "
-                        "(repeatable; a bare VALUE bounds every output; outputs not named: 0)")
+                   help="with --data and --observer set_membership (required) or lookup (radii under bounded noise): "
+                        "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output; "
+                        "outputs not named: 0)")
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
-                   "(and radius_<state> per state with the set-membership observer)")
+                   "(and radius_<state> per state with the set-membership observer, and the lookup one with --noise-bound)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     add_cache_argument(p)
@@ -195,17 +196,24 @@ def observe_recorded(named, args) -> dict:
     return _write_outputs(summary, trace, log, args, f"{named.label}: {kind} on {args.data}")
 
 
-def noise_bound_option(entries, system, kind: str):
-    """``--noise-bound`` as the set-membership observer's ``noise_bound`` (a number or a dict by output name)."""
-    if kind != "set_membership":
+def noise_bound_option(entries, system, kinds):
+    """``--noise-bound`` as the ``noise_bound`` of the set-membership observer (required) and of the
+    lookup observer (optional: radii under bounded noise), a dict by output name; ``kinds`` is the
+    observer or the observers of the command."""
+    kinds = [kinds] if isinstance(kinds, str) else list(kinds)
+    from ..observers.recorded import NOISE_BOUND_OBSERVERS
+
+    if not any(k in NOISE_BOUND_OBSERVERS for k in kinds):
         if entries:
-            raise ModelError("--noise-bound", "no value for the observer " + repr(kind)
-                             + " (it belongs to --observer set_membership)", repr(entries[0]))
+            raise ModelError("--noise-bound", "no value for the observer " + ", ".join(map(repr, kinds))
+                             + " (it belongs to --observer set_membership or lookup)", repr(entries[0]))
         return None
     if not entries:
+        if "set_membership" not in kinds:
+            return None
         raise ModelError("--noise-bound", "a bound on the outputs' noise for the set-membership observer "
                          "(NAME=VALUE per output, or one VALUE; 0 for noise-free data)", "none")
-    from ..mhe.set_membership import noise_bound_vector
+    from ..contract import noise_bound_vector
 
     names = tuple(system.output_names)
     bound: dict[str, float] = {}

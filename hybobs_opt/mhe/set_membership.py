@@ -40,46 +40,10 @@ from ..tolerances import (
 )
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
-from ..contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, judge_samples_against
+from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, judge_samples_against,
+                        noise_bound_vector, radius_tolerance_vector)
 
 __all__ = ["SetMembershipObserver", "noise_bound_vector"]
-
-
-def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.ndarray:
-    """The bound on each output's noise as a ``(p,)`` array of finite values ``>= 0``.
-
-    Parameters
-    ----------
-    value : float, sequence of p floats, or dict of output name to float
-        One bound for every output, one per output, or by name (outputs not named: 0).
-    output_names : sequence of str
-        The model's output names.
-    field : str
-        Name of the argument in error messages.
-    """
-    names = tuple(output_names)
-    p = len(names)
-    if isinstance(value, dict):
-        unknown = [k for k in value if k not in names]
-        if unknown:
-            raise ModelError(field, f"output names among {list(names)}", repr(unknown[0]))
-        value = [value.get(nm, 0.0) for nm in names]
-    if isinstance(value, (bool, np.bool_)) or isinstance(value, (str, bytes)):
-        raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value))
-    try:
-        complex_input = np.iscomplexobj(np.asarray(value))
-    except (TypeError, ValueError):
-        complex_input = False  # ragged or non-numeric: refused below
-    if complex_input:
-        raise ModelError(field, "real bounds", repr(value))
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(field, "a bound >= 0 per output (a number, p numbers or a dict by output name)", repr(value)) from None
-    arr = np.broadcast_to(arr, (p,)).copy() if arr.ndim == 0 else arr
-    if arr.shape != (p,) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ModelError(field, f"{p} finite bounds >= 0 (outputs {list(names)}), in the outputs' units", repr(value))
-    return arr
 
 
 class SetMembershipObserver(Observer):
@@ -140,7 +104,7 @@ class SetMembershipObserver(Observer):
         self.noise_bound = noise_bound_vector(noise_bound, system.output_names)
         self.enc = encode_mld(system, self.T)
         half, centre = system.scales()
-        self.tolerance = self._tolerance(tolerance, half[:self.n])
+        self.tolerance = radius_tolerance_vector(tolerance, self.state_names, MHE_UNIQUENESS_DELTA * half[:self.n])
         #: widening of each side of the box (model units): the MILPs' feasibility tolerance
         self.box_pad = SET_MEMBERSHIP_BOX_RTOL * half[:self.n]
         # the data enter through the row bounds only (outputs within the stated bound): judge the
@@ -159,25 +123,6 @@ class SetMembershipObserver(Observer):
             self._programs.append(pair)
         self._x_default = centre[:self.n].copy()
         self.reset(x0)
-
-    def _tolerance(self, value, half: np.ndarray) -> np.ndarray:
-        if value is None:
-            return MHE_UNIQUENESS_DELTA * half
-        if isinstance(value, dict):
-            unknown = [k for k in value if k not in self.state_names]
-            if unknown:
-                raise ModelError("tolerance", f"state names among {list(self.state_names)}", repr(unknown[0]))
-            value = [value.get(nm, MHE_UNIQUENESS_DELTA * h) for nm, h in zip(self.state_names, half)]
-        if isinstance(value, (bool, np.bool_, str, bytes)):
-            raise ModelError("tolerance", "a radius > 0 per state (a number, n numbers or a dict by state name)", repr(value))
-        try:
-            arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError("tolerance", "a radius > 0 per state", repr(value)) from None
-        arr = np.broadcast_to(arr, (self.n,)).copy() if arr.ndim == 0 else arr
-        if arr.shape != (self.n,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-            raise ModelError("tolerance", f"{self.n} finite radii > 0 (states {list(self.state_names)})", repr(value))
-        return arr
 
     def reset(self, x0=None, **kwargs) -> None:
         """Forget the window; ``x0`` is the guess of the first ``T - 1`` samples."""

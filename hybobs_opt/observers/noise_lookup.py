@@ -43,10 +43,28 @@ contradicts the model at that level (a fault, a model error or a false alarm): a
 ``unobservable``, with that reason.  Bad samples (NaN, wrong length, input outside ``U``) are
 ``fallback``; fewer than ``T`` samples ``warming_up``.
 
-This is the "noise-aware lookup" asked for in issue 18 (windows longer than ``n / p``, a residual
-test at a stated false-alarm probability, membership with a margin, ``observable`` only when one
-candidate passes); its answers are compared with the Kalman filter on the true mode sequence in
-the noise study of paper 002 (``benchmarks/bench_noise.py``).
+Its answers are compared with the Kalman filter on the true mode sequence in the noise study of
+paper 002 (``benchmarks/bench_noise.py``).
+
+**Bounded noise** (``noise_bound=beta``: ``|v_j(k)| <= beta_j`` per output, ``T p >= n``).  The same
+tables with the weights ``W = diag(1 / beta)``, and each statistical test replaced by the
+condition the true mode sequence must meet whatever the noise within the bound (the whitened
+noise ``e = W v`` has ``|e| <= 1``):
+
+* residual: ``(I - C~_i C~_i^+) W (Y_t - D_i U_t - f_i) = (I - C~_i C~_i^+) e``, so each row's
+  absolute value is at most the 1-norm of that row of ``I - C~_i C~_i^+``;
+* membership: ``x = x_i - C~_i^+ e`` for a full-rank sequence, so row ``h`` of ``P_i`` holds at
+  ``x_i`` with the margin ``|h_x' C~_i^+| 1`` (a rank-deficient one: the same margins in the LP
+  over its affine set).
+
+Every mode sequence consistent with the window passes; a passing sequence of full rank puts the
+current state within ``|Phi_last C~_i^+| 1`` of its ``x_i`` propagated to the current time, and a
+rank-deficient one anywhere in the state box.  The estimate is the centre of the smallest box
+holding all of these (cut to ``X``), ``info["radius"]`` its half-width per state: an outer bound of
+the set-membership box of :class:`~hybobs_opt.mhe.SetMembershipObserver` (the tests check that it
+holds the exact box, and equals it noise-free wherever it flags), for the cost of the table's
+matrix-vector product.  ``observable`` means every radius is within ``tolerance``; no passing
+sequence proves that the window contradicts the model or the bound: ``fallback`` with that reason.
 """
 
 from __future__ import annotations
@@ -59,10 +77,12 @@ from scipy.stats import chi2, norm
 
 from .._validate import as_instance
 from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
-                        false_alarm_probability, judge_samples_against, noise_std_vector)
+                        false_alarm_probability, judge_samples_against, noise_bound_vector, noise_std_vector,
+                        radius_tolerance_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import max_slack
-from ..tolerances import LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, RANK_RTOL, ZERO_ROW_TOL
+from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, MHE_UNIQUENESS_DELTA,
+                          RANK_RTOL, SET_MEMBERSHIP_BOX_RTOL, ZERO_ROW_TOL)
 from .lookup import input_bound_rows
 
 __all__ = ["NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"]
@@ -85,20 +105,32 @@ class _Sequence:
     null: np.ndarray | None  # (n, n - r) null-space basis of C~_i in scaled state coordinates
     covariance_last: np.ndarray | None  # Phi_last S_i Phi_last' (full rank only)
     last: tuple  # (Phi_last, Gamma_last, phi_last, last mode)
+    residual_tol: np.ndarray | None = None  # bounded noise: largest |whitened residual| per row
+    amplification_last: np.ndarray | None = None  # bounded noise: |Phi_last C~_i^+| (w beta), full rank only
 
 
 class NoiseAwareLookupObserver(Observer):
-    """Lookup-table observer for outputs with white Gaussian noise (see the module docstring).
+    """Lookup-table observer for noisy outputs: white Gaussian noise of stated standard deviations,
+    or noise within stated bounds (see the module docstring).
 
     Parameters
     ----------
     analysis : ObservabilityAnalysis
-        Result of Algorithm 3.1 at horizon ``T`` with ``T p > n`` (``hybobs_opt.regions``): the
-        residual test needs more output samples than states.
-    noise_std : float or (p,) array_like
-        Standard deviation of the output noise of each output, in output units.
+        Result of Algorithm 3.1 at horizon ``T`` (``hybobs_opt.regions``): ``T p > n`` with
+        ``noise_std`` (the residual test needs more output samples than states), ``T p >= n`` with
+        ``noise_bound``.
+    noise_std : float or (p,) array_like, optional
+        Standard deviation of the output noise of each output, in output units (Gaussian noise).
+    noise_bound : float, sequence or dict, optional
+        Bound on each output's noise, in output units (bounded noise; 0 for noise-free data):
+        every estimate then carries a certified radius.  Exactly one of ``noise_std`` and
+        ``noise_bound`` is given.
     false_alarm : float, default DEFAULT_FALSE_ALARM
-        Probability that the true mode sequence fails the tests of one window, in (0, 0.5).
+        Probability that the true mode sequence fails the tests of one window, in (0, 0.5)
+        (Gaussian noise only).
+    tolerance : float, sequence or dict, optional
+        Bounded noise: the largest radius per state for the flag ``observable``, in the states'
+        units; default ``MHE_UNIQUENESS_DELTA`` times the half-widths of the state box.
 
     Attributes
     ----------
@@ -119,7 +151,8 @@ class NoiseAwareLookupObserver(Observer):
 
     name = "lookup-noise"
 
-    def __init__(self, analysis, noise_std, *, false_alarm: float = DEFAULT_FALSE_ALARM):
+    def __init__(self, analysis, noise_std=None, *, noise_bound=None, false_alarm: float = DEFAULT_FALSE_ALARM,
+                 tolerance=None):
         from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
 
         as_instance(analysis, "analysis", ObservabilityAnalysis,
@@ -127,13 +160,32 @@ class NoiseAwareLookupObserver(Observer):
         system = analysis.system
         self.analysis, self.system, self.T = analysis, system, analysis.T
         self.n, self.m, self.p = system.n, system.m, system.p
-        if self.T * self.p <= self.n:
-            raise ModelError("analysis", f"a horizon T with T p > n = {self.n} (the residual test needs more output "
-                             f"samples than states; T >= {self.n // self.p + 1} here)", f"T = {self.T}, p = {self.p}")
-        self.noise_std = noise_std_vector(noise_std, self.p)
+        if (noise_std is None) == (noise_bound is None):
+            raise ModelError("noise_std / noise_bound", "exactly one: the standard deviations of Gaussian output noise, "
+                             "or a bound on each output's noise", f"noise_std={noise_std!r}, noise_bound={noise_bound!r}")
+        self.bounded = noise_bound is not None
+        if self.bounded:
+            if self.T * self.p < self.n:
+                raise ModelError("analysis", f"a horizon T with T p >= n = {self.n} (eq. 8)", f"T = {self.T}, p = {self.p}")
+            self.noise_bound = noise_bound_vector(noise_bound, system.output_names)
+            self.noise_std = None
+            self.name = "lookup-bounded"
+            half = system.scales()[0][: self.n]
+            self.tolerance = radius_tolerance_vector(tolerance, system.state_names, MHE_UNIQUENESS_DELTA * half)
+            #: widening of each side of the box (model units): rounding of the table's arithmetic
+            self.box_pad = SET_MEMBERSHIP_BOX_RTOL * half
+        else:
+            if tolerance is not None:
+                raise ModelError("tolerance", "no value with noise_std (it bounds the radii of noise_bound)", repr(tolerance))
+            if self.T * self.p <= self.n:
+                raise ModelError("analysis", f"a horizon T with T p > n = {self.n} (the residual test needs more output "
+                                 f"samples than states; T >= {self.n // self.p + 1} here)", f"T = {self.T}, p = {self.p}")
+            self.noise_std = noise_std_vector(noise_std, self.p)
+            self.noise_bound = None
         self.false_alarm = false_alarm_probability(false_alarm)
         self.state_names = system.state_names
-        judge_samples_against(self, system)
+        # bounded noise may push an output beyond the model's range: judge the inputs and the estimate only
+        judge_samples_against(self, system, outputs=not self.bounded)
         t0 = time.perf_counter()
         self._build_tables()
         self.table_seconds = time.perf_counter() - t0
@@ -145,7 +197,14 @@ class NoiseAwareLookupObserver(Observer):
         an, n, T, p, m = self.analysis, self.n, self.T, self.p, self.m
         scale, centre = an.enumeration.scale, an.enumeration.centre
         self._sx, self._cx = scale[:n], centre[:n]
-        w = np.tile(1.0 / self.noise_std, T)  # whitening of the stacked outputs
+        if self.bounded:
+            # any positive weights give a left inverse of C_i; 1 / beta makes the whitened noise |e| <= 1
+            beta = self.noise_bound
+            unit = np.where(beta > 0, beta, beta.max() if beta.max() > 0 else 1.0)
+            w = np.tile(1.0 / unit, T)
+            wb = np.tile(beta / unit, T)  # bound on each whitened noise sample (1, or 0 if noise-free)
+        else:
+            w = np.tile(1.0 / self.noise_std, T)  # whitening of the stacked outputs
         I = set(an.index_set)
         blocks, offsets, seqs = [], [], []
         row = 0
@@ -167,15 +226,19 @@ class NoiseAwareLookupObserver(Observer):
             Hx, HU = reg.H[:, :n], reg.H[:, n:]
             Mz = np.hstack([Hx @ Xz[:, : p * T], Hx @ Xz[:, p * T :] + HU])
             m0 = Hx @ x0 - reg.h
-            # each row's noise standard deviation at x_i; rows without it are input bounds (closed)
-            s_row = np.linalg.norm(Hx @ Cp, axis=1)
+            # each row's noise standard deviation at x_i (bounded: the largest deviation of its value);
+            # rows without it are input bounds (closed)
+            s_row = np.abs(Hx @ Cp) @ wb if self.bounded else np.linalg.norm(Hx @ Cp, axis=1)
             row_norm = np.linalg.norm(reg.H * scale[None, :], axis=1)
             row_norm = np.where(row_norm > 0, row_norm, 1.0)
             state_rows = np.linalg.norm(Hx * self._sx[None, :], axis=1) > ZERO_ROW_TOL * row_norm
             R = int(np.count_nonzero(state_rows))
             alpha = self.false_alarm
-            kappa = float(norm.isf(alpha / (2 * R))) if R else 0.0
-            threshold = float(chi2.isf(alpha / 2 if R else alpha, p * T - r))
+            if self.bounded:  # the margins are the noise's largest effect: no quantile
+                kappa, threshold = 1.0, np.inf
+            else:
+                kappa = float(norm.isf(alpha / (2 * R))) if R else 0.0
+                threshold = float(chi2.isf(alpha / 2 if R else alpha, p * T - r))
             closed = input_bound_rows(reg.H, reg.h, self.system, T, scale, centre) | ~state_rows
             tol = np.where(closed, LOOKUP_INPUT_BOUND_TOL * row_norm, kappa * s_row + LOOKUP_INPUT_BOUND_TOL * row_norm)
             null = None if r == n else Vt[r:].T
@@ -186,8 +249,14 @@ class NoiseAwareLookupObserver(Observer):
                 cov_last = (cov_last + cov_last.T) / 2
             k = reg.H.shape[0]
             box_margin = float(np.max(tol / row_norm)) if k else 0.0
+            res_tol = amp_last = None
+            if self.bounded:
+                # (I - C C^+) W (z - e) = 0 for the true sequence: |row of Q W z| <= |row of Q| (w beta)
+                res_tol = np.abs(Q) @ wb
+                if r == n:  # x_true = x_i - C~^+ W e, hence |x_true(t) - x_i(t)| <= |Phi_last C~^+| (w beta)
+                    amp_last = np.abs(reg.Phi_last @ Cp) @ wb
             seqs.append(_Sequence(idx, threshold, slice(row, row + n + p * T + k), k, tol, box_margin, null, cov_last,
-                                  (reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1])))
+                                  (reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1]), res_tol, amp_last))
             blocks += [Xz, Rz, Mz]
             offsets += [x0, r0, m0]
             row += n + p * T + k
@@ -199,6 +268,8 @@ class NoiseAwareLookupObserver(Observer):
         self._mem_starts = np.cumsum([0] + [q.n_member for q in seqs[:-1]])
         self._mem_tol = np.concatenate([q.member_tol for q in seqs])
         self._thresholds = np.array([q.threshold for q in seqs])
+        if self.bounded:
+            self._res_tol = np.concatenate([q.residual_tol for q in seqs])
         self.n_sequences = len(seqs)
         self._table = np.ascontiguousarray(np.vstack(blocks))
         self._offset = np.concatenate(offsets)
@@ -273,12 +344,21 @@ class NoiseAwareLookupObserver(Observer):
         """Steps 1-3 of the module docstring for every sequence: the table's values at ``z``, the
         indices of the passing sequences and every sequence's residual ``rho_i``."""
         vals = self._table @ z + self._offset
-        r2 = vals[self._res_idx] ** 2
-        rho = np.add.reduceat(r2, self._res_starts)
+        if self.bounded:
+            # rho_i: the largest excess of a residual row over its bound, in whitened units; rounding
+            # of the table's arithmetic is allowed for relative to the data (more candidates, never fewer)
+            res = vals[self._res_idx]
+            slack = BOUNDED_RESIDUAL_RTOL * (1.0 + float(np.max(np.abs(res), initial=0.0)))
+            rho = np.maximum.reduceat(np.abs(res) - self._res_tol, self._res_starts)
+            fits = rho <= slack
+        else:
+            r2 = vals[self._res_idx] ** 2
+            rho = np.add.reduceat(r2, self._res_starts)
+            fits = rho <= self._thresholds
         viol = vals[self._mem_idx] - self._mem_tol
         worst = np.maximum.reduceat(viol, self._mem_starts)
         passed = []
-        for k in np.nonzero(rho <= self._thresholds)[0]:
+        for k in np.nonzero(fits)[0]:
             seq = self._seqs[k]
             if worst[k] <= 0.0:
                 passed.append(int(k))
@@ -310,6 +390,8 @@ class NoiseAwareLookupObserver(Observer):
         passed = [self._seqs[k] for k in passed_idx]
         residuals = {s.index: float(rho[k]) for k, s in zip(passed_idx, passed)}
         cands = [self.analysis.regions[s.index].sequence for s in passed]
+        if self.bounded:
+            return self._bounded_estimate(vals, passed, cands, ok, why)
         if len(passed) == 1 and passed[0].null is None:
             seq = passed[0]
             x_start = vals[seq.rows][: self.n]
@@ -331,6 +413,41 @@ class NoiseAwareLookupObserver(Observer):
             info["reason"] = why
         return Estimate(self._x.copy(), self._mode, UNOBSERVABLE if ok else FALLBACK, 0.0, info)
 
+    def _bounded_estimate(self, vals: np.ndarray, passed: list, cands: list, ok: bool, why: str) -> Estimate:
+        """The box of the current states every passing sequence allows (bounded noise), its centre and radius."""
+        if not passed:
+            info = {"candidates": [], "reason": "no mode sequence fits the window within the stated noise bound (each "
+                    "violates a necessary condition): the data contradict the model or the bound"}
+            if not ok:
+                info["reason"] += f"; {why}"
+            return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, info)
+        lo_x, hi_x = self._x_lo, self._x_hi
+        lower, upper = np.full(self.n, np.inf), np.full(self.n, -np.inf)
+        Uw = self._U.reshape(-1)
+        modes = set()
+        for seq in passed:
+            Pl, Gl, pl, qlast = seq.last
+            modes.add(int(qlast))
+            if seq.null is not None:  # the data leave a direction free: only the state box bounds it
+                lower, upper = np.minimum(lower, lo_x), np.maximum(upper, hi_x)
+                continue
+            x_last = Pl @ vals[seq.rows][: self.n] + Gl @ Uw + pl
+            lower = np.minimum(lower, x_last - seq.amplification_last)
+            upper = np.maximum(upper, x_last + seq.amplification_last)
+        # the plant stays in X (the model's assumption): the box is cut to it
+        lower = np.maximum(lower, lo_x) - self.box_pad
+        upper = np.minimum(upper, hi_x) + self.box_pad
+        upper = np.maximum(upper, lower)
+        x = 0.5 * (lower + upper)
+        radius = 0.5 * (upper - lower)
+        self._x = x
+        self._mode = modes.pop() if len(modes) == 1 else -1
+        flag = OBSERVABLE if np.all(radius <= self.tolerance) else UNOBSERVABLE
+        info = {"radius": radius, "lower": lower, "upper": upper, "tolerance": self.tolerance, "candidates": cands}
+        if not ok:
+            info["note"] = why
+        return Estimate(x.copy(), self._mode, flag, 0.0, info)
+
     def _fallback(self, u, reason: str) -> Estimate:
         # a bad sample breaks the window: the next T samples rebuild it
         self._count = 0
@@ -343,4 +460,5 @@ class NoiseAwareLookupObserver(Observer):
         """Offline time, sequences tested per window and the LPs solved so far."""
         return {"table_seconds": self.table_seconds, "n_sequences": self.n_sequences,
                 "n_full_rank": int(sum(s.null is None for s in self._seqs)), "n_lps": self.n_lps,
-                "false_alarm": self.false_alarm}
+                "false_alarm": None if self.bounded else self.false_alarm,
+                "noise": "bounded" if self.bounded else "gaussian"}

@@ -21,6 +21,9 @@ from ..errors import ModelError
 #: Observer kinds for PWA systems, and the norm of the moving-horizon ones.
 PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1", "milp_inf": "inf",
                                         "set_membership": None}
+#: Observer kinds that take a bound on the output noise (required by ``set_membership``; the lookup
+#: observer with one reports certified radii).
+NOISE_BOUND_OBSERVERS = ("lookup", "set_membership")
 
 #: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
 #: in a summary against a noise-free log.
@@ -46,11 +49,14 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
                       noise_bound=None):
     """The observer ``kind`` for ``system``; the lookup observer uses ``analysis`` (of horizon ``horizon``),
     the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data), the
-    set-membership one ``noise_bound`` (:class:`~hybobs_opt.mhe.SetMembershipObserver`)."""
+    set-membership one ``noise_bound`` (:class:`~hybobs_opt.mhe.SetMembershipObserver`); the lookup
+    observer with a ``noise_bound`` is the bounded-noise one with radii
+    (:class:`~hybobs_opt.observers.NoiseAwareLookupObserver`)."""
     check_observer_kinds([kind])
-    if (noise_bound is None) == (kind == "set_membership"):
+    if (noise_bound is None and kind == "set_membership") or (noise_bound is not None and kind not in NOISE_BOUND_OBSERVERS):
         raise ModelError("noise_bound", "a bound on each output's noise for the set-membership observer (0 for "
-                         "noise-free data), and for no other observer", f"{noise_bound!r} with observer {kind!r}")
+                         "noise-free data), optional for the lookup observer, and for no other observer",
+                         f"{noise_bound!r} with observer {kind!r}")
     if kind == "set_membership":
         if fit_tolerance is not None:
             raise ModelError("fit_tolerance", "no value for the set-membership observer (it takes noise_bound)",
@@ -66,6 +72,10 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
 
         if analysis is None:
             raise ModelError("analysis", "the observability analysis of the system (Algorithm 3.1) for the lookup observer", "None")
+        if noise_bound is not None:
+            from .noise_lookup import NoiseAwareLookupObserver
+
+            return NoiseAwareLookupObserver(analysis, noise_bound=noise_bound)
         return LookupObserver(analysis, progress=None if progress is None else (lambda d, t: progress("lookup tables", "piece", d, t)))
     from ..mhe import MHEObserver
 
@@ -157,10 +167,11 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
     for kind in kinds:
         obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress,
                                 fit_tolerance=None if kind in ("lookup", "set_membership") else fit_tolerance,
-                                noise_bound=noise_bound if kind == "set_membership" else None)
+                                noise_bound=noise_bound if kind in NOISE_BOUND_OBSERVERS else None)
         trace, seconds = run_on_log(obs, log)
         rec = log_summary(trace, log, seconds)
-        rec["solver"] = getattr(obs, "solver", "highs (MILPs)" if kind == "set_membership" else "none (lookup table)")
+        rec["solver"] = getattr(obs, "solver", "highs (MILPs)" if kind == "set_membership" else
+                                "none (lookup table)" if noise_bound is None else "none (lookup table, bounded noise)")
         out[kind] = (trace, rec)
     return out
 

@@ -86,3 +86,47 @@ def test_bench_compares_radius_and_error_on_a_log(tmp_path, capsys):
     assert main(["bench", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "miqp",
                  "--noise-bound", "0.01"]) == 2
     assert "set_membership" in capsys.readouterr().err
+
+
+def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true_states(tmp_path, capsys):
+    """``--observer lookup --noise-bound``: the lookup table's bounded-noise path.  y = x2 leaves the
+    sign of x1 free (every state is unobservable): no step may be flagged unless the mirror image
+    lies within the tolerance, and the true state is inside every radius."""
+    X = _log(tmp_path / "log.csv", 0.02)
+    out = tmp_path / "est.csv"
+    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "lookup",
+                 "--noise-bound", "y=0.02", "-T", "3", "--out", str(out), "--json"])
+    assert code == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["n_outside_radius"] == 0 and rec["solver"] == "none (lookup table, bounded noise)"
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0]) == ["t", "x1", "x2", "mode", "flag", "radius_x1", "radius_x2"]
+    checked = 0
+    for k, row in enumerate(rows):
+        if row["flag"] == "warming_up":
+            continue
+        est = np.array([float(row["x1"]), float(row["x2"])])
+        radius = np.array([float(row["radius_x1"]), float(row["radius_x2"])])
+        assert np.all(np.abs(est - X[k]) <= radius + 1e-9)
+        assert radius[0] >= abs(X[k, 0]) - 0.05  # the mirror image is inside the box too
+        assert (row["flag"] == "observable") == bool(np.all(radius <= [0.5, 0.5]))
+        checked += 1
+    assert checked == len(rows) - 2
+    # the table's box holds the exact one of the set-membership MILPs (another formulation and solver)
+    exact = tmp_path / "exact.csv"
+    assert main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "set_membership",
+                 "--noise-bound", "y=0.02", "-T", "3", "--out", str(exact)]) == 0
+    capsys.readouterr()
+    for row, ref in zip(rows, csv.DictReader(exact.open())):
+        if row["flag"] == "warming_up":
+            continue
+        for s in ("x1", "x2"):
+            lo, hi = float(row[s]) - float(row["radius_" + s]), float(row[s]) + float(row["radius_" + s])
+            lo_x, hi_x = float(ref[s]) - float(ref["radius_" + s]), float(ref[s]) + float(ref["radius_" + s])
+            assert lo <= lo_x + 1e-6 and hi >= hi_x - 1e-6, (row, ref)
+    # without a bound the lookup observer is the exact one (no radius); other observers refuse a bound
+    base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
+    assert main(base + ["--observer", "lookup", "--json"]) == 0
+    assert "radius_max" not in json.loads(capsys.readouterr().out)
+    assert main(base + ["--observer", "milp", "--noise-bound", "0.1"]) == 2
+    assert "lookup" in capsys.readouterr().err
