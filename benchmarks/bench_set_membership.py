@@ -1,4 +1,4 @@
-"""The set-membership observer's certified radii: do they hold, how often is a step flagged, what
+"""The certified radii of the set-membership observer and of the lookup table under bounded noise: do they hold, how often is a step flagged, what
 does a step cost against the MIQP moving-horizon observer.
 
 Run ``python -m benchmarks.bench_set_membership`` (full, several minutes) or ``--quick`` (results
@@ -9,10 +9,12 @@ in ``benchmarks/results/quick/``).  Writes ``benchmarks/results/set_membership.j
   with ``y = x2`` (Bemporad & Morari 1999) -- noise-free and with uniform output noise at the
   stated bound (0.1 % and 1 % of the output range): the number of steps whose true state lies
   outside the stated radius (must be 0), the flag counts and the radii's median and largest
-  value per state.  On the rotation system every state has a mirror image with the same outputs:
-  a step is flagged only when the mirror is within the tolerance.
+  value per state, for :class:`~hybobs_opt.mhe.SetMembershipObserver` (exact box, MILPs) and
+  :class:`~hybobs_opt.observers.NoiseAwareLookupObserver` with ``noise_bound`` (outer box, one
+  table product; where ``T p >= n``).  On the rotation system every state has a mirror image with
+  the same outputs: a step is flagged only when the mirror is within the tolerance.
 * **timing**: per-step median of :class:`~hybobs_opt.mhe.SetMembershipObserver` against
-  :class:`~hybobs_opt.mhe.MHEObserver` (norm 2, the default) on model (16) at T = 3 and 5, the
+  :class:`~hybobs_opt.mhe.MHEObserver` (norm 2, the default) and of the bounded-noise lookup on model (16) at T = 3 and 5, the
   same samples, one run (ratios, not absolute speed).
 """
 
@@ -64,38 +66,56 @@ def _cases(steps: int) -> dict:
     return out
 
 
-def coverage(steps: int, T: int, log) -> dict:
+def _observers(system, T: int, beta, analyses: dict) -> dict:
+    """The observers with radii: the set-membership MILPs and the lookup table under bounded noise."""
     from hybobs_opt.mhe import SetMembershipObserver
+    from hybobs_opt.observers import NoiseAwareLookupObserver
+    from hybobs_opt.regions import analyse_observability
+
+    out = {"set_membership": SetMembershipObserver(system, T, beta)}
+    if T * system.p >= system.n:
+        key = (system.name, T)
+        if key not in analyses:
+            analyses[key] = analyse_observability(system, T)
+        out["lookup_bounded"] = NoiseAwareLookupObserver(analyses[key], noise_bound=beta)
+    return out
+
+
+def coverage(steps: int, T: int, log) -> dict:
     from hybobs_opt.systems.ranges import output_range
 
     table = {}
     rng = np.random.default_rng(2026)
+    analyses: dict = {}
     for name, (system, U, X, Y) in _cases(steps).items():
         lo, hi = output_range(system)
         for level in (0.0, 0.001, 0.01):
             beta = level * (hi - lo)
             Yn = Y + rng.uniform(-1.0, 1.0, size=Y.shape) * beta
-            obs = SetMembershipObserver(system, T, beta)
-            t0 = time.perf_counter()
-            run = obs.run(U, Yn)
-            seconds = time.perf_counter() - t0
-            R = np.array([inf["radius"] if "radius" in inf else np.full(system.n, np.nan) for inf in run.info])
-            has = np.all(np.isfinite(R), axis=1)
-            err = np.abs(run.x_hat - X)
-            outside = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
-            flags = {f: int(np.count_nonzero(run.flags == f)) for f in ("observable", "unobservable", "fallback", "warming_up")}
-            key = f"{name} T={T} noise={level:g}"
-            table[key] = {"samples": int(len(U)), "noise_bound": beta.tolist(), "n_outside_radius": outside,
-                          "flags": flags, "radius_median": np.nanmedian(R, axis=0).tolist() if has.any() else None,
-                          "radius_max": np.nanmax(R, axis=0).tolist() if has.any() else None,
-                          "tolerance": obs.tolerance.tolist(), "seconds_per_step": seconds / len(U)}
-            log(f"{key}: outside {outside}, flags {flags}, {1e3 * seconds / len(U):.1f} ms/step")
+            for kind, obs in _observers(system, T, beta, analyses).items():
+                t0 = time.perf_counter()
+                run = obs.run(U, Yn)
+                seconds = time.perf_counter() - t0
+                R = np.array([inf["radius"] if "radius" in inf else np.full(system.n, np.nan) for inf in run.info])
+                has = np.all(np.isfinite(R), axis=1)
+                err = np.abs(run.x_hat - X)
+                outside = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
+                flags = {f: int(np.count_nonzero(run.flags == f)) for f in ("observable", "unobservable", "fallback", "warming_up")}
+                key = f"{name} T={T} noise={level:g} {kind}"
+                table[key] = {"observer": kind, "system": name, "noise_level": level, "samples": int(len(U)),
+                              "noise_bound": beta.tolist(), "n_outside_radius": outside, "flags": flags,
+                              "radius_median": np.nanmedian(R, axis=0).tolist() if has.any() else None,
+                              "radius_max": np.nanmax(R, axis=0).tolist() if has.any() else None,
+                              "tolerance": obs.tolerance.tolist(), "seconds_per_step": seconds / len(U)}
+                log(f"{key}: outside {outside}, flags {flags}, {1e3 * seconds / len(U):.2f} ms/step")
     return table
 
 
 def timing(steps: int, log) -> dict:
     from hybobs_opt import MHEObserver, get_example, simulate_pwa
     from hybobs_opt.mhe import SetMembershipObserver
+    from hybobs_opt.observers import NoiseAwareLookupObserver
+    from hybobs_opt.regions import analyse_observability
     from hybobs_opt.studies.paper002_powertrain.systems import backlash_torque_profile
 
     plant = get_example("powertrain3").build()
@@ -105,13 +125,16 @@ def timing(steps: int, log) -> dict:
     out = {}
     for T in (3, 5):
         rec = {}
+        analysis = analyse_observability(plant, T)
         for name, make in (("miqp", lambda: MHEObserver(plant, T)),
-                           ("set_membership", lambda: SetMembershipObserver(plant, T, 0.0))):
+                           ("set_membership", lambda: SetMembershipObserver(plant, T, 0.0)),
+                           ("lookup_bounded", lambda: NoiseAwareLookupObserver(analysis, noise_bound=0.0))):
             run = make().run(U, Y)
             secs = [s for s, f in zip(run.seconds, run.flags) if f != "warming_up"]
             rec[name] = {"median_step_s": statistics.median(secs), "flagged_observable": int(np.count_nonzero(run.flags == "observable")),
                          "steps": int(len(U))}
         rec["ratio_set_membership_to_miqp"] = rec["set_membership"]["median_step_s"] / rec["miqp"]["median_step_s"]
+        rec["ratio_lookup_bounded_to_miqp"] = rec["lookup_bounded"]["median_step_s"] / rec["miqp"]["median_step_s"]
         out[f"T={T}"] = rec
         log(f"timing T={T}: {rec}")
     return out
@@ -123,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out_dir = RESULTS / "quick" if args.quick else RESULTS
     out_dir.mkdir(parents=True, exist_ok=True)
-    steps = 60 if args.quick else 450
+    steps = 60 if args.quick else 650  # 4 systems x 2 noise levels x 650 = 5,200 noisy samples
     t0 = time.perf_counter()
 
     def log(msg: str) -> None:
@@ -138,8 +161,11 @@ def main(argv: list[str] | None = None) -> int:
         "coverage": coverage(steps, 3, log),
         "timing": timing(40 if args.quick else 200, log),
     }
-    record["total_outside_radius"] = sum(r["n_outside_radius"] for r in record["coverage"].values())
-    record["total_samples"] = sum(r["samples"] for r in record["coverage"].values())
+    for kind in ("set_membership", "lookup_bounded"):
+        rows = [r for r in record["coverage"].values() if r["observer"] == kind]
+        record[f"{kind}_total_outside_radius"] = sum(r["n_outside_radius"] for r in rows)
+        record[f"{kind}_total_samples"] = sum(r["samples"] for r in rows)
+        record[f"{kind}_noisy_samples"] = sum(r["samples"] for r in rows if r["noise_level"] > 0)
     record["seconds"] = time.perf_counter() - t0
     path = out_dir / "set_membership.json"
     path.write_text(json.dumps(record, indent=1, default=json_default) + "\n")
