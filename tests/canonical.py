@@ -143,3 +143,44 @@ def deadzone_drive(steps: int, Ts: float = 0.05) -> np.ndarray:
     """Drive speed of the dead-zone spring's scenario: two sines that cross the dead zone both ways."""
     t = np.arange(steps) * Ts
     return (0.8 * np.sin(0.7 * t) + 0.2 * np.sin(3.1 * t))[:, None]
+
+
+def dc_motor_friction(Ts: float = 0.01, J: float = 0.01, b: float = 0.1, K: float = 0.5, R: float = 1.0,
+                      L: float = 0.05, tau_c: float = 0.05, w0: float = 0.2) -> PWASystem:
+    """A DC motor with piecewise-linear friction, angle measured: three states, two inputs.
+
+    States ``theta`` (rad), ``omega`` (rad/s), ``i`` (A); inputs the voltage ``v`` (V) and a load
+    torque ``tau_l`` (N m); output ``theta``.  Euler-discretised:
+    ``theta+ = theta + Ts omega``, ``omega+ = omega + Ts / J (K i - b omega - f(omega) - tau_l)``,
+    ``i+ = i + Ts / L (v - R i - K omega)``, with the friction ``f`` Coulomb's ``tau_c sign(omega)``
+    outside ``|omega| <= w0`` and linear inside (three modes: ``reverse``, ``stick``, ``forward``;
+    continuous across the guards).  Bounds ``|theta| <= 20``, ``|omega| <= 10``, ``|i| <= 4``,
+    ``|v| <= 6``, ``|tau_l| <= 0.1``.  Known structure: the state is observable from the angle in
+    every mode (the current reaches it through the speed), with a noise amplification that grows
+    as ``1 / Ts^2`` for the current: a system where noise, not ambiguity, limits the estimate.
+    """
+    a_w = Ts / J
+    modes = []
+    for name, slope, offset, rows, rhs in (
+            ("reverse", 0.0, -tau_c, [[0.0, 1.0, 0.0, 0.0, 0.0]], [-w0]),
+            ("stick", tau_c / w0, 0.0, [[0.0, 1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0, 0.0]], [w0, w0]),
+            ("forward", 0.0, tau_c, [[0.0, -1.0, 0.0, 0.0, 0.0]], [-w0])):
+        A = np.array([[1.0, Ts, 0.0],
+                      [0.0, 1.0 - a_w * (b + slope), a_w * K],
+                      [0.0, -Ts * K / L, 1.0 - Ts * R / L]])
+        B = np.array([[0.0, 0.0], [0.0, -a_w], [Ts / L, 0.0]])
+        a = np.array([0.0, -a_w * offset, 0.0])
+        C = np.array([[1.0, 0.0, 0.0]])
+        modes.append(PWAMode(A, B, a, C, Polytope(np.array(rows), np.array(rhs)), name=name))
+    return PWASystem(tuple(modes), Polytope.from_box([-20.0, -10.0, -4.0], [20.0, 10.0, 4.0]),
+                     Polytope.from_box([-6.0, -0.1], [6.0, 0.1]), ("theta", "omega", "i"), ("v", "tau_l"),
+                     ("theta",), name="dc_motor_friction")
+
+
+def dc_motor_drive(steps: int, Ts: float = 0.01) -> np.ndarray:
+    """Voltage and load torque of the DC motor's scenario: the speed reverses through the friction's
+    stick band (a slow sine plus a faster one) under a slowly varying load."""
+    t = np.arange(steps) * Ts
+    v = 1.5 * np.sin(0.8 * t) + 0.5 * np.sin(5.3 * t)
+    tau = 0.05 * np.sin(0.3 * t)
+    return np.column_stack([v, tau])

@@ -345,11 +345,13 @@ class KalmanArrival:
         self._floor = np.diag(np.asarray(min_std, dtype=float) ** 2)
         self.x = np.zeros(system.n)
         self.P = self.P0.copy()
+        self.consistency = NoiseConsistencyTest(system.p)
 
     def reset(self, x0: np.ndarray) -> None:
         """Start again from ``x0`` with the initial covariance."""
         self.x = np.asarray(x0, dtype=float).copy()
         self.P = self.P0.copy()
+        self.consistency.reset()
 
     def advance(self, u: np.ndarray, y: np.ndarray, q: int) -> None:
         """Take the sample ``(u, y)`` in mode ``q`` and predict the next state (Joseph form).
@@ -366,7 +368,9 @@ class KalmanArrival:
         C, P = md.C, self.P
         S = C @ P @ C.T + self.R
         K = np.linalg.solve(S, C @ P).T
-        x = self.x + K @ (y - C @ self.x - md.D @ u - md.c)
+        nu = y - C @ self.x - md.D @ u - md.c
+        self.consistency.add(float(nu @ np.linalg.solve(S, nu)))
+        x = self.x + K @ nu
         IKC = np.eye(P.shape[0]) - K @ C
         Pf = IKC @ P @ IKC.T + K @ self.R @ K.T
         self.x = md.A @ x + md.B @ u + md.a
@@ -383,3 +387,61 @@ class KalmanArrival:
     def std(self) -> np.ndarray:
         """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
         return np.sqrt(np.diag(self.P))
+
+
+#: Samples of the noise-consistency test (:class:`NoiseConsistencyTest`).
+CONSISTENCY_WINDOW: int = 10
+
+#: False-alarm probability of one noise-consistency test.
+CONSISTENCY_FALSE_ALARM: float = 1e-3
+
+
+class NoiseConsistencyTest:
+    """Do the filter's innovations agree with the stated noise level?
+
+    With the right model, modes and noise level, the normalised innovation squared of the filter,
+    ``nis(k) = nu(k)' S(k)^-1 nu(k)`` (``nu = y - C x^-``, ``S = C P C' + R``), is chi-square with
+    ``p`` degrees of freedom, independently from sample to sample; the sum over the last
+    ``window`` samples is chi-square with ``window p`` (Bar-Shalom, Li & Kirubarajan, "Estimation
+    with applications to tracking and navigation", Wiley 2001, Section 5.4: the NIS test of filter
+    consistency).  The test rejects the stated noise level when that sum exceeds its ``1 -
+    false_alarm`` quantile; with fewer samples since a reset it tests the ones it has.  A rejection
+    says that the data contradict the stated noise level, the model or the modes the filter was
+    given -- it cannot say which -- and the observer withdraws its ``observable`` flags while it
+    lasts: its covariance is only as good as the noise level it was computed from.
+
+    Parameters
+    ----------
+    p : int
+        Outputs per sample.
+    window : int, default CONSISTENCY_WINDOW
+        Samples summed.
+    false_alarm : float, default CONSISTENCY_FALSE_ALARM
+        Probability that the test rejects a correct noise level (per test).
+    """
+
+    def __init__(self, p: int, window: int = CONSISTENCY_WINDOW, false_alarm: float = CONSISTENCY_FALSE_ALARM):
+        from collections import deque
+
+        from scipy.stats import chi2
+
+        self.p, self.window, self.false_alarm = int(p), int(window), float(false_alarm)
+        self._values: deque = deque(maxlen=self.window)
+        self._quantiles = [float(chi2.isf(self.false_alarm, k * self.p)) for k in range(1, self.window + 1)]
+
+    def reset(self) -> None:
+        self._values.clear()
+
+    def add(self, nis: float) -> None:
+        """One sample's normalised innovation squared (a non-finite one counts as a rejection)."""
+        self._values.append(nis if np.isfinite(nis) else np.inf)
+
+    def result(self) -> dict:
+        """``consistent`` (None before the first sample), the sum, its threshold and the sample count."""
+        k = len(self._values)
+        if k == 0:
+            return {"consistent": None, "samples": 0}
+        total = float(sum(self._values))
+        threshold = self._quantiles[k - 1]
+        return {"consistent": bool(total <= threshold), "nis_sum": total, "threshold": threshold, "samples": k,
+                "false_alarm": self.false_alarm}

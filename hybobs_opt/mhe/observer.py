@@ -172,7 +172,13 @@ class MHEObserver(Observer):
         window-start state and ``W_a`` the inverse square root of its covariance, so no sample
         enters both the prior and the window (``info["arrival"]``: the prior and its standard
         deviations).  The weight changes the MIQP's Hessian each window: DAQP's workspace is
-        updated in place, nothing is rebuilt.
+        updated in place, nothing is rebuilt.  Each flagged estimate then states its covariance
+        (``info["covariance"]``, the Gaussian posterior of the optimal mode sequence), claimed
+        only while the filter's normalised innovations agree with the stated noise level
+        (:class:`~hybobs_opt.mhe.arrival.NoiseConsistencyTest`, ``info["noise_consistency"]``):
+        an ``observable`` flag is withdrawn (``unobservable``, the optimum kept as the estimate,
+        ``info["note"]`` says why) while the test rejects ``noise_std``, and withheld until it has
+        tested a full window of samples since the last reset.
     x0 : (n,) array, optional
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
     solver_options : dict, optional
@@ -1159,6 +1165,22 @@ class MHEObserver(Observer):
             flag = self._decide(self._U, self._Y, xbar, result, info)
             if self._kalman is not None:
                 info["covariance"] = self._estimate_covariance(result, xbar).tolist()
+                check = self._kalman.consistency.result()
+                info["noise_consistency"] = check
+                if flag == OBSERVABLE and not (check["consistent"] and check["samples"] >= self._kalman.consistency.window):
+                    # the covariance rests on the stated noise level: while the data contradict it, or
+                    # too few samples have tested it, the optimum is the estimate but nothing about its
+                    # error is claimed
+                    self._x, self._mode = states[-1].copy(), int(modes[-1])
+                    if check["consistent"] is False:
+                        info["note"] = (f"flag withdrawn: the filter's normalised innovations over the last "
+                                        f"{check['samples']} samples sum to {check['nis_sum']:.4g} > {check['threshold']:.4g} "
+                                        f"(chi-square, false alarm {check['false_alarm']:g}): the data contradict the "
+                                        "stated noise level (or the model)")
+                    else:
+                        info["note"] = (f"flag withheld: the stated noise level is tested on {check['samples']} of the "
+                                        f"{self._kalman.consistency.window} samples its test needs since the last reset")
+                    return Estimate(self._x.copy(), self._mode, UNOBSERVABLE, 0.0, info)
             if flag == OBSERVABLE:
                 self._x, self._mode = states[-1].copy(), int(modes[-1])
                 return Estimate(self._x.copy(), self._mode, OBSERVABLE, 0.0, info)
