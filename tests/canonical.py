@@ -184,3 +184,25 @@ def dc_motor_drive(steps: int, Ts: float = 0.01) -> np.ndarray:
     v = 1.5 * np.sin(0.8 * t) + 0.5 * np.sin(5.3 * t)
     tau = 0.05 * np.sin(0.3 * t)
     return np.column_stack([v, tau])
+
+
+def noise_study_case(name: str, steps: int):
+    """``(system, U, trace, sigma)``: a noise-free run of ``steps`` samples and a noise level for
+    it -- ``"model16"`` (paper 002's backlash scenario, sigma 1e-3 rad/s), ``"deadzone_spring"``
+    (sigma 0.03, 0.5 % of the output range) or ``"dc_motor"`` (sigma 1e-3 rad)."""
+    from hybobs_opt import get_example, simulate_pwa
+    from hybobs_opt.studies.paper002_powertrain.systems import backlash_torque_profile
+
+    if name == "model16":
+        system = get_example("powertrain3").build()
+        U = backlash_torque_profile(np.arange(steps) * system.Ts)[:, None]
+        return system, U, simulate_pwa(system, np.array([0.06, 39.0, 3.25]), U), 1e-3
+    if name == "deadzone_spring":
+        system = deadzone_spring()
+        U = deadzone_drive(steps)
+        return system, U, simulate_pwa(system, np.array([0.3, 0.0]), U), 0.03
+    if name == "dc_motor":
+        system = dc_motor_friction()
+        U = dc_motor_drive(steps)
+        return system, U, simulate_pwa(system, np.zeros(3), U), 1e-3
+    raise ValueError(name)

@@ -13,12 +13,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from canonical import dc_motor_drive, dc_motor_friction, deadzone_drive, deadzone_spring
+from canonical import noise_study_case
 
-from hybobs_opt import MHEObserver, get_example, simulate_pwa
+from hybobs_opt import MHEObserver
 from hybobs_opt.contract import OBSERVABLE
 from hybobs_opt.mhe.arrival import NoiseConsistencyTest
-from hybobs_opt.studies.paper002_powertrain.systems import backlash_torque_profile
 
 
 def test_the_false_alarm_rate_is_the_stated_one_and_a_wrong_level_is_rejected():
@@ -44,22 +43,8 @@ def test_the_false_alarm_rate_is_the_stated_one_and_a_wrong_level_is_rejected():
     assert test.result()["consistent"] is False
 
 
-def _case(name: str, steps: int):
-    if name == "model16":
-        system = get_example("powertrain3").build()
-        U = backlash_torque_profile(np.arange(steps) * system.Ts)[:, None]
-        return system, U, simulate_pwa(system, np.array([0.06, 39.0, 3.25]), U), 1e-3
-    if name == "deadzone_spring":
-        system = deadzone_spring()
-        U = deadzone_drive(steps)
-        return system, U, simulate_pwa(system, np.array([0.3, 0.0]), U), 0.03
-    system = dc_motor_friction()
-    U = dc_motor_drive(steps)
-    return system, U, simulate_pwa(system, np.zeros(3), U), 1e-3
-
-
 def _run(name: str, steps: int, stated_factor: float):
-    system, U, trace, sigma = _case(name, steps)
+    system, U, trace, sigma = noise_study_case(name, steps)
     Y = trace.y + np.random.default_rng(1).normal(size=trace.y.shape) * sigma
     obs = MHEObserver(system, 3, noise_std=sigma / stated_factor, arrival_weight="kalman")
     distances, notes = [], []
