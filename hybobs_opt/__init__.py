@@ -56,6 +56,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("Estimate", "Observer", "ObserverTrace"), "hybobs_opt.contract"),
     "MHEObserver": "hybobs_opt.mhe",
     "SetMembershipObserver": "hybobs_opt.mhe",
+    "SetMembershipFilter": "hybobs_opt.observers.set_filter",
     "observe_log": "hybobs_opt.observers.recorded",
     **dict.fromkeys(("ContinuousObserver", "DriftObserver", "HybridObserver", "LocationObserver", "LookupObserver",
                      "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver", "deadbeat_gains",

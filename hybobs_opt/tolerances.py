@@ -575,6 +575,18 @@ SET_MEMBERSHIP_BOUND_RTOL: float = 1e-7
 #: more candidate sequences, hence a larger radius: the safe side.
 BOUNDED_RESIDUAL_RTOL: float = 1e-9
 
+#: Set-membership filter (:class:`~hybobs_opt.observers.set_filter.SetMembershipFilter`): every row
+#: ``a' s <= b`` of a piece (scaled state coordinates) is relaxed to ``a' s <= b + rtol (|a| + |b|)``
+#: before its emptiness test, and the relaxed piece is kept: rounding in the LPs and in the affine
+#: maps can then never drop the true state, at the price of a set larger by about ``rtol`` of the
+#: state box per step (3e-7 after 3,000 steps).
+SET_FILTER_ROW_RTOL: float = 1e-10
+
+#: Set-membership filter: the noise bound it uses is at least this fraction of each output's range
+#: (noise-free data would otherwise make every piece a slab thinner than HiGHS's feasibility
+#: tolerance, decided by rounding); a wider bound keeps more states, never fewer.
+SET_FILTER_MIN_NOISE_RTOL: float = 1e-7
+
 #: Candidate active sets of an interior-point answer (the uniqueness test's robust QP bound): a
 #: row counts as met within this fraction of ``1 + |g|`` ...
 KKT_ACTIVE_SLACK_RTOL: float = 1e-9

@@ -7,6 +7,7 @@ observer                        paper, module
 ``LookupObserver``              002, deadbeat observer by lookup tables (:mod:`.lookup`; as C99: :mod:`.c_export`)
 ``NoiseAwareLookupObserver``    002 with noisy outputs: statistical tests per region (:mod:`.noise_lookup`)
 ``ParameterBank``               002 with an unknown parameter: lookup observers over a grid (:mod:`.parameter_bank`)
+``SetMembershipFilter``         every sample so far, bounded noise: a union of polytopes (:mod:`.set_filter`)
 ``MHEObserver``                 002, MIQP/MILP moving horizon (:mod:`hybobs_opt.mhe`)
 ``LocationObserver``            000, residual-bank location observer (:mod:`.location_observer`)
 ``HybridObserver``              000, location + continuous observer (:mod:`.hybrid_observer`)
@@ -29,6 +30,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("CExport", "export_lookup_c"), "hybobs_opt.observers.c_export"),
     **dict.fromkeys(("NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"), "hybobs_opt.observers.noise_lookup"),
     **dict.fromkeys(("ParameterBank", "ParameterBankTrace"), "hybobs_opt.observers.parameter_bank"),
+    **dict.fromkeys(("SetMembershipFilter", "DEFAULT_MAX_PIECES"), "hybobs_opt.observers.set_filter"),
     "MHEObserver": "hybobs_opt.mhe",
     **dict.fromkeys(("LocationObserver", "ResidualBank", "design_residual_bank", "detection_delays"),
                     "hybobs_opt.observers.location_observer"),

@@ -67,3 +67,21 @@ def test_bad_arguments_name_the_field():
         run_unknown_gap_study(draws=0)
     with pytest.raises(ModelError, match="grid_step"):
         run_unknown_gap_study(draws=1, grid_step=0.5)
+
+
+@pytest.mark.parametrize("noise", ["uniform", "gaussian"])
+def test_the_interval_of_gaps_holds_the_hidden_gap_under_bounded_noise(noise):
+    """The set-membership filter on the augmented system (engine speed within 1e-3 rad/s): the
+    hidden gap and every true state lie in the reported box at every step, the interval of gaps
+    stays the prior [0.02, 0.08] until the shaft has crossed the gap and shrinks to the gap after
+    it, and a flagged twist lies within its radius.  Oracle: the simulated truth."""
+    from hybobs_opt.studies.paper002_powertrain.unknown_gap import run_gap_interval_study
+
+    out = run_gap_interval_study([0.03, 0.07], steps=300, start=900, noise=noise, seed=2)
+    for d in out["draws"]:
+        assert d["noise_within_bound"]
+        assert d["n_outside_box"] == 0
+        assert d["interval_within_1_percent_from_sample"] >= d["first_crossing_sample"] - 2
+        lo, hi = d["final_interval"]
+        assert lo <= d["alpha"] <= hi and hi - lo <= 0.01 * d["alpha"]
+        assert d["n_flagged_observable"] > 0 and d["max_theta_error_over_radius_flagged"] <= 1.0

@@ -1,0 +1,414 @@
+"""Recursive set-membership filtering of a PWA system: the states consistent with *every* sample
+so far, as a union of polytopes, under bounded output noise.
+
+The windowed observers with radii (:class:`~hybobs_opt.mhe.SetMembershipObserver`, the lookup
+table with ``noise_bound``) bound the states consistent with the last ``T`` samples.  Some
+quantities are decided only by a longer history: the backlash gap of model (16) of paper 002 is
+seen only when the shaft traverses the whole gap, 50-120 samples on the bench scenario, while in
+each contact mode the outputs depend on ``theta - alpha`` alone.  A constant unknown parameter
+becomes a state of the augmented system (:func:`~hybobs_opt.systems.parameters.augment_parameters`),
+and this filter keeps the set of augmented states consistent with the whole record, so the
+parameter's interval narrows as the data rule values out and never widens.
+
+The recursion is the set-valued observer of Schweppe ("Recursive state estimation: unknown but
+bounded errors and system inputs", IEEE TAC 13(1), 1968) and Shamma & Tu ("Set-valued observers
+and optimal disturbance rejection", IEEE TAC 44(2), 1999), over the modes of a PWA system.  With
+``S(t)`` the set of states at time ``t`` consistent with the samples before ``t`` (``S(0) = X``):
+
+* **measurement**: for every piece ``P`` of ``S(t)`` and every mode ``q``, the piece
+  ``P ∩ {x : (x, u(t)) in the guard of q} ∩ {x : |y(t) - C_q x - D_q u(t) - c_q| <= beta}``;
+  the non-empty ones make up the states consistent with the samples up to ``t``;
+* **estimate**: the bounding box of their union (LPs), its centre and half-width (``radius``);
+* **time update**: each piece mapped by its mode's dynamics ``A_q x + B_q u(t) + a_q`` and cut to
+  ``X`` (the model's assumption that the plant stays there): the pieces of ``S(t + 1)``.
+
+Every step keeps the true state whenever the data satisfy the noise bound and the model is
+exact: the pieces are only ever intersected with sets the true state satisfies, mapped exactly
+(affine images of polytopes), or enlarged.  Enlarged where exact arithmetic would cost too much,
+always outward: an emptiness test relaxes every row by ``SET_FILTER_ROW_RTOL`` (a piece is dropped
+only when even the relaxed one is empty, and the relaxed one is kept), redundant rows are dropped
+(never a facet: the LP of :meth:`~hybobs_opt.geometry.polytope.Polytope.remove_redundant` keeps a
+row unless it is implied), and when the union has more than ``max_pieces`` pieces, the two
+nearest are replaced by the convex hull of their vertices (or, if that conversion fails, by
+their common bounding box), widened by the same relative margin.  What is proven is therefore
+an outer bound: the true state lies in the box; the box may be larger than the exact one.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, Estimate, Observer, judge_samples_against,
+                        noise_bound_vector, radius_tolerance_vector)
+from ..errors import ModelError, SolverError
+from ..geometry.lp import solve_lp
+from ..geometry.polytope import Polytope
+from ..tolerances import MHE_UNIQUENESS_DELTA, SET_FILTER_MIN_NOISE_RTOL, SET_FILTER_ROW_RTOL
+
+__all__ = ["SetMembershipFilter", "DEFAULT_MAX_PIECES"]
+
+#: Largest number of polytopes kept in the union (the nearest two are merged beyond it).
+DEFAULT_MAX_PIECES: int = 8
+
+#: Every this many steps each piece's redundant rows are removed by LPs (in between, only rows
+#: implied by the piece's mapped bounding box go, which needs no LP).
+REDUNDANCY_PERIOD: int = 10
+
+#: A piece with more rows than this has its redundant rows removed at once.
+MAX_ROWS_BEFORE_REDUNDANCY: int = 60
+
+#: The pieces lie in the unit box of ``X`` (scaled), relaxed: ``|s_i| <= 1 + UNIT_BOX_MARGIN``
+#: bounds the residual term of the proven box bounds.
+UNIT_BOX_MARGIN: float = 1e-6
+
+#: A row is redundant when the other rows keep it within this (relative) of its bound.
+REDUNDANCY_RTOL: float = 1e-9
+
+
+def _row_box(P: Polytope, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """An outer box of ``P`` from its single-coordinate rows (``+-e_i' s <= b``), else ``[-inf, inf]``."""
+    lo, hi = np.full(n, -np.inf), np.full(n, np.inf)
+    A, b = P.A, P.b
+    nz = np.count_nonzero(A, axis=1) == 1
+    for r in np.nonzero(nz)[0]:
+        i = int(np.flatnonzero(A[r])[0])
+        v = b[r] / A[r, i]
+        if A[r, i] > 0:
+            hi[i] = min(hi[i], v)
+        else:
+            lo[i] = max(lo[i], v)
+    return lo, hi
+
+
+class _PieceLP:
+    """One piece ``{s : A s <= b}`` (scaled coordinates, within the relaxed unit box) loaded once in
+    HiGHS (``highspy``); its LPs change only the cost or one row bound, so each re-solve starts
+    from the previous basis.
+
+    :meth:`upper_bound` returns a bound proven from HiGHS's row duals, whatever their accuracy: for
+    any ``y >= 0``, ``c' s = y' A s + (c - A' y)' s <= y' b + |c - A' y|' 1 (1 + margin)`` on the
+    piece (every piece lies in the unit box of ``X``, relaxed).  Redundant rows are found by the
+    same model; a row wrongly called redundant only enlarges the set, the safe side.
+    """
+
+    def __init__(self, A: np.ndarray, b: np.ndarray):
+        import highspy
+
+        self._hs = highspy
+        self.A, self.b = A, b
+        k, n = A.shape
+        h = highspy.Highs()
+        h.setOptionValue("output_flag", False)
+        inf = highspy.kHighsInf
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = n, k
+        lp.col_cost_ = np.zeros(n)
+        lp.col_lower_, lp.col_upper_ = np.full(n, -inf), np.full(n, inf)
+        lp.row_lower_, lp.row_upper_ = np.full(k, -inf), np.asarray(b, dtype=float).copy()
+        A = np.asarray(A, dtype=float)
+        nz = A != 0.0
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+        lp.a_matrix_.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+        lp.a_matrix_.index_ = np.nonzero(nz)[1].astype(np.int32)
+        lp.a_matrix_.value_ = A[nz]
+        # kWarning: HiGHS dropped matrix entries below its small-value threshold (1e-9); the rows it
+        # solves then differ from A by less than that, and the bounds below are proven with A itself
+        if h.passModel(lp) not in (highspy.HighsStatus.kOk, highspy.HighsStatus.kWarning):
+            raise SolverError("set-membership filter: a piece's LP", "HiGHS", "passModel failed", "report this model")
+        self._h, self._n, self._k = h, n, k
+        self._cols = np.arange(n, dtype=np.int32)
+
+    def _solve(self, c: np.ndarray):
+        h = self._h
+        h.changeColsCost(self._n, self._cols, -np.asarray(c, dtype=float))  # HiGHS minimises
+        h.run()
+        return h.getModelStatus()
+
+    def feasible(self) -> bool | None:
+        """True / False when HiGHS says so (False still to be confirmed), None when it cannot tell."""
+        st = self._solve(np.zeros(self._n))
+        MS = self._hs.HighsModelStatus
+        if st == MS.kOptimal:
+            return True
+        if st == MS.kInfeasible:
+            return False
+        return None
+
+    def upper_bound(self, c: np.ndarray, active: np.ndarray | None = None) -> float:
+        """A proven bound on ``max c' s`` over the piece (rows ``active`` only, default all)."""
+        st = self._solve(c)
+        if st != self._hs.HighsModelStatus.kOptimal:
+            raise SolverError("set-membership filter: the bounding box of a piece", "HiGHS", str(st),
+                              "the piece should be non-empty and bounded; report this model")
+        y = np.maximum(-np.asarray(self._h.getSolution().row_dual, dtype=float), 0.0)
+        A, b = self.A, self.b
+        if active is not None:
+            y = np.where(active, y, 0.0)
+        r = np.asarray(c, dtype=float) - A.T @ y
+        return float(y @ b + np.abs(r).sum() * (1.0 + UNIT_BOX_MARGIN))
+
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Proven ``(lower, upper)`` of the piece, 2n re-solves."""
+        lo, hi = np.empty(self._n), np.empty(self._n)
+        for i in range(self._n):
+            e = np.zeros(self._n)
+            e[i] = 1.0
+            hi[i] = self.upper_bound(e)
+            lo[i] = -self.upper_bound(-e)
+        return lo, hi
+
+    def irredundant(self, rtol: float) -> np.ndarray:
+        """Mask of the rows kept: a row goes when the others keep ``a_i' s`` within ``b_i + rtol``."""
+        h, inf = self._h, self._hs.kHighsInf
+        keep = np.ones(self._k, dtype=bool)
+        for i in range(self._k):
+            h.changeRowBounds(i, -inf, float(self.b[i]) + 1.0)  # keeps the LP bounded
+            st = self._solve(self.A[i])
+            value = -h.getInfo().objective_function_value
+            if st == self._hs.HighsModelStatus.kOptimal and value <= self.b[i] + rtol * (1.0 + abs(self.b[i])):
+                keep[i] = False
+                h.changeRowBounds(i, -inf, inf)  # gone for the next rows' tests too
+            else:
+                h.changeRowBounds(i, -inf, float(self.b[i]))
+        return keep
+
+
+class SetMembershipFilter(Observer):
+    """The states consistent with every sample so far under bounded output noise (module docstring).
+
+    Parameters
+    ----------
+    system : PWASystem
+        The model, with bounded ``X`` (for a constant unknown parameter, the augmented system of
+        :func:`~hybobs_opt.systems.parameters.augment_parameters`).
+    noise_bound : float, sequence or dict
+        Bound on each output's noise in the outputs' units (0: noise-free data).
+    tolerance : float, sequence or dict, optional
+        Largest radius per state for the flag ``observable``; default ``MHE_UNIQUENESS_DELTA``
+        times the half-widths of ``X``'s bounding box.
+    max_pieces : int, default DEFAULT_MAX_PIECES
+        Largest number of polytopes kept.
+
+    Notes
+    -----
+    Flags: ``observable`` -- every radius within the tolerance; ``unobservable`` -- some radius
+    beyond it; ``fallback`` -- a bad sample (the set is then predicted through every mode whose
+    guard it meets, which keeps the true state), or no state consistent with the record (the data
+    contradict the model or the bound: the filter starts again from ``X``, ``info["reason"]``).
+    ``info``: ``radius``, ``lower``, ``upper`` (model units), ``tolerance``, ``n_pieces``,
+    ``modes`` (the modes of the pieces consistent with the sample).
+    """
+
+    name = "set-filter"
+
+    def __init__(self, system, noise_bound, *, tolerance=None, max_pieces: int = DEFAULT_MAX_PIECES):
+        from ..systems.pwa import PWASystem
+
+        if not isinstance(system, PWASystem):
+            raise ModelError("system", "a PWASystem with bounded X", type(system).__name__)
+        if isinstance(max_pieces, bool) or not isinstance(max_pieces, (int, np.integer)) or max_pieces < 1:
+            raise ModelError("max_pieces", "an integer >= 1", repr(max_pieces))
+        self.system = system
+        self.n, self.m, self.p = system.n, system.m, system.p
+        self.state_names = tuple(system.state_names)
+        self.noise_bound = noise_bound_vector(noise_bound, system.output_names)
+        from ..systems.ranges import output_range
+
+        lo_y, hi_y = output_range(system)
+        #: the bound the filter uses: never below SET_FILTER_MIN_NOISE_RTOL of each output's range (a
+        #: slab thinner than the LP solver's feasibility tolerance would be decided by rounding; a
+        #: wider bound only keeps more states)
+        self.effective_noise_bound = np.maximum(self.noise_bound, SET_FILTER_MIN_NOISE_RTOL * (hi_y - lo_y))
+        half, centre = system.scales()
+        self._h, self._c = np.asarray(half[: self.n], float), np.asarray(centre[: self.n], float)
+        self.tolerance = radius_tolerance_vector(tolerance, self.state_names, MHE_UNIQUENESS_DELTA * self._h)
+        self.max_pieces = int(max_pieces)
+        judge_samples_against(self, system, outputs=False)
+        # everything below works in scaled state coordinates s = (x - c) / h
+        X = system.state_bounds
+        self._X = Polytope(X.A * self._h[None, :], X.b - X.A @ self._c)
+        self._modes = []
+        for md in system.modes:
+            G = md.guard.A
+            Gx = G[:, : self.n] * self._h[None, :]
+            A_s = md.A * self._h[None, :] / self._h[:, None]  # s+ = A_s s + (A c + a - c + B u) / h
+            off = (md.A @ self._c + md.a - self._c) / self._h
+            self._modes.append((Gx, G[:, self.n:], md.guard.b - G[:, : self.n] @ self._c, md.C * self._h[None, :],
+                                md.C @ self._c + md.c, md.D, A_s, off, md.B / self._h[:, None]))
+        self.n_lps = 0
+        self.reset()
+
+    def reset(self, x0=None, **kwargs) -> None:
+        """Start from ``X`` (every state the model allows); ``x0`` is the estimate reported until the first sample."""
+        if kwargs:
+            raise ModelError(", ".join(kwargs), "no options besides x0 for the set-membership filter", repr(kwargs))
+        from ..contract import checked_state
+
+        self._set_pieces([self._X])
+        self._step_count = 0
+        self._x = self._c.copy() if x0 is None else checked_state(x0, self.n)
+
+    def _set_pieces(self, pieces: list[Polytope]) -> None:
+        """The pieces of the coming step and an outer box of each (interval bounds of its rows
+        would be tighter only by LPs: the unit box of ``X`` is enough to skip impossible modes)."""
+        if not pieces:
+            pieces = [self._X]  # every piece left X: the next sample says whether the data agree
+        self._pieces = pieces
+        self._piece_boxes = [_row_box(P, self.n) for P in pieces]
+
+    # ------------------------------------------------------------------ polytope steps
+    def _relaxed(self, A: np.ndarray, b: np.ndarray) -> Polytope:
+        norms = np.linalg.norm(A, axis=1)
+        keep = norms > 0
+        if np.any(~keep & (b < -SET_FILTER_ROW_RTOL)):
+            return Polytope.empty(self.n)
+        return Polytope(A[keep], b[keep] + SET_FILTER_ROW_RTOL * (norms[keep] + np.abs(b[keep])))
+
+    def _nonempty(self, P: Polytope) -> _PieceLP | None:
+        """The piece's LP model when the piece is non-empty; ``None`` when it is empty (HiGHS's
+        answer confirmed by :func:`~hybobs_opt.geometry.lp.solve_lp`, which checks it)."""
+        self.n_lps += 1
+        model = _PieceLP(P.A, P.b)
+        if model.feasible():
+            return model
+        res = solve_lp(np.zeros(self.n), P.A, P.b, problem="set-membership filter: emptiness of a piece")
+        if res.status == "infeasible":
+            return None
+        if res.status != "optimal":
+            raise SolverError("set-membership filter: emptiness of a piece", "HiGHS", f"status {res.status!r}",
+                              "check the model's bounds (X must be bounded)")
+        return _PieceLP(P.A, P.b)
+
+    @staticmethod
+    def _box_excludes(lo: np.ndarray, hi: np.ndarray, A: np.ndarray, b: np.ndarray) -> bool:
+        """Whether some row ``a' s <= b`` fails at every point of the box ``[lo, hi]`` (with the
+        relaxation's margin): the piece inside the box then misses the row, no LP needed."""
+        with np.errstate(invalid="ignore"):  # 0 * inf: a coordinate the row does not involve
+            least = np.where(A > 0, A * lo[None, :], np.where(A < 0, A * hi[None, :], 0.0)).sum(axis=1)
+        margin = 2.0 * SET_FILTER_ROW_RTOL * (np.linalg.norm(A, axis=1) + np.abs(b)) + 1e-12
+        return bool(np.any(least > b + margin))
+
+    def _measure(self, u: np.ndarray, y: np.ndarray | None) -> list[tuple[Polytope, int]]:
+        out = []
+        beta = self.effective_noise_bound
+        for P, (lo, hi) in zip(self._pieces, self._piece_boxes):
+            for q, (Gx, Gu, g, C, cy, D, _, _, _) in enumerate(self._modes):
+                rows, rhs = [Gx], [g - Gu @ u]
+                if y is not None:
+                    yfix = y - cy - D @ u
+                    rows += [C, -C]
+                    rhs += [yfix + beta, beta - yfix]
+                new_A, new_b = np.vstack(rows), np.concatenate(rhs)
+                if self._box_excludes(lo, hi, new_A, new_b):
+                    continue
+                Q = self._relaxed(np.vstack([P.A, new_A]), np.concatenate([P.b, new_b]))
+                model = self._nonempty(Q) if Q.A.shape[0] else None
+                if model is not None:
+                    out.append((Q, q, model))
+        return out
+
+    def _box(self, pieces: list[tuple[Polytope, int]]) -> tuple[np.ndarray, np.ndarray, list]:
+        lo, hi = np.full(self.n, np.inf), np.full(self.n, -np.inf)
+        boxes = []
+        for _, _, model in pieces:
+            self.n_lps += 2 * self.n
+            a, b = model.box()
+            boxes.append((a, b))
+            lo, hi = np.minimum(lo, a), np.maximum(hi, b)
+        return lo, hi, boxes
+
+    def _predict(self, pieces: list[tuple[Polytope, int]], u: np.ndarray, boxes: list | None = None) -> list[Polytope]:
+        """The pieces mapped by their modes' dynamics and cut to ``X``; ``boxes`` (the pieces'
+        bounding boxes) lets rows implied by the mapped box go without an LP."""
+        nxt = []
+        self._step_count += 1
+        full_pass = self._step_count % REDUNDANCY_PERIOD == 0
+        for k, (Q, q, _) in enumerate(pieces):
+            _, _, _, _, _, _, A_s, off, B_s = self._modes[q]
+            shift = off + B_s @ u
+            img = Q.affine_image(A_s, shift)
+            A_all, b_all = np.vstack([img.A, self._X.A]), np.concatenate([img.b, self._X.b])
+            if boxes is not None:
+                # the image's bounding box (interval arithmetic on the piece's box) holds the image:
+                # its rows join, and every row it implies goes (the set does not change)
+                c0, r0 = 0.5 * (boxes[k][0] + boxes[k][1]), 0.5 * (boxes[k][1] - boxes[k][0])
+                c1, r1 = A_s @ c0 + shift, np.abs(A_s) @ r0
+                lo1, hi1 = c1 - r1, c1 + r1
+                most = np.where(A_all > 0, A_all * hi1[None, :], A_all * lo1[None, :]).sum(axis=1)
+                keep = most > b_all
+                eye = np.eye(self.n)
+                A_all = np.vstack([A_all[keep], eye, -eye])
+                b_all = np.concatenate([b_all[keep], hi1, -lo1])
+            R = self._relaxed(A_all, b_all)
+            model = self._nonempty(R) if R.A.shape[0] else None
+            if model is None:
+                continue
+            if full_pass or R.A.shape[0] > MAX_ROWS_BEFORE_REDUNDANCY:
+                self.n_lps += R.A.shape[0]
+                keep = model.irredundant(REDUNDANCY_RTOL)
+                R = Polytope(R.A[keep], R.b[keep])
+            nxt.append(R)
+        while len(nxt) > self.max_pieces:
+            nxt = self._merge_nearest(nxt)
+        return nxt
+
+    def _merge_nearest(self, pieces: list[Polytope]) -> list[Polytope]:
+        centres = []
+        for P in pieces:
+            c, _ = P.chebyshev_ball()
+            centres.append(np.zeros(self.n) if c is None else c)
+        C = np.array(centres)
+        d = np.linalg.norm(C[:, None, :] - C[None, :, :], axis=2) + np.diag(np.full(len(pieces), np.inf))
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        try:
+            V = np.vstack([pieces[i].vertices(), pieces[j].vertices()])
+            hull = Polytope.from_vertices(V)
+            merged = self._relaxed(hull.A, hull.b)
+        except (ModelError, SolverError, ValueError, np.linalg.LinAlgError):
+            a1, b1 = pieces[i].bounding_box()
+            a2, b2 = pieces[j].bounding_box()
+            box = Polytope.from_box(np.minimum(a1, a2), np.maximum(b1, b2))
+            merged = self._relaxed(box.A, box.b)
+        return [P for k, P in enumerate(pieces) if k not in (i, j)] + [merged]
+
+    # ------------------------------------------------------------------ steps
+    def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        try:
+            return self._update(u, y)
+        except SolverError as exc:
+            # the sample is not used: the set is predicted through every mode, which keeps the true state
+            return self._fallback(u, f"an LP of the set update failed ({exc}); the sample was not used")
+
+    def _update(self, u: np.ndarray, y: np.ndarray) -> Estimate:
+        t0 = time.perf_counter()
+        pieces = self._measure(u, y)
+        if not pieces:
+            reason = ("no state is consistent with the record within the stated noise bound: the data contradict the "
+                      "model or the bound; the filter starts again from X")
+            self._set_pieces([self._X])
+            return Estimate(self._x.copy(), -1, FALLBACK, 0.0, {"reason": reason, "n_pieces": 0})
+        lo_s, hi_s, boxes = self._box(pieces)
+        lower, upper = self._c + self._h * lo_s, self._c + self._h * hi_s
+        x = 0.5 * (lower + upper)
+        radius = 0.5 * (upper - lower)
+        modes = sorted({q for _, q, _ in pieces})
+        self._x = x
+        self._set_pieces(self._predict(pieces, u, boxes))
+        flag = OBSERVABLE if np.all(radius <= self.tolerance) else UNOBSERVABLE
+        info = {"radius": radius, "lower": lower, "upper": upper, "tolerance": self.tolerance,
+                "n_pieces": len(pieces), "modes": modes, "seconds_sets": time.perf_counter() - t0}
+        return Estimate(x.copy(), modes[0] if len(modes) == 1 else -1, flag, 0.0, info)
+
+    def _fallback(self, u, reason: str) -> Estimate:
+        # a bad sample: no measurement update; the set is predicted through every mode its pieces meet
+        if u is not None:
+            try:
+                pieces = self._measure(np.asarray(u, float), None)
+                self._set_pieces(self._predict(pieces, np.asarray(u, float)))
+            except SolverError:
+                self._set_pieces([self._X])
+        else:
+            self._set_pieces([self._X])  # the input is unknown too: every state of X
+        return Estimate(self._x.copy(), -1, FALLBACK, 0.0, {"reason": reason})
