@@ -59,12 +59,14 @@ def _run(name: str, steps: int, stated_factor: float):
     return np.array(distances), notes
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", ["model16", "deadzone_spring", "dc_motor"])
 def test_flagged_errors_agree_with_the_stated_covariance(name):
+    """The issue's criterion on shorter runs (``benchmarks/bench_gaussian_consistency.py`` runs
+    1,500-3,000 samples with at least 1,000 flagged each): at most 1 % of the flagged errors
+    beyond 3 sigma of their stated covariance, none beyond 6."""
     # model (16): about 200 start-up windows whose prior the data contradict are not flagged
-    distances, _ = _run(name, 1300 if name == "model16" else 1100, 1.0)
-    assert distances.size >= 1000
+    distances, _ = _run(name, 700 if name == "model16" else 450, 1.0)
+    assert distances.size >= 400
     assert np.mean(distances > 3.0) <= 0.01 and distances.max() <= 6.0, (np.mean(distances > 3.0), distances.max())
 
 
