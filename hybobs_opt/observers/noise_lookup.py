@@ -46,20 +46,20 @@ contradicts the model at that level (a fault, a model error or a false alarm): a
 Its answers are compared with the Kalman filter on the true mode sequence in the noise study of
 paper 002 (``benchmarks/bench_noise.py``).
 
-**Bounded noise** (``noise_bound=beta``: ``|v_j(k)| <= beta_j`` per output, ``T p >= n``).  The same
-tables with the weights ``W = diag(1 / beta)``, and each statistical test replaced by the
-condition the true mode sequence must meet whatever the noise within the bound (the whitened
-noise ``e = W v`` has ``|e| <= 1``):
+**Bounded noise** (``noise_bound=beta``: ``|v_j(k)| <= beta_j`` per output, and optionally
+``input_noise_bound=gamma`` on measured inputs; ``T p >= n``).  The same tables with the weights
+``W = diag(1 / beta)``; every quantity the tables compute is affine in the window's data
+``z = [Y_t; U_t]``, and vanishes (residual) or holds (membership) at the true data ``z_true``, so
+each statistical test becomes the condition the true mode sequence meets whatever the noise,
+``|z - z_true| <= zb = [beta, ..., gamma, ...]``:
 
-* residual: ``(I - C~_i C~_i^+) W (Y_t - D_i U_t - f_i) = (I - C~_i C~_i^+) e``, so each row's
-  absolute value is at most the 1-norm of that row of ``I - C~_i C~_i^+``;
-* membership: ``x = x_i - C~_i^+ e`` for a full-rank sequence, so row ``h`` of ``P_i`` holds at
-  ``x_i`` with the margin ``|h_x' C~_i^+| 1`` (a rank-deficient one: the same margins in the LP
-  over its affine set).
+* residual: each row ``r' z + r_0`` of the whitened residual satisfies ``|r' z + r_0| <= |r|' zb``;
+* membership: each row of ``P_i`` at ``(x_i, U_t)``, ``m' z + m_0 <= |m|' zb`` (a rank-deficient
+  sequence: the same margins in the LP over its affine set).
 
 Every mode sequence consistent with the window passes; a passing sequence of full rank puts the
-current state within ``|Phi_last C~_i^+| 1`` of its ``x_i`` propagated to the current time, and a
-rank-deficient one anywhere in the state box.  The estimate is the centre of the smallest box
+current state within ``|Phi_last X_z + [0, Gamma_last]| zb`` of its ``x_i`` propagated to the
+current time (``x_i = X_z z + x_0``), and a rank-deficient one anywhere in the state box.  The estimate is the centre of the smallest box
 holding all of these (cut to ``X``), ``info["radius"]`` its half-width per state: an outer bound of
 the set-membership box of :class:`~hybobs_opt.mhe.SetMembershipObserver` (the tests check that it
 holds the exact box, and equals it noise-free wherever it flags), for the cost of the table's
@@ -125,6 +125,9 @@ class NoiseAwareLookupObserver(Observer):
         Bound on each output's noise, in output units (bounded noise; 0 for noise-free data):
         every estimate then carries a certified radius.  Exactly one of ``noise_std`` and
         ``noise_bound`` is given.
+    input_noise_bound : float, sequence or dict, optional
+        With ``noise_bound``: a bound on each measured input's noise, in input units (default 0:
+        the inputs are known exactly).
     false_alarm : float, default DEFAULT_FALSE_ALARM
         Probability that the true mode sequence fails the tests of one window, in (0, 0.5)
         (Gaussian noise only).
@@ -151,8 +154,8 @@ class NoiseAwareLookupObserver(Observer):
 
     name = "lookup-noise"
 
-    def __init__(self, analysis, noise_std=None, *, noise_bound=None, false_alarm: float = DEFAULT_FALSE_ALARM,
-                 tolerance=None):
+    def __init__(self, analysis, noise_std=None, *, noise_bound=None, input_noise_bound=None,
+                 false_alarm: float = DEFAULT_FALSE_ALARM, tolerance=None):
         from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
 
         as_instance(analysis, "analysis", ObservabilityAnalysis,
@@ -168,6 +171,8 @@ class NoiseAwareLookupObserver(Observer):
             if self.T * self.p < self.n:
                 raise ModelError("analysis", f"a horizon T with T p >= n = {self.n} (eq. 8)", f"T = {self.T}, p = {self.p}")
             self.noise_bound = noise_bound_vector(noise_bound, system.output_names)
+            self.input_noise_bound = noise_bound_vector(0.0 if input_noise_bound is None else input_noise_bound,
+                                                        system.input_names, "input_noise_bound")
             self.noise_std = None
             self.name = "lookup-bounded"
             half = system.scales()[0][: self.n]
@@ -175,8 +180,9 @@ class NoiseAwareLookupObserver(Observer):
             #: widening of each side of the box (model units): rounding of the table's arithmetic
             self.box_pad = SET_MEMBERSHIP_BOX_RTOL * half
         else:
-            if tolerance is not None:
-                raise ModelError("tolerance", "no value with noise_std (it bounds the radii of noise_bound)", repr(tolerance))
+            for key, value in (("tolerance", tolerance), ("input_noise_bound", input_noise_bound)):
+                if value is not None:
+                    raise ModelError(key, "no value with noise_std (it belongs to noise_bound, bounded noise)", repr(value))
             if self.T * self.p <= self.n:
                 raise ModelError("analysis", f"a horizon T with T p > n = {self.n} (the residual test needs more output "
                                  f"samples than states; T >= {self.n // self.p + 1} here)", f"T = {self.T}, p = {self.p}")
@@ -202,7 +208,8 @@ class NoiseAwareLookupObserver(Observer):
             beta = self.noise_bound
             unit = np.where(beta > 0, beta, beta.max() if beta.max() > 0 else 1.0)
             w = np.tile(1.0 / unit, T)
-            wb = np.tile(beta / unit, T)  # bound on each whitened noise sample (1, or 0 if noise-free)
+            # bounds of the noise on z = [Y; U] in its own units: every margin below is |row| @ zb
+            zb = np.concatenate([np.tile(beta, T), np.tile(self.input_noise_bound, T)])
         else:
             w = np.tile(1.0 / self.noise_std, T)  # whitening of the stacked outputs
         I = set(an.index_set)
@@ -228,7 +235,7 @@ class NoiseAwareLookupObserver(Observer):
             m0 = Hx @ x0 - reg.h
             # each row's noise standard deviation at x_i (bounded: the largest deviation of its value);
             # rows without it are input bounds (closed)
-            s_row = np.abs(Hx @ Cp) @ wb if self.bounded else np.linalg.norm(Hx @ Cp, axis=1)
+            s_row = np.abs(Mz) @ zb if self.bounded else np.linalg.norm(Hx @ Cp, axis=1)
             row_norm = np.linalg.norm(reg.H * scale[None, :], axis=1)
             row_norm = np.where(row_norm > 0, row_norm, 1.0)
             state_rows = np.linalg.norm(Hx * self._sx[None, :], axis=1) > ZERO_ROW_TOL * row_norm
@@ -240,7 +247,10 @@ class NoiseAwareLookupObserver(Observer):
                 kappa = float(norm.isf(alpha / (2 * R))) if R else 0.0
                 threshold = float(chi2.isf(alpha / 2 if R else alpha, p * T - r))
             closed = input_bound_rows(reg.H, reg.h, self.system, T, scale, centre) | ~state_rows
-            tol = np.where(closed, LOOKUP_INPUT_BOUND_TOL * row_norm, kappa * s_row + LOOKUP_INPUT_BOUND_TOL * row_norm)
+            if self.bounded:  # every row's largest change under the noise (input rows: the input noise)
+                tol = s_row + LOOKUP_INPUT_BOUND_TOL * row_norm
+            else:
+                tol = np.where(closed, LOOKUP_INPUT_BOUND_TOL * row_norm, kappa * s_row + LOOKUP_INPUT_BOUND_TOL * row_norm)
             null = None if r == n else Vt[r:].T
             cov_last = None
             if r == n:
@@ -251,10 +261,10 @@ class NoiseAwareLookupObserver(Observer):
             box_margin = float(np.max(tol / row_norm)) if k else 0.0
             res_tol = amp_last = None
             if self.bounded:
-                # (I - C C^+) W (z - e) = 0 for the true sequence: |row of Q W z| <= |row of Q| (w beta)
-                res_tol = np.abs(Q) @ wb
-                if r == n:  # x_true = x_i - C~^+ W e, hence |x_true(t) - x_i(t)| <= |Phi_last C~^+| (w beta)
-                    amp_last = np.abs(reg.Phi_last @ Cp) @ wb
+                # the residual of the true sequence at the true data is 0: |Rz z| = |Rz (z - z_true)| <= |Rz| zb
+                res_tol = np.abs(Rz) @ zb
+                if r == n:  # x_true(t) - x_i(t) = -(Phi_last Xz + [0, Gamma_last]) (z - z_true)
+                    amp_last = np.abs(reg.Phi_last @ Xz + np.hstack([np.zeros((n, p * T)), reg.Gamma_last])) @ zb
             seqs.append(_Sequence(idx, threshold, slice(row, row + n + p * T + k), k, tol, box_margin, null, cov_last,
                                   (reg.Phi_last, reg.Gamma_last, reg.phi_last, reg.sequence[-1]), res_tol, amp_last))
             blocks += [Xz, Rz, Mz]
@@ -279,6 +289,8 @@ class NoiseAwareLookupObserver(Observer):
             IA, Ib = self.system.input_bounds.A, self.system.input_bounds.b
             inrm = np.linalg.norm(IA * scale[None, n : n + m], axis=1)
             self._in_A, self._in_b = IA, Ib + LOOKUP_INPUT_BOUND_TOL * np.where(inrm > 0, inrm, 1.0)
+            if self.bounded:  # a measured input may lie outside U by its noise
+                self._in_b = self._in_b + np.abs(IA) @ self.input_noise_bound
         else:
             self._in_A, self._in_b = None, None
 

@@ -97,3 +97,78 @@ def test_the_noise_model_is_stated_once_and_checked():
         NoiseAwareLookupObserver(analyse_observability(system, 1), noise_bound=0.1)
     obs = NoiseAwareLookupObserver(an, noise_bound={"y": 0.1}, tolerance=0.25)  # T p = n: no residual test
     assert obs.name == "lookup-bounded" and np.all(obs.tolerance == 0.25) and obs.stats()["noise"] == "bounded"
+
+
+def _oracle_box_noisy_inputs(system, U, Y, beta, gamma):
+    """The box of the states at the last sample consistent with a window whose inputs are known
+    within ``gamma`` too: every mode sequence, the window-start state and the inputs as LP
+    variables (``scipy.optimize.linprog``), from the system matrices alone."""
+    import itertools
+
+    from scipy.optimize import linprog
+
+    T, n, m = U.shape[0], system.n, system.m
+    nv = n + T * m
+    XA, Xb = system.state_bounds.A, system.state_bounds.b
+    IA, Ib = system.input_bounds.A, system.input_bounds.b
+    lower, upper = np.full(n, np.inf), np.full(n, -np.inf)
+    for seq in itertools.product(range(system.n_modes), repeat=T):
+        Phi = np.hstack([np.eye(n), np.zeros((n, T * m))])  # x_k = Phi v + phi, v = [x0; u_0..u_T-1]
+        phi = np.zeros(n)
+        rows, rhs = [], []
+        for k, q in enumerate(seq):
+            md = system.modes[q]
+            Uk = np.zeros((m, nv))
+            Uk[:, n + k * m: n + (k + 1) * m] = np.eye(m)
+            G = md.guard.A
+            rows += [G[:, :n] @ Phi + G[:, n:] @ Uk, XA @ Phi, IA @ Uk, Uk, -Uk, md.C @ Phi + md.D @ Uk,
+                     -(md.C @ Phi + md.D @ Uk)]
+            yk = md.C @ phi + md.c
+            rhs += [md.guard.b - G[:, :n] @ phi, Xb - XA @ phi, Ib, U[k] + gamma, gamma - U[k], Y[k] - yk + beta,
+                    beta - (Y[k] - yk)]
+            if k < T - 1:
+                Phi, phi = md.A @ Phi + md.B @ Uk, md.A @ phi + md.a
+        A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
+        for j in range(n):
+            for sign in (1.0, -1.0):
+                res = linprog(sign * Phi[j], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * nv, method="highs")
+                if res.status == 2:
+                    break
+                assert res.status == 0, res.message
+                value = sign * res.fun + phi[j]
+                if sign > 0:
+                    lower[j] = min(lower[j], value)
+                else:
+                    upper[j] = max(upper[j], value)
+            else:
+                continue
+            break
+    return lower, upper
+
+
+def test_measured_inputs_within_their_bound_keep_the_true_state_inside():
+    """Input noise (``input_noise_bound``): the dead-zone spring's drive speed measured within 2 %
+    of its range, the load speed within 0.1 %: the box holds the enumeration's (inputs as LP
+    variables) and the true state, at every step."""
+    system, U, trace = spring_case(3, 40)
+    half = system.scales()[0][:system.n]
+    beta, gamma = 0.001 * output_span(system), np.array([0.04])
+    rng = np.random.default_rng(9)
+    Y = trace.y + rng.uniform(-1, 1, size=trace.y.shape) * beta
+    Um = np.clip(U + rng.uniform(-1, 1, size=U.shape) * gamma, -1.0, 1.0)
+    obs = NoiseAwareLookupObserver(analyse_observability(system, 3), noise_bound=beta, input_noise_bound=gamma)
+    exact = NoiseAwareLookupObserver(analyse_observability(system, 3), noise_bound=beta)
+    wider = 0
+    for k in range(40):
+        est, naive = obs.step(Um[k], Y[k]), exact.step(Um[k], Y[k])
+        if k < 2:
+            continue
+        assert est.flag in (OBSERVABLE, UNOBSERVABLE), est.info
+        assert np.all(np.abs(est.x - trace.x[k]) <= est.info["radius"]), k
+        if k % 6 == 0:
+            ref = _oracle_box_noisy_inputs(system, Um[k - 2:k + 1], Y[k - 2:k + 1], beta, gamma)
+            assert np.all(est.info["lower"] <= ref[0] + 1e-9 * half) and np.all(est.info["upper"] >= ref[1] - 1e-9 * half)
+        wider += bool(np.any(est.info["radius"] > naive.info.get("radius", np.zeros(2)) + 1e-12))
+    assert wider > 0  # the input noise widens the radii
+    with pytest.raises(ModelError, match="input_noise_bound"):
+        NoiseAwareLookupObserver(analyse_observability(system, 3), 0.1, input_noise_bound=0.1)
