@@ -30,6 +30,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --data and --observer set_membership (required) or lookup (radii under bounded noise): "
                         "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output; "
                         "outputs not named: 0)")
+    p.add_argument("--input-noise-bound", action="append", metavar="NAME=VALUE", dest="input_noise_bound",
+                   help="with --observer lookup and --noise-bound: the bound on a measured input's noise in its units "
+                        "(repeatable; a bare VALUE bounds every input; inputs not named: 0)")
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
                    "(and radius_<state> per state with the set-membership observer, and the lookup one with --noise-bound)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
@@ -184,12 +187,14 @@ def observe_recorded(named, args) -> dict:
                          + ("; the set-membership observer takes --noise-bound" if kind == "set_membership" else "") + ")",
                          repr(args.fit_tolerance))
     noise_bound = noise_bound_option(args.noise_bound, named.system, kind)
+    input_noise_bound = input_noise_bound_option(args.input_noise_bound, named.system, kind, noise_bound)
     log, horizon, analysis = open_log(named, args)
     progress, close = phase_bars(not args.json)
     try:
         with as_options({"horizon T": "--horizon", "horizon": "--horizon", "fit_tolerance": "--fit-tolerance"}):
             trace, rec = observe_log(named.system, log, [kind], horizon, analysis, progress=progress,
-                                     fit_tolerance=args.fit_tolerance, noise_bound=noise_bound)[kind]
+                                     fit_tolerance=args.fit_tolerance, noise_bound=noise_bound,
+                                     input_noise_bound=input_noise_bound)[kind]
     finally:
         close()
     summary = {"system": named.label, "kind": named.kind, "data": str(args.data), "horizon": horizon, **rec}
@@ -213,9 +218,27 @@ def noise_bound_option(entries, system, kinds):
             return None
         raise ModelError("--noise-bound", "a bound on the outputs' noise for the set-membership observer "
                          "(NAME=VALUE per output, or one VALUE; 0 for noise-free data)", "none")
+    return bound_entries(entries, tuple(system.output_names), "--noise-bound", "noise_bound", "output")
+
+
+def input_noise_bound_option(entries, system, kinds, noise_bound):
+    """``--input-noise-bound`` as the lookup observer's ``input_noise_bound`` (with ``--noise-bound``)."""
+    if not entries:
+        return None
+    kinds = [kinds] if isinstance(kinds, str) else list(kinds)
+    if "lookup" not in kinds or noise_bound is None:
+        raise ModelError("--input-noise-bound", "--observer lookup with --noise-bound (the bounded-noise lookup "
+                         "observer is the one that takes measured inputs' noise)", repr(entries[0]))
+    if "set_membership" in kinds:
+        raise ModelError("--input-noise-bound", "no set_membership among the observers (its MILPs take the inputs "
+                         "as exact)", repr(entries[0]))
+    return bound_entries(entries, tuple(system.input_names), "--input-noise-bound", "input_noise_bound", "input")
+
+
+def bound_entries(entries, names: tuple, option: str, field: str, what: str) -> dict:
+    """``NAME=VALUE`` entries (or one bare ``VALUE`` for every name) as a dict by name, checked."""
     from ..contract import noise_bound_vector
 
-    names = tuple(system.output_names)
     bound: dict[str, float] = {}
     for entry in entries:
         name, sep, value = entry.partition("=")
@@ -224,12 +247,11 @@ def noise_bound_option(entries, system, kinds):
         try:
             number = float(value)
         except ValueError:
-            raise ModelError("--noise-bound", "NAME=VALUE with a number VALUE (or one number)", repr(entry)) from None
+            raise ModelError(option, "NAME=VALUE with a number VALUE (or one number)", repr(entry)) from None
         for nm in ([name] if name else names):
             if nm in bound:
-                raise ModelError("--noise-bound", "each output once", repr(entry))
+                raise ModelError(option, f"each {what} once", repr(entry))
             bound[nm] = number
-    with as_options({"noise_bound": "--noise-bound"}):
-        noise_bound_vector(bound, names)
+    with as_options({field: option}):
+        noise_bound_vector(bound, names, field)
     return bound
-

@@ -46,13 +46,15 @@ def check_observer_kinds(kinds: Sequence[str]) -> list[str]:
 
 def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
                       progress: Callable[[str, str, int, int], None] | None = None, fit_tolerance=None,
-                      noise_bound=None):
+                      noise_bound=None, input_noise_bound=None):
     """The observer ``kind`` for ``system``; the lookup observer uses ``analysis`` (of horizon ``horizon``),
     the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data), the
     set-membership one ``noise_bound`` (:class:`~hybobs_opt.mhe.SetMembershipObserver`); the lookup
     observer with a ``noise_bound`` is the bounded-noise one with radii
-    (:class:`~hybobs_opt.observers.NoiseAwareLookupObserver`)."""
+    (:class:`~hybobs_opt.observers.NoiseAwareLookupObserver`), which also takes ``input_noise_bound``."""
     check_observer_kinds([kind])
+    if input_noise_bound is not None and (kind != "lookup" or noise_bound is None):
+        raise ModelError("input_noise_bound", "the lookup observer with a noise_bound", f"observer {kind!r}")
     if (noise_bound is None and kind == "set_membership") or (noise_bound is not None and kind not in NOISE_BOUND_OBSERVERS):
         raise ModelError("noise_bound", "a bound on each output's noise for the set-membership observer (0 for "
                          "noise-free data), optional for the lookup observer, and for no other observer",
@@ -75,7 +77,7 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
         if noise_bound is not None:
             from .noise_lookup import NoiseAwareLookupObserver
 
-            return NoiseAwareLookupObserver(analysis, noise_bound=noise_bound)
+            return NoiseAwareLookupObserver(analysis, noise_bound=noise_bound, input_noise_bound=input_noise_bound)
         return LookupObserver(analysis, progress=None if progress is None else (lambda d, t: progress("lookup tables", "piece", d, t)))
     from ..mhe import MHEObserver
 
@@ -120,7 +122,8 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
 
 def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
                 progress: Callable[[str, str, int, int], None] | None = None,
-                fit_tolerance=None, noise_bound=None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
+                fit_tolerance=None, noise_bound=None,
+                input_noise_bound=None) -> dict[str, tuple[ObserverTrace, dict[str, Any]]]:
     """Run each observer of ``kinds`` on ``log``: ``{kind: (trace, summary)}``.
 
     ``analysis`` (Algorithm 3.1 at ``horizon``) is computed here when the lookup observer needs it
@@ -147,7 +150,10 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
         lookup observer.
     noise_bound : optional
         Bound on each output's noise, for the set-membership observer
-        (:class:`~hybobs_opt.mhe.SetMembershipObserver`) only.
+        (:class:`~hybobs_opt.mhe.SetMembershipObserver`, required) and the lookup observer (which
+        then reports radii: :class:`~hybobs_opt.observers.NoiseAwareLookupObserver`).
+    input_noise_bound : optional
+        Bound on each measured input's noise, for the lookup observer with ``noise_bound``.
 
     Raises
     ------
@@ -167,7 +173,8 @@ def observe_log(system, log, kinds: Sequence[str], horizon: int, analysis=None,
     for kind in kinds:
         obs = make_pwa_observer(kind, system, horizon, analysis if kind == "lookup" else None, progress,
                                 fit_tolerance=None if kind in ("lookup", "set_membership") else fit_tolerance,
-                                noise_bound=noise_bound if kind in NOISE_BOUND_OBSERVERS else None)
+                                noise_bound=noise_bound if kind in NOISE_BOUND_OBSERVERS else None,
+                                input_noise_bound=input_noise_bound if kind == "lookup" else None)
         trace, seconds = run_on_log(obs, log)
         rec = log_summary(trace, log, seconds)
         rec["solver"] = getattr(obs, "solver", "highs (MILPs)" if kind == "set_membership" else

@@ -130,3 +130,22 @@ def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true
     assert "radius_max" not in json.loads(capsys.readouterr().out)
     assert main(base + ["--observer", "milp", "--noise-bound", "0.1"]) == 2
     assert "lookup" in capsys.readouterr().err
+
+
+def test_input_noise_bound_reaches_the_lookup_observer_and_nothing_else(tmp_path, capsys):
+    _log(tmp_path / "log.csv", 0.01, N=20)
+    base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--json"]
+    assert main(base + ["--observer", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "u=0.05"]) == 0
+    with_inputs = json.loads(capsys.readouterr().out)
+    assert main(base + ["--observer", "lookup", "--noise-bound", "0.01"]) == 0
+    without = json.loads(capsys.readouterr().out)
+    # the inputs' noise widens the radii (x2 = y is pinned by the output alone, x1 is not)
+    assert with_inputs["radius_max"][0] >= without["radius_max"][0] and with_inputs["radius_median"] != without["radius_median"]
+    assert with_inputs["n_outside_radius"] == 0
+    for extra, needle in ((["--observer", "lookup", "--input-noise-bound", "0.05"], "--noise-bound"),
+                          (["--observer", "set_membership", "--noise-bound", "0.01", "--input-noise-bound", "0.05"],
+                           "lookup"),
+                          (["--observer", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "v=0.05"], "'v'")):
+        assert main(base + extra) == 2
+        captured = capsys.readouterr()  # with --json the error is a JSON line on stdout
+        assert needle in captured.out + captured.err
