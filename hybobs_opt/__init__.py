@@ -18,7 +18,7 @@ cheap::
 from . import _compat
 from ._lazy import lazy_exports
 from ._numba_cache import configure as _configure_numba_cache
-from .errors import HybobsError, InfeasibleError, ModelError, SolverError
+from .errors import BuildError, HybobsError, InfeasibleError, ModelError, SolverError
 
 _compat.install()
 # numba's compiled kernels go to the user's cache (hybobs_opt/_numba_cache.py); no numba import here
@@ -73,4 +73,4 @@ _EXPORTS: dict[str, str] = {
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
-__all__ = ["HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__", *sorted(_EXPORTS)]
+__all__ = ["BuildError", "HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__", *sorted(_EXPORTS)]

@@ -3,7 +3,8 @@
 ``HybobsError`` is the base.  ``ModelError`` is bad input (it is also a ``ValueError`` so generic
 callers can catch it the usual way), ``InfeasibleError`` carries the certificate that proves an
 optimisation problem has no solution, and ``SolverError`` means a solver crashed, hit a limit or
-returned a point it could not certify: it names the problem, the solver and what to try.
+returned a point it could not certify: it names the problem, the solver and what to try;
+``BuildError`` means generated code did not compile or run.
 """
 
 from __future__ import annotations
@@ -102,3 +103,26 @@ class SolverError(HybobsError):
 
     def __reduce__(self):
         return type(self), (self.problem, self.solver, self.status, self.hint)
+
+
+class BuildError(HybobsError):
+    """Generated code that does not build or run (the C export's check).
+
+    Parameters
+    ----------
+    what : str
+        What was built (e.g. ``"the exported C of 'powertrain3' at T = 3"``).
+    stage : str
+        ``"compile"`` or ``"run"``.
+    output : str
+        The compiler's or the program's messages (the first lines).
+    """
+
+    def __init__(self, what: str, stage: str, output: str = ""):
+        self.what, self.stage, self.output = what, stage, output
+        first = " | ".join(line.strip() for line in output.strip().splitlines()[:3])
+        message = f"{what}: the {stage} step failed" + (f": {first}" if first else "")
+        super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.what, self.stage, self.output)

@@ -25,6 +25,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--float32", action="store_true",
                    help="float tables and arithmetic (tolerances raised to single precision; refused when the "
                         "pseudo-inverses amplify its rounding beyond 5 %% of a state's range)")
+    p.add_argument("--force", action="store_true",
+                   help="replace the three files if they exist (never through a symbolic link)")
+    p.add_argument("--no-build", action="store_true",
+                   help="skip the build check (by default, when a C compiler is found, the files are compiled "
+                        "with -std=c99 -Wall -Werror -pedantic and the driver replays a one-sample log; a failure "
+                        "exits non-zero)")
     p.add_argument("--max-bytes", type=int, default=None, metavar="N",
                    help="warn when the tables (flash) exceed N bytes")
     p.add_argument("--max-ops", type=int, default=None, metavar="N",
@@ -44,9 +50,10 @@ def run(args: argparse.Namespace) -> int:
     for option, value, unit in (("--max-bytes", args.max_bytes, "bytes"), ("--max-ops", args.max_ops, "multiply-adds")):
         if value is not None and value < 1:
             raise ModelError(option, f"a positive number of {unit}", repr(value))
-    out_dir = Path(args.out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ModelError("--out-dir", "a directory (created if missing)", f"{args.out_dir!r}, an existing file")
+    from ..observers.c_export import export_targets
+
+    with as_options({"out_dir": "--out-dir"}):
+        export_targets(Path(args.out_dir), overwrite=args.force)  # before any work
     named = load_system(args)
     if named.kind != "pwa":
         raise ModelError("SYSTEM", "a PWA system (the lookup-table observer of paper 002 is built from its "
@@ -65,6 +72,14 @@ def run(args: argparse.Namespace) -> int:
           f"step {summary['max_ops']:,} multiply-adds ({summary['n_regions']} regions, {summary['n_btilde_pieces']} "
           f"pieces of B~_T, test: {summary['btilde_test']})")
     print(f"  build the replay driver: cd {summary['out_dir']} && {summary['compile']}")
+    build = summary["build"]
+    if build is None:
+        print("  build check skipped (--no-build)")
+    elif build["compiler"] is None:
+        print("  build check: no C compiler found (cc, gcc, clang): the files were not compiled")
+    else:
+        print(f"  build check: compiled with {build['compiler']} {' '.join(build['flags'])} and replayed a one-sample "
+              f"log ({build['seconds']:.1f} s)")
     return 0
 
 
@@ -82,9 +97,12 @@ def _export(named, args: argparse.Namespace) -> dict:
             analysis = cached_analysis(named.system, args.horizon, progress=progress)
             observer = LookupObserver(analysis, progress=None if progress is None else
                                       (lambda d, t: progress("lookup tables", "piece", d, t)))
-            export = export_lookup_c(observer, args.out_dir, float32=args.float32)
+            export = export_lookup_c(observer, args.out_dir, float32=args.float32, overwrite=args.force)
     finally:
         close()
+    from ..observers.c_export import check_build
+
+    build = None if args.no_build else check_build(export, named.system)  # BuildError: exit 2, one line
     rec = export.to_dict()
     warnings = []
     if args.max_bytes is not None and export.table_bytes > args.max_bytes:
@@ -98,7 +116,7 @@ def _export(named, args: argparse.Namespace) -> dict:
                "ops": rec["ops"], "n_regions": export.sizes["n_regions"], "n_btilde_pieces": export.sizes["n_btilde_pieces"],
                "btilde_test": export.btilde_test, "sizes": rec["sizes"], "tolerances": rec["tolerances"],
                "float32_rounding": export.float32_rounding, "compile": rec["compile"],
-               "max_bytes": args.max_bytes, "max_ops_limit": args.max_ops, "warnings": warnings}
+               "max_bytes": args.max_bytes, "max_ops_limit": args.max_ops, "warnings": warnings, "build": build}
     if cache is not None and cache.events:
         summary["cache"] = cache.events
     return summary

@@ -42,6 +42,7 @@ resolution of single precision are raised to the ``C_EXPORT_F32_*`` values of
 from __future__ import annotations
 
 import keyword
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -149,7 +150,43 @@ class CExport:
                 "float32_rounding": self.float32_rounding, "compile": self.compile_command}
 
 
-def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: bool = False) -> CExport:
+def export_targets(out_dir, name: str = "hybobs_lookup", *, overwrite: bool = False) -> tuple[Path, Path, Path]:
+    """The three files :func:`export_lookup_c` writes, checked before any work: ``out_dir`` is a
+    directory or missing, no target is a symbolic link, and none exists unless ``overwrite``.
+
+    Raises
+    ------
+    ModelError
+        Naming ``out_dir`` and the offending file.
+    """
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ModelError("out_dir", "a directory (created if missing)", f"{str(out)!r}, an existing file")
+    targets = (out / f"{name}.h", out / f"{name}.c", out / f"{name}_driver.c")
+    for path in targets:
+        if path.is_symlink():
+            raise ModelError("out_dir", "no symbolic link among the files to write (a link is never followed)",
+                             f"{str(path)!r}, a link to {os.readlink(path)!r}")
+        if path.exists() and not overwrite:
+            raise ModelError("out_dir", "a directory without the files to write (or overwrite=True / --force to "
+                             "replace them)", f"{str(path)!r} exists")
+        if path.exists() and not path.is_file():
+            raise ModelError("out_dir", "regular files only at the names to write", f"{str(path)!r}")
+    return targets
+
+
+def _write_new(path: Path, text: str) -> None:
+    """Write ``text`` to a new file at ``path`` (an existing one is removed first): ``O_EXCL`` and
+    ``O_NOFOLLOW`` make a link planted since the check fail instead of being followed."""
+    if path.exists() or path.is_symlink():
+        path.unlink()
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    with os.fdopen(fd, "w", encoding="ascii") as fh:
+        fh.write(text)
+
+
+def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: bool = False,
+                    overwrite: bool = False) -> CExport:
     """Write the lookup-table observer (paper 002, Algorithm 4.1) as self-contained C99.
 
     ``NAME.h`` declares ``NAME_state``, ``NAME_estimate``, ``NAME_reset(&s, x0)`` (``x0 = NULL``:
@@ -203,9 +240,10 @@ def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: 
         raise ModelError("name", "a C identifier of at most 41 characters (letters, digits, '_'; not a keyword)", repr(name))
     if not isinstance(float32, bool):
         raise ModelError("float32", "True or False", repr(float32))
+    if not isinstance(overwrite, bool):
+        raise ModelError("overwrite", "True or False", repr(overwrite))
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ModelError("out_dir", "a directory (created if missing)", f"{str(out)!r}, an existing file")
+    header, source, driver = export_targets(out, name, overwrite=overwrite)
     data = _Tables(observer, float32)
     if float32 and not data.float32_rounding <= C_EXPORT_F32_MAX_ROUNDING:
         raise ModelError("float32", f"a system whose candidates single precision resolves to {C_EXPORT_F32_MAX_ROUNDING:.0%} "
@@ -218,13 +256,80 @@ def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: 
                          "(hybobs_opt.limits.MAX_EXPORT_TABLE_BYTES)",
                          f"{data.table_bytes:,} bytes for {observer.system.name!r} at T = {observer.T}")
     out.mkdir(parents=True, exist_ok=True)
-    header, source, driver = out / f"{name}.h", out / f"{name}.c", out / f"{name}_driver.c"
+    export_targets(out, name, overwrite=overwrite)  # again: the tables took a while
     text = _Writer(observer, data, name)
-    header.write_text(text.header())
-    source.write_text(text.source())
-    driver.write_text(text.driver())
+    for path, body in ((header, text.header()), (source, text.source()), (driver, text.driver())):
+        _write_new(path, body)
     return CExport(name, out, header, source, driver, float32, data.table_bytes, data.state_bytes, data.max_ops,
                    data.ops, data.sizes, observer.btilde_test, data.tolerances, data.float32_rounding)
+
+
+#: Flags of the build check: the code must compile without a warning as strict C99.
+BUILD_FLAGS: tuple[str, ...] = ("-std=c99", "-Wall", "-Werror", "-pedantic", "-O2")
+
+
+def check_build(export: CExport, system, *, compiler: str | None = None, timeout: float = 600.0) -> dict:
+    """Compile an export with :data:`BUILD_FLAGS` and replay a one-sample log through its driver.
+
+    The build happens in a temporary directory (nothing is added to :attr:`CExport.directory`).
+
+    Parameters
+    ----------
+    export : CExport
+        What :func:`export_lookup_c` wrote.
+    system : PWASystem
+        The exported observer's system (its input and output names make the log's header).
+    compiler : str, optional
+        The C compiler; default the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``.
+    timeout : float, default 600
+        Seconds allowed to each of the compile and the run.
+
+    Returns
+    -------
+    dict
+        ``compiler`` (``None`` when none was found: nothing was checked), ``flags``, ``built``,
+        ``ran`` and ``seconds``.
+
+    Raises
+    ------
+    BuildError
+        When the code does not compile, or the driver fails on the log.
+    """
+    import shutil
+    import subprocess
+    import tempfile
+    import time
+
+    from ..errors import BuildError
+
+    cc = compiler or next((c for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
+    if cc is None or shutil.which(cc) is None:
+        return {"compiler": None, "flags": list(BUILD_FLAGS), "built": False, "ran": False, "seconds": 0.0}
+    what = f"the exported C in {str(export.directory)!r}"
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="hybobs_build_") as tmp:
+        exe = Path(tmp) / "driver"
+        try:
+            r = subprocess.run([cc, *BUILD_FLAGS, str(export.source), str(export.driver), "-lm", "-o", str(exe)],
+                               capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise BuildError(what, "compile", f"no answer from {cc} within {timeout:g} s") from None
+        if r.returncode != 0:
+            raise BuildError(what, "compile", r.stderr or r.stdout)
+        half, centre = system.scales()
+        u = centre[system.n:system.n + system.m]
+        log = Path(tmp) / "log.csv"
+        log.write_text(",".join(["t", *system.input_names, *system.output_names]) + "\n"
+                       + ",".join(["0", *(repr(float(v)) for v in u), *(["0"] * system.p)]) + "\n")
+        est = Path(tmp) / "estimates.csv"
+        try:
+            r = subprocess.run([str(exe), str(log), str(est)], capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise BuildError(what, "run", f"the driver did not finish a one-sample log within {timeout:g} s") from None
+        lines = est.read_text().splitlines() if est.exists() else []
+        if r.returncode != 0 or len(lines) != 2:
+            raise BuildError(what, "run", (r.stderr or r.stdout) + f" (exit {r.returncode}, {len(lines)} lines written)")
+    return {"compiler": cc, "flags": list(BUILD_FLAGS), "built": True, "ran": True, "seconds": time.perf_counter() - t0}
 
 
 # ---------------------------------------------------------------------------------------- tables
@@ -405,12 +510,34 @@ def _c_array(cname: str, ctype: str, a: np.ndarray, float32: bool, per_line: int
     return f"static const {ctype} {cname}[{a.size}] = {{\n    {body}\n}};\n"
 
 
+#: Characters written as themselves in generated C (string literals and comments): letters,
+#: digits and punctuation that neither ends a comment, starts a trigraph (``??/`` is a backslash in
+#: C99) nor escapes a character.  Everything else is escaped.
+_C_SAFE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789 _.,:;+-=()[]{}<>#%&|!~^@$'`")
+
+#: Longest user text written into a comment (the rest is cut, and says so).
+_COMMENT_MAX = 120
+
+
 def _c_string(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """``s`` as a C string literal: safe characters as themselves, every other byte of its UTF-8
+    encoding as a three-digit octal escape (which ends after three digits, unlike ``\\x``)."""
+    out = []
+    for ch in s:
+        if ch in _C_SAFE:
+            out.append(ch)
+        else:
+            out.extend(f"\\{b:03o}" for b in ch.encode("utf-8"))
+    return '"' + "".join(out) + '"'
 
 
 def _comment(text: str) -> str:
-    return text.replace("*/", "* /")
+    """User text for a ``/* ... */`` comment: safe characters as themselves, any other as
+    ``<U+XXXX>`` (no ``*/``, backslash, ``?``, quote or line break can reach the compiler)."""
+    text = str(text)
+    cut = len(text) > _COMMENT_MAX
+    body = "".join(ch if ch in _C_SAFE else f"<U+{ord(ch):04X}>" for ch in text[:_COMMENT_MAX])
+    return body + ("<...>" if cut else "")
 
 
 class _Writer:

@@ -6,13 +6,14 @@ from concurrent.futures import ProcessPoolExecutor
 
 import pytest
 
-from hybobs_opt.errors import InfeasibleError, ModelError, SolverError
+from hybobs_opt.errors import BuildError, InfeasibleError, ModelError, SolverError
 
 ERRORS = [
     ModelError("modes[2].A", "a (3, 3) matrix", "shape (2, 2)"),
     ModelError("x0", "a finite state"),
     SolverError("pair test (3, 7)", "HiGHS", "optimal point violates A x <= b", "rescale the model"),
     InfeasibleError("LMI (8)", None, "no common P"),
+    BuildError("the exported C in 'out'", "compile", "x.c:1: error: expected ';'"),
 ]
 
 
