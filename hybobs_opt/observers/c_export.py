@@ -210,6 +210,9 @@ def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: 
         C identifier: the prefix of every exported symbol and of the file names.
     float32 : bool
         Write ``float`` tables and compute in ``float`` (tolerances raised to single precision).
+    overwrite : bool, default False
+        Replace the three files if they exist (by new files: a symbolic link is never followed).
+        Without it an existing file is an error, raised before any work (:func:`export_targets`).
 
     Returns
     -------
