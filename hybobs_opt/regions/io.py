@@ -185,13 +185,16 @@ def _analysis_from_data(data: dict[str, Any], system, where: str) -> Observabili
             except ModelError as exc:
                 raise ModelError(f"{where}: system_model.{exc.field}", exc.expected, exc.got) from None
         elif data.get("example"):
-            from ..systems.resolve import resolve_system
+            from ..systems.resolve import resolve_registered
 
             example, params = data["example"], data.get("params", {})
             if not isinstance(example, str) or not isinstance(params, dict):
                 raise ModelError(f"{where}: example", "an example name (a string) and its params (an object)",
                                  f"{type(example).__name__} and {type(params).__name__}")
-            system = resolve_system(example, params)
+            try:  # a registered example only: the file never names code to run
+                system = resolve_registered(example, params, source=where)
+            except ModelError as exc:
+                raise ModelError(f"{where}: {exc.field}", exc.expected, exc.got) from None
         else:
             raise ModelError("system", "a PWASystem (the file holds no model and names no example to rebuild it from)",
                              "None")

@@ -10,6 +10,10 @@ A name is one of
 * ``PATH.py:FUNCTION``: the file is loaded as a module and ``FUNCTION(**params)`` is called;
 * ``package.module:FUNCTION``: the module is imported and ``FUNCTION(**params)`` is called.
 
+The last three forms run code or read files the name points to: they are for names the user
+passes (the command line, a call).  A name read from a saved file goes through
+:func:`resolve_registered`, which accepts registered names only.
+
 Whatever a function returns must be a system object (PWA, hybrid automaton, constant-drift or
 scalar-nonlinear); anything else, an import that fails or a function that raises, is a
 :class:`~hybobs_opt.errors.ModelError` naming the file or module and the function.  The core never
@@ -113,6 +117,49 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
     hint = " (no such file)" if name.endswith(".py") or "/" in name else ""
     raise ModelError("system name", f"a name known to a resolver ({known}), a model file (.toml, .yaml, .json), "
                      f"PATH.py:FUNCTION or module:FUNCTION", repr(name) + hint)
+
+
+def resolve_registered(name: str, params: dict[str, Any] | None = None, *, source: str = "a saved file") -> Any:
+    """The system called ``name`` by a registered resolver (an example of the library), and nothing else.
+
+    The form for names that come from a file: a saved file never names code, so ``module:FUNCTION``,
+    ``PATH.py:FUNCTION`` and model paths -- which :func:`resolve_system` accepts from the command
+    line or a call -- are refused here before anything is imported or read.
+
+    Parameters
+    ----------
+    name : str
+        A name registered with :func:`register_resolver`.
+    params : mapping of str to object, optional
+        Keyword arguments of the builder.
+    source : str
+        Where the name came from (for the message).
+
+    Raises
+    ------
+    ModelError
+        ``name`` is no registered name, or its builder refuses ``params``.
+    """
+    from .model_file import is_model_path
+
+    if not isinstance(name, str) or not name.strip() or ":" in name or is_model_path(name) or "/" in name \
+            or "\\" in name or name.endswith(".py"):
+        raise ModelError("example", f"the name of a registered example in {source} (a saved file never names code or "
+                         "files to load: pass a module:FUNCTION or a model file yourself, on the command line or "
+                         "in a call)", repr(name))
+    known = [label for label, _ in _RESOLVERS]
+    system = None
+    for label, resolver in _RESOLVERS:
+        try:
+            system = resolver(name, dict(params or {}))
+        except HybobsError:
+            raise
+        except Exception as exc:
+            raise ModelError(f"{name}: params", f"parameters the {label} builder accepts", f"{type(exc).__name__}: {exc}") from None
+        if system is not None:
+            return system
+    raise ModelError("example", f"the name of a registered example in {source} (resolvers: {', '.join(known) or 'none'})",
+                     repr(name))
 
 
 def _function_from_file(path_text: str, function: str) -> Callable:
