@@ -250,13 +250,16 @@ class SetMembershipFilter(Observer):
         self._step_count = 0
         self._x = self._c.copy() if x0 is None else checked_state(x0, self.n)
 
-    def _set_pieces(self, pieces: list[Polytope]) -> None:
-        """The pieces of the coming step and an outer box of each (interval bounds of its rows
-        would be tighter only by LPs: the unit box of ``X`` is enough to skip impossible modes)."""
+    def _set_pieces(self, pieces: list[Polytope], boxes: list | None = None) -> None:
+        """The pieces of the coming step and an outer box of each: ``boxes`` when known (the
+        interval image of the previous boxes), else the pieces' single-coordinate rows."""
         if not pieces:
-            pieces = [self._X]  # every piece left X: the next sample says whether the data agree
+            pieces, boxes = [self._X], None  # every piece left X: the next sample says whether the data agree
         self._pieces = pieces
-        self._piece_boxes = [_row_box(P, self.n) for P in pieces]
+        one = np.ones(self.n) * (1.0 + UNIT_BOX_MARGIN)
+        if boxes is None:
+            boxes = [_row_box(P, self.n) for P in pieces]
+        self._piece_boxes = [(np.maximum(lo, -one), np.minimum(hi, one)) for lo, hi in boxes]
 
     # ------------------------------------------------------------------ polytope steps
     def _relaxed(self, A: np.ndarray, b: np.ndarray) -> Polytope:
@@ -273,13 +276,11 @@ class SetMembershipFilter(Observer):
         model = _PieceLP(P.A, P.b)
         if model.feasible():
             return model
-        res = solve_lp(np.zeros(self.n), P.A, P.b, problem="set-membership filter: emptiness of a piece")
-        if res.status == "infeasible":
-            return None
-        if res.status != "optimal":
-            raise SolverError("set-membership filter: emptiness of a piece", "HiGHS", f"status {res.status!r}",
-                              "check the model's bounds (X must be bounded)")
-        return _PieceLP(P.A, P.b)
+        try:
+            res = solve_lp(np.zeros(self.n), P.A, P.b, problem="set-membership filter: emptiness of a piece")
+        except SolverError:
+            return model  # not proven empty: kept (the safe side)
+        return None if res.status == "infeasible" else model
 
     @staticmethod
     def _box_excludes(lo: np.ndarray, hi: np.ndarray, A: np.ndarray, b: np.ndarray) -> bool:
@@ -312,17 +313,38 @@ class SetMembershipFilter(Observer):
     def _box(self, pieces: list[tuple[Polytope, int]]) -> tuple[np.ndarray, np.ndarray, list]:
         lo, hi = np.full(self.n, np.inf), np.full(self.n, -np.inf)
         boxes = []
-        for _, _, model in pieces:
+        kept = []
+        for piece in pieces:
             self.n_lps += 2 * self.n
-            a, b = model.box()
-            boxes.append((a, b))
-            lo, hi = np.minimum(lo, a), np.maximum(hi, b)
+            box = self._piece_box(piece[0], piece[2])
+            if box is None:
+                continue  # proven empty
+            kept.append(piece)
+            boxes.append(box)
+            lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+        pieces[:] = kept
         return lo, hi, boxes
+
+    def _piece_box(self, Q: Polytope, model: _PieceLP) -> tuple[np.ndarray, np.ndarray] | None:
+        """Proven bounds of a piece: HiGHS's duals, else the checked LPs of
+        :meth:`~hybobs_opt.geometry.polytope.Polytope.bounding_box` (``None``: the piece is empty),
+        else the unit box of ``X`` (a thin piece no LP resolves: every piece lies in it)."""
+        try:
+            return model.box()
+        except SolverError:
+            pass
+        try:
+            return Q.bounding_box()
+        except ModelError:
+            return None
+        except SolverError:
+            one = np.full(self.n, 1.0 + UNIT_BOX_MARGIN)
+            return -one, one
 
     def _predict(self, pieces: list[tuple[Polytope, int]], u: np.ndarray, boxes: list | None = None) -> list[Polytope]:
         """The pieces mapped by their modes' dynamics and cut to ``X``; ``boxes`` (the pieces'
         bounding boxes) lets rows implied by the mapped box go without an LP."""
-        nxt = []
+        nxt, nxt_boxes = [], []
         self._step_count += 1
         full_pass = self._step_count % REDUNDANCY_PERIOD == 0
         for k, (Q, q, _) in enumerate(pieces):
@@ -330,6 +352,7 @@ class SetMembershipFilter(Observer):
             shift = off + B_s @ u
             img = Q.affine_image(A_s, shift)
             A_all, b_all = np.vstack([img.A, self._X.A]), np.concatenate([img.b, self._X.b])
+            lo1 = hi1 = None
             if boxes is not None:
                 # the image's bounding box (interval arithmetic on the piece's box) holds the image:
                 # its rows join, and every row it implies goes (the set does not change)
@@ -350,8 +373,12 @@ class SetMembershipFilter(Observer):
                 keep = model.irredundant(REDUNDANCY_RTOL)
                 R = Polytope(R.A[keep], R.b[keep])
             nxt.append(R)
-        while len(nxt) > self.max_pieces:
-            nxt = self._merge_nearest(nxt)
+            nxt_boxes.append((lo1, hi1) if lo1 is not None else _row_box(R, self.n))
+        if len(nxt) > self.max_pieces:
+            while len(nxt) > self.max_pieces:
+                nxt = self._merge_nearest(nxt)
+            nxt_boxes = [_row_box(P, self.n) for P in nxt]
+        self._next_boxes = nxt_boxes
         return nxt
 
     def _merge_nearest(self, pieces: list[Polytope]) -> list[Polytope]:
@@ -385,21 +412,53 @@ class SetMembershipFilter(Observer):
         t0 = time.perf_counter()
         pieces = self._measure(u, y)
         if not pieces:
-            reason = ("no state is consistent with the record within the stated noise bound: the data contradict the "
-                      "model or the bound; the filter starts again from X")
-            self._set_pieces([self._X])
-            return Estimate(self._x.copy(), -1, FALLBACK, 0.0, {"reason": reason, "n_pieces": 0})
+            return self._inconsistent()
         lo_s, hi_s, boxes = self._box(pieces)
+        if not pieces:
+            return self._inconsistent()
         lower, upper = self._c + self._h * lo_s, self._c + self._h * hi_s
         x = 0.5 * (lower + upper)
         radius = 0.5 * (upper - lower)
         modes = sorted({q for _, q, _ in pieces})
         self._x = x
-        self._set_pieces(self._predict(pieces, u, boxes))
+        nxt = self._predict(pieces, u, boxes)
+        self._set_pieces(nxt, self._next_boxes if nxt else None)
         flag = OBSERVABLE if np.all(radius <= self.tolerance) else UNOBSERVABLE
         info = {"radius": radius, "lower": lower, "upper": upper, "tolerance": self.tolerance,
                 "n_pieces": len(pieces), "modes": modes, "seconds_sets": time.perf_counter() - t0}
         return Estimate(x.copy(), modes[0] if len(modes) == 1 else -1, flag, 0.0, info)
+
+    def _inconsistent(self) -> Estimate:
+        reason = ("no state is consistent with the record within the stated noise bound: the data contradict the "
+                  "model or the bound; the filter starts again from X")
+        self._set_pieces([self._X])
+        return Estimate(self._x.copy(), -1, FALLBACK, 0.0, {"reason": reason, "n_pieces": 0})
+
+    def _predict_boxes(self, u: np.ndarray | None) -> None:
+        """Without LPs: each piece's outer box mapped through every mode by interval arithmetic, the
+        union's box cut to ``X`` as the one piece of the next step (sound, and it keeps the bounds of
+        the coordinates the dynamics leave alone, such as a constant parameter)."""
+        lo_all, hi_all = np.full(self.n, np.inf), np.full(self.n, -np.inf)
+        one = np.ones(self.n)
+        for lo, hi in self._piece_boxes:
+            lo, hi = np.maximum(lo, -one), np.minimum(hi, one)
+            c0, r0 = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            for q in range(len(self._modes)):
+                _, _, _, _, _, _, A_s, off, B_s = self._modes[q]
+                shift = off + (B_s @ u if u is not None else 0.0)
+                if u is None:  # the input is unknown: anywhere in U
+                    continue
+                c1, r1 = A_s @ c0 + shift, np.abs(A_s) @ r0
+                lo_all, hi_all = np.minimum(lo_all, c1 - r1), np.maximum(hi_all, c1 + r1)
+        if u is None or not np.all(np.isfinite(lo_all)):
+            self._set_pieces([self._X])
+            return
+        lo_all, hi_all = np.maximum(lo_all, -one), np.minimum(hi_all, one)
+        if np.any(lo_all > hi_all):
+            self._set_pieces([self._X])
+            return
+        box = Polytope.from_box(lo_all, hi_all)
+        self._set_pieces([self._relaxed(np.vstack([box.A, self._X.A]), np.concatenate([box.b, self._X.b]))])
 
     def _fallback(self, u, reason: str) -> Estimate:
         # a bad sample: no measurement update; the set is predicted through every mode its pieces meet
@@ -408,7 +467,7 @@ class SetMembershipFilter(Observer):
                 pieces = self._measure(np.asarray(u, float), None)
                 self._set_pieces(self._predict(pieces, np.asarray(u, float)))
             except SolverError:
-                self._set_pieces([self._X])
+                self._predict_boxes(np.asarray(u, float))
         else:
             self._set_pieces([self._X])  # the input is unknown too: every state of X
         return Estimate(self._x.copy(), -1, FALLBACK, 0.0, {"reason": reason})
