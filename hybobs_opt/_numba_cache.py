@@ -141,22 +141,30 @@ def finalize_kernels(namespace: dict) -> bool:
         from .errors import ModelError
 
         raise ModelError(KERNELS_ENV, "'auto', 'compiled' or 'python'", repr(os.environ[KERNELS_ENV]))
-    # an unwritable cache would keep every process on Python kernels: compile then, as numba does
-    # (it falls back on its own locations)
-    compiled = mode == "compiled" or (mode == "auto" and (any(_cache_has(fn) for fn in marked.values())
-                                                          or not _cache_writable()))
+    untrusted = _untrusted_cache()
+    if untrusted:
+        # numba's index files are pickles: a directory another user can write is never read
+        # (compiled on request without the cache, else Python kernels and no background compilation)
+        compiled = mode == "compiled"
+    else:
+        # an unwritable cache would keep every process on Python kernels: compile then, as numba
+        # does (it falls back on its own locations)
+        compiled = mode == "compiled" or (mode == "auto" and (any(_cache_has(fn) for fn in marked.values())
+                                                              or not _cache_writable()))
     if compiled:
         from numba import njit
 
         prepare_target()
         for name, fn in marked.items():
             signatures, options = fn._hybobs_kernel
+            if untrusted:
+                options = {**options, "cache": False}
             namespace[name] = njit(*signatures, **options)(fn)
     else:
         for name, fn in marked.items():
             if fn._hybobs_kernel[0]:
                 namespace[name] = _typed_python(fn, fn._hybobs_kernel[0])
-        if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0":
+        if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0" and not untrusted:
             start_background_warm_up()
     _COMPILED[namespace.get("__name__", "?")] = compiled
     return compiled
@@ -192,6 +200,30 @@ def _typed_python(fn, signatures):
         return fn(*args)
 
     return checked
+
+
+_untrusted_reported = False
+
+
+def _untrusted_cache() -> str | None:
+    """Why the kernel cache directory in force may not be read (``None``: it may), said once per process."""
+    global _untrusted_reported
+    from ._trust import untrusted_directory
+
+    cache = os.environ.get(NUMBA_CACHE_ENV)
+    if cache is None:
+        cache = numba_cache_dir()
+    if not cache:
+        return None  # numba's own choice (next to the installed sources, or its per-user directory)
+    why = untrusted_directory(cache)
+    if why and not _untrusted_reported:
+        import warnings
+
+        _untrusted_reported = True
+        warnings.warn(f"hybobs_opt: the kernel cache {cache} {why}: it is not read (its index files are pickles); "
+                      f"kernels run as Python (set {NUMBA_CACHE_ENV} to a directory of your own)", RuntimeWarning,
+                      stacklevel=3)
+    return why
 
 
 def _cache_writable() -> bool:

@@ -21,6 +21,13 @@ Entries
     by :func:`~hybobs_opt.regions.load_analysis`, which checks its checksum, its fingerprint
     against the system and its content against the mode sequences.  Arrays are an ``.npz``
     (read with ``allow_pickle=False``) holding the key and a SHA-256 of every array.
+Trust
+    A plain checksum anyone can recompute: every entry also has a ``.mac`` file, the HMAC-SHA256
+    of its bytes under a key kept in the directory (``.hybobs-cache-key``, 32 random bytes, mode
+    0600), and an entry without a valid one is never read as a result (it is recomputed and
+    replaced).  The directory is used only when this user owns it and nobody else can write to it
+    (:func:`hybobs_opt._trust.untrusted_directory`); ``clear`` removes only the entries it names
+    (``KIND-<32 hex>.json|.npz``, their ``.mac`` and its temporary files).
 Failures
     An entry that is unreadable, corrupted or for another key is refused and recomputed (and
     rewritten); a directory that cannot be written is reported once and the run goes on without
@@ -33,8 +40,12 @@ CLI prints it on stderr, and lists the events under ``"cache"`` in its ``--json`
 from __future__ import annotations
 
 import hashlib
+import hmac
+import io
 import json
 import os
+import re
+import secrets
 import time
 import zipfile
 from collections.abc import Callable, Iterator, Mapping
@@ -54,6 +65,11 @@ CACHE_DIR_ENV = "HYBOBS_CACHE_DIR"
 NO_CACHE_ENV = "HYBOBS_NO_CACHE"
 #: Layout version of the entries (part of every key).
 CACHE_FORMAT = 1
+#: The key of the entries' MACs, in the cache directory.
+KEY_FILE = ".hybobs-cache-key"
+#: The names of the toolbox's entries and of its temporary files (``clear`` removes nothing else).
+_ENTRY = re.compile(r"[a-z][a-z0-9-]*-[0-9a-f]{32}\.(json|npz)")
+_OWN_FILE = re.compile(r"[a-z][a-z0-9-]*-[0-9a-f]{32}\.(json|npz)(\.mac)?(\.tmp[0-9]+(\.npz|\.mac)?)?")
 
 __all__ = ["CACHE_DIR_ENV", "NO_CACHE_ENV", "ResultCache", "active_cache", "analysis_key_parts", "array_digest",
            "cached_analysis", "code_digest", "default_cache_dir", "use_cache"]
@@ -115,6 +131,8 @@ class ResultCache:
         self.log = log
         self.events: list[dict[str, Any]] = []
         self._unwritable = False
+        self._key: bytes | None = None
+        self._distrust: str | None = None
 
     # ------------------------------------------------------------------ keys and events
     def key(self, kind: str, parts: Mapping[str, Any]) -> str:
@@ -157,8 +175,69 @@ class ResultCache:
             tail = f": {reason}" if reason else ""
             self.log(f"{what}: {verb} ({path}, {seconds:.2f} s){tail}")
 
+    def _trusted(self) -> bool:
+        """Whether the directory may be read and written (this user's, writable by nobody else)."""
+        from ._trust import untrusted_directory
+
+        if self._distrust is None:
+            why = untrusted_directory(self.directory)
+            self._distrust = why or ""
+            if why and self.log is not None:
+                self.log(f"cache directory {self.directory} {why}: not used (set {CACHE_DIR_ENV} to a directory of "
+                         "your own, or pass --no-cache)")
+        return not self._distrust
+
+    def _mac_key(self, create: bool) -> bytes | None:
+        """The key of the entries' MACs (created on the first store); ``None`` when there is none
+        or it is not this user's private file."""
+        if self._key is not None:
+            return self._key
+        path = self.directory / KEY_FILE
+        try:
+            if create and not path.exists():
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(secrets.token_bytes(32))
+            st = os.lstat(path)
+            if not os.path.isfile(path) or os.path.islink(path) or (hasattr(os, "getuid") and st.st_uid != os.getuid()) \
+                    or st.st_mode & 0o077:
+                return None
+            key = path.read_bytes()
+        except OSError:
+            return None
+        if len(key) != 32:
+            return None
+        self._key = key
+        return key
+
+    def _verified_bytes(self, path: Path) -> bytes:
+        """The bytes of the entry at ``path`` when its ``.mac`` proves this toolbox wrote them."""
+        key = self._mac_key(create=False)
+        if key is None:
+            raise ValueError("no MAC key in the cache directory (entries written elsewhere are not read)")
+        raw = path.read_bytes()
+        mac_path = path.with_name(path.name + ".mac")
+        try:
+            mac = mac_path.read_text().strip()
+        except (OSError, UnicodeDecodeError):
+            raise ValueError("no MAC file: an entry this toolbox did not write") from None
+        if not hmac.compare_digest(mac, hmac.new(key, raw, hashlib.sha256).hexdigest()):
+            raise ValueError("its MAC does not match: an entry this toolbox did not write, or one edited since")
+        return raw
+
+    def _store(self, tmp: Path, path: Path) -> None:
+        """Move the written ``tmp`` to ``path`` with its MAC (the MAC last: a reader meanwhile refuses)."""
+        key = self._mac_key(create=True)
+        if key is None:
+            raise OSError("the cache's MAC key is not this user's private file")
+        mac = hmac.new(key, tmp.read_bytes(), hashlib.sha256).hexdigest()
+        mac_tmp = path.with_name(path.name + f".mac.tmp{os.getpid()}")
+        mac_tmp.write_text(mac)
+        os.replace(tmp, path)
+        os.replace(mac_tmp, path.with_name(path.name + ".mac"))
+
     def _writable(self) -> bool:
-        if self._unwritable:
+        if self._unwritable or not self._trusted():
             return False
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
@@ -195,21 +274,28 @@ class ResultCache:
         path = self.path("analysis", key, ".json")
         t0 = time.perf_counter()
         reason = None
-        if path.exists():
+        if path.exists() and self._trusted():
+            import tempfile
+
             try:
-                analysis = load_analysis(path, system=system)
+                raw = self._verified_bytes(path)
+                # parsed from a private copy of the verified bytes: the entry may change meanwhile
+                with tempfile.TemporaryDirectory(prefix="hybobs_entry_") as private:
+                    copy = Path(private) / path.name
+                    copy.write_bytes(raw)
+                    analysis = load_analysis(copy, system=system)
                 if analysis.T != T:
                     raise ModelError(str(path), f"an analysis with T = {T}", f"T = {analysis.T}")
                 self._event("analysis", what, "hit", path, time.perf_counter() - t0)
                 return analysis
-            except (ModelError, OSError) as exc:
+            except (ModelError, OSError, ValueError) as exc:
                 reason = str(exc)
         analysis = compute()
         if self._writable():
             tmp = path.with_name(path.name + f".tmp{os.getpid()}")
             try:
                 save_analysis(analysis, tmp)
-                os.replace(tmp, path)  # atomic: a reader sees the old entry or the whole new one
+                self._store(tmp, path)  # atomic: a reader sees the old entry or the whole new one
             except OSError as exc:
                 tmp.unlink(missing_ok=True)
                 self._event("analysis", what, "not stored", path, time.perf_counter() - t0, str(exc))
@@ -240,9 +326,9 @@ class ResultCache:
         path = self.path(kind, key, ".npz")
         t0 = time.perf_counter()
         reason = None
-        if path.exists():
+        if path.exists() and self._trusted():
             try:
-                out = self._read_arrays(path, key)
+                out = self._read_arrays(self._verified_bytes(path), key)
                 self._event(kind, what, "hit", path, time.perf_counter() - t0)
                 return out
             except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
@@ -257,7 +343,7 @@ class ResultCache:
         tmp = path.with_name(path.name + f".tmp{os.getpid()}.npz")
         try:
             np.savez_compressed(tmp, __key__=np.array(key), __digest__=np.array(array_digest(arrays)), **arrays)
-            os.replace(tmp, path)
+            self._store(tmp, path)
         except OSError as exc:
             tmp.unlink(missing_ok=True)
             self._event(kind, what, "not stored", path, time.perf_counter() - t0, str(exc))
@@ -266,8 +352,8 @@ class ResultCache:
         return arrays
 
     @staticmethod
-    def _read_arrays(path: Path, key: str) -> dict[str, np.ndarray]:
-        with np.load(path, allow_pickle=False) as data:
+    def _read_arrays(raw: bytes, key: str) -> dict[str, np.ndarray]:
+        with np.load(io.BytesIO(raw), allow_pickle=False) as data:
             out = {name: data[name] for name in data.files}
         if str(out.pop("__key__", "")) != key:
             raise ValueError("the entry was written for another key")
@@ -283,20 +369,21 @@ class ResultCache:
             return []
         out = []
         for path in sorted(self.directory.iterdir()):
-            if path.is_file() and path.suffix in (".json", ".npz") and ".tmp" not in path.name:
+            if _ENTRY.fullmatch(path.name) and path.is_file() and not path.is_symlink():
                 st = path.stat()
                 out.append({"name": path.name, "kind": path.name.rsplit("-", 1)[0], "bytes": st.st_size,
                             "modified": st.st_mtime})
         return out
 
     def clear(self) -> tuple[int, int]:
-        """Delete every entry (and stale temporary files); returns ``(files, bytes)`` removed."""
+        """Delete the toolbox's entries, their MACs and stale temporary files (files of its naming
+        pattern only: nothing else in the directory is touched); returns ``(files, bytes)`` removed."""
         if not self.directory.is_dir():
             return 0, 0
         files = size = 0
         for path in self.directory.iterdir():
-            if path.is_file() and (path.suffix in (".json", ".npz") or ".tmp" in path.name):
-                size += path.stat().st_size
+            if _OWN_FILE.fullmatch(path.name) and (path.is_file() or path.is_symlink()):
+                size += path.lstat().st_size
                 path.unlink()
                 files += 1
         return files, size
