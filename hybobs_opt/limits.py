@@ -76,3 +76,12 @@ def max_workers() -> int:
     import os
 
     return MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+#: Largest model file read, in bytes (checked before parsing): the largest shipped model is a
+#: few kilobytes; a model of a thousand modes fits in a few megabytes.
+MAX_MODEL_FILE_BYTES: int = 16 * 1024 * 1024
+
+#: Most YAML aliases (``*name``) a model file may use.  An alias is a reference, cheap to parse and
+#: expensive to expand: 9 levels of nested aliases in 820 bytes made a walk of the document take
+#: 3.6 GB; a model needs few, if any.
+MAX_YAML_ALIASES: int = 64

@@ -28,6 +28,30 @@ def is_model_path(text: str) -> bool:
     return Path(text).suffix.lower() in MODEL_SUFFIXES
 
 
+def _load_yaml(yaml, text: str, where: str):
+    """``yaml.safe_load`` that refuses more than :data:`~hybobs_opt.limits.MAX_YAML_ALIASES`
+    aliases, counted as the parser meets them (before any is expanded)."""
+    from ..limits import MAX_YAML_ALIASES
+
+    class Loader(yaml.SafeLoader):
+        aliases = 0
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                Loader.aliases += 1
+                if Loader.aliases > MAX_YAML_ALIASES:
+                    raise ModelError(where, f"a YAML file with at most {MAX_YAML_ALIASES} aliases "
+                                     "(hybobs_opt.limits.MAX_YAML_ALIASES; a model needs few)",
+                                     f"more than {MAX_YAML_ALIASES}")
+            return super().compose_node(parent, index)
+
+    loader = Loader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
+
+
 def read_model_dict(path: str | Path) -> dict[str, Any]:
     """The raw dictionary in a model file (no system built).
 
@@ -46,7 +70,13 @@ def read_model_dict(path: str | Path) -> dict[str, Any]:
     kind = MODEL_SUFFIXES.get(path.suffix.lower())
     if kind is None:
         raise ModelError(str(path), f"a model file ending in {', '.join(MODEL_SUFFIXES)}", repr(path.suffix))
+    from ..limits import MAX_MODEL_FILE_BYTES
+
     try:
+        size = path.stat().st_size
+        if size > MAX_MODEL_FILE_BYTES:
+            raise ModelError(str(path), f"a model file of at most {MAX_MODEL_FILE_BYTES:,} bytes "
+                             "(hybobs_opt.limits.MAX_MODEL_FILE_BYTES)", f"{size:,} bytes")
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ModelError(str(path), "a readable model file", f"{type(exc).__name__}: {exc.strerror or exc}") from None
@@ -62,7 +92,7 @@ def read_model_dict(path: str | Path) -> dict[str, Any]:
             data = tomllib.loads(text)
         else:
             yaml = _optional("yaml", "PyYAML", "read YAML model files")
-            data = yaml.safe_load(text)
+            data = _load_yaml(yaml, text, str(path))
     except ModelError:
         raise
     except Exception as exc:  # json/tomllib/yaml each raise their own parse errors
