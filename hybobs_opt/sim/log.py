@@ -19,12 +19,12 @@ gives the same doubles.
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .._numbers import parse_decimal
 from ..errors import ModelError
 
 #: Accepted names of the optional time column.
@@ -89,11 +89,15 @@ def read_log(path: str | Path, system) -> SignalLog:
     path = Path(path)
     inputs, outputs, states = tuple(system.input_names), tuple(system.output_names), tuple(system.state_names)
     try:
-        with path.open(newline="") as fh:
-            rows = list(csv.reader(fh))
+        # utf-8-sig: a byte-order mark (spreadsheets write one) is not part of the first column's name
+        with path.open(newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            # blank lines are skipped; each row keeps the line it ends on, for the messages
+            numbered = [(reader.line_num, r) for r in reader if any(cell.strip() for cell in r)]
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ModelError(str(path), "a readable CSV log", f"{type(exc).__name__}: {exc}") from None
-    rows = [r for r in rows if any(cell.strip() for cell in r)]
+    lines = [k for k, _ in numbered]
+    rows = [r for _, r in numbered]
     if not rows:
         raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
     header = [h.strip() for h in rows[0]]
@@ -120,17 +124,11 @@ def read_log(path: str | Path, system) -> SignalLog:
         raise ModelError(f"{path} header", f"all the state columns {list(states)} or none",
                          f"only {state_cols}")
     data = np.empty((len(rows) - 1, len(header)))
-    for k, row in enumerate(rows[1:], start=2):
+    for i, (k, row) in enumerate(zip(lines[1:], rows[1:])):
         if len(row) != len(header):
             raise ModelError(f"{path} line {k}", f"{len(header)} cells (one per column of the header)", f"{len(row)}")
         for c, cell in enumerate(row):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise ModelError(f"{path} line {k} column {header[c]!r}", "a number", repr(cell)) from None
-            if not math.isfinite(value):
-                raise ModelError(f"{path} line {k} column {header[c]!r}", "a finite number", repr(cell))
-            data[k - 2, c] = value
+            data[i, c] = parse_decimal(cell, f"{path} line {k} column {header[c]!r}")
     if data.shape[0] == 0:
         raise ModelError(str(path), "at least one sample after the header", "none")
     for name in sorted({h for h in header if header.count(h) > 1}):
@@ -153,7 +151,7 @@ def read_log(path: str | Path, system) -> SignalLog:
         q = data[:, header.index(modes[0])]
         bad = np.flatnonzero(q != np.round(q))
         if bad.size:
-            raise ModelError(f"{path} line {int(bad[0]) + 2} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
+            raise ModelError(f"{path} line {lines[int(bad[0]) + 1]} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
         Q = q.astype(int)
     return SignalLog(str(path), columns(inputs), columns(outputs), t, X, Q)
 

@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 import casadi as ca
 import numpy as np
 
+from .._numbers import MAX_NUMBER_CHARS, is_decimal
 from ..errors import ModelError
 
 #: Longest expression text accepted (a guard against pathological inputs, not a modelling limit).
@@ -102,6 +103,7 @@ def _source(node: ast.AST) -> str:
 class _Builder:
     def __init__(self, variables: dict[str, ca.SX], field: str, text: str):
         self.variables, self.field, self.text = variables, field, text
+        self.source = text.strip()  # what ast.parse read: the nodes' offsets point into it
 
     def fail(self, what: str) -> ModelError:
         names = ", ".join(sorted(self.variables)) or "none"
@@ -115,9 +117,14 @@ class _Builder:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 raise self.fail(f"the literal {node.value!r}")
-            if not math.isfinite(float(node.value)):
-                raise self.fail(f"the non-finite number {node.value!r}")
-            return ca.SX(float(node.value))
+            written = ast.get_source_segment(self.source, node) or ""
+            if not is_decimal(written):  # 8_0, 0x10, 1j, non-ASCII digits, 400-digit integers
+                raise self.fail(f"the number {written[:40]!r} (ASCII decimal digits, at most {MAX_NUMBER_CHARS} "
+                                "characters)")
+            value = float(written)
+            if not math.isfinite(value):
+                raise self.fail(f"the non-finite number {written!r}")
+            return ca.SX(value)
         if isinstance(node, ast.Name):
             if node.id in self.variables:
                 return self.variables[node.id]

@@ -157,10 +157,21 @@ class _Reader:
         return value
 
     def names(self, key: str) -> tuple[str, ...]:
+        """Names normalised to NFKC, as Python's parser reads the names in expressions (``𝐱`` is
+        ``x`` there): two names that normalise to the same one are refused, not merged."""
+        import unicodedata
+
         value = self.raw(key, [])
         if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not all(isinstance(v, str) for v in value):
             raise ModelError(self.at(key), "a list of names (strings)", repr(value))
-        return tuple(value)
+        out = tuple(unicodedata.normalize("NFKC", v) for v in value)
+        seen: dict[str, str] = {}
+        for raw, name in zip(value, out):
+            if name in seen:
+                raise ModelError(self.at(key), "distinct names (compared after NFKC normalisation, as in expressions)",
+                                 f"{seen[name]!r} and {raw!r} are both {name!r}")
+            seen[name] = raw
+        return out
 
     def number(self, key: str, default: Any = ...) -> float:
         value = self.raw(key, default)
@@ -336,9 +347,13 @@ def polytope_from_dict(value: Any, spaces: Sequence[tuple[str, ...]], field: str
 def _names_in(text: str, allowed: set[str]) -> bool:
     import ast
 
+    from .expressions import MAX_EXPRESSION_CHARS
+
+    if len(text) > MAX_EXPRESSION_CHARS:
+        return True  # the parser refuses it with the entry's name, before parsing
     try:
         tree = ast.parse(text, mode="eval")
-    except SyntaxError:
+    except (SyntaxError, RecursionError, MemoryError):
         return True  # the parser reports it with the entry's name
     from .expressions import CONSTANTS, FUNCTIONS
 

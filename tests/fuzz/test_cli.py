@@ -124,6 +124,12 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     # --noise-bound: without --data, with another observer, or not a bound on a named output
     (["observe", "powertrain3"], "--noise-bound", ["0.1"]),
     (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp"], "--noise-bound", ["0.1"]),
+    # --input-noise-bound: without --noise-bound, with another observer, not a bound on a named input
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "lookup"], "--input-noise-bound", ["0.1"]),
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp", "--noise-bound", "0.1"],
+     "--input-noise-bound", ["0.1"]),
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "lookup", "--noise-bound", "0.1"],
+     "--input-noise-bound", ["-1", "z=1", "abc"]),
     (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "set_membership"], "--noise-bound",
      ["-1", "abc", "nan", "z=0.1", "y=", "y=inf"]),
     (["observe", "powertrain3"], "--regions", [F("nosuch"), F("bin")]),
@@ -154,6 +160,8 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["export", "powertrain3"], "--out-dir", [F("existing")]),
     (["export", "vehicle_tracking"], "--out-dir", [F("dir") + "/c"]),
     (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--float32", ["yes", "1"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--force", ["yes", "1"]),
+    (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--no-build", ["yes", "1"]),
     (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--max-bytes", ["0", "-1", "abc", "1.5", ""]),
     (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--max-ops", ["0", "-1", "abc", "1e3"]),
     (["export", "powertrain3", "--out-dir", F("dir") + "/c"], "--no-cache", ["1"]),

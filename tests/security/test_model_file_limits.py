@@ -53,3 +53,73 @@ def test_a_yaml_model_with_a_few_aliases_still_loads(tmp_path):
         load_model(path)
     except ModelError as exc:  # an unknown top-level key may be refused, never for its alias
         assert "alias" not in str(exc)
+
+
+# ------------------------------------------------------------------ identifiers and numbers
+
+def _spring_model(tmp_path: Path, edit) -> Path:
+    import json
+
+    from canonical import deadzone_spring
+    from hybobs_opt.systems import save_model
+
+    path = tmp_path / "m.json"
+    save_model(deadzone_spring(), path)
+    data = json.loads(path.read_text())
+    edit(data)
+    path.write_text(json.dumps(data, ensure_ascii=False))
+    return path
+
+
+def test_names_that_normalise_to_the_same_identifier_are_refused(tmp_path):
+    """``x`` and ``𝐱`` (MATHEMATICAL BOLD SMALL X) are one name to Python's parser, which reads the
+    expressions: two states that differ only so would have a guard on one built on the other."""
+    def two_xs(d):
+        d["states"] = ["x", "\U0001d431"]
+
+    with pytest.raises(ModelError, match="NFKC"):
+        load_model(_spring_model(tmp_path, two_xs))
+
+    def bold_only(d):
+        d["states"] = ["\U0001d431", "x2"]
+
+    assert load_model(_spring_model(tmp_path, bold_only)).state_names[0] == "x"  # normalised, as in expressions
+
+
+@pytest.mark.parametrize("number", ["8_0", "0x10", "1" + "0" * 400, "1e400", "\u0663", "\uff13"])
+def test_one_number_grammar_in_expressions(number):
+    import casadi as ca
+
+    from hybobs_opt.systems.expressions import parse_expression
+
+    with pytest.raises(ModelError, match="f"):
+        parse_expression(f"{number} * x", {"x": ca.SX.sym("x")}, "f")
+
+
+def test_a_six_thousand_term_inequality_is_one_line_not_a_traceback(tmp_path):
+    def long_guard(d):
+        d["modes"][0]["guard"] = {"inequalities": [" + ".join(["x1"] * 6600) + " <= 1"]}
+
+    r = subprocess.run([sys.executable, "-m", "hybobs_opt.cli", "model", "check", str(_spring_model(tmp_path, long_guard))],
+                       capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("cell", ["8_0", "\u0663", "0x10", "1e400", "inf", "nan", "1,5"])
+def test_one_number_grammar_in_csv_logs(tmp_path, cell):
+    from canonical import deadzone_spring
+    from hybobs_opt.sim.log import read_log
+
+    path = tmp_path / "log.csv"
+    path.write_text(f"t,u,y\n0,0.1,0.2\n\n\n1,\"{cell}\",0.3\n")
+    with pytest.raises(ModelError, match="line 5 column"):  # blank lines counted
+        read_log(path, deadzone_spring())
+
+
+def test_a_byte_order_mark_is_not_part_of_a_column_name(tmp_path):
+    from canonical import deadzone_spring
+    from hybobs_opt.sim.log import read_log
+
+    path = tmp_path / "log.csv"
+    path.write_bytes("\ufefft,u,y\n0,0.1,0.2\n1,0.2,0.3\n".encode("utf-8"))
+    assert read_log(path, deadzone_spring()).n_samples == 2

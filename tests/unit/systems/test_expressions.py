@@ -236,7 +236,7 @@ REFUSED = [
     ("None", "None"),
     ("inf", "inf"),
     ("nan", "nan"),
-    ("1e400", "inf"),
+    ("1e400", "non-finite"),
     ("1j", "1j"),
     ("x if y else z", "IfExp"),
     ("[x, y]", "List"),
