@@ -64,6 +64,36 @@ class SerialExecutor:
         pass
 
 
+def _end_with_parent(parent: int) -> None:
+    """Worker initializer: the worker ends when its parent does (killed with ``SIGKILL``, it cannot
+    shut its pool down).  On Linux the kernel sends ``SIGTERM`` on the parent's death
+    (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread watches the parent's pid."""
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(1, int(signal.SIGTERM), 0, 0, 0) == 0:  # 1 = PR_SET_PDEATHSIG
+                if os.getppid() != parent:  # the parent died before the call: nobody will signal
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        import time
+
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="hybobs-parent-watch", daemon=True).start()
+
+
 class ProcessExecutor:
     """Local worker processes (``concurrent.futures``), all cores by default.
 
@@ -89,7 +119,8 @@ class ProcessExecutor:
 
             # fork is cheap and inherits the imported package; fall back to spawn where absent.
             ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context("spawn")
-            self._pool = ProcessPoolExecutor(max_workers=self.n_workers, mp_context=ctx)
+            self._pool = ProcessPoolExecutor(max_workers=self.n_workers, mp_context=ctx, initializer=_end_with_parent,
+                                             initargs=(os.getpid(),))
         return self._pool
 
     def map(self, fn, items, progress: Progress = None) -> list[Any]:
