@@ -10,6 +10,9 @@ name the function parameter; the CLI translates it into its option.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 from .errors import ModelError
 
@@ -85,3 +88,26 @@ MAX_MODEL_FILE_BYTES: int = 16 * 1024 * 1024
 #: expensive to expand: 9 levels of nested aliases in 820 bytes made a walk of the document take
 #: 3.6 GB; a model needs few, if any.
 MAX_YAML_ALIASES: int = 64
+
+#: Largest predicted number of pair LPs of Algorithm 3.1 run without being asked for more
+#: (:func:`~hybobs_opt.regions.predict_analysis_cost`; ``analyse_observability(...,
+#: max_pair_lps=N)``, CLI ``--max-lps N``): about 35 minutes at the 0.4 ms per LP measured here.
+MAX_PREDICTED_PAIR_LPS: int = 5_000_000
+
+_PAIR_LP_BUDGET: ContextVar[int] = ContextVar("hybobs_pair_lp_budget", default=MAX_PREDICTED_PAIR_LPS)
+
+
+def pair_lp_budget() -> int:
+    """The budget of predicted pair LPs in force (:func:`raised_pair_lp_budget` sets it)."""
+    return _PAIR_LP_BUDGET.get()
+
+
+@contextmanager
+def raised_pair_lp_budget(n: int | None) -> Iterator[None]:
+    """Inside the block, analyses predicted up to ``n`` pair LPs run (``None``: unchanged)."""
+    token = _PAIR_LP_BUDGET.set(int(n)) if n is not None else None
+    try:
+        yield
+    finally:
+        if token is not None:
+            _PAIR_LP_BUDGET.reset(token)

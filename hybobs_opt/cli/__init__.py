@@ -22,7 +22,7 @@ import os
 import re
 import sys
 
-from ..errors import HybobsError
+from ..errors import HybobsError, ModelError
 from ._common import json_default as _json_default  # noqa: F401  (old private names)
 from ._common import number as _number  # noqa: F401
 from ._common import parse_params as _parse_params  # noqa: F401
@@ -164,7 +164,14 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0) if not isinstance(exc.code, str) else 2
     as_json = bool(getattr(args, "json", False)) or as_json
     try:
-        return int(args.func(args) or 0)
+        from ..limits import raised_pair_lp_budget
+        from ._common import as_options
+
+        max_lps = getattr(args, "max_lps", None)
+        if max_lps is not None and max_lps < 1:
+            raise ModelError("--max-lps", "a positive number of LPs", repr(max_lps))
+        with raised_pair_lp_budget(max_lps), as_options({"max_pair_lps": "--max-lps"}):
+            return int(args.func(args) or 0)
     except HybobsError as exc:
         return report_error(args.command, str(exc), as_json, **_error_fields(exc))
     except BrokenPipeError:  # the reader closed the pipe ('hybobs ... | head'): nothing more to say

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -249,9 +250,18 @@ def check_figure_path(option: str, path: Any) -> None:
 
 
 def check_output_path(option: str, path: Any) -> None:
-    """``ModelError`` if ``path`` (a file to write) is an existing directory."""
-    if path is not None and Path(str(path)).is_dir():
+    """``ModelError`` before any work if ``path`` (a file to write) is an existing directory, or its
+    directory is missing or not writable."""
+    if path is None:
+        return
+    p = Path(str(path))
+    if p.is_dir():
         raise ModelError(option, "a file name (not a directory)", repr(str(path)))
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise ModelError(option, "a file in an existing directory", f"{str(path)!r} (no directory {str(parent)!r})")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ModelError(option, "a file in a directory you can write", f"{str(path)!r}")
 
 
 def reject_given(args: argparse.Namespace, options: Mapping[str, Any], expected: str) -> None:
@@ -278,6 +288,16 @@ def as_options(fields: Mapping[str, str]) -> Iterator[None]:
         if option is None:
             raise
         raise ModelError(option, exc.expected, exc.got) from exc
+
+
+def add_lp_budget_argument(p: argparse.ArgumentParser) -> None:
+    """``--max-lps N``: run an analysis predicted beyond the default budget of pair LPs."""
+    from ..limits import MAX_PREDICTED_PAIR_LPS
+
+    p.add_argument("--max-lps", type=int, default=None, metavar="N",
+                   help=f"run Algorithm 3.1 when its predicted pair LPs exceed the default budget of "
+                        f"{MAX_PREDICTED_PAIR_LPS:,} (a horizon predicted beyond the budget is refused before any LP, "
+                        "with the prediction)")
 
 
 def add_cache_argument(p: argparse.ArgumentParser) -> None:

@@ -10,8 +10,8 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON, MAX_SAMPLES
-from ._common import (add_cache_argument, add_system_argument, as_options, check_figure_path, command_cache, load_system,
-                      print_json)
+from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
+                      command_cache, load_system, print_json)
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
 OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf", "set_membership")
@@ -41,6 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
     p.add_argument("--plot", metavar="FILE", help="PNG like the paper's Figs. 7-9")
     add_cache_argument(p)
+    add_lp_budget_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
 

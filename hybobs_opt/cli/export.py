@@ -11,7 +11,8 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON
-from ._common import add_cache_argument, add_system_argument, as_options, command_cache, load_system, print_json
+from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, command_cache,
+                      load_system, print_json)
 
 HELP = "write the lookup-table observer (paper 002, Algorithm 4.1) as self-contained C99 with a CSV replay driver"
 
@@ -36,6 +37,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-ops", type=int, default=None, metavar="N",
                    help="warn when the worst-case step exceeds N multiply-adds")
     add_cache_argument(p)
+    add_lp_budget_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
 

@@ -7,8 +7,8 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON
-from ._common import (add_cache_argument, add_system_argument, as_options, check_figure_path, check_output_path,
-                      command_cache, load_system, print_json)
+from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
+                      check_output_path, command_cache, load_system, print_json)
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
 
@@ -38,6 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     add_cache_argument(p)
+    add_lp_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 

@@ -11,8 +11,9 @@ import math
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
-from ._common import (add_cache_argument, add_executor_arguments, add_system_argument, as_options, check_figure_path,
-                      check_output_path, command_cache, executor_from_args, load_system, print_json)
+from ._common import (add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
+                      as_options, check_figure_path, check_output_path, command_cache, executor_from_args, load_system,
+                      print_json)
 
 #: Grid of a cut when --resolution is not given.
 DEFAULT_RESOLUTION = "41x31"
@@ -38,6 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "same-state pairs, more LPs); computed afresh, not cached")
     add_executor_arguments(p)
     add_cache_argument(p)
+    add_lp_budget_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable summary")
 
 

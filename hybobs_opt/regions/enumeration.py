@@ -136,6 +136,64 @@ def check_horizon(system: PWASystem, T: int) -> None:
         )
 
 
+#: Measured pair LPs of Algorithm 3.1 per ``N ** 1.5`` regions (models (16) and (17), T = 7-10:
+#: 1.9-2.1): the cost model of :func:`predict_analysis_cost`.
+PAIR_LPS_PER_REGION_POWER: float = 2.1
+
+#: Seconds per pair LP measured here (models (16) and (17), T = 8-10), for the message only.
+SECONDS_PER_PAIR_LP: float = 4e-4
+
+
+def predict_analysis_cost(system: PWASystem, T: int) -> dict:
+    """The predicted size of Algorithm 3.1 at horizon ``T``, before running it.
+
+    The regions (feasible mode sequences) are counted by the enumeration at the two smallest
+    horizons that satisfy eq. (8) plus one and two (a few hundred LPs), and extrapolated
+    geometrically with the ratio of the two counts (model (16): 1.94-1.98 per step of T, model
+    (17): 1.84-1.90); the pair LPs are ``PAIR_LPS_PER_REGION_POWER * N ** 1.5``, the relation
+    measured on models (16) and (17).  At those small horizons themselves the count is exact.
+
+    Returns
+    -------
+    dict
+        ``regions``, ``pair_lps``, ``seconds`` (at :data:`SECONDS_PER_PAIR_LP`), ``growth`` (the
+        ratio per step of ``T``) and ``basis`` (the horizons counted).
+    """
+    check_horizon(system, T)
+    t_min = int(np.ceil(system.n / system.p))
+    t1, t2 = t_min + 1, t_min + 2
+    if T <= t2:
+        n_t = len(enumerate_modes(system, T).regions)
+        growth, basis = None, [T]
+    else:
+        n1, n2 = len(enumerate_modes(system, t1).regions), len(enumerate_modes(system, t2).regions)
+        growth = max(n2 / max(n1, 1), 1.0)
+        n_t = n2 * growth ** (T - t2)
+        basis = [t1, t2]
+    pair_lps = PAIR_LPS_PER_REGION_POWER * n_t ** 1.5
+    return {"regions": float(n_t), "pair_lps": float(pair_lps), "seconds": float(pair_lps * SECONDS_PER_PAIR_LP),
+            "growth": growth, "basis": basis}
+
+
+def check_analysis_budget(system: PWASystem, T: int, max_pair_lps: int | None) -> dict | None:
+    """Refuse a horizon whose predicted pair LPs exceed ``max_pair_lps`` (``None``: the active
+    budget, :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` unless raised); returns the prediction."""
+    from ..limits import MAX_PREDICTED_PAIR_LPS, pair_lp_budget
+
+    budget = pair_lp_budget() if max_pair_lps is None else max_pair_lps
+    if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
+        raise ModelError("max_pair_lps", "a positive number of LPs", repr(budget))
+    cost = predict_analysis_cost(system, T)
+    if cost["pair_lps"] > budget:
+        hours = cost["seconds"] / 3600.0
+        raise ModelError("max_pair_lps", f"a horizon whose predicted pair LPs fit the budget of {int(budget):,} "
+                         f"(hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS = {MAX_PREDICTED_PAIR_LPS:,}; raise it to run "
+                         "this one anyway)",
+                         f"T = {T}: about {cost['regions']:.3g} regions and {cost['pair_lps']:.3g} pair LPs predicted "
+                         f"(about {hours:.3g} h), from the regions counted at T = {cost['basis']}")
+    return cost
+
+
 #: Below this many mode sequences (``n_modes ** T``) the tree is enumerated in the calling process
 #: whatever the executor: model (16) at T = 5 (243 sequences) takes about 0.1 s, less than starting
 #: worker processes.

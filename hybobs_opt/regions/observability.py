@@ -52,7 +52,7 @@ from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
 from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, _slack_lp, classify_pair, fixed_state_witness
-from .enumeration import ModeEnumeration, enumerate_modes, horizon_scaling
+from .enumeration import ModeEnumeration, check_analysis_budget, enumerate_modes, horizon_scaling
 from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
 
@@ -712,6 +712,7 @@ def analyse_observability(
     executor=None,
     progress: Callable[[int, int], None] | None = None,
     group_tests: bool = True,
+    max_pair_lps: int | None = None,
 ) -> ObservabilityAnalysis:
     """Run mode enumeration (if needed) and Algorithm 3.1 of paper 002.
 
@@ -733,6 +734,11 @@ def analyse_observability(
         same pieces).  The pairs a group rules out are not classified one by one: they are
         listed in ``stats["pairs_ruled_out_by_group"]``, not among the thin or same-state ones.
         ``False`` classifies every pair on its own (the full thin / same-state lists).
+    max_pair_lps : int, optional
+        Budget of predicted pair LPs (:func:`~hybobs_opt.regions.enumeration.predict_analysis_cost`):
+        a horizon predicted beyond it is refused before any LP, with the prediction.  Default
+        :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` (or the budget the CLI's ``--max-lps``
+        set).  Not checked when a ``ModeEnumeration`` is given (its size is known).
     """
     from ..executor import resolve_executor
     from ..progress import phase_callback
@@ -742,6 +748,7 @@ def analyse_observability(
     if isinstance(system_or_enum, PWASystem):
         if T is None:
             raise ModelError("T", "a horizon when a PWASystem is given", "None")
+        check_analysis_budget(system_or_enum, T, max_pair_lps)
         enum = enumerate_modes(system_or_enum, T, executor=executor,
                                progress=phase_callback(progress, "mode enumeration", "prefix", main=False))
     elif isinstance(system_or_enum, ModeEnumeration):

@@ -51,3 +51,21 @@ def test_killing_a_parallel_run_leaves_no_worker_behind(tmp_path):
     while time.monotonic() < deadline and any(_alive(w) for w in workers):
         time.sleep(0.2)
     assert not any(_alive(w) for w in workers), [w for w in workers if _alive(w)]
+
+
+def test_a_horizon_beyond_the_budget_is_refused_with_its_prediction_before_any_lp():
+    """``regions powertrain3 -T 99`` ran past 180 s; now refused in seconds, naming the prediction
+    and the option that overrides it.  Oracle: the regions counted at T = 7 and 8 (exact), whose
+    growth the prediction extrapolates, and the wall time."""
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "hybobs_opt.cli", "regions", "powertrain3", "-T", "99", "--no-cache"],
+                       capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert time.perf_counter() - t0 < 30
+    assert r.returncode == 2 and "--max-lps" in r.stderr and "pair LPs predicted" in r.stderr
+    from hybobs_opt import enumerate_modes, get_example
+    from hybobs_opt.regions.enumeration import predict_analysis_cost
+
+    plant = get_example("powertrain3").build()
+    pred = predict_analysis_cost(plant, 8)
+    actual = len(enumerate_modes(plant, 8).regions)
+    assert 0.5 * actual <= pred["regions"] <= 2.0 * actual  # the extrapolation is within 2x at T = 8
