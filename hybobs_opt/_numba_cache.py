@@ -155,11 +155,26 @@ def finalize_kernels(namespace: dict) -> bool:
         from numba import njit
 
         prepare_target()
-        for name, fn in marked.items():
-            signatures, options = fn._hybobs_kernel
-            if untrusted:
-                options = {**options, "cache": False}
-            namespace[name] = njit(*signatures, **options)(fn)
+        try:
+            for name, fn in marked.items():
+                signatures, options = fn._hybobs_kernel
+                if untrusted:
+                    options = {**options, "cache": False}
+                # into the namespace at once: the next kernels call this one by its global name
+                namespace[name] = njit(*signatures, **options)(fn)
+        except Exception as exc:  # a damaged cache entry (truncated pickle, ...) read by an eager signature
+            import warnings
+
+            namespace.update(marked)  # the Python functions again, then one of the two ways below
+            dropped = _drop_cache_entries(marked.values())
+            warnings.warn(f"hybobs_opt: a kernel of {namespace.get('__name__', '?')} could not be loaded from the "
+                          f"cache ({type(exc).__name__}: {exc}); {dropped} damaged cache files removed, "
+                          + ("compiling again" if mode == "compiled" else "its kernels run as Python this time"),
+                          RuntimeWarning, stacklevel=2)
+            if mode != "compiled":
+                return _finalize_python(namespace, marked, mode, untrusted=False)
+            for name, fn in marked.items():
+                namespace[name] = njit(*fn._hybobs_kernel[0], **fn._hybobs_kernel[1])(fn)
     else:
         for name, fn in marked.items():
             if fn._hybobs_kernel[0]:
@@ -168,6 +183,45 @@ def finalize_kernels(namespace: dict) -> bool:
             start_background_warm_up()
     _COMPILED[namespace.get("__name__", "?")] = compiled
     return compiled
+
+
+def _finalize_python(namespace: dict, marked: dict, mode: str, untrusted: bool) -> bool:
+    """The module's kernels as Python (typed wrappers where numba signatures are declared)."""
+    for name, fn in marked.items():
+        if fn._hybobs_kernel[0]:
+            namespace[name] = _typed_python(fn, fn._hybobs_kernel[0])
+    if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0" and not untrusted:
+        start_background_warm_up()
+    _COMPILED[namespace.get("__name__", "?")] = False
+    return False
+
+
+def _drop_cache_entries(functions) -> int:
+    """Remove the cache's index and data files of ``functions`` (numba rewrites them); returns how many."""
+    removed = 0
+    try:
+        from numba.core.caching import FunctionCache
+    except ImportError:
+        return 0
+    for fn in functions:
+        try:
+            cache_file = FunctionCache(fn)._cache_file
+            folder, index = cache_file._cache_path, cache_file._index_name
+        except Exception:
+            continue
+        stem = index[: -len(".nbi")]
+        try:
+            names = os.listdir(folder)
+        except OSError:
+            continue
+        for entry in names:
+            if entry == index or (entry.startswith(stem + ".") and entry.endswith(".nbc")):
+                try:
+                    os.remove(os.path.join(folder, entry))
+                    removed += 1
+                except OSError:
+                    pass
+    return removed
 
 
 def _typed_python(fn, signatures):

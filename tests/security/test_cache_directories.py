@@ -128,3 +128,43 @@ def test_clear_removes_only_the_toolbox_files(tmp_path, plant):
     assert files == 2  # the entry and its MAC
     assert {p.name for p in tmp_path.iterdir()} == mine | {".hybobs-cache-key"}
     np.testing.assert_equal(sorted(p.read_text() for p in tmp_path.iterdir() if p.name in mine), ["user data"] * 4)
+
+
+def test_a_truncated_kernel_cache_does_not_break_the_import(tmp_path):
+    """Every data file of the lookup kernels cut to 100 bytes: the import warns, removes them and
+    runs the kernels as Python, and the observer gives the same estimates (the answers do not depend
+    on the kernels' mode: tests/unit/test_kernel_modes.py)."""
+    import shutil
+
+    from hybobs_opt._numba_cache import NUMBA_CACHE_ENV, numba_cache_dir
+
+    source = Path(os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir())
+    folders = [d for d in source.glob("observers_*") if any(d.glob("_lookup_kernels.*.nbc"))] if source.is_dir() else []
+    if not folders:
+        pytest.skip("no compiled lookup kernels in the cache to damage (run python -m hybobs_opt._warm_up)")
+    cache = tmp_path / "numba"
+    shutil.copytree(source, cache)
+    damaged = 0
+    for f in cache.glob("observers_*/_lookup_kernels.*.nbc"):
+        f.write_bytes(f.read_bytes()[:100])
+        damaged += 1
+    assert damaged
+    code = ("import json, warnings\nwarnings.simplefilter('always')\n"
+            "import numpy as np\nfrom hybobs_opt import LookupObserver, analyse_observability, get_example, simulate_pwa\n"
+            "an = analyse_observability(get_example('powertrain3').build(), 3)\n"
+            "tr = simulate_pwa(an.system, np.array([0.06, 39.0, 3.25]), np.full((40, 1), 40.0))\n"
+            "run = LookupObserver(an).run(tr.u, tr.y)\n"
+            "import hybobs_opt._numba_cache as nc\n"
+            "print(json.dumps({'flags': [str(f) for f in run.flags], 'compiled': nc.kernels_compiled()}))")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "HYBOBS_BACKGROUND_WARM_UP": "0", "PYTHONPATH": str(REPO)}
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["compiled"]["hybobs_opt.observers._lookup_kernels"] is False and "damaged cache files removed" in r.stderr
+    import numpy as np
+
+    from hybobs_opt import LookupObserver, simulate_pwa
+
+    an = analyse_observability(get_example("powertrain3").build(), 3)
+    tr = simulate_pwa(an.system, np.array([0.06, 39.0, 3.25]), np.full((40, 1), 40.0))
+    assert out["flags"] == [str(f) for f in LookupObserver(an).run(tr.u, tr.y).flags]
