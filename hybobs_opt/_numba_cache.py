@@ -295,6 +295,29 @@ def kernels_compiled() -> dict[str, bool]:
     return dict(_COMPILED)
 
 
+def _lock_holder_alive(lock: str) -> bool:
+    """Whether the process named in the warm-up lock file still runs (a lock of a process that
+    died, killed mid-compilation, is stale whatever its age)."""
+    try:
+        with open(lock) as f:
+            pid = int(f.read().strip())
+    except (OSError, ValueError):
+        return True  # being written, or unreadable: the age rule decides
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    try:  # a zombie (finished, not yet reaped) compiles nothing
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(") ")[-1][:1] != "Z"
+    except OSError:
+        return True
+
+
 def start_background_warm_up() -> bool:
     """Start ``python -m hybobs_opt._warm_up`` detached, once per cache (lock file); True if started."""
     global _background_started
@@ -308,7 +331,8 @@ def start_background_warm_up() -> bool:
     lock = os.path.join(cache, "hybobs-warm-up.lock")
     try:
         os.makedirs(cache, exist_ok=True)
-        if os.path.exists(lock) and time.time() - os.path.getmtime(lock) < WARM_UP_LOCK_SECONDS:
+        if os.path.exists(lock) and time.time() - os.path.getmtime(lock) < WARM_UP_LOCK_SECONDS \
+                and _lock_holder_alive(lock):
             return False  # another process is compiling the kernels
         with open(lock, "w") as f:
             f.write(str(os.getpid()))
@@ -316,8 +340,10 @@ def start_background_warm_up() -> bool:
         return False  # no writable cache: numba falls back on its own locations, compile there on use
     env = {**os.environ, KERNELS_ENV: "compiled", NUMBA_CACHE_ENV: cache, "HYBOBS_WARM_UP_LOCK": lock}
     try:
-        subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, stdin=subprocess.DEVNULL,
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        child = subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, stdin=subprocess.DEVNULL,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        with open(lock, "w") as f:  # the compiling process, which the next processes check is alive
+            f.write(str(child.pid))
     except OSError:  # no compilation runs: the lock must not keep the next processes from trying
         try:
             os.remove(lock)

@@ -313,6 +313,8 @@ def test_background_warm_up_starts_once_and_respects_its_lock(monkeypatch, tmp_p
     calls = []
 
     class Recorder:
+        pid = os.getpid()  # a process that runs: the lock names it
+
         def __init__(self, argv, **kwargs):
             calls.append((list(argv), kwargs))
 
@@ -342,6 +344,22 @@ def test_background_warm_up_starts_once_and_respects_its_lock(monkeypatch, tmp_p
     assert nc.start_background_warm_up() is True
     assert len(calls) == 2
     assert time.time() - lock.stat().st_mtime < nc.WARM_UP_LOCK_SECONDS  # the lock was renewed
+
+    # a fresh lock whose compiling process died (killed mid-compilation): stale at once
+    def running(pid: int) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except OSError:
+            return True
+        return True
+
+    dead = next(pid for pid in range(4_000_000, 3_000_000, -1) if not running(pid))
+    lock.write_text(str(dead))
+    monkeypatch.setattr(nc, "_background_started", False)
+    assert nc.start_background_warm_up() is True
+    assert len(calls) == 3
 
 
 # ------------------------------------------------------------------ 5. bad HYBOBS_KERNELS
