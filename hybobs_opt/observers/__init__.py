@@ -24,8 +24,8 @@ Names are imported on first use (``from hybobs_opt.observers import LookupObserv
 from .._lazy import lazy_exports
 
 _EXPORTS: dict[str, str] = {
-    **dict.fromkeys(("FALLBACK", "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "ObserverTrace"),
-                    "hybobs_opt.contract"),
+    **dict.fromkeys(("FALLBACK", "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "ObserverTrace",
+                     "noise_bound_vector", "radius_tolerance_vector"), "hybobs_opt.contract"),
     **dict.fromkeys(("LookupObserver", "LookupTrace", "REASONS", "input_bound_rows"), "hybobs_opt.observers.lookup"),
     **dict.fromkeys(("BUILD_FLAGS", "CExport", "check_build", "export_lookup_c", "export_targets"),
                     "hybobs_opt.observers.c_export"),
