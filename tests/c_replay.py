@@ -94,3 +94,28 @@ def sizes(exe: Path) -> dict[str, int]:
 def relative_error(x_c: np.ndarray, x_py: np.ndarray) -> np.ndarray:
     """``|x_c - x_py| / max(1, |x_py|)`` per sample and state (the suite's measure of exact reconstruction)."""
     return np.abs(x_c - x_py) / np.maximum(1.0, np.abs(x_py))
+
+
+def code_only(text: str) -> str:
+    """C source without its comments and string / character literals (translation phase 3, for
+    text without line splices or trigraphs)."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        if text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            assert j >= 0, "unterminated comment"
+            i = j + 2
+            out.append(" ")
+        elif text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text[i] in "\"'":
+            q, j = text[i], i + 1
+            while text[j] != q:
+                j += 2 if text[j] == "\\" else 1
+            i = j + 1
+            out.append('""')
+        else:
+            out.append(text[i])
+            i += 1
+    return "".join(out)

@@ -32,6 +32,7 @@ FAMILIES = {
     "solvers": "test_solver_faults",
     "cli": "test_cli",
     "files": "test_saved_files",
+    "hostile": "test_hostile_files",
 }
 
 

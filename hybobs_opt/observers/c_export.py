@@ -162,6 +162,11 @@ def export_targets(out_dir, name: str = "hybobs_lookup", *, overwrite: bool = Fa
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ModelError("out_dir", "a directory (created if missing)", f"{str(out)!r}, an existing file")
+    ancestor = out
+    while not ancestor.exists() and ancestor.parent != ancestor:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():  # the directory could not be created below a file
+        raise ModelError("out_dir", "a directory (created if missing)", f"{str(out)!r}: {str(ancestor)!r} is a file")
     targets = (out / f"{name}.h", out / f"{name}.c", out / f"{name}_driver.c")
     for path in targets:
         if path.is_symlink():

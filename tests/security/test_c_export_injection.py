@@ -23,6 +23,7 @@ from hybobs_opt.cli import main
 from hybobs_opt.observers.c_export import _c_string, _comment
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from c_replay import code_only  # noqa: E402
 from canonical import deadzone_spring  # noqa: E402
 
 from hybobs_opt.systems import save_model  # noqa: E402
@@ -35,31 +36,6 @@ HOSTILE_NAMES = [
     '"; ' + PAYLOAD + ' char* s = "',
     "\u202e\u0000 */\r\n" + PAYLOAD,
 ]
-
-
-def _code_only(text: str) -> str:
-    """C source without its comments and string / character literals (translation phase 3, for
-    text without line splices or trigraphs)."""
-    out, i, n = [], 0, len(text)
-    while i < n:
-        if text.startswith("/*", i):
-            j = text.find("*/", i + 2)
-            assert j >= 0, "unterminated comment"
-            i = j + 2
-            out.append(" ")
-        elif text.startswith("//", i):
-            j = text.find("\n", i)
-            i = n if j < 0 else j
-        elif text[i] in "\"'":
-            q, j = text[i], i + 1
-            while text[j] != q:
-                j += 2 if text[j] == "\\" else 1
-            i = j + 1
-            out.append('""')
-        else:
-            out.append(text[i])
-            i += 1
-    return "".join(out)
 
 
 def _model(tmp_path: Path, name: str) -> Path:
@@ -86,7 +62,7 @@ def test_a_hostile_model_name_never_compiles_into_the_export(tmp_path, capsys, n
         text = f.read_text()
         # no line splice, no trigraph: comments and literals end where they appear to
         assert "\\\n" not in text and "??" not in text, f.name
-        assert "hb_pwn" not in _code_only(text) and "PWNED" not in _code_only(text), f.name
+        assert "hb_pwn" not in code_only(text) and "PWNED" not in code_only(text), f.name
     exe = tmp_path / "driver"
     subprocess.run(["cc", "-std=c99", "-Wall", "-Werror", "-pedantic", "-O2", str(out / "hybobs_lookup.c"),
                     str(out / "hybobs_lookup_driver.c"), "-lm", "-o", str(exe)], check=True)
