@@ -29,8 +29,9 @@ always outward: an emptiness test relaxes every row by ``SET_FILTER_ROW_RTOL`` (
 only when even the relaxed one is empty, and the relaxed one is kept), redundant rows are dropped
 (never a facet: the LP of :meth:`~hybobs_opt.geometry.polytope.Polytope.remove_redundant` keeps a
 row unless it is implied), and when the union has more than ``max_pieces`` pieces, the two
-nearest are replaced by the convex hull of their vertices (or, if that conversion fails, by
-their common bounding box), widened by the same relative margin.  What is proven is therefore
+nearest are replaced by the polytope of all their rows at the larger of the two proven supports
+(an outer bound of their union; their common bounding box if an LP fails), widened by the same
+relative margin.  What is proven is therefore
 an outer bound: the true state lies in the box; the box may be larger than the exact one.
 """
 
@@ -382,6 +383,10 @@ class SetMembershipFilter(Observer):
         return nxt
 
     def _merge_nearest(self, pieces: list[Polytope]) -> list[Polytope]:
+        """The two pieces with the nearest Chebyshev centres replaced by one polytope holding both:
+        every row of either, at the larger of its two proven supports (an outer bound of their
+        union that keeps both pieces' directions -- the correlations the data taught -- with no
+        vertex enumeration, whose hulls of 4-D pieces ran to hundreds of facets)."""
         centres = []
         for P in pieces:
             c, _ = P.chebyshev_ball()
@@ -389,16 +394,26 @@ class SetMembershipFilter(Observer):
         C = np.array(centres)
         d = np.linalg.norm(C[:, None, :] - C[None, :, :], axis=2) + np.diag(np.full(len(pieces), np.inf))
         i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        P, Q = pieces[i], pieces[j]
+        rows = np.vstack([P.A, Q.A])
         try:
-            V = np.vstack([pieces[i].vertices(), pieces[j].vertices()])
-            hull = Polytope.from_vertices(V)
-            merged = self._relaxed(hull.A, hull.b)
-        except (ModelError, SolverError, ValueError, np.linalg.LinAlgError):
-            a1, b1 = pieces[i].bounding_box()
-            a2, b2 = pieces[j].bounding_box()
-            box = Polytope.from_box(np.minimum(a1, a2), np.maximum(b1, b2))
-            merged = self._relaxed(box.A, box.b)
-        return [P for k, P in enumerate(pieces) if k not in (i, j)] + [merged]
+            mp, mq = _PieceLP(P.A, P.b), _PieceLP(Q.A, Q.b)
+            self.n_lps += rows.shape[0]
+            sup_p = np.concatenate([P.b, [mp.upper_bound(a) for a in Q.A]])
+            sup_q = np.concatenate([[mq.upper_bound(a) for a in P.A], Q.b])
+            merged = self._relaxed(rows, np.maximum(sup_p, sup_q))
+        except SolverError:
+            a1, b1 = _row_box(P, self.n)
+            a2, b2 = _row_box(Q, self.n)
+            one = np.ones(self.n)
+            box = Polytope.from_box(np.maximum(np.minimum(a1, a2), -one), np.minimum(np.maximum(b1, b2), one))
+            merged = self._relaxed(np.vstack([box.A, self._X.A]), np.concatenate([box.b, self._X.b]))
+        if merged.A.shape[0] > MAX_ROWS_BEFORE_REDUNDANCY:
+            model = _PieceLP(merged.A, merged.b)
+            if model.feasible():
+                keep = model.irredundant(REDUNDANCY_RTOL)
+                merged = Polytope(merged.A[keep], merged.b[keep])
+        return [R for k, R in enumerate(pieces) if k not in (i, j)] + [merged]
 
     # ------------------------------------------------------------------ steps
     def _step(self, u: np.ndarray, y: np.ndarray) -> Estimate:
