@@ -221,7 +221,8 @@ class ResultCache:
             mac = mac_path.read_text().strip()
         except (OSError, UnicodeDecodeError):
             raise ValueError("no MAC file: an entry this toolbox did not write") from None
-        if not hmac.compare_digest(mac, hmac.new(key, raw, hashlib.sha256).hexdigest()):
+        expected = hmac.new(key, raw, hashlib.sha256).hexdigest().encode()
+        if not hmac.compare_digest(mac.encode("utf-8", "surrogateescape"), expected):  # bytes: any text compares
             raise ValueError("its MAC does not match: an entry this toolbox did not write, or one edited since")
         return raw
 
