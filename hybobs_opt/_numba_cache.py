@@ -176,13 +176,9 @@ def finalize_kernels(namespace: dict) -> bool:
             for name, fn in marked.items():
                 namespace[name] = njit(*fn._hybobs_kernel[0], **fn._hybobs_kernel[1])(fn)
     else:
-        for name, fn in marked.items():
-            if fn._hybobs_kernel[0]:
-                namespace[name] = _typed_python(fn, fn._hybobs_kernel[0])
-        if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0" and not untrusted:
-            start_background_warm_up()
-    _COMPILED[namespace.get("__name__", "?")] = compiled
-    return compiled
+        return _finalize_python(namespace, marked, mode, untrusted)
+    _COMPILED[namespace.get("__name__", "?")] = True
+    return True
 
 
 def _finalize_python(namespace: dict, marked: dict, mode: str, untrusted: bool) -> bool:

@@ -47,24 +47,27 @@ def oracle_box(system, U, Y, beta):
             b_rows += [g - G[:, n:] @ U[k] - G[:, :n] @ phi, Xb - XA @ phi, Y[k] - yk + beta, -(Y[k] - yk) + beta]
             if k < T - 1:
                 Phi, phi = md.A @ Phi, md.A @ phi + md.B @ U[k] + md.a
-        A_ub, b_ub = np.vstack(A_rows), np.concatenate(b_rows)
-        for j in range(n):
-            for sign in (1.0, -1.0):
-                res = linprog(sign * Phi[j], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * n, method="highs")
-                if res.status == 2:
-                    break  # this sequence admits no state
-                assert res.status == 0, res.message
-                value = sign * res.fun + phi[j]
-                if sign > 0:
-                    lower[j] = min(lower[j], value)
-                else:
-                    upper[j] = max(upper[j], value)
-            else:
-                continue
-            break
+        widen_by_lps(lower, upper, Phi, phi, np.vstack(A_rows), np.concatenate(b_rows))
     if not np.all(np.isfinite(lower)):
         return None
     return lower, upper
+
+
+def widen_by_lps(lower, upper, Phi, phi, A_ub, b_ub) -> None:
+    """Widen ``[lower, upper]`` (in place) to the least and largest ``Phi v + phi`` over ``A_ub v <= b_ub``
+    (one ``scipy.optimize.linprog`` per state and side; nothing when the polyhedron is empty)."""
+    nv = A_ub.shape[1]
+    for j in range(Phi.shape[0]):
+        for sign in (1.0, -1.0):
+            res = linprog(sign * Phi[j], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * nv, method="highs")
+            if res.status == 2:
+                return  # this sequence admits no state
+            assert res.status == 0, res.message
+            value = sign * res.fun + phi[j]
+            if sign > 0:
+                lower[j] = min(lower[j], value)
+            else:
+                upper[j] = max(upper[j], value)
 
 
 def rotation_case(T, steps):

@@ -20,7 +20,7 @@ from hybobs_opt.errors import ModelError
 from hybobs_opt.observers import NoiseAwareLookupObserver
 from hybobs_opt.regions import analyse_observability
 
-from tests.unit.mhe.test_set_membership import CASES, oracle_box, output_span, rotation_case, spring_case
+from tests.unit.mhe.test_set_membership import CASES, oracle_box, output_span, rotation_case, spring_case, widen_by_lps
 
 
 @pytest.mark.slow
@@ -105,8 +105,6 @@ def _oracle_box_noisy_inputs(system, U, Y, beta, gamma):
     variables (``scipy.optimize.linprog``), from the system matrices alone."""
     import itertools
 
-    from scipy.optimize import linprog
-
     T, n, m = U.shape[0], system.n, system.m
     nv = n + T * m
     XA, Xb = system.state_bounds.A, system.state_bounds.b
@@ -128,21 +126,7 @@ def _oracle_box_noisy_inputs(system, U, Y, beta, gamma):
                     beta - (Y[k] - yk)]
             if k < T - 1:
                 Phi, phi = md.A @ Phi + md.B @ Uk, md.A @ phi + md.a
-        A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
-        for j in range(n):
-            for sign in (1.0, -1.0):
-                res = linprog(sign * Phi[j], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * nv, method="highs")
-                if res.status == 2:
-                    break
-                assert res.status == 0, res.message
-                value = sign * res.fun + phi[j]
-                if sign > 0:
-                    lower[j] = min(lower[j], value)
-                else:
-                    upper[j] = max(upper[j], value)
-            else:
-                continue
-            break
+        widen_by_lps(lower, upper, Phi, phi, np.vstack(rows), np.concatenate(rhs))
     return lower, upper
 
 
