@@ -225,6 +225,7 @@ def test_input_on_bound_windows_observable_where_oracle_says_so(bench16):
 
 
 @pytest.mark.slow
+@pytest.mark.oracle
 def test_model16_bench_flags_agree_with_exact_oracle(bench16):
     """Issue 12, model (16), T = 3, 3000 steps: >= 99 % of the truly observable windows flagged observable.
 
@@ -234,22 +235,36 @@ def test_model16_bench_flags_agree_with_exact_oracle(bench16):
     Measured: 2,325 / 2,325 observable windows flagged, none wrongly; ``classify_window`` says
     2,325 observable, 417 unobservable, 256 ambiguous (all flagged unobservable).
     """
-    O = _oracle()
+    from oracle_record import OracleRecord
+
     plant, trace, analysis, obs, out = bench16
     T = analysis.T
     X0, Uw = _window_starts(trace, T)
     flags = out.flags[T - 1 :]
+    half = plant.scales()[0]
+    states = OracleRecord("model16_T3_bench_states", plant, T, "state", half[: plant.n])
     # the scenario starts at rest (its first 1,000 window-start states are one state): each
-    # distinct state is classified once
+    # distinct state is classified once; a recorded verdict that calls a flagged state anything
+    # but observable is confirmed live (oracle_record)
     distinct, back = np.unique(X0, axis=0, return_inverse=True)
-    state = np.array([O.classify_state(plant, T, x) for x in distinct], dtype=object)[back.reshape(-1)]
+    back = back.reshape(-1)
+    flagged_state = np.zeros(distinct.shape[0], bool)
+    flagged_state[back[flags == OBSERVABLE]] = True
+    state = np.array([states.verdict(x, toolbox="observable" if f else None).label
+                      for x, f in zip(distinct, flagged_state)], dtype=object)[back]
+    states.save()
     truly = state == "observable"
     assert truly.sum() > 2000
     assert np.count_nonzero(flags[truly] == OBSERVABLE) >= 0.99 * truly.sum()
     assert not np.any((flags == OBSERVABLE) & (state == "unobservable"))
     flagged = np.nonzero(flags == OBSERVABLE)[0]
     _, first = np.unique(np.hstack([X0[flagged], Uw[flagged].reshape(flagged.size, -1)]), axis=0, return_index=True)
-    window = O.true_window_labels(plant, T, X0[flagged][first], Uw[flagged][first])
+    windows = OracleRecord("model16_T3_bench_windows", plant, T, "window",
+                           np.concatenate([half[: plant.n], np.tile(half[plant.n :], T)]))
+    window = np.array([windows.verdict(np.concatenate([x, U.ravel()]), toolbox="observable").label
+                       for x, U in zip(X0[flagged][first], Uw[flagged][first])], dtype=object)
+    windows.save()
+    print(f"\nstates: {states.summary()}; windows: {windows.summary()}")
     assert not np.any(window == "unobservable")
 
 
@@ -356,6 +371,7 @@ def test_model17_flags_agree_with_state_classifier(bench17):
 
 
 @pytest.mark.slow
+@pytest.mark.oracle
 def test_model17_flags_agree_with_exact_oracle(bench17):
     """Model (17), T = 5, every 10th window: >= 95 % of the oracle's observable windows flagged, none wrongly.
 
@@ -365,21 +381,26 @@ def test_model17_flags_agree_with_exact_oracle(bench17):
     flagged observable), 230 unobservable (none flagged), no oracle error; 130 s.
     """
     O = _oracle()
+    from oracle_record import OracleRecord
+
     plant, trace, analysis, obs, out = bench17
     T = analysis.T
     X0, Uw = _window_starts(trace, T)
     idx = np.arange(0, X0.shape[0], 10)
+    flags = out.flags[T - 1 :][idx]
+    states = OracleRecord("model17_T5_bench_states", plant, T, "state", plant.scales()[0][: plant.n])
     labels, seen = [], {}  # the scenario starts at rest: a repeated state is classified once
-    for s in idx:
+    for s, flag in zip(idx, flags):
         key = X0[s].tobytes()
         if key not in seen:
-            try:
-                seen[key] = O.classify_state(plant, T, X0[s])
+            try:  # a recorded "unobservable" on a flagged window is confirmed live (oracle_record)
+                seen[key] = states.verdict(X0[s], toolbox="observable" if flag == OBSERVABLE else None).label
             except O.OracleError:
                 seen[key] = "oracle error"
         labels.append(seen[key])
+    states.save()
+    print(f"\n{states.summary()}")
     labels = np.array(labels, dtype=object)
-    flags = out.flags[T - 1 :][idx]
     truly = labels == "observable"
     print(f"\noracle on {idx.size} windows: {dict(zip(*np.unique(labels, return_counts=True)))}; "
           f"flagged observable {np.count_nonzero(flags == OBSERVABLE)}")

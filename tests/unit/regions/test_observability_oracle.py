@@ -11,6 +11,10 @@ of a backlash guard ``theta = +-alpha`` at some step of the window (the boundari
 of eq. 4), a sixth uniform in the state box, a tenth along the paper's backlash scenario, the rest
 with a slowly varying shaft twist (so that most states lie in ``X*_T``).
 
+The oracle's verdicts on these samples are recorded in ``tests/oracle_records/`` and re-checked
+live (:mod:`oracle_record`: every eighth state, every state not in the record and every state the
+toolbox disagrees with, on each run; all of them with ``HYBOBS_ORACLE=live``, a step of CI).
+
 Each agreement test prints its figures (``pytest -s``).  Measured when this file was added
 (oracle counts; disagreements of the toolbox before the fix of the pair sets, commit 15e8b9f, and
 after it, 9b439ee; every one of the former was toolbox "unobservable" / oracle "observable", and
@@ -59,6 +63,7 @@ from hybobs_opt.errors import ModelError
 from hybobs_opt.examples.powertrain import SCENARIO_TORQUES, TABLE1, TABLE2, backlash_scenario, powertrain3, powertrain5
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
+from oracle_record import OracleRecord
 
 MAX_AMBIGUOUS = 0.02
 
@@ -117,20 +122,25 @@ def sample_states(system, model: int, tau: float, T: int, N: int, seed: int):
 
 
 # ------------------------------------------------------------------------------------ comparison
-def compare(system, T, X, kinds, label):
-    """Oracle vs toolbox on the rows of X: counts, ambiguous share, disagreements (printed)."""
+def compare(system, T, X, kinds, label, record: str):
+    """Oracle (its verdicts recorded in ``tests/oracle_records/RECORD.json``, see
+    :mod:`oracle_record`) vs toolbox on the rows of X: counts, ambiguous share, disagreements
+    (printed)."""
     t0 = time.perf_counter()
     analysis = analyse_observability(system, T)
     t_analyse = time.perf_counter() - t0
+    oracle = OracleRecord(record, system, T, "state", system.scales()[0][: system.n])
     rows, t_oracle, t_toolbox = [], 0.0, 0.0
     for x, kind in zip(X, kinds):
         t = time.perf_counter()
-        v = analyse_state(system, T, x)
-        t_oracle += time.perf_counter() - t
-        t = time.perf_counter()
         got = analysis.classify(x)
         t_toolbox += time.perf_counter() - t
+        t = time.perf_counter()
+        v = oracle.verdict(x, toolbox=got)
+        t_oracle += time.perf_counter() - t
         rows.append((x, kind, v, got))
+    oracle.save()
+    print(f"\n{label}: {oracle.summary()}")
     counts = collections.Counter(v.label for _, _, v, _ in rows)
     ambiguous = [r for r in rows if len(r[2].allowed) > 1]
     wrong = [r for r in rows if r[3] not in r[2].allowed]
@@ -158,21 +168,23 @@ MODEL16 = [pytest.param(tau, T, marks=[pytest.mark.slow] if T > 3 else [], id=f"
            for tau, name in ((1 / 12, "1/12"), (1 / 2, "1/2"), (1.0, "1")) for T in (3, 5, 7)]
 
 
+@pytest.mark.oracle
 @pytest.mark.parametrize("tau, T", MODEL16)
 def test_model16_agrees_with_exact_oracle(tau, T):
     N = 300
     system = powertrain3(tau)
     X, kinds = sample_states(system, 16, tau, T, N, seed=1000 + T)
-    check(*compare(system, T, X, kinds, f"model (16) tau={tau:.4g} T={T}"), N)
+    check(*compare(system, T, X, kinds, f"model (16) tau={tau:.4g} T={T}", f"model16_tau{tau:.4g}_T{T}_states"), N)
 
 
 @pytest.mark.slow
+@pytest.mark.oracle
 @pytest.mark.parametrize("T", [5, 7])
 def test_model17_agrees_with_exact_oracle(T):
     N = 200
     system = powertrain5()
     X, kinds = sample_states(system, 17, TABLE2["gear_ratio"], T, N, seed=2000 + T)
-    check(*compare(system, T, X, kinds, f"model (17) T={T}"), N)
+    check(*compare(system, T, X, kinds, f"model (17) T={T}", f"model17_T{T}_states"), N)
 
 
 def test_known_spurious_unobservable_states():
