@@ -144,14 +144,23 @@ PAIR_LPS_PER_REGION_POWER: float = 2.1
 SECONDS_PER_PAIR_LP: float = 4e-4
 
 
-def predict_analysis_cost(system: PWASystem, T: int) -> dict:
+def counted_exactly(system: PWASystem, T: int) -> bool:
+    """Whether :func:`predict_analysis_cost` counts the regions at ``T`` itself (no extrapolation):
+    ``T`` is at most the smallest horizon of eq. (8) plus two."""
+    check_horizon(system, T)
+    return T <= int(np.ceil(system.n / system.p)) + 2
+
+
+def predict_analysis_cost(system: PWASystem, T: int, *, enumeration: ModeEnumeration | None = None) -> dict:
     """The predicted size of Algorithm 3.1 at horizon ``T``, before running it.
 
     The regions (feasible mode sequences) are counted by the enumeration at the two smallest
     horizons that satisfy eq. (8) plus one and two (a few hundred LPs), and extrapolated
     geometrically with the ratio of the two counts (model (16): 1.94-1.98 per step of T, model
     (17): 1.84-1.90); the pair LPs are ``PAIR_LPS_PER_REGION_POWER * N ** 1.5``, the relation
-    measured on models (16) and (17).  At those small horizons themselves the count is exact.
+    measured on models (16) and (17).  At those small horizons themselves the count is exact
+    (:func:`counted_exactly`), and ``enumeration``, the enumeration at ``T`` when the caller
+    already has it, is counted instead of enumerating again.
 
     Returns
     -------
@@ -159,11 +168,13 @@ def predict_analysis_cost(system: PWASystem, T: int) -> dict:
         ``regions``, ``pair_lps``, ``seconds`` (at :data:`SECONDS_PER_PAIR_LP`), ``growth`` (the
         ratio per step of ``T``) and ``basis`` (the horizons counted).
     """
-    check_horizon(system, T)
     t_min = int(np.ceil(system.n / system.p))
     t1, t2 = t_min + 1, t_min + 2
-    if T <= t2:
-        n_t = len(enumerate_modes(system, T).regions)
+    if counted_exactly(system, T):
+        if enumeration is not None and (enumeration.system is not system or enumeration.T != T):
+            raise ModelError("enumeration", f"the enumeration of this system at T = {T}",
+                             f"one at T = {enumeration.T}" if enumeration.system is system else "another system's")
+        n_t = len((enumeration if enumeration is not None else enumerate_modes(system, T)).regions)
         growth, basis = None, [T]
     else:
         n1, n2 = len(enumerate_modes(system, t1).regions), len(enumerate_modes(system, t2).regions)
@@ -175,15 +186,25 @@ def predict_analysis_cost(system: PWASystem, T: int) -> dict:
             "growth": growth, "basis": basis}
 
 
-def check_analysis_budget(system: PWASystem, T: int, max_pair_lps: int | None) -> dict | None:
-    """Refuse a horizon whose predicted pair LPs exceed ``max_pair_lps`` (``None``: the active
-    budget, :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` unless raised); returns the prediction."""
-    from ..limits import MAX_PREDICTED_PAIR_LPS, pair_lp_budget
+def resolve_pair_lp_budget(max_pair_lps: int | None) -> int:
+    """``max_pair_lps`` checked (a positive integer), or the active budget when ``None``."""
+    from ..limits import pair_lp_budget
 
     budget = pair_lp_budget() if max_pair_lps is None else max_pair_lps
     if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
         raise ModelError("max_pair_lps", "a positive number of LPs", repr(budget))
-    cost = predict_analysis_cost(system, T)
+    return int(budget)
+
+
+def check_analysis_budget(system: PWASystem, T: int, max_pair_lps: int | None, *,
+                          enumeration: ModeEnumeration | None = None) -> dict | None:
+    """Refuse a horizon whose predicted pair LPs exceed ``max_pair_lps`` (``None``: the active
+    budget, :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` unless raised); returns the prediction
+    (``enumeration``: as in :func:`predict_analysis_cost`)."""
+    from ..limits import MAX_PREDICTED_PAIR_LPS
+
+    budget = resolve_pair_lp_budget(max_pair_lps)
+    cost = predict_analysis_cost(system, T, enumeration=enumeration)
     if cost["pair_lps"] > budget:
         hours = cost["seconds"] / 3600.0
         raise ModelError("max_pair_lps", f"a horizon whose predicted pair LPs fit the budget of {int(budget):,} "

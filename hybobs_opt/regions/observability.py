@@ -52,7 +52,8 @@ from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
 from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, _slack_lp, classify_pair, fixed_state_witness
-from .enumeration import ModeEnumeration, check_analysis_budget, enumerate_modes, horizon_scaling
+from .enumeration import (ModeEnumeration, check_analysis_budget, counted_exactly, enumerate_modes, horizon_scaling,
+                          resolve_pair_lp_budget)
 from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
 
@@ -748,9 +749,15 @@ def analyse_observability(
     if isinstance(system_or_enum, PWASystem):
         if T is None:
             raise ModelError("T", "a horizon when a PWASystem is given", "None")
-        check_analysis_budget(system_or_enum, T, max_pair_lps)
+        # at small horizons the prediction counts the regions at T itself: enumerate once, then decide
+        exact = counted_exactly(system_or_enum, T)
+        resolve_pair_lp_budget(max_pair_lps)
+        if not exact:
+            check_analysis_budget(system_or_enum, T, max_pair_lps)
         enum = enumerate_modes(system_or_enum, T, executor=executor,
                                progress=phase_callback(progress, "mode enumeration", "prefix", main=False))
+        if exact:
+            check_analysis_budget(system_or_enum, T, max_pair_lps, enumeration=enum)
     elif isinstance(system_or_enum, ModeEnumeration):
         enum = system_or_enum
     else:
