@@ -29,7 +29,10 @@ if "HYBOBS_CACHE_DIR" not in os.environ:
 
 
 def pytest_collection_modifyitems(session, config, items):
-    """Run the long checks (marked ``slow``) first: with ``pytest -n 2`` a minute-long test that
-    starts last keeps one worker busy while the other idles.  Stable, so every xdist worker sees
-    the same order."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    """Run the files that hold long checks (marked ``slow``) first: with ``pytest -n 2`` a
+    minute-long test that starts last keeps one worker busy while the other idles.  A file moves
+    as a whole, its tests in their order, so that its module-scoped fixtures (a built report, a
+    simulated bench) are set up once rather than again for the tests left behind.  Stable, so
+    every xdist worker sees the same order."""
+    slow_files = {item.nodeid.split("::")[0] for item in items if item.get_closest_marker("slow") is not None}
+    items.sort(key=lambda item: item.nodeid.split("::")[0] not in slow_files)

@@ -648,23 +648,25 @@ def _replace_inf(x):
     return x
 
 
-_LP_HIGHS_OPTIONS = None
+_LP_HIGHS_OPTIONS: dict = {}
 
 
-def _linprog_fast(c, A_ub, b_ub):
-    """``linprog(c, A_ub, b_ub, bounds=(None, None), method="highs", options=_LP_OPTIONS)`` through
-    :func:`_highs_call`: the arrays and options of scipy's ``_linprog_highs``, its status mapping
-    and its final ``_check_result``."""
-    global _LP_HIGHS_OPTIONS
-    if _LP_HIGHS_OPTIONS is None:
+def _linprog_fast(c, A_ub, b_ub, method: str = "oracle"):
+    """``linprog(c, A_ub, b_ub, bounds=(None, None), method=...)`` through :func:`_highs_call`: the
+    arrays and options of scipy's ``_linprog_highs``, its status mapping and its final
+    ``_check_result``.  ``method="oracle"``: ``"highs"`` with :data:`_LP_OPTIONS` (the oracle's
+    LPs); ``"highs"``, ``"highs-ds"``, ``"highs-ipm"``: scipy's methods with their defaults."""
+    if method not in _LP_HIGHS_OPTIONS:
         from scipy.optimize._highspy._core import HighsDebugLevel
         from scipy.optimize._highspy._core import simplex_constants as s_c
-        _LP_HIGHS_OPTIONS = {
-            "presolve": True, "sense": None, "solver": None, "time_limit": None,
+        tol = _LP_OPTIONS if method == "oracle" else {}
+        _LP_HIGHS_OPTIONS[method] = {
+            "presolve": True, "sense": None,
+            "solver": {"highs-ds": "simplex", "highs-ipm": "ipm"}.get(method), "time_limit": None,
             "highs_debug_level": HighsDebugLevel.kHighsDebugLevelNone,
-            "dual_feasibility_tolerance": _LP_OPTIONS["dual_feasibility_tolerance"], "ipm_optimality_tolerance": None,
+            "dual_feasibility_tolerance": tol.get("dual_feasibility_tolerance"), "ipm_optimality_tolerance": None,
             "log_to_console": False, "mip_max_nodes": None, "output_flag": False,
-            "primal_feasibility_tolerance": _LP_OPTIONS["primal_feasibility_tolerance"],
+            "primal_feasibility_tolerance": tol.get("primal_feasibility_tolerance"),
             "simplex_dual_edge_weight_strategy": None, "simplex_strategy": s_c.SimplexStrategy.kSimplexStrategyDual,
             "ipm_iteration_limit": None, "simplex_iteration_limit": None, "mip_rel_gap": None}
     c = np.array(c, dtype=float).ravel()
@@ -677,7 +679,7 @@ def _linprog_fast(c, A_ub, b_ub):
     bounds = np.column_stack([np.full(n, -np.inf), np.full(n, np.inf)])
     lb, ub = bounds.T.copy()
     st, msg, x, row_value, fun = _highs_call(c, A.indptr, A.indices, A.data, lhs, rhs, _replace_inf(lb), _replace_inf(ub),
-                                             np.empty(0).astype(np.uint8), _LP_HIGHS_OPTIONS)
+                                             np.empty(0).astype(np.uint8), _LP_HIGHS_OPTIONS[method])
     status, message = _highs_to_scipy_status_message(st, msg)
     if x is not None:
         slack = np.array((rhs - row_value)[: b_ub.size])
@@ -686,6 +688,16 @@ def _linprog_fast(c, A_ub, b_ub):
         slack = con = None
     status, message = _check_result(x, fun, status, slack, con, bounds, 1e-9, message, None)
     return _Result(status, message, x, fun)
+
+
+def linprog_free(c, A_ub, b_ub, method: str):
+    """``scipy.optimize.linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=(None, None), method=method)``
+    (``method`` one of scipy's HiGHS methods): the same HiGHS calls and answers, without scipy's
+    per-call option validation when its layout is the one :func:`_highs_call` was checked against.
+    Returns an object with ``status``, ``message``, ``x``, ``fun``."""
+    if _hcore is not None:
+        return _linprog_fast(c, A_ub, b_ub, method)
+    return linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * len(c), method=method)
 
 
 def _lp(c, A_ub, b_ub, what: str):

@@ -80,6 +80,14 @@ def system_data(system) -> np.ndarray:
     return np.concatenate([np.asarray(p, float).ravel() for p in parts])
 
 
+def render(identity: dict, system: np.ndarray, keys, labels, allowed) -> str:
+    """The record's JSON text: one line per verdict (``[key, label, allowed]``), so that a
+    re-recording shows in ``git diff`` as the verdicts it changed."""
+    head = {**identity, "match_tol": MATCH_TOL, "system": [float(v) for v in system]}
+    rows = ",\n".join(json.dumps([list(map(float, k)), lab, list(al)]) for k, lab, al in zip(keys, labels, allowed))
+    return json.dumps(head)[:-1] + ',\n"verdicts": [\n' + rows + "\n]}\n"
+
+
 class OracleRecord:
     """The oracle's verdicts on one configuration: ``verdict(key)`` for a key vector.
 
@@ -139,8 +147,9 @@ class OracleRecord:
             warnings.warn(f"{self.path.name}: recorded for other {what}; every verdict is live "
                           f"(re-record with HYBOBS_ORACLE=record)", stacklevel=3)
             return
-        self.keys = np.asarray(data["keys"], float).reshape(-1, self.scale.size)
-        self.entries = [(lab, frozenset(al)) for lab, al in zip(data["labels"], data["allowed"])]
+        rows = data["verdicts"]
+        self.keys = np.asarray([k for k, _, _ in rows], float).reshape(-1, self.scale.size)
+        self.entries = [(lab, frozenset(al)) for _, lab, al in rows]
         self._index = {k.tobytes(): i for i, k in enumerate(self.keys)}
         self.usable = True
 
@@ -159,9 +168,7 @@ class OracleRecord:
             labels.append(lab)
             allowed.append(sorted(al))
         RECORDS.mkdir(exist_ok=True)
-        body = {**self._identity(), "system": [float(v) for v in system_data(self.system)],
-                "match_tol": MATCH_TOL, "keys": keys, "labels": labels, "allowed": allowed}
-        self.path.write_text(json.dumps(body, separators=(",", ":")) + "\n")
+        self.path.write_text(render(self._identity(), system_data(self.system), keys, labels, allowed))
 
     # ------------------------------------------------------------------ verdicts
     def _find(self, key: np.ndarray) -> int | None:

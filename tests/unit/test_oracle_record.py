@@ -69,11 +69,11 @@ def test_a_state_within_the_match_tolerance_reuses_the_verdict_and_one_beyond_it
 
 def _tamper(path, index):
     data = json.loads(path.read_text())
-    old = data["labels"][index]
+    key, old, _ = data["verdicts"][index]
     new = "unobservable" if old != "unobservable" else "observable"
-    data["labels"][index], data["allowed"][index] = new, [new]
+    data["verdicts"][index] = [key, new, [new]]
     path.write_text(json.dumps(data))
-    return old, new, np.array(data["keys"][index])
+    return old, new, np.array(key)
 
 
 def test_a_tampered_verdict_that_the_toolbox_contradicts_is_re_decided_and_fails(records, monkeypatch):
