@@ -37,6 +37,7 @@ from ..tolerances import (
     MHE_UNIQUENESS_DELTA,
     SET_MEMBERSHIP_BOUND_RTOL,
     SET_MEMBERSHIP_BOX_RTOL,
+    SET_MEMBERSHIP_SEQUENCES_PER_STATE,
 )
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
@@ -66,6 +67,11 @@ class SetMembershipObserver(Observer):
         of ``X``'s bounding box.
     x0 : (n,) array, optional
         Initial guess for the first ``T - 1`` samples and open-loop prediction.
+    max_sequences : int, optional
+        Windows with at most this many feasible mode sequences are bounded sequence by sequence
+        (one feasibility MILP each, then 2n LPs); others by the 2n per-state MILPs.  Default
+        :data:`~hybobs_opt.tolerances.SET_MEMBERSHIP_SEQUENCES_PER_STATE` times ``n``; 0 uses the
+        per-state MILPs only.  Both give the same box (to HiGHS's tolerances); only the time differs.
 
     Notes
     -----
@@ -75,19 +81,23 @@ class SetMembershipObserver(Observer):
     contradict the model or the stated bound: ``info["reason"]`` says so), or a program without
     a checked answer; ``warming_up`` -- fewer than ``T`` samples.  ``info`` holds ``radius``,
     ``lower`` and ``upper`` (the box, model units), ``tolerance`` and ``mode_sequences`` (the
-    distinct mode sequences of the extreme points).
+    distinct mode sequences of the extreme points), and ``box_by`` (``"mode sequences"`` or
+    ``"per-state MILPs"``).
 
-    Each bound is HiGHS's dual bound of its MILP (zero gap), whose extreme point is re-checked in
+    Each bound of the per-state MILPs is HiGHS's dual bound of its MILP (zero gap), whose extreme point is re-checked in
     numpy: MLD rows and output bounds within :data:`~hybobs_opt.tolerances.MHE_FEASIBILITY_TOL`,
     binaries integral, and its value within the reported bound.  The MILPs hold their rows to
     HiGHS's feasibility tolerance, so each side of the box is widened by ``box_pad``
     (:data:`~hybobs_opt.tolerances.SET_MEMBERSHIP_BOX_RTOL` of the state box's half-widths):
-    noise-free, a unique state has a radius of ``box_pad``, not 0.
+    noise-free, a unique state has a radius of ``box_pad``, not 0.  Sequence by sequence, each
+    LP's bound is proven by weak duality from HiGHS's row duals and the LP's point is checked the
+    same way; HiGHS's "infeasible" on the last feasibility MILP (all sequences found so far cut
+    off) is its proof that no other sequence fits, as its dual bounds are for the MILPs.
     """
 
     name = "set-membership"
 
-    def __init__(self, system, T: int, noise_bound, *, tolerance=None, x0=None):
+    def __init__(self, system, T: int, noise_bound, *, tolerance=None, x0=None, max_sequences: int | None = None):
         from ..systems.pwa import PWASystem
 
         if not isinstance(system, PWASystem):
@@ -114,13 +124,25 @@ class SetMembershipObserver(Observer):
         A = np.vstack([enc.A, enc.Ymap])
         last = enc.Xmap[self.T - 1]  # x(t) = last v + Xoff[T-1]
         self._last, self._last_off = last, enc.Xoff[self.T - 1]
-        self._programs = []
+        self._A = A
+        self._programs, self._lps = [], []
+        continuous = np.zeros_like(enc.discrete)
         for j in range(self.n):
-            pair = []
+            pair, lps = [], []
             for sign in (1.0, -1.0):  # minimise x_j, then -x_j (the largest x_j)
                 c = sign * last[j]
                 pair.append(HighspyBackend(c, A, enc.lb, enc.ub, enc.discrete, {}))
+                lps.append(HighspyBackend(c, A, enc.lb, enc.ub, continuous, {}))
             self._programs.append(pair)
+            self._lps.append(lps)
+        self._feasibility = HighspyBackend(np.zeros(A.shape[1]), A, enc.lb, enc.ub, enc.discrete, {})
+        self._delta = np.flatnonzero(enc.discrete)
+        if max_sequences is None:
+            max_sequences = max(1, int(SET_MEMBERSHIP_SEQUENCES_PER_STATE * self.n))
+        if isinstance(max_sequences, bool) or not isinstance(max_sequences, (int, np.integer)) or max_sequences < 0:
+            raise ModelError("max_sequences", "a number of mode sequences >= 0 (0: the per-state MILPs only)",
+                             repr(max_sequences))
+        self.max_sequences = int(max_sequences)
         self._x_default = centre[:self.n].copy()
         self.reset(x0)
 
@@ -167,7 +189,7 @@ class SetMembershipObserver(Observer):
         seqs = box["mode_sequences"]
         mode = seqs[0][-1] if len({s[-1] for s in seqs}) == 1 else -1
         info = {"radius": radius, "lower": lower, "upper": upper, "tolerance": self.tolerance,
-                "mode_sequences": seqs, "seconds_programs": box["seconds"]}
+                "mode_sequences": seqs, "box_by": box["box_by"], "seconds_programs": box["seconds"]}
         return Estimate(x.copy(), int(mode), flag, 0.0, info)
 
     def consistent_box(self, U: np.ndarray, Y: np.ndarray) -> dict:
@@ -196,6 +218,10 @@ class SetMembershipObserver(Observer):
         yfix = Yf - enc.YU @ Uf - enc.Yoff
         lo_all = np.concatenate([lo, yfix - beta])
         hi_all = np.concatenate([hi, yfix + beta])
+        by_sequences = self._box_by_sequences(Uf, Yf, lo, hi, beta, lo_all, hi_all)
+        if by_sequences is not None:
+            by_sequences["seconds"] = time.perf_counter() - t0
+            return by_sequences
         lower, upper = np.empty(self.n), np.empty(self.n)
         seqs: list[tuple[int, ...]] = []
         for j in range(self.n):
@@ -233,7 +259,70 @@ class SetMembershipObserver(Observer):
                 if seq not in seqs:
                     seqs.append(seq)
         return {"status": "ok", "lower": lower - self.box_pad, "upper": upper + self.box_pad, "mode_sequences": seqs,
-                "seconds": time.perf_counter() - t0}
+                "box_by": "per-state MILPs", "seconds": time.perf_counter() - t0}
+
+    def _box_by_sequences(self, Uf, Yf, lo, hi, beta, lo_all, hi_all) -> dict | None:
+        """The box as the union of the boxes of the window's feasible mode sequences: each is found
+        by a feasibility MILP that excludes the ones before (no-good cuts on the mode binaries)
+        and bounded by 2n LPs with its binaries fixed, each LP bound proven by weak duality from
+        HiGHS's row duals (:meth:`_dual_bound`).  ``None`` -- more than :attr:`max_sequences`
+        sequences, or an answer this path cannot certify: the per-state MILPs decide.  The last
+        feasibility MILP, infeasible, is HiGHS's proof that no other sequence fits."""
+        delta = self._delta
+        lower, upper = np.full(self.n, np.inf), np.full(self.n, -np.inf)
+        seqs: list[tuple[int, ...]] = []
+        feas = self._feasibility
+        try:
+            while True:
+                out = feas.solve(None, lo_all, hi_all)
+                if out.status == Status.INFEASIBLE:
+                    break
+                if out.status != Status.OPTIMAL or len(seqs) == self.max_sequences:
+                    return None
+                if self._check_point(out.v, Uf, Yf, lo, hi, beta) is not None:
+                    return None
+                d = np.round(out.v[delta])
+                for j in range(self.n):
+                    for side in (0, 1):
+                        lp = self._lps[j][side]
+                        res = lp.solve(None, lo_all, hi_all, col_bounds=(delta, d, d))
+                        if res.status != Status.OPTIMAL or self._check_point(res.v, Uf, Yf, lo, hi, beta) is not None:
+                            return None  # the MILP's point has these modes: the LP must be feasible
+                        sign = 1.0 if side == 0 else -1.0
+                        value = float(self._last[j] @ res.v)
+                        bound = sign * self._dual_bound(sign * self._last[j], lp.row_duals(), lo_all, hi_all, delta, d)
+                        slack = SET_MEMBERSHIP_BOUND_RTOL * (1.0 + abs(value))
+                        if not np.isfinite(bound) or (bound < value - slack if side == 0 else bound > value + slack):
+                            return None
+                        if side == 0:
+                            lower[j] = min(lower[j], min(bound, value) + self._last_off[j])
+                        else:
+                            upper[j] = max(upper[j], max(bound, value) + self._last_off[j])
+                seqs.append(tuple(int(q) for q in self.enc.modes(out.v)))
+                ones = d > 0.5
+                feas.add_cut(delta, np.where(ones, -1.0, 1.0), 1.0 - float(ones.sum()))
+        finally:
+            feas.drop_cuts()
+        if not seqs:
+            return {"status": "inconsistent", "reason": "no model trajectory fits the window within the stated noise "
+                                                        "bound (HiGHS proved the MILP infeasible): the data contradict "
+                                                        "the model or the bound"}
+        return {"status": "ok", "lower": lower - self.box_pad, "upper": upper + self.box_pad, "mode_sequences": seqs,
+                "box_by": "mode sequences"}
+
+    def _dual_bound(self, c, y, lo_all, hi_all, delta, d) -> float:
+        """A lower bound on ``c @ v`` over the LP's set, proven by weak duality for any row
+        multipliers ``y``: ``c v = y (A v) + (c - A' y) v``, each term bounded below over its row
+        or column interval (the mode binaries fixed to ``d``); a multiplier facing an infinite
+        row bound is dropped."""
+        y = np.where((y > 0) & ~np.isfinite(lo_all) | (y < 0) & ~np.isfinite(hi_all), 0.0, y)
+        rows = np.where(y > 0, y * np.where(np.isfinite(lo_all), lo_all, 0.0),
+                        y * np.where(np.isfinite(hi_all), hi_all, 0.0))
+        lb, ub = self.enc.lb.astype(float).copy(), self.enc.ub.astype(float).copy()
+        lb[delta] = ub[delta] = d
+        r = c - self._A.T @ y
+        cols = np.minimum(r * lb, r * ub)
+        return float(rows.sum() + cols.sum())
 
     def _check_point(self, v, Uf, Yf, lo, hi, beta) -> str | None:
         """Why the MILP point ``v`` is not a trajectory of the window within the noise bound (``None``: it is)."""

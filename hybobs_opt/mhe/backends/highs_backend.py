@@ -82,6 +82,26 @@ class HighspyBackend:
         self._h, self._rows, self._inf = h, np.arange(nr, dtype=np.int32), inf
         self._cols = np.arange(nc, dtype=np.int32)
         self._changed: np.ndarray | None = None  # columns whose bounds the last solve replaced
+        self._n_cuts = 0  # rows added by add_cut, after the model's own
+
+    def add_cut(self, index: np.ndarray, coef: np.ndarray, lower: float) -> None:
+        """Add the row ``coef @ v[index] >= lower``; it stays until :meth:`drop_cuts` (the row
+        bounds that :meth:`solve` sets are those of the model's own rows)."""
+        idx = np.asarray(self._cols[index], dtype=np.int32).reshape(-1)
+        self._h.addRow(float(lower), self._inf, len(idx), idx, np.asarray(coef, dtype=float).reshape(-1))
+        self._n_cuts += 1
+
+    def drop_cuts(self) -> None:
+        """Remove every row added by :meth:`add_cut`."""
+        k = self._n_cuts
+        if k:
+            self._h.deleteRows(k, np.arange(self._rows.size, self._rows.size + k, dtype=np.int32))
+        self._n_cuts = 0
+
+    def row_duals(self) -> np.ndarray:
+        """HiGHS's row duals of the last solve (an LP: no integer columns, or all of them fixed),
+        model rows first."""
+        return np.asarray(self._h.getSolution().row_dual, dtype=float)[: self._rows.size]
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
               start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:

@@ -11,6 +11,7 @@ noise at 0.1 % and 1 % of the output range (and noise-free).
 
 from __future__ import annotations
 
+import collections
 import itertools
 from pathlib import Path
 
@@ -104,14 +105,16 @@ def output_span(system):
 @pytest.mark.parametrize("T", [3, 4])
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_radii_equal_the_enumeration_and_hold_the_true_state(case, T):
+    """Both ways to the box (sequence by sequence, and the per-state MILPs) against the oracle."""
     steps = 5 + T
     system, U, trace = CASES[case](T, steps)
     half = system.scales()[0][:system.n]
     rng = np.random.default_rng(T)
-    for level in (0.0, 0.001, 0.01):
+    paths = collections.Counter()
+    for level, max_sequences in itertools.product((0.0, 0.001, 0.01), (None, 0)):
         beta = level * output_span(system)
         Y = trace.y + rng.uniform(-1, 1, size=trace.y.shape) * beta
-        obs = SetMembershipObserver(system, T, beta)
+        obs = SetMembershipObserver(system, T, beta, max_sequences=max_sequences)
         for k in range(steps):
             est = obs.step(U[k], Y[k])
             if k < T - 1:
@@ -125,6 +128,9 @@ def test_radii_equal_the_enumeration_and_hold_the_true_state(case, T):
             assert np.all(np.abs(hi - ref[1]) <= 1e-6 * half), (case, T, level, k, hi, ref[1])
             assert np.all(np.abs(est.x - trace.x[k]) <= est.info["radius"])  # no slack: the pad is in the radius
             assert (est.flag == OBSERVABLE) == bool(np.all(est.info["radius"] <= obs.tolerance))
+            paths[(max_sequences, est.info["box_by"])] += 1
+    assert paths[(0, "mode sequences")] == 0 and paths[(0, "per-state MILPs")] > 0
+    assert paths[(None, "mode sequences")] > 0, paths  # the default path answers some windows
 
 
 def test_noise_free_radius_is_zero_exactly_where_the_state_is_unique():
@@ -166,5 +172,8 @@ def test_data_that_contradict_the_bound_are_a_fallback_and_bad_input_is_refused(
             SetMembershipObserver(system, 3, 0.0, tolerance=bad)
     with pytest.raises(ModelError, match="T"):
         SetMembershipObserver(system, 0, 0.0)
+    for bad in (-1, 1.5, True, "3"):
+        with pytest.raises(ModelError, match="max_sequences"):
+            SetMembershipObserver(system, 3, 0.0, max_sequences=bad)
     obs = SetMembershipObserver(system, 3, {"y": 0.01}, tolerance={"x1": 0.05})
     assert obs.noise_bound.tolist() == [0.01] and obs.tolerance[0] == 0.05
