@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml constraints.txt
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/hybobs report --out-dir out/report
+	$(VENV)/bin/hybobs report --out-dir out/report --force
 	@echo "Open $(CURDIR)/out/report/index.html"
 
 test: $(STAMP)

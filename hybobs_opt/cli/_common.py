@@ -230,8 +230,9 @@ def system_help() -> str:
     return SYSTEM_HELP + f"; the examples: {examples_help()}"
 
 
-def check_figure_path(option: str, path: Any) -> None:
-    """``ModelError`` unless ``path`` names a figure file matplotlib can write (checked before any work).
+def check_figure_path(option: str, path: Any, force: bool = False) -> None:
+    """``ModelError`` unless ``path`` names a figure file matplotlib can write and
+    :func:`check_output_path` accepts it (checked before any work).
 
     The extension chooses the format (``.png``, ``.pdf``, ``.svg`` ...): a name without one would be
     written under another name (matplotlib appends ``.png``), an unknown one fails after the run.
@@ -245,23 +246,67 @@ def check_figure_path(option: str, path: Any) -> None:
     suffix = p.suffix.lower().lstrip(".")
     if suffix not in formats:
         raise ModelError(option, f"a figure file name ending in one of {', '.join('.' + f for f in formats)}", repr(str(path)))
-    if p.is_dir():
-        raise ModelError(option, "a file name (not a directory)", repr(str(path)))
+    check_output_path(option, path, force)
 
 
-def check_output_path(option: str, path: Any) -> None:
-    """``ModelError`` before any work if ``path`` (a file to write) is an existing directory, or its
-    directory is missing or not writable."""
+def add_force_argument(p: argparse.ArgumentParser) -> None:
+    """``--force``: replace output files that exist (a symbolic link is refused even then)."""
+    p.add_argument("--force", action="store_true",
+                   help="replace output files that already exist (without it they are refused before any work; a "
+                        "symbolic link at an output path is never followed)")
+
+
+def check_output_path(option: str, path: Any, force: bool = False) -> None:
+    """``ModelError`` before any work if ``path`` (a file to write) is a symbolic link (never
+    followed), an existing directory or other non-regular file, an existing file without
+    ``force``, or if its directory is missing or not writable."""
     if path is None:
         return
     p = Path(str(path))
+    if p.is_symlink():
+        raise ModelError(option, "a path that is not a symbolic link (a link is never followed, not even with --force)",
+                         f"{str(path)!r}, a link to {os.readlink(p)!r}")
     if p.is_dir():
         raise ModelError(option, "a file name (not a directory)", repr(str(path)))
+    if p.exists() and not p.is_file():
+        raise ModelError(option, "a regular file or a new name", f"{str(path)!r}")
+    if p.exists() and not force:
+        raise ModelError(option, "a new file (or --force to replace it)", f"{str(path)!r} exists")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise ModelError(option, "a file in an existing directory", f"{str(path)!r} (no directory {str(parent)!r})")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ModelError(option, "a file in a directory you can write", f"{str(path)!r}")
+
+
+def check_output_dir(option: str, path: Any, force: bool, marker: str | None) -> None:
+    """``ModelError`` before any work if ``path`` (a directory to fill) is a symbolic link or a
+    file, holds a symbolic link (the files written there never follow one), or already holds
+    ``marker`` (the index of an earlier run; ``None``: not checked) without ``force``; a missing directory must be
+    creatable (its nearest existing ancestor a writable directory)."""
+    if path is None:
+        return
+    p = Path(str(path))
+    if p.is_symlink():
+        raise ModelError(option, "a directory that is not a symbolic link", f"{str(path)!r}, a link to {os.readlink(p)!r}")
+    if p.exists() and not p.is_dir():
+        raise ModelError(option, "a directory (created if missing)", f"{str(path)!r}, an existing file")
+    if p.is_dir():
+        links = sorted(q.name for q in p.iterdir() if q.is_symlink())
+        if links:
+            raise ModelError(option, "a directory without symbolic links (the files written there never follow one)",
+                             f"{str(path)!r} holds {', '.join(map(repr, links[:5]))}")
+        if marker is not None and (p / marker).exists() and not force:
+            raise ModelError(option, f"a directory without an earlier {marker} (or --force to replace it)",
+                             f"{str(p / marker)!r} exists")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise ModelError(option, "a directory you can write", repr(str(path)))
+        return
+    ancestor = p.parent if str(p.parent) else Path(".")
+    while not ancestor.exists() and ancestor.parent != ancestor:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ModelError(option, "a directory that can be created", f"{str(path)!r} (below {str(ancestor)!r})")
 
 
 def reject_given(args: argparse.Namespace, options: Mapping[str, Any], expected: str) -> None:

@@ -10,7 +10,7 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON, MAX_SAMPLES
-from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
+from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
                       command_cache, load_system, print_json)
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
@@ -39,6 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mhe-steps", type=int, default=None,
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
     p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
+    add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="PNG like the paper's Figs. 7-9")
     add_cache_argument(p)
     add_lp_budget_argument(p)
@@ -47,7 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     observers = parse_observers(args.observers)
-    check_figure_path("--plot", args.plot)
+    check_figure_path("--plot", args.plot, args.force)
     if args.horizon < 1 or args.horizon > MAX_HORIZON:
         raise ModelError("--horizon", f"a horizon T in 1..{MAX_HORIZON} (hybobs_opt.limits.MAX_HORIZON)", repr(args.horizon))
     if args.mhe_steps is not None:

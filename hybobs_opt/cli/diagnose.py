@@ -18,8 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import ModelError
-from ._common import add_system_argument, file_slug, print_json
+from ._common import add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
 from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
@@ -30,6 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_design_arguments(p)
     p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None,
                    help="write the Markdown and HTML reports into DIR (none without it); --out is its old name")
+    add_force_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 
 
@@ -42,9 +42,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from ..studies.paper004_nonmonotonic.presets import scaling_for
 
     out_dir = None if args.out is None else Path(args.out)
-    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
-        raise ModelError("--out-dir", "a directory (it receives the Markdown and HTML reports)", f"{str(out_dir)!r}, an existing file")
+    check_output_dir("--out-dir", out_dir, args.force, None)
     named, preset, settings = design_setup(args)
+    check_output_dir("--out-dir", out_dir, args.force, f"diagnose_{file_slug(named.label)}.md")  # before any LMI
     system = named.system
     update, close = counter_bar(not args.json, "LMI solves", "solve")
     try:

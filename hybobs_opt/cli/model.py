@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import SYSTEM_HELP, check_output_path, examples_help, load_system, print_json
+from ._common import add_force_argument, SYSTEM_HELP, check_output_path, examples_help, load_system, print_json
 
 HELP = "model files: print the JSON Schema, check a model, export a system as a model file"
 
@@ -20,6 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("system", nargs="?", metavar="SYSTEM",
                    help=lambda: f"for check/export: {SYSTEM_HELP}; the examples: {examples_help()}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
+    add_force_argument(p)
     p.add_argument("--out", metavar="FILE", help="export: the model file to write (.toml, .yaml, .json)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("SYSTEM", f"a system to {args.action}", "none")
     if args.action == "check" and args.out:
         raise ModelError("--out", "no value for 'model check' (export writes a model file)", repr(args.out))
-    check_output_path("--out", args.out)
+    check_output_path("--out", args.out, args.force)
     named = load_system(args)
     if args.action == "export":
         from ..systems.model_file import save_model

@@ -7,7 +7,7 @@ import argparse
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON
-from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
+from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
                       check_output_path, command_cache, load_system, print_json)
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
@@ -36,6 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
                    "(and radius_<state> per state with the set-membership observer, and the lookup one with --noise-bound)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
+    add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
     add_cache_argument(p)
     add_lp_budget_argument(p)
@@ -66,8 +67,8 @@ def check_scenario_options(example, args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    check_figure_path("--plot", args.plot)
-    check_output_path("--out", args.out)
+    check_figure_path("--plot", args.plot, args.force)
+    check_output_path("--out", args.out, args.force)
     named = load_system(args)
     with command_cache(args) as cache:
         summary = _observe(named, args)

@@ -11,7 +11,7 @@ import math
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
-from ._common import (add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
+from ._common import (add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
                       as_options, check_figure_path, check_output_path, command_cache, executor_from_args, load_system,
                       print_json)
 
@@ -30,6 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
     p.add_argument("--resolution", default=None, metavar="NXxNY",
                    help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
+    add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
     p.add_argument("--out", "--save", dest="save", metavar="FILE",
                    help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its old name")
@@ -50,8 +51,8 @@ def run(args: argparse.Namespace) -> int:
     from ..regions import compute_cut, parse_assignments, save_analysis
 
     check_horizon_limit(args.horizon, "--horizon")
-    check_figure_path("--plot", args.plot)
-    check_output_path("--out", args.save)
+    check_figure_path("--plot", args.plot, args.force)
+    check_output_path("--out", args.save, args.force)
     named = load_system(args)
     if named.kind == "hybrid_automaton" and args.ts is not None:
         with as_options({"Ts": "--ts"}):

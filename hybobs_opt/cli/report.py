@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON
-from ._common import SYSTEM_HELP, as_options, examples_help, load_system, print_json
+from ._common import SYSTEM_HELP, add_force_argument, as_options, check_output_dir, examples_help, load_system, print_json
 
 
 def _section_help() -> str:
@@ -32,14 +32,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", metavar="LOG.csv", help="with a PWA SYSTEM: compare the observers on this log")
     p.add_argument("--quick", action="store_true",
                    help="a preview of the report of every result: every section and figure from fewer samples (about a third of the time)")
+    add_force_argument(p)
     p.add_argument("--json", action="store_true", help="print a JSON summary")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..progress import section_bar
 
-    if Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ModelError("--out-dir", "a directory (it receives index.html and the figures)", f"{args.out!r}, an existing file")
+    check_output_dir("--out-dir", args.out, args.force, "index.html")
     named = None
     if args.system is None:
         for option in ("param", "data", "horizon"):

@@ -9,7 +9,7 @@ import time
 
 from ..errors import ModelError
 from ..limits import MAX_SAMPLES
-from ._common import add_system_argument, as_options, check_figure_path, check_output_path, load_system, print_json
+from ._common import add_force_argument, add_system_argument, as_options, check_figure_path, check_output_path, load_system, print_json
 
 HELP = "simulate a system (an example on its paper's scenario, or any system from --x0 under --u)"
 
@@ -26,6 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=int, default=None, help="samples of a PWA run (default 100: hybobs_opt.sim.any_system.DEFAULT_PWA_STEPS)")
     p.add_argument("--dt", type=float, default=None, help="output sample time of a continuous-time run (s; not for a "
                    "PWA system, whose sample time is Ts)")
+    add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="write a PNG plot of the trace")
     p.add_argument("--csv", metavar="FILE", help="write the trace as CSV (header: t, states, q, inputs, outputs)")
     p.add_argument("--json", action="store_true", help="print t, x, q, u, y arrays as JSON")
@@ -36,8 +37,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.t_final is not None and not (math.isfinite(args.t_final) and args.t_final > 0):
         raise ModelError("--t-final", "a positive finite time in seconds", repr(args.t_final))
-    check_figure_path("--plot", args.plot)
-    check_output_path("--csv", args.csv)
+    check_figure_path("--plot", args.plot, args.force)
+    check_output_path("--csv", args.csv, args.force)
     named = load_system(args)
     t0 = time.perf_counter()
     if named.example is not None:

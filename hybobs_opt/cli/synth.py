@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ._common import add_system_argument, check_output_path, json_default, print_json
+from ._common import add_force_argument, add_system_argument, check_output_path, json_default, print_json
 from ._schedule import add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
@@ -26,6 +26,7 @@ HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
+    add_force_argument(p)
     p.add_argument("--out", required=True, metavar="FILE", help="gains JSON file")
     add_design_arguments(p)
     p.add_argument("--max-rate", type=float, default=None, metavar="R",
@@ -53,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if args.periodic and args.no_verify:
         raise ModelError("--periodic", "no value with --no-verify (the verification's observer wraps the periodic states)",
                          repr(args.periodic[0]))
-    check_output_path("--out", args.out)
+    check_output_path("--out", args.out, args.force)
     named, preset, settings = design_setup(args)
     system = named.system
     periodic = _periodic(args.periodic, system)

@@ -215,6 +215,19 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["report", "--out", F("dir") + "/rep"], "--quick", ["yes"]),
     (["report", "--section", "examples"], "--out", [F("existing")]),
     (["report"], None, ["nosuch"]),
+    # outputs: an existing file is refused without --force (a flag: it takes no value)
+    (["simulate", "powertrain3", "--t-final", "0.01"], "--csv", [F("existing")]),
+    (["simulate", "powertrain3", "--t-final", "0.01", "--csv", F("existing")], "--force", ["yes"]),
+    (["regions", "powertrain3", "-T", "3"], "--out", [F("existing")]),
+    (["regions", "powertrain3", "-T", "3", "--out", F("existing")], "--force", ["yes"]),
+    (["observe", "driveline"], "--out", [F("existing")]),
+    (["observe", "driveline", "--out", F("existing")], "--force", ["1"]),
+    (["bench", "powertrain3", "--plot", F("dir") + "/b.png"], "--force", ["yes"]),
+    (["diagnose", "vehicle_tracking"], "--force", ["yes"]),
+    (["synth", "vehicle_tracking"], "--out", [F("existing")]),
+    (["synth", "vehicle_tracking", "--out", F("dir") + "/g.json"], "--force", ["yes"]),
+    (["model", "export", "powertrain3", "--out", F("dir") + "/m.toml"], "--force", ["yes"]),
+    (["report", "--out", F("dir") + "/rep"], "--force", ["yes"]),
 ]
 
 
