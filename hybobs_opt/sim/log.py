@@ -93,14 +93,46 @@ def read_log(path: str | Path, system) -> SignalLog:
         with path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.reader(fh)
             # blank lines are skipped; each row keeps the line it ends on, for the messages
-            numbered = [(reader.line_num, r) for r in reader if any(cell.strip() for cell in r)]
+            first = next((r for r in reader if any(cell.strip() for cell in r)), None)
+            if first is None:
+                raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
+            header = [h.strip() for h in first]
+            names = _check_header(path, header, inputs, outputs, states)
+            data, lines = _read_rows(path, reader, header)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ModelError(str(path), "a readable CSV log", f"{type(exc).__name__}: {exc}") from None
-    lines = [k for k, _ in numbered]
-    rows = [r for _, r in numbered]
-    if not rows:
-        raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
-    header = [h.strip() for h in rows[0]]
+    needed, times, modes, state_cols, extra_states = names
+    if data.shape[0] == 0:
+        raise ModelError(str(path), "at least one sample after the header", "none")
+    for name in sorted({h for h in header if header.count(h) > 1}):
+        cols = [c for c, h in enumerate(header) if h == name]
+        differ = np.flatnonzero(np.any(data[:, cols] != data[:, cols[:1]], axis=1))
+        if differ.size:
+            raise ModelError(f"{path} line {lines[int(differ[0])]} column {name!r}", "a column that appears twice to "
+                             "hold the same values (one signal)", "two different values")
+
+    def columns(names):
+        return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
+
+    t = data[:, header.index(times[0])] if times else None
+    if t is not None and np.any(np.diff(t) <= 0):
+        i = int(np.argmax(np.diff(t) <= 0)) + 1
+        raise ModelError(f"{path} line {lines[i]} column {times[0]!r}", "strictly increasing times",
+                         f"{t[i]!r} after {t[i - 1]!r}")
+    X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
+    Q = None
+    if modes:
+        q = data[:, header.index(modes[0])]
+        bad = np.flatnonzero(q != np.round(q))
+        if bad.size:
+            raise ModelError(f"{path} line {lines[int(bad[0])]} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
+        Q = q.astype(int)
+    return SignalLog(str(path), columns(inputs), columns(outputs), t, X, Q)
+
+
+def _check_header(path: Path, header: list[str], inputs, outputs, states) -> tuple:
+    """The header's columns checked against the system's names: ``(needed, times, modes,
+    state_cols, extra_states)``."""
     needed = list(dict.fromkeys(inputs + outputs))
     missing = [nm for nm in needed if nm not in header]
     if missing:
@@ -123,37 +155,39 @@ def read_log(path: str | Path, system) -> SignalLog:
     if extra_states and len(state_cols) != len(states):
         raise ModelError(f"{path} header", f"all the state columns {list(states)} or none",
                          f"only {state_cols}")
-    data = np.empty((len(rows) - 1, len(header)))
-    for i, (k, row) in enumerate(zip(lines[1:], rows[1:])):
-        if len(row) != len(header):
-            raise ModelError(f"{path} line {k}", f"{len(header)} cells (one per column of the header)", f"{len(row)}")
+    return needed, times, modes, state_cols, extra_states
+
+
+#: Rows parsed into one block of the streamed log before the next block is allocated.
+LOG_BLOCK_ROWS = 65536
+
+
+def _read_rows(path: Path, reader, header: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The data rows after the header, parsed as they are read (a log is never held as text):
+    ``(data (N, columns), line of each row)``.  Blocks of :data:`LOG_BLOCK_ROWS` rows are joined
+    at the end, so the peak is about twice the array (8 bytes per cell, fewer than the cell's text)."""
+    ncol = len(header)
+    blocks, line_blocks = [], []
+    block, line_block, n = np.empty((LOG_BLOCK_ROWS, ncol)), np.empty(LOG_BLOCK_ROWS, dtype=np.int64), 0
+    for row in reader:
+        if not any(cell.strip() for cell in row):
+            continue
+        k = reader.line_num
+        if len(row) != ncol:
+            raise ModelError(f"{path} line {k}", f"{ncol} cells (one per column of the header)", f"{len(row)}")
         for c, cell in enumerate(row):
-            data[i, c] = parse_decimal(cell, f"{path} line {k} column {header[c]!r}")
-    if data.shape[0] == 0:
-        raise ModelError(str(path), "at least one sample after the header", "none")
-    for name in sorted({h for h in header if header.count(h) > 1}):
-        cols = [c for c, h in enumerate(header) if h == name]
-        differ = np.flatnonzero(np.any(data[:, cols] != data[:, cols[:1]], axis=1))
-        if differ.size:
-            raise ModelError(f"{path} line {int(differ[0]) + 2} column {name!r}", "a column that appears twice to hold the same "
-                             "values (one signal)", "two different values")
-
-    def columns(names):
-        return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
-
-    t = data[:, header.index(times[0])] if times else None
-    if t is not None and np.any(np.diff(t) <= 0):
-        k = int(np.argmax(np.diff(t) <= 0)) + 3
-        raise ModelError(f"{path} line {k} column {times[0]!r}", "strictly increasing times", f"{t[k - 2]!r} after {t[k - 3]!r}")
-    X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
-    Q = None
-    if modes:
-        q = data[:, header.index(modes[0])]
-        bad = np.flatnonzero(q != np.round(q))
-        if bad.size:
-            raise ModelError(f"{path} line {lines[int(bad[0]) + 1]} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
-        Q = q.astype(int)
-    return SignalLog(str(path), columns(inputs), columns(outputs), t, X, Q)
+            block[n, c] = parse_decimal(cell, f"{path} line {k} column {header[c]!r}")
+        line_block[n] = k
+        n += 1
+        if n == LOG_BLOCK_ROWS:
+            blocks.append(block)
+            line_blocks.append(line_block)
+            block, line_block, n = np.empty((LOG_BLOCK_ROWS, ncol)), np.empty(LOG_BLOCK_ROWS, dtype=np.int64), 0
+    blocks.append(block[:n])
+    line_blocks.append(line_block[:n])
+    if len(blocks) == 1:
+        return blocks[0].copy(), line_blocks[0].copy()
+    return np.concatenate(blocks), np.concatenate(line_blocks)
 
 
 def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Path:
