@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from .._output_files import write_output_text
 from ..errors import ModelError
 from ..limits import MAX_EXPORT_TABLE_BYTES
 from ..tolerances import (
@@ -185,9 +186,7 @@ def _write_new(path: Path, text: str) -> None:
     ``O_NOFOLLOW`` make a link planted since the check fail instead of being followed."""
     if path.exists() or path.is_symlink():
         path.unlink()
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
-    with os.fdopen(fd, "w", encoding="ascii") as fh:
-        fh.write(text)
+    write_output_text(path, text, exclusive=True, encoding="ascii")
 
 
 def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: bool = False,

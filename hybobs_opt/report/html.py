@@ -16,6 +16,7 @@ from typing import Any
 
 from ..errors import HybobsError, ModelError
 from .section import _QUICK, _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
+from .._output_files import write_output_text
 
 def wrap_tables(body: str) -> str:
     """Wrap every ``<table>`` of ``body`` in a ``<div class='table-wrap'>`` that scrolls sideways.
@@ -104,9 +105,9 @@ def assemble_report(out_dir: str | Path, builders: list[tuple[str, SectionBuilde
         )
     index = out / "index.html"
     toc = "".join(f"<li><a href='#{r['key']}'>{html.escape(r['title'])}</a></li>" for r in records)
-    index.write_text(_PAGE.format(toc=toc, body="\n".join(parts), stamp=time.strftime("%Y-%m-%d %H:%M:%S"),
+    write_output_text(index, _PAGE.format(toc=toc, body="\n".join(parts), stamp=time.strftime("%Y-%m-%d %H:%M:%S"),
                                   title=html.escape(title)))
-    (out / "summary.json").write_text(json.dumps({"sections": records}, indent=2))
+    write_output_text(out / "summary.json", json.dumps({"sections": records}, indent=2))
     return {"index": str(index), "sections": records}
 
 

@@ -28,6 +28,7 @@ import numpy as np  # noqa: E402
 from ..lmi.plots import plot_jacobian_bounds  # noqa: F401  (old name of this module)
 from ..observers.plots import plot_observer_run
 from .section import ReportSection, register_section  # noqa: E402
+from .._output_files import write_output_text
 
 
 def _diagnosis_markdown(diag, example: str, fig_name: str) -> str:
@@ -144,8 +145,8 @@ def write_diagnosis_report(diag, out_dir: str | Path, example: str) -> dict:
     plot_jacobian_bounds(diag, out / fig)
     md = _diagnosis_markdown(diag, example, fig)
     md_path, html_path = out / f"diagnose_{example}.md", out / f"diagnose_{example}.html"
-    md_path.write_text(md)
-    html_path.write_text(_markdown_to_html(md, f"diagnose {example}"))
+    write_output_text(md_path, md)
+    write_output_text(html_path, _markdown_to_html(md, f"diagnose {example}"))
     return {"markdown": str(md_path), "html": str(html_path), "figures": [str(out / fig)]}
 
 

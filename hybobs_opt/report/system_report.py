@@ -23,6 +23,7 @@ import numpy as np
 from .html import assemble_report
 from .plots import plot_estimates, plot_trace
 from .section import ReportSection
+from .._output_files import write_output_text
 
 #: Sections per system class, in page order.
 SECTIONS_BY_CLASS: dict[str, tuple[str, ...]] = {
@@ -62,7 +63,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
             sizes.append(("modes", ", ".join(m.get("name", "") for m in d["modes"]) if isinstance(d["modes"][0], dict) else len(d["modes"])))
         if "locations" in d:
             sizes.append(("locations", ", ".join(loc.get("name", "") for loc in d["locations"])))
-        (out / f"model_{slug}.json").write_text(json.dumps(d, indent=1))
+        write_output_text(out / f"model_{slug}.json", json.dumps(d, indent=1))
         body = _table(sizes) + f"<p>Model dictionary: <a href='model_{slug}.json'>model_{slug}.json</a> (load it with <code>hybobs_opt.load_model</code>).</p>"
         return ReportSection(f"Model {label}", body, {"class": d["class"], "n_states": len(d.get("states", []))})
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from .._numbers import parse_decimal
 from ..errors import ModelError
+from .._output_files import open_output
 
 #: Accepted names of the optional time column.
 TIME_COLUMNS = ("t", "time")
@@ -213,7 +214,7 @@ def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Pat
     names = list(trace.state_names) or [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]
     infos = list(trace.info) if len(trace.info) == trace.n_steps else [{}] * trace.n_steps
     radii = any(isinstance(inf, dict) and "radius" in inf for inf in infos)
-    with path.open("w", newline="") as fh:
+    with open_output(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow((["t"] if t is not None else []) + names + ["mode", "flag"]
                    + ([f"radius_{nm}" for nm in names] if radii else []))

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
+from .._output_files import open_output
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +108,7 @@ class Trace:
             Output CSV file (overwritten).
         """
         header = ["t", *self.state_names, "q", *self.input_names, *self.output_names]
-        with open(path, "w", newline="") as fh:
+        with open_output(path, newline="") as fh:
             w = csv.writer(fh)
             w.writerow(header)
             for k in range(self.n_samples):

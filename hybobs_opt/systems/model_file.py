@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ModelError
+from .._output_files import write_output_text
 
 #: File suffixes read as model files, and their format.
 MODEL_SUFFIXES: dict[str, str] = {".json": "json", ".toml": "toml", ".yaml": "yaml", ".yml": "yaml"}
@@ -151,7 +152,7 @@ def save_model(system, path: str | Path) -> Path:
         text = _optional("tomli_w", "tomli-w", "write TOML model files").dumps(data)
     else:
         text = _optional("yaml", "PyYAML", "write YAML model files").safe_dump(data, sort_keys=False)
-    path.write_text(text)
+    write_output_text(path, text)
     return path
 
 

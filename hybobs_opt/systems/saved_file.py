@@ -36,6 +36,7 @@ from typing import Any
 
 from ..errors import ModelError
 from .fingerprint import sha256_of
+from .._output_files import write_output_text
 
 #: The entry holding :func:`content_checksum` (the one entry the checksum does not cover).
 CHECKSUM_KEY = "checksum"
@@ -108,7 +109,7 @@ def write_sealed(path: str | Path, data: Mapping[str, Any], fmt: SavedFormat, fi
                  indent: int | None = None, default: Callable[[Any], Any] | None = None) -> dict[str, Any]:
     """Write :func:`seal` of ``data`` to ``path`` as JSON; returns the sealed dictionary."""
     sealed = seal(data, fmt, fingerprint, default)
-    Path(path).write_text(json.dumps(sealed, indent=indent))
+    write_output_text(path, json.dumps(sealed, indent=indent))
     return sealed
 
 

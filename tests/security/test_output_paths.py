@@ -129,3 +129,34 @@ def test_the_first_steps_named_in_the_table_exist():
 
     for _, _, module, func in COMMANDS.values():
         assert callable(getattr(importlib.import_module(f"hybobs_opt.cli.{module}"), func))
+
+
+def test_the_library_writers_never_write_through_a_link(tmp_path):
+    """The writers behind the commands open their file with ``O_NOFOLLOW``: a link planted after
+    the command's check (or handed to the library directly) is refused, its target untouched."""
+    from hybobs_opt.errors import ModelError
+    from hybobs_opt.examples.powertrain import powertrain3
+    from hybobs_opt.regions import analyse_observability, save_analysis
+    from hybobs_opt.sim import simulate_pwa
+    from hybobs_opt.systems import save_model
+
+    import numpy as np
+
+    system = powertrain3()
+    trace = simulate_pwa(system, np.array([0.06, 39.0, 3.25]), np.zeros((5, 1)))
+    analysis = analyse_observability(system, 3)
+    writers = {
+        "model.toml": lambda p: save_model(system, p),
+        "trace.csv": lambda p: trace.to_csv(p),
+        "regions.json": lambda p: save_analysis(analysis, p),
+    }
+    for name, write in writers.items():
+        victim = _plant(tmp_path / f"victim-{name}")
+        link = tmp_path / name
+        link.symlink_to(victim)
+        with pytest.raises(ModelError, match="symbolic link"):
+            write(link)
+        assert victim.read_bytes() == ORIGINAL, name
+        link.unlink()
+        write(link)  # the same writer, a plain path: written
+        assert link.is_file() and not link.is_symlink() and link.stat().st_size > 0
