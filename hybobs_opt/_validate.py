@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+import unicodedata
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -240,7 +241,18 @@ def names_or_default(value, field: str, defaults: tuple[str, ...]) -> tuple[str,
     if len(set(names)) != len(names):
         dup = next(nm for nm in names if names.count(nm) > 1)
         raise ModelError(field, "distinct names", f"{names} ({dup!r} twice)")
+    keys = [name_key(nm) for nm in names]
+    if len(set(keys)) != len(keys):
+        a, b = next((x, y) for i, x in enumerate(names) for y in names[i + 1:] if name_key(x) == name_key(y))
+        raise ModelError(field, "distinct names (compared after NFKC normalisation, as Python reads identifiers "
+                         "and a model file stores them)", f"{a!r} and {b!r}")
     return names
+
+
+def name_key(name: str) -> str:
+    """``name`` normalised to NFKC: two names with the same key are one identifier in an
+    expression and in a model file (``x`` and ``𝐱``)."""
+    return unicodedata.normalize("NFKC", name)
 
 
 def as_names(value: Sequence[str] | None, field: str, size: int, default_prefix: str) -> tuple[str, ...]:

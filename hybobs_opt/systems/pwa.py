@@ -18,7 +18,7 @@ from ..errors import ModelError
 from ..geometry._reproducible import matmul as mm
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, real_array
+from ._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, name_key, real_array
 from .polytope import Polytope
 
 
@@ -360,9 +360,12 @@ def check_coordinate_names(state_names: tuple[str, ...], input_names: tuple[str,
     ``Polytope.from_box`` gives without names) say nothing and are accepted.  States and inputs
     share the space of the guards, so a name may not be both.
     """
-    both = sorted(set(state_names) & set(input_names))
+    states = {name_key(nm): nm for nm in state_names}
+    both = sorted(nm for nm in input_names if name_key(nm) in states)
     if both:
-        raise ModelError("input_names", f"names distinct from the state names {list(state_names)}", f"{both[0]!r} in both")
+        raise ModelError("input_names", f"names distinct from the state names {list(state_names)} (compared after NFKC "
+                         "normalisation)", f"{both[0]!r} in both" if both[0] in state_names
+                         else f"{both[0]!r} and the state {states[name_key(both[0])]!r}")
     for label, poly, over_inputs in sets:
         given = _given_names(poly)
         if not given:

@@ -86,6 +86,23 @@ def test_names_that_normalise_to_the_same_identifier_are_refused(tmp_path):
     assert load_model(_spring_model(tmp_path, bold_only)).state_names[0] == "x"  # normalised, as in expressions
 
 
+def test_names_that_normalise_to_one_identifier_are_refused_in_python_built_systems():
+    """The same rule for a system built in Python: its names reach model files (``save_model``),
+    log headers and ``--x0 NAME=VALUE``, where ``x`` and ``𝐱`` would be one name."""
+    import numpy as np
+
+    from hybobs_opt.systems import Polytope, PWAMode, PWASystem
+
+    mode = PWAMode(np.eye(2), np.zeros((2, 1)), np.zeros(2), np.array([[1.0, 0.0]]),
+                   Polytope(np.array([[0.0, 0.0, 1.0]]), np.array([10.0])))
+    box = (Polytope.from_box([-1, -1], [1, 1]), Polytope.from_box([-1], [1]))
+    with pytest.raises(ModelError, match="state_names.*NFKC"):
+        PWASystem((mode,), *box, state_names=("x", "\U0001d431"))
+    with pytest.raises(ModelError, match="input_names.*NFKC"):
+        PWASystem((mode,), *box, state_names=("x", "v"), input_names=("\uff58",))  # FULLWIDTH x
+    assert PWASystem((mode,), *box, state_names=("\U0001d431", "v")).state_names[0] == "\U0001d431"  # kept as given
+
+
 @pytest.mark.parametrize("number", ["8_0", "0x10", "1" + "0" * 400, "1e400", "\u0663", "\uff13"])
 def test_one_number_grammar_in_expressions(number):
     import casadi as ca
