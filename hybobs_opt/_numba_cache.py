@@ -162,6 +162,8 @@ def finalize_kernels(namespace: dict) -> bool:
                     options = {**options, "cache": False}
                 # into the namespace at once: the next kernels call this one by its global name
                 namespace[name] = njit(*signatures, **options)(fn)
+                if not signatures and options.get("cache"):
+                    _tolerate_damaged_entries(namespace[name])
         except Exception as exc:  # a damaged cache entry (truncated pickle, ...) read by an eager signature
             import warnings
 
@@ -179,6 +181,56 @@ def finalize_kernels(namespace: dict) -> bool:
         return _finalize_python(namespace, marked, mode, untrusted)
     _COMPILED[namespace.get("__name__", "?")] = True
     return True
+
+
+def _tolerate_damaged_entries(dispatcher) -> None:
+    """Make a lazily compiled kernel read a damaged cache entry as a miss.
+
+    A kernel without declared signatures loads its compiled code from the cache at its first call
+    with each argument types, not at import; a truncated or corrupt data file then raised from deep
+    inside numba (``UnpicklingError``) in the middle of an analysis.  The dispatcher's cache is
+    replaced by one whose failed load warns (once per process) and answers "not cached": numba
+    compiles that overload and its save replaces the damaged file.
+    """
+    cache_class = _tolerant_cache_class()
+    if cache_class is None or not isinstance(getattr(dispatcher, "_cache", None), cache_class.__bases__[0]):
+        return  # numba's cache API moved, or the kernel is not cached: keep numba's own
+    try:
+        dispatcher._cache = cache_class(dispatcher.py_func)
+    except Exception:  # numba's cache refused the function: keep its own
+        pass
+
+
+_TOLERANT_CACHE = None
+_DAMAGED_WARNED = False
+
+
+def _tolerant_cache_class():
+    """numba's ``FunctionCache`` with :meth:`load_overload` turning a failed load into a miss."""
+    global _TOLERANT_CACHE
+    if _TOLERANT_CACHE is None:
+        try:
+            from numba.core.caching import FunctionCache
+        except ImportError:
+            return None
+
+        class TolerantFunctionCache(FunctionCache):
+            def load_overload(self, sig, target_context):
+                global _DAMAGED_WARNED
+                try:
+                    return super().load_overload(sig, target_context)
+                except Exception as exc:
+                    if not _DAMAGED_WARNED:
+                        import warnings
+
+                        _DAMAGED_WARNED = True
+                        warnings.warn(f"hybobs_opt: the cached kernel {self._py_func.__qualname__} could not be loaded "
+                                      f"({type(exc).__name__}: {exc}); compiling the damaged kernels again (their "
+                                      "cache entries are replaced)", RuntimeWarning, stacklevel=2)
+                    return None
+
+        _TOLERANT_CACHE = TolerantFunctionCache
+    return _TOLERANT_CACHE
 
 
 def _finalize_python(namespace: dict, marked: dict, mode: str, untrusted: bool) -> bool:

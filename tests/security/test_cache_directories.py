@@ -168,3 +168,37 @@ def test_a_truncated_kernel_cache_does_not_break_the_import(tmp_path):
     an = analyse_observability(get_example("powertrain3").build(), 3)
     tr = simulate_pwa(an.system, np.array([0.06, 39.0, 3.25]), np.full((40, 1), 40.0))
     assert out["flags"] == [str(f) for f in LookupObserver(an).run(tr.u, tr.y).flags]
+
+
+def test_a_damaged_entry_of_a_lazily_compiled_kernel_is_compiled_again(tmp_path):
+    """The geometry kernels load from the cache at their first call, not at import: every data
+    file cut to 100 bytes made Algorithm 3.1 die with an ``UnpicklingError`` from inside numba.
+    Now the analysis runs (one warning), gives the pieces of this process, and the next process
+    loads the repaired entries without a warning."""
+    import shutil
+
+    from hybobs_opt._numba_cache import NUMBA_CACHE_ENV, numba_cache_dir
+
+    source = Path(os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir())
+    if not source.is_dir() or not any(source.glob("geometry_*/*.nbc")):
+        pytest.skip("no compiled geometry kernels in the cache to damage (run python -m hybobs_opt._warm_up)")
+    cache = tmp_path / "numba"
+    shutil.copytree(source, cache)
+    damaged = 0
+    for f in cache.glob("geometry_*/*.nbc"):
+        f.write_bytes(f.read_bytes()[:100])
+        damaged += 1
+    assert damaged
+    code = ("import json\nfrom hybobs_opt import analyse_observability, get_example\n"
+            "an = analyse_observability(get_example('powertrain3').build(), 4)\n"
+            "print(json.dumps([[int(p.i), int(p.j)] for p in an.pairs]))")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "HYBOBS_BACKGROUND_WARM_UP": "0", "PYTHONPATH": str(REPO),
+           "PYTHONWARNINGS": "always"}
+    expected = [[int(p.i), int(p.j)] for p in analyse_observability(get_example("powertrain3").build(), 4).pairs]
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stderr[-2000:]
+    assert json.loads(first.stdout.strip().splitlines()[-1]) == expected
+    assert first.stderr.count("could not be loaded") == 1, first.stderr[-2000:]
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert second.returncode == 0 and "could not be loaded" not in second.stderr, second.stderr[-2000:]
+    assert json.loads(second.stdout.strip().splitlines()[-1]) == expected
