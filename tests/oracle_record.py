@@ -8,11 +8,12 @@ configuration in ``tests/oracle_records/NAME.json`` and used as follows (``HYBOB
     A state found in the record (scaled inf-distance <= :data:`MATCH_TOL` from a recorded state)
     gets its recorded verdict; every :data:`LIVE_EVERY`-th recorded state, every state not in
     the record and every state whose toolbox answer lies outside its recorded verdict are decided
-    by the live oracle, and a live verdict that differs from the record fails the test
-    (:class:`StaleRecord`).  A toolbox answer is therefore never judged against a record that
-    the oracle does not confirm.
+    by the live oracle, and a live verdict that shares no answer with the record fails the test
+    (:class:`StaleRecord`); one that overlaps it (a state within the oracle's margins, which
+    another CPU's rounding may decide otherwise) replaces it and is counted.  A toolbox answer is
+    therefore never judged against a record that the oracle does not confirm.
 ``live`` (the CI step after ``make test``)
-    Every verdict is computed by the live oracle and must equal the record where one exists.
+    Every verdict is computed by the live oracle and checked against the record the same way.
 ``record``
     Every verdict is computed live and the file is (re)written.  Needed after a change of
     ``exact_oracle.py`` or of the system: the record names both (sha256 of the oracle's source,
@@ -117,7 +118,8 @@ class OracleRecord:
         self.options = dict(options or {})
         self.path = RECORDS / f"{name}.json"
         self.mode = mode()
-        self.counts = {"recorded": 0, "live": 0, "spot_checks": 0, "not_in_record": 0, "disagreement_checks": 0}
+        self.counts = {"recorded": 0, "live": 0, "spot_checks": 0, "not_in_record": 0, "disagreement_checks": 0,
+                       "changed": 0}
         self.keys = np.zeros((0, self.scale.size))
         self.entries: list[tuple[str, frozenset]] = []
         self.usable = False
@@ -195,12 +197,18 @@ class OracleRecord:
         return v
 
     def _confirm(self, key, i: int, why: str):
+        """The live verdict on recorded entry ``i``: a live ``allowed`` set that shares no answer
+        with the recorded one is a wrong record (:class:`StaleRecord`); one that overlaps it but
+        differs (a state within the oracle's margins, decided otherwise by another CPU's
+        rounding) is counted and used in its place."""
         v = self._live(key)
         label, allowed = self.entries[i]
-        if (v.label, frozenset(v.allowed)) != (label, allowed):
+        if frozenset(v.allowed).isdisjoint(allowed):
             raise StaleRecord(f"{self.path.name}: recorded verdict #{i} ({label}, {sorted(allowed)}) at key "
                               f"{key.tolist()} is not the live oracle's ({v.label}, {sorted(v.allowed)}; {v.reason}) "
                               f"[{why}]: re-record with HYBOBS_ORACLE=record")
+        if (v.label, frozenset(v.allowed)) != (label, allowed):
+            self.counts["changed"] += 1
         return v
 
     def verdict(self, key, toolbox=None):
@@ -234,4 +242,5 @@ class OracleRecord:
         c = self.counts
         return (f"oracle {self.mode}: {c['recorded']} recorded verdicts used, {c['live']} live "
                 f"({c['spot_checks']} spot checks, {c['not_in_record']} not in the record, "
-                f"{c['disagreement_checks']} toolbox disagreements re-decided)")
+                f"{c['disagreement_checks']} toolbox disagreements re-decided; {c['changed']} live verdicts differ from "
+                f"the record within the oracle's margins)")

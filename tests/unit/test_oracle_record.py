@@ -128,3 +128,19 @@ def test_a_bad_mode_is_an_error(monkeypatch):
     monkeypatch.setenv("HYBOBS_ORACLE", "cached")
     with pytest.raises(ValueError, match="HYBOBS_ORACLE"):
         oracle_record.mode()
+
+
+def test_a_live_verdict_that_overlaps_the_record_replaces_it_and_is_counted(records, monkeypatch):
+    """A state within the oracle's margins may be decided otherwise on another CPU: the live
+    verdict is used (the toolbox is judged against it) and counted, not a failure."""
+    system = _system()
+    _record(monkeypatch, system)
+    path = records / "r.json"
+    data = json.loads(path.read_text())
+    key, old, _ = data["verdicts"][0]  # a spot-checked entry
+    other = "unobservable" if old != "unobservable" else "observable"
+    data["verdicts"][0] = [key, "ambiguous", sorted({old, other})]
+    path.write_text(json.dumps(data))
+    rec = OracleRecord("r", system, T, "state", system.scales()[0][: system.n])
+    v = rec.verdict(np.array(key))
+    assert v.label == old and rec.counts["changed"] == 1 and rec.counts["spot_checks"] == 1
