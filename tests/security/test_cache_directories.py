@@ -130,25 +130,30 @@ def test_clear_removes_only_the_toolbox_files(tmp_path, plant):
     np.testing.assert_equal(sorted(p.read_text() for p in tmp_path.iterdir() if p.name in mine), ["user data"] * 4)
 
 
-def test_a_truncated_kernel_cache_does_not_break_the_import(tmp_path):
-    """Every data file of the lookup kernels cut to 100 bytes: the import warns, removes them and
-    runs the kernels as Python, and the observer gives the same estimates (the answers do not depend
-    on the kernels' mode: tests/unit/test_kernel_modes.py)."""
+def _damaged_kernel_cache(tmp_path: Path, pattern: str, what: str) -> Path:
+    """A copy of this process's numba cache in ``tmp_path`` with every data file matching
+    ``pattern`` cut to 100 bytes (skips the test when the cache holds none)."""
     import shutil
 
     from hybobs_opt._numba_cache import NUMBA_CACHE_ENV, numba_cache_dir
 
     source = Path(os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir())
-    folders = [d for d in source.glob("observers_*") if any(d.glob("_lookup_kernels.*.nbc"))] if source.is_dir() else []
-    if not folders:
-        pytest.skip("no compiled lookup kernels in the cache to damage (run python -m hybobs_opt._warm_up)")
+    if not source.is_dir() or not any(source.glob(pattern)):
+        pytest.skip(f"no compiled {what} in the cache to damage (run python -m hybobs_opt._warm_up)")
     cache = tmp_path / "numba"
     shutil.copytree(source, cache)
-    damaged = 0
-    for f in cache.glob("observers_*/_lookup_kernels.*.nbc"):
+    damaged = list(cache.glob(pattern))
+    for f in damaged:
         f.write_bytes(f.read_bytes()[:100])
-        damaged += 1
     assert damaged
+    return cache
+
+
+def test_a_truncated_kernel_cache_does_not_break_the_import(tmp_path):
+    """Every data file of the lookup kernels cut to 100 bytes: the import warns, removes them and
+    runs the kernels as Python, and the observer gives the same estimates (the answers do not depend
+    on the kernels' mode: tests/unit/test_kernel_modes.py)."""
+    cache = _damaged_kernel_cache(tmp_path, "observers_*/_lookup_kernels.*.nbc", "lookup kernels")
     code = ("import json, warnings\nwarnings.simplefilter('always')\n"
             "import numpy as np\nfrom hybobs_opt import LookupObserver, analyse_observability, get_example, simulate_pwa\n"
             "an = analyse_observability(get_example('powertrain3').build(), 3)\n"
@@ -175,20 +180,7 @@ def test_a_damaged_entry_of_a_lazily_compiled_kernel_is_compiled_again(tmp_path)
     file cut to 100 bytes made Algorithm 3.1 die with an ``UnpicklingError`` from inside numba.
     Now the analysis runs (one warning), gives the pieces of this process, and the next process
     loads the repaired entries without a warning."""
-    import shutil
-
-    from hybobs_opt._numba_cache import NUMBA_CACHE_ENV, numba_cache_dir
-
-    source = Path(os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir())
-    if not source.is_dir() or not any(source.glob("geometry_*/*.nbc")):
-        pytest.skip("no compiled geometry kernels in the cache to damage (run python -m hybobs_opt._warm_up)")
-    cache = tmp_path / "numba"
-    shutil.copytree(source, cache)
-    damaged = 0
-    for f in cache.glob("geometry_*/*.nbc"):
-        f.write_bytes(f.read_bytes()[:100])
-        damaged += 1
-    assert damaged
+    cache = _damaged_kernel_cache(tmp_path, "geometry_*/*.nbc", "geometry kernels")
     code = ("import json\nfrom hybobs_opt import analyse_observability, get_example\n"
             "an = analyse_observability(get_example('powertrain3').build(), 4)\n"
             "print(json.dumps([[int(p.i), int(p.j)] for p in an.pairs]))")
