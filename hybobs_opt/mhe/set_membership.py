@@ -282,6 +282,8 @@ class SetMembershipObserver(Observer):
                 if self._check_point(out.v, Uf, Yf, lo, hi, beta) is not None:
                     return None
                 d = np.round(out.v[delta])
+                col_lo, col_hi = self.enc.lb.astype(float), self.enc.ub.astype(float)  # this sequence's columns
+                col_lo[delta] = col_hi[delta] = d
                 for j in range(self.n):
                     for side in (0, 1):
                         lp = self._lps[j][side]
@@ -290,7 +292,8 @@ class SetMembershipObserver(Observer):
                             return None  # the MILP's point has these modes: the LP must be feasible
                         sign = 1.0 if side == 0 else -1.0
                         value = float(self._last[j] @ res.v)
-                        bound = sign * self._dual_bound(sign * self._last[j], lp.row_duals(), lo_all, hi_all, delta, d)
+                        bound = sign * self._dual_bound(sign * self._last[j], lp.row_duals(), lo_all, hi_all,
+                                                        col_lo, col_hi)
                         slack = SET_MEMBERSHIP_BOUND_RTOL * (1.0 + abs(value))
                         if not np.isfinite(bound) or (bound < value - slack if side == 0 else bound > value + slack):
                             return None
@@ -310,18 +313,16 @@ class SetMembershipObserver(Observer):
         return {"status": "ok", "lower": lower - self.box_pad, "upper": upper + self.box_pad, "mode_sequences": seqs,
                 "box_by": "mode sequences"}
 
-    def _dual_bound(self, c, y, lo_all, hi_all, delta, d) -> float:
+    def _dual_bound(self, c, y, lo_all, hi_all, col_lo, col_hi) -> float:
         """A lower bound on ``c @ v`` over the LP's set, proven by weak duality for any row
         multipliers ``y``: ``c v = y (A v) + (c - A' y) v``, each term bounded below over its row
-        or column interval (the mode binaries fixed to ``d``); a multiplier facing an infinite
-        row bound is dropped."""
+        or column interval (``col_lo``, ``col_hi``: the mode binaries fixed); a multiplier facing
+        an infinite row bound is dropped."""
         y = np.where((y > 0) & ~np.isfinite(lo_all) | (y < 0) & ~np.isfinite(hi_all), 0.0, y)
         rows = np.where(y > 0, y * np.where(np.isfinite(lo_all), lo_all, 0.0),
                         y * np.where(np.isfinite(hi_all), hi_all, 0.0))
-        lb, ub = self.enc.lb.astype(float).copy(), self.enc.ub.astype(float).copy()
-        lb[delta] = ub[delta] = d
         r = c - self._A.T @ y
-        cols = np.minimum(r * lb, r * ub)
+        cols = np.minimum(r * col_lo, r * col_hi)
         return float(rows.sum() + cols.sum())
 
     def _check_point(self, v, Uf, Yf, lo, hi, beta) -> str | None:
