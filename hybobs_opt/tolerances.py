@@ -455,6 +455,12 @@ MHE_CERTIFIED_RTOL: float = 1e-6
 #: (``fallback``).  Model (16) needs at most 18 at T = 3.
 MHE_CERTIFY_MAX_NODES: int = 20_000
 
+#: Mode sequences that may fit one window within the chi-square threshold before the step is not
+#: flagged (``MHEObserver(noise_std=..., arrival_weight="kalman")``, :mod:`hybobs_opt.mhe.mixture`):
+#: the stated covariance is the mixture of their posteriors, and a window that more sequences fit is
+#: too ambiguous to state one.
+MHE_MIXTURE_MAX_SEQUENCES: int = 32
+
 #: Rounding allowance of a weak-duality lower bound of a mode sequence's LP computed in numpy
 #: (solver ``"sequences"``, :mod:`hybobs_opt.mhe.sequence_lp`): the bound is lowered by this times
 #: the sum of the magnitudes of its terms.  Each term carries a relative rounding error of a few

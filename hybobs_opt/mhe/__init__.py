@@ -12,17 +12,21 @@ its matrices; an ``extend`` callable adds cost terms, constraints and parameters
 an :class:`MHEExtension`.  :func:`certified_arrival_prior` tunes the arrival weight from the
 noise level (an LMI: never more information than a Kalman filter has under any mode sequence).
 :class:`SetMembershipObserver` states, under a bound on the output noise, the box of every state
-consistent with the window: an estimate with a certified radius.
+consistent with the window: an estimate with a certified radius.  With Gaussian noise and the
+Kalman arrival cost, a flagged window's covariance is the mixture over every mode sequence that
+fits it (:func:`sequence_mixture`).
 """
 
 from .arrival import ArrivalPrior, KalmanArrival, certified_arrival_prior
 from .certify import SequenceSearch, search_sequences
 from .formulation import MHEExtension, MHEFormulation
+from .mixture import SequenceMixture, sequence_mixture
 from .mld import MLDEncoding, big_m_constants, encode_mld
 from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
 from .set_membership import SetMembershipObserver, noise_bound_vector
 from .uniqueness import SeparatedProgram
 
-__all__ = ["ArrivalPrior", "KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceSearch", "SetMembershipObserver",
-           "WindowResult", "big_m_constants", "certified_arrival_prior", "encode_mld", "noise_bound_vector", "search_sequences"]
+__all__ = ["ArrivalPrior", "KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceMixture", "SequenceSearch", "SetMembershipObserver",
+           "WindowResult", "big_m_constants", "certified_arrival_prior", "encode_mld", "noise_bound_vector", "search_sequences",
+           "sequence_mixture"]

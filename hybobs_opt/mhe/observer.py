@@ -112,6 +112,7 @@ from ..tolerances import (
     MHE_FEASIBILITY_TOL,
     MHE_NOISE_FALSE_ALARM,
     MHE_INTEGRALITY_TOL,
+    MHE_MIXTURE_MAX_SEQUENCES,
     MHE_POLISH_SKIP_TOL,
     MHE_PROX_WEIGHT,
     MHE_UNIQUENESS_DELTA,
@@ -119,6 +120,7 @@ from ..tolerances import (
 )
 from .backends import MILP_SOLVERS, MIQP_SOLVERS, milp_backend, miqp_backend
 from .formulation import MHEFormulation
+from .mixture import sequence_mixture, sequence_posterior_covariance
 from .mld import BigMConstants
 from .residual import weight_matrix
 from .result import WindowResult
@@ -170,10 +172,16 @@ class MHEObserver(Observer):
         that left it, in the modes the windows' optima gave them, with ``R = noise_std^2`` and
         ``Q = (W_w' W_w)^-1``; each window's prior ``x_bar`` is its prediction of the
         window-start state and ``W_a`` the inverse square root of its covariance, so no sample
-        enters both the prior and the window (``info["arrival"]``: the prior and its standard
-        deviations).  The weight changes the MIQP's Hessian each window: DAQP's workspace is
-        updated in place, nothing is rebuilt.  Each flagged estimate then states its covariance
-        (``info["covariance"]``, the Gaussian posterior of the optimal mode sequence), claimed
+        enters both the prior and the window (``info["arrival"]``: the prior, its standard
+        deviations and its information matrix ``W_a' W_a``).  The weight changes the MIQP's Hessian
+        each window: DAQP's workspace is updated in place, nothing is rebuilt.  Each flagged
+        estimate then states its covariance (``info["covariance"]``): the mixture of the Gaussian
+        posteriors of every mode sequence whose least cost is within the chi-square threshold
+        ``J* + epsilon``, weighted by their evidence, about the estimate
+        (:mod:`hybobs_opt.mhe.mixture`, ``info["mixture"]``); a window that more than
+        :data:`~hybobs_opt.tolerances.MHE_MIXTURE_MAX_SEQUENCES` sequences fit, or whose search
+        stops at ``certify_max_nodes`` / ``certify_time_budget``, is ``fallback``.  (On a step not
+        flagged, ``info["covariance"]`` is the optimal sequence's posterior alone.)  It is claimed
         only while the filter's normalised innovations agree with the stated noise level
         (:class:`~hybobs_opt.mhe.arrival.NoiseConsistencyTest`, ``info["noise_consistency"]``):
         an ``observable`` flag is withdrawn (``unobservable``, the optimum kept as the estimate,
@@ -576,23 +584,23 @@ class MHEObserver(Observer):
         g[xi] += 2.0 * self.model.hx * ((self._Z - np.eye(self.n)) @ (self.model.cx - xbar))
         return g
 
-    def _estimate_covariance(self, result: WindowResult, xbar: np.ndarray) -> np.ndarray:
-        """Covariance of the estimate ``x(t)`` of a window (``arrival_weight="kalman"``): the inverse
-        of the whitened cost's information ``R' R`` in the window-start state (and disturbances) of
-        the optimal mode sequence, mapped to the last window sample -- the error's covariance if
-        that sequence is the true one and no guard row is active (the Gaussian posterior)."""
-        modes = result.modes
-        R = self.model.sequence_problem(modes, self._U, self._Y, xbar)[0]
-        n, T = self.n, self.T
-        nt = R.shape[1]
-        Px = np.zeros((n, nt))
-        Px[:, :n] = np.diag(self.model.hx)
-        for k in range(T - 1):
-            Px = self.system.modes[int(modes[k])].A @ Px
-            if nt > n:
-                Px[:, n + k * n: n + (k + 1) * n] += np.diag(self.model.hx)
-        cov = Px @ np.linalg.pinv(R.T @ R) @ Px.T
-        return 0.5 * (cov + cov.T)
+    def _state_mixture(self, xbar: np.ndarray, result: WindowResult, info: dict) -> str:
+        """The covariance of a flagged window (``arrival_weight="kalman"``): the mixture of the
+        posteriors of every mode sequence that fits within the chi-square threshold
+        (:func:`~hybobs_opt.mhe.mixture.sequence_mixture`).  Returns the flag: ``observable``, or
+        ``fallback`` when the sequences could not all be found (no covariance is then claimed)."""
+        deadline = None if self.certify_time_budget is None else time.perf_counter() + self.certify_time_budget
+        mix = sequence_mixture(self.model, self._U, self._Y, xbar, result.states[-1],
+                               float(result.cost) + float(self.uniqueness_epsilon),
+                               max_sequences=MHE_MIXTURE_MAX_SEQUENCES, max_nodes=self.certify_max_nodes,
+                               deadline=deadline)
+        info["mixture"] = mix.to_dict()
+        if not mix.complete:
+            info["reason"] = (f"no covariance stated: the mode sequences that fit within the chi-square threshold "
+                              f"were not all found ({mix.reason})")
+            return FALLBACK
+        info["covariance"] = mix.covariance.tolist()
+        return OBSERVABLE
 
     def _arrival_prior(self, value):
         """The ``arrival_weight`` keyword when it is an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior`
@@ -1149,7 +1157,7 @@ class MHEObserver(Observer):
         info = result.to_dict()
         info["certified_optimum"] = result.optimal
         if self._kalman is not None:
-            info["arrival"] = {"prior": xbar.tolist(), "std": self._kalman.std().tolist()}
+            info["arrival"] = {"prior": xbar.tolist(), "std": self._kalman.std().tolist(), "information": self._Z.tolist()}
             # the sample leaving the window enters the filter, in the mode the window's answer gives
             # it (without an answer: the warm start's, the previous answer shifted)
             q_first = int(result.modes[0]) if result.optimal else int(mg[0])
@@ -1164,7 +1172,10 @@ class MHEObserver(Observer):
                 return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, dict(info, reason=misfit))
             flag = self._decide(self._U, self._Y, xbar, result, info)
             if self._kalman is not None:
-                info["covariance"] = self._estimate_covariance(result, xbar).tolist()
+                info["covariance"] = sequence_posterior_covariance(self.model, result.modes, self._U, self._Y,
+                                                                   xbar).tolist()
+                if flag == OBSERVABLE:
+                    flag = self._state_mixture(xbar, result, info)
                 check = self._kalman.consistency.result()
                 info["noise_consistency"] = check
                 if flag == OBSERVABLE and not (check["consistent"] and check["samples"] >= self._kalman.consistency.window):
