@@ -8,7 +8,8 @@ scenario, 3,000 samples), the dead-zone spring and the DC motor with piecewise f
 noise_std=..., arrival_weight="kalman")`` told the right noise level and one 10x too small: the
 steps flagged ``observable``, the share of their errors beyond 3 and the number beyond 5 and 6
 standard deviations of the stated covariance (Mahalanobis distance), and the flags the
-noise-consistency test withdrew or withheld.  The targets: at least 1,000 flagged, at most 1 %
+noise-consistency test withdrew or withheld, and how many flagged windows several mode sequences
+fit (their covariance is the mixture of :mod:`hybobs_opt.mhe.mixture`).  The targets: at least 1,000 flagged, at most 1 %
 beyond 3 sigma and none beyond 6 with the right level; none beyond 5 sigma with the wrong one.
 """
 
@@ -36,7 +37,7 @@ def run_case(name: str, steps: int, factor: float) -> dict:
     system, U, trace, sigma = noise_study_case(name, steps)
     Y = trace.y + np.random.default_rng(1).normal(size=trace.y.shape) * sigma
     obs = MHEObserver(system, 3, noise_std=sigma / factor, arrival_weight="kalman")
-    dist, withdrawn, withheld, flags = [], 0, 0, {}
+    dist, withdrawn, withheld, flags, several, mix_seconds = [], 0, 0, {}, 0, []
     t0 = time.perf_counter()
     for k in range(steps):
         est = obs.step(U[k], Y[k])
@@ -44,7 +45,11 @@ def run_case(name: str, steps: int, factor: float) -> dict:
         note = est.info.get("note", "")
         withdrawn += note.startswith("flag withdrawn")
         withheld += note.startswith("flag withheld")
+        mix = est.info.get("mixture")
+        if mix is not None:
+            mix_seconds.append(mix["seconds"])
         if est.flag == OBSERVABLE:
+            several += mix["n_sequences"] > 1
             d = est.x - trace.x[k]
             dist.append(float(np.sqrt(d @ np.linalg.solve(np.asarray(est.info["covariance"]), d))))
     d = np.array(dist)
@@ -52,7 +57,9 @@ def run_case(name: str, steps: int, factor: float) -> dict:
             "flags": flags, "n_flagged": int(d.size), "share_beyond_3_sigma": float(np.mean(d > 3)) if d.size else None,
             "n_beyond_5_sigma": int(np.sum(d > 5)), "n_beyond_6_sigma": int(np.sum(d > 6)),
             "max_mahalanobis": float(d.max()) if d.size else None, "n_withdrawn_by_consistency_test": withdrawn,
-            "n_withheld_until_tested": withheld, "seconds": time.perf_counter() - t0}
+            "n_withheld_until_tested": withheld, "n_flagged_with_several_sequences": several,
+            "mixture_seconds_median": float(np.median(mix_seconds)) if mix_seconds else None,
+            "seconds": time.perf_counter() - t0}
 
 
 def main(argv: list[str] | None = None) -> int:

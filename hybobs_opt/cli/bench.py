@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--observers", default=DEFAULT_OBSERVERS,
                    help=f"comma-separated, among: {', '.join(OBSERVER_NAMES)} (default {DEFAULT_OBSERVERS})")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
-                   help="with --data, for set_membership (required) and lookup (radii under bounded noise) in --observers: "
+                   help="with --data, for set_membership (required) and the other observers (radii under bounded noise) in --observers: "
                         "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output)")
     p.add_argument("--mhe-steps", type=int, default=None,
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")

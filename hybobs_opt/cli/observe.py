@@ -27,14 +27,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --data and a moving-horizon observer: the largest output residual a window may "
                         "leave (noisy logs: about 5 noise standard deviations; default 1e-3 of each output's range)")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
-                   help="with --data and --observer set_membership (required) or lookup (radii under bounded noise): "
+                   help="with --data and --observer set_membership (required), lookup, miqp, milp or milp_inf (radii "
+                        "under bounded noise; the flag is then the radius's): "
                         "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output; "
                         "outputs not named: 0)")
     p.add_argument("--input-noise-bound", action="append", metavar="NAME=VALUE", dest="input_noise_bound",
                    help="with --observer lookup and --noise-bound: the bound on a measured input's noise in its units "
                         "(repeatable; a bare VALUE bounds every input; inputs not named: 0)")
     p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
-                   "(and radius_<state> per state with the set-membership observer, and the lookup one with --noise-bound)")
+                   "(and radius_<state> per state with the set-membership observer, and the others with --noise-bound)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="write a PNG of the run")
@@ -205,15 +206,16 @@ def observe_recorded(named, args) -> dict:
 
 def noise_bound_option(entries, system, kinds):
     """``--noise-bound`` as the ``noise_bound`` of the set-membership observer (required) and of the
-    lookup observer (optional: radii under bounded noise), a dict by output name; ``kinds`` is the
-    observer or the observers of the command."""
+    lookup and moving-horizon observers (optional: radii under bounded noise), a dict by output
+    name; ``kinds`` is the observer or the observers of the command."""
     kinds = [kinds] if isinstance(kinds, str) else list(kinds)
     from ..observers.recorded import NOISE_BOUND_OBSERVERS
 
     if not any(k in NOISE_BOUND_OBSERVERS for k in kinds):
         if entries:
             raise ModelError("--noise-bound", "no value for the observer " + ", ".join(map(repr, kinds))
-                             + " (it belongs to --observer set_membership or lookup)", repr(entries[0]))
+                             + " (it belongs to --observer set_membership, lookup, miqp, milp or milp_inf)",
+                             repr(entries[0]))
         return None
     if not entries:
         if "set_membership" not in kinds:

@@ -289,6 +289,21 @@ class MHEObserver(Observer):
         With ``arrival_weight="kalman"``: standard deviation of the error of the first prior (the
         ``x0`` of :meth:`reset`), per state; default that of a uniform distribution over the state
         box (``half-width / sqrt(3)``; the default ``x0`` is the box's centre).
+    noise_bound : float, sequence or dict, optional
+        Bound on each output's noise, in the outputs' units (a number, one per output, or a dict
+        by output name; :func:`~hybobs_opt.contract.noise_bound_vector`): the bounded-noise
+        model, instead of ``noise_std``.  Each window then also gets the exact box of the states
+        consistent with its data under the bound
+        (:meth:`~hybobs_opt.mhe.SetMembershipObserver.consistent_box`, MILPs solved to a zero
+        gap), and the estimate (the window optimum's last state, or the box's centre when the
+        optimum is not certified or lies outside the box) carries ``info["radius"]``: per state,
+        the largest distance to a consistent state.  The flag is the radius's: ``observable``
+        when every radius is at most ``uniqueness_delta`` times the half-widths of ``X``
+        (``info["tolerance"]``), ``unobservable`` otherwise (the estimate and its radius are still
+        reported), ``fallback`` when the data contradict the bound or a program has no checked
+        answer.  It replaces the uniqueness test (noise-free, a radius within the tolerance is
+        the same claim) and cannot be combined with ``noise_std``, ``analysis`` or
+        ``fit_tolerance``.
 
     Notes
     -----
@@ -382,7 +397,7 @@ class MHEObserver(Observer):
                  big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
                  fit_tolerance=None, certify_time_budget: float | None = None, extend=None, noise_std=None,
-                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None):
+                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -433,6 +448,9 @@ class MHEObserver(Observer):
         self.state_names = system.state_names
         self.name = f"mhe-{'miqp' if norm == '2' else 'milp'}-{norm}"
         self.noise_std, noise_epsilon = self._noise_model(noise_std, false_alarm, norm, output_weight)
+        self._bounded = self._bounded_noise(noise_bound, analysis, fit_tolerance)
+        if self._bounded is not None:
+            self.check_uniqueness = False  # the radius decides the flag
         if self.noise_std is not None:
             output_weight = np.diag(1.0 / self.noise_std)
             if fit_tolerance is None:
@@ -491,6 +509,50 @@ class MHEObserver(Observer):
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight
         self.reset(x0)
+
+    def _bounded_noise(self, noise_bound, analysis, fit_tolerance):
+        """The set-membership box of ``noise_bound`` (a :class:`~hybobs_opt.mhe.SetMembershipObserver`
+        whose :meth:`consistent_box` each window asks), or ``None``."""
+        self.noise_bound = None
+        if noise_bound is None:
+            return None
+        if self.noise_std is not None:
+            raise ModelError("noise_bound", "omitted when noise_std is given (one noise model: bounded or Gaussian)",
+                             "both given")
+        if analysis is not None:
+            raise ModelError("analysis", "omitted with noise_bound (the radius decides the flag, not the noise-free "
+                             "point query)", "an analysis")
+        if fit_tolerance is not None:
+            raise ModelError("fit_tolerance", "omitted with noise_bound (the data fit the model when the consistent box "
+                             "is not empty)", repr(fit_tolerance))
+        from .set_membership import SetMembershipObserver
+
+        half = self.system.scales()[0][: self.n]
+        box = SetMembershipObserver(self.system, self.T, noise_bound, tolerance=self.uniqueness_delta * half)
+        self.noise_bound = box.noise_bound
+        return box
+
+    def _bounded_estimate(self, result: WindowResult, info: dict, x_pred: np.ndarray, q_pred: int) -> Estimate:
+        """The step under ``noise_bound``: the window's consistent box, the estimate and its radius."""
+        box = self._bounded.consistent_box(self._U, self._Y)
+        info["seconds_box"] = box["seconds"]
+        if box["status"] != "ok":
+            self._x, self._mode = x_pred, q_pred
+            return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, dict(info, reason=box["reason"]))
+        lower, upper = box["lower"], box["upper"]
+        if result.optimal and np.all((result.states[-1] >= lower) & (result.states[-1] <= upper)):
+            x, mode, source = result.states[-1].copy(), int(result.modes[-1]), "window optimum"
+        else:
+            x, source = 0.5 * (lower + upper), "centre of the consistent box"
+            last = {seq[-1] for seq in box["mode_sequences"]}
+            mode = last.pop() if len(last) == 1 else -1
+        radius = np.maximum(x - lower, upper - x)
+        tol = self._bounded.tolerance
+        flag = OBSERVABLE if np.all(radius <= tol) else UNOBSERVABLE
+        info.update({"radius": radius, "lower": lower, "upper": upper, "tolerance": tol, "estimate_from": source,
+                     "mode_sequences": box["mode_sequences"], "box_by": box["box_by"]})
+        self._x, self._mode = x, mode
+        return Estimate(x.copy(), mode, flag, 0.0, info)
 
     def _noise_model(self, noise_std, false_alarm, norm: str, output_weight) -> tuple[np.ndarray | None, float | None]:
         """The ``noise_std`` keyword as a ``(p,)`` array and the uniqueness ``epsilon`` it implies (or ``None``s)."""
@@ -1156,6 +1218,10 @@ class MHEObserver(Observer):
             result = self._solve(self._U, self._Y, xbar, Xg, mg, cold=self._prev is None)
         info = result.to_dict()
         info["certified_optimum"] = result.optimal
+        if self._bounded is not None:
+            # the optimum, when there is one, warm-starts the next window whatever the flag
+            self._prev = (result.states, result.modes, self._U[-1].copy()) if result.optimal else (Xg, mg, self._U[-1].copy())
+            return self._bounded_estimate(result, info, x_pred, q_pred)
         if self._kalman is not None:
             info["arrival"] = {"prior": xbar.tolist(), "std": self._kalman.std().tolist(), "information": self._Z.tolist()}
             # the sample leaving the window enters the filter, in the mode the window's answer gives

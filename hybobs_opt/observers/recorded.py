@@ -23,7 +23,7 @@ PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1"
                                         "set_membership": None}
 #: Observer kinds that take a bound on the output noise (required by ``set_membership``; the lookup
 #: observer with one reports certified radii).
-NOISE_BOUND_OBSERVERS = ("lookup", "set_membership")
+NOISE_BOUND_OBSERVERS = ("lookup", "set_membership", "miqp", "milp", "milp_inf")
 
 #: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
 #: in a summary against a noise-free log.
@@ -51,13 +51,14 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
     the moving-horizon ones ``fit_tolerance`` (:class:`~hybobs_opt.mhe.MHEObserver`; noisy data), the
     set-membership one ``noise_bound`` (:class:`~hybobs_opt.mhe.SetMembershipObserver`); the lookup
     observer with a ``noise_bound`` is the bounded-noise one with radii
-    (:class:`~hybobs_opt.observers.NoiseAwareLookupObserver`), which also takes ``input_noise_bound``."""
+    (:class:`~hybobs_opt.observers.NoiseAwareLookupObserver`), which also takes ``input_noise_bound``;
+    a moving-horizon observer with a ``noise_bound`` states radii too (its flag is then the radius's)."""
     check_observer_kinds([kind])
     if input_noise_bound is not None and (kind != "lookup" or noise_bound is None):
         raise ModelError("input_noise_bound", "the lookup observer with a noise_bound", f"observer {kind!r}")
     if (noise_bound is None and kind == "set_membership") or (noise_bound is not None and kind not in NOISE_BOUND_OBSERVERS):
         raise ModelError("noise_bound", "a bound on each output's noise for the set-membership observer (0 for "
-                         "noise-free data), optional for the lookup observer, and for no other observer",
+                         "noise-free data), optional for the lookup and moving-horizon observers",
                          f"{noise_bound!r} with observer {kind!r}")
     if kind == "set_membership":
         if fit_tolerance is not None:
@@ -81,7 +82,8 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
         return LookupObserver(analysis, progress=None if progress is None else (lambda d, t: progress("lookup tables", "piece", d, t)))
     from ..mhe import MHEObserver
 
-    return MHEObserver(system, horizon, norm=PWA_OBSERVERS[kind], analysis=analysis, fit_tolerance=fit_tolerance)
+    return MHEObserver(system, horizon, norm=PWA_OBSERVERS[kind], analysis=None if noise_bound is not None else analysis,
+                       fit_tolerance=fit_tolerance, noise_bound=noise_bound)
 
 
 def run_on_log(observer, log) -> tuple[ObserverTrace, float]:

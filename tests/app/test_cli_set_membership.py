@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hybobs_opt.cli import main
 from hybobs_opt.sim import simulate_pwa
@@ -63,8 +64,8 @@ def test_noise_bound_is_required_by_set_membership_and_refused_elsewhere(tmp_pat
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
     assert main(base + ["--observer", "set_membership"]) == 2
     assert "--noise-bound" in capsys.readouterr().err
-    assert main(base + ["--observer", "miqp", "--noise-bound", "0.1"]) == 2
-    assert "set_membership" in capsys.readouterr().err
+    assert main(base + ["--observer", "miqp", "--noise-bound", "z=0.1"]) == 2
+    assert "'z'" in capsys.readouterr().err
     assert main(base + ["--observer", "set_membership", "--noise-bound", "z=0.1"]) == 2
     assert "'z'" in capsys.readouterr().err
     assert main(base + ["--observer", "set_membership", "--noise-bound", "0.1", "--fit-tolerance", "0.1"]) == 2
@@ -79,13 +80,14 @@ def test_bench_compares_radius_and_error_on_a_log(tmp_path, capsys):
     assert code == 0
     rec = json.loads(capsys.readouterr().out)["observers"]
     sm = rec["set_membership"]
-    assert sm["n_outside_radius"] == 0 and "radius_max" in sm and "radius_max" not in rec["miqp"]
+    assert sm["n_outside_radius"] == 0 and "radius_max" in sm
+    assert rec["miqp"]["n_outside_radius"] == 0 and "radius_max" in rec["miqp"]  # the MHE's radii, same bound
     assert sm["solver"] == "highs (MILPs)"
     assert main(["bench", str(MODEL), "--observers", "set_membership", "--noise-bound", "0.01"]) == 2
     assert "--data" in capsys.readouterr().err
-    assert main(["bench", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "miqp",
-                 "--noise-bound", "0.01"]) == 2
-    assert "set_membership" in capsys.readouterr().err
+    assert main(["bench", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--observers", "miqp",
+                 "--json"]) == 0
+    assert "radius_max" not in json.loads(capsys.readouterr().out)["observers"]["miqp"]
 
 
 def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true_states(tmp_path, capsys):
@@ -124,12 +126,43 @@ def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true
             lo, hi = float(row[s]) - float(row["radius_" + s]), float(row[s]) + float(row["radius_" + s])
             lo_x, hi_x = float(ref[s]) - float(ref["radius_" + s]), float(ref[s]) + float(ref["radius_" + s])
             assert lo <= lo_x + 1e-6 and hi >= hi_x - 1e-6, (row, ref)
-    # without a bound the lookup observer is the exact one (no radius); other observers refuse a bound
+    # without a bound the lookup observer is the exact one (no radius)
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
     assert main(base + ["--observer", "lookup", "--json"]) == 0
     assert "radius_max" not in json.loads(capsys.readouterr().out)
-    assert main(base + ["--observer", "milp", "--noise-bound", "0.1"]) == 2
-    assert "lookup" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("observer", ["miqp", "milp"])
+def test_a_moving_horizon_observer_with_a_noise_bound_reports_radii_around_its_estimate(tmp_path, capsys, observer):
+    """``--observer miqp|milp --noise-bound``: the window optimum with the radius of the consistent
+    box around it.  The interval ``estimate +- radius`` holds the set-membership observer's exact
+    box and the true state; y = x2 leaves the sign of x1 free, so a flag needs |x1| within the
+    tolerance."""
+    X = _log(tmp_path / "log.csv", 0.02)
+    out, exact = tmp_path / "est.csv", tmp_path / "exact.csv"
+    base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--noise-bound", "y=0.02"]
+    assert main(base + ["--observer", observer, "--out", str(out), "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["n_outside_radius"] == 0 and len(rec["radius_max"]) == 2
+    assert main(base + ["--observer", "set_membership", "--out", str(exact)]) == 0
+    capsys.readouterr()
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0]) == ["t", "x1", "x2", "mode", "flag", "radius_x1", "radius_x2"]
+    checked = 0
+    for k, (row, ref) in enumerate(zip(rows, csv.DictReader(exact.open()))):
+        if row["flag"] in ("warming_up", "fallback"):
+            continue
+        est = np.array([float(row["x1"]), float(row["x2"])])
+        radius = np.array([float(row["radius_x1"]), float(row["radius_x2"])])
+        assert np.all(np.abs(est - X[k]) <= radius + 1e-9)
+        for j, s in enumerate(("x1", "x2")):
+            lo_x, hi_x = float(ref[s]) - float(ref["radius_" + s]), float(ref[s]) + float(ref["radius_" + s])
+            assert est[j] - radius[j] <= lo_x + 1e-6 and est[j] + radius[j] >= hi_x - 1e-6, (k, row, ref)
+        assert (row["flag"] == "observable") == bool(np.all(radius <= [0.5, 0.5]))
+        if row["flag"] == "observable":
+            assert abs(X[k, 0]) <= 0.5 + 1e-7
+        checked += 1
+    assert checked >= len(rows) - 4
 
 
 def test_input_noise_bound_reaches_the_lookup_observer_and_nothing_else(tmp_path, capsys):

@@ -121,9 +121,9 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["observe", "powertrain3"], "--param", ["gear_ratio=0.1", "nosuch=1"]),
     (["observe", "powertrain3"], "--horizon", ["3", "0", "abc"]),
     (["observe", "powertrain3"], "--fit-tolerance", ["0.1", "-1", "abc", "nan"]),
-    # --noise-bound: without --data, with another observer, or not a bound on a named output
+    # --noise-bound: without --data, or not a bound on a named output
     (["observe", "powertrain3"], "--noise-bound", ["0.1"]),
-    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp"], "--noise-bound", ["0.1"]),
+    (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp"], "--noise-bound", ["-1", "z=0.1"]),
     # --input-noise-bound: without --noise-bound, with another observer, not a bound on a named input
     (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "lookup"], "--input-noise-bound", ["0.1"]),
     (["observe", PWA_MODEL, "--data", F("nosuch"), "--observer", "miqp", "--noise-bound", "0.1"],

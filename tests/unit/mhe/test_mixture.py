@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
+from canonical import noise_study_case
+
 from hybobs_opt import MHEObserver
 from hybobs_opt.contract import FALLBACK, OBSERVABLE
-from tests.canonical import noise_study_case
 
 
 def oracle_sequences(system, U, Y, xbar, Z, sigma):
