@@ -9,12 +9,15 @@ in ``benchmarks/results/quick/``).  Writes ``benchmarks/results/set_membership.j
   with ``y = x2`` (Bemporad & Morari 1999) -- noise-free and with uniform output noise at the
   stated bound (0.1 % and 1 % of the output range): the number of steps whose true state lies
   outside the stated radius (must be 0), the flag counts and the radii's median and largest
-  value per state, for :class:`~hybobs_opt.mhe.SetMembershipObserver` (exact box, MILPs) and
+  value per state, for :class:`~hybobs_opt.mhe.SetMembershipObserver` (exact box, MILPs),
+  :class:`~hybobs_opt.mhe.MHEObserver` with ``noise_bound`` (the MIQP optimum, with the radius of
+  the exact box around it) and
   :class:`~hybobs_opt.observers.NoiseAwareLookupObserver` with ``noise_bound`` (outer box, one
   table product; where ``T p >= n``).  On the rotation system every state has a mirror image with
   the same outputs: a step is flagged only when the mirror is within the tolerance.
-* **timing**: per-step median of :class:`~hybobs_opt.mhe.SetMembershipObserver` against
-  :class:`~hybobs_opt.mhe.MHEObserver` (norm 2, the default) and of the bounded-noise lookup on model (16) at T = 3 and 5, the
+* **timing**: per-step median of :class:`~hybobs_opt.mhe.SetMembershipObserver`, of the MIQP with
+  ``noise_bound`` and of the bounded-noise lookup against :class:`~hybobs_opt.mhe.MHEObserver`
+  (norm 2, the default, no radius) on model (16) at T = 3 and 5, the
   same samples, one run (ratios, not absolute speed).
 """
 
@@ -67,12 +70,15 @@ def _cases(steps: int) -> dict:
 
 
 def _observers(system, T: int, beta, analyses: dict) -> dict:
-    """The observers with radii: the set-membership MILPs and the lookup table under bounded noise."""
+    """The observers with radii: the set-membership MILPs, the MIQP moving-horizon observer with a
+    noise bound (its optimum, with the radius of the consistent box around it) and the lookup table
+    under bounded noise."""
+    from hybobs_opt import MHEObserver
     from hybobs_opt.mhe import SetMembershipObserver
     from hybobs_opt.observers import NoiseAwareLookupObserver
     from hybobs_opt.regions import analyse_observability
 
-    out = {"set_membership": SetMembershipObserver(system, T, beta)}
+    out = {"set_membership": SetMembershipObserver(system, T, beta), "miqp_bounded": MHEObserver(system, T, noise_bound=beta)}
     if T * system.p >= system.n:
         key = (system.name, T)
         if key not in analyses:
@@ -106,7 +112,9 @@ def coverage(steps: int, T: int, log) -> dict:
                               "noise_bound": beta.tolist(), "n_outside_radius": outside, "flags": flags,
                               "radius_median": np.nanmedian(R, axis=0).tolist() if has.any() else None,
                               "radius_max": np.nanmax(R, axis=0).tolist() if has.any() else None,
-                              "tolerance": obs.tolerance.tolist(), "seconds_per_step": seconds / len(U)}
+                              "tolerance": np.asarray(getattr(obs, "tolerance", None) if kind != "miqp_bounded" else
+                                                      obs.uniqueness_delta * system.scales()[0][:system.n]).tolist(),
+                              "seconds_per_step": seconds / len(U)}
                 log(f"{key}: outside {outside}, flags {flags}, {1e3 * seconds / len(U):.2f} ms/step")
     return table
 
@@ -128,12 +136,14 @@ def timing(steps: int, log) -> dict:
         analysis = analyse_observability(plant, T)
         for name, make in (("miqp", lambda: MHEObserver(plant, T)),
                            ("set_membership", lambda: SetMembershipObserver(plant, T, 0.0)),
+                           ("miqp_bounded", lambda: MHEObserver(plant, T, noise_bound=0.0)),
                            ("lookup_bounded", lambda: NoiseAwareLookupObserver(analysis, noise_bound=0.0))):
             run = make().run(U, Y)
             secs = [s for s, f in zip(run.seconds, run.flags) if f != "warming_up"]
             rec[name] = {"median_step_s": statistics.median(secs), "flagged_observable": int(np.count_nonzero(run.flags == "observable")),
                          "steps": int(len(U))}
         rec["ratio_set_membership_to_miqp"] = rec["set_membership"]["median_step_s"] / rec["miqp"]["median_step_s"]
+        rec["ratio_miqp_bounded_to_miqp"] = rec["miqp_bounded"]["median_step_s"] / rec["miqp"]["median_step_s"]
         rec["ratio_lookup_bounded_to_miqp"] = rec["lookup_bounded"]["median_step_s"] / rec["miqp"]["median_step_s"]
         out[f"T={T}"] = rec
         log(f"timing T={T}: {rec}")
@@ -161,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         "coverage": coverage(steps, 3, log),
         "timing": timing(40 if args.quick else 200, log),
     }
-    for kind in ("set_membership", "lookup_bounded"):
+    for kind in ("set_membership", "miqp_bounded", "lookup_bounded"):
         rows = [r for r in record["coverage"].values() if r["observer"] == kind]
         record[f"{kind}_total_outside_radius"] = sum(r["n_outside_radius"] for r in rows)
         record[f"{kind}_total_samples"] = sum(r["samples"] for r in rows)
