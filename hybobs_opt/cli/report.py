@@ -30,6 +30,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--horizon", "-T", type=int, default=None,
                    help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="with a PWA SYSTEM: compare the observers on this log")
+    p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
+                   help="with --data: the bound on an output's noise in its units (repeatable; a bare VALUE bounds every "
+                        "output; outputs not named: 0); the observers then state certified radii and the "
+                        "set-membership observer joins them")
     p.add_argument("--quick", action="store_true",
                    help="a preview of the report of every result: every section and figure from fewer samples (about a third of the time)")
     add_force_argument(p)
@@ -42,9 +46,10 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir("--out-dir", args.out, args.force, "index.html")
     named = None
     if args.system is None:
-        for option in ("param", "data", "horizon"):
+        for option in ("param", "data", "horizon", "noise_bound"):
             if getattr(args, option) is not None:
-                raise ModelError(f"--{option}", "a SYSTEM as well (it applies to the report of one system)", "no SYSTEM")
+                raise ModelError(f"--{option.replace('_', '-')}", "a SYSTEM as well (it applies to the report of one system)",
+                                 "no SYSTEM")
     elif args.quick:
         raise ModelError("--quick", "no --quick with SYSTEM (it previews the report of every result)", "--quick")
     if args.system is None:
@@ -62,10 +67,10 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--horizon", f"a horizon T in 1..{MAX_HORIZON} (hybobs_opt.limits.MAX_HORIZON)", repr(args.horizon))
         named = load_system(args)
         if named.kind != "pwa":
-            for option in ("horizon", "data"):
+            for option in ("horizon", "data", "noise_bound"):
                 if getattr(args, option) is not None:
-                    raise ModelError(f"--{option}", f"no value for a {named.kind.replace('_', '-')} system (it applies to "
-                                     "the PWA sections: regions, observers)", repr(getattr(args, option)))
+                    raise ModelError(f"--{option.replace('_', '-')}", f"no value for a {named.kind.replace('_', '-')} system "
+                                     "(it applies to the PWA sections: regions, observers)", repr(getattr(args, option)))
         elif args.horizon is not None:
             from ..regions.enumeration import check_horizon
 
@@ -75,6 +80,14 @@ def run(args: argparse.Namespace) -> int:
             from ..sim.log import read_log
 
             read_log(args.data, named.system)  # a bad log is bad input, not a failed section
+        if args.noise_bound is not None:
+            if args.data is None:
+                raise ModelError("--noise-bound", "--data as well (the radii are those of the observers on a log)",
+                                 repr(args.noise_bound[0]))
+            from .observe import bound_entries
+
+            args.noise_bound = bound_entries(args.noise_bound, tuple(named.system.output_names), "--noise-bound",
+                                             "noise_bound", "output")
     if named is None:
         from ..report.html import section_keys
 
@@ -94,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
             horizon = DEFAULT_HORIZON if args.horizon is None else args.horizon
             result = build_system_report(named.system, named.label, args.out, horizon=horizon, data=args.data,
-                                         progress=update)
+                                         noise_bound=args.noise_bound, progress=update)
             result["system"] = named.label
     finally:
         close()

@@ -72,7 +72,9 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
 def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: int = 6,
                    units: Sequence[str] | Mapping[str, str] | None = None) -> Path:
     """An observer's run on a log: each estimated state (the true one too when the log has it),
-    with the samples flagged ``observable`` marked, and the flags on their own labelled axis.
+    with the samples flagged ``observable`` marked, the certified radius as a band around the
+    estimate when the observer states one (``info["radius"]``), and the flags on their own
+    labelled axis.
 
     Parameters
     ----------
@@ -102,7 +104,11 @@ def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: in
     fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * n + 1.4), sharex=True,
                              gridspec_kw={"height_ratios": [1.0] * n + [0.6]})
     axes = np.atleast_1d(axes)
+    radii = trace_radii(trace)
     for i in range(n):
+        if radii is not None:
+            axes[i].fill_between(k, trace.x_hat[:, i] - radii[:, i], trace.x_hat[:, i] + radii[:, i], color="tab:blue",
+                                 alpha=0.2, lw=0, label="certified radius")
         if log.X is not None:
             axes[i].plot(k, log.X[:, i], lw=1.0, color="0.5", label="true")
         axes[i].plot(k, trace.x_hat[:, i], lw=0.9, color="tab:blue", label="estimate")
@@ -117,6 +123,71 @@ def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: in
     axes[n].set_ylim(-0.5, 3.5)
     axes[n].set_ylabel("flag")
     axes[n].set_xlabel("t [s]" if log.t is not None else "sample")
+    return save_figure(fig, path, title)
+
+
+def trace_radii(trace) -> np.ndarray | None:
+    """The certified radius of each step of an observer's run, ``(N, n)`` (``nan`` where a step states
+    none), or ``None`` when the observer states no radius."""
+    infos = trace.info
+    if not any(isinstance(inf, dict) and "radius" in inf for inf in infos):
+        return None
+    n = trace.x_hat.shape[1]
+    return np.array([np.asarray(inf["radius"], dtype=float) if isinstance(inf, dict) and "radius" in inf
+                     else np.full(n, np.nan) for inf in infos]).reshape(len(infos), n)
+
+
+def plot_radii(t: np.ndarray, x_true: np.ndarray, runs: Mapping[str, object], path: str | Path, title: str = "",
+               state_names: Sequence[str] = (), units: Sequence[str] | Mapping[str, str] | None = None) -> Path:
+    """Certified radii against true errors: one panel per state, on a log scale, each observer's
+    stated radius as a line and its actual error ``|x^ - x|`` as dots (a radius that holds stays
+    above its dots).
+
+    Parameters
+    ----------
+    t : (N,) array
+        Sample times.
+    x_true : (N, n) array
+        The true states.
+    runs : mapping of str to ObserverTrace
+        The observers' runs (each stating ``info["radius"]``).
+    path : path-like
+        Output file (PNG).
+    title : str
+    state_names : sequence of str
+    units : sequence or mapping of str, optional
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    n = x_true.shape[1]
+    names = list(state_names) or [f"x{i + 1}" for i in range(n)]
+    unit = _unit_list(names, units)
+    fig, axes = plt.subplots(n, 1, figsize=(7.5, 1.9 * n + 0.8), sharex=True)
+    axes = np.atleast_1d(axes)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    # observers that state the same radius draw on top of each other: wide solid, dashed, dotted
+    styles = [("-", 2.4, "o", 2.4), ("--", 1.4, "x", 2.2), (":", 1.0, "+", 2.6)]
+    floor = 1e-12
+    for c, (name, run) in enumerate(runs.items()):
+        R = trace_radii(run)
+        if R is None:
+            continue
+        err = np.abs(run.x_hat - x_true)
+        colour = colours[c % len(colours)]
+        ls, lw, marker, ms = styles[c % len(styles)]
+        for i in range(n):
+            axes[i].semilogy(t, np.maximum(R[:, i], floor), ls=ls, lw=lw, color=colour, label=f"{name}: radius")
+            axes[i].semilogy(t, np.maximum(err[:, i], floor), marker, ls="none", ms=ms, mew=0.6, color=colour,
+                             alpha=0.7, label=f"{name}: |error|")
+    for i in range(n):
+        axes[i].set_ylabel(quantity_label(names[i], unit[i]))
+        axes[i].grid(alpha=0.3, which="both")
+    axes[0].legend(fontsize=6, loc="upper right", ncol=2)
+    axes[-1].set_xlabel("t [s]")
     return save_figure(fig, path, title)
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ModelError
 from .html import assemble_report
 from .plots import plot_estimates, plot_trace
 from .section import ReportSection
@@ -34,6 +35,13 @@ SECTIONS_BY_CLASS: dict[str, tuple[str, ...]] = {
 }
 
 
+def _state_values(names: list[str], values) -> str:
+    """``name value`` per state (HTML-escaped), or ``n/a``."""
+    if values is None:
+        return "n/a"
+    return ", ".join(f"{html.escape(nm)} {v:.3g}" for nm, v in zip(names, values))
+
+
 def _table(rows: list[tuple[str, Any]]) -> str:
     return "<table>" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows) + "</table>"
 
@@ -45,12 +53,18 @@ def system_report_keys(system, data: str | None = None) -> list[str]:
 
 
 def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int = 2, data: str | None = None,
-                        progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                        noise_bound=None, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Build ``out_dir/index.html`` for ``system`` (named ``label``); returns what :func:`assemble_report` does.
 
     ``horizon`` is the observation horizon of the PWA sections; ``data`` a CSV log
-    (:func:`hybobs_opt.sim.log.read_log`) for the observers section (skipped without one).
+    (:func:`hybobs_opt.sim.log.read_log`) for the observers section (skipped without one);
+    ``noise_bound`` (with ``data``) a bound on each output's noise
+    (:func:`~hybobs_opt.contract.noise_bound_vector`): the observers then state certified radii
+    under it and the set-membership observer joins them.
     """
+    if noise_bound is not None and data is None:
+        raise ModelError("noise_bound", "given only with data (the radii are those of the observers on a log)",
+                         repr(noise_bound))
     keys = system_report_keys(system, data)
     slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in Path(label).name)
     shared: dict[str, Any] = {}
@@ -116,23 +130,48 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         from ..sim.log import read_log
 
         log = read_log(data, system)
-        runs = observe_log(system, log, ["lookup", "miqp", "milp"], horizon, shared.get("analysis"))
+        kinds = ["lookup", "miqp", "milp"] + (["set_membership"] if noise_bound is not None else [])
+        if noise_bound is not None and system.p * horizon < system.n:
+            kinds.remove("lookup")  # no lookup table: T p < n leaves every window without a full-rank map
+        runs = observe_log(system, log, kinds, horizon, shared.get("analysis"), noise_bound=noise_bound)
         rows, figs, summary, alts = [], [], {}, {}
+        names = list(system.state_names)
         for kind_, (trace, rec) in runs.items():
             summary[kind_] = rec
             err = rec.get("max_rel_error_observable")
+            radius = ""
+            if noise_bound is not None:
+                radius = (f"<td>{_state_values(names, rec.get('radius_median'))}</td><td>{_state_values(names, rec.get('radius_max'))}</td>"
+                          f"<td>{rec.get('n_outside_radius', 'n/a (no true states in the log)')}</td>")
             rows.append(f"<tr><td>{kind_}</td><td>{rec['flag_counts']['observable']}</td><td>{rec['flag_counts']['unobservable']}</td>"
                         f"<td>{rec['flag_counts']['fallback']}</td><td>{1e6 * rec['median_step_s']:.1f}</td>"
-                        f"<td>{'n/a' if err is None else f'{err:.2e}'}</td></tr>")
+                        f"<td>{'n/a' if err is None else f'{err:.2e}'}</td>{radius}</tr>")
             fig = f"observer_{kind_}_{slug}.png"
             plot_estimates(trace, log, out / fig, title=f"{label}: {kind_} on {Path(data).name}")
             figs.append(fig)
             alts[fig] = (f"The {kind_} observer on {Path(data).name}: each estimated state "
+                         + ("with its certified radius as a band " if "radius_max" in rec else "")
                          + ("against the logged one " if log.X is not None else "")
                          + f"with the {rec['flag_counts']['observable']} samples flagged observable marked, and its flag "
                          "(observable, unobservable, warming up, fallback) on a separate axis")
-        body = ("<table><tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
-                "<th>median step [us]</th><th>max rel. error where observable</th></tr>" + "".join(rows) + "</table>"
+        head = ("<tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
+                "<th>median step [us]</th><th>max rel. error where observable</th>"
+                + ("<th>median radius</th><th>largest radius</th><th>steps with the true state outside the radius</th>"
+                   if noise_bound is not None else "") + "</tr>")
+        intro = ""
+        if noise_bound is not None:
+            from ..contract import noise_bound_vector
+            from ..tolerances import MHE_UNIQUENESS_DELTA
+
+            beta = noise_bound_vector(noise_bound, system.output_names)
+            intro = ("<p>Bounded output noise: "
+                     + ", ".join(f"|noise of {html.escape(nm)}| &lt;= {b:.4g}" for nm, b in zip(system.output_names, beta))
+                     + ". Each estimate carries a certified radius per state: every state consistent with the window's "
+                     "data under this bound and the model lies within it (set-membership MILPs solved to a zero gap for "
+                     "set_membership, miqp and milp; the bounded-noise lookup table's outer box for lookup). "
+                     f"A step is flagged observable when every radius is within the tolerance ({MHE_UNIQUENESS_DELTA:g} "
+                     "of the half-widths of the state bounds). The promise holds only when the data satisfy the bound.</p>")
+        body = (intro + "<table>" + head + "".join(rows) + "</table>"
                 + "".join(f"<img src='{f}' alt='{html.escape(alts[f], quote=True)}'>" for f in figs))
         return ReportSection(f"Observers on {Path(data).name}", body, summary, figs)
 

@@ -415,6 +415,11 @@ CAMPAIGN = [
     (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{bin.csv}"], "readable CSV"),
     (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}"], "--data"),
     (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--horizon", "5"], "--horizon"),
+    (["report", "--out", "{dir}/rep", "--noise-bound", "0.1"], "SYSTEM"),
+    (["report", PWA_MODEL, "--out", "{dir}/rep", "--noise-bound", "0.1"], "--data"),
+    (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "z=0.1"], "'z'"),
+    (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "-1"], "--noise-bound"),
+    (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--noise-bound", "0.1"], "--noise-bound"),
     (["report", "nosuch", "--out", "{dir}/rep"], "SYSTEM"),
     # diagnose and synth
     (["diagnose", "powertrain3"], "scalar-nonlinear"),

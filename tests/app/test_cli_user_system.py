@@ -187,6 +187,26 @@ def test_report_of_the_system(files, capsys):
     assert check_html_tree(out_dir) == []
 
 
+def test_report_with_a_noise_bound_states_radii_that_hold(files, capsys):
+    """``report SYSTEM --data LOG --noise-bound``: every observer states radii, the set-membership
+    observer joins them, the true states of the log lie within every radius, and the page says so."""
+    out_dir = files["dir"] / "report_bounded"
+    code, out, err = run(capsys, "report", files["toml"], "--out", out_dir, "--data", files["log"], "-T", "3",
+                         "--noise-bound", "y=0.001", "--json")
+    assert code == 0, err
+    sections = {r["key"]: r for r in json.loads(out)["sections"]}
+    assert sections["observers"]["ok"], sections["observers"]
+    page = (out_dir / "index.html").read_text()
+    assert "steps with the true state outside the radius" in page and "|noise of y| &lt;= 0.001" in page
+    summary = sections["observers"]["summary"]
+    assert set(summary) == {"lookup", "miqp", "milp", "set_membership"}
+    for kind, rec in summary.items():
+        assert rec["n_outside_radius"] == 0 and len(rec["radius_max"]) == 2, kind
+    from tests.check_links import check_html_tree
+
+    assert check_html_tree(out_dir) == []
+
+
 def test_model_export_then_check_round_trip(files, capsys):
     target = files["dir"] / "copy.json"
     assert run(capsys, "model", "export", f"{files['py']}:build", "--param", "angle=1.0471975511965976", "--out", target)[0] == 0

@@ -185,6 +185,24 @@ def test_report_noise_study_shows_each_observer_and_the_criterion(built_report):
 
 
 @pytest.mark.slow
+def test_report_radii_hold_the_true_states_and_are_drawn_above_the_errors(built_report):
+    """The bounded-noise subsection: no true state outside any stated radius on the report's own run,
+    the three observers flag the same steps (the lookup's outer box equals the exact one here), and
+    the figure has one log-scale panel per state with a radius line and error dots per observer."""
+    radii = next(s for s in built_report.result["sections"] if s["key"] == "observers")["summary"]["radii"]
+    obs = radii["observers"]
+    assert set(obs) == {"set_membership", "miqp_bounded", "lookup_bounded"}
+    for name, r in obs.items():
+        assert r["n_outside_radius"] == 0 and r["n_with_radius"] == radii["steps"] - 2, name
+    assert obs["set_membership"]["flags"]["observable"] > 0
+    assert len({r["flags"]["observable"] for r in obs.values()}) == 1
+    axes = built_report.figures["observers_radii.png"]
+    assert [ax["ylabel"] for ax in axes] == ["theta [rad]", "omega_m [rad/s]", "omega_l [rad/s]"]
+    assert all(ax["has_data"] for ax in axes)
+    assert "Certified radii under bounded noise" in built_report.html
+
+
+@pytest.mark.slow
 def test_report_colour_words_match_the_plots(built_report):
     from matplotlib.image import imread
 
