@@ -229,6 +229,11 @@ def test_refusals_and_options(bench):
         MHEObserver(plant, 3, norm="1", solver="sequences", solver_options={"lp": "gurobi"})
     with pytest.raises(ModelError, match="solver"):
         MHEObserver(plant, 3, norm="2", solver="sequences")
+    # the solver's own refusal of norm 2 (the observer refuses first; a direct caller reaches this one)
+    from hybobs_opt.mhe.sequence_lp import SequenceLPSolver
+
+    with pytest.raises(ModelError, match="'1' or 'inf'"):
+        SequenceLPSolver(MHEObserver(plant, 3, norm="2").model, 0.0, None)
     # check_uniqueness=False: a certified optimum is observable without the separated LPs
     obs = MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, solver_options={"lp": "highs"})
     flags = [obs.step(U[k], Y[k]).flag for k in range(6)]
