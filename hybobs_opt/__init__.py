@@ -17,16 +17,9 @@ cheap::
 
 from . import _compat
 from ._lazy import lazy_exports
-from ._numba_cache import configure as _configure_numba_cache
 from .errors import BuildError, HybobsError, InfeasibleError, ModelError, SolverError
 
 _compat.install()
-# numba's compiled kernels go to the user's cache (hybobs_opt/_numba_cache.py); no numba import here
-_configure_numba_cache()
-
-# The example catalogue (cheap: no factory is imported) registers its names with
-# hybobs_opt.systems.resolve, so a saved result that names an example can be loaded anywhere.
-from . import studies as _studies  # noqa: E402,F401
 
 __version__ = "0.1.0"
 
@@ -67,8 +60,8 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),
     "PhaseProgress": "hybobs_opt.progress",
     "warm_up": "hybobs_opt._warm_up",
-    # the seed papers' examples
-    **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.studies"),
+    # the installed example catalogues (this package's: the seed papers' examples)
+    **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.systems.catalogue"),
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -1,18 +1,20 @@
-"""Where numba keeps the package's compiled kernels, and warming them up (issue 19).
+"""Where numba keeps the package's compiled kernels, and warming them up.
 
 The kernels (``geometry/_lp_kernels.py``, ``geometry/_vertex_kernels.py``,
 ``observers/_lookup_kernels.py``) are ``@njit(cache=True)``: compiled once, then loaded from
 disk.  numba writes that cache next to the source by default, which a wheel in a read-only
-``site-packages`` cannot do; :func:`configure` (run by ``import hybobs_opt``, without importing
-numba) points it at the user's cache instead:
+``site-packages`` cannot do; :func:`configure` (run by each kernel module as it turns its kernels
+into numba dispatchers) points it at the user's cache instead:
 
     ``$NUMBA_CACHE_DIR`` if the user set it (even empty: then numba's own choice), else
     ``$HYBOBS_CACHE_DIR/numba``, else ``$XDG_CACHE_HOME/hybobs_opt/numba``, else
     ``~/.cache/hybobs_opt/numba`` -- the directory of :class:`hybobs_opt.cache.ResultCache`
     plus ``numba``.
 
-It does so by setting ``NUMBA_CACHE_DIR`` in ``os.environ`` (numba's documented switch; it
-reaches the worker processes too) and, when numba is already imported, its ``config.CACHE_DIR``.
+It sets numba's ``config.CACHE_DIR`` (what ``NUMBA_CACHE_DIR`` sets when numba is imported) and
+leaves the process environment alone: importing the package changes no environment variable.
+Every process (a worker, the background compilation) computes the same directory from the same
+variables; a child this package starts gets it explicitly.
 A directory that cannot be created or written costs nothing: numba then falls back to its own
 locations (next to the source if writable, else its per-user directory) and runs the same code.
 numba keys every entry by a hash of the kernel's source file, so an edited checkout never loads a
@@ -36,7 +38,7 @@ import sys
 #: numba's environment variable for its cache directory.
 NUMBA_CACHE_ENV = "NUMBA_CACHE_DIR"
 
-__all__ = ["KERNELS_ENV", "NUMBA_CACHE_ENV", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
+__all__ = ["KERNELS_ENV", "NUMBA_CACHE_ENV", "cache_directory", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
            "prepare_target"]
 
 #: ``auto`` (default): a kernel module whose compiled kernels are in the cache uses them; one whose
@@ -60,18 +62,25 @@ def numba_cache_dir() -> str:
     return os.path.join(base, "numba")
 
 
-def configure() -> str:
-    """Point numba's cache at :func:`numba_cache_dir` unless the user chose one; returns the directory in force.
-
-    Cheap (no numba import, nothing created): numba creates the directory on first use, and
-    skips it silently when it cannot write there.
-    """
+def cache_directory() -> str:
+    """The kernel cache directory in force: ``$NUMBA_CACHE_DIR`` when the user set it (even empty:
+    numba's own choice), else :func:`numba_cache_dir`."""
     if NUMBA_CACHE_ENV in os.environ:
         return os.environ[NUMBA_CACHE_ENV]
-    path = numba_cache_dir()
-    os.environ[NUMBA_CACHE_ENV] = path
+    return numba_cache_dir()
+
+
+def configure() -> str:
+    """Point numba's cache at :func:`cache_directory`; returns that directory.
+
+    Sets numba's ``config.CACHE_DIR`` when numba is imported (a kernel module calls this before
+    creating its dispatchers, whose cache locator reads it) and nothing else: no environment
+    variable, no directory created (numba creates it on first use, and skips it silently when it
+    cannot write there).  A ``NUMBA_CACHE_DIR`` the user set is numba's own setting already.
+    """
+    path = cache_directory()
     config = sys.modules.get("numba.core.config")
-    if config is not None and not getattr(config, "CACHE_DIR", ""):
+    if config is not None and NUMBA_CACHE_ENV not in os.environ:
         config.CACHE_DIR = path
     return path
 
@@ -118,13 +127,14 @@ def _cache_has(fn) -> bool:
     try:
         from numba.core.caching import FunctionCache
 
+        configure()
         return bool(FunctionCache(fn)._cache_file._load_index())
     except Exception:  # numba's cache API moved: take the cache as warm (the behaviour before)
         return True
 
 
 def finalize_kernels(namespace: dict) -> bool:
-    """Turn the module's :func:`kernel` functions into numba dispatchers, or keep them Python (issue 19).
+    """Turn the module's :func:`kernel` functions into numba dispatchers, or keep them Python.
 
     With ``HYBOBS_KERNELS=auto`` (the default) the module's kernels are compiled -- that is,
     loaded from the cache in milliseconds -- when the cache holds any of them for the current
@@ -154,6 +164,7 @@ def finalize_kernels(namespace: dict) -> bool:
     if compiled:
         from numba import njit
 
+        configure()  # numba is imported now: its cache locator reads config.CACHE_DIR at njit
         prepare_target()
         try:
             for name, fn in marked.items():
@@ -251,6 +262,7 @@ def _drop_cache_entries(functions) -> int:
         from numba.core.caching import FunctionCache
     except ImportError:
         return 0
+    configure()
     for fn in functions:
         try:
             cache_file = FunctionCache(fn)._cache_file
@@ -312,9 +324,7 @@ def _untrusted_cache() -> str | None:
     global _untrusted_reported
     from ._trust import untrusted_directory
 
-    cache = os.environ.get(NUMBA_CACHE_ENV)
-    if cache is None:
-        cache = numba_cache_dir()
+    cache = cache_directory()
     if not cache:
         return None  # numba's own choice (next to the installed sources, or its per-user directory)
     why = untrusted_directory(cache)
@@ -330,7 +340,7 @@ def _untrusted_cache() -> str | None:
 
 def _cache_writable() -> bool:
     """Can the background compilation write to the package's numba cache directory?"""
-    cache = os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir()
+    cache = cache_directory() or numba_cache_dir()
     try:
         os.makedirs(cache, exist_ok=True)
     except OSError:
@@ -375,7 +385,7 @@ def start_background_warm_up() -> bool:
     import subprocess
     import time
 
-    cache = os.environ.get(NUMBA_CACHE_ENV) or numba_cache_dir()
+    cache = cache_directory() or numba_cache_dir()
     lock = os.path.join(cache, "hybobs-warm-up.lock")
     try:
         os.makedirs(cache, exist_ok=True)

@@ -1,4 +1,4 @@
-"""Compile or load every numba kernel of the package once (issue 19; see :mod:`hybobs_opt._numba_cache`).
+"""Compile or load every numba kernel of the package once (see :mod:`hybobs_opt._numba_cache`).
 
 ``python -m hybobs_opt._warm_up`` after an install (or :func:`hybobs_opt.warm_up` in a service's
 start-up) fills the user's kernel cache, so no later process compiles anything.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import time
 
-from ._numba_cache import BACKGROUND_ENV, KERNELS_ENV, NUMBA_CACHE_ENV, kernels_compiled
+from ._numba_cache import BACKGROUND_ENV, KERNELS_ENV, NUMBA_CACHE_ENV, cache_directory, kernels_compiled
 
 __all__ = ["warm_up"]
 
@@ -40,9 +40,9 @@ def warm_up() -> dict:
         import sys
 
         t0 = time.perf_counter()
-        env = {**os.environ, KERNELS_ENV: "compiled"}
+        env = {**os.environ, KERNELS_ENV: "compiled", NUMBA_CACHE_ENV: cache_directory()}
         subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, check=True, stdout=subprocess.DEVNULL)
-        return {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "child_process": time.perf_counter() - t0,
+        return {"cache_dir": cache_directory(), "child_process": time.perf_counter() - t0,
                 "kernels_compiled": kernels_compiled()}
     t0 = time.perf_counter()
     before = os.environ.get(KERNELS_ENV)
@@ -59,7 +59,7 @@ def warm_up() -> dict:
     finally:  # this process's later children choose for themselves
         _restore(before)
 
-    out: dict = {"cache_dir": os.environ.get(NUMBA_CACHE_ENV, ""), "import": time.perf_counter() - t0}
+    out: dict = {"cache_dir": cache_directory(), "import": time.perf_counter() - t0}
     t0 = time.perf_counter()
     Ts, k, c, delta = 0.05, 4.0, 0.5, 0.1
     A_free = np.array([[1.0, -Ts], [0.0, 1.0 - c * Ts]])
@@ -121,7 +121,7 @@ def _start_lookup_child():
 
     if "hybobs_opt.observers._lookup_kernels" in sys.modules:
         return None
-    env = {**os.environ, KERNELS_ENV: "compiled", BACKGROUND_ENV: "0"}
+    env = {**os.environ, KERNELS_ENV: "compiled", BACKGROUND_ENV: "0", NUMBA_CACHE_ENV: cache_directory()}
     try:
         return subprocess.Popen([sys.executable, "-c", "import hybobs_opt.observers._lookup_kernels"], env=env,
                                 stdout=subprocess.DEVNULL)

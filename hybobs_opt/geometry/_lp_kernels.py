@@ -10,11 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._numba_cache import configure as _configure_cache
 from .._numba_cache import finalize_kernels as _finalize_kernels
 from .._numba_cache import kernel
-
-_configure_cache()  # the user's cache directory, before numba reads its configuration
 
 
 @kernel(cache=True)

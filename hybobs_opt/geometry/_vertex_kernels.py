@@ -11,11 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._numba_cache import configure as _configure_cache
 from .._numba_cache import finalize_kernels as _finalize_kernels
 from .._numba_cache import kernel
 
-_configure_cache()  # the user's cache directory, before numba reads its configuration
 
 #: Result codes of :func:`check_kernel` (0: passed; the others name the first failure).
 OK, INFEASIBLE, NOT_A_VERTEX, SINGULAR, NEARLY_DEPENDENT, INCOMPLETE = 0, 1, 2, 3, 4, 5
@@ -461,7 +459,7 @@ def facet_kernel(A, b, Y, tight, parallel_tol, rank_rtol, redundancy_rtol):
 
 @kernel(cache=True)
 def points_to_box(X, full_dimension_rtol):
-    """The points ``X`` in the coordinates of their box (:func:`_box_mid_half`; issue 19: one call).
+    """The points ``X`` in the coordinates of their box (:func:`_box_mid_half`, in one call).
 
     Returns ``(mid, half, Y, c, P)``: ``y = (x - mid) / half``, the centroid ``c`` of ``Y`` and
     ``P = Y - c``.
@@ -620,8 +618,8 @@ def first_of_equal_rows(R):
 def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol,
                       parallel_tol, redundancy_rtol, want_facets):
     """:func:`scale_and_check` of a library's vertices, and what ``vertices._try_library`` builds from
-    a passed check, in one call (issue 19: a dozen small numpy operations around the check cost more
-    than the check at d = 2).
+    a passed check, in one call (a dozen small numpy operations around the check cost more than the
+    check at d = 2).
 
     Returns :func:`scale_and_check`'s tuple (with ``live`` as the indices of the live rows) followed
     by ``(Yk, Tk, points, fcode, frow, facet)``: the kept vertices, their tight rows and the

@@ -9,17 +9,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._numba_cache import configure as _configure_cache
 from .._numba_cache import finalize_kernels as _finalize_kernels
 from .._numba_cache import kernel
 
-_configure_cache()  # the user's cache directory, before numba reads its configuration
 
 OBSERVABLE_CODE, UNOBSERVABLE_CODE, FALLBACK_CODE, WARMING_CODE = 0, 1, 2, 3
 
 # The kernels of one step allocate nothing, so they are compiled without numba's reference
 # counting (``_nrt=False``): with it every call between them increfs and decrefs each of its array
-# arguments (42 for ``advance``), a quarter of the step's time (issue 19, measured on model 16).
+# arguments (42 for ``advance``), a quarter of the step's time on model (16).
 
 #: A unique candidate whose ``B~_T`` test (pair LPs, or the exact variant's LPs) is left to the
 #: caller: window-start state in ``xs0``, its region in ``meta[4]``.

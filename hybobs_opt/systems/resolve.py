@@ -2,9 +2,9 @@
 
 A name is one of
 
-* a name known to a resolver registered with :func:`register_resolver` (the example library of
-  :mod:`hybobs_opt.studies` registers its example names when it is imported, which
-  ``import hybobs_opt`` does);
+* a name known to a resolver registered with :func:`register_resolver`, or to an installed
+  example catalogue (:mod:`hybobs_opt.systems.catalogue`: this package's seed-paper examples,
+  and any other distribution's, found through an entry point);
 * a model file ``PATH.toml``, ``PATH.yaml``/``.yml`` or ``PATH.json``
   (:mod:`hybobs_opt.systems.model_file`); parameters are refused, a file has none;
 * ``PATH.py:FUNCTION``: the file is loaded as a module and ``FUNCTION(**params)`` is called;
@@ -52,6 +52,22 @@ def register_resolver(label: str, resolver: Resolver) -> None:
     _RESOLVERS.append((label, resolver))
 
 
+_CATALOGUES_REGISTERED = False
+
+
+def _resolvers() -> list[tuple[str, Resolver]]:
+    """The registered resolvers, with every installed example catalogue's (loaded on first use)."""
+    global _CATALOGUES_REGISTERED
+    if not _CATALOGUES_REGISTERED:
+        from .catalogue import example_catalogues
+
+        for label, catalogue in example_catalogues():
+            if not any(k == label for k, _ in _RESOLVERS):
+                _RESOLVERS.append((label, catalogue.resolve_example))
+        _CATALOGUES_REGISTERED = True
+    return list(_RESOLVERS)
+
+
 def system_classes() -> tuple[type, ...]:
     """The classes a named system may be an instance of."""
     from .constant_drift import ConstantDriftSystem
@@ -90,7 +106,8 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
     if not isinstance(name, str) or not name.strip():
         raise ModelError("system name", "a non-empty string (an example name, a model file, PATH.py:FUNCTION or "
                          "module:FUNCTION)", repr(name))
-    for label, resolver in _RESOLVERS:
+    resolvers = _resolvers()
+    for label, resolver in resolvers:
         try:
             system = resolver(name, params)
         except HybobsError:
@@ -113,7 +130,7 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
         else:
             fn = _function_from_module(target, function)
         return _call_builder(fn, name, params)
-    known = ", ".join(label for label, _ in _RESOLVERS) or "none registered"
+    known = ", ".join(label for label, _ in resolvers) or "none registered"
     hint = " (no such file)" if name.endswith(".py") or "/" in name else ""
     raise ModelError("system name", f"a name known to a resolver ({known}), a model file (.toml, .yaml, .json), "
                      f"PATH.py:FUNCTION or module:FUNCTION", repr(name) + hint)
@@ -147,9 +164,10 @@ def resolve_registered(name: str, params: dict[str, Any] | None = None, *, sourc
         raise ModelError("example", f"the name of a registered example in {source} (a saved file never names code or "
                          "files to load: pass a module:FUNCTION or a model file yourself, on the command line or "
                          "in a call)", repr(name))
-    known = [label for label, _ in _RESOLVERS]
+    resolvers = _resolvers()
+    known = [label for label, _ in resolvers]
     system = None
-    for label, resolver in _RESOLVERS:
+    for label, resolver in resolvers:
         try:
             system = resolver(name, dict(params or {}))
         except HybobsError:
