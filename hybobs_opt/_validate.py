@@ -2,7 +2,7 @@
 
 Each function checks its input *before* it is used and raises a
 :class:`~hybobs_opt.errors.ModelError` that names the field and what was expected.  Nothing is
-coerced silently (issue 16): complex entries are refused (``float()`` would drop the imaginary
+coerced silently: complex entries are refused (``float()`` would drop the imaginary
 part), and so are booleans, strings and ``None`` where numbers are expected; names must be
 non-empty strings, distinct, and given as a list (a plain string is not split into characters);
 an integer is an ``int``, not ``2.0``, ``"2"`` or ``True``.

@@ -105,8 +105,8 @@ MHE_ARRIVAL_MIN_STD_RTOL: float = 1e-3
 #: stationary and with a zero duality gap, each to this times the size of the terms summed (on
 #: the equilibrated LP, where data and variables are of order one).  HiGHS's dual feasibility
 #: tolerance is 1e-7 on its own scaling; ten times that leaves room for the unscaling (the same
-#: margin as LP_POINT_RTOL).  Relative, not absolute: an absolute residual bound rejected correct
-#: answers of large pair LPs (the previous attempt at issue 16).  A point 1e-3 off the optimum
+#: margin as LP_POINT_RTOL).  Relative, not absolute: an absolute residual bound rejects correct
+#: answers of large pair LPs.  A point 1e-3 off the optimum
 #: along a feasible direction leaves a gap of ~1e-3: far outside.
 LP_DUAL_RTOL: float = 1e-6
 
@@ -443,7 +443,7 @@ MHE_BINARY_PROX_WEIGHT: float = 1e-10
 #: model (16) is a residual of 1.7e-5 rad/s, below the solver tolerances of the MIQP itself.
 MHE_ZERO_COST_RTOL: float = 1e-14
 
-#: Relative optimality gap a certified MIQP window must prove (issue 18): ``cost - optimum <=
+#: Relative optimality gap a certified MIQP window must prove: ``cost - optimum <=
 #: max(MHE_CERTIFIED_RTOL * cost, MHE_ZERO_COST_RTOL * J_s)``.  The proximal certificate of the
 #: branch and bound (``gap_bound``, the proximal term over the whole box: 4.7e-4 on model (16))
 #: reaches it only on zero-cost windows; the others are certified by the exact prefix search of
@@ -702,14 +702,14 @@ C_EXPORT_F32_LP_COST_TOL: float = 1e-6
 #: in B~_T.
 C_EXPORT_F32_MAX_ROUNDING: float = 0.05
 
-#: Regions (issue 19): the thin test of a pair set's projection (Algorithm 3.1, paper 002) skips its
+#: Regions: the thin test of a pair set's projection (Algorithm 3.1, paper 002) skips its
 #: two width LPs when a certified Chebyshev ball of radius ``r`` already gives width
 #: ``>= 2 r |c| > 2 REGION_SLACK_TOL (1 + BALL_WIDTH_RTOL)``; the relative margin keeps the
 #: comparison away from the floating-point rounding of the LPs' own width bound (~1e-15 relative),
 #: so the skipped LPs could not have certified the set thin.
 BALL_WIDTH_RTOL: float = 1e-6
 
-#: Regions (issue 19): DAQP's primal tolerance of the last attempt at a Chebyshev LP of a pair set
+#: Regions: DAQP's primal tolerance of the last attempt at a Chebyshev LP of a pair set
 #: of Algorithm 3.1 before HiGHS (``pair_geometry._slack_lp``, when DAQP's default attempts do not
 #: decide).  A face (radius exactly 0) must be told from an empty set at ``-CLOSED_SET_TOL = -1e-7``
 #: by the slack *at the point*; DAQP's default (1e-6) leaves rows violated by ~2e-7-5e-7, 1e-11

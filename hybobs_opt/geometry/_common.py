@@ -86,7 +86,7 @@ def _row_normalised(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
     The same set, with the units of each row removed: the absolute thresholds applied afterwards
     (ZERO_ROW_TOL, the scaled-coordinate tolerances) then judge the geometry, not the scale in which
-    a row happened to be written (issue 16: rows given in units of 1e-10 were taken for zero rows).
+    a row happened to be written (rows given in units of 1e-10 are not zero rows).
     """
     A = np.asarray(A, dtype=float)
     b = np.asarray(b, dtype=float)

@@ -669,7 +669,7 @@ def daqp_answer_ok(A: np.ndarray, b: np.ndarray, x, lam) -> bool:
     lam = np.asarray(lam, dtype=float)
     if A.ndim != 2 or x.shape != (A.shape[1],) or lam.shape != (A.shape[0],) or b.shape != (A.shape[0],):
         return False
-    # one compiled loop (issue 19: the numpy version cost twice the DAQP solve it checks)
+    # one compiled loop: in numpy the check costs twice the DAQP solve it checks
     return bool(answer_ok(A, b, x, lam, DAQP_POINT_RTOL))
 
 

@@ -4,7 +4,7 @@ The MIQP of eq. (10) of paper 002 (Bemporad, Ferrari-Trecate & Morari, 2000) is 
 branch and bound with a proximal term (:class:`~hybobs_opt.mhe.MHEObserver`), whose a-priori
 certificate ``gap_bound`` is the proximal term's largest value over the variable bounds.  On noisy
 data that bound exceeds the optimum itself (4.7e-4 against optima of 0-2e-4 on model (16) with
-output noise 0.01 rad/s, issue 18), so it certifies nothing.  This module proves a gap that is
+output noise 0.01 rad/s), so it certifies nothing.  This module proves a gap that is
 meaningful against the optimum: a depth-first branch and bound over the mode sequence, one convex
 QP per node, in which
 

@@ -9,8 +9,8 @@ with the mode sequence ``q(0), q(1), ...`` known, the system is linear time-vary
 with ``q = q(k)``, ``w ~ N(0, Q)``, ``v ~ N(0, R)`` independent and white, and ``x(0) ~ N(x0, P0)``.
 The Kalman filter (Kalman 1960; Anderson & Moore, *Optimal Filtering*, 1979, Ch. 3) gives the
 conditional mean and covariance of ``x(k)`` given ``y(0..k)``; with Gaussian noise it is the
-minimum-variance estimator, so no observer of the same data does better on average (issue 18:
-"a Kalman filter run on the true mode sequence, the unattainable reference").
+minimum-variance estimator, so no observer of the same data does better on average: run on the
+true mode sequence, it is the unattainable reference of the noise studies.
 
 Convention.  Each :meth:`ModeSequenceKalmanFilter.step` with sample ``k`` does the *measurement
 update* with ``y(k)`` (mode ``q(k)``), returns ``x(k|k)`` and its covariance ``P(k|k)``, then

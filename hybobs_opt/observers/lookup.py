@@ -31,10 +31,9 @@ Definition 2.2).  Two ways to evaluate it, measured on the scenarios of ``hybobs
 
 * ``b_tilde="project"``: exact projections offline (:func:`reduced_unobservable_polytopes`),
   then a solver-free point-in-union test online (2-5 us per step).  Model (16), T = 3: 48 pieces
-  in 4.5 s.  Model (17), T = 5: the 778 pieces of the pair set of that time took 145 s here and
-  256 s in issue 12, *all* of it in the projections (54,824 HiGHS LPs of 2.5 ms each, 61 s for
-  the images' bounding boxes, 69 s for the iterative hulls); with today's 1,486 pieces one of
-  them even fails (a thin piece whose bounding-box LP HiGHS calls infeasible).  Out of reach.
+  in 4.5 s.  Model (17), T = 5: the projections alone take minutes (tens of thousands of HiGHS
+  LPs for the images' bounding boxes and the iterative hulls), and a thin piece whose
+  bounding-box LP HiGHS calls infeasible makes one fail.  Out of reach.
 * default, ``b_tilde=None`` ("pairs"): each ``R_ij`` is kept as its H-representation
   (``PairSet.G, g, E, e``), restricted offline to the subspace of its output equalities and
   parameterised by ``x`` (:class:`_PairPieces`); online, the compiled kernel screens the
@@ -200,8 +199,8 @@ class LookupObserver(Observer):
         self.table_seconds = time.perf_counter() - t0
         # One whole step() on a sample without output (a fallback: open-loop prediction from the box
         # centre, no B~_T test, nothing learnt), then a fresh reset: the user's first step runs on
-        # warm code.  Measured in a fresh process (issue 19): first step 18 us against 8 us for the
-        # second without it, 9 us against 7 us with it.  This class's own methods, so that a
+        # warm code (in a fresh process the first step costs about twice the second without it).
+        # This class's own methods, so that a
         # subclass's step() is not called before its constructor has run.
         LookupObserver.reset(self)
         LookupObserver.step(self, np.ascontiguousarray(self.analysis.enumeration.centre[self.n:self.n + self.m], dtype=float),

@@ -1,4 +1,4 @@
-"""A bank of lookup observers over a grid of an unknown parameter (issue 18: the backlash gap).
+"""A bank of lookup observers over a grid of an unknown parameter (e.g. the backlash gap of paper 002).
 
 Paper 002 assumes the backlash gap ``alpha`` known (Section 8).  A window of ``T`` samples cannot
 tell it: inside one contact mode the outputs of model (16) depend on ``theta - alpha`` only, and

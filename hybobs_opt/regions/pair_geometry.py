@@ -244,7 +244,7 @@ def _tight_width_bound(G: np.ndarray, rows: np.ndarray, slack: np.ndarray, c: np
     ``sum_k |alpha_k| slack_k + 2 R |rho|`` (Cauchy-Schwarz on the residual).  This proves the
     same statement as the two LPs of :func:`~hybobs_opt.geometry.lp.certified_width_below` when
     ``c`` lies in the span of the implicit equalities just found (the flat direction of a face
-    of ``R_ij``, issue 19: half of the pair LPs of model 17 at ``T = 6`` were such width LPs).
+    of ``R_ij``: half of the pair LPs of model 17 at ``T = 6`` are such width LPs).
     """
     if rows.size == 0:
         return np.inf

@@ -245,8 +245,8 @@ register_section("lmi", lmi_section)
 def vehicle_paper_design_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """Paper 004's vehicle gains (eqs. 61-62, switched at 60 deg) against the synthesised design.
 
-    Built by :func:`hybobs_opt.studies.paper004_nonmonotonic.paper_design.run_paper_comparison`
-    (issue 15): four observers on the scenario of Sec. 6.2, yaw wrapped modulo 2 pi.
+    Built by :func:`hybobs_opt.studies.paper004_nonmonotonic.paper_design.run_paper_comparison`:
+    four observers on the scenario of Sec. 6.2, yaw wrapped modulo 2 pi.
     """
     from ..studies.paper004_nonmonotonic.paper_design import PAPER_L1, PAPER_L2, run_paper_comparison
 
@@ -292,7 +292,7 @@ def _fmt_states(d: dict | None, digits: int = 3) -> str:
 def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """The switched-gain observer against the lookup-table deadbeat observer on the PWA-fitted piston.
 
-    Built by :func:`hybobs_opt.observers.piston_comparison.compare_piston` (issue 5's comparison).
+    Built by :func:`hybobs_opt.studies.paper004_nonmonotonic.piston_comparison.compare_piston`.
     """
     from ..studies.paper004_nonmonotonic.piston_comparison import compare_piston, comparison_summary, plot_piston_comparison
 

@@ -5,7 +5,7 @@ Each study package (``studies/paper000_driveline`` ...) calls :func:`register` w
 CLI prints (``hybobs examples --json``).  Factories and scenarios may be given as
 ``"module:function"`` references, imported on first call: listing the examples then costs no
 import of the systems, the simulators or any solver (``hybobs examples`` starts in well under a
-second).  Example names and state names are a contract (issue 2): keep them stable.
+second).  Example names and state names are a contract (saved files and scripts name them): keep them stable.
 """
 
 from __future__ import annotations

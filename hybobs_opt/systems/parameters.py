@@ -1,4 +1,4 @@
-"""Unknown parameters of a PWA system as constant states (issue 18: an unknown backlash gap).
+"""Unknown parameters of a PWA system as constant states (e.g. an unknown backlash gap).
 
 Paper 002 assumes the backlash gap ``alpha`` known, "seldom true in real powertrains" (Section 8).
 In model (16) ``alpha`` enters linearly in exactly two places: the guards (``theta <= -alpha``,

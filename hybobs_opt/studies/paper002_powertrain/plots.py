@@ -141,7 +141,7 @@ def plot_noise_errors(trace, outs: Mapping, path: str | Path, sigma: float, stat
     One axis per observer, over time: the signed error of ``state`` at the samples the observer
     flags observable (dots), and for an observer whose ``Estimate.info`` states a covariance the
     band of ``sigmas`` standard deviations of that covariance around zero: an honest observer's
-    dots stay inside its band (issue 18: none beyond 5 sigma).  Drawn by the report's observers
+    dots stay inside its band (none beyond 5 sigma).  Drawn by the report's observers
     section for :func:`~hybobs_opt.studies.paper002_powertrain.noise.run_noise_study`.
 
     Parameters

@@ -1,4 +1,4 @@
-"""Paper 002 with the backlash gap unknown to the observer (issue 18).
+"""Paper 002 with the backlash gap unknown to the observer.
 
 Section 8 of paper 002: "the backlash gap alpha is assumed known, seldom true in real powertrains".
 This study hides ``alpha``: for each of ``draws`` values drawn uniformly in ``[0.02, 0.08]`` rad
@@ -31,7 +31,7 @@ import numpy as np
 from hybobs_opt.contract import OBSERVABLE
 from hybobs_opt.errors import ModelError
 
-#: Interval of the hidden gap (rad), as in issue 18.
+#: Interval of the hidden gap (rad), around Table 1's alpha = 0.05 rad.
 GAP_INTERVAL = (0.02, 0.08)
 
 #: Twist bound of the study (rad): the scenario stays inside it for every gap of the interval.

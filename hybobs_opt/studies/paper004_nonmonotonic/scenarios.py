@@ -33,7 +33,7 @@ CONVERGENCE_TOL = {
 }
 
 #: Periodic coordinates of the examples (model units), wrapped by the observer instead of clipped
-#: to the box (issue 15): the vehicle's yaw is an angle, its box [0, 2 pi] one turn, so an estimate
+#: to the box: the vehicle's yaw is an angle, its box [0, 2 pi] one turn, so an estimate
 #: that passes 360 deg is the same heading near 0 deg (clipped, it stuck at the box's edge).
 PERIODIC = {
     "vehicle_tracking": {"psi": 2 * math.pi},
