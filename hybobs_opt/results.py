@@ -1,4 +1,4 @@
-"""The two protocols every solver answer and every certificate of the toolbox implements.
+"""What every solver answer and every certificate of the toolbox is.
 
 :class:`SolveResult` is what one solve returns (an LP, an LMI, a moving-horizon window): its
 :class:`~hybobs_opt.status.Status`, the constraint residuals at the returned point, the seconds it
@@ -7,12 +7,13 @@ positive) verdict: a human-readable ``reason`` and a ``verify()`` that re-checks
 without calling a solver.  :class:`~hybobs_opt.errors.InfeasibleError` always carries a
 certificate whose ``verify()`` is true (DESIGN.md, "One result protocol").
 
-Both are :func:`typing.runtime_checkable`, so ``isinstance(obj, Certificate)`` checks that the
-members exist (not their types).
+:class:`SolveResult` is a :func:`typing.runtime_checkable` protocol (``isinstance`` checks that the
+members exist); :class:`Certificate` is the base class every certificate derives from.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import Any, Protocol, runtime_checkable
 
 __all__ = ["SolveResult", "Certificate"]
@@ -46,9 +47,15 @@ class SolveResult(Protocol):
     def to_dict(self) -> dict: ...
 
 
-@runtime_checkable
-class Certificate(Protocol):
+class Certificate(ABC):
     """Checkable evidence for a verdict: why it holds, and a numpy re-check of it.
+
+    The one base class of every certificate of the toolbox (LP and Farkas certificates, the LMI
+    duals and infeasibility certificates, the polytopic and impossibility certificates, the
+    detection-delay certificate of paper 000, the deadbeat and positivity certificates of paper 003,
+    the arrival prior of the moving-horizon observer).  A subclass -- a frozen dataclass of the
+    evidence -- provides ``reason`` (a field or a property) and :meth:`verify`; :meth:`to_dict`
+    gives the JSON-ready summary (subclasses add their own fields).
 
     Attributes
     ----------
@@ -56,9 +63,18 @@ class Certificate(Protocol):
         The verdict and its mechanism, stated for the system at hand.
     """
 
-    @property
-    def reason(self) -> str: ...
+    __slots__ = ()
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if not any("reason" in vars(k) or "reason" in vars(k).get("__annotations__", {}) for k in cls.__mro__
+                   if k is not Certificate):
+            raise TypeError(f"certificate class {cls.__name__} defines no 'reason' (a field or a property)")
+
+    @abstractmethod
     def verify(self) -> bool:
         """Re-check the evidence in plain numpy (no solver); ``True`` when it holds."""
-        ...
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: the class, the reason and whether :meth:`verify` holds."""
+        return {"certificate": type(self).__name__, "reason": str(self.reason), "verified": bool(self.verify())}

@@ -20,6 +20,7 @@ from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
 from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_EQUILIBRATION_SWEEPS, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
+from ..results import Certificate
 
 
 @dataclass(frozen=True)
@@ -184,7 +185,7 @@ def _full_duals(duals: np.ndarray, sc: _Scaled) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class LPCertificate:
+class LPCertificate(Certificate):
     """Numpy-checkable evidence for an ``"infeasible"`` or ``"unbounded"`` LP verdict.
 
     The data are those of the LP as :func:`solve_lp` posed it to HiGHS: rows and columns scaled by

@@ -45,6 +45,7 @@ from ..tolerances import CERTIFICATE_RTOL
 from .bounds import DerivativeBound, JacobianBounds
 from .lmi_model import LMI_NAMES, LMIData, LMIParameters, SectorData
 from .solve import INFEASIBLE, POINT_STATUSES, SOLVER, solve_problem
+from ..results import Certificate
 
 
 # ---------------------------------------------------------------------------- the numpy re-check
@@ -72,7 +73,7 @@ class CertificateCheck:
 
 
 @dataclass(frozen=True)
-class DualCertificate:
+class DualCertificate(Certificate):
     """A dual PSD multiplier ``Z`` of an observer LMI (scaled coordinates) and its re-check.
 
     Parameters
@@ -374,7 +375,7 @@ def obstruction_certificate(data: LMIData, sector: SectorData, sigma: float, ob:
 
 # ---------------------------------------------------------------------------- the certificate
 @dataclass(frozen=True)
-class InfeasibilityCertificate:
+class InfeasibilityCertificate(Certificate):
     """Why an observer LMI of paper 004 has no solution, with checkable evidence.
 
     Parameters

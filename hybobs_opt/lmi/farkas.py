@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..results import Certificate
+
 #: Relative tolerance of the re-check: ``||A^T y|| <= FARKAS_RTOL ||A|| ||y||``, cone membership to
 #: ``FARKAS_RTOL ||y||``, and ``b^T y <= -FARKAS_MARGIN ||b|| ||y||`` (a ray that makes ``b^T y``
 #: negative only at rounding level proves nothing).
@@ -33,7 +35,7 @@ _TINY: float = float(np.finfo(float).tiny)
 
 
 @dataclass(frozen=True, eq=False)
-class FarkasCertificate:
+class FarkasCertificate(Certificate):
     """``y`` in ``K*`` with ``A^T y = 0`` and ``b^T y < 0`` for the conic form of a cvxpy problem.
 
     Attributes

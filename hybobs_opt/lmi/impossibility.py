@@ -33,6 +33,7 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import EQUILIBRIUM_RTOL
 from .bounds import slope_change_points
 from .schedule import coordinate_index, make_region
+from ..results import Certificate
 
 #: Samples of the scheduling range searched for undetectable points (besides the roots of the
 #: output slopes and the range ends).
@@ -54,7 +55,7 @@ def _fmt_complex(lam: complex) -> str:
 
 # ---------------------------------------------------------------------------- undetectable points
 @dataclass(frozen=True)
-class UndetectablePoint:
+class UndetectablePoint(Certificate):
     """A state where the linearisation has a non-decaying mode the outputs do not see.
 
     Parameters
@@ -94,6 +95,11 @@ class UndetectablePoint:
         tol = 1e3 * PBH_RTOL * scale
         return bool(np.linalg.norm(J @ v - self.eigenvalue * v) <= tol and np.linalg.norm(C @ v) <= tol
                     and self.eigenvalue.real >= -MODE_RTOL * scale)
+
+    @property
+    def reason(self) -> str:
+        """The certificate's statement (:attr:`claim`)."""
+        return self.claim
 
     @property
     def claim(self) -> str:
@@ -204,7 +210,7 @@ def _thin(points: list[UndetectablePoint], spacing: float) -> list[UndetectableP
 
 # ---------------------------------------------------------------------------- mirror symmetry
 @dataclass(frozen=True)
-class OutputSymmetry:
+class OutputSymmetry(Certificate):
     """An involution ``T x = c + S (x - c)`` under which the system's outputs cannot tell ``x`` from ``T x``.
 
     Parameters
@@ -261,6 +267,11 @@ class OutputSymmetry:
     @property
     def flipped(self) -> list[str]:
         return [self.system.state_names[i] for i in np.nonzero(np.diag(self.S) < 0)[0]]
+
+    @property
+    def reason(self) -> str:
+        """The certificate's statement (:attr:`claim`)."""
+        return self.claim
 
     @property
     def claim(self) -> str:

@@ -44,6 +44,7 @@ from ..tolerances import CERTIFICATE_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIData, box_scaling, lmi_data
 from .solve import INFEASIBLE, POINT_STATUSES, solve_problem
+from ..results import Certificate
 
 #: Largest number of vertices (``2^(r + p_n)``) the condition is built for; beyond it the
 #: problem grows too large to be useful and the hierarchy stops at the multiplier LMIs.
@@ -106,7 +107,7 @@ class PolytopicCheck:
 
 
 @dataclass(frozen=True)
-class PolytopicCertificate:
+class PolytopicCertificate(Certificate):
     """Multipliers ``Z_v`` proving the polytopic condition infeasible (scaled coordinates).
 
     Parameters

@@ -59,12 +59,13 @@ from ..errors import ModelError, SolverError
 from ..status import Status
 from ..systems.pwa import PWASystem
 from ..tolerances import ARRIVAL_CONTRACTION_MARGIN, ARRIVAL_LMI_RTOL
+from ..results import Certificate
 
 __all__ = ["ArrivalPrior", "KalmanArrival", "certified_arrival_prior"]
 
 
 @dataclass(frozen=True, eq=False)
-class ArrivalPrior:
+class ArrivalPrior(Certificate):
     """The arrival weight of :func:`certified_arrival_prior` and what it was proven for.
 
     Parameters
@@ -101,6 +102,13 @@ class ArrivalPrior:
     status: Status
     seconds: float
     residuals: dict = field(default_factory=dict)
+
+    @property
+    def reason(self) -> str:
+        """What the prior proves: it never claims more information than a Kalman filter has."""
+        return (f"The arrival weight's information Z ({self.objective} design) stays below the Kalman filter's "
+                f"information under every one of the {len(self.A)} modes' dynamics and outputs, and below the first "
+                "prior's: the prior never claims more than a filter of the stated noise knows (Rao, Rawlings & Lee 2001)")
 
     def check(self) -> dict[str, float]:
         """The claims of the induction, re-checked in numpy (relative; negative means violated).

@@ -42,6 +42,7 @@ from scipy.linalg import expm
 
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, checked_lyapunov, solve_problem
+from ..results import Certificate
 from ..status import Status, is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import (
@@ -415,7 +416,7 @@ class ResidualBank:
 
 
 @dataclass(frozen=True)
-class DelayCertificate:
+class DelayCertificate(Certificate):
     """Proof that no gain with ``||L|| <= gain_bound`` meets the detection delay ``Delta``.
 
     With ``eps(0) = Z0 v`` (``v`` the top right singular vector of ``C``), ``||r(0)|| = ||C|| Z0``

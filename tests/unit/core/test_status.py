@@ -249,6 +249,26 @@ def _certificates():
     ]
 
 
+def test_every_class_with_a_verify_method_derives_from_the_one_certificate_base():
+    """Every certificate of the package (a class whose evidence re-checks with ``verify()``) is a
+    :class:`~hybobs_opt.results.Certificate`: found by walking the source, not by a list."""
+    import ast
+    import importlib
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[3] / "hybobs_opt"
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        module = ".".join(path.relative_to(package.parent).with_suffix("").parts)
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.ClassDef) and any(isinstance(b, ast.FunctionDef) and b.name == "verify" for b in node.body):
+                found.append((module, node.name))
+    assert len(found) >= 13
+    for module, name in found:
+        cls = getattr(importlib.import_module(module), name)
+        assert issubclass(cls, Certificate), f"{module}.{name}"
+
+
 def test_every_certificate_class_implements_the_protocol():
     from hybobs_opt.lmi.certificates import DualCertificate, InfeasibilityCertificate
     from hybobs_opt.observers import periodic as per
