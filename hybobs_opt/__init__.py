@@ -15,11 +15,9 @@ cheap::
     from hybobs_opt import PWASystem, analyse_observability, LookupObserver, MHEObserver
 """
 
-from . import _compat
 from ._lazy import lazy_exports
 from .errors import BuildError, HybobsError, InfeasibleError, ModelError, SolverError
 
-_compat.install()
 
 __version__ = "0.1.0"
 

@@ -6,8 +6,7 @@ prediction and flags the step (DESIGN.md, "Conventions").
 
 The contract sits in the core below both :mod:`hybobs_opt.mhe` and :mod:`hybobs_opt.observers`
 (DESIGN.md draws ``mhe -> observers``): the moving-horizon observer implements it without
-importing the package of the other runtime observers.  :mod:`hybobs_opt.observers.base` is the
-same module under its old name.
+importing the package of the other runtime observers.
 
 The initial mode or location of every ``reset()`` is the keyword ``q0``.
 """
@@ -468,7 +467,9 @@ class Observer(ABC):
             Initial estimate; ``None`` keeps each observer's default (its previous or constructor value,
             else the centre of the state bounds).
         **kwargs
-            Observer-specific options, e.g. the initial mode or location ``q0``.
+            The other keywords of :data:`RESET_KEYWORDS` (the initial mode or location ``q0``, the
+            time ``t0`` ...): each observer uses those it needs and ignores the others, and refuses
+            any keyword outside them (:func:`check_reset_keywords`).
         """
 
     @abstractmethod
@@ -612,11 +613,34 @@ def _safe_input(u, m: int) -> np.ndarray | None:
     return uu if uu.size == m and np.all(np.isfinite(uu)) else None
 
 
+#: The keywords of :meth:`Observer.reset` across the observers: one call resets any observer, so an
+#: observer ignores those it has no use for and refuses every other (a misspelt ``qo=`` is an error,
+#: not a silent default).
+RESET_KEYWORDS = ("q0", "t0", "y0", "P0", "k0")
+
+
+def check_reset_keywords(kwargs: dict, observer: str) -> None:
+    """Refuse ``reset()`` keywords outside :data:`RESET_KEYWORDS` (the ones left in ``**kwargs``).
+
+    Raises
+    ------
+    ModelError
+        A keyword no observer's ``reset`` takes; the message names it and the observer.
+    """
+    unknown = sorted(k for k in kwargs if k not in RESET_KEYWORDS)
+    if unknown:
+        from .errors import ModelError
+
+        raise ModelError(f"reset({unknown[0]}=...)", f"x0 and the keywords {', '.join(RESET_KEYWORDS)} of the observers' "
+                         f"reset ({observer} uses those it needs)", f"the keyword {unknown[0]!r}")
+
+
 def initial_mode(q0, old_value, old_name: str):
-    """The initial mode of a ``reset()``: ``q0``, or the value of its older keyword ``old_name``.
+    """The initial mode of a ``reset()``: ``q0``, or the value of its deprecated keyword ``old_name``.
 
     Every observer takes the initial mode or location as ``q0``; the keywords some observers used
-    before (``mode``, ``location``, ``region``) keep working.  Both given and different is an error.
+    before (``mode``, ``location``, ``region``) still work for one release, with a ``FutureWarning``
+    (:func:`hybobs_opt._deprecation.warn_renamed`).  Both given and different is an error.
 
     Raises
     ------
@@ -625,6 +649,9 @@ def initial_mode(q0, old_value, old_name: str):
     """
     if old_value is None:
         return q0
+    from ._deprecation import warn_renamed
+
+    warn_renamed(f"reset({old_name}=...)", "reset(q0=...)", stacklevel=4)
     if q0 is not None and q0 != old_value:
         from .errors import ModelError
 

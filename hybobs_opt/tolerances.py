@@ -510,7 +510,7 @@ PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
 # ---------------------------------------------------------------------- MHE uniqueness (paper 002, eq. 10)
 # The MHE flags a window "observable" only when no admissible window-start state at least
 # MHE_UNIQUENESS_DELTA away (inf-norm, coordinates scaled by the half-widths of X) reaches a cost
-# within epsilon of the optimum; see hybobs_opt.mhe.miqp.
+# within epsilon of the optimum; see hybobs_opt.mhe.observer.
 
 #: Separation of an alternative window-start state, inf-norm in units of the half-widths of X.
 #: Model (16) at T = 3: the weakest observable direction moves the engine speed by 1.9e-4 of its
@@ -628,7 +628,7 @@ MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
 #: 4-mode PWA systems at T = 4-5 in the MIQP of eq. (10) (degenerate big-M vertices take longer
 #: non-progress streaks; 20 already cures them) and 13-36 of 36 once the uniqueness MIQP runs
 #: too.  With 1000: none on 5 such systems at T = 4 and 5 (a rare true cycle of a warm-started
-#: solve is retried on a fresh workspace, see hybobs_opt.mhe.miqp); a node that truly cycles
+#: solve is retried on a fresh workspace, see hybobs_opt.mhe.observer); a node that truly cycles
 #: still ends after ~1000 iterations as "not certified" (a fallback), never as a wrong answer.
 MHE_DAQP_CYCLE_TOL: int = 1000
 

@@ -23,10 +23,6 @@ import re
 import sys
 
 from ..errors import HybobsError, ModelError
-from ._common import json_default as _json_default  # noqa: F401  (old private names)
-from ._common import number as _number  # noqa: F401
-from ._common import parse_params as _parse_params  # noqa: F401
-from ._common import print_json as _print_json  # noqa: F401
 
 #: The commands, in the order ``hybobs --help`` lists them: name -> module of this package.
 COMMANDS: dict[str, str] = {

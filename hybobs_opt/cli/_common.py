@@ -249,6 +249,22 @@ def check_figure_path(option: str, path: Any, force: bool = False) -> None:
     check_output_path(option, path, force)
 
 
+class StoreWithRenamedAlias(argparse.Action):
+    """``store`` for an option that also answers to a deprecated spelling (``renamed``: old -> new):
+    the old one works for one release and warns (:func:`hybobs_opt._deprecation.warn_renamed`)."""
+
+    def __init__(self, option_strings, dest, renamed: Mapping[str, str], **kwargs):
+        self.renamed = dict(renamed)
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if option_string in self.renamed:
+            from .._deprecation import warn_renamed
+
+            warn_renamed(option_string, self.renamed[option_string], stacklevel=2)
+        setattr(namespace, self.dest, values)
+
+
 def add_force_argument(p: argparse.ArgumentParser) -> None:
     """``--force``: replace output files that exist (a symbolic link is refused even then)."""
     p.add_argument("--force", action="store_true",

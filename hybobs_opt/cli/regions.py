@@ -11,7 +11,7 @@ import math
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
-from ._common import (add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
+from ._common import (StoreWithRenamedAlias, add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
                       as_options, check_figure_path, check_output_path, command_cache, executor_from_args, load_system,
                       print_json)
 
@@ -32,8 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
     add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
-    p.add_argument("--out", "--save", dest="save", metavar="FILE",
-                   help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its old name")
+    p.add_argument("--out", "--save", dest="save", metavar="FILE", action=StoreWithRenamedAlias,
+                   renamed={"--save": "--out"},
+                   help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its deprecated name")
     p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
     p.add_argument("--pair-by-pair", action="store_true",
                    help="classify every pair set on its own (no grouped pair tests: the full counts of thin and "

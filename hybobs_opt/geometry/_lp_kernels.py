@@ -1,4 +1,4 @@
-"""Compiled helpers of the certified max-slack LPs (:func:`hybobs_opt.lp.max_slack`).
+"""Compiled helpers of the certified max-slack LPs (:func:`hybobs_opt.geometry.lp.max_slack`).
 
 Algorithm 3.1 of paper 002 solves tens of thousands of LPs with about ten variables each; a
 DAQP solve takes some 40 microseconds, and a dozen small numpy calls around it (row

@@ -19,7 +19,7 @@ Automatica 35(3):407-427:
   (when every mode shares ``(C, D, c)`` the output is affine in ``x(k)`` and needs no copies).
 
 Every big-M constant is the value of a linear program over the state and input bounds (via
-:func:`hybobs_opt.lp.solve_lp`), never a guessed number: ``M^Q_i`` is the largest value of each
+:func:`hybobs_opt.geometry.lp.solve_lp`), never a guessed number: ``M^Q_i`` is the largest value of each
 guard row minus its right-hand side over ``X x U``; ``m_i, M_i`` are the extremes of each row of
 the affine map over ``Q_i ∩ (X x U)`` (the only points where ``delta = 1`` places it) and
 ``m'_i, M'_i`` its extremes over ``X x U``.  These are the tightest constants for which the

@@ -97,8 +97,9 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_positive, as_vector
-from ..contract import (FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate,
-                        Observer, checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
+from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, Observer, UNOBSERVABLE,
+                        WARMING_UP, check_reset_keywords, checked_state, false_alarm_probability,
+                        judge_samples_against, noise_std_vector)
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -769,8 +770,10 @@ class MHEObserver(Observer):
             decides it (default ``-1``, unknown).  The warm start's modes always come from the
             guards at ``x0``.
         **kwargs
-            Ignored: the keywords of other observers' ``reset`` (one call resets any observer).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         x0 = checked_state(self._x_default if x0 is None else x0, self.n)
         if q0 is not None and (isinstance(q0, bool) or not isinstance(q0, (int, np.integer))
                                or not 0 <= q0 < self.system.n_modes):

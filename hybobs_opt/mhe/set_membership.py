@@ -41,8 +41,8 @@ from ..tolerances import (
 )
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
-from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, judge_samples_against,
-                        noise_bound_vector, radius_tolerance_vector)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
+                        judge_samples_against, noise_bound_vector, radius_tolerance_vector)
 
 __all__ = ["SetMembershipObserver", "noise_bound_vector"]
 
@@ -148,8 +148,7 @@ class SetMembershipObserver(Observer):
 
     def reset(self, x0=None, **kwargs) -> None:
         """Forget the window; ``x0`` is the guess of the first ``T - 1`` samples."""
-        if kwargs:
-            raise ModelError(", ".join(kwargs), "no options besides x0 for the set-membership observer", repr(kwargs))
+        check_reset_keywords(kwargs, type(self).__name__)
         from ..contract import checked_state
 
         if x0 is not None:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import OBSERVABLE, Observer, ObserverTrace
+from ..contract import OBSERVABLE, Observer, ObserverTrace
 
 
 def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:

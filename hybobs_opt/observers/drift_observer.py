@@ -27,7 +27,7 @@ Readings of garbled or implicit points of the extracted text:
   component is already ``<= 0`` is then left at once (its flow set is empty).  The visible-event
   updates stay exactly (16) because they use the formula (14), not the flow.
 
-Runtime contract.  :class:`DriftObserver` is an :class:`~hybobs_opt.observers.base.Observer`
+Runtime contract.  :class:`DriftObserver` is an :class:`~hybobs_opt.contract.Observer`
 driven by the output signal: ``step(u, y)`` with ``u = [t]``, the **time stamp** of the sample
 (not a time step), and ``y = [h_q]``, the measured output.  Time stamps make the exact event rows
 of :func:`~hybobs_opt.sim.constant_drift.simulate_constant_drift` (two rows at the same ``t``,
@@ -47,12 +47,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import _compat
 from .._validate import as_flag, as_positive
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
-from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, checked_time, initial_mode
+from ..contract import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, checked_time, initial_mode, check_reset_keywords
 from .periodic import PeriodicGains, analyse_gains, deadbeat_gains
 
 
@@ -209,9 +208,10 @@ class DriftObserver(Observer):
             Output just before ``t0``; by default the first sample's output is taken as the
             reference (no visible event at the first sample).
         mode : int, optional
-            Old name of ``q0``.
+            Deprecated name of ``q0`` (a ``FutureWarning``; removed in 0.2.0).
         **kwargs
-            Ignored: the keywords of other observers' ``reset`` (one call resets any observer).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
 
         Raises
         ------
@@ -219,6 +219,7 @@ class DriftObserver(Observer):
             If ``(x0, mode)`` is not a state of the system (negative entry, ``x0 != 0`` outside a
             timer mode, wrong length), ``t0`` is not finite or ``y0`` is not an output.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         sysm = self.system
         field = "mode" if mode is not None else "q0"  # errors name the keyword the caller used
         mode = initial_mode(q0, mode, "mode")
@@ -488,8 +489,3 @@ __all__ = [
     "DriftRun",
     "VisibleEventRecord",
 ]
-
-
-def __getattr__(name: str):
-    # Paper 003's gains and scenarios moved to hybobs_opt.studies.paper003_switching.scenarios (issue 13).
-    return _compat.moved_attribute(__name__, name)

@@ -37,16 +37,15 @@ from typing import Any
 
 import numpy as np
 
-from .. import _compat
 from .._validate import as_instance, as_int, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from .base import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, WARMING_UP, Estimate, Observer,
-                   ObserverTrace, checked_index, initial_mode, initial_state, innovation_excess, judge_samples_against,
-                   sample_rows)
+from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
+                        ObserverTrace, WARMING_UP, check_reset_keywords, checked_index, initial_mode, initial_state,
+                        innovation_excess, judge_samples_against, sample_rows)
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_logic import IDENTIFIED
@@ -537,7 +536,7 @@ class ContinuousObserver(Observer):
 
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, location: int | None = None,
               **kwargs: Any) -> None:
-        """Restart at ``x0`` in location ``q0`` (``location`` is its old name; default: the constructor's).
+        """Restart at ``x0`` in location ``q0`` (``location``: its deprecated name; default: the constructor's).
 
         Parameters
         ----------
@@ -546,10 +545,12 @@ class ContinuousObserver(Observer):
         q0 : int, optional
             Initial location (default: the constructor's ``location``).
         location : int, optional
-            Older name of ``q0``.
+            Deprecated name of ``q0`` (a ``FutureWarning``; removed in 0.2.0).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         field = "location" if location is not None else "q0"  # errors name the keyword the caller used
         q0 = initial_mode(q0, location, "location")
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
@@ -762,8 +763,10 @@ class HybridObserver(Observer):
             Known initial location (default: the constructor's ``q0``; ``None`` lets the location
             observer identify it).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         self.locobs.reset(x0, q0)
         q = self._q0 if q0 is None else q0
         self.contobs.reset(self.locobs._x0, q0=self._start_location(self.locobs._x0, q))
@@ -928,8 +931,3 @@ __all__ = [
     "design_continuous_observer",
     "summarise_run",
 ]
-
-
-def __getattr__(name: str):
-    # Paper 000's Fig. 6 scenario moved to hybobs_opt.studies.paper000_driveline.scenario (issue 13).
-    return _compat.moved_attribute(__name__, name)

@@ -35,18 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..contract import (
-    FALLBACK,
-    OBSERVABLE,
-    UNOBSERVABLE,
-    Estimate,
-    Observer,
-    ObserverTrace,
-    checked_state,
-    judge_samples_against,
-    noise_std_vector,
-    trace_length,
-)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, check_reset_keywords,
+                        checked_state, judge_samples_against, noise_std_vector, trace_length)
 from ..errors import ModelError
 from ..systems.pwa import PWASystem
 
@@ -236,8 +226,10 @@ class ModeSequenceKalmanFilter(Observer):
         k0 : int, optional
             Index into the constructor's ``modes`` of the next sample (default 0).
         **kwargs
-            Ignored (other observers' options).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         self._x = self.x0.copy() if x0 is None else checked_state(x0, self.n, "x0")
         self._P = self.P0.copy() if P0 is None else _prior_covariance(P0, self.n)
         self._k = int(k0)

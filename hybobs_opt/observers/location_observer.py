@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from ..contract import (FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate,
-                        Observer, ObserverTrace, initial_state, innovation_excess, judge_samples_against, sample_rows)
+from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
+                        ObserverTrace, UNOBSERVABLE, WARMING_UP, check_reset_keywords, initial_state,
+                        innovation_excess, judge_samples_against, sample_rows)
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
@@ -183,8 +184,10 @@ class LocationObserver(Observer):
         q0 : int, optional
             Known initial location (default: the constructor's ``q0``).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         x0 = initial_state(x0, self._x0, self.automaton.state_bounds, self.n)
         self._x0 = x0
         self._z = np.tile(x0, self._G)

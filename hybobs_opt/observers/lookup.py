@@ -84,8 +84,8 @@ from ..tolerances import (
     ZERO_ROW_TOL,
 )
 from . import _lookup_kernels as K
-from .base import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state,
-                   real_sample, sample_rows)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, WARMING_UP,
+                        check_reset_keywords, checked_state, real_sample, sample_rows)
 from ..contract import timed_estimate
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
@@ -391,8 +391,10 @@ class LookupObserver(Observer):
         x0 : (n,) array, optional
             Seed of open-loop prediction (default: the centre of the state box).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         if not hasattr(self, "_tables"):
             self._build_kernel_args()
         if x0 is None:
@@ -569,7 +571,7 @@ def _max_margin(G: np.ndarray, g: np.ndarray, radius_bound: float, threshold: fl
     state was fixed and the set restricted to its output equalities, so ``t`` is the margin by
     which a point lies inside every original constraint (no renormalisation of the restricted
     rows, which would amplify a row that is nearly constant on the subspace).  Solved by
-    :func:`hybobs_opt.lp.solve_slack_lp` (DAQP, both bounds certified, HiGHS when undecided).
+    :func:`hybobs_opt.geometry.lp.solve_slack_lp` (DAQP, both bounds certified, HiGHS when undecided).
     Returns ``(value, w)``: ``value`` decides ``t > threshold`` correctly.
     """
     k, d = G.shape

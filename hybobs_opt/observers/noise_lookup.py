@@ -28,7 +28,7 @@ whitened output map ``C~_i = W C_i`` (``W = diag(1/sigma)`` per sample) of rank 
    Rows that only bound the inputs are noise-free and tested closed.  For a rank-deficient
    sequence the least-squares solutions form an affine set ``x_i + N_i w``; it passes when some
    ``w`` satisfies every row with its margin, decided by one certified LP
-   (:func:`hybobs_opt.lp.max_slack`), after the residual test.
+   (:func:`hybobs_opt.geometry.lp.max_slack`), after the residual test.
 
 By construction the true mode sequence fails steps 2-3 with probability at most ``alpha``
 (Bonferroni).  The flag is ``observable`` only when **exactly one** sequence passes and it has
@@ -76,9 +76,9 @@ import numpy as np
 from scipy.stats import chi2, norm
 
 from .._validate import as_instance
-from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP, Estimate, Observer, checked_state,
-                        false_alarm_probability, judge_samples_against, noise_bound_vector, noise_std_vector,
-                        radius_tolerance_vector)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
+                        checked_state, false_alarm_probability, judge_samples_against, noise_bound_vector,
+                        noise_std_vector, radius_tolerance_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import max_slack
 from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, MHE_UNIQUENESS_DELTA,
@@ -303,8 +303,10 @@ class NoiseAwareLookupObserver(Observer):
         x0 : (n,) array, optional
             Seed of open-loop prediction.
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         if x0 is None:
             x0 = self.analysis.enumeration.centre[: self.n]
         self._x = checked_state(x0, self.n).copy()
@@ -334,7 +336,7 @@ class NoiseAwareLookupObserver(Observer):
     def _consistent_family(self, seq: _Sequence, v: np.ndarray, viol: np.ndarray) -> bool:
         """Does some point ``x_i + N_i w`` of a rank-deficient sequence meet every row with its margin?
 
-        One certified LP (:func:`hybobs_opt.lp.max_slack`: DAQP with both bounds checked, HiGHS
+        One certified LP (:func:`hybobs_opt.geometry.lp.max_slack`: DAQP with both bounds checked, HiGHS
         when they do not decide) over ``w`` in scaled coordinates.  Besides the rows of ``P_i`` it
         bounds ``x_i + N_i w`` by the state box widened by the largest margin of the rows, so the
         LP's radius bound holds whatever rows the region kept.

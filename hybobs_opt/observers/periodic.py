@@ -63,7 +63,8 @@ from ..tolerances import (
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,
 )
-from .base import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, checked_time, initial_mode
+from ..contract import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, checked_time, initial_mode, check_reset_keywords
+from ..results import Certificate
 
 
 # ---------------------------------------------------------------------------- properties of gains
@@ -252,7 +253,7 @@ def _propagate_minimal(A: np.ndarray, C: np.ndarray, B: np.ndarray, start: int, 
 
 
 @dataclass(frozen=True, eq=False)
-class NoDeadbeatCertificate:
+class NoDeadbeatCertificate(Certificate):
     """Proof that no gains (even time-varying ones) make observer (16) deadbeat.
 
     ``S`` (orthonormal basis ``basis``) at phase ``start`` satisfies ``S subset G(S)``, where ``G`` is
@@ -286,7 +287,7 @@ class NoDeadbeatCertificate:
 
 
 @dataclass(frozen=True, eq=False)
-class DeadbeatConflictCertificate:
+class DeadbeatConflictCertificate(Certificate):
     """Proof that no *periodic* gain reaches deadbeat in the minimal number of visible events.
 
     Reaching the fastest error subspaces forces, at every step, linear conditions ``E L_j = f`` on
@@ -443,7 +444,7 @@ def positive_gain_bounds(ps: PeriodicSystem) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class PerronCertificate:
+class PerronCertificate(Certificate):
     """Proof that no positive gain makes the monodromy's spectral radius smaller than ``threshold``.
 
     With ``U`` the largest admissible positive gains (:func:`positive_gain_bounds`), every
@@ -542,7 +543,7 @@ def positive_deadbeat_gains(ps: PeriodicSystem) -> PeriodicGains:
 
 
 @dataclass(frozen=True, eq=False)
-class CopositiveCertificate:
+class CopositiveCertificate(Certificate):
     """Convergence certificate of a positive observer: a periodic linear copositive Lyapunov function.
 
     ``V_j(e) = p_j^T |e|`` with ``p_j > 0`` and ``p_{j+1}^T M_j <= rate p_j^T`` for
@@ -754,7 +755,7 @@ class PeriodicObserver(Observer):
     def reset(self, x0: ArrayLike | None = None, *, t0: float = 0.0, q0: int | None = None, mode: int | None = None,
               **kwargs: Any) -> None:
         """Start at a visible event: estimate ``x0`` of ``x-bar`` there, its time ``t0``, and ``q0`` = the mode it left
-        (``mode`` is its old name).
+        (``mode``: its deprecated name).
 
         Parameters
         ----------
@@ -765,15 +766,17 @@ class PeriodicObserver(Observer):
         q0 : int, optional
             The mode left at that event, one of ``V`` (default ``v_1``).
         mode : int, optional
-            Older name of ``q0``.
+            Deprecated name of ``q0`` (a ``FutureWarning``; removed in 0.2.0).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
 
         Raises
         ------
         ModelError
             For a wrong length / non-finite ``x0`` or ``t0``, or a ``q0`` not in ``V``.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         mode = initial_mode(q0, mode, "mode")
         x = np.zeros(self.n) if x0 is None else checked_state(x0, self.n, what="estimate of the queues")
         t0 = checked_time(t0, "t0")

@@ -41,8 +41,8 @@ import time
 
 import numpy as np
 
-from ..contract import (FALLBACK, OBSERVABLE, UNOBSERVABLE, Estimate, Observer, judge_samples_against,
-                        noise_bound_vector, radius_tolerance_vector)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, check_reset_keywords,
+                        judge_samples_against, noise_bound_vector, radius_tolerance_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import solve_lp
 from ..geometry.polytope import Polytope
@@ -243,8 +243,7 @@ class SetMembershipFilter(Observer):
 
     def reset(self, x0=None, **kwargs) -> None:
         """Start from ``X`` (every state the model allows); ``x0`` is the estimate reported until the first sample."""
-        if kwargs:
-            raise ModelError(", ".join(kwargs), "no options besides x0 for the set-membership filter", repr(kwargs))
+        check_reset_keywords(kwargs, type(self).__name__)
         from ..contract import checked_state
 
         self._set_pieces([self._X])

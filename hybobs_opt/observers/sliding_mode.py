@@ -56,12 +56,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import _compat
 from .._validate import as_int, as_positive, as_vector
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
 from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
-from .base import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows
+from ..contract import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows, check_reset_keywords
 
 __all__ = [
     "GainRule",
@@ -280,8 +279,10 @@ class SlidingModeObserver(Observer):
         x0 : (n,) array, optional
             Initial estimate in the original coordinates (default: the centre of the operating box).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         if x0 is None:
             z0 = 0.5 * (self.form.z_lower + self.form.z_upper)
         else:
@@ -545,9 +546,3 @@ def _json_float(v):
     if isinstance(v, (float, np.floating)):
         return None if not math.isfinite(float(v)) else float(v)
     return v
-
-
-def __getattr__(name: str):
-    # The paper's scenarios (and the relay oscillator) moved to
-    # hybobs_opt.studies.paper001_sliding_mode.scenarios (issue 13).
-    return _compat.moved_attribute(__name__, name)

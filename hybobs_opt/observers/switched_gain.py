@@ -31,14 +31,13 @@ import casadi as ca
 import numpy as np
 from scipy.linalg import eigh
 
-from .. import _compat
 from .._validate import _short, as_flag, as_int, as_matrix, as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
 from .error_bound import ErrorBound
-from .base import (FALLBACK, OBSERVABLE, STATE_SET_MARGIN, WARMING_UP, Estimate, Observer, checked_index, checked_state,
-                   initial_mode, outside_range)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, STATE_SET_MARGIN, WARMING_UP, check_reset_keywords,
+                        checked_index, checked_state, initial_mode, outside_range)
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -256,7 +255,7 @@ class SwitchedGainObserver(Observer):
     def reset(self, x0: np.ndarray | None = None, q0: int | None = None, region: int | None = None,
               **kwargs: Any) -> None:
         """Restart from ``x0`` (default: the centre of the box); a region index ``q0`` skips the
-        selection (``region`` is its old name).
+        selection (``region``: its deprecated name).
 
         Parameters
         ----------
@@ -266,10 +265,12 @@ class SwitchedGainObserver(Observer):
             Index of the initial region; ``None`` selects it from the first samples (or from ``x0``
             with a single region or ``init_samples <= 1``).
         region : int, optional
-            Older name of ``q0``.
+            Deprecated name of ``q0`` (a ``FutureWarning``; removed in 0.2.0).
         **kwargs
-            Ignored (the common signature of :meth:`Observer.reset`).
+            The other keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call resets any
+            observer): those this observer has no use for are ignored; any other is refused.
         """
+        check_reset_keywords(kwargs, type(self).__name__)
         field = "region" if region is not None else "q0"  # errors name the keyword the caller used
         region = initial_mode(q0, region, "region")
         sysm = self.system
@@ -624,8 +625,3 @@ def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float |
         return float(t[0])
     last = int(np.nonzero(bad)[0][-1])
     return None if last == t.size - 1 else float(t[last + 1])
-
-
-def __getattr__(name: str):
-    # Paper 004's scenarios moved to hybobs_opt.studies.paper004_nonmonotonic.scenarios (issue 13).
-    return _compat.moved_attribute(__name__, name)

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ..limits import MAX_SAMPLES, check_samples, sample_count
-from ..systems._validate import as_vector
+from .._validate import as_vector
 from ..systems.constant_drift import ConstantDriftSystem
 from .trace import Trace
 

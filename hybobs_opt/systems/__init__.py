@@ -15,7 +15,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("EventMaps", "PeriodicSystem", "event_maps", "periodic_system", "phase_augmented_pwa",
                      "visible_event_set"), "hybobs_opt.systems.event_sampled"),
     **dict.fromkeys(("Edge", "HybridAutomaton", "Location"), "hybobs_opt.systems.hybrid"),
-    "Polytope": "hybobs_opt.systems.polytope",
+    "Polytope": "hybobs_opt.geometry.polytope",
     **dict.fromkeys(("PWAMode", "PWASystem", "check_partition"), "hybobs_opt.systems.pwa"),
     **dict.fromkeys(("load_model", "model_schema", "read_model_dict", "save_model"), "hybobs_opt.systems.model_file"),
     **dict.fromkeys(("parse_expression", "expression_text"), "hybobs_opt.systems.expressions"),

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_vector, names_or_default
+from .._validate import as_matrix, as_vector, names_or_default
 
 
 class NextEvent(NamedTuple):

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
-from ._validate import as_int, as_items, as_vector, names_or_default, real_array
+from .._validate import as_int, as_items, as_vector, names_or_default, real_array
 from .constant_drift import ConstantDriftSystem
 
 
@@ -541,7 +541,7 @@ def phase_augmented_pwa(ps: PeriodicSystem, upper: ArrayLike, lower: ArrayLike |
     -------
     PWASystem
     """
-    from .polytope import Polytope
+    from ..geometry.polytope import Polytope
     from .pwa import PWAMode, PWASystem
 
     if not isinstance(ps, PeriodicSystem):

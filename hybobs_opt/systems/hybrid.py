@@ -18,8 +18,8 @@ from scipy.linalg import expm
 from ..errors import ModelError
 from ..tolerances import FULL_DIMENSION_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_int, as_items, as_matrix, as_names, as_text, as_vector, check_finite, probe_callable, real_array
-from .polytope import Polytope
+from .._validate import as_int, as_items, as_matrix, as_names, as_text, as_vector, check_finite, probe_callable, real_array
+from ..geometry.polytope import Polytope
 from .pwa import PWAMode, PWASystem, _or_given, check_coordinate_names
 
 FlowFn = Callable[[np.ndarray, np.ndarray], np.ndarray]

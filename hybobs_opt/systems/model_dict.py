@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .expressions import affine_coefficients, parse_expression, parse_vector, trace_callable, vector_texts
-from .polytope import Polytope
+from ..geometry.polytope import Polytope
 
 FORMAT = "hybobs-model"
 VERSION = 1

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..tolerances import AFFINE_PARAMETER_RTOL
-from .polytope import Polytope
+from ..geometry.polytope import Polytope
 from .pwa import PWAMode, PWASystem
 
 

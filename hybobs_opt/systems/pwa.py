@@ -18,8 +18,8 @@ from ..errors import ModelError
 from ..geometry._reproducible import matmul as mm
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, name_key, real_array
-from .polytope import Polytope
+from .._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, name_key, real_array
+from ..geometry.polytope import Polytope
 
 
 @dataclass(frozen=True, eq=False)

@@ -34,8 +34,8 @@ from ..errors import ModelError
 from ..geometry.lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
 from ._model_io import ModelDictMixin
-from ._validate import as_matrix, as_names, as_text, names_or_default, probe_callable
-from .polytope import Polytope
+from .._validate import as_matrix, as_names, as_text, names_or_default, probe_callable
+from ..geometry.polytope import Polytope
 
 #: Number of points of each function's argument interval at which values and derivatives are
 #: checked for NaN/Inf (and user derivatives against automatic differentiation) at construction.

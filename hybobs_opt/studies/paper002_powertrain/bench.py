@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.observers.base import NOISE_FIT_SIGMAS, ObserverTrace
+from hybobs_opt.contract import NOISE_FIT_SIGMAS, ObserverTrace
 from hybobs_opt.progress import phase_bars
 from hybobs_opt.observers.comparison import (  # noqa: F401  (re-exported: hybobs_opt.observers.bench)
     EXACT_LABEL_SAMPLES,

@@ -27,7 +27,7 @@ FIG6_PLANE = {"theta_mc": 0.0, "omega_m": 90.0, "omega_l": 30.0}
 def feasible_interval(analysis, state: str, fixed: dict[str, float]) -> tuple[float, float] | None:
     """Range of ``state`` over ``X*_T`` (eq. 5) intersected with ``fixed``; ``None`` if empty.
 
-    Two LPs (:func:`hybobs_opt.lp.row_range`, coordinates scaled by the bounds) per region ``P_k`` of eq. (4).
+    Two LPs (:func:`hybobs_opt.geometry.lp.row_range`, coordinates scaled by the bounds) per region ``P_k`` of eq. (4).
     """
     enum = analysis.enumeration
     names = analysis.system.state_names

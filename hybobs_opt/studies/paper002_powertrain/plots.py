@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybobs_opt.observers.base import OBSERVABLE
+from hybobs_opt.contract import OBSERVABLE
 
 #: Smallest error drawn on the log axes (an exact estimate would have no point on them).
 ERROR_FLOOR = 1e-16

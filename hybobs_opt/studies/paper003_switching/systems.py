@@ -16,7 +16,7 @@ import numpy as np
 from hybobs_opt.errors import ModelError
 from hybobs_opt.sim.constant_drift import simulate_constant_drift
 from hybobs_opt.sim.trace import Trace
-from hybobs_opt.systems._validate import as_vector
+from hybobs_opt._validate import as_vector
 from hybobs_opt.systems.constant_drift import ConstantDriftSystem
 
 # ---------------------------------------------------------------------------- switching server

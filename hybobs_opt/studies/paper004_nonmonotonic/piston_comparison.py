@@ -36,7 +36,7 @@ from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import magnetic_piston_
 from hybobs_opt.sim.pwa import simulate_pwa
 from hybobs_opt.sim.trace import Trace
 from hybobs_opt.systems.pwa import PWASystem
-from hybobs_opt.observers.base import OBSERVABLE, ObserverTrace
+from hybobs_opt.contract import OBSERVABLE, ObserverTrace
 from hybobs_opt.observers.comparison import timed_steps
 from hybobs_opt.observers.switched_gain import SwitchedGainObserver, convergence_time
 

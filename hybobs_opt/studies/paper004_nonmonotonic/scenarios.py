@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.observers.base import ObserverTrace
+from hybobs_opt.contract import ObserverTrace
 from hybobs_opt.observers.switched_gain import SwitchedGainObserver, convergence_time
 from hybobs_opt.studies.registry import get_example
 
