@@ -5,7 +5,7 @@ Writes ``benchmarks/results/lmi.json`` (quick runs go to ``benchmarks/results/qu
 
 Measured (medians over the stated repeats; targets are recorded, never asserted):
 
-(a) ``vehicle_synthesis``: :func:`hybobs_opt.lmi.presets.preset_design` on the vehicle, the paper's
+(a) ``vehicle_synthesis``: :func:`hybobs_opt.studies.paper004_nonmonotonic.presets.preset_design` on the vehicle, the paper's
     two regions (0-80 and 60-140 deg): per region the decay-rate bisection under the gain bound,
     then the joint dwell-time bisection on tau (eqs. 47-48).  Everything is built inside the
     call on first use; the compiled problems are cached per system, so the median over the repeats
@@ -64,9 +64,9 @@ def _load() -> list[float]:
 
 
 def bench_vehicle_synthesis(repeats: int) -> dict:
-    from hybobs_opt.examples.nonmonotonic import vehicle_tracking
-    from hybobs_opt.lmi.presets import preset_design
     from hybobs_opt.lmi.solve import COUNTERS
+    from hybobs_opt.studies.paper004_nonmonotonic.presets import preset_design
+    from hybobs_opt.studies.paper004_nonmonotonic.systems import vehicle_tracking
 
     system = vehicle_tracking()
     runs = []
@@ -107,9 +107,9 @@ def bench_vehicle_synthesis(repeats: int) -> dict:
 
 
 def bench_resolve(repeats: int) -> dict:
-    from hybobs_opt.examples.nonmonotonic import vehicle_tracking
     from hybobs_opt.lmi import ObserverLMI, jacobian_bounds, make_region
-    from hybobs_opt.lmi.presets import get_preset, scaling_for
+    from hybobs_opt.studies.paper004_nonmonotonic.presets import get_preset, scaling_for
+    from hybobs_opt.studies.paper004_nonmonotonic.systems import vehicle_tracking
 
     system = vehicle_tracking()
     lmi = ObserverLMI(system, scaling=scaling_for(get_preset("vehicle_tracking"), system))
@@ -128,9 +128,9 @@ def bench_resolve(repeats: int) -> dict:
 
 
 def bench_piston() -> dict:
-    from hybobs_opt.examples.nonmonotonic import magnetic_piston
-    from hybobs_opt.lmi.presets import preset_design
     from hybobs_opt.lmi.solve import COUNTERS
+    from hybobs_opt.studies.paper004_nonmonotonic.presets import preset_design
+    from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston
 
     COUNTERS.reset()
     t0 = time.perf_counter()

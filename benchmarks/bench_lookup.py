@@ -226,8 +226,8 @@ def _per_call(fn, U, Y) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from hybobs_opt.observers.bench import bench_trace
     from hybobs_opt.observers.lookup import LookupObserver
+    from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_lookup")
     parser.add_argument("--quick", action="store_true", help="small smoke run")

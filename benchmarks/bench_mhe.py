@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hybobs_opt.examples.registry import get_example
 from hybobs_opt.contract import NOISE_FIT_SIGMAS
 from hybobs_opt.mhe.mld import big_m_constants
-from hybobs_opt.mhe.miqp import MHEObserver
+from hybobs_opt.mhe.observer import MHEObserver
+from hybobs_opt.studies.registry import get_example
 
 from ._machine import machine, versions, json_default
 

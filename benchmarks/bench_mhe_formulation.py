@@ -47,8 +47,8 @@ def worker(src: str, T: int, norm: str, steps: int) -> dict:
     sys.path.insert(0, src)
     import hybobs_opt
     from hybobs_opt.contract import NOISE_FIT_SIGMAS
-    from hybobs_opt.examples.registry import get_example
     from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.studies.registry import get_example
 
     if not str(Path(hybobs_opt.__file__).resolve()).startswith(str(Path(src).resolve())):
         raise RuntimeError(f"hybobs_opt imported from {hybobs_opt.__file__}, not {src}")

@@ -32,12 +32,13 @@ from pathlib import Path
 import numpy as np
 
 from hybobs_opt.errors import SolverError
-from hybobs_opt.examples.powertrain import TABLE2, powertrain3, powertrain5
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
-from hybobs_opt.lp import COUNTERS, solve_lp
-from hybobs_opt.observers.bench import wilson_interval
+from hybobs_opt.geometry.lp import COUNTERS, solve_lp
+from hybobs_opt.observers.comparison import wilson_interval
 from hybobs_opt.regions import Cut, analyse_observability, compute_cut, plot_cut
-from hybobs_opt.report.regions_section import PAPER_002, fig6_planes
+from hybobs_opt.report.regions_section import PAPER_002
+from hybobs_opt.studies.paper002_powertrain.figures import fig6_planes
+from hybobs_opt.studies.paper002_powertrain.systems import TABLE2, powertrain3, powertrain5
 
 from ._machine import machine, versions
 

@@ -24,7 +24,7 @@ def test_observe_json_scenario(capsys):
     assert main(["observe", "switching_server", "--json", "--observer", "positive+projection"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["observer"] == "positive+projection" and out["nonnegative"]
-    from hybobs_opt.observers.scenarios import get_scenario
+    from hybobs_opt.studies.scenarios import get_scenario
 
     with pytest.raises(ModelError):
         get_scenario("switching_server")(argparse.Namespace(observer="paper", plot=None, json=True))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hybobs_opt import cli
-from hybobs_opt.cli.diagnose import parse_range
+from hybobs_opt.cli._schedule import parse_range
 from hybobs_opt.errors import ModelError
 from hybobs_opt.studies.paper004_nonmonotonic.presets import get_preset
 

@@ -9,9 +9,9 @@ inside functions included) that names ``hybobs_opt`` must be one of:
 
 Refused: the application tier (``hybobs_opt.report``, ``hybobs_opt.cli``), any name or module
 component starting with ``_``, deeper core module paths (``hybobs_opt.observers.lookup``,
-``from hybobs_opt.observers import hybrid_observer as ho``), the old alias paths of
-:mod:`hybobs_opt._compat` (``hybobs_opt.examples.*``, ``hybobs_opt.lmi.presets`` ...), star and
-relative imports.  Only the source is parsed; nothing of a notebook is run here.
+``from hybobs_opt.observers import hybrid_observer as ho``), the old paths of the modules that
+issue 13 moved (``hybobs_opt.examples.*``, ``hybobs_opt.lmi.presets`` ...: :data:`MOVED_PATHS`), star
+and relative imports.  Only the source is parsed; nothing of a notebook is run here.
 """
 
 from __future__ import annotations
@@ -24,8 +24,6 @@ from pathlib import Path
 
 import pytest
 
-from hybobs_opt import _compat
-
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[2] / "notebooks").glob("*.ipynb"))
 
 #: Core sub-packages whose ``__init__`` is a public face (names in ``__all__``).
@@ -33,7 +31,23 @@ CORE_PACKAGES = ("hybobs_opt.systems", "hybobs_opt.sim", "hybobs_opt.regions", "
                  "hybobs_opt.observers", "hybobs_opt.geometry")
 STUDIES = "hybobs_opt.studies"
 APPLICATION = ("hybobs_opt.report", "hybobs_opt.cli")
-OLD_PATHS = tuple(sorted({*_compat.MOVED_MODULES, *_compat.MOVED_PACKAGES}, key=len, reverse=True))  # longest first
+#: Old module / package path -> its new home (the modules and the package issue 13 moved).
+MOVED_PATHS = {
+    "hybobs_opt.examples": "hybobs_opt.studies",
+    "hybobs_opt.examples.registry": "hybobs_opt.studies.registry",
+    "hybobs_opt.examples.driveline": "hybobs_opt.studies.paper000_driveline.systems",
+    "hybobs_opt.examples.sliding_mode": "hybobs_opt.studies.paper001_sliding_mode.systems",
+    "hybobs_opt.examples.powertrain": "hybobs_opt.studies.paper002_powertrain.systems",
+    "hybobs_opt.examples.switching": "hybobs_opt.studies.paper003_switching.systems",
+    "hybobs_opt.examples.nonmonotonic": "hybobs_opt.studies.paper004_nonmonotonic.systems",
+    "hybobs_opt.examples.piston_pwa": "hybobs_opt.studies.paper004_nonmonotonic.piston_pwa",
+    "hybobs_opt.lmi.presets": "hybobs_opt.studies.paper004_nonmonotonic.presets",
+    "hybobs_opt.lmi.commands": "hybobs_opt.cli.diagnose",
+    "hybobs_opt.observers.bench": "hybobs_opt.studies.paper002_powertrain.bench",
+    "hybobs_opt.observers.piston_comparison": "hybobs_opt.studies.paper004_nonmonotonic.piston_comparison",
+    "hybobs_opt.observers.scenarios": "hybobs_opt.studies.scenarios",
+}
+OLD_PATHS = tuple(sorted(MOVED_PATHS, key=len, reverse=True))  # longest first
 
 
 def _under(mod: str, prefix: str) -> bool:
@@ -58,7 +72,7 @@ def module_problem(mod: str) -> str | None:
         return "private module"
     for old in OLD_PATHS:
         if _under(mod, old):
-            return f"old alias path {old} (use its new home {_compat.MOVED_MODULES.get(old) or _compat.MOVED_PACKAGES[old]})"
+            return f"old alias path {old} (use its new home {MOVED_PATHS[old]})"
     for app in APPLICATION:
         if _under(mod, app):
             return "application tier (report / CLI)"
@@ -132,8 +146,8 @@ def test_the_checker_flags_non_public_imports():
         "from hybobs_opt.examples import get_example": "old alias path",
         "from hybobs_opt.lmi.presets import get_preset": "old alias path",
         "from hybobs_opt.studies.registry import _resolve_example": "private name",
-        "from hybobs_opt._compat import MOVED_MODULES": "private module",
-        "from hybobs_opt import _compat": "private name",
+        "from hybobs_opt._lazy import lazy_exports": "private module",
+        "from hybobs_opt import _lazy": "private name",
         "from hybobs_opt.observers import *": "star import",
         "from hybobs_opt import NoSuchThing": "not in hybobs_opt.__all__",
     }

@@ -15,7 +15,7 @@ from hybobs_opt.errors import ModelError
 
 def test_main_objects_import_from_the_package():
     from hybobs_opt import LookupObserver, MHEObserver, PWASystem, analyse_observability
-    from hybobs_opt.mhe.miqp import MHEObserver as mhe_old
+    from hybobs_opt.mhe.observer import MHEObserver as mhe_old
     from hybobs_opt.observers.lookup import LookupObserver as lookup_old
     from hybobs_opt.regions.observability import analyse_observability as analyse_old
     from hybobs_opt.systems.pwa import PWASystem as pwa_old

@@ -15,7 +15,8 @@ def test_report_section_holds_the_four_observers(tmp_path):
 
 
 def test_section_is_registered_after_the_lmi_section():
-    from hybobs_opt.report.html import _SECTIONS, _load_builtin_sections
+    from hybobs_opt.report.html import _load_builtin_sections
+    from hybobs_opt.report.section import _SECTIONS
 
     _load_builtin_sections()
     keys = [k for k, _ in _SECTIONS]

@@ -68,7 +68,7 @@ def test_messages_name_the_line_blank_lines_counted(tmp_path, monkeypatch, block
 
 
 def test_a_repeated_column_and_a_mode_name_their_line(tmp_path):
-    from hybobs_opt.examples.powertrain import powertrain3
+    from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 
     system = powertrain3()
     head = "t,T_m,omega_m,theta,omega_l,q\n"

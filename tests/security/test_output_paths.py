@@ -135,9 +135,9 @@ def test_the_library_writers_never_write_through_a_link(tmp_path):
     """The writers behind the commands open their file with ``O_NOFOLLOW``: a link planted after
     the command's check (or handed to the library directly) is refused, its target untouched."""
     from hybobs_opt.errors import ModelError
-    from hybobs_opt.examples.powertrain import powertrain3
     from hybobs_opt.regions import analyse_observability, save_analysis
     from hybobs_opt.sim import simulate_pwa
+    from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
     from hybobs_opt.systems import save_model
 
     import numpy as np

@@ -12,15 +12,15 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from hybobs_opt.examples import get_example
-from hybobs_opt.examples.driveline import driveline
-from hybobs_opt.examples.sliding_mode import (
+from hybobs_opt.sim.hybrid import simulate_hybrid
+from hybobs_opt.studies import get_example
+from hybobs_opt.studies.paper000_driveline.systems import driveline
+from hybobs_opt.studies.paper001_sliding_mode.systems import (
     P_DERIVED,
     double_scroll,
     double_scroll_canonical_form,
     switched_unstable,
 )
-from hybobs_opt.sim.hybrid import simulate_hybrid
 
 # ------------------------------------------------------------------ paper 001, Example 1
 

@@ -168,7 +168,7 @@ def test_piston_sensor_pair_is_one_to_one(piston):
 # --------------------------------------------------------------------------- piston: region-wise gains
 @pytest.mark.slow
 def test_piston_regionwise_gains_tau_and_convergence(piston, piston_design):
-    from hybobs_opt.observers.switched_gain import run_example
+    from hybobs_opt.studies.paper004_nonmonotonic.scenarios import run_example
 
     d = piston_design
     assert len(d.regions) >= 5

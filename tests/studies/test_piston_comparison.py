@@ -7,17 +7,17 @@ import json
 import numpy as np
 import pytest
 
+from hybobs_opt.contract import OBSERVABLE
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.nonmonotonic import magnetic_piston
-from hybobs_opt.examples.piston_pwa import piston_sensor_fit
-from hybobs_opt.observers.base import OBSERVABLE
-from hybobs_opt.observers.piston_comparison import (
+from hybobs_opt.studies.paper004_nonmonotonic.piston_comparison import (
     PISTON_COMPARISON_BAND,
     PISTON_COMPARISON_PIECES,
     compare_piston,
     comparison_summary,
     plot_piston_comparison,
 )
+from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import piston_sensor_fit
+from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston
 from hybobs_opt.tolerances import PISTON_LOOKUP_EXACT_RTOL, PWL_CONTINUITY_RTOL, PWL_FIT_GRID_ATOL
 
 

@@ -120,7 +120,7 @@ def test_linprog_documented_statuses():
 
 
 def test_linprog_live_statuses_through_solve_lp():
-    from hybobs_opt.lp import LPResult, solve_lp
+    from hybobs_opt.geometry.lp import LPResult, solve_lp
 
     A = np.array([[1.0], [-1.0]])
     ok = solve_lp(np.array([1.0]), A, np.array([1.0, 1.0]))
@@ -298,9 +298,9 @@ def test_periodic_certificates_verify_on_small_exact_examples():
 
 
 def test_owned_results_implement_the_solve_result_protocol():
+    from hybobs_opt.geometry.lp import SlackResult, max_slack
     from hybobs_opt.lmi.observer_lmi import LMISolution
     from hybobs_opt.lmi.solve import SolveOutcome
-    from hybobs_opt.lp import SlackResult, max_slack
 
     out = SolveOutcome(Status.OPTIMAL, 0.1, 0.05, 0.02)
     assert isinstance(out, SolveResult) and out.to_dict()["residuals"] == {}
@@ -323,7 +323,7 @@ def test_recheck_failed_status_keeps_its_old_text():
 # ---------------------------------------------------------------------------- row_range
 def test_row_range_box_and_equalities():
     from hybobs_opt.errors import ModelError
-    from hybobs_opt.lp import row_range
+    from hybobs_opt.geometry.lp import row_range
 
     A = np.vstack([np.eye(2), -np.eye(2)])
     b = np.array([1.0, 2.0, 3.0, 4.0])  # -3 <= x <= 1, -4 <= y <= 2

@@ -21,9 +21,9 @@ from matplotlib.figure import Figure
 from scipy.optimize import linprog
 
 from hybobs_opt.errors import ModelError
+from hybobs_opt.geometry import projection as projection_mod
 from hybobs_opt.regions.union import PolytopeUnion
 from hybobs_opt.systems import Polytope
-from hybobs_opt.systems import polytope as poly_mod
 
 # Points closer than this (relative to the set's size) to a boundary are not compared: the
 # projection is exact to PROJECTION_HULL_RTOL = 1e-6 there, and membership ties are arbitrary.
@@ -181,17 +181,17 @@ def test_projection_with_equalities_9d_to_3d():
 
 def test_hull_dimension_threshold_switches_to_fourier_motzkin(monkeypatch):
     calls = []
-    real = poly_mod._fm_image
+    real = projection_mod._fm_image
 
     def spy(*args):
         calls.append(1)
         return real(*args)
 
-    monkeypatch.setattr(poly_mod, "_fm_image", spy)
+    monkeypatch.setattr(projection_mod, "_fm_image", spy)
     P = cross_polytope(3)
     P.project([0, 1])
     assert not calls
-    monkeypatch.setattr(poly_mod, "HULL_PROJECTION_MAX_DIM", 1)
+    monkeypatch.setattr(projection_mod, "HULL_PROJECTION_MAX_DIM", 1)
     Q = P.project([0, 1])
     assert calls
     assert_same_points(Q.vertices(), [[1, 0], [-1, 0], [0, 1], [0, -1]])

@@ -18,7 +18,6 @@ import pytest
 from observer_checks import frozen_jacobian_lyapunov
 
 from hybobs_opt.errors import ModelError, SolverError
-from hybobs_opt.examples.nonmonotonic import magnetic_piston, vehicle_tracking
 from hybobs_opt.lmi import (
     ObserverLMI,
     derivative_bound,
@@ -33,7 +32,8 @@ from hybobs_opt.lmi import (
 )
 from hybobs_opt.lmi import observer_lmi as olmi
 from hybobs_opt.lmi.certificates import certify_infeasible
-from hybobs_opt.lmi.presets import get_preset, preset_design, scaling_for
+from hybobs_opt.studies.paper004_nonmonotonic.presets import get_preset, preset_design, scaling_for
+from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston, vehicle_tracking
 from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
 V = 10.0  # paper 004 Sec. 6.1
@@ -359,9 +359,10 @@ def test_piston_initial_region_does_not_depend_on_input_timing(piston, piston_de
     sampled at the instants and half a sample later: both start in the region of the true
     position.  Before the fix the second picked the far end of the stroke, because the model's
     output slope at an estimate at rest varies by 1e-12 over the grid and was normalised by that."""
-    from hybobs_opt.examples import get_example
-    from hybobs_opt.examples.nonmonotonic import PISTON_PERIOD_S
-    from hybobs_opt.observers.switched_gain import PISTON_POSITION_ERROR_MM, SwitchedGainObserver
+    from hybobs_opt.observers.switched_gain import SwitchedGainObserver
+    from hybobs_opt.studies import get_example
+    from hybobs_opt.studies.paper004_nonmonotonic.scenarios import PISTON_POSITION_ERROR_MM
+    from hybobs_opt.studies.paper004_nonmonotonic.systems import PISTON_PERIOD_S
 
     trace = get_example("magnetic_piston").scenario(piston, 0.5)
     dt = float(trace.t[1] - trace.t[0])

@@ -2,7 +2,7 @@
 
 import pytest
 
-from hybobs_opt.examples.registry import get_example
+from hybobs_opt.studies.registry import get_example
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.registry import get_example
 from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.studies.registry import get_example
 
 
 @pytest.fixture(scope="module")

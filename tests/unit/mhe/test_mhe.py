@@ -9,12 +9,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
+from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import TABLE1
 from hybobs_opt.mhe.mld import big_m_constants, encode_mld
-from hybobs_opt.mhe.miqp import MHEObserver
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
+from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.regions import analyse_observability
+from hybobs_opt.studies.paper002_powertrain.systems import TABLE1
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 
 #: Window of the scenario around the first backlash crossing (q leaves positive contact at 1013).

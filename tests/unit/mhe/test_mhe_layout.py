@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybobs_opt.examples.registry import get_example
 from hybobs_opt.mhe import MHEObserver, WindowResult
 from hybobs_opt.mhe.backends import Backend, BackendOutcome
 from hybobs_opt.results import SolveResult
 from hybobs_opt.status import Status
+from hybobs_opt.studies.registry import get_example
 
 MHE_DIR = Path(__file__).resolve().parents[3] / "hybobs_opt" / "mhe"
 

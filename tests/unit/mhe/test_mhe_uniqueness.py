@@ -1,7 +1,7 @@
 """The MHE flag ``observable`` means *unique* (issue 12, items 4 and 5).
 
 Paper 002, Section 4.1: one minimiser of eq. (10) cannot tell whether the window-start state is
-observable.  :class:`~hybobs_opt.mhe.miqp.MHEObserver` therefore solves a second, separated
+observable.  :class:`~hybobs_opt.mhe.observer.MHEObserver` therefore solves a second, separated
 mixed-integer program; these tests check it against systems whose answer is known by
 construction (a mirror symmetry), against enumeration of every mode sequence, and against the
 exact window classifier of ``tests/exact_oracle.py`` on model (16); plus the DAQP cycling
@@ -20,13 +20,13 @@ from scipy.optimize import linprog
 
 from canonical import MIRROR, direction_pwa, mirror_system, slab_pwa
 
+from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import SCENARIO_TORQUES, backlash_scenario, powertrain3
-from hybobs_opt.mhe import miqp
+from hybobs_opt.mhe.backends.base import BackendOutcome
 from hybobs_opt.mhe.mld import big_m_constants
-from hybobs_opt.mhe.miqp import MHEObserver
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
+from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.regions import analyse_observability
+from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario, powertrain3
 from hybobs_opt.tolerances import MHE_UNIQUENESS_DELTA
 
 
@@ -145,7 +145,7 @@ def test_nan_points_and_multipliers_are_rejected():
     U, _, Y, _ = mirror_data(system, N=6)
     # (a) the uniqueness MIQP returns a NaN point
     obs = MHEObserver(system, 3)
-    obs._u_miqp.solve = lambda *a, **k: miqp._Outcome("optimal", np.full(obs._u_miqp._nv, np.nan), {"status": 1})
+    obs._u_miqp.solve = lambda *a, **k: BackendOutcome("optimal", np.full(obs._u_miqp._nv, np.nan), {"status": 1})
     for k in range(len(U)):
         est = obs.step(U[k], Y[k])
     assert est.flag == FALLBACK and est.info["certified_optimum"] and "NaN" in est.info["reason"]
@@ -168,7 +168,7 @@ def test_fractional_milp_answer_is_rejected():
     obs = MHEObserver(system, 3, norm="1")
     # the norm-2 bound gives no answer (an iteration limit), so the MILP decides; it returns a
     # point with a fractional binary
-    obs._u_miqp.solve = lambda *a, **k: miqp._Outcome("not certified", None, {"status": -4})
+    obs._u_miqp.solve = lambda *a, **k: BackendOutcome("not certified", None, {"status": -4})
     real = obs._u_milp.solve
 
     def fractional(*a, **k):
@@ -318,7 +318,7 @@ def test_flag_agrees_with_the_exact_window_classifier_on_model16():
     """
     import exact_oracle as eo
 
-    from hybobs_opt.observers.bench import bench_trace
+    from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
 
     T = 3
     plant, tr, y, _ = bench_trace("powertrain3", T, 3000, noise=0.0)

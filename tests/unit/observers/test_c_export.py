@@ -23,11 +23,11 @@ import pytest
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.observers import _lookup_kernels as K
-from hybobs_opt.observers.bench import bench_trace
 from hybobs_opt.observers.c_export import CExport, export_lookup_c
 from hybobs_opt.observers.lookup import LookupObserver
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.sim import simulate_pwa
+from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
 
 from c_replay import FLAGS, build, relative_error, replay, require_cc, sizes
 from canonical import deadzone_drive, deadzone_spring

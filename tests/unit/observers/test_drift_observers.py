@@ -13,10 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hybobs_opt.contract import FALLBACK, OBSERVABLE
 from hybobs_opt.errors import InfeasibleError, ModelError
-from hybobs_opt.examples.switching import switching_server, traffic_junction
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE
-from hybobs_opt.observers.drift_observer import DriftObserver, run_drift_scenario
+from hybobs_opt.observers.drift_observer import DriftObserver
 from hybobs_opt.observers.periodic import (
     CopositiveCertificate,
     NoDeadbeatCertificate,
@@ -27,8 +26,10 @@ from hybobs_opt.observers.periodic import (
     positive_gain_bounds,
     positive_observer,
 )
-from hybobs_opt.report.drift_section import polling_server, unserved_buffer_server, visible_samples
 from hybobs_opt.sim import simulate_constant_drift
+from hybobs_opt.studies.paper003_switching.comparison import polling_server, unserved_buffer_server, visible_samples
+from hybobs_opt.studies.paper003_switching.scenarios import run_drift_scenario
+from hybobs_opt.studies.paper003_switching.systems import switching_server, traffic_junction
 from hybobs_opt.systems import ConstantDriftSystem
 from hybobs_opt.systems.event_sampled import PeriodicSystem, periodic_system
 
@@ -294,7 +295,7 @@ def test_initial_mode_mismatch_then_resync(junction):
     # the first sample is flagged, the end of serving flow 1 (79.2) is not the visible event the
     # observer expects (entering serve 1), so it resynchronises; later events are regular (18d-e)
     # and the deadbeat gains make the estimate exact.
-    from hybobs_opt.examples.switching import traffic_junction_scenario
+    from hybobs_opt.studies.paper003_switching.systems import traffic_junction_scenario
 
     tr = traffic_junction_scenario(junction, t_final=300.0)
     obs = DriftObserver(junction, paper_gains_20())

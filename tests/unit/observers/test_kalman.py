@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE
 from hybobs_opt.errors import ModelError
 from hybobs_opt.observers import ModeSequenceKalmanFilter
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 
 RTOL = 1e-9

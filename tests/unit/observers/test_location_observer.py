@@ -17,17 +17,14 @@ from scipy.linalg import expm, sqrtm
 
 from observer_checks import delays_from_events
 
+from hybobs_opt.contract import FALLBACK
 from hybobs_opt.errors import InfeasibleError, ModelError, SolverError
-from hybobs_opt.examples.driveline import driveline
-from hybobs_opt.observers.base import FALLBACK
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.observers.hybrid_observer import (
-    DRIVELINE_U,
-    DRIVELINE_X,
     ContinuousObserver,
     HybridObserver,
     convergence_bound,
     design_continuous_observer,
-    run_driveline,
 )
 from hybobs_opt.observers.location_observer import (
     AMBIGUOUS,
@@ -40,8 +37,9 @@ from hybobs_opt.observers.location_observer import (
     prop_3_1_3_matrix,
 )
 from hybobs_opt.sim.hybrid import simulate_hybrid
+from hybobs_opt.studies.paper000_driveline.scenario import DRIVELINE_U, DRIVELINE_X, run_driveline
+from hybobs_opt.studies.paper000_driveline.systems import driveline
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
-from hybobs_opt.systems.polytope import Polytope
 
 TS = 1e-3
 

@@ -8,15 +8,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hybobs_opt.examples import get_example
-from hybobs_opt.examples.powertrain import powertrain3
+from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
+from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.observers import _lookup_kernels as K
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
-from hybobs_opt.observers.bench import bench_trace
 from hybobs_opt.observers.lookup import REASONS, LookupObserver, input_bound_rows
 from hybobs_opt.regions import analyse_observability, load_analysis, save_analysis
 from hybobs_opt.sim import simulate_pwa
-from hybobs_opt.systems.polytope import Polytope
+from hybobs_opt.studies import get_example
+from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
+from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 from hybobs_opt.systems.pwa import PWAMode, PWASystem
 from hybobs_opt.tolerances import LOOKUP_INPUT_BOUND_TOL, LOOKUP_INTERIOR_MARGIN
 

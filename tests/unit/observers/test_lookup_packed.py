@@ -16,8 +16,8 @@ import pytest
 from hybobs_opt import analyse_observability, simulate_pwa
 from hybobs_opt.contract import Estimate, timed_estimate
 from hybobs_opt.observers import _lookup_kernels as K
-from hybobs_opt.observers.bench import bench_trace
 from hybobs_opt.observers.lookup import _FLAGS, LookupObserver
+from hybobs_opt.studies.paper002_powertrain.bench import bench_trace
 
 from canonical import deadzone_drive, deadzone_spring
 

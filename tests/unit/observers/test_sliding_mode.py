@@ -14,18 +14,14 @@ import pytest
 from observer_checks import assert_indicator_window as _assert_indicator_window
 from observer_checks import assert_step_by_step as _assert_step_by_step
 
+from hybobs_opt.contract import FALLBACK, OBSERVABLE
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.sliding_mode import double_scroll, switched_unstable, triangular
-from hybobs_opt.observers.base import FALLBACK, OBSERVABLE
-from hybobs_opt.observers.sliding_mode import (
-    SlidingModeObserver,
-    relay_oscillator,
-    run_scenario,
-    summarize,
-)
+from hybobs_opt.geometry.polytope import Polytope
+from hybobs_opt.observers.sliding_mode import SlidingModeObserver
+from hybobs_opt.studies.paper001_sliding_mode.scenarios import relay_oscillator, run_scenario, summarize
+from hybobs_opt.studies.paper001_sliding_mode.systems import double_scroll, switched_unstable, triangular
 from hybobs_opt.systems.canonical_form import observability_form, theorem1, theorem1_pairs
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
-from hybobs_opt.systems.polytope import Polytope
 
 
 # ---------------------------------------------------------------------------------- fixtures

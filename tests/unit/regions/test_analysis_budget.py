@@ -7,11 +7,11 @@ from __future__ import annotations
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import powertrain3
 from hybobs_opt.regions import analyse_observability, enumerate_modes
 from hybobs_opt.regions import enumeration as enumeration_module
 from hybobs_opt.regions import observability as observability_module
 from hybobs_opt.regions.enumeration import PAIR_LPS_PER_REGION_POWER, counted_exactly, predict_analysis_cost
+from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 
 
 def test_small_horizons_are_counted_exactly_and_larger_ones_extrapolated():

@@ -3,10 +3,10 @@
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import powertrain3
 from hybobs_opt.executor import SerialExecutor
 from hybobs_opt.regions.enumeration import enumerate_modes
 from hybobs_opt.regions.observability import analyse_observability
+from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 
 
 def test_executor_by_name_gives_the_serial_answer():

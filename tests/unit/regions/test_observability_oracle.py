@@ -60,8 +60,8 @@ from exact_oracle import (
     true_window_labels,
 )
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import SCENARIO_TORQUES, TABLE1, TABLE2, backlash_scenario, powertrain3, powertrain5
 from hybobs_opt.regions import analyse_observability
+from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, TABLE1, TABLE2, backlash_scenario, powertrain3, powertrain5
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 from oracle_record import OracleRecord
 

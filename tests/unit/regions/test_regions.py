@@ -17,9 +17,9 @@ from canonical import slab_pwa
 from exact_oracle import linprog_free
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import powertrain3
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
 from hybobs_opt.regions import analyse_observability, enumerate_modes, load_analysis, save_analysis
+from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 
 
 @pytest.fixture(scope="module")
@@ -278,7 +278,7 @@ def test_nan_solver_answers_are_never_certified(monkeypatch):
     them) is not taken: the analysis of model 16 at T = 3 is unchanged (16 regions, 12 pieces)."""
     import daqp
 
-    from hybobs_opt import lp
+    from hybobs_opt.geometry import lp
 
     real = daqp.solve
 
@@ -296,7 +296,7 @@ def test_solve_lp_checks_the_returned_point(monkeypatch):
     """An "optimal" point that violates the constraints (moved by 1e-3) or is NaN is a SolverError."""
     from scipy.optimize import OptimizeResult
 
-    from hybobs_opt import lp
+    from hybobs_opt.geometry import lp
     from hybobs_opt.errors import SolverError
 
     good = lp.solve_lp(np.array([1.0, 1.0]), -np.eye(2), np.zeros(2), problem="toy")
@@ -334,7 +334,7 @@ def test_pair_sets_whose_outputs_pin_x_minus_xhat_are_left_out_of_B_T():
     nullspace basis and crosses the threshold with the basis.)"""
     from scipy.linalg import null_space
 
-    from hybobs_opt.examples.piston_pwa import magnetic_piston_pwa
+    from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import magnetic_piston_pwa
     from hybobs_opt.tolerances import RANK_RTOL, REGION_SLACK_TOL
 
     system = magnetic_piston_pwa(11)

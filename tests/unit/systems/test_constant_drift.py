@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples import get_example
-from hybobs_opt.examples.switching import switching_server, traffic_junction
 from hybobs_opt.sim import Trace, simulate_constant_drift
+from hybobs_opt.studies import get_example
+from hybobs_opt.studies.paper003_switching.systems import switching_server, traffic_junction
 from hybobs_opt.systems import ConstantDriftSystem
 
 LAM = (1.0, 2.0, 3.0)

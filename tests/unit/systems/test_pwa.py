@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples.powertrain import TABLE1, powertrain3, powertrain5
 from hybobs_opt.sim import simulate_pwa, simulate_pwa_batch
+from hybobs_opt.studies.paper002_powertrain.systems import TABLE1, powertrain3, powertrain5
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 
 
@@ -78,7 +78,7 @@ def test_powertrain5_clutch_twist_and_dimensions():
 
 
 def test_scenario_crosses_backlash_and_stays_in_bounds():
-    from hybobs_opt.examples import get_example
+    from hybobs_opt.studies import get_example
 
     trace = get_example("powertrain3").simulate()
     theta = trace.state("theta")

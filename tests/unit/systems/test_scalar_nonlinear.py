@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.examples import get_example
-from hybobs_opt.examples.nonmonotonic import magnetic_piston, piston_scenario, vehicle_scenario, vehicle_tracking
 from hybobs_opt.sim import simulate_nonlinear
+from hybobs_opt.studies import get_example
+from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston, piston_scenario, vehicle_scenario, vehicle_tracking
 from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
 V, LF, LR = 10.0, 1.1, 1.58  # paper 004 Sec. 6.1 (V); l_f, l_r are the factory's stated assumption
