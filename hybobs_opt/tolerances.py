@@ -486,8 +486,8 @@ MHE_EXTENSION_PSD_RTOL: float = 1e-10
 MHE_EXTENSION_RANGE_RTOL: float = 1e-9
 
 # ---------------------------------------------------------------------- PWA-fitted magnetic piston
-# (paper 004, eq. 63, with piecewise-linear sensor curves; hybobs_opt.examples.piston_pwa and
-# hybobs_opt.observers.piston_comparison)
+# (paper 004, eq. 63, with piecewise-linear sensor curves; hybobs_opt.studies.paper004_nonmonotonic.piston_pwa
+# and .piston_comparison)
 
 #: The fit error of the piecewise-linear sensor fit is measured on a grid of step 0.0102 mm.  Between
 #: grid points the error can exceed the sampled maximum by at most ``0.5 max|h''| (0.0051 mm)^2``,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import StoreWithRenamedAlias, add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
+from ._common import add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
 from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
@@ -27,9 +27,8 @@ HELP = "does a constant observer gain exist? verdict, certificate, report (paper
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     add_design_arguments(p)
-    p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None, action=StoreWithRenamedAlias,
-                   renamed={"--out": "--out-dir"},
-                   help="write the Markdown and HTML reports into DIR (none without it); --out is its deprecated name")
+    p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None,
+                   help="write the Markdown and HTML reports into DIR (none without it); --out is its old name")
     add_force_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 

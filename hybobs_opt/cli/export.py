@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON
-from ._common import (StoreWithRenamedAlias, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, command_cache,
+from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, command_cache,
                       load_system, print_json)
 
 HELP = "write the lookup-table observer (paper 002, Algorithm 4.1) as self-contained C99 with a CSV replay driver"
@@ -21,8 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
                    help=f"observation horizon T (default {DEFAULT_HORIZON}, 1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
-    p.add_argument("--out-dir", "--out", dest="out_dir", metavar="DIR", required=True, action=StoreWithRenamedAlias,
-                   renamed={"--out": "--out-dir"},
+    p.add_argument("--out-dir", "--out", dest="out_dir", metavar="DIR", required=True,
                    help="directory of hybobs_lookup.h, hybobs_lookup.c and hybobs_lookup_driver.c (created if missing)")
     p.add_argument("--float32", action="store_true",
                    help="float tables and arithmetic (tolerances raised to single precision; refused when the "

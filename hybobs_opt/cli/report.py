@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ..limits import DEFAULT_HORIZON, MAX_HORIZON
-from ._common import StoreWithRenamedAlias, SYSTEM_HELP, add_force_argument, as_options, check_output_dir, examples_help, load_system, print_json
+from ._common import SYSTEM_HELP, add_force_argument, as_options, check_output_dir, examples_help, load_system, print_json
 
 
 def _section_help() -> str:
@@ -24,9 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("system", nargs="?", default=None, metavar="SYSTEM",
                    help=lambda: f"optional: {SYSTEM_HELP}; the examples: {examples_help()}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
-    p.add_argument("--out-dir", "--out", dest="out", required=True, metavar="DIR", action=StoreWithRenamedAlias,
-                   renamed={"--out": "--out-dir"},
-                   help="output directory (index.html and the figures); --out is its deprecated name")
+    p.add_argument("--out-dir", "--out", dest="out", required=True, metavar="DIR",
+                   help="output directory (index.html and the figures); --out is its old name")
     p.add_argument("--section", action="append", metavar="KEY", help=_section_help)
     p.add_argument("--horizon", "-T", type=int, default=None,
                    help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")

@@ -3,8 +3,7 @@
 :mod:`~hybobs_opt.geometry.lp` (the checked LP layer: :func:`solve_lp`, :func:`row_range`, the
 certified max-slack LPs), :mod:`~hybobs_opt.geometry.polytope` (the :class:`Polytope` type),
 :mod:`~hybobs_opt.geometry.redundancy`, :mod:`~hybobs_opt.geometry.projection` and
-:mod:`~hybobs_opt.geometry.volume`.  The old paths ``hybobs_opt.systems.polytope`` and
-``hybobs_opt.lp`` serve the same objects.  Names are imported on first use.
+:mod:`~hybobs_opt.geometry.volume`.  Names are imported on first use.
 """
 
 from .._lazy import lazy_exports

@@ -817,7 +817,7 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
 
 def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: float, problem: str, *,
                    tight_attempt: dict | None = None) -> SlackResult:
-    """DAQP on the data of :func:`~hybobs_opt._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback.
+    """DAQP on the data of :func:`~hybobs_opt.geometry._lp_kernels.slack_lp_data`, certified, HiGHS as the fallback.
 
     The LP of :func:`max_slack` after its constant rows were handled: ``A`` is ``(k + 1) x (d + 1)``
     (the last row caps ``t``), ``bu`` its right-hand side.  ``threshold`` is the decision the
@@ -945,7 +945,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     """Is the width ``max c'v - min c'v`` of ``{A v <= b}`` certified to be at most ``width``?
 
     Two DAQP LPs (maximise and minimise ``c'v``); each optimum is bounded from the solver's
-    multipliers (:func:`~hybobs_opt._lp_kernels.support_upper_bound`, valid for every feasible
+    multipliers (:func:`~hybobs_opt.geometry._lp_kernels.support_upper_bound`, valid for every feasible
     ``v`` with ``|v| <= radius_bound``), so ``True`` is a certificate.  When that bound is within
     ``EXACT_DECISION_MARGIN`` of ``width`` (its own rounding could decide), the width is decided
     in rational arithmetic (:mod:`~hybobs_opt.geometry.exact_lp`) on the LP as posed.  ``False``

@@ -1,10 +1,12 @@
-"""The three tiers of DESIGN.md: every import points down (issue 13).
+"""The three tiers of DESIGN.md: every import points down.
 
 Walks the syntax tree of every module of the package, imports inside functions included, and
-resolves relative imports to absolute module names.  Core modules may not import the studies,
-the CLI or the report; studies may not import the CLI or the report; ``mhe`` may not import
-``observers``.  String references (``importlib.import_module("hybobs_opt.studies...")``) count
-as imports too, except in :mod:`hybobs_opt._compat`, the table of old import paths.
+resolves relative imports to absolute module names.  Core modules -- the root package included --
+may not import the studies, the CLI or the report; studies may not import the CLI or the report;
+``mhe`` may not import ``observers``.  String references (``importlib.import_module("hybobs_opt.studies...")``,
+a lazy export table) count as imports too, and no core module forwards names through a module
+``__getattr__`` function (the lazy export tables of the package faces are assignments whose
+strings the first rule checks).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "hybobs_opt"
 
-UPPER = {"core": ("hybobs_opt.studies", "hybobs_opt.cli", "hybobs_opt.report", "hybobs_opt.examples"),
+UPPER = {"core": ("hybobs_opt.studies", "hybobs_opt.cli", "hybobs_opt.report"),
          "studies": ("hybobs_opt.cli", "hybobs_opt.report")}
 
 
@@ -30,8 +32,6 @@ def module_name(path: Path) -> str:
 
 
 def tier(name: str) -> str:
-    if name == "hybobs_opt" or name == "hybobs_opt._compat":
-        return "face"
     for prefix, label in (("hybobs_opt.studies", "studies"), ("hybobs_opt.cli", "application"),
                           ("hybobs_opt.report", "application")):
         if name == prefix or name.startswith(prefix + "."):
@@ -75,7 +75,7 @@ def violations() -> list[str]:
     for path in sorted(PACKAGE.rglob("*.py")):
         name = module_name(path)
         t = tier(name)
-        if t not in UPPER or name == "hybobs_opt._compat":
+        if t not in UPPER:
             continue
         for line, mod in imports_of(path):
             for upper in UPPER[t]:
@@ -136,12 +136,45 @@ def test_the_walker_sees_upward_imports(tmp_path, monkeypatch):
     assert not real.exists()
 
 
-def test_compat_imports_nothing_of_the_package():
-    """The alias table is strings only: it can be installed before anything else is imported."""
-    mods = [m for _, m in imports_of(PACKAGE / "_compat.py") if not m.startswith("hybobs_opt.")]
-    stmts = [n for n in ast.walk(ast.parse((PACKAGE / "_compat.py").read_text()))
-             if isinstance(n, ast.ImportFrom) and (n.level or (n.module or "").startswith("hybobs_opt"))]
-    assert stmts == [] and "hybobs_opt" not in mods
+def module_getattr_functions() -> list[str]:
+    """``file:line`` of every module-level ``def __getattr__`` in a core module."""
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if tier(module_name(path)) != "core":
+            continue
+        for node in ast.parse(path.read_text(), str(path)).body:
+            if isinstance(node, ast.FunctionDef) and node.name == "__getattr__":
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno}")
+    return bad
+
+
+def test_no_core_module_forwards_names_through_getattr():
+    """A name lives in one module and is imported from there: no core module serves another's
+    names on attribute access (the moved-name forwarding into the studies is gone)."""
+    assert module_getattr_functions() == []
+
+
+def test_the_root_package_is_core():
+    assert tier("hybobs_opt") == "core"
+    assert any(v.startswith("hybobs_opt/__init__.py") for v in _violations_of_text(
+        "hybobs_opt/__init__.py", "_EXPORTS = {'get_example': 'hybobs_opt.studies'}\n"))
+
+
+def _violations_of_text(rel: str, text: str) -> list[str]:
+    """:func:`violations` of a copy of the package in which ``rel`` holds ``text`` (the checker's own test)."""
+    import shutil
+    import tempfile
+
+    global PACKAGE
+    with tempfile.TemporaryDirectory() as tmp:
+        copy = Path(tmp) / "hybobs_opt"
+        shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+        (copy.parent / rel).write_text(text)
+        saved, PACKAGE = PACKAGE, copy
+        try:
+            return violations()
+        finally:
+            PACKAGE = saved
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["examples", "--json"]])

@@ -316,7 +316,6 @@ CAMPAIGN = [
     (["regions", "powertrain3", "-T", "3", "--resolution", "41x31"], "--cut or --plot"),
     (["regions", "powertrain3", "-T", "3", "--cut", "theta=0", "--plot", "{dir}/c.xyz"], ".svg"),
     (["regions", "powertrain3", "-T", "3", "--plot", "{dir}/c.png"], "--cut"),
-    (["regions", "powertrain3", "-T", "3", "--save", "{dir}"], "--out"),  # --save is the old name of --out
     (["regions", "powertrain3", "-T", "3", "--out", "{dir}"], "--out"),
     (["regions", "powertrain3", "-T", "3", "--query", "{nosuch.csv}"], "--query"),
     (["regions", "powertrain3", "-T", "3", "--query", "{empty.csv}"], "header"),

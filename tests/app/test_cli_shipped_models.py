@@ -79,7 +79,7 @@ def test_every_applicable_command(path, capsys, tmp_path):
 
     if kind == "pwa":
         assert keys == ["model", "simulation", "regions"]
-        regions = run_json(capsys, "regions", path, "-T", "2", "--executor", "serial", "--save", tmp_path / "r.json")
+        regions = run_json(capsys, "regions", path, "-T", "2", "--executor", "serial", "--out", tmp_path / "r.json")
         assert regions["system"] == str(path) and regions["n_regions"] >= 1 and regions["saved"]
         log = tmp_path / "log.csv"
         system = load_model(path)

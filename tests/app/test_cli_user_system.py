@@ -273,7 +273,7 @@ def test_a_simulate_csv_is_a_log_and_a_conflicting_duplicate_column_is_refused(c
 
 def test_saved_regions_feed_the_observer_and_refuse_another_plant(files, capsys):
     saved = files["dir"] / "regions.json"
-    assert run(capsys, "regions", files["toml"], "-T", "2", "--executor", "serial", "--save", saved)[0] == 0
+    assert run(capsys, "regions", files["toml"], "-T", "2", "--executor", "serial", "--out", saved)[0] == 0
     code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--regions", saved, "--json")
     assert code == 0, err
     assert json.loads(out)["horizon"] == 2

@@ -52,7 +52,7 @@ def test_out_is_a_file_and_out_dir_a_directory():
             assert opts["--out"].metavar != "DIR", name
     subs = _subparsers()
     assert "--out-dir" in _options(subs["report"]) and "--out-dir" in _options(subs["diagnose"])
-    assert _options(subs["regions"])["--out"] is _options(subs["regions"])["--save"]  # old name kept
+    assert _options(subs["regions"])["--out"] is _options(subs["regions"])["--save"]  # deprecated name, one release
 
 
 def test_param_wherever_a_system_is_built():
@@ -62,10 +62,17 @@ def test_param_wherever_a_system_is_built():
             assert "--param" in _options(p), name
 
 
-def test_regions_out_and_its_old_name_write_the_same_file(tmp_path, capsys):
+def test_regions_out_and_its_deprecated_name_write_the_same_file(tmp_path, capsys):
+    import warnings
+
     for flag in ("--out", "--save"):
         path = tmp_path / f"r{flag.strip('-')}.json"
-        assert main(["regions", "powertrain3", flag, str(path), "--json"]) == 0
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert main(["regions", "powertrain3", flag, str(path), "--json"]) == 0
+        future = [str(w.message) for w in caught if issubclass(w.category, FutureWarning)]
+        # the old spelling works for one release and says what to write instead
+        assert future == ([] if flag == "--out" else ["--save is deprecated and goes in hybobs_opt 0.2.0: use --out"])
         assert json.loads(capsys.readouterr().out)["horizon"] == DEFAULT_HORIZON
         assert json.loads(path.read_text())["horizon"] == DEFAULT_HORIZON
 

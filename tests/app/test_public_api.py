@@ -1,4 +1,4 @@
-"""One obvious import, old paths kept, one reset keyword (issue 13)."""
+"""One obvious import, one path per name, one reset keyword."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import hybobs_opt
-from hybobs_opt import _compat
 from hybobs_opt.errors import ModelError
 
 
@@ -47,28 +46,26 @@ def test_unknown_name_is_an_attribute_error():
         from hybobs_opt.observers import NoSuchObserver  # noqa: F401
 
 
-@pytest.mark.parametrize("old,new", sorted(_compat.MOVED_MODULES.items()))
-def test_moved_module_is_the_same_object_under_its_old_name(old, new):
-    assert importlib.import_module(old) is importlib.import_module(new)
-    assert importlib.import_module(old).__spec__.name == new  # the module keeps its own spec
+#: Old import paths that served moved code until the compatibility layer was removed: they are gone.
+OLD_PATHS = ("hybobs_opt._compat", "hybobs_opt.examples", "hybobs_opt.examples.powertrain", "hybobs_opt.lmi.presets",
+             "hybobs_opt.lmi.commands", "hybobs_opt.observers.bench", "hybobs_opt.observers.piston_comparison",
+             "hybobs_opt.observers.scenarios", "hybobs_opt.lp", "hybobs_opt._lp_kernels", "hybobs_opt.systems._validate",
+             "hybobs_opt.systems.polytope", "hybobs_opt.observers.base", "hybobs_opt.mhe.miqp")
 
 
-def test_old_package_examples_still_lists_and_imports():
-    from hybobs_opt.examples import get_example, list_examples, powertrain
-    from hybobs_opt.studies.paper002_powertrain import systems
-
-    assert powertrain is systems
-    assert [e.name for e in list_examples()][:2] == ["driveline", "switched_unstable"]
-    assert get_example("powertrain3").state_names == ("theta", "omega_m", "omega_l")
+@pytest.mark.parametrize("old", OLD_PATHS)
+def test_an_old_import_path_is_gone(old):
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module(old)
 
 
-@pytest.mark.parametrize("core", sorted(_compat.MOVED_ATTRIBUTES))
-def test_moved_attributes_resolve_from_the_core_module(core):
-    mod = importlib.import_module(core)
-    for name, target in _compat.MOVED_ATTRIBUTES[core].items():
-        assert getattr(mod, name) is getattr(importlib.import_module(target), name), (core, name)
+@pytest.mark.parametrize("core,name", [("hybobs_opt.observers.hybrid_observer", "run_driveline"),
+                                       ("hybobs_opt.observers.sliding_mode", "SCENARIOS"),
+                                       ("hybobs_opt.observers.drift_observer", "run_drift_scenario"),
+                                       ("hybobs_opt.observers.switched_gain", "run_example")])
+def test_a_core_module_serves_no_study_name(core, name):
     with pytest.raises(AttributeError):
-        getattr(mod, "no_such_name")
+        getattr(importlib.import_module(core), name)
 
 
 def test_catalogue_metadata_matches_the_factories():
@@ -120,15 +117,17 @@ def test_reset_takes_q0_everywhere_and_the_old_keywords_agree():
     system = switching_server()
     new, old = DriftObserver(system), DriftObserver(system)
     new.reset([0.0, 3.0, 1.0], t0=0.0, q0=2)
-    old.reset([0.0, 3.0, 1.0], t0=0.0, mode=2)
+    with pytest.warns(FutureWarning, match=r"reset\(mode=\.\.\.\) is deprecated .* 0\.2\.0: use reset\(q0=\.\.\.\)"):
+        old.reset([0.0, 3.0, 1.0], t0=0.0, mode=2)
     assert new.step([0.5], [0.0]).mode == old.step([0.5], [0.0]).mode == 2
-    with pytest.raises(ModelError, match="q0"):
+    with pytest.raises(ModelError, match="q0"), pytest.warns(FutureWarning):
         new.reset([0.0, 3.0, 1.0], q0=2, mode=4)
     ps = periodic_system(system)
     po, po_old = PeriodicObserver(ps, deadbeat_gains(ps)), PeriodicObserver(ps, deadbeat_gains(ps))
     v = ps.event_modes[-1]
     po.reset([1.0, 2.0], t0=0.0, q0=v)
-    po_old.reset([1.0, 2.0], t0=0.0, mode=v)
+    with pytest.warns(FutureWarning, match="mode"):
+        po_old.reset([1.0, 2.0], t0=0.0, mode=v)
     assert po.step([3.0], [ps.event_modes[0]]).mode == po_old.step([3.0], [ps.event_modes[0]]).mode
     for cls in (DriftObserver, PeriodicObserver):
         assert "q0" in inspect.signature(cls.reset).parameters

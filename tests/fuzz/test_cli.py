@@ -96,7 +96,7 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["regions", "powertrain3", "-T", "3", "--cut", "theta=0"], "--resolution", ["0x0", "abc", "41", "100000x100000", "-1x5", "2x1e3"]),
     (["regions", "powertrain3", "-T", "3"], "--resolution", ["41x31"]),
     (["regions", "powertrain3", "-T", "3", "--cut", "theta=0"], "--plot", [F("dir") + "/c.xyz", F("dir")]),
-    (["regions", "powertrain3", "-T", "3"], "--save", [F("dir"), F("nosuch")]),
+    (["regions", "powertrain3", "-T", "3"], "--out", [F("dir"), F("nosuch")]),
     (["regions", "powertrain3", "-T", "3"], "--query", [F("nosuch"), F("bin"), F("empty"), F("header_only.csv"), F("dir"),
                                                        F("bad_rows.csv")]),
     (["regions", "powertrain3", "-T", "3"], "--executor", ["nosuch", ""]),

@@ -305,7 +305,7 @@ def test_x1_hat_zero_after_79_2_and_waiting_mode(junction):
     # observer sits in the waiting mode 1 + 1/2 between the predicted 137 and the actual 140.3.
     tr = run_drift_scenario("traffic_junction", "paper")["trace"]
     obs = DriftObserver(junction, paper_gains_20())
-    obs.reset([0.0, 70.0, 20.0, 30.0], t0=50.0, mode=4)
+    obs.reset([0.0, 70.0, 20.0, 30.0], t0=50.0, q0=4)
     log = [e for e in tr.events if e["visible"] and e["t"] > 50.0]
     run = obs.observe_events(log[:3], grid=[75.0, 85.0, 100.0, 120.0, 136.0, 138.0, 140.0])
     at = {float(t): (x, q, w) for t, x, q, w in zip(run.t, run.x_hat, run.mode, run.waiting)}

@@ -327,7 +327,7 @@ def test_observer_never_raises_on_bad_samples(vehicle, vehicle_design):
     from hybobs_opt.observers.switched_gain import SwitchedGainObserver
 
     obs = SwitchedGainObserver(vehicle, vehicle_design, 0.01)
-    obs.reset(np.zeros(4), region=0)
+    obs.reset(np.zeros(4), q0=0)
     assert obs.step([0.0], [np.nan, 0.0]).flag == "fallback"
     assert obs.step([0.0], [1.0]).flag == "fallback"
     assert obs.step(["x"], [1.0, 2.0]).flag == "fallback"

@@ -1,5 +1,5 @@
-"""Layout of the moving-horizon package after the split of issue 13: old import paths, the tier
-rule (mhe below observers), the typed window result and the one backend signature."""
+"""Layout of the moving-horizon package: the tier rule (mhe below observers), the typed window
+result and the one backend signature."""
 
 from __future__ import annotations
 
@@ -18,19 +18,6 @@ from hybobs_opt.studies.registry import get_example
 
 MHE_DIR = Path(__file__).resolve().parents[3] / "hybobs_opt" / "mhe"
 
-#: Every module-level name of hybobs_opt/mhe/miqp.py before the split.
-OLD_MIQP_NAMES = [
-    "sys", "time", "dataclass", "Any", "np", "solve_triangular", "ModelError", "SolverError", "FALLBACK",
-    "OBSERVABLE", "UNOBSERVABLE", "WARMING_UP", "Estimate", "Observer", "PWASystem", "MEMBERSHIP_RTOL",
-    "MHE_ABS_SUBOPT", "MHE_BINARY_PROX_WEIGHT", "MHE_DAQP_CYCLE_TOL", "MHE_FEASIBILITY_TOL", "MHE_INTEGRALITY_TOL",
-    "MHE_MILP_FEASIBILITY_TOL", "MHE_POLISH_SKIP_TOL", "MHE_PROX_WEIGHT", "MHE_UNIQUENESS_COST_ATOL",
-    "MHE_UNIQUENESS_COST_RTOL", "MHE_UNIQUENESS_DELTA", "MHE_UNIQUENESS_PROX_WEIGHT", "MHE_ZERO_COST_RTOL",
-    "BigMConstants", "MLDEncoding", "encode_mld", "NORMS", "SOLVERS", "DEFAULT_PROX_PASSES",
-    "UNIQUENESS_MAX_SOLVES", "_DAQP_INF", "_DAQP_OPTIMAL", "_DAQP_INFEASIBLE", "_DAQP_CYCLING", "_DAQP_ITERLIMIT",
-    "_Null", "_NULL", "_Outcome", "_weight", "_Residual", "_residual", "_DaqpBackend", "_CasadiDaqpBackend",
-    "_BonminBackend", "_HighspyBackend", "_MilpBackend", "MHEObserver", "_same_pwa",
-]
-
 
 @pytest.fixture(scope="module")
 def window():
@@ -39,23 +26,6 @@ def window():
     tr = ex.scenario(plant)
     k = 995
     return plant, tr, k
-
-
-def test_old_import_paths_keep_working():
-    from hybobs_opt.mhe import miqp
-
-    missing = [n for n in OLD_MIQP_NAMES if not hasattr(miqp, n)]
-    assert not missing
-    assert miqp.MHEObserver is MHEObserver
-    assert miqp._Outcome is BackendOutcome
-    assert miqp._DAQP_OPTIMAL == 1 and miqp._DAQP_INFEASIBLE == -1
-    assert miqp.SOLVERS["2"][0] == "daqp" and miqp.SOLVERS["1"][0] == "highs"
-
-    import hybobs_opt.contract as contract
-    import hybobs_opt.observers.base as base
-
-    assert base is contract
-    from hybobs_opt.observers.base import FALLBACK, Observer, initial_state  # noqa: F401
 
 
 def test_mhe_never_imports_the_observers_package():

@@ -133,14 +133,14 @@ def test_positive_observer_estimates_stay_nonnegative():
         obs = DriftObserver(system, gains)
         # a grossly overestimated buffer 1 while (the observer thinks) it is served slowly: the first
         # visible event (t = 2.5) comes 107.8 s early and a gain on x2 pulls x2^ below zero
-        obs.reset([0.0, 300.0, 0.0], t0=0.0, mode=4)
+        obs.reset([0.0, 300.0, 0.0], t0=0.0, q0=4)
         out = obs.run_trace(tr)
         mins[label] = out.x_hat[:, 1:].min()
         assert np.max(np.abs(out.x_hat[-1] - tr.x[-1])) < 1e-6 * (1 + np.abs(tr.x[-1]).max())
     assert mins["deadbeat"] < -1.0 and mins["positive"] >= 0.0
     # Remark 4.4: the projected deadbeat estimate is non-negative and still converges
     obs = DriftObserver(system, deadbeat_gains(ps), project=True)
-    obs.reset([0.0, 300.0, 0.0], t0=0.0, mode=4)
+    obs.reset([0.0, 300.0, 0.0], t0=0.0, q0=4)
     out = obs.run_trace(tr)
     assert out.x_hat[:, 1:].min() >= 0.0
     assert np.max(np.abs(out.x_hat[-1] - tr.x[-1])) < 1e-6 * (1 + np.abs(tr.x[-1]).max())
@@ -209,7 +209,7 @@ def test_periodic_observer_error_recursion(junction):
     L = paper_gains_20()
     obs = PeriodicObserver(ps, L)
     xh = np.array([10.0, 90.0, 0.0])
-    obs.reset(xh, t0=t[1], mode=int(v[1]))
+    obs.reset(xh, t0=t[1], q0=int(v[1]))
     e = x[1] - xh
     for k in range(2, 8):
         j = ps.phase_of(int(v[k - 1]))
@@ -273,7 +273,7 @@ def test_bad_model_arguments(junction):
 
 def test_bad_samples_fall_back_without_raising(junction):
     obs = DriftObserver(junction, paper_gains_20())
-    obs.reset([0.0, 70.0, 20.0, 30.0], t0=50.0, mode=4)
+    obs.reset([0.0, 70.0, 20.0, 30.0], t0=50.0, q0=4)
     assert obs.step([50.0], [0]).flag != FALLBACK
     x_open = obs.step([55.0], [0]).x
     for u, y in (([56.0], [np.nan]), ([57.0], [5]), ([57.5], [0.5]), ([52.0], [0]), ([58.0], [0, 0]), ("abc", [0]),
@@ -286,7 +286,7 @@ def test_bad_samples_fall_back_without_raising(junction):
     # from t = 50 in mode 4 queue 2 empties at 52.5; the clearing for flow 3 (mode 5, drift f_5) lasts to 67.5
     np.testing.assert_allclose(e.x, x_open + 3.0 * np.array([-1.0, *LAM]), atol=1e-9)
     po = PeriodicObserver(periodic_system(junction), paper_gains_20())
-    po.reset([1.0, 2.0, 3.0], t0=10.0, mode=1)
+    po.reset([1.0, 2.0, 3.0], t0=10.0, q0=1)
     assert po.step([20.0], [6]).flag == FALLBACK and po.step([5.0], [2]).flag == FALLBACK
 
 
@@ -299,7 +299,7 @@ def test_initial_mode_mismatch_then_resync(junction):
 
     tr = traffic_junction_scenario(junction, t_final=300.0)
     obs = DriftObserver(junction, paper_gains_20())
-    obs.reset([GAMMA[1], 0.0, 50.0, 50.0], t0=75.0, mode=3)
+    obs.reset([GAMMA[1], 0.0, 50.0, 50.0], t0=75.0, q0=3)
     keep = tr.t >= 75.0
     out = obs.run(tr.t[keep], tr.y[keep, 0])
     assert out.flags[0] == FALLBACK
