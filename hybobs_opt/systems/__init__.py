@@ -1,7 +1,8 @@
 """The nouns a user describes: PWA systems, hybrid automata, constant-drift and scalar-nonlinear
 systems, and the polytopes they are built of; with the forms derived from them (the observability
 canonical form of a hybrid automaton, paper 001; the event-sampled periodic system of a
-constant-drift system, paper 003).  Names are imported on first use.
+constant-drift system, paper 003); and the named examples that installed catalogues offer
+(:func:`get_example`, :mod:`hybobs_opt.systems.catalogue`).  Names are imported on first use.
 """
 
 from .._lazy import lazy_exports
@@ -22,6 +23,7 @@ _EXPORTS: dict[str, str] = {
     "system_fingerprint": "hybobs_opt.systems.fingerprint",
     **dict.fromkeys(("ScalarFunction", "ScalarNonlinearSystem"), "hybobs_opt.systems.scalar_nonlinear"),
     **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
+    **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.systems.catalogue"),
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

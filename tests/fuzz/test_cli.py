@@ -210,6 +210,9 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["report", "--out", F("dir") + "/rep"], "--param", ["gear_ratio=2"]),
     (["report", PWA_MODEL, "--out", F("dir") + "/rep"], "--horizon", ["0", "1000000", "1", "abc"]),
     (["report", PWA_MODEL, "--out", F("dir") + "/rep"], "--data", [F("bin"), F("nosuch"), F("dir")]),
+    # --noise-bound: without --data, or not a bound on a named output
+    (["report", PWA_MODEL, "--out", F("dir") + "/rep"], "--noise-bound", ["0.1"]),
+    (["report", "--out", F("dir") + "/rep"], "--noise-bound", ["0.1"]),
     # --quick previews the report of every result: refused with a SYSTEM; a flag takes no value
     (["report", PWA_MODEL, "--out", F("dir") + "/rep"], "--quick", [None]),
     (["report", "--out", F("dir") + "/rep"], "--quick", ["yes"]),

@@ -252,8 +252,8 @@ def test_bad_model_arguments(junction):
         DriftObserver(junction, np.zeros((3, 3)))
     assert exc.value.field == "gains"
     obs = DriftObserver(junction, paper_gains_20())
-    for kwargs, field in ((dict(x0=[0.0, -1.0, 2.0, 3.0], mode=4), "x0[x1]"), (dict(x0=[3.0, 1.0, 2.0, 3.0], mode=4), "x0[x0]"),
-                          (dict(x0=[0.0, 1.0, 2.0], mode=4), "x0"), (dict(mode=9), "mode"), (dict(t0=np.nan), "t0")):
+    for kwargs, field in ((dict(x0=[0.0, -1.0, 2.0, 3.0], q0=4), "x0[x1]"), (dict(x0=[3.0, 1.0, 2.0, 3.0], q0=4), "x0[x0]"),
+                          (dict(x0=[0.0, 1.0, 2.0], q0=4), "x0"), (dict(q0=9), "q0"), (dict(t0=np.nan), "t0")):
         with pytest.raises(ModelError) as exc:
             obs.reset(**kwargs)
         assert exc.value.field == field
