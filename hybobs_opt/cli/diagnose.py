@@ -10,7 +10,7 @@ undetectable points and indistinguishable mirror states (:mod:`hybobs_opt.lmi.im
 ``hierarchy``, ``undetectable_points``, ``indistinguishable`` and, when the paper LMI is infeasible,
 ``certificate`` with ``verified``, ``reason`` and ``theorem``.  Ranges are in the preset's
 display unit of the coordinate (degrees for ``psi``, mm for ``z``); ``psi=0:6.28rad`` gives
-radians explicitly.  (This module is also the old ``hybobs_opt.lmi.commands``.)
+radians explicitly.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from ._common import add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
-from ._schedule import DEFAULT_DIAGNOSE_OUT, add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401  (old home: lmi.commands)
+from ._schedule import add_design_arguments, design_setup, example_and_preset, parse_range
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
 
@@ -106,26 +106,3 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 run = cmd_diagnose
-
-
-def cmd_synth(args: argparse.Namespace) -> int:
-    """``hybobs synth`` (see :mod:`.synth`)."""
-    from .synth import run as synth_run
-
-    return synth_run(args)
-
-
-def add_commands(subparsers) -> None:
-    """Add ``diagnose`` and ``synth`` to a ``hybobs`` subparsers object (the old registration hook)."""
-    from . import synth
-
-    p = subparsers.add_parser("diagnose", help=HELP)
-    add_arguments(p)
-    p.set_defaults(func=cmd_diagnose)
-    p = subparsers.add_parser("synth", help=synth.HELP)
-    synth.add_arguments(p)
-    p.set_defaults(func=synth.run)
-
-
-#: Old private name (``hybobs_opt.lmi.commands._example_and_preset``).
-_example_and_preset = example_and_preset

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..errors import ModelError
 from ._common import add_force_argument, add_system_argument, check_output_path, json_default, print_json
-from ._schedule import add_design_arguments, design_setup, example_and_preset, parse_range  # noqa: F401
+from ._schedule import add_design_arguments, design_setup, parse_range
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
 

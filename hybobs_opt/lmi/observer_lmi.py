@@ -47,12 +47,8 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import BISECTION_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from ..status import Status
 from .bounds import JacobianBounds, jacobian_bounds
-from .lmi_model import (  # noqa: F401  (also the old home of these names)
-    LMI_NAMES,
-    LMIData,
+from .lmi_model import (
     LMIParameters,
-    SectorData,
-    _bmat,
     box_scaling,
     lmi_data,
     lmi_expression,

@@ -11,8 +11,6 @@ The module holds the runtime object (:class:`LocationObserver`, :class:`Location
   cases" at the end of Section 3.1: :class:`LocationDecision`, :class:`LocationLogic`,
   :func:`prop_3_1_3_matrix`).
 
-Every name this module had is still importable from it (re-exported below), including the old
-private names ``_affine_key`` and ``_sqrt_psd`` (now :func:`affine_key`, :func:`sqrt_psd`).
 """
 
 from __future__ import annotations
@@ -24,23 +22,15 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.linalg import expm
 
 from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
                         ObserverTrace, UNOBSERVABLE, WARMING_UP, check_reset_keywords, initial_state,
                         innovation_excess, judge_samples_against, sample_rows)
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
-from ..errors import InfeasibleError, ModelError, SolverError
-from ..lmi.solve import SOLVER, SOLVER_ERROR, solve_problem
-from ..systems.hybrid import HybridAutomaton
-from ..tolerances import (
-    DELAY_DESIGN_RTOL,
-    LOCATION_INVARIANT_RTOL,
-    LUENBERGER_LMI_MARGIN,
-    MATRIX_EQUAL_RTOL,
-    OBSERVABILITY_RTOL,
-)
+from ..errors import ModelError
+from ..lmi.solve import SOLVER
+from ..tolerances import LOCATION_INVARIANT_RTOL
 from .location_design import (
     DECAY_GUARD,
     MAX_DECAY_ITERATIONS,
@@ -48,12 +38,6 @@ from .location_design import (
     LuenbergerLMI,
     ResidualBank,
     ResidualGenerator,
-    _affine_key,
-    _generator,
-    _invariant_margins,
-    _same,
-    _search_decay,
-    _sqrt_psd,
     affine_key,
     certified_decay,
     check_observable,
@@ -387,17 +371,6 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
     return out
 
 
-
-def _as_samples(U, Y) -> tuple[np.ndarray, np.ndarray]:
-    """Old helper of ``run_detailed`` (kept for imports): numeric traces as ``(N, .)`` arrays."""
-    U = np.asarray(U, dtype=float)
-    Y = np.asarray(Y, dtype=float)
-    U, Y = U.reshape(len(U), -1), Y.reshape(len(Y), -1)
-    if U.shape[0] != Y.shape[0]:
-        raise ModelError("U, Y", "the same number of samples", f"{U.shape[0]} and {Y.shape[0]}")
-    return U, Y
-
-
 __all__ = [
     "AMBIGUOUS",
     "DECAY_GUARD",
@@ -426,22 +399,4 @@ __all__ = [
     "spectral_abscissa",
     "sqrt_psd",
     "state_scale",
-    # names the module had before the split (old private names and imports), kept for imports
-    "_affine_key",
-    "_generator",
-    "_invariant_margins",
-    "_same",
-    "_search_decay",
-    "_sqrt_psd",
-    "time",
-    "expm",
-    "InfeasibleError",
-    "SolverError",
-    "HybridAutomaton",
-    "DELAY_DESIGN_RTOL",
-    "LUENBERGER_LMI_MARGIN",
-    "MATRIX_EQUAL_RTOL",
-    "OBSERVABILITY_RTOL",
-    "SOLVER_ERROR",
-    "solve_problem",
 ]

@@ -12,7 +12,7 @@ and a server with an unserved buffer for which no observer converges.
 
 The systems built here and the comparison are the study
 :mod:`hybobs_opt.studies.paper003_switching.comparison` (shared with
-``notebooks/03_constant_drift_observers.ipynb``; their old names here keep working).
+``notebooks/03_constant_drift_observers.ipynb``).
 """
 
 from __future__ import annotations
@@ -26,12 +26,11 @@ import numpy as np
 
 from ..errors import InfeasibleError
 from ..systems.event_sampled import periodic_system
-from ..studies.paper003_switching.comparison import (  # noqa: F401  (old names of this module)
+from ..studies.paper003_switching.comparison import (
     COMPARISON_TRIALS,
     compare_observers,
     polling_server,
     unserved_buffer_server,
-    visible_samples,
 )
 from .section import ReportSection, register_section
 

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..studies.paper000_driveline.comparison import COMPARE_FROM, LOOKUP_HORIZONS, compare, timed  # noqa: F401
+from ..studies.paper000_driveline.comparison import COMPARE_FROM, compare
 from .section import ReportSection, register_section
 
 def _fmt(v: Any, digits: int = 3) -> str:

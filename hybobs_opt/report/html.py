@@ -1,7 +1,7 @@
 """The HTML report: a list of sections, each contributing HTML and PNG figures.
 
 The foundation contributes the example-systems section; later issues register their own
-sections (observability regions, observers, LMI diagnostics) with :func:`register_section`.
+sections (observability regions, observers, LMI diagnostics) with :func:`~hybobs_opt.report.section.register_section`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HybobsError, ModelError
-from .section import _QUICK, _SECTIONS, ReportSection, SectionBuilder, register_section  # noqa: F401  (old home)
+from .section import _QUICK, _SECTIONS, ReportSection, SectionBuilder
 from .._output_files import write_output_text
 
 def wrap_tables(body: str) -> str:

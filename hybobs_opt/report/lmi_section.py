@@ -7,7 +7,7 @@ fixed-``P`` value, the hysteresis, and the observers on the scenarios (switched 
 region's gain alone, the counterpart of Figs. 3-4).  :func:`write_diagnosis_report` is shared
 with ``hybobs diagnose`` and ``hybobs observe --plot``; the Jacobian-bound figure is the core's
 :func:`hybobs_opt.lmi.plots.plot_jacobian_bounds` (also used by
-``notebooks/04_switched_gain_observers.ipynb``; its old name here keeps working).
+``notebooks/04_switched_gain_observers.ipynb``).
 
 A second section, "vehicle_paper_design", runs the vehicle with the paper's printed gains (eqs.
 61-62) next to the synthesised ones (:mod:`hybobs_opt.studies.paper004_nonmonotonic.paper_design`).
@@ -25,7 +25,7 @@ from ..plotting import pyplot
 plt = pyplot()
 import numpy as np  # noqa: E402
 
-from ..lmi.plots import plot_jacobian_bounds  # noqa: F401  (old name of this module)
+from ..lmi.plots import plot_jacobian_bounds
 from ..observers.plots import plot_observer_run
 from .section import ReportSection, register_section  # noqa: E402
 from .._output_files import write_output_text

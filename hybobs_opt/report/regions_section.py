@@ -9,7 +9,7 @@ next to ours.  Every number is recomputed here; the paper's published figures ar
 The cut planes and their helpers (``feasible_interval``, ``band_mask``,
 ``reduced_pair_dimensions``, ``fig6_planes``) are the study
 :mod:`hybobs_opt.studies.paper002_powertrain.figures` (shared with ``benchmarks/bench_regions.py``
-and ``notebooks/02_observability_regions.ipynb``; their old names here keep working).
+and ``notebooks/02_observability_regions.ipynb``).
 """
 
 from __future__ import annotations
@@ -23,8 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..studies.paper002_powertrain.figures import (  # noqa: F401  (old names of this module)
-    FIG6_PLANE,
+from ..studies.paper002_powertrain.figures import (
     OMEGA_L_CUT,
     THETA_STRETCH,
     band_mask,
@@ -33,7 +32,7 @@ from ..studies.paper002_powertrain.figures import (  # noqa: F401  (old names of
     reduced_pair_dimensions,
 )
 from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
-from ..regions import analyse_observability, compute_cut, plot_cut  # noqa: F401  (plot_cut: old name here)
+from ..regions import analyse_observability, compute_cut
 from .plots import CUT_COLOURS, plot_region_cut
 from .section import ReportSection, register_section, samples
 

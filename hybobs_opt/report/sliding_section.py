@@ -8,7 +8,7 @@ without filter), Fig. 7 (double-scroll phase portrait), Fig. 8 (step-by-step con
 
 The comparison with the lookup observer is the study
 :mod:`hybobs_opt.studies.paper001_sliding_mode.comparison` (shared with
-``notebooks/01_sliding_mode_observers.ipynb``; its old names here keep working).
+``notebooks/01_sliding_mode_observers.ipynb``).
 """
 
 from __future__ import annotations
@@ -33,11 +33,7 @@ from ..studies.paper001_sliding_mode.scenarios import (  # noqa: E402
     run_scenario,
     summarize,
 )
-from ..studies.paper001_sliding_mode.comparison import (  # noqa: E402,F401  (old names of this module)
-    COMPARISON_RTOL,
-    LOOKUP_HORIZON,
-    lookup_comparison,
-)
+from ..studies.paper001_sliding_mode.comparison import COMPARISON_RTOL, lookup_comparison  # noqa: E402
 from ..systems.canonical_form import theorem1_pairs  # noqa: E402
 from ..tolerances import SMO_FILTER_STEPS  # noqa: E402
 from .section import ReportSection, register_section  # noqa: E402

@@ -21,17 +21,13 @@ import numpy as np
 from hybobs_opt.errors import ModelError
 from hybobs_opt.contract import NOISE_FIT_SIGMAS, ObserverTrace
 from hybobs_opt.progress import phase_bars
-from hybobs_opt.observers.comparison import (  # noqa: F401  (re-exported: hybobs_opt.observers.bench)
-    EXACT_LABEL_SAMPLES,
+from hybobs_opt.observers.comparison import (
     exact_window_labels,
     summarise as _summarise,
     timed_steps,
     true_window_observable,
     wilson_interval,
 )
-
-#: ``(progress, close)`` with one tqdm bar per phase (kept under its old name ``progress_bar``).
-progress_bar = phase_bars
 
 #: States whose errors are reported on the observable / unobservable intervals (Figs. 7-9).
 INTERVAL_STATES = ("theta", "omega_l")
@@ -190,7 +186,7 @@ def plot_bench(trace, outs: dict[str, ObserverTrace], path: str) -> str:
 def _observe_scenario(example: str, horizon: int):
     def scenario(args) -> dict[str, Any]:
         kind = args.observer or "lookup"
-        progress, close = progress_bar(not getattr(args, "json", False))
+        progress, close = phase_bars(not getattr(args, "json", False))
         try:
             summary = run_bench(example, horizon, 3000, 0.0, [kind], plot=args.plot, progress=progress)
         finally:

@@ -9,7 +9,7 @@ so it is a PWA system and both observers apply to the same data:
   Noise-free data of the plant it was designed for: it reconstructs the state exactly (up to
   rounding) whenever it flags a step observable.
 * **switched-gain** (paper 004, Section 5): the gains, regions and dwell time are synthesised on the
-  **smooth** piston model (``hybobs_opt.lmi.presets.preset_design("magnetic_piston")``), while the
+  **smooth** piston model (``hybobs_opt.studies.paper004_nonmonotonic.presets.preset_design("magnetic_piston")``), while the
   **data come from the PWA fit**.  The fit error is therefore a model mismatch the observer sees as
   an output disturbance; its estimation error after convergence measures that mismatch, not a flaw
   of the synthesis.

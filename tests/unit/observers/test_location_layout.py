@@ -1,5 +1,5 @@
-"""Layout of the location observer after the split of issue 13 (LMI design / identification logic /
-runtime object), the certificate protocol of DelayCertificate and the LMI status policy."""
+"""Layout of the location observer (LMI design / identification logic / runtime object), the
+certificate base class of DelayCertificate and the LMI status policy."""
 
 from __future__ import annotations
 
@@ -14,26 +14,11 @@ from hybobs_opt.observers import location_observer as lo
 from hybobs_opt.results import Certificate
 from hybobs_opt.status import Status
 
-#: Every module-level name of hybobs_opt/observers/location_observer.py before the split.
-OLD_NAMES = [
-    "math", "time", "Sequence", "dataclass", "Any", "np", "expm", "InfeasibleError", "ModelError", "SolverError",
-    "HybridAutomaton", "DELAY_DESIGN_RTOL", "LOCATION_INVARIANT_RTOL", "LUENBERGER_LMI_MARGIN", "MATRIX_EQUAL_RTOL",
-    "OBSERVABILITY_RTOL", "SOLVER", "SOLVER_ERROR", "solve_problem", "FALLBACK", "OBSERVABLE", "UNOBSERVABLE",
-    "WARMING_UP", "Estimate", "Observer", "ObserverTrace", "initial_state", "DECAY_GUARD", "MAX_DECAY_ITERATIONS",
-    "IDENTIFIED", "AMBIGUOUS", "NO_CANDIDATE", "location_label", "_affine_key", "_same", "distinct_dynamics",
-    "state_scale", "check_observable", "jordan_kappa", "spectral_abscissa", "_sqrt_psd", "certified_decay",
-    "sampled_observer", "LuenbergerLMI", "ResidualGenerator", "ResidualBank", "DelayCertificate",
-    "design_residual_bank", "_search_decay", "_generator", "_invariant_margins", "prop_3_1_3_matrix",
-    "LocationDecision", "LocationLogic", "LocationRun", "LocationObserver", "_as_samples", "_block_diag",
-    "detection_delays",
-]
-
-
-def test_every_old_name_is_still_importable():
-    assert [n for n in OLD_NAMES if not hasattr(lo, n)] == []
-    assert lo.LuenbergerLMI is location_design.LuenbergerLMI
+def test_the_runtime_module_serves_no_old_private_name():
+    """One path per name: the design's helpers are imported from the design module."""
+    for name in ("_affine_key", "_sqrt_psd", "_search_decay", "expm", "solve_problem"):
+        assert not hasattr(lo, name), name
     assert lo.LocationLogic is location_logic.LocationLogic
-    assert lo._affine_key is location_design.affine_key and lo._sqrt_psd is location_design.sqrt_psd
 
 
 def test_delay_certificate_implements_the_certificate_protocol():
