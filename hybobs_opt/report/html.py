@@ -1,7 +1,7 @@
 """The HTML report: a list of sections, each contributing HTML and PNG figures.
 
-The foundation contributes the example-systems section; later issues register their own
-sections (observability regions, observers, LMI diagnostics) with :func:`~hybobs_opt.report.section.register_section`.
+Each section module (the example systems, the observability regions, the observers, the LMI
+diagnostics ...) registers its builder with :func:`~hybobs_opt.report.section.register_section`.
 """
 
 from __future__ import annotations
