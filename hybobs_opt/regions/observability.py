@@ -200,7 +200,7 @@ class ObservabilityAnalysis:
             algebra = _PairAlgebra(_scaled_regions(self.enumeration), self.system.n)
             found = []
             for i in self.index_set:
-                found.extend(_pair_lps(self.enumeration, algebra, i, np.array(self.rank_deficient, dtype=int),
+                found.extend(_pair_lps(algebra, i, np.array(self.rank_deficient, dtype=int),
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool),
                                        thin_filter=False, min_margin=-REGION_SLACK_TOL)[0])
             found.sort()
@@ -555,7 +555,7 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     return js[ok], ok_ij[ok].copy(), ok_ji[ok].copy(), n_tested, n_skipped
 
 
-def _pair_lps(enum: ModeEnumeration, algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
+def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
               report_ji: np.ndarray, thin_filter: bool = True,
               min_margin: float | None = None) -> tuple[list[tuple[int, int, float]], list, list]:
     """Decide the pair sets ``R_ij``, ``j`` in ``js``, with :func:`~hybobs_opt.regions.pair_geometry.classify_pair`.
@@ -662,7 +662,7 @@ def _pairs_task(args, shared=None, progress: Callable[[int, int], None] | None =
     found, thin, same = [], [], []
     for k, (i, (js, ok_ij, ok_ji, *_)) in enumerate(zip(i_list, per_i)):
         keep = ok_ij | ok_ji
-        f, th, fc = _pair_lps(None, algebra, i, js[keep], ok_ij[keep], ok_ji[keep])
+        f, th, fc = _pair_lps(algebra, i, js[keep], ok_ij[keep], ok_ji[keep])
         found.extend(f)
         thin.extend(th)
         same.extend(fc)
