@@ -485,28 +485,6 @@ MHE_EXTENSION_PSD_RTOL: float = 1e-10
 #: a sum of squares): its component outside, relative to its largest coefficient, at most this.
 MHE_EXTENSION_RANGE_RTOL: float = 1e-9
 
-# ---------------------------------------------------------------------- PWA-fitted magnetic piston
-# (paper 004, eq. 63, with piecewise-linear sensor curves; hybobs_opt.studies.paper004_nonmonotonic.piston_pwa
-# and .piston_comparison)
-
-#: The fit error of the piecewise-linear sensor fit is measured on a grid of step 0.0102 mm.  Between
-#: grid points the error can exceed the sampled maximum by at most ``0.5 max|h''| (0.0051 mm)^2``,
-#: about 6.5e-7 mT for the synthetic curves (``|h''| <= 0.05 mT/mm^2``); a check on another grid
-#: accepts this much more (mT): 15 times that, and far below any real misfit (the fits are off by
-#: 0.07 mT or more).
-PWL_FIT_GRID_ATOL: float = 1e-5
-
-#: The two pieces meeting at a breakpoint of the PWL fit agree there to this, relative to the size
-#: of the readings: ``slope * z + offset`` rounds to ~1e-15 relative; a discontinuity would be
-#: of the size of the readings' change over a piece.
-PWL_CONTINUITY_RTOL: float = 1e-12
-
-#: "Exact" reconstruction by the lookup observer on the PWA piston: ``|x_hat - x|`` divided by the
-#: state box's half-widths (DESIGN.md's scaled coordinates) at every step flagged observable.
-#: Measured about 4e-11: the acceleration is a second difference of positions 1 ms apart, so the
-#: rounding of ``z`` (~1e-14 mm) becomes ~2e-7 mm/s^2, i.e. 4e-11 of the 5000 mm/s^2 bound.
-PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
-
 # ---------------------------------------------------------------------- MHE uniqueness (paper 002, eq. 10)
 # The MHE flags a window "observable" only when no admissible window-start state at least
 # MHE_UNIQUENESS_DELTA away (inf-norm, coordinates scaled by the half-widths of X) reaches a cost

@@ -18,7 +18,7 @@ from hybobs_opt.studies.paper004_nonmonotonic.piston_comparison import (
 )
 from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import piston_sensor_fit
 from hybobs_opt.studies.paper004_nonmonotonic.systems import magnetic_piston
-from hybobs_opt.tolerances import PISTON_LOOKUP_EXACT_RTOL, PWL_CONTINUITY_RTOL, PWL_FIT_GRID_ATOL
+from hybobs_opt.studies.paper004_nonmonotonic.piston_pwa import PISTON_LOOKUP_EXACT_RTOL, PWL_CONTINUITY_RTOL, PWL_FIT_GRID_ATOL
 
 
 @pytest.fixture(scope="module")

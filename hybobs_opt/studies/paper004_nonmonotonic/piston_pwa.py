@@ -23,6 +23,25 @@ from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.systems.pwa import PWASystem
 from hybobs_opt.studies.paper004_nonmonotonic.systems import PISTON_A_MAX, PISTON_DT, PISTON_STROKE_MM, PISTON_V_MAX, magnetic_piston
 
+
+#: The fit error of the piecewise-linear sensor fit is measured on a grid of step 0.0102 mm.  Between
+#: grid points the error can exceed the sampled maximum by at most ``0.5 max|h''| (0.0051 mm)^2``,
+#: about 6.5e-7 mT for the synthetic curves (``|h''| <= 0.05 mT/mm^2``); a check on another grid
+#: accepts this much more (mT): 15 times that, and far below any real misfit (the fits are off by
+#: 0.07 mT or more).
+PWL_FIT_GRID_ATOL: float = 1e-5
+
+#: The two pieces meeting at a breakpoint of the PWL fit agree there to this, relative to the size
+#: of the readings: ``slope * z + offset`` rounds to ~1e-15 relative; a discontinuity would be
+#: of the size of the readings' change over a piece.
+PWL_CONTINUITY_RTOL: float = 1e-12
+
+#: "Exact" reconstruction by the lookup observer on the PWA piston: ``|x_hat - x|`` divided by the
+#: state box's half-widths (DESIGN.md's scaled coordinates) at every step flagged observable.
+#: Measured about 4e-11: the acceleration is a second difference of positions 1 ms apart, so the
+#: rounding of ``z`` (~1e-14 mm) becomes ~2e-7 mm/s^2, i.e. 4e-11 of the 5000 mm/s^2 bound.
+PISTON_LOOKUP_EXACT_RTOL: float = 1e-8
+
 #: Bound of the jerk input (mm/s^3) of the PWA model's input set ``U``.  NOT in paper 004 (its
 #: model has no input bound); it reaches the acceleration bound from rest in 0.5 s and is 27 times
 #: the scenario's peak jerk (about 374 mm/s^3), so the scenario is far inside ``U``.
@@ -31,7 +50,7 @@ PISTON_JERK_MAX = 1.0e4
 #: Uniform grid (points over the stroke, plus the breakpoints) on which the fit error is measured.
 #: The grid step is 0.0102 mm; the error's peak on a piece is a smooth maximum of curvature
 #: ``|h''| <= 0.05 mT/mm^2``, so the sampled maximum is below the true one by at most 6.5e-7 mT
-#: (see :data:`~hybobs_opt.tolerances.PWL_FIT_GRID_ATOL`).
+#: (see :data:`PWL_FIT_GRID_ATOL`).
 FIT_CHECK_SAMPLES = 20_001
 
 #: Samples of each sensor's derivative used to locate the slope changes before brentq refines them.
