@@ -108,10 +108,10 @@ def coverage(steps: int, T: int, log) -> dict:
                 t0 = time.perf_counter()
                 run = obs.run(U, Yn)
                 seconds = time.perf_counter() - t0
-                R = np.array([inf["radius"] if "radius" in inf else np.full(system.n, np.nan) for inf in run.info])
+                R = run.radii()
+                R = np.full(run.x_hat.shape, np.nan) if R is None else R
                 has = np.all(np.isfinite(R), axis=1)
-                err = np.abs(run.x_hat - X)
-                outside = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
+                outside = run.n_outside_radius(X)
                 flags = {f: int(np.count_nonzero(run.flags == f)) for f in ("observable", "unobservable", "fallback", "warming_up")}
                 key = f"{name} T={T} noise={level:g} {kind}"
                 table[key] = {"observer": kind, "system": name, "noise_level": level, "samples": int(len(U)),

@@ -133,6 +133,27 @@ class ObserverTrace:
     def flag_counts(self) -> dict[str, int]:
         return {f: int(np.count_nonzero(self.flags == f)) for f in FLAGS}
 
+    def radii(self) -> np.ndarray | None:
+        """The certified radius each step states (``info["radius"]``), ``(N, n)`` with ``nan`` rows
+        where a step states none; ``None`` when no step states one."""
+        n = self.x_hat.shape[1]
+        if not any(isinstance(inf, dict) and "radius" in inf for inf in self.info):
+            return None
+        return np.array([np.asarray(inf["radius"], dtype=float).reshape(n) if isinstance(inf, dict) and "radius" in inf
+                         else np.full(n, np.nan) for inf in self.info]).reshape(len(self.info), n)
+
+    def n_outside_radius(self, x_true: np.ndarray) -> int:
+        """Steps stating a radius whose true state lies outside it (to the rounding allowance
+        :data:`~hybobs_opt.tolerances.RADIUS_CHECK_RTOL` / ``RADIUS_CHECK_ATOL``); 0 without radii."""
+        from .tolerances import RADIUS_CHECK_ATOL, RADIUS_CHECK_RTOL
+
+        R = self.radii()
+        if R is None:
+            return 0
+        err = np.abs(self.errors(x_true))
+        has = np.all(np.isfinite(R), axis=1)
+        return int(np.count_nonzero(np.any(err[has] > R[has] * (1 + RADIUS_CHECK_RTOL) + RADIUS_CHECK_ATOL, axis=1)))
+
     def timing(self) -> dict[str, float]:
         """Median, 95th percentile and maximum per-step compute time (seconds)."""
         s = self.seconds[np.isfinite(self.seconds)]

@@ -546,6 +546,13 @@ MHE_DECISION_BAND_COST_RTOL: float = 1e-12
 #: was up to 3e-11 outside the unpadded box (omega_l, half-width 50: 6e-13 of it).
 SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
 
+#: Rounding allowance when a true state is compared with a stated radius (``|x^ - x| <= r (1 +
+#: RADIUS_CHECK_RTOL) + RADIUS_CHECK_ATOL``, :meth:`~hybobs_opt.contract.ObserverTrace.n_outside_radius`):
+#: the subtraction ``x^ - x`` rounds at ~1e-16 of the state; the radii carry their own pad
+#: (:data:`SET_MEMBERSHIP_BOX_RTOL`), so this only keeps a state on the boundary inside.
+RADIUS_CHECK_RTOL: float = 1e-9
+RADIUS_CHECK_ATOL: float = 1e-12
+
 
 #: The set-membership observer's check of an extreme point against its MILP's dual bound: the
 #: point's value may lie this much (relative to ``1 + |value|``) beyond the bound -- HiGHS's

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SequenceSearch", "search_sequences"]
+__all__ = ["SequenceSearch", "leaf_trajectory", "search_sequences"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +88,19 @@ class SequenceSearch:
         return float(self.cost - self.lower_bound) if np.isfinite(self.cost) else float("inf")
 
 
+def leaf_trajectory(model, modes, theta: np.ndarray, problem: tuple, U: np.ndarray, Y: np.ndarray,
+                    xbar: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The window trajectory of a full mode sequence's QP point ``theta`` (scaled), in model units:
+    ``(x0, W, states, cost)``, the cost of eq. (10) recomputed in numpy (an upper bound of the
+    sequence's optimum)."""
+    T, n = model.T, model.n
+    x0 = model.cx + model.hx * theta[:n]
+    W = (theta[n:].reshape(T - 1, n) * model.hx) if problem[4] else np.zeros((max(T - 1, 0), n))
+    modes = np.asarray(modes, dtype=int)
+    states = model.trajectory(x0, modes, U, W)
+    return x0, W, states, model.cost(states, modes, U, Y, W, xbar)
+
+
 def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incumbent: tuple | None = None, *,
                      rtol: float, atol: float, max_nodes: int, deadline: float | None = None,
                      time_budget: float | None = None) -> SequenceSearch:
@@ -120,7 +133,7 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
     SequenceSearch
     """
     t0 = time.perf_counter()
-    T, n = model.T, model.n
+    T = model.T
     n_modes = model.system.n_modes
     best_modes = None if incumbent is None else np.asarray(incumbent[0], dtype=int)
     best_cost = np.inf if incumbent is None else float(incumbent[1])
@@ -159,10 +172,7 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
             if theta is None:
                 continue  # proven infeasible: no sequence begins with it
             if len(seq) == T:
-                x0 = model.cx + model.hx * theta[:n]
-                W = (theta[n:].reshape(T - 1, n) * model.hx) if problem[4] else np.zeros((max(T - 1, 0), n))
-                states = model.trajectory(x0, np.array(seq), U, W)
-                cost = model.cost(states, np.array(seq), U, Y, W, xbar)
+                x0, W, _, cost = leaf_trajectory(model, seq, theta, problem, U, Y, xbar)
                 if cost < best_cost:
                     best_modes, best_cost, best_theta, improved = np.array(seq, dtype=int), cost, (x0, W), True
                 closed = min(closed, lower)

@@ -40,6 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .certify import leaf_trajectory
+
 __all__ = ["SequenceMixture", "sequence_mixture", "sequence_posterior_covariance"]
 
 
@@ -101,7 +103,11 @@ def sequence_posterior_covariance(model, modes, U: np.ndarray, Y: np.ndarray, xb
     The inverse of the whitened cost's information ``R' R`` in the window-start state (and
     disturbances), mapped to the last sample through the sequence's dynamics.
     """
-    R = model.sequence_problem(modes, U, Y, xbar)[0]
+    return _posterior_covariance(model, modes, model.sequence_problem(modes, U, Y, xbar)[0])
+
+
+def _posterior_covariance(model, modes, R: np.ndarray) -> np.ndarray:
+    """:func:`sequence_posterior_covariance` from the sequence's whitened residual matrix ``R``."""
     n, T = model.n, model.T
     nt = R.shape[1]
     Px = np.zeros((n, nt))
@@ -142,13 +148,13 @@ def sequence_mixture(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, x_ha
     SequenceMixture
     """
     t0 = time.perf_counter()
-    T, n = model.T, model.n
+    T = model.T
     n_modes = model.system.n_modes
-    found: list[tuple[float, tuple[int, ...], np.ndarray, float]] = []  # cost, modes, last state, logdet
+    found: list[tuple[float, tuple[int, ...], np.ndarray, float, np.ndarray]] = []  # cost, modes, last state, logdet, R
     nodes = 0
 
     def stop(reason: str) -> SequenceMixture:
-        return _mixture(model, found, U, Y, xbar, x_hat, threshold, False, nodes, t0, reason)
+        return _mixture(model, found, x_hat, threshold, False, nodes, t0, reason)
 
     stack: list[tuple[int, ...]] = [()]
     while stack:
@@ -170,34 +176,32 @@ def sequence_mixture(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, x_ha
             if len(seq) < T:
                 stack.append(seq)
                 continue
-            x0 = model.cx + model.hx * theta[:n]
-            W = (theta[n:].reshape(T - 1, n) * model.hx) if problem[4] else np.zeros((max(T - 1, 0), n))
-            states = model.trajectory(x0, np.array(seq), U, W)
-            cost = model.cost(states, np.array(seq), U, Y, W, xbar)
+            _, _, states, cost = leaf_trajectory(model, seq, theta, problem, U, Y, xbar)
             R = problem[0]
             sign, logdet = np.linalg.slogdet(R.T @ R)
             if sign <= 0 or not np.isfinite(logdet):
                 return stop(f"the mode sequence {seq} fits but leaves a direction of the window unobserved "
                             "(singular information): its posterior has no covariance")
-            found.append((cost, seq, states[-1].copy(), float(logdet)))
+            found.append((cost, seq, states[-1].copy(), float(logdet), R))
             if len(found) > max_sequences:
                 return stop(f"more than {max_sequences} mode sequences fit within the chi-square threshold")
     if not found:
         return stop("no mode sequence fits within the threshold (the optimum's own sequence was not found)")
-    return _mixture(model, found, U, Y, xbar, x_hat, threshold, True, nodes, t0, "")
+    return _mixture(model, found, x_hat, threshold, True, nodes, t0, "")
 
 
-def _mixture(model, found, U, Y, xbar, x_hat, threshold, complete, nodes, t0, reason) -> SequenceMixture:
+def _mixture(model, found, x_hat, threshold, complete, nodes, t0, reason) -> SequenceMixture:
+    """The :class:`SequenceMixture` of the sequences found (least cost first); its covariance only when ``complete``."""
     n = model.n
     found = sorted(found, key=lambda item: item[0])
     k = len(found)
-    modes = np.array([s for _, s, _, _ in found], dtype=int).reshape(k, model.T)
-    costs = np.array([c for c, _, _, _ in found], dtype=float)
-    means = np.array([m for _, _, m, _ in found], dtype=float).reshape(k, n)
-    logw = np.array([-0.5 * c - 0.5 * ld for c, _, _, ld in found], dtype=float)
+    modes = np.array([item[1] for item in found], dtype=int).reshape(k, model.T)
+    costs = np.array([item[0] for item in found], dtype=float)
+    means = np.array([item[2] for item in found], dtype=float).reshape(k, n)
+    logw = np.array([-0.5 * item[0] - 0.5 * item[3] for item in found], dtype=float)
     weights = np.exp(logw - logw.max()) if k else logw
     weights = weights / weights.sum() if k else weights
-    covs = np.array([sequence_posterior_covariance(model, s, U, Y, xbar) for s in modes]).reshape(k, n, n)
+    covs = np.array([_posterior_covariance(model, item[1], item[4]) for item in found]).reshape(k, n, n)
     cov = np.full((n, n), np.nan)
     if complete:
         d = means - np.asarray(x_hat, dtype=float)[None, :]

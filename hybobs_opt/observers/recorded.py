@@ -100,8 +100,9 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
                            "flag_counts": trace.flag_counts(), "run_seconds": seconds,
                            "seconds_per_sample": seconds / max(1, trace.n_steps), **trace.timing()}
     rec["n_flagged_observable"] = rec["flag_counts"][OBSERVABLE]
-    radii = np.array([inf["radius"] for inf in trace.info if isinstance(inf, dict) and "radius" in inf])
-    if radii.size:  # the set-membership observer: certified radii per state
+    R = trace.radii()
+    radii = R[np.all(np.isfinite(R), axis=1)] if R is not None else np.zeros((0, 0))
+    if radii.size:  # an observer stating certified radii per state
         rec["radius_median"] = np.median(radii, axis=0).tolist()
         rec["radius_max"] = radii.max(axis=0).tolist()
     if log.X is not None:
@@ -113,10 +114,7 @@ def log_summary(trace: ObserverTrace, log, seconds: float) -> dict[str, Any]:
         rec["max_rel_error_observable"] = float(rel[flagged].max()) if flagged.any() else None
         rec["n_flagged_observable_wrong"] = int(np.count_nonzero(rel[flagged].max(axis=1) > WRONG_ESTIMATE_RTOL)) if flagged.any() else 0
         if radii.size:
-            R = np.array([inf.get("radius", np.full(log.X.shape[1], np.nan)) if isinstance(inf, dict) else
-                          np.full(log.X.shape[1], np.nan) for inf in trace.info])
-            has = np.all(np.isfinite(R), axis=1)
-            rec["n_outside_radius"] = int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1)))
+            rec["n_outside_radius"] = trace.n_outside_radius(log.X)
     else:
         rec["has_true_states"] = False
     return rec

@@ -104,7 +104,7 @@ def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: in
     fig, axes = plt.subplots(n + 1, 1, figsize=(7.5, 1.6 * n + 1.4), sharex=True,
                              gridspec_kw={"height_ratios": [1.0] * n + [0.6]})
     axes = np.atleast_1d(axes)
-    radii = trace_radii(trace)
+    radii = trace.radii()
     for i in range(n):
         if radii is not None:
             axes[i].fill_between(k, trace.x_hat[:, i] - radii[:, i], trace.x_hat[:, i] + radii[:, i], color="tab:blue",
@@ -124,17 +124,6 @@ def plot_estimates(trace, log, path: str | Path, title: str = "", max_states: in
     axes[n].set_ylabel("flag")
     axes[n].set_xlabel("t [s]" if log.t is not None else "sample")
     return save_figure(fig, path, title)
-
-
-def trace_radii(trace) -> np.ndarray | None:
-    """The certified radius of each step of an observer's run, ``(N, n)`` (``nan`` where a step states
-    none), or ``None`` when the observer states no radius."""
-    infos = trace.info
-    if not any(isinstance(inf, dict) and "radius" in inf for inf in infos):
-        return None
-    n = trace.x_hat.shape[1]
-    return np.array([np.asarray(inf["radius"], dtype=float) if isinstance(inf, dict) and "radius" in inf
-                     else np.full(n, np.nan) for inf in infos]).reshape(len(infos), n)
 
 
 def plot_radii(t: np.ndarray, x_true: np.ndarray, runs: Mapping[str, object], path: str | Path, title: str = "",
@@ -173,7 +162,7 @@ def plot_radii(t: np.ndarray, x_true: np.ndarray, runs: Mapping[str, object], pa
     styles = [("-", 2.4, "o", 2.4), ("--", 1.4, "x", 2.2), (":", 1.0, "+", 2.6)]
     floor = 1e-12
     for c, (name, run) in enumerate(runs.items()):
-        R = trace_radii(run)
+        R = run.radii()
         if R is None:
             continue
         err = np.abs(run.x_hat - x_true)

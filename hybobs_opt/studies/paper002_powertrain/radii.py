@@ -76,8 +76,9 @@ def run_radius_study(bound: float, steps: int, *, horizon: int = 3, seed: int = 
         run = obs.run(trace.u, y)
         if traces is not None:
             traces[name] = run
-        R = np.array([np.asarray(inf["radius"], dtype=float) if isinstance(inf, dict) and "radius" in inf
-                      else np.full(plant.n, np.nan) for inf in run.info])
+        R = run.radii()
+        if R is None:
+            R = np.full(run.x_hat.shape, np.nan)
         has = np.all(np.isfinite(R), axis=1)
         err = np.abs(run.x_hat - trace.x)
         flags = run.flag_counts()
@@ -86,7 +87,7 @@ def run_radius_study(bound: float, steps: int, *, horizon: int = 3, seed: int = 
         observers[name] = {
             "flags": flags,
             "n_with_radius": int(has.sum()),
-            "n_outside_radius": int(np.count_nonzero(np.any(err[has] > R[has] * (1 + 1e-9) + 1e-12, axis=1))),
+            "n_outside_radius": run.n_outside_radius(trace.x),
             "radius_median": dict(zip(names, np.median(R[has], axis=0).tolist())) if has.any() else None,
             "radius_median_flagged": dict(zip(names, np.median(R[flagged], axis=0).tolist())) if flagged.any() else None,
             "max_abs_error_flagged": dict(zip(names, err[flagged].max(axis=0).tolist())) if flagged.any() else None,
