@@ -3,8 +3,10 @@
 Three tiers (DESIGN.md; a test checks that every import points down):
 
 * **core** -- ``geometry`` (polytopes, LPs), ``systems``, ``sim``, ``regions`` (observability of
-  PWA systems, paper 002), ``lmi`` (observer LMIs and certificates, paper 004), ``mhe``
-  (MIQP/MILP moving-horizon observers) and ``observers`` (the runtime observers, one contract);
+  PWA systems, paper 002), ``synthesis`` (the offline designs of papers 000-003 and the MHE
+  arrival weight, with certificates) and ``lmi`` (observer LMIs and certificates, paper 004),
+  ``mhe`` (MIQP/MILP moving-horizon observers) and ``observers`` (the runtime observers, one
+  contract);
 * **studies** -- ``studies.paper000_driveline`` ... ``studies.paper004_nonmonotonic``: the seed
   papers' systems, scenarios, published settings and comparisons (the example registry);
 * **application** -- ``cli`` (``hybobs``), ``report``.
@@ -50,9 +52,10 @@ _EXPORTS: dict[str, str] = {
     "SetMembershipFilter": "hybobs_opt.observers.set_filter",
     "observe_log": "hybobs_opt.observers.recorded",
     **dict.fromkeys(("ContinuousObserver", "DriftObserver", "HybridObserver", "LocationObserver", "LookupObserver",
-                     "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver", "deadbeat_gains",
-                     "design_continuous_observer", "design_gains", "design_residual_bank", "positive_observer"),
-                    "hybobs_opt.observers"),
+                     "PeriodicObserver", "SlidingModeObserver", "SwitchedGainObserver"), "hybobs_opt.observers"),
+    # offline designs (papers 000-003; paper 004's are the LMI designs above)
+    **dict.fromkeys(("deadbeat_gains", "design_continuous_observer", "design_gains", "design_residual_bank",
+                     "positive_observer"), "hybobs_opt.synthesis"),
     # running work
     **dict.fromkeys(("DaskExecutor", "ProcessExecutor", "SerialExecutor", "make_executor"), "hybobs_opt.executor"),
     **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),

@@ -163,8 +163,8 @@ class MHEObserver(Observer):
         program keeps it: with ``W_a`` the flag ``observable`` means unique *given the prior*, not
         determined by the data alone (``info["uniqueness"]["includes_prior"]`` is then ``True``;
         on model (16) with ``W_a = 1e-3`` two of 300 backlash windows were flagged so).
-        ``arrival_weight`` may also be an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior` of
-        :func:`~hybobs_opt.mhe.arrival.certified_arrival_prior`: the weight tuned from the noise
+        ``arrival_weight`` may also be an :class:`~hybobs_opt.synthesis.arrival_weight.ArrivalPrior` of
+        :func:`~hybobs_opt.synthesis.arrival_weight.certified_arrival_prior`: the weight tuned from the noise
         level (it must have been tuned for this observer's ``noise_std``), which never claims more
         information than a Kalman filter has under any mode sequence (kept as
         :attr:`arrival_prior`).  ``arrival_weight="kalman"`` (norm 2, solver ``"daqp"``, with
@@ -574,7 +574,8 @@ class MHEObserver(Observer):
 
     def _kalman_arrival(self, value, initial_std, disturbance_weight, extend):
         """The :class:`~hybobs_opt.mhe.arrival.KalmanArrival` of ``arrival_weight="kalman"`` (else ``None``)."""
-        from .arrival import KalmanArrival, _std_vector
+        from ..synthesis.arrival_weight import std_vector
+        from .arrival import KalmanArrival
 
         if not (isinstance(value, str) and value == "kalman"):
             if initial_std is not None:
@@ -592,7 +593,7 @@ class MHEObserver(Observer):
                 raise ModelError("initial_std", "given when the state box is unbounded or flat", repr(half.tolist()))
             s0 = half / np.sqrt(3.0)  # a uniform distribution over the state box
         else:
-            s0 = _std_vector(initial_std, self.n, "initial_std", "of the first prior's error, per state")
+            s0 = std_vector(initial_std, self.n, "initial_std", "of the first prior's error, per state")
         Q = None
         if disturbance_weight is not None:
             Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
@@ -666,9 +667,9 @@ class MHEObserver(Observer):
         return OBSERVABLE
 
     def _arrival_prior(self, value):
-        """The ``arrival_weight`` keyword when it is an :class:`~hybobs_opt.mhe.arrival.ArrivalPrior`
+        """The ``arrival_weight`` keyword when it is an :class:`~hybobs_opt.synthesis.arrival_weight.ArrivalPrior`
         (checked against this observer's noise level), else ``None``."""
-        from .arrival import ArrivalPrior
+        from ..synthesis.arrival_weight import ArrivalPrior
 
         if not isinstance(value, ArrivalPrior):
             return None

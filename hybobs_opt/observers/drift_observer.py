@@ -52,7 +52,7 @@ from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
 from ..contract import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, checked_time, initial_mode, check_reset_keywords
-from .periodic import PeriodicGains, analyse_gains, deadbeat_gains
+from ..synthesis.periodic_gains import PeriodicGains, analyse_gains, deadbeat_gains
 
 
 @dataclass(frozen=True)
@@ -144,7 +144,7 @@ class DriftObserver(Observer):
         The plant (3); its outputs ``h_q`` define the visible events.
     gains : PeriodicGains or (V, N) array, optional
         Gains ``L_j`` of (16), phase ``j`` = the step starting at the visible event leaving
-        ``v_j``.  Default: :func:`~hybobs_opt.observers.periodic.deadbeat_gains`.
+        ``v_j``.  Default: :func:`~hybobs_opt.synthesis.periodic_gains.deadbeat_gains`.
     project : bool
         Report ``P_Omega x-bar^ = max(0, x-bar^)`` (Remark 4.4) instead of ``x-bar^``; the
         observer's own state is not projected.

@@ -4,7 +4,7 @@
 The module holds the runtime object (:class:`LocationObserver`, :class:`LocationRun`,
 :func:`detection_delays`).  Its two other concepts live next to it:
 
-* :mod:`hybobs_opt.observers.location_design` -- the LMI design of the residual-generator bank
+* :mod:`hybobs_opt.synthesis.location_design` -- the LMI design of the residual-generator bank
   (eqs. 6-8, Proposition 3.1.1: :class:`LuenbergerLMI`, :class:`ResidualGenerator`,
   :class:`ResidualBank`, :func:`design_residual_bank`, :class:`DelayCertificate`, the decay search);
 * :mod:`hybobs_opt.observers.location_logic` -- the location identification logic (the "critical
@@ -16,7 +16,6 @@ The module holds the runtime object (:class:`LocationObserver`, :class:`Location
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -29,28 +28,9 @@ from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIEN
 from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import ModelError
-from ..lmi.solve import SOLVER
 from ..tolerances import LOCATION_INVARIANT_RTOL
-from .location_design import (
-    DECAY_GUARD,
-    MAX_DECAY_ITERATIONS,
-    DelayCertificate,
-    LuenbergerLMI,
-    ResidualBank,
-    ResidualGenerator,
-    affine_key,
-    certified_decay,
-    check_observable,
-    design_residual_bank,
-    distinct_dynamics,
-    jordan_kappa,
-    location_label,
-    sampled_observer,
-    spectral_abscissa,
-    sqrt_psd,
-    state_scale,
-)
-from .location_logic import AMBIGUOUS, IDENTIFIED, NO_CANDIDATE, LocationDecision, LocationLogic, prop_3_1_3_matrix
+from ..synthesis.location_design import ResidualBank, sampled_observer
+from .location_logic import AMBIGUOUS, IDENTIFIED, NO_CANDIDATE, LocationDecision, LocationLogic
 
 
 # ============================================================================ runtime observer
@@ -371,32 +351,4 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
     return out
 
 
-__all__ = [
-    "AMBIGUOUS",
-    "DECAY_GUARD",
-    "DelayCertificate",
-    "IDENTIFIED",
-    "LocationDecision",
-    "LocationLogic",
-    "LocationObserver",
-    "LocationRun",
-    "LuenbergerLMI",
-    "MAX_DECAY_ITERATIONS",
-    "NO_CANDIDATE",
-    "ResidualBank",
-    "ResidualGenerator",
-    "SOLVER",
-    "affine_key",
-    "certified_decay",
-    "check_observable",
-    "design_residual_bank",
-    "detection_delays",
-    "distinct_dynamics",
-    "jordan_kappa",
-    "location_label",
-    "prop_3_1_3_matrix",
-    "sampled_observer",
-    "spectral_abscissa",
-    "sqrt_psd",
-    "state_scale",
-]
+__all__ = ["LocationObserver", "LocationRun", "detection_delays"]

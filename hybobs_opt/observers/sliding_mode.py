@@ -38,13 +38,8 @@ Sampled implementation (one Euler step per output sample, step ``h``; the fixed-
   zt_3`` (as the paper does for Example 2, where ``sigma = x2``) would make ``sigma`` wrong by
   up to 0.4 for a 0.1 s filter.
 
-Gains (explicit rule, :func:`design_gains`): ``lambda_j = rho * (z_{j+1}^max - z_{j+1}^min)``
-for ``j < n`` and ``lambda_n = rho * (f^max - f^min)``, with the ranges over the operating box
-and all locations (exact for affine flows) and ``rho`` =
-:data:`~hybobs_opt.tolerances.SMO_GAIN_MARGIN`.  With the estimate clipped to the same ranges,
-``|e_{j+1}| <= z_{j+1}^max - z_{j+1}^min``, so every stage meets its sliding condition with a
-reaching rate of at least ``(rho - 1)`` times that width (Theorem 2's "there exists a choice of
-lambda_i", made explicit and not tuned per example).
+Gains: :mod:`hybobs_opt.synthesis.sliding_mode_gains` (an explicit rule from the state and
+derivative ranges).
 """
 
 from __future__ import annotations
@@ -59,120 +54,11 @@ import numpy as np
 from .._validate import as_int, as_positive, as_vector
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
-from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
+from ..synthesis.sliding_mode_gains import GainRule, design_gains
+from ..tolerances import SMO_SLIDING_HOLD
 from ..contract import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows, check_reset_keywords
 
-__all__ = [
-    "GainRule",
-    "IndicatorMetrics",
-    "SlidingModeObserver",
-    "SlidingModeRun",
-    "convergence_times",
-    "design_gains",
-    "discretization_band",
-    "indicator_metrics",
-    "reaching_time_bounds",
-]
-
-
-# ---------------------------------------------------------------------------------- gains
-@dataclass(frozen=True)
-class GainRule:
-    """The gains ``lambda_1..lambda_n`` of observer (5) and the bounds they come from.
-
-    Parameters
-    ----------
-    lambdas : (n,) array
-    widths : (n,) array
-        Width of the range of ``z_2, ..., z_n`` and of ``f`` (the error bound each stage must
-        dominate).
-    margin : float
-        ``rho`` of the rule ``lambda_j = rho * widths[j]``.
-    rule : str
-        The rule in words.
-    """
-
-    lambdas: np.ndarray
-    widths: np.ndarray
-    margin: float
-    rule: str
-
-    def to_dict(self) -> dict:
-        return {"lambdas": self.lambdas.tolist(), "widths": self.widths.tolist(), "margin": self.margin, "rule": self.rule}
-
-
-def design_gains(form: ObservabilityForm, margin: float = SMO_GAIN_MARGIN) -> GainRule:
-    """Gains of observer (5) from the state and derivative bounds (explicit rule, see the module).
-
-    ``lambda_j = margin * (z_{j+1}^max - z_{j+1}^min)`` for ``j < n`` and
-    ``lambda_n = margin * (f^max - f^min)``.
-
-    Parameters
-    ----------
-    form : ObservabilityForm
-        The automaton in the canonical form (4) of paper 001, with its state and derivative ranges.
-    margin : float, default SMO_GAIN_MARGIN
-        Factor ``> 1`` on each range width.
-
-    Raises
-    ------
-    ModelError
-        If ``margin <= 1`` (the sliding condition needs ``lambda_j`` above the error bound).
-    """
-    if not (np.isfinite(margin) and margin > 1.0):
-        raise ModelError("margin", "a finite gain margin above 1 (lambda_j must exceed the error bound)", repr(margin))
-    widths = np.append(form.z_upper[1:] - form.z_lower[1:], form.f_upper - form.f_lower)
-    widths = np.maximum(widths, np.finfo(float).tiny)
-    rule = (f"lambda_j = {margin:g} x (range width of z_(j+1)) for j < n, lambda_n = {margin:g} x (range width of z_n' = f_q) "
-            f"over the operating box and all locations ({form.f_bound_method} bound of f)")
-    return GainRule(margin * widths, widths, float(margin), rule)
-
-
-def discretization_band(form: ObservabilityForm, Ts: float) -> np.ndarray:
-    """Error band of each canonical state after convergence, noise-free: ``j h D_j``.
-
-    Stage ``j``'s auxiliary state is a ``(j-1)``-fold backward difference of ``y`` (lag
-    ``(j-1) h / 2``) and the estimate adds one Euler step, so its error is at most about
-    ``(j + 1) / 2 * h * D_j <= j h D_j`` with ``D_j`` the bound of ``z_j' `` (``max |z_{j+1}|``,
-    and ``max |f|`` for ``j = n``) over the operating box.
-
-    Parameters
-    ----------
-    form : ObservabilityForm
-        The automaton in the canonical form (4), with its state and derivative ranges.
-    Ts : float
-        Sampling period ``h``.
-
-    Returns
-    -------
-    (n,) ndarray
-        The band of each canonical state ``z_j``.
-    """
-    n = form.n
-    D = np.empty(n)
-    for j in range(n - 1):
-        D[j] = max(abs(form.z_lower[j + 1]), abs(form.z_upper[j + 1]))
-    D[n - 1] = max(abs(form.f_lower), abs(form.f_upper))
-    return np.arange(1, n + 1) * float(Ts) * D
-
-
-def reaching_time_bounds(gains: GainRule, initial_error: float) -> np.ndarray:
-    """Upper bounds on the times at which stages ``1..n`` of observer (5) reach their layers.
-
-    Stage 1 starts at ``|e_1(0)| = initial_error`` and approaches at rate
-    ``lambda_1 - widths[0] = (rho - 1) widths[0]`` at least; stage ``j > 1`` starts once stage
-    ``j - 1`` slides, with an error of at most ``widths[j - 1]`` (clipping), and approaches at
-    rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`SMO_SLIDING_HOLD` samples,
-    not included.)
-    """
-    rate = gains.lambdas - gains.widths
-    out = np.empty(gains.lambdas.size)
-    t = abs(float(initial_error)) / rate[0]
-    out[0] = t
-    for j in range(1, gains.lambdas.size):
-        t += gains.widths[j - 1] / rate[j]
-        out[j] = t
-    return out
+__all__ = ["IndicatorMetrics", "SlidingModeObserver", "SlidingModeRun", "convergence_times", "indicator_metrics"]
 
 
 # ---------------------------------------------------------------------------------- observer

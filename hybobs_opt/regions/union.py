@@ -20,9 +20,11 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry.difference import polytope_difference
-from ..geometry.polytope import VERTEX_MAX_DIM, resolve_coordinate
+from ..geometry._common import resolve_coordinate
+from ..geometry.polytope import VERTEX_MAX_DIM
 from .._validate import as_names
-from ..geometry.polytope import Polytope, VolumeEstimate, monte_carlo_volume
+from ..geometry.polytope import Polytope
+from ..geometry.volume import VolumeEstimate, monte_carlo_volume
 from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
 
 

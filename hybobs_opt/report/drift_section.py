@@ -71,7 +71,7 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """Build the section (about 10-20 s: a few small LPs, two scenario runs, the comparison)."""
     from ..studies.paper003_switching.scenarios import plot_drift_run, run_drift_scenario
     from ..studies.paper003_switching.systems import switching_server, traffic_junction
-    from ..observers.periodic import deadbeat_gains, positive_deadbeat_gains, positive_observer
+    from ..synthesis.periodic_gains import deadbeat_gains, positive_deadbeat_gains, positive_observer
 
     parts: list[str] = []
     summary: dict[str, Any] = {}

@@ -3,7 +3,7 @@
 Walks the syntax tree of every module of the package, imports inside functions included, and
 resolves relative imports to absolute module names.  Core modules -- the root package included --
 may not import the studies, the CLI or the report; studies may not import the CLI or the report;
-``mhe`` may not import ``observers``.  String references (``importlib.import_module("hybobs_opt.studies...")``,
+``mhe`` may not import ``observers``, and ``synthesis`` (the offline designs) imports neither.  String references (``importlib.import_module("hybobs_opt.studies...")``,
 a lazy export table) count as imports too, and no core module forwards names through a module
 ``__getattr__`` function (the lazy export tables of the package faces are assignments whose
 strings the first rule checks).
@@ -85,6 +85,10 @@ def violations() -> list[str]:
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: core module {name} imports argparse (CLI glue)")
             if _under(name, "hybobs_opt.mhe") and _under(mod, "hybobs_opt.observers"):
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: mhe module {name} imports {mod} (mhe sits below observers)")
+            for runtime in ("hybobs_opt.mhe", "hybobs_opt.observers"):
+                if _under(name, "hybobs_opt.synthesis") and _under(mod, runtime):
+                    bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: synthesis module {name} imports {mod} "
+                               "(offline designs sit below the runtime observers)")
     return bad
 
 
@@ -134,6 +138,11 @@ def test_the_walker_sees_upward_imports(tmp_path, monkeypatch):
     assert any("imports hybobs_opt.studies" in v for v in found)
     assert any("imports hybobs_opt.cli.regions" in v for v in found)
     assert not real.exists()
+
+
+def test_the_walker_sees_a_design_importing_a_runtime_observer():
+    found = _violations_of_text("hybobs_opt/synthesis/periodic_gains.py", "from ..observers.periodic import PeriodicObserver\n")
+    assert any("synthesis module hybobs_opt.synthesis.periodic_gains imports hybobs_opt.observers.periodic" in v for v in found)
 
 
 def module_getattr_functions() -> list[str]:

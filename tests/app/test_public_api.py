@@ -23,7 +23,8 @@ def test_main_objects_import_from_the_package():
 
 
 @pytest.mark.parametrize("package", ["hybobs_opt", "hybobs_opt.observers", "hybobs_opt.systems", "hybobs_opt.regions",
-                                     "hybobs_opt.lmi", "hybobs_opt.mhe", "hybobs_opt.sim", "hybobs_opt.studies"])
+                                     "hybobs_opt.synthesis", "hybobs_opt.lmi", "hybobs_opt.mhe", "hybobs_opt.sim",
+                                     "hybobs_opt.studies"])
 def test_every_exported_name_resolves(package):
     mod = importlib.import_module(package)
     missing = [name for name in mod.__all__ if getattr(mod, name, None) is None and name != "__version__"]
@@ -57,6 +58,91 @@ OLD_PATHS = ("hybobs_opt._compat", "hybobs_opt.examples", "hybobs_opt.examples.p
 def test_an_old_import_path_is_gone(old):
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module(old)
+
+
+#: Documented names of papers 000-003 and of the MHE arrival weight that moved to ``hybobs_opt.synthesis``.
+MOVED_TO_SYNTHESIS = {
+    "hybobs_opt.observers": ("ContinuousDesign", "ConvergenceBound", "GainRule", "PeriodicGains", "ResidualBank",
+                             "convergence_bound", "deadbeat_gains", "design_continuous_observer", "design_gains",
+                             "design_residual_bank", "discretization_band", "positive_deadbeat_gains",
+                             "positive_gain_bounds", "positive_observer"),
+    "hybobs_opt.mhe": ("ArrivalPrior", "certified_arrival_prior"),
+}
+
+
+@pytest.mark.parametrize("package,name", [(p, n) for p, names in MOVED_TO_SYNTHESIS.items() for n in names])
+def test_a_moved_design_warns_once_and_is_the_synthesis_object(package, name):
+    import hybobs_opt.synthesis as synthesis
+
+    mod = importlib.import_module(package)
+    assert name not in mod.__all__ and name not in dir(mod)
+    with pytest.warns(FutureWarning, match=rf"{package}\.{name} is deprecated .* 0\.2\.0: use hybobs_opt\.synthesis\.{name}"):
+        value = getattr(mod, name)
+    assert value is getattr(synthesis, name)
+    with pytest.warns(FutureWarning):  # never cached: every access warns
+        getattr(mod, name)
+
+
+def _defined_names(path) -> set[str]:
+    """Names bound at the top level of a module (definitions and assignments, not imports)."""
+    import ast
+
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            for target in (node.targets if isinstance(node, ast.Assign) else [node.target]):
+                names.update(x.id for x in ast.walk(target) if isinstance(x, ast.Name))
+    return names
+
+
+def imports_through_a_second_path(root) -> list[str]:
+    """``file:line: module.name`` of each ``from hybobs_opt.<module> import name`` in the package, the tests,
+    benchmarks and scripts where ``<module>`` is a plain module (not a package face) that does not define
+    ``name`` itself but imported it from elsewhere."""
+    import ast
+
+    bad = []
+    for folder in ("hybobs_opt", "tests", "benchmarks", "scripts"):
+        for path in sorted((root / folder).rglob("*.py")):
+            rel = path.relative_to(root).with_suffix("").parts
+            package = rel[:-1]
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if not isinstance(node, ast.ImportFrom):
+                    continue
+                parts = (list(package[: len(package) - node.level + 1]) if node.level else []) + (node.module or "").split(".")
+                parts = [x for x in parts if x]
+                if not parts or parts[0] != "hybobs_opt":
+                    continue
+                target = root.joinpath(*parts)
+                if not target.with_suffix(".py").is_file():
+                    continue  # a package face re-exports by design
+                defined = _defined_names(target.with_suffix(".py"))
+                for alias in node.names:
+                    sub = target / alias.name
+                    if alias.name != "*" and alias.name not in defined and not sub.with_suffix(".py").is_file() \
+                            and not (sub / "__init__.py").is_file():
+                        bad.append(f"{path.relative_to(root)}:{node.lineno}: {'.'.join(parts)}.{alias.name}")
+    return bad
+
+
+def test_every_import_names_the_module_that_defines_the_name():
+    """One path per name: a module imports a name from where it is defined (or from a package face)."""
+    from pathlib import Path
+
+    assert imports_through_a_second_path(Path(__file__).resolve().parents[2]) == []
+
+
+def test_the_second_path_finder_finds_one(tmp_path):
+    (tmp_path / "hybobs_opt" / "observers").mkdir(parents=True)
+    (tmp_path / "hybobs_opt" / "observers" / "__init__.py").write_text("")
+    (tmp_path / "hybobs_opt" / "observers" / "a.py").write_text("from .b import thing\nOWN = 1\n")
+    (tmp_path / "hybobs_opt" / "observers" / "b.py").write_text("thing = 2\n")
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "t.py").write_text("from hybobs_opt.observers.a import OWN, thing\n"
+                                             "from hybobs_opt.observers import a\nfrom hybobs_opt.observers.b import thing\n")
+    assert imports_through_a_second_path(tmp_path) == ["tests/t.py:1: hybobs_opt.observers.a.thing"]
 
 
 @pytest.mark.parametrize("core,name", [("hybobs_opt.observers.hybrid_observer", "run_driveline"),

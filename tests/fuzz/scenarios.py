@@ -288,7 +288,8 @@ def _drift(example: str) -> Scenario:
 
 
 def _periodic() -> Scenario:
-    from hybobs_opt.observers.periodic import PeriodicObserver, deadbeat_gains
+    from hybobs_opt.observers.periodic import PeriodicObserver
+    from hybobs_opt.synthesis.periodic_gains import deadbeat_gains
 
     system, ps, t, v, x = periodic_data()
     N = t.size - 1

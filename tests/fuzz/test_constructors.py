@@ -192,7 +192,7 @@ def _drift():
 
 def _periodic():
     system, ps, t, v, x = SC.periodic_data()
-    from hybobs_opt.observers.periodic import deadbeat_gains
+    from hybobs_opt.synthesis.periodic_gains import deadbeat_gains
 
     return system, ps, deadbeat_gains(ps)
 

@@ -252,7 +252,7 @@ def try_regions(value, json_level: bool, reseal: bool = False) -> tuple[str, str
         if edited is None:
             return ACCEPTED_VALID, f"{value}: nothing to edit"
         if reseal and isinstance(edited, dict):
-            from hybobs_opt.regions.io import CHECKSUM_KEY, content_checksum
+            from hybobs_opt.systems.saved_file import CHECKSUM_KEY, content_checksum
 
             edited[CHECKSUM_KEY] = content_checksum(json.loads(json.dumps(edited)))
         bad = dumps(edited)

@@ -314,7 +314,7 @@ def bank_is_right(bank, delta) -> bool:
 
 
 def try_bank(value) -> tuple[str, str]:
-    from hybobs_opt.observers.location_observer import design_residual_bank
+    from hybobs_opt.synthesis.location_design import design_residual_bank
 
     fault, schedule = value
     aut, delta, eps, z0, rtol = bank_args()
@@ -334,7 +334,7 @@ def try_bank(value) -> tuple[str, str]:
 
 @functools.cache
 def continuous_lmi():
-    from hybobs_opt.observers.hybrid_observer import ContinuousObserverLMI
+    from hybobs_opt.synthesis.continuous_design import ContinuousObserverLMI
     from hybobs_opt.studies.paper000_driveline.scenario import DRIVELINE_GAIN_BOUND, DRIVELINE_U, DRIVELINE_X
 
     res, _ = SC.driveline_data()
@@ -343,7 +343,7 @@ def continuous_lmi():
 
 
 def try_continuous(value) -> tuple[str, str]:
-    from hybobs_opt.observers.hybrid_observer import affine_key
+    from hybobs_opt.synthesis.location_design import affine_key
 
     decay, fault, schedule = value
     aut, lmi = continuous_lmi()
@@ -488,7 +488,7 @@ def test_the_oracles():
         assert str(res.status) == truth
         if xstar is not None:
             np.testing.assert_allclose(res.x, xstar, atol=1e-9)
-    from hybobs_opt.observers.location_observer import design_residual_bank
+    from hybobs_opt.synthesis.location_design import design_residual_bank
 
     aut, delta, eps, z0, rtol = bank_args()
     assert bank_is_right(design_residual_bank(aut, delta, eps, z0, invariant_rtol=rtol), delta)

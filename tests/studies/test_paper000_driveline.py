@@ -14,7 +14,7 @@ import pytest
 
 from observer_checks import delays_from_events
 
-from hybobs_opt.observers.location_observer import AMBIGUOUS
+from hybobs_opt.observers.location_logic import AMBIGUOUS
 from hybobs_opt.studies.paper000_driveline.scenario import run_driveline
 
 

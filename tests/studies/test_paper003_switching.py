@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from hybobs_opt.observers.drift_observer import DriftObserver
-from hybobs_opt.observers.periodic import analyse_gains, deadbeat_gains, positive_gain_bounds
+from hybobs_opt.synthesis.periodic_gains import analyse_gains, deadbeat_gains, positive_gain_bounds
 from hybobs_opt.sim import Trace, simulate_constant_drift
 from hybobs_opt.studies import get_example
 from hybobs_opt.studies.paper003_switching.scenarios import junction_paper_gains, run_drift_scenario
@@ -199,7 +199,7 @@ def test_paper_gains_20_are_positive_and_deadbeat(junction):
     assert g.positive  # "the matrices A_v - L_v C_v and L_v C_v are positive" (Section 5)
     assert g.deadbeat_steps == 4
     assert g.monodromy_radius == pytest.approx(0.0, abs=1e-12)
-    # (20a-b) is the corner of the box of positive gains (see hybobs_opt.observers.periodic)
+    # (20a-b) is the corner of the box of positive gains (see hybobs_opt.synthesis.periodic_gains)
     np.testing.assert_allclose(positive_gain_bounds(ps), paper_gains_20(), rtol=1e-14, atol=1e-15)
 
 

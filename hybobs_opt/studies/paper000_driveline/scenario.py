@@ -12,16 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from hybobs_opt.observers.hybrid_observer import (
-    ContinuousDesign,
-    ConvergenceBound,
-    HybridObserver,
-    HybridRun,
-    convergence_bound,
-    design_continuous_observer,
-    summarise_run,
-)
-from hybobs_opt.observers.location_observer import AMBIGUOUS, ResidualBank, design_residual_bank
+from hybobs_opt.observers.hybrid_observer import HybridObserver, HybridRun, summarise_run
+from hybobs_opt.observers.location_logic import AMBIGUOUS
+from hybobs_opt.synthesis.continuous_design import ContinuousDesign, ConvergenceBound, convergence_bound, design_continuous_observer
+from hybobs_opt.synthesis.location_design import ResidualBank, design_residual_bank
 from hybobs_opt.systems.hybrid import HybridAutomaton
 
 from .systems import driveline, scenario

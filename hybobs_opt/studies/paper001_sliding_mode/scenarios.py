@@ -18,9 +18,9 @@ from hybobs_opt.observers.sliding_mode import (
     SlidingModeRun,
     _json_float,
     convergence_times,
-    discretization_band,
     indicator_metrics,
 )
+from hybobs_opt.synthesis.sliding_mode_gains import discretization_band
 from hybobs_opt.systems.canonical_form import ObservabilityForm, observability_form
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
 from hybobs_opt.geometry.polytope import Polytope

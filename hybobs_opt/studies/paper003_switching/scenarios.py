@@ -12,7 +12,7 @@ import numpy as np
 
 from hybobs_opt.errors import ModelError
 from hybobs_opt.observers.drift_observer import DriftObserver
-from hybobs_opt.observers.periodic import (
+from hybobs_opt.synthesis.periodic_gains import (
     PeriodicGains,
     analyse_gains,
     deadbeat_gains,
@@ -79,7 +79,7 @@ def run_drift_scenario(example: str, kind: str | None = None, *, project: bool =
     :data:`.systems.JUNCTION_X0_BAR`), observer from ``t = 50`` with
     ``x^(50) = [0, 70, 20, 30]`` in mode 4; default gains (20a-b).  ``switching_server``: the
     server scenario of Section 2.1, observer from ``t = 0`` with ``x^(0) = [gamma1, 0, 0]`` in
-    mode 1; default gains from :func:`~hybobs_opt.observers.periodic.deadbeat_gains`.
+    mode 1; default gains from :func:`~hybobs_opt.synthesis.periodic_gains.deadbeat_gains`.
 
     Returns
     -------

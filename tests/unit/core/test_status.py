@@ -236,7 +236,7 @@ def _certificates():
     and here at class level.
     """
     from hybobs_opt.lmi.certificates import InfeasibilityCertificate
-    from hybobs_opt.observers import periodic as per
+    from hybobs_opt.synthesis import periodic_gains as per
 
     A = np.array([[[0.5, 0.0], [0.0, 0.5]]])
     C = np.array([[1.0, 0.0]])
@@ -271,7 +271,7 @@ def test_every_class_with_a_verify_method_derives_from_the_one_certificate_base(
 
 def test_every_certificate_class_implements_the_protocol():
     from hybobs_opt.lmi.certificates import DualCertificate, InfeasibilityCertificate
-    from hybobs_opt.observers import periodic as per
+    from hybobs_opt.synthesis import periodic_gains as per
 
     classes = [DualCertificate, InfeasibilityCertificate, per.NoDeadbeatCertificate, per.DeadbeatConflictCertificate,
                per.PerronCertificate, per.CopositiveCertificate]
@@ -285,7 +285,7 @@ def test_every_certificate_class_implements_the_protocol():
 
 
 def test_periodic_certificates_verify_on_small_exact_examples():
-    from hybobs_opt.observers import periodic as per
+    from hybobs_opt.synthesis import periodic_gains as per
 
     # one phase, C = [1 0], A = diag(0.5, 0.5): the second state never shows, span(e2) maps into itself
     A = np.array([[[0.5, 0.0], [0.0, 0.5]]])

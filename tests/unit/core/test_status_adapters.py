@@ -83,8 +83,8 @@ def test_solve_problem_and_the_observer_lmi_accept_only_cvxpy_optimal(raw, monke
 @pytest.mark.parametrize("raw", ["optimal_inaccurate", "infeasible_inaccurate", "user_limit", "solver_error"])
 def test_lmi_consumers_refuse_every_non_optimal_status(raw, monkeypatch):
     """The location observer's Luenberger LMI and the continuous observer LMI of paper 000."""
-    import hybobs_opt.observers.hybrid_observer as ho
-    import hybobs_opt.observers.location_design as ld
+    import hybobs_opt.synthesis.continuous_design as ho
+    import hybobs_opt.synthesis.location_design as ld
     from hybobs_opt.lmi.solve import SolveOutcome
     from hybobs_opt.studies.paper000_driveline.systems import driveline
 

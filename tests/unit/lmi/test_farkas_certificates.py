@@ -20,8 +20,8 @@ import pytest
 from hybobs_opt.errors import InfeasibleError, SolverError
 from hybobs_opt.geometry import Polytope
 from hybobs_opt.lmi.farkas import conic_certificate
-from hybobs_opt.observers.hybrid_observer import design_continuous_observer
-from hybobs_opt.observers.location_design import design_residual_bank
+from hybobs_opt.synthesis.continuous_design import design_continuous_observer
+from hybobs_opt.synthesis.location_design import design_residual_bank
 from hybobs_opt.status import Status
 from hybobs_opt.systems.hybrid import HybridAutomaton, Location
 
@@ -97,7 +97,7 @@ def test_residual_generator_infeasible_with_a_verified_certificate():
 
 def test_wrong_infeasible_answer_is_a_solver_error(monkeypatch):
     """A solver claiming "infeasible" for a feasible design: no certificate verifies, so no InfeasibleError."""
-    import hybobs_opt.observers.hybrid_observer as ho
+    import hybobs_opt.synthesis.continuous_design as ho
     from hybobs_opt.lmi.solve import SolveOutcome
 
     A = np.array([[0.0, 1.0], [-2.0, -3.0]])

@@ -19,7 +19,8 @@ from scipy.linalg import solve_discrete_are
 
 from hybobs_opt import get_example
 from hybobs_opt.errors import ModelError
-from hybobs_opt.mhe import ArrivalPrior, MHEObserver, certified_arrival_prior
+from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.synthesis import ArrivalPrior, certified_arrival_prior
 from hybobs_opt.systems import Polytope, PWAMode, PWASystem
 
 

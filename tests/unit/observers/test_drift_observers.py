@@ -16,11 +16,11 @@ import pytest
 from hybobs_opt.contract import FALLBACK, OBSERVABLE
 from hybobs_opt.errors import InfeasibleError, ModelError
 from hybobs_opt.observers.drift_observer import DriftObserver
-from hybobs_opt.observers.periodic import (
+from hybobs_opt.observers.periodic import PeriodicObserver
+from hybobs_opt.synthesis.periodic_gains import (
     CopositiveCertificate,
     NoDeadbeatCertificate,
     PerronCertificate,
-    PeriodicObserver,
     deadbeat_gains,
     positive_deadbeat_gains,
     positive_gain_bounds,

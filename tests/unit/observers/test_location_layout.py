@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from hybobs_opt.errors import SolverError
-from hybobs_opt.observers import location_design, location_logic
+from hybobs_opt.observers import location_logic
+from hybobs_opt.synthesis import location_design
 from hybobs_opt.observers import location_observer as lo
 from hybobs_opt.results import Certificate
 from hybobs_opt.status import Status

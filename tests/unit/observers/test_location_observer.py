@@ -20,22 +20,11 @@ from observer_checks import delays_from_events
 from hybobs_opt.contract import FALLBACK
 from hybobs_opt.errors import InfeasibleError, ModelError, SolverError
 from hybobs_opt.geometry.polytope import Polytope
-from hybobs_opt.observers.hybrid_observer import (
-    ContinuousObserver,
-    HybridObserver,
-    convergence_bound,
-    design_continuous_observer,
-)
-from hybobs_opt.observers.location_observer import (
-    AMBIGUOUS,
-    IDENTIFIED,
-    NO_CANDIDATE,
-    LocationLogic,
-    LocationObserver,
-    design_residual_bank,
-    distinct_dynamics,
-    prop_3_1_3_matrix,
-)
+from hybobs_opt.observers.hybrid_observer import ContinuousObserver, HybridObserver
+from hybobs_opt.observers.location_logic import AMBIGUOUS, IDENTIFIED, NO_CANDIDATE, LocationLogic, prop_3_1_3_matrix
+from hybobs_opt.observers.location_observer import LocationObserver
+from hybobs_opt.synthesis.continuous_design import convergence_bound, design_continuous_observer
+from hybobs_opt.synthesis.location_design import design_residual_bank, distinct_dynamics
 from hybobs_opt.sim.hybrid import simulate_hybrid
 from hybobs_opt.studies.paper000_driveline.scenario import DRIVELINE_U, DRIVELINE_X, run_driveline
 from hybobs_opt.studies.paper000_driveline.systems import driveline

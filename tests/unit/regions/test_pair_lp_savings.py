@@ -204,7 +204,7 @@ def test_model17_T9_faces_found_lower_dimensional():
 
     from hybobs_opt.geometry._lp_kernels import restricted_pair_rows
     from hybobs_opt.regions import enumerate_modes
-    from hybobs_opt.regions.observability import _PairAlgebra, _scaled_regions
+    from hybobs_opt.regions.pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions
     from hybobs_opt.regions.pair_geometry import LOWER_DIMENSIONAL, classify_pair
     from hybobs_opt.tolerances import EQUALITY_CONSISTENCY_RTOL
 

@@ -20,7 +20,8 @@ from hybobs_opt.errors import ModelError
 from hybobs_opt.executor import SerialExecutor
 from hybobs_opt.geometry.polytope import Polytope
 from hybobs_opt.regions import analyse_observability, load_analysis, save_analysis
-from hybobs_opt.regions.io import VERSION, content_checksum
+from hybobs_opt.regions.io import VERSION
+from hybobs_opt.systems.saved_file import content_checksum
 from hybobs_opt.studies.registry import get_example
 from hybobs_opt.systems.fingerprint import canonical_json, first_difference, system_fingerprint
 from hybobs_opt.systems.model_dict import system_from_dict

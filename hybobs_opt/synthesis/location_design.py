@@ -652,6 +652,3 @@ def _invariant_margins(automaton: HybridAutomaton, q: int, gen: ResidualGenerato
     return np.linalg.norm(ax @ Pmh, axis=1) * shrink
 
 
-#: Old private names (hybrid_observer and user scripts imported them).
-_affine_key = affine_key
-_sqrt_psd = sqrt_psd
