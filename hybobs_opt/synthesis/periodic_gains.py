@@ -163,8 +163,29 @@ class PeriodicGains:
         }
 
 
-def analyse_gains(ps: PeriodicSystem, L: ArrayLike, method: str = "given", **extra: Any) -> PeriodicGains:
-    """Closed loop, monodromy radius, deadbeat index and positivity of given gains (eq. 16, Remark 4.4)."""
+def analyse_gains(ps: PeriodicSystem, L: ArrayLike, method: str = "given", *, rate: float | None = None,
+                  certificate: Any = None, status: str = "closed form", seconds: float = 0.0, info: dict | None = None,
+                  residuals: dict | None = None) -> PeriodicGains:
+    """Closed loop, monodromy radius, deadbeat index and positivity of given gains (eq. 16, Remark 4.4).
+
+    Parameters
+    ----------
+    ps : PeriodicSystem
+        The event-sampled system (eq. 14).
+    L : (V, N) array_like
+        The gains ``L_j`` as rows.
+    method : str, default "given"
+        How the gains were obtained (:attr:`PeriodicGains.method`).
+    rate, certificate, status, seconds, info : optional
+        What the design proved and how (the fields of :class:`PeriodicGains` of the same names).
+    residuals : dict, optional
+        The design's own residuals; the positivity residuals of Remark 4.4 are added.
+
+    Returns
+    -------
+    PeriodicGains
+        The gains with the properties checked here in numpy.
+    """
     ps = as_periodic_system(ps)
     L = ps.check_gains(L)
     M = ps.closed_loop(L)
@@ -175,9 +196,10 @@ def analyse_gains(ps: PeriodicSystem, L: ArrayLike, method: str = "given", **ext
     positive = neg_m >= -POSITIVITY_RTOL and neg_lc >= -POSITIVITY_RTOL
     L = L.copy()
     L.setflags(write=False)
-    residuals = dict(extra.pop("residuals", {}), min_closed_loop_rel=neg_m, min_LC_rel=neg_lc)
+    residuals = dict(residuals or {}, min_closed_loop_rel=neg_m, min_LC_rel=neg_lc)
     return PeriodicGains(L=L, method=method, closed_loop=M, monodromy_radius=radius, deadbeat_steps=db,
-                         positive=positive, residuals=residuals, **extra)
+                         positive=positive, rate=rate, certificate=certificate, status=status, seconds=seconds,
+                         info=dict(info or {}), residuals=residuals)
 
 
 # ---------------------------------------------------------------------------- sequential deadbeat

@@ -24,7 +24,7 @@ from hybobs_opt.contract import RESET_KEYWORDS
 from hybobs_opt.errors import ModelError
 
 PACKAGE = Path(__file__).resolve().parents[3] / "hybobs_opt"
-PUBLIC = ("hybobs_opt", "hybobs_opt.systems", "hybobs_opt.geometry", "hybobs_opt.regions", "hybobs_opt.lmi",
+PUBLIC = ("hybobs_opt", "hybobs_opt.systems", "hybobs_opt.geometry", "hybobs_opt.regions", "hybobs_opt.synthesis", "hybobs_opt.lmi",
           "hybobs_opt.mhe", "hybobs_opt.observers", "hybobs_opt.sim", "hybobs_opt.contract")
 
 #: Public ``**kwargs`` callables other than ``reset`` and how each refuses an unknown keyword.
