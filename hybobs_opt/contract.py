@@ -502,14 +502,12 @@ class Observer(ABC):
         """Open-loop step used when the sample is bad."""
 
     def _validate_sample(self, u, y) -> tuple[np.ndarray, np.ndarray] | str:
-        try:
-            uu, yy = real_sample(u), real_sample(y)
-        except (TypeError, ValueError) as exc:
-            return f"sample not numeric ({exc})"
-        if uu.size != self.m or yy.size != self.p:
-            return f"sample of length (u={uu.size}, y={yy.size}), expected (u={self.m}, y={self.p})"
+        checked = real_sample_pair(u, y, self.m, self.p)
+        if isinstance(checked, str):
+            return checked
+        uu, yy = checked
         if not (np.all(np.isfinite(uu)) and np.all(np.isfinite(yy))):
-            return "sample with NaN or Inf"
+            return NONFINITE_SAMPLE
         for rng, v, names, label in ((self.input_range, uu, getattr(self, "input_names", ()), "u"),
                                      (self.output_range, yy, getattr(self, "output_names", ()), "y")):
             if rng is not None:
@@ -623,6 +621,23 @@ def real_sample(v) -> np.ndarray:
         what = "complex" if arr.dtype.kind == "c" else str(arr.dtype)
         raise TypeError(f"values of type {what}, expected real numbers")
     return np.atleast_1d(arr.astype(float)).reshape(-1)
+
+
+#: The reason of a ``fallback`` step whose sample holds NaN or Inf (the compiled lookup kernel gives the same).
+NONFINITE_SAMPLE = "sample with NaN or Inf"
+
+
+def real_sample_pair(u, y, m: int, p: int) -> tuple[np.ndarray, np.ndarray] | str:
+    """``(u, y)`` as flat float arrays of lengths ``m`` and ``p`` (:func:`real_sample`), or the reason
+    why the pair is no sample (not real numbers, wrong length): the first check of every observer's
+    ``step``, before the model judges the values."""
+    try:
+        uu, yy = real_sample(u), real_sample(y)
+    except (TypeError, ValueError) as exc:
+        return f"sample not numeric ({exc})"
+    if uu.size != m or yy.size != p:
+        return f"sample of length (u={uu.size}, y={yy.size}), expected (u={m}, y={p})"
+    return uu, yy
 
 
 def _safe_input(u, m: int) -> np.ndarray | None:

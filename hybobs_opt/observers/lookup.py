@@ -85,13 +85,13 @@ from ..tolerances import (
 )
 from . import _lookup_kernels as K
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, WARMING_UP,
-                        check_reset_keywords, checked_state, real_sample, sample_rows)
+                        check_reset_keywords, checked_state, NONFINITE_SAMPLE, real_sample_pair, sample_rows)
 from ..contract import timed_estimate
 
 #: Texts of the reason codes of :mod:`._lookup_kernels` (``Estimate.info``, :meth:`LookupTrace.reasons`).
 REASONS = {
     K.REASON_NONE: "",
-    K.REASON_NONFINITE: "sample with NaN or Inf",
+    K.REASON_NONFINITE: NONFINITE_SAMPLE,
     K.REASON_INPUT_OUTSIDE_U: "input outside the input set U (beyond LOOKUP_INPUT_BOUND_TOL): the model does not cover it",
     K.REASON_PREVIOUS_BAD: "not reconstructed, and no open-loop prediction: the previous sample was bad",
     K.REASON_PREDICTION_OUTSIDE: "not reconstructed, and no open-loop prediction: the estimate lies in no mode's region of X x U",
@@ -436,7 +436,7 @@ class LookupObserver(Observer):
         ``Estimate.seconds`` is the wall time of the whole call up to the building of the
         estimate (checks, kernel, ``B~_T`` LPs, the copy of the state).  A float64 1-D array
         (e.g. a row of a C-ordered ``(N, m)`` array) goes straight to the compiled kernel; any other
-        sample is first checked and converted (:func:`~hybobs_opt.contract.real_sample`).
+        sample is first checked and converted (:func:`~hybobs_opt.contract.real_sample_pair`).
 
         Parameters
         ----------
@@ -464,15 +464,9 @@ class LookupObserver(Observer):
 
     def _checked_step(self, u, y, t0: float) -> Estimate:
         """:meth:`step` for a sample that is not two float64 vectors the kernel takes as they are."""
-        reason = ""
-        try:
-            uu, yy = real_sample(u), real_sample(y)
-            if uu.shape[0] != self.m or yy.shape[0] != self.p:
-                reason = f"sample of length (u={uu.shape[0]}, y={yy.shape[0]}), expected (u={self.m}, y={self.p})"
-        except (TypeError, ValueError) as exc:
-            reason = f"sample not numeric ({exc})"
-        if reason:
-            uu, yy = self._nan_u, self._nan_y
+        checked = real_sample_pair(u, y, self.m, self.p)
+        reason = checked if isinstance(checked, str) else ""
+        uu, yy = (self._nan_u, self._nan_y) if reason else checked
         code = self._advance(np.ascontiguousarray(uu), np.ascontiguousarray(yy), not reason)
         return timed_estimate(self._xcur.copy(), int(self._meta[1]), _FLAGS[code], self._info(code, reason), t0)
 
