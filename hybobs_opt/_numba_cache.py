@@ -35,31 +35,26 @@ from __future__ import annotations
 import os
 import sys
 
+from ._environment import KERNELS_ENV, background_warm_up_allowed, cache_root, kernels_mode
+
 #: numba's environment variable for its cache directory.
 NUMBA_CACHE_ENV = "NUMBA_CACHE_DIR"
 
-__all__ = ["KERNELS_ENV", "NUMBA_CACHE_ENV", "cache_directory", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
+__all__ = ["NUMBA_CACHE_ENV", "cache_directory", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
            "prepare_target"]
 
-#: ``auto`` (default): a kernel module whose compiled kernels are in the cache uses them; one whose
-#: cache is empty or stale runs its kernels as plain Python in this process and starts one
-#: background process that compiles them into the cache (:func:`finalize_kernels`).
-#: ``compiled``: always numba (compiling on first use, as before).  ``python``: never numba.
-KERNELS_ENV = "HYBOBS_KERNELS"
-#: Set to ``0`` to keep ``auto`` from starting the background compilation.
-BACKGROUND_ENV = "HYBOBS_BACKGROUND_WARM_UP"
+# HYBOBS_KERNELS -- ``auto`` (default): a kernel module whose compiled kernels are in the cache uses
+# them; one whose cache is empty or stale runs its kernels as plain Python in this process and, at
+# the first kernel call, starts one background process that compiles them into the cache
+# (:func:`finalize_kernels`).  ``compiled``: always numba.  ``python``: never numba.
+# HYBOBS_BACKGROUND_WARM_UP=0 keeps ``auto`` from starting the background compilation.
 #: A background compilation younger than this (seconds) is not started again (its lock file).
 WARM_UP_LOCK_SECONDS = 900.0
 
 
 def numba_cache_dir() -> str:
-    """The package's numba cache: ``numba`` inside :func:`hybobs_opt.cache.default_cache_dir`'s directory."""
-    if os.environ.get("HYBOBS_CACHE_DIR"):
-        base = os.path.expanduser(os.environ["HYBOBS_CACHE_DIR"])
-    else:
-        base = os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
-                            "hybobs_opt")
-    return os.path.join(base, "numba")
+    """The package's numba cache: ``numba`` inside the cache directory (:func:`hybobs_opt._environment.cache_root`)."""
+    return os.path.join(cache_root(), "numba")
 
 
 def cache_directory() -> str:
@@ -146,11 +141,7 @@ def finalize_kernels(namespace: dict) -> bool:
     Returns whether the kernels are compiled.
     """
     marked = {name: fn for name, fn in namespace.items() if callable(fn) and hasattr(fn, "_hybobs_kernel")}
-    mode = os.environ.get(KERNELS_ENV, "auto").strip().lower() or "auto"
-    if mode not in ("auto", "compiled", "python"):
-        from .errors import ModelError
-
-        raise ModelError(KERNELS_ENV, "'auto', 'compiled' or 'python'", repr(os.environ[KERNELS_ENV]))
+    mode = kernels_mode()
     untrusted = _untrusted_cache()
     if untrusted:
         # numba's index files are pickles: a directory another user can write is never read
@@ -249,10 +240,31 @@ def _finalize_python(namespace: dict, marked: dict, mode: str, untrusted: bool) 
     for name, fn in marked.items():
         if fn._hybobs_kernel[0]:
             namespace[name] = _typed_python(fn, fn._hybobs_kernel[0])
-    if mode == "auto" and os.environ.get(BACKGROUND_ENV, "1") != "0" and not untrusted:
-        start_background_warm_up()
+    if mode == "auto" and background_warm_up_allowed() and not untrusted:
+        _start_warm_up_on_first_call(namespace, list(marked))
     _COMPILED[namespace.get("__name__", "?")] = False
     return False
+
+
+def _start_warm_up_on_first_call(namespace: dict, names: list[str]) -> None:
+    """Make the first call of any of the module's Python kernels start the background compilation
+    (:func:`start_background_warm_up`) and put the plain kernels back: importing a module starts no
+    process, using it does."""
+    import functools
+
+    plain = {name: namespace[name] for name in names}
+
+    def first_call_of(fn):
+        @functools.wraps(fn)
+        def first_call(*args, **kwargs):
+            namespace.update(plain)  # later calls through the module go straight to the kernels
+            start_background_warm_up()
+            return fn(*args, **kwargs)
+
+        return first_call
+
+    for name, fn in plain.items():
+        namespace[name] = first_call_of(fn)
 
 
 def _drop_cache_entries(functions) -> int:
@@ -396,9 +408,9 @@ def start_background_warm_up() -> bool:
             f.write(str(os.getpid()))
     except OSError:
         return False  # no writable cache: numba falls back on its own locations, compile there on use
-    env = {**os.environ, KERNELS_ENV: "compiled", NUMBA_CACHE_ENV: cache, "HYBOBS_WARM_UP_LOCK": lock}
+    env = {**os.environ, KERNELS_ENV: "compiled", NUMBA_CACHE_ENV: cache}
     try:
-        child = subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up"], env=env, stdin=subprocess.DEVNULL,
+        child = subprocess.Popen([sys.executable, "-m", "hybobs_opt._warm_up", "--lock", lock], env=env, stdin=subprocess.DEVNULL,
                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         with open(lock, "w") as f:  # the compiling process, which the next processes check is alive
             f.write(str(child.pid))

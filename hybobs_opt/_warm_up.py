@@ -9,7 +9,8 @@ from __future__ import annotations
 import os
 import time
 
-from ._numba_cache import BACKGROUND_ENV, KERNELS_ENV, NUMBA_CACHE_ENV, cache_directory, kernels_compiled
+from ._environment import BACKGROUND_ENV, KERNELS_ENV
+from ._numba_cache import NUMBA_CACHE_ENV, cache_directory, kernels_compiled
 
 __all__ = ["warm_up"]
 
@@ -131,11 +132,14 @@ def _start_lookup_child():
 
 if __name__ == "__main__":
     import json
+    import sys
 
+    # ``--lock PATH``: the lock file of the background compilation that started this process
+    # (:func:`hybobs_opt._numba_cache.start_background_warm_up`), removed when it is done
+    lock = sys.argv[sys.argv.index("--lock") + 1] if "--lock" in sys.argv[1:-1] else None
     os.environ[KERNELS_ENV] = "compiled"
     try:
         print(json.dumps(warm_up(), indent=2))
     finally:
-        lock = os.environ.get("HYBOBS_WARM_UP_LOCK")  # set by _numba_cache.start_background_warm_up
         if lock and os.path.exists(lock):
             os.remove(lock)

@@ -57,12 +57,9 @@ from typing import Any
 
 import numpy as np
 
+from ._environment import CACHE_DIR_ENV, cache_root
 from .errors import ModelError
 
-#: Environment variable naming the cache directory.
-CACHE_DIR_ENV = "HYBOBS_CACHE_DIR"
-#: Environment variable that switches the CLI's cache off (``1``, ``true``, ``yes``), like ``--no-cache``.
-NO_CACHE_ENV = "HYBOBS_NO_CACHE"
 #: Layout version of the entries (part of every key).
 CACHE_FORMAT = 1
 #: The key of the entries' MACs, in the cache directory.
@@ -71,16 +68,14 @@ KEY_FILE = ".hybobs-cache-key"
 _ENTRY = re.compile(r"[a-z][a-z0-9-]*-[0-9a-f]{32}\.(json|npz)")
 _OWN_FILE = re.compile(r"[a-z][a-z0-9-]*-[0-9a-f]{32}\.(json|npz)(\.mac)?(\.tmp[0-9]+(\.npz|\.mac)?)?")
 
-__all__ = ["CACHE_DIR_ENV", "NO_CACHE_ENV", "ResultCache", "active_cache", "analysis_key_parts", "array_digest",
+__all__ = ["ResultCache", "active_cache", "analysis_key_parts", "array_digest",
            "cached_analysis", "code_digest", "default_cache_dir", "use_cache"]
 
 
 def default_cache_dir() -> Path:
-    """``$HYBOBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybobs_opt``, else ``~/.cache/hybobs_opt``."""
-    if os.environ.get(CACHE_DIR_ENV):
-        return Path(os.environ[CACHE_DIR_ENV]).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "hybobs_opt"
+    """``$HYBOBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybobs_opt``, else ``~/.cache/hybobs_opt``
+    (:func:`hybobs_opt._environment.cache_root`)."""
+    return cache_root()
 
 
 @lru_cache(maxsize=1)

@@ -371,11 +371,9 @@ def add_cache_argument(p: argparse.ArgumentParser) -> None:
 
 def cache_disabled(args: argparse.Namespace) -> bool:
     """``--no-cache`` or ``HYBOBS_NO_CACHE`` set to 1/true/yes."""
-    import os
+    from .._environment import result_cache_switched_off
 
-    from ..cache import NO_CACHE_ENV
-
-    return bool(getattr(args, "no_cache", False)) or os.environ.get(NO_CACHE_ENV, "").strip().lower() in ("1", "true", "yes")
+    return bool(getattr(args, "no_cache", False)) or result_cache_switched_off()
 
 
 @contextmanager

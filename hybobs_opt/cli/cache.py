@@ -19,7 +19,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cache import CACHE_DIR_ENV, ResultCache
+    from .._environment import CACHE_DIR_ENV
+    from ..cache import ResultCache
 
     cache = ResultCache()
     if args.action == "clear":

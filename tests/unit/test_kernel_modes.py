@@ -326,8 +326,10 @@ def test_background_warm_up_starts_once_and_respects_its_lock(monkeypatch, tmp_p
     assert nc.start_background_warm_up() is True
     assert len(calls) == 1
     argv, kwargs = calls[0]
-    assert argv == [sys.executable, "-m", "hybobs_opt._warm_up"]
+    assert argv == [sys.executable, "-m", "hybobs_opt._warm_up", "--lock", str(lock)]
     assert kwargs["env"]["HYBOBS_KERNELS"] == "compiled"
+    assert not any(k.startswith("HYBOBS_") and k not in ("HYBOBS_KERNELS", "HYBOBS_CACHE_DIR", "HYBOBS_NO_CACHE",
+                                                          "HYBOBS_BACKGROUND_WARM_UP") for k in kwargs["env"])
     assert kwargs["env"]["NUMBA_CACHE_DIR"] == str(tmp_path)
     assert lock.exists()
 
@@ -373,12 +375,15 @@ def test_bad_kernels_value_is_an_error_naming_the_variable(tmp_path):
 @pytest.mark.slow
 def test_background_warm_up_fills_the_cache_end_to_end(tmp_path):
     env = _env(tmp_path, background=True)
-    code = ("import json, hybobs_opt._numba_cache as nc, hybobs_opt.geometry._lp_kernels\n"
-            "print(json.dumps(nc.kernels_compiled()))")
-    out = json.loads(_child(code, env).stdout.strip().splitlines()[-1])
-    assert out == {"hybobs_opt.geometry._lp_kernels": False}
     lock = tmp_path / "hybobs-warm-up.lock"
-    assert lock.exists() or any(tmp_path.rglob("*.nbi")), "no background compilation was started"
+    code = ("import json, numpy as np, hybobs_opt._numba_cache as nc, hybobs_opt.geometry._lp_kernels as K\n"
+            "import os\nimported = os.path.exists(os.environ['NUMBA_CACHE_DIR'] + '/hybobs-warm-up.lock')\n"
+            "K.min_row_slack(np.eye(2), np.ones(2), np.zeros(2))\n"
+            "print(json.dumps([imported, nc.kernels_compiled()]))")
+    imported, out = json.loads(_child(code, env).stdout.strip().splitlines()[-1])
+    assert imported is False, "importing a kernel module started the background compilation"
+    assert out == {"hybobs_opt.geometry._lp_kernels": False}
+    assert lock.exists() or any(tmp_path.rglob("*.nbi")), "the first kernel call started no background compilation"
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and (lock.exists() or not any(tmp_path.rglob("*.nbi"))):
         time.sleep(1.0)
