@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ._validate import as_positive
 from .errors import ModelError
 
 #: Flags an estimate can carry.
@@ -254,8 +255,7 @@ class TimeGuard:
     """
 
     def __init__(self, max_step: float | None):
-        if max_step is not None and not (np.isfinite(max_step) and max_step > 0):
-            raise ModelError("max_time_step", "a positive finite time or None", repr(max_step))
+        max_step = as_positive(max_step, "max_time_step", "a positive finite time", allow_none=True)
         self.max_step = None if max_step is None else float(max_step)
         self.reset(0.0)
 

@@ -22,6 +22,7 @@ import cvxpy as cp
 import numpy as np
 from scipy.linalg import eigh
 
+from .._validate import as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
@@ -76,8 +77,7 @@ def hysteresis_for_dwell(tau: float, max_rate: float) -> float:
     max_rate : float
         Largest ``|ds/dt|`` of the scheduling variable (positive).
     """
-    if not (np.isfinite(max_rate) and max_rate > 0):
-        raise ModelError("max_rate", "a positive maximum rate of the scheduling variable", repr(max_rate))
+    max_rate = as_positive(max_rate, "max_rate", "a positive maximum rate of the scheduling variable")
     if not (tau >= 0):
         raise ModelError("tau", "a non-negative dwell time", repr(tau))
     return float(0.5 * tau * max_rate)
@@ -98,8 +98,7 @@ def dwell_for_hysteresis(epsilon: float, max_rate: float, regions: Sequence[Sche
     regions : sequence of SchedulingRegion, optional
         The regions in order; with more than two, the interior regions' widths also limit the travel.
     """
-    if not (np.isfinite(max_rate) and max_rate > 0):
-        raise ModelError("max_rate", "a positive maximum rate of the scheduling variable", repr(max_rate))
+    max_rate = as_positive(max_rate, "max_rate", "a positive maximum rate of the scheduling variable")
     travel = 2.0 * epsilon
     if len(regions) > 2:
         # entering an interior region at one switching point and leaving at the next

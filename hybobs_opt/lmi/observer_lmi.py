@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
+from .._validate import as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import BISECTION_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
@@ -214,8 +215,7 @@ def bisect_decay(solve, sigma_cap: float = SIGMA_CAP, rtol: float = BISECTION_RT
         A rate believed feasible (a region grown for it): tried when it falls inside the final
         bracket, so the result is not below it by the bisection's tolerance.
     """
-    if not (np.isfinite(sigma_cap) and sigma_cap > 0):
-        raise ModelError("sigma_cap", "a positive upper end of the decay-rate search", repr(sigma_cap))
+    sigma_cap = as_positive(sigma_cap, "sigma_cap", "a positive upper end of the decay-rate search")
     log: list[tuple[float, bool, str]] = []
 
     def run(sig: float):
@@ -297,8 +297,7 @@ class ObserverLMI:
         self.multipliers = multipliers
         if not isinstance(system, ScalarNonlinearSystem):
             raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)
-        if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
-            raise ModelError("gain_bound", "a positive finite bound on ||L||_2 (or None)", repr(gain_bound))
+        gain_bound = as_positive(gain_bound, "gain_bound", "a positive finite bound on ||L||_2", allow_none=True)
         self.system = system
         self.shifted = shifted
         self.gain_bound = None if gain_bound is None else float(gain_bound)
@@ -387,8 +386,7 @@ class ObserverLMI:
         """
         if self.gamma is None:
             raise ModelError("gain_bound", "an ObserverLMI built with gain_bound=...", "one built without")
-        if not (np.isfinite(gain_bound) and gain_bound > 0):
-            raise ModelError("gain_bound", "a positive finite bound", repr(gain_bound))
+        gain_bound = as_positive(gain_bound, "gain_bound", "a positive finite bound")
         self.gain_bound = float(gain_bound)
         self.gamma.value = (self.gain_bound / float(self.d.max())) ** 2
 

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._validate import as_positive
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, check_reset_keywords,
                         checked_state, judge_samples_against, noise_std_vector, trace_length)
 from ..errors import ModelError
@@ -181,9 +182,7 @@ class ModeSequenceKalmanFilter(Observer):
         self.noise_std = noise_std_vector(noise_std, self.p)
         self.R = np.diag(self.noise_std ** 2)
         self.Q = _covariance(process_std, self.n, "process_std", positive=False)
-        if isinstance(observable_std, bool) or not isinstance(observable_std, (int, float, np.integer, np.floating)) \
-                or not (np.isfinite(observable_std) and observable_std > 0):
-            raise ModelError("observable_std", "a positive finite fraction of the state half-widths", repr(observable_std))
+        observable_std = as_positive(observable_std, "observable_std", "a positive finite fraction of the state half-widths")
         self.observable_std = float(observable_std)
         if hasattr(system, "scales"):
             half, centre = (np.asarray(v, dtype=float)[: self.n] for v in system.scales())

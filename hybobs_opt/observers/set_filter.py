@@ -41,6 +41,7 @@ import time
 
 import numpy as np
 
+from .._validate import as_int
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, check_reset_keywords,
                         judge_samples_against, noise_bound_vector, radius_tolerance_vector)
 from ..errors import ModelError, SolverError
@@ -209,8 +210,7 @@ class SetMembershipFilter(Observer):
 
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem with bounded X", type(system).__name__)
-        if isinstance(max_pieces, bool) or not isinstance(max_pieces, (int, np.integer)) or max_pieces < 1:
-            raise ModelError("max_pieces", "an integer >= 1", repr(max_pieces))
+        max_pieces = as_int(max_pieces, "max_pieces", minimum=1)
         self.system = system
         self.n, self.m, self.p = system.n, system.m, system.p
         self.state_names = tuple(system.state_names)

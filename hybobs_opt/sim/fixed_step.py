@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .._validate import as_positive
 from ..errors import ModelError
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
@@ -37,8 +38,7 @@ def integrate_fixed_step(rhs: RHS, x0, t0: float, t_final: float, dt: float, met
     """
     if method not in _METHODS:
         raise ModelError("method", f"one of {_METHODS}", repr(method))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ModelError("dt", "a positive step", repr(dt))
+    dt = as_positive(dt, "dt", "a positive step")
     if not (np.isfinite(t_final) and t_final > t0):
         raise ModelError("t_final", f"a finite time greater than t0 = {t0}", repr(t_final))
     n_steps = int(np.floor((t_final - t0) / dt + 1e-9))

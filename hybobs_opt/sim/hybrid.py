@@ -7,6 +7,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .._validate import as_positive
 from ..errors import HybobsError, ModelError
 from ..limits import check_samples, sample_count
 from ..systems.hybrid import HybridAutomaton
@@ -115,8 +116,7 @@ def simulate_hybrid(
         raise ModelError("x0", f"a state of length {automaton.n}", f"shape {x0.shape}")
     if not (np.isfinite(t_final) and t_final > t0):
         raise ModelError("t_final", f"a finite time greater than t0 = {t0}", repr(t_final))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ModelError("dt", "a positive sampling period", repr(dt))
+    dt = as_positive(dt, "dt", "a positive sampling period")
     ufn = _input_fn(automaton, u)
     q = automaton.location_of(x0, ufn(t0)) if q0 is None else int(q0)
     if not 0 <= q < automaton.n_locations:

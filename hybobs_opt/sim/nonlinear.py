@@ -7,6 +7,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .._validate import as_positive
 from ..errors import ModelError
 from ..limits import check_samples, sample_count
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
@@ -72,8 +73,7 @@ def simulate_nonlinear(
         raise ModelError("x0", "finite entries", f"{x0.tolist()}")
     if not (np.isfinite(t0) and np.isfinite(t_final) and t_final > t0):
         raise ModelError("t_final", f"a finite time greater than t0 = {t0}", repr(t_final))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ModelError("dt", "a positive sampling period", repr(dt))
+    dt = as_positive(dt, "dt", "a positive sampling period")
 
     m = system.m
     if u_fn is None:

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
@@ -152,8 +153,7 @@ class ContinuousObserverLMI:
                  input_box: tuple[Sequence[float], Sequence[float]] | None = None):
         import cvxpy as cp
 
-        if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
-            raise ModelError("gain_bound", "a positive finite number or None", repr(gain_bound))
+        gain_bound = as_positive(gain_bound, "gain_bound", "a positive finite number", allow_none=True)
         self.automaton = aut = automaton
         self.groups = distinct_dynamics(aut)
         check_observable(aut)
@@ -254,8 +254,7 @@ class ContinuousObserverLMI:
             Clarabel failed or returned an unusable point.
         """
 
-        if not (np.isfinite(decay) and decay > 0):
-            raise ModelError("decay", "a positive decay rate (1/s)", repr(decay))
+        decay = as_positive(decay, "decay", "a positive decay rate (1/s)")
         aut = self.automaton
         self.alpha.value = float(decay) / self.scale
         if self.gain_bound is not None:
@@ -427,9 +426,8 @@ def convergence_bound(design: ContinuousDesign, delta: float, dwell_time: float)
     ModelError
         ``Delta >= D`` or non-positive values.
     """
-    for name, value in (("delta", delta), ("dwell_time", dwell_time)):
-        if not (np.isfinite(value) and value > 0):
-            raise ModelError(name, "a positive finite time", repr(value))
+    delta = as_positive(delta, "delta", "a positive finite time")
+    dwell_time = as_positive(dwell_time, "dwell_time", "a positive finite time")
     if delta >= dwell_time:
         raise ModelError("delta", f"a detection delay below the dwell time D = {dwell_time:g} (Proposition 3.3.1)", repr(delta))
     a = design.decay

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
+from .._validate import as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..results import Certificate
@@ -506,12 +507,11 @@ def design_residual_bank(
     SolverError
         Clarabel failed.
     """
-    for name, value in (("delta", delta), ("epsilon", epsilon), ("z0_bound", z0_bound)):
-        if not (isinstance(value, (int, float, np.floating)) and np.isfinite(value) and value > 0):
-            raise ModelError(name, "a positive finite number", repr(value))
-    for name, value in (("gain_bound", gain_bound), ("max_decay", max_decay), ("invariant_rtol", invariant_rtol)):
-        if value is not None and not (np.isfinite(value) and value > 0):
-            raise ModelError(name, "a positive finite number or None", repr(value))
+    delta, epsilon, z0_bound = (as_positive(value, name) for name, value in
+                                (("delta", delta), ("epsilon", epsilon), ("z0_bound", z0_bound)))
+    gain_bound, max_decay, invariant_rtol = (as_positive(value, name, allow_none=True) for name, value in
+                                             (("gain_bound", gain_bound), ("max_decay", max_decay),
+                                              ("invariant_rtol", invariant_rtol)))
     t_start = time.perf_counter()
     groups = distinct_dynamics(automaton)
     check_observable(automaton)
