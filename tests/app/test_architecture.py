@@ -301,3 +301,34 @@ def test_the_circle_finder_finds_a_circle(monkeypatch):
     fake = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
     monkeypatch.setattr(sys.modules[__name__], "_module_edges", lambda: fake)
     assert import_circles() == [["a", "b", "c"]]
+
+
+def history_in_core_text() -> list[str]:
+    """``file:line`` of each core module line (docstrings, comments, messages) naming an issue number:
+    history belongs in the CHANGELOG and commit messages, not in the code."""
+    import re
+
+    pattern = re.compile(r"\b(?:issue|issues|ticket)\s*#?\d+|(?<![\w/])#\d{2,}\b", re.IGNORECASE)
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if tier(module_name(path)) != "core":
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if pattern.search(line):
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{number}: {line.strip()[:80]}")
+    return bad
+
+
+def test_no_core_module_names_an_issue_number():
+    assert history_in_core_text() == []
+
+
+def test_the_history_finder_finds_an_issue_number(monkeypatch, tmp_path):
+    import shutil
+
+    copy = tmp_path / "hybobs_opt"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    (copy / "geometry" / "_probe.py").write_text('"""Faster since issue 19 (was 2.3 s)."""\nX = 1  # see #34\n')
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", copy)
+    found = history_in_core_text()
+    assert len([v for v in found if "_probe.py" in v]) == 2
