@@ -51,11 +51,12 @@ from ..geometry._reproducible import lstsq, matmul as mm, norm, numerical_rank, 
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
-from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, _slack_lp, classify_pair, fixed_state_witness
+from .pair_geometry import _slack_lp, classify_pair, fixed_state_witness
 from .enumeration import (ModeEnumeration, check_analysis_budget, counted_exactly, enumerate_modes, horizon_scaling,
                           resolve_pair_lp_budget)
 from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
+from .verdicts import PairVerdict, PointClass
 
 
 #: Below this many candidate pairs (``|I|`` times the number of regions) the pair tests run in the
@@ -597,11 +598,11 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
         verdict = classify_pair(Gv, gv, N, w0, n, bound, bool(report_ij[k]), bool(report_ji[k]),
                                 thin_filter=thin_filter, problem=problem, directions=directions)
         for v, pair in ((verdict.verdict, (i, int(j))), (verdict.verdict_ji, (int(j), i))):
-            if v == PIECE:
+            if v == PairVerdict.PIECE:
                 found.append(pair + (verdict.radius,))
-            elif v == LOWER_DIMENSIONAL:
+            elif v == PairVerdict.LOWER_DIMENSIONAL:
                 thin.append(pair)
-            elif v == SAME_STATE:
+            elif v == PairVerdict.SAME_STATE:
                 same.append(pair)
     return found, thin, same
 

@@ -56,21 +56,20 @@ from ..tolerances import (
     SLACK_CAP,
     ZERO_ROW_TOL,
 )
-
-#: Verdicts of :func:`classify_pair`.
-EMPTY, LOWER_DIMENSIONAL, SAME_STATE, PIECE = "empty", "lower-dimensional", "same state", "piece"
+from .verdicts import PairVerdict
 
 
 @dataclass(frozen=True)
-class PairVerdict:
+class PairClassification:
     """What :func:`classify_pair` found for ``R_ij`` (``verdict``) and for ``R_ji`` (``verdict_ji``).
 
+    A projection that was not asked for is :attr:`PairVerdict.EMPTY <hybobs_opt.regions.PairVerdict.EMPTY>`.
     ``radius`` is the Chebyshev radius of the set inside its affine hull (scaled); ``face`` is
     True when the hull is smaller than the equality subspace (implicit equalities were found).
     """
 
-    verdict: str
-    verdict_ji: str
+    verdict: PairVerdict
+    verdict_ji: PairVerdict
     radius: float
     face: bool
 
@@ -152,7 +151,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
 
     ``A, bu, lam, keep, centre`` are what :func:`_chebyshev` returned for ``{Gs s <= gs}``.
     Returns ``(M, t0)`` with the affine hull within the current frame ``s = t0 + M t``,
-    ``"empty"`` when the equalities found contradict each other, or ``None`` when no implicit
+    :attr:`PairVerdict.EMPTY` when the equalities found contradict each other, or ``None`` when no implicit
     equality is certified (the caller then keeps the set: the safe side).  With a dict
     ``tight``, the certified rows (indices into ``A``) and their slack bounds are stored in it
     as ``tight["rows"]``, ``tight["slack"]`` (see :func:`_certified_implicit_rows`).
@@ -194,7 +193,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
         return None
     t0 = mm(Vt[:r].T, mm(U_[:, :r].T, e) / s[:r])
     if norm(mm(E, t0) - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + norm(e)) + CLOSED_SET_TOL:
-        return "empty"
+        return PairVerdict.EMPTY
     return Vt[r:].T, t0
 
 
@@ -395,7 +394,7 @@ class _Frame:
 
 def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, n: int, radius_bound: float,
                   want_ij: bool, want_ji: bool, thin_filter: bool = True, problem: str = "R_ij",
-                  directions: SubspaceDirections | None = None) -> PairVerdict:
+                  directions: SubspaceDirections | None = None) -> PairClassification:
     """Questions 1-3 of the module docstring for one pair set on its equality subspace.
 
     Parameters
@@ -426,29 +425,29 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     parts = [k if want else None for k, want in enumerate((want_ij, want_ji))]
     frame = _Frame(Gv, gv, N, w0, None, None, n, radius_bound, directions)
     if frame.forces_same_state():
-        return PairVerdict(*[EMPTY if p is None else SAME_STATE for p in parts], np.nan, False)
+        return PairClassification(*[PairVerdict.EMPTY if p is None else PairVerdict.SAME_STATE for p in parts], np.nan, False)
     # -- 1. non-empty (closed, to the region tolerance)?
     radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, -CLOSED_SET_TOL, problem)
     if radius <= -CLOSED_SET_TOL:
-        return PairVerdict(EMPTY, EMPTY, radius, False)
+        return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, radius, False)
     frame.centre = _witness(centre, A, bu)
     frame._lp = (A, bu)
-    verdicts = [EMPTY if p is None else "" for p in parts]
+    verdicts: list[PairVerdict | None] = [PairVerdict.EMPTY if p is None else None for p in parts]
     face = radius <= REGION_SLACK_TOL
     if not face:
         frame.ball = float(radius)  # above the LP's threshold: the certified lower bound (a feasible ball)
     if not face:  # a ball in the equality subspace: its projections only need the thin test
         for k, p in enumerate(parts):
             if p is not None and frame.projection_thin(p, thin_filter):
-                verdicts[k] = LOWER_DIMENSIONAL
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
         if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, False)
+            return PairClassification(*verdicts, radius, False)
     else:  # rank first: a projection that is flat in the subspace is flat in any smaller hull
         for k, p in enumerate(parts):
             if p is not None and not frame.directions.full_rank[p]:
-                verdicts[k] = LOWER_DIMENSIONAL
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
         if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, False)
+            return PairClassification(*verdicts, radius, False)
     # -- 2. affine hull: add implicit equalities until the set has a ball in its frame (the
     # multipliers of the LP above serve the first reduction: it is the same LP)
     relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
@@ -504,8 +503,8 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
                              tight=first_tight if _ == 0 else None)
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
-        if isinstance(red, str):
-            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+        if red is PairVerdict.EMPTY:
+            return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
         M2, t0 = red
         s0, M = s0 + mm(M, t0), mm(M, M2)
         # the hull only shrinks from here: once a wanted projection loses rank it is lower-dimensional,
@@ -513,36 +512,36 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         NM = mm(N, M)
         for k, p in enumerate(parts):
             if p is not None and not verdicts[k] and confirmed_thin(p, NM):
-                verdicts[k] = LOWER_DIMENSIONAL
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
         if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, True)
+            return PairClassification(*verdicts, radius, True)
         if M.shape[1] == 0:
             if np.min(gv - mm(Gv, s0), initial=np.inf) < -CLOSED_SET_TOL:
-                return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+                return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
             radius, centre = 0.0, np.zeros(0)
             break
         radius, centre, A, bu, lam, keep = _chebyshev(mm(Gv, M), gv - mm(Gv, s0), radius_bound + norm(s0),
                                                       REGION_SLACK_TOL, problem + " (affine hull)")
         if radius == -np.inf:
-            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+            return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
     if face:
         frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + norm(s0))
         frame.centre = _witness(centre, A, bu) if centre is not None and centre.size else centre
         if radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
             frame.ball = float(radius)
         if frame.forces_same_state():
-            return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
+            return PairClassification(*[v or PairVerdict.SAME_STATE for v in verdicts], radius, True)
     distinct = None
     for k, p in enumerate(parts):
         if verdicts[k]:
             continue
         if face and (confirmed_thin(p, frame.Nh) if not frame.directions.full_rank[p] else frame.projection_thin(p, thin_filter)):
-            verdicts[k] = LOWER_DIMENSIONAL
+            verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
             continue
         if distinct is None:
             distinct = frame.distinct_states()
-        verdicts[k] = PIECE if distinct else SAME_STATE
-    return PairVerdict(verdicts[0], verdicts[1], float(radius), face)
+        verdicts[k] = PairVerdict.PIECE if distinct else PairVerdict.SAME_STATE
+    return PairClassification(verdicts[0], verdicts[1], float(radius), face)
 
 
 def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, x_scaled_offset: np.ndarray,
@@ -602,4 +601,4 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
     return False
 
 
-__all__ = ["PairVerdict", "SubspaceDirections", "classify_pair", "fixed_state_witness", "EMPTY", "LOWER_DIMENSIONAL", "SAME_STATE", "PIECE"]
+__all__ = ["PairClassification", "SubspaceDirections", "classify_pair", "fixed_state_witness"]

@@ -33,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .pair_algebra import PairAlgebra, scaled_rows
-from .pair_geometry import PIECE, classify_pair
+from .pair_geometry import classify_pair
+from .verdicts import PairVerdict
 
 
 @dataclass(eq=False)
@@ -118,8 +119,8 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
                                             problem=f"group of pairs below prefixes {a}, {b} of length {level.depth} "
                                                     "(Algorithm 3.1, grouped step 3.1.1)",
                                             directions=directions)
-                    done_a = done_a or (ok_a and verdict.verdict != PIECE)
-                    done_b = done_b or (ok_b and verdict.verdict_ji != PIECE)
+                    done_a = done_a or (ok_a and verdict.verdict != PairVerdict.PIECE)
+                    done_b = done_b or (ok_b and verdict.verdict_ji != PairVerdict.PIECE)
             if done_a:
                 hit = members[want_ij[members]]
                 ruled.extend((int(caller[k]), int(other[k])) for k in hit)
