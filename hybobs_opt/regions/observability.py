@@ -293,10 +293,12 @@ class ObservabilityAnalysis:
         x : (n,) array_like
             A finite state.
         """
-        return self.classify(x) == "observable"
+        return self.classify(x) == PointClass.OBSERVABLE
 
-    def classify(self, x) -> str:
-        """``"observable"``, ``"unobservable"`` or ``"infeasible"`` (``x`` not in ``X*_T``).
+    def classify(self, x) -> PointClass:
+        """:class:`~hybobs_opt.regions.PointClass`: ``OBSERVABLE``, ``UNOBSERVABLE`` or ``INFEASIBLE`` (``x`` not in ``X*_T``).
+
+        The members equal the strings ``"observable"``, ``"unobservable"`` and ``"infeasible"``.
 
         Only the pairs that Algorithm 3.1 found non-empty can hold a point indistinguishable from
         ``x`` (an empty ``R_ij`` has no slice at any ``x``), so those are the only LPs solved
@@ -315,15 +317,15 @@ class ObservabilityAnalysis:
         x = self._check_point(x)
         inside = self.regions_containing(x)
         if not inside:
-            return "infeasible"
+            return PointClass.INFEASIBLE
         if any(not self.full_rank[i] for i in inside):
-            return "unobservable"
+            return PointClass.UNOBSERVABLE
         by_i = self._pairs_by_i()
         for i in inside:
             for j in by_i.get(i, ()):
                 if self._pair_witness_at(i, j, x):
-                    return "unobservable"
-        return "observable"
+                    return PointClass.UNOBSERVABLE
+        return PointClass.OBSERVABLE
 
     def _pairs_by_i(self) -> dict[int, list[int]]:
         if "_by_i" not in self._pair_cache:
@@ -346,7 +348,7 @@ class ObservabilityAnalysis:
         Returns
         -------
         (N,) object ndarray
-            The labels.
+            The labels (:class:`~hybobs_opt.regions.PointClass` members).
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         out = np.empty(X.shape[0], dtype=object)
