@@ -52,8 +52,23 @@ def group_depths(T: int, n: int, p: int) -> list[int]:
     return list(range(shortest, T))
 
 
-def group_level_data(enum, depths) -> list[tuple[int, list, np.ndarray]]:
-    """Per prefix length, ``(depth, scaled superset rows, region -> superset)``, what the tasks need.
+@dataclass(frozen=True, slots=True)
+class GroupLevelRows:
+    """What the pair-test tasks need of one prefix length: the data a :class:`GroupLevel` is built from.
+
+    ``rows`` are the supersets' rows and output maps in scaled coordinates
+    (:func:`~hybobs_opt.regions.pair_algebra.scaled_rows`), or those packed into one buffer
+    (:func:`~hybobs_opt.regions.pair_algebra.pack_scaled`) for the worker processes;
+    ``index[k]`` is the superset of region ``k``.
+    """
+
+    depth: int
+    rows: list | bytes
+    index: np.ndarray
+
+
+def group_level_data(enum, depths) -> list[GroupLevelRows]:
+    """Per prefix length, its :class:`GroupLevelRows` (scaled superset rows, region -> superset).
 
     Prefix lengths whose regions do not share their leading output rows are skipped.
     """
@@ -66,7 +81,7 @@ def group_level_data(enum, depths) -> list[tuple[int, list, np.ndarray]]:
         if built is None:
             continue
         supersets, index = built
-        out.append((depth, scaled_rows(supersets, n, enum.scale, enum.centre), index))
+        out.append(GroupLevelRows(depth, scaled_rows(supersets, n, enum.scale, enum.centre), index))
     return out
 
 
@@ -132,4 +147,4 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
     return ruled, n_tests
 
 
-__all__ = ["GroupLevel", "group_depths", "group_level_data", "rule_out_by_groups"]
+__all__ = ["GroupLevel", "GroupLevelRows", "group_depths", "group_level_data", "rule_out_by_groups"]
