@@ -607,21 +607,20 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
     for k, (j, rows) in enumerate(zip(js, algebra.restricted_rows(i, js))):
         if rows is None:
             continue  # the outputs can never be equal
-        Gv, gv, w0, N, directions, bound = rows
         problem = f"R_{i},{j} (Algorithm 3.1, step 3.1.1)"
         if min_margin is not None:
-            A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
+            A, bu, ok = slack_lp_data(rows.Gv, rows.gv, ZERO_ROW_TOL, SLACK_CAP)
             if not ok:
                 continue
             if A.shape[0] == 1:
                 out.found.append((i, int(j), SLACK_CAP))
                 continue
-            res = _slack_lp(A, bu, bound, min_margin, problem)
+            res = _slack_lp(A, bu, rows.radius_bound, min_margin, problem)
             if res.lower > min_margin:
                 out.found.append((i, int(j), float(res.lower)))
             continue
-        verdict = classify_pair(Gv, gv, N, w0, n, bound, bool(report_ij[k]), bool(report_ji[k]),
-                                thin_filter=thin_filter, problem=problem, directions=directions)
+        verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, n, rows.radius_bound, bool(report_ij[k]),
+                                bool(report_ji[k]), thin_filter=thin_filter, problem=problem, directions=rows.directions)
         for v, pair in ((verdict.verdict, (i, int(j))), (verdict.verdict_ji, (int(j), i))):
             if v == PairVerdict.PIECE:
                 out.found.append(pair + (verdict.radius,))

@@ -129,11 +129,10 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
                 if rows is None:  # the shared outputs can never be equal
                     done_a, done_b = wa, wb
                 else:
-                    Gv, gv, w0, N, directions, bound = rows
-                    verdict = classify_pair(Gv, gv, N, w0, alg.n, bound, ok_a, ok_b,
+                    verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, alg.n, rows.radius_bound, ok_a, ok_b,
                                             problem=f"group of pairs below prefixes {a}, {b} of length {level.depth} "
                                                     "(Algorithm 3.1, grouped step 3.1.1)",
-                                            directions=directions)
+                                            directions=rows.directions)
                     done_a = done_a or (ok_a and verdict.verdict != PairVerdict.PIECE)
                     done_b = done_b or (ok_b and verdict.verdict_ji != PairVerdict.PIECE)
             if done_a:
