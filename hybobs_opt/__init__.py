@@ -40,7 +40,7 @@ _EXPORTS: dict[str, str] = {
                      "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch", "simulate_system"), "hybobs_opt.sim"),
     **dict.fromkeys(("SignalLog", "read_log", "write_estimates"), "hybobs_opt.sim.log"),
     # observability regions (paper 002)
-    **dict.fromkeys(("ObservabilityAnalysis", "analyse_observability", "compute_cut", "enumerate_modes",
+    **dict.fromkeys(("ObservabilityAnalysis", "PointClass", "analyse_observability", "compute_cut", "enumerate_modes",
                      "load_analysis", "save_analysis"), "hybobs_opt.regions"),
     # LMI design (paper 004)
     **dict.fromkeys(("DesignSettings", "Diagnosis", "ObserverLMI", "SwitchedDesign", "design_settings", "design_switched", "diagnose", "dwell_time_fixed", "grow_regions",

@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from ..limits import check_horizon_limit
     from ..cache import cached_analysis
     from ..progress import counter_bar, phase_bars
-    from ..regions import compute_cut, parse_assignments, save_analysis
+    from ..regions import PointClass, compute_cut, parse_assignments, save_analysis
 
     check_horizon_limit(args.horizon, "--horizon")
     check_figure_path("--plot", args.plot, args.force)
@@ -116,8 +116,8 @@ def run(args: argparse.Namespace) -> int:
         finally:
             close()
         out["cut"] = {"axes": list(cut.axes), "fixed": cut.fixed, "resolution": [nx, ny],
-                      "fraction_observable_of_feasible": cut.fraction_of_feasible("observable"),
-                      "fraction_unobservable_of_feasible": cut.fraction_of_feasible("unobservable")}
+                      "fraction_observable_of_feasible": cut.fraction_of_feasible(PointClass.OBSERVABLE),
+                      "fraction_unobservable_of_feasible": cut.fraction_of_feasible(PointClass.UNOBSERVABLE)}
         if args.plot:
             from ..report.plots import plot_region_cut
 

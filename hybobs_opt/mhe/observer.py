@@ -101,6 +101,7 @@ from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS,
                         WARMING_UP, check_reset_keywords, checked_state, false_alarm_probability,
                         judge_samples_against, noise_std_vector)
 from ..errors import ModelError
+from ..regions.verdicts import PointClass
 from ..status import Status
 from ..systems.pwa import PWASystem
 from ..tolerances import (
@@ -1168,11 +1169,11 @@ class MHEObserver(Observer):
             except Exception as exc:  # an LP failure must not stop the observer loop
                 label = f"failed ({type(exc).__name__}: {exc})"
             info["analysis_label"] = label
-            if label in (OBSERVABLE, UNOBSERVABLE):
-                info["uniqueness"] = {"status": "unique" if label == OBSERVABLE else "not unique for every input",
+            if label in (PointClass.OBSERVABLE, PointClass.UNOBSERVABLE):
+                info["uniqueness"] = {"status": "unique" if label == PointClass.OBSERVABLE else "not unique for every input",
                                       "decided_by": "analysis (Definition 2.2, every input sequence)",
                                       "seconds": time.perf_counter() - t0}
-                return label
+                return OBSERVABLE if label == PointClass.OBSERVABLE else UNOBSERVABLE  # the point class as a flag
         if not self.check_uniqueness:
             if self.analysis is not None:
                 info["reason"] = f"analysis label {info['analysis_label']!r} at the estimate and check_uniqueness=False"

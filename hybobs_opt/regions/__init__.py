@@ -2,13 +2,15 @@
 
 ``enumerate_modes`` builds the regions of eq. (4); ``analyse_observability`` runs Algorithm 3.1
 (``I``, ``B_T``, ``B~_T``) and answers exact point queries; ``compute_cut`` classifies 2-D cuts;
-``save_analysis`` / ``load_analysis`` keep the result for the lookup observer.
+``save_analysis`` / ``load_analysis`` keep the result for the lookup observer.  ``PairVerdict``
+and ``PointClass`` are the string-valued vocabularies of the pair tests and the point queries.
 """
 
 from .cuts import Cut, compute_cut, parse_assignments, plot_cut
 from .enumeration import ModeEnumeration, ModeRegion, enumerate_modes
 from .io import load_analysis, save_analysis
 from .observability import ObservabilityAnalysis, PairSet, analyse_observability
+from .verdicts import PairVerdict, PointClass
 
 __all__ = [
     "Cut",
@@ -16,6 +18,8 @@ __all__ = [
     "ModeRegion",
     "ObservabilityAnalysis",
     "PairSet",
+    "PairVerdict",
+    "PointClass",
     "analyse_observability",
     "compute_cut",
     "enumerate_modes",

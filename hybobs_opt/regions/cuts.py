@@ -1,8 +1,8 @@
 """2-D cuts of the observability regions (paper 002, Figs. 3-6), from exact point queries.
 
 A cut fixes all states but two; every grid point of the remaining plane is classified exactly
-by :meth:`ObservabilityAnalysis.classify` (``observable`` / ``unobservable`` / ``infeasible``,
-i.e. outside ``X*_T``), so the picture and the numbers asserted by the tests are the same data.
+by :meth:`ObservabilityAnalysis.classify` (a :class:`~hybobs_opt.regions.PointClass`:
+``observable`` / ``unobservable`` / ``infeasible``, i.e. outside ``X*_T``), so the picture and the numbers asserted by the tests are the same data.
 """
 
 from __future__ import annotations
@@ -13,8 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from .verdicts import PointClass
 
-LABELS = ("observable", "unobservable", "infeasible")
+#: The labels of a cut, in the order of the colours of :func:`plot_cut`.
+LABELS = (PointClass.OBSERVABLE, PointClass.UNOBSERVABLE, PointClass.INFEASIBLE)
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,8 +31,8 @@ class Cut:
         The fixed states and their values.
     x_values, y_values : arrays
         Grid coordinates.
-    labels : (len(y), len(x)) array of str
-        One of :data:`LABELS` per grid point.
+    labels : (len(y), len(x)) object array
+        One of :data:`LABELS` (a :class:`~hybobs_opt.regions.PointClass`, equal to its string) per grid point.
     """
 
     axes: tuple[str, str]
@@ -72,7 +74,7 @@ class Cut:
         float
             The share, ``nan`` when no feasible point is selected.
         """
-        m = self.labels != "infeasible"
+        m = self.labels != PointClass.INFEASIBLE
         if mask is not None:
             m &= mask
         return float(np.mean(self.labels[m] == label)) if m.any() else float("nan")
@@ -87,7 +89,7 @@ class Cut:
             "x_values": self.x_values.tolist(),
             "y_values": self.y_values.tolist(),
             "labels": self.labels.tolist(),
-            "fraction_observable_of_feasible": self.fraction_of_feasible("observable"),
+            "fraction_observable_of_feasible": self.fraction_of_feasible(PointClass.OBSERVABLE),
         }
 
 
@@ -197,7 +199,7 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
     plt = pyplot()
     from matplotlib.colors import ListedColormap
 
-    code = np.vectorize({"observable": 0, "unobservable": 1, "infeasible": 2}.get)(cut.labels)
+    code = np.vectorize({label: k for k, label in enumerate(LABELS)}.get)(cut.labels)
     sx = (stretch or {}).get(cut.axes[0], 1.0)
     sy = (stretch or {}).get(cut.axes[1], 1.0)
     fig, ax = plt.subplots(figsize=(6, 4.5))

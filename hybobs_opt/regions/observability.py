@@ -40,7 +40,7 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -51,11 +51,12 @@ from ..geometry._reproducible import lstsq, matmul as mm, norm, numerical_rank, 
 from ..geometry.lp import COUNTERS, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
-from .pair_geometry import LOWER_DIMENSIONAL, PIECE, SAME_STATE, _slack_lp, classify_pair, fixed_state_witness
+from .pair_geometry import _slack_lp, classify_pair, fixed_state_witness
 from .enumeration import (ModeEnumeration, check_analysis_budget, counted_exactly, enumerate_modes, horizon_scaling,
                           resolve_pair_lp_budget)
-from .pair_groups import GroupLevel, group_depths, group_level_data, rule_out_by_groups
+from .pair_groups import GroupLevel, GroupLevelRows, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
+from .verdicts import PairVerdict, PointClass
 
 
 #: Below this many candidate pairs (``|I|`` times the number of regions) the pair tests run in the
@@ -202,7 +203,7 @@ class ObservabilityAnalysis:
             for i in self.index_set:
                 found.extend(_pair_lps(algebra, i, np.array(self.rank_deficient, dtype=int),
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool),
-                                       thin_filter=False, min_margin=-REGION_SLACK_TOL)[0])
+                                       thin_filter=False, min_margin=-REGION_SLACK_TOL).found)
             found.sort()
             self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
         return self._pair_cache["_reduced_all"]
@@ -292,10 +293,12 @@ class ObservabilityAnalysis:
         x : (n,) array_like
             A finite state.
         """
-        return self.classify(x) == "observable"
+        return self.classify(x) == PointClass.OBSERVABLE
 
-    def classify(self, x) -> str:
-        """``"observable"``, ``"unobservable"`` or ``"infeasible"`` (``x`` not in ``X*_T``).
+    def classify(self, x) -> PointClass:
+        """:class:`~hybobs_opt.regions.PointClass`: ``OBSERVABLE``, ``UNOBSERVABLE`` or ``INFEASIBLE`` (``x`` not in ``X*_T``).
+
+        The members equal the strings ``"observable"``, ``"unobservable"`` and ``"infeasible"``.
 
         Only the pairs that Algorithm 3.1 found non-empty can hold a point indistinguishable from
         ``x`` (an empty ``R_ij`` has no slice at any ``x``), so those are the only LPs solved
@@ -314,15 +317,15 @@ class ObservabilityAnalysis:
         x = self._check_point(x)
         inside = self.regions_containing(x)
         if not inside:
-            return "infeasible"
+            return PointClass.INFEASIBLE
         if any(not self.full_rank[i] for i in inside):
-            return "unobservable"
+            return PointClass.UNOBSERVABLE
         by_i = self._pairs_by_i()
         for i in inside:
             for j in by_i.get(i, ()):
                 if self._pair_witness_at(i, j, x):
-                    return "unobservable"
-        return "observable"
+                    return PointClass.UNOBSERVABLE
+        return PointClass.OBSERVABLE
 
     def _pairs_by_i(self) -> dict[int, list[int]]:
         if "_by_i" not in self._pair_cache:
@@ -345,7 +348,7 @@ class ObservabilityAnalysis:
         Returns
         -------
         (N,) object ndarray
-            The labels.
+            The labels (:class:`~hybobs_opt.regions.PointClass` members).
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         out = np.empty(X.shape[0], dtype=object)
@@ -528,7 +531,23 @@ def _pair_set(enum: ModeEnumeration, i: int, j: int, slack: float) -> PairSet:
     return PairSet(i, j, G, g, E, e, slack)
 
 
-def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+@dataclass(frozen=True, slots=True)
+class _Candidates:
+    """The pairs of Algorithm 3.1, step 3.1, for one ``i`` in ``I`` that pass the rank screen (:func:`_candidates`).
+
+    ``js``: the other regions; ``want_ij[k]`` / ``want_ji[k]``: ``R_ij`` / ``R_ji`` of ``js[k]``
+    is still to be decided; ``n_tested``, ``n_skipped_rank``: the pairs screened and those the
+    screen discarded.
+    """
+
+    js: np.ndarray
+    want_ij: np.ndarray
+    want_ji: np.ndarray
+    n_tested: int
+    n_skipped_rank: int
+
+
+def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | None = None) -> _Candidates:
     r"""The pairs of Algorithm 3.1, step 3.1, for one ``i`` in ``I``, screened before any LP.
 
     A pair whose output equalities cannot be solved for every ``x`` has a lower-dimensional
@@ -537,13 +556,13 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     pairs are handled from ``i`` only for ``j > i``, reporting ``R_ji`` too when its own rank
     screen passes.
 
-    Returns ``(js, want_ij, want_ji, n_pairs_tested, n_pairs_skipped_by_rank)`` with the ``js``
-    that pass a screen; with ``allowed`` (a mask over the regions) only those ``j`` are candidates.
+    Returns the ``js`` that pass a screen with what is wanted of each; with ``allowed`` (a mask
+    over the regions) only those ``j`` are candidates.
     """
     js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)
                    and (allowed is None or allowed[j])], dtype=int)
     if js.size == 0:
-        return js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0
+        return _Candidates(js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0)
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
     sym = np.array([bool(full_rank[j]) for j in js])
@@ -552,12 +571,21 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     ok = ok_ij | ok_ji
     n_tested = int(js.size + sym.sum())
     n_skipped = int(np.count_nonzero(~ok_ij) + np.count_nonzero(sym & ~ok_ji))
-    return js[ok], ok_ij[ok].copy(), ok_ji[ok].copy(), n_tested, n_skipped
+    return _Candidates(js[ok], ok_ij[ok].copy(), ok_ji[ok].copy(), n_tested, n_skipped)
+
+
+@dataclass(frozen=True, slots=True)
+class _PairFindings:
+    """What :func:`_pair_lps` decided: ``found`` as ``(i, j, radius)``, the others as ``(i, j)`` pairs."""
+
+    found: list[tuple[int, int, float]]
+    dropped_thin: list[tuple[int, int]]
+    dropped_same_state: list[tuple[int, int]]
 
 
 def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarray,
               report_ji: np.ndarray, thin_filter: bool = True,
-              min_margin: float | None = None) -> tuple[list[tuple[int, int, float]], list, list]:
+              min_margin: float | None = None) -> _PairFindings:
     """Decide the pair sets ``R_ij``, ``j`` in ``js``, with :func:`~hybobs_opt.regions.pair_geometry.classify_pair`.
 
     Reports ``(i, j, radius)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
@@ -568,42 +596,119 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
     With ``min_margin`` (``reduced_pairs_all_dimensions``) every pair whose closure is not
     certified empty by more than ``-min_margin`` is reported instead, whatever its dimension.
 
-    Returns ``(found, dropped_thin, dropped_same_state)``, the latter two as ``(i, j)`` pairs:
-    non-empty pairs left out because their projection is lower-dimensional or thin, and because
-    the outputs force ``x^ = x`` on them.
+    Returns the pairs found and, as ``(i, j)`` pairs, the non-empty ones left out because their
+    projection is lower-dimensional or thin (``dropped_thin``), and because the outputs force
+    ``x^ = x`` on them (``dropped_same_state``).
     """
-    found: list[tuple[int, int, float]] = []
-    thin: list[tuple[int, int]] = []
-    same: list[tuple[int, int]] = []
+    out = _PairFindings([], [], [])
     if js.size == 0:
-        return found, thin, same
+        return out
     n = algebra.n
     for k, (j, rows) in enumerate(zip(js, algebra.restricted_rows(i, js))):
         if rows is None:
             continue  # the outputs can never be equal
-        Gv, gv, w0, N, directions, bound = rows
         problem = f"R_{i},{j} (Algorithm 3.1, step 3.1.1)"
         if min_margin is not None:
-            A, bu, ok = slack_lp_data(Gv, gv, ZERO_ROW_TOL, SLACK_CAP)
+            A, bu, ok = slack_lp_data(rows.Gv, rows.gv, ZERO_ROW_TOL, SLACK_CAP)
             if not ok:
                 continue
             if A.shape[0] == 1:
-                found.append((i, int(j), SLACK_CAP))
+                out.found.append((i, int(j), SLACK_CAP))
                 continue
-            res = _slack_lp(A, bu, bound, min_margin, problem)
+            res = _slack_lp(A, bu, rows.radius_bound, min_margin, problem)
             if res.lower > min_margin:
-                found.append((i, int(j), float(res.lower)))
+                out.found.append((i, int(j), float(res.lower)))
             continue
-        verdict = classify_pair(Gv, gv, N, w0, n, bound, bool(report_ij[k]), bool(report_ji[k]),
-                                thin_filter=thin_filter, problem=problem, directions=directions)
+        verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, n, rows.radius_bound, bool(report_ij[k]),
+                                bool(report_ji[k]), thin_filter=thin_filter, problem=problem, directions=rows.directions)
         for v, pair in ((verdict.verdict, (i, int(j))), (verdict.verdict_ji, (int(j), i))):
-            if v == PIECE:
-                found.append(pair + (verdict.radius,))
-            elif v == LOWER_DIMENSIONAL:
-                thin.append(pair)
-            elif v == SAME_STATE:
-                same.append(pair)
-    return found, thin, same
+            if v == PairVerdict.PIECE:
+                out.found.append(pair + (verdict.radius,))
+            elif v == PairVerdict.LOWER_DIMENSIONAL:
+                out.dropped_thin.append(pair)
+            elif v == PairVerdict.SAME_STATE:
+                out.dropped_same_state.append(pair)
+    return out
+
+
+# ---------------------------------------------------------------------- tasks of the pair tests
+@dataclass(frozen=True, slots=True)
+class PairTaskData:
+    """What every pair-test task of one analysis shares (sent to each worker once where the executor can).
+
+    Parameters
+    ----------
+    regions : bytes or (list, int)
+        The regions' scaled rows and output maps: packed into one buffer
+        (:func:`~hybobs_opt.regions.pair_algebra.pack_scaled`) for the worker processes, or
+        ``(scaled rows, n)`` in the calling process.
+    full_rank : tuple of bool
+        Membership of each region in ``I``.
+    levels : tuple of GroupLevelRows
+        The group tests' prefix lengths, shortest first (empty: pair by pair).
+    token : str or None
+        Digest of the packed data: a worker keeps the algebras of the last analysis under it.
+    """
+
+    regions: bytes | tuple
+    full_rank: tuple[bool, ...]
+    levels: tuple[GroupLevelRows, ...]
+    token: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class PairTask:
+    """One task of the pair tests (:func:`_chunks`).
+
+    ``i_list``: the regions of ``I`` whose pairs it tests; ``blocks``: with group tests, the
+    blocks ``(a, b)`` of shortest prefixes it takes (the pairs whose caller lies below prefix
+    ``a`` and whose other region below prefix ``b``), ``None`` for every pair of ``i_list``;
+    ``size``: its estimated size (candidate pairs), for progress reports.
+    """
+
+    i_list: list[int]
+    blocks: np.ndarray | None
+    size: int
+
+
+@dataclass(frozen=True, slots=True)
+class PairOutcome:
+    """What one pair-test task found (:func:`_pairs_task`), or all of them (:meth:`total`).
+
+    ``found``: the pieces ``(i, j, radius)``; ``dropped_thin``, ``dropped_same_state``,
+    ``ruled_out_by_group``: ordered pairs ``(i, j)`` (see :class:`ObservabilityAnalysis`
+    ``stats``); ``n_lps``: LPs solved (group tests included); ``n_tested``, ``n_skipped_rank``:
+    pairs screened and discarded by the rank screen; ``n_group_tests``, ``n_group_lps``: the
+    group tests and their LPs; ``n_decisions_exact``, ``n_decisions_exact_undecided``: decisions
+    re-made in rational arithmetic, and those it could not settle.
+    """
+
+    found: list[tuple[int, int, float]]
+    dropped_thin: list[tuple[int, int]]
+    dropped_same_state: list[tuple[int, int]]
+    ruled_out_by_group: list[tuple[int, int]]
+    n_lps: int
+    n_tested: int
+    n_skipped_rank: int
+    n_group_tests: int
+    n_group_lps: int
+    n_decisions_exact: int
+    n_decisions_exact_undecided: int
+
+    @staticmethod
+    def total(outcomes) -> "PairOutcome":
+        """The outcomes of all tasks as one: lists concatenated in task order, counts summed."""
+        outcomes = list(outcomes)
+
+        def cat(name: str) -> list:
+            return [item for o in outcomes for item in getattr(o, name)]
+
+        def add(name: str) -> int:
+            return sum(getattr(o, name) for o in outcomes)
+
+        return PairOutcome(cat("found"), cat("dropped_thin"), cat("dropped_same_state"), cat("ruled_out_by_group"),
+                           add("n_lps"), add("n_tested"), add("n_skipped_rank"), add("n_group_tests"),
+                           add("n_group_lps"), add("n_decisions_exact"), add("n_decisions_exact_undecided"))
 
 
 #: Per worker process: the unpacked regions and their pair algebras of the last analysis, keyed
@@ -612,68 +717,74 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
 _WORKER_STATE: dict = {}
 
 
-def _task_state(payload, level_data, token: str | None):
-    """``(PairAlgebra of the regions, [GroupLevel, ...])`` for a task, rebuilt unless cached under ``token``."""
-    if token is not None and _WORKER_STATE.get("token") == token:
+def _task_state(data: PairTaskData) -> tuple[_PairAlgebra, list[GroupLevel]]:
+    """``(PairAlgebra of the regions, [GroupLevel, ...])`` for a task, rebuilt unless cached under ``data.token``."""
+    if data.token is not None and _WORKER_STATE.get("token") == data.token:
         return _WORKER_STATE["state"]
-    scaled, n = _unpack_scaled(payload) if isinstance(payload, bytes) else payload
+    scaled, n = _unpack_scaled(data.regions) if isinstance(data.regions, bytes) else data.regions
     levels = []
-    for depth, data, index in level_data or ():
-        sc = _unpack_scaled(data)[0] if isinstance(data, bytes) else data
-        levels.append(GroupLevel(depth, _PairAlgebra(sc, n), index))
+    for level in data.levels:
+        sc = _unpack_scaled(level.rows)[0] if isinstance(level.rows, bytes) else level.rows
+        levels.append(GroupLevel(level.depth, _PairAlgebra(sc, n), level.index))
     state = (_PairAlgebra(scaled, n), levels)
-    if token is not None:
+    if data.token is not None:
         _WORKER_STATE.clear()
-        _WORKER_STATE.update(token=token, state=state)
+        _WORKER_STATE.update(token=data.token, state=state)
     return state
 
 
-def _pairs_task(args, shared=None, progress: Callable[[int, int], None] | None = None):
-    """A chunk of ``i`` values; the regions' scaled data arrive packed (:func:`_pack_scaled`) or as a list.
+def _group_pass(levels: list[GroupLevel], i_list: list[int], per_i: list[_Candidates]) -> tuple[list[_Candidates], list, int, int]:
+    """Run the group tests over all the candidate pairs of a task; returns the candidates with the
+    wants they decided cleared, the pairs ruled out, the number of group tests and their LPs."""
+    caller = np.concatenate([np.full(c.js.size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
+    other = np.concatenate([c.js for c in per_i] + [np.zeros(0, dtype=int)])
+    want_ij = np.concatenate([c.want_ij for c in per_i] + [np.zeros(0, dtype=bool)])
+    want_ji = np.concatenate([c.want_ji for c in per_i] + [np.zeros(0, dtype=bool)])
+    g0 = COUNTERS.total
+    ruled, n_group_tests = rule_out_by_groups(levels, caller, other, want_ij, want_ji)
+    group_lps = COUNTERS.total - g0
+    offsets = np.cumsum([0] + [c.js.size for c in per_i])
+    per_i = [replace(c, want_ij=want_ij[a:b], want_ji=want_ji[a:b]) for c, a, b in zip(per_i, offsets[:-1], offsets[1:])]
+    return per_i, ruled, n_group_tests, group_lps
+
+
+def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, int], None] | None = None) -> PairOutcome:
+    """The pair tests of one task: a chunk of ``i`` values (and, with group tests, of prefix blocks).
 
     With group levels (:mod:`~hybobs_opt.regions.pair_groups`), the group tests run first over
     all the chunk's candidate pairs, then every pair they leave undecided is tested on its own.
     """
-    if shared is not None:  # (i_list, blocks) here, the data common to the tasks apart
-        args = (shared[0], shared[1], args[0], shared[2], args[1], shared[3])
-    payload, full_rank, i_list, level_data, blocks, token = args
     start = COUNTERS.total
-    algebra, levels = _task_state(payload, level_data, token)
-    if blocks is None:
-        per_i = [_candidates(algebra, full_rank, i) for i in i_list]
+    algebra, levels = _task_state(shared)
+    if task.blocks is None:
+        per_i = [_candidates(algebra, shared.full_rank, i) for i in task.i_list]
     else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
-        top = level_data[0][2]
-        per_i = [_candidates(algebra, full_rank, i, blocks[top[i]][top]) for i in i_list]
-    tested = sum(c[3] for c in per_i)
-    skipped = sum(c[4] for c in per_i)
+        top = shared.levels[0].index
+        per_i = [_candidates(algebra, shared.full_rank, i, task.blocks[top[i]][top]) for i in task.i_list]
+    n_tested = sum(c.n_tested for c in per_i)
+    n_skipped = sum(c.n_skipped_rank for c in per_i)
     ruled: list = []
     n_group_tests = group_lps = 0
     exact0 = (EXACT.decided, EXACT.undecided)
     if levels:
-        caller = np.concatenate([np.full(c[0].size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
-        other = np.concatenate([c[0] for c in per_i] + [np.zeros(0, dtype=int)])
-        want_ij = np.concatenate([c[1] for c in per_i] + [np.zeros(0, dtype=bool)])
-        want_ji = np.concatenate([c[2] for c in per_i] + [np.zeros(0, dtype=bool)])
-        g0 = COUNTERS.total
-        ruled, n_group_tests = rule_out_by_groups(levels, caller, other, want_ij, want_ji)
-        group_lps = COUNTERS.total - g0
-        offsets = np.cumsum([0] + [c[0].size for c in per_i])
-        per_i = [(c[0], want_ij[a:b], want_ji[a:b]) + c[3:] for c, a, b in zip(per_i, offsets[:-1], offsets[1:])]
-    found, thin, same = [], [], []
-    for k, (i, (js, ok_ij, ok_ji, *_)) in enumerate(zip(i_list, per_i)):
-        keep = ok_ij | ok_ji
-        f, th, fc = _pair_lps(algebra, i, js[keep], ok_ij[keep], ok_ji[keep])
-        found.extend(f)
-        thin.extend(th)
-        same.extend(fc)
+        per_i, ruled, n_group_tests, group_lps = _group_pass(levels, task.i_list, per_i)
+    findings = _PairFindings([], [], [])
+    for k, (i, c) in enumerate(zip(task.i_list, per_i)):
+        keep = c.want_ij | c.want_ji
+        f = _pair_lps(algebra, i, c.js[keep], c.want_ij[keep], c.want_ji[keep])
+        findings.found.extend(f.found)
+        findings.dropped_thin.extend(f.dropped_thin)
+        findings.dropped_same_state.extend(f.dropped_same_state)
         if progress:
-            progress(k + 1, len(i_list))
-    exact = (EXACT.decided - exact0[0], EXACT.undecided - exact0[1])
-    return found, COUNTERS.total - start, tested, skipped, thin, same, ruled, n_group_tests, group_lps, exact
+            progress(k + 1, len(task.i_list))
+    return PairOutcome(findings.found, findings.dropped_thin, findings.dropped_same_state, ruled,
+                       n_lps=COUNTERS.total - start, n_tested=n_tested, n_skipped_rank=n_skipped,
+                       n_group_tests=n_group_tests, n_group_lps=group_lps,
+                       n_decisions_exact=EXACT.decided - exact0[0], n_decisions_exact_undecided=EXACT.undecided - exact0[1])
 
 
-def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray | None) -> list[tuple[list[int], np.ndarray | None, int]]:
-    """Split the pair tests into ``n_chunks`` tasks: ``(i_list, blocks, size)``, largest first.
+def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray | None) -> list[PairTask]:
+    """Split the pair tests into ``n_chunks`` tasks, largest first.
 
     Without group tests, ``I`` is dealt out (``I[c::n_chunks]``).  With them, the candidate pairs
     are cut into blocks by the shortest prefixes of both regions: every group of pairs lies in
@@ -686,7 +797,7 @@ def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray |
     ``size`` counts the candidate pairs ``(i, j)``, ``i`` in ``I``, for progress reports.
     """
     if top_index is None:
-        return [(I[c::n_chunks], None, len(I[c::n_chunks]) * n_regions) for c in range(n_chunks) if I[c::n_chunks]]
+        return [PairTask(I[c::n_chunks], None, len(I[c::n_chunks]) * n_regions) for c in range(n_chunks) if I[c::n_chunks]]
     n_top = int(top_index.max()) + 1
     callers = np.bincount(top_index[np.asarray(I, dtype=int)], minlength=n_top)
     below = np.bincount(top_index, minlength=n_top)
@@ -702,8 +813,84 @@ def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray |
     for c in sorted(range(n_chunks), key=lambda c: (-load[c], c)):
         mine = [i for i in I if blocks[c][top_index[i]].any()]
         if mine:
-            out.append((mine, blocks[c], load[c]))
+            out.append(PairTask(mine, blocks[c], load[c]))
     return out
+
+
+def _enumeration(system_or_enum, T: int | None, executor, progress, max_pair_lps: int | None) -> ModeEnumeration:
+    """The regions of eq. (4): enumerated for a system (after the pair-LP budget check), or as given."""
+    from ..progress import phase_callback
+    from ..systems.pwa import PWASystem
+
+    if isinstance(system_or_enum, PWASystem):
+        if T is None:
+            raise ModelError("T", "a horizon when a PWASystem is given", "None")
+        # at small horizons the prediction counts the regions at T itself: enumerate once, then decide
+        exact = counted_exactly(system_or_enum, T)
+        resolve_pair_lp_budget(max_pair_lps)
+        if not exact:
+            check_analysis_budget(system_or_enum, T, max_pair_lps)
+        enum = enumerate_modes(system_or_enum, T, executor=executor,
+                               progress=phase_callback(progress, "mode enumeration", "prefix", main=False))
+        if exact:
+            check_analysis_budget(system_or_enum, T, max_pair_lps, enumeration=enum)
+        return enum
+    if isinstance(system_or_enum, ModeEnumeration):
+        return system_or_enum
+    raise ModelError("system_or_enum", "a PWASystem or a ModeEnumeration", type(system_or_enum).__name__)
+
+
+def _task_data(enum: ModeEnumeration, full_rank: tuple[bool, ...], levels: list[GroupLevelRows], parallel: bool) -> PairTaskData:
+    """What the tasks share.  Only the scaled rows and output maps travel, packed into one buffer
+    (:func:`_pack_scaled`) for the workers: Dask serialises the ~4,000 small arrays of a
+    ModeEnumeration one by one (0.9 s for four copies of model 17's at T = 7), and the state maps
+    are not needed by the pair tests."""
+    n = enum.system.n
+    scaled = _scaled_regions(enum)
+    if not parallel:
+        return PairTaskData((scaled, n), full_rank, tuple(levels), None)
+    import hashlib
+
+    payload = _pack_scaled(scaled, n)
+    levels = [replace(level, rows=_pack_scaled(level.rows, n)) for level in levels]
+    digest = hashlib.blake2b(payload, digest_size=16)
+    for level in levels:
+        digest.update(level.rows)
+        digest.update(np.ascontiguousarray(level.index).tobytes())
+    return PairTaskData(payload, full_rank, tuple(levels), digest.hexdigest())
+
+
+def _run_tasks(executor, parallel: bool, tasks: list[PairTask], data: PairTaskData, progress, n_regions: int,
+               n_candidates: int) -> list[PairOutcome]:
+    """The tasks' outcomes, in task order: on the executor's workers, or in this process."""
+    from ..progress import phase_callback
+
+    pair_progress = phase_callback(progress, "pair tests", "pair")
+    if pair_progress is not None:
+        pair_progress(0, n_candidates)
+    if parallel:
+        per_task = [task.size for task in tasks]
+        report = None if pair_progress is None else (lambda done, total: pair_progress(sum(per_task[:done]), n_candidates))
+        if hasattr(executor, "map_shared"):
+            return executor.map_shared(_pairs_task, tasks, data, progress=report)
+        # an executor of the user's with map only: the common data travel in every task
+        return executor.map(functools.partial(_pairs_task, shared=data), tasks, progress=report)
+    # one task in this process: report progress per region of I
+    return [_pairs_task(task, data, None if pair_progress is None else
+                        (lambda done, total: pair_progress(done * n_regions, n_candidates)))
+            for task in tasks]
+
+
+def _stats(executor_name: str, data: PairTaskData, total: PairOutcome) -> dict:
+    """The ``stats`` of :class:`ObservabilityAnalysis` from the tasks' total outcome."""
+    return {"executor": executor_name, "n_pairs_dropped_thin": len(total.dropped_thin),
+            "pairs_dropped_thin": tuple(sorted(total.dropped_thin)), "n_pairs_dropped_same_state": len(total.dropped_same_state),
+            "pairs_dropped_same_state": tuple(sorted(total.dropped_same_state)),
+            "group_depths": tuple(int(level.depth) for level in data.levels),
+            "n_group_tests": total.n_group_tests, "n_group_lps": total.n_group_lps,
+            "n_pairs_ruled_out_by_group": len(total.ruled_out_by_group),
+            "pairs_ruled_out_by_group": tuple(sorted(total.ruled_out_by_group)),
+            "n_decisions_exact": total.n_decisions_exact, "n_decisions_exact_undecided": total.n_decisions_exact_undecided}
 
 
 def analyse_observability(
@@ -742,26 +929,9 @@ def analyse_observability(
         set).  Not checked when a ``ModeEnumeration`` is given (its size is known).
     """
     from ..executor import resolve_executor
-    from ..progress import phase_callback
-    from ..systems.pwa import PWASystem
 
     executor = resolve_executor(executor)
-    if isinstance(system_or_enum, PWASystem):
-        if T is None:
-            raise ModelError("T", "a horizon when a PWASystem is given", "None")
-        # at small horizons the prediction counts the regions at T itself: enumerate once, then decide
-        exact = counted_exactly(system_or_enum, T)
-        resolve_pair_lp_budget(max_pair_lps)
-        if not exact:
-            check_analysis_budget(system_or_enum, T, max_pair_lps)
-        enum = enumerate_modes(system_or_enum, T, executor=executor,
-                               progress=phase_callback(progress, "mode enumeration", "prefix", main=False))
-        if exact:
-            check_analysis_budget(system_or_enum, T, max_pair_lps, enumeration=enum)
-    elif isinstance(system_or_enum, ModeEnumeration):
-        enum = system_or_enum
-    else:
-        raise ModelError("system_or_enum", "a PWASystem or a ModeEnumeration", type(system_or_enum).__name__)
+    enum = _enumeration(system_or_enum, T, executor, progress, max_pair_lps)
     t0 = time.perf_counter()
     n = enum.system.n
     sx = enum.scale[:n]
@@ -773,67 +943,13 @@ def analyse_observability(
     n_chunks = min(len(I), 2 * executor.n_workers) if parallel else 1
     if not isinstance(group_tests, bool):
         raise ModelError("group_tests", "True or False", repr(group_tests))
-    level_data = group_level_data(enum, group_depths(enum.T, n, enum.system.p)) if group_tests and I else []
-    # Only the scaled rows and output maps travel, packed into one buffer (_pack_scaled): Dask
-    # serialises the ~4,000 small arrays of a ModeEnumeration one by one (0.9 s for four copies
-    # of model 17's at T = 7), and the state maps are not needed by the pair tests.
-    scaled = _scaled_regions(enum)
-    payload = _pack_scaled(scaled, n) if parallel else (scaled, n)
-    if parallel:
-        level_data = [(depth, _pack_scaled(sc, n), index) for depth, sc, index in level_data]
-    if parallel and level_data:
+    levels = group_level_data(enum, group_depths(enum.T, n, enum.system.p)) if group_tests and I else []
+    if parallel and levels:
         n_chunks = GROUPED_TASKS_PER_WORKER * executor.n_workers
-    chunks = _chunks(I, len(enum.regions), n_chunks, level_data[0][2] if level_data and parallel else None)
-    token = None
-    if parallel:
-        import hashlib
-
-        digest = hashlib.blake2b(payload, digest_size=16)
-        for _, data, index in level_data:
-            digest.update(data)
-            digest.update(np.ascontiguousarray(index).tobytes())
-        token = digest.hexdigest()
-    shared = (payload, full_rank, level_data, token)
-    tasks = [(i_list, blocks) for i_list, blocks, _ in chunks]
-    pair_progress = phase_callback(progress, "pair tests", "pair")
+    tasks = _chunks(I, len(enum.regions), n_chunks, levels[0].index if levels and parallel else None)
+    data = _task_data(enum, full_rank, levels, parallel)
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
-    if pair_progress is not None:
-        pair_progress(0, n_candidates)
-    if parallel:
-        per_task = [size for *_, size in chunks]
-        report = None if pair_progress is None else (lambda done, total: pair_progress(sum(per_task[:done]), n_candidates))
-        if hasattr(executor, "map_shared"):
-            results = executor.map_shared(_pairs_task, tasks, shared, progress=report)
-        else:  # an executor of the user's with map only: the common data travel in every task
-            results = executor.map(functools.partial(_pairs_task, shared=shared), tasks, progress=report)
-    else:  # one task in this process: report progress per region of I
-        results = [_pairs_task(t, shared, None if pair_progress is None else
-                               (lambda done, total: pair_progress(done * len(enum.regions), n_candidates)))
-                   for t in tasks]
-    pairs: list = []
-    n_lps = tested = skipped = n_group_tests = group_lps = n_exact = n_exact_undecided = 0
-    thin: list = []
-    same: list = []
-    ruled: list = []
-    for found, lps, n_tested, n_skipped, dropped, dropped_same, by_group, g_tests, g_lps, exact in results:
-        n_exact += exact[0]
-        n_exact_undecided += exact[1]
-        pairs.extend(found)
-        n_lps += lps
-        tested += n_tested
-        skipped += n_skipped
-        thin.extend(dropped)
-        same.extend(dropped_same)
-        ruled.extend(by_group)
-        n_group_tests += g_tests
-        group_lps += g_lps
-    pairs.sort()  # same order on every executor
-    pairs = [_pair_set(enum, *t) for t in pairs]
-    return ObservabilityAnalysis(enum, full_rank, tuple(pairs), n_lps, tested, skipped, time.perf_counter() - t0,
-                                 {"executor": executor.name if parallel else "serial", "n_pairs_dropped_thin": len(thin),
-                                  "pairs_dropped_thin": tuple(sorted(thin)), "n_pairs_dropped_same_state": len(same),
-                                  "pairs_dropped_same_state": tuple(sorted(same)),
-                                  "group_depths": tuple(int(d) for d, *_ in level_data),
-                                  "n_group_tests": n_group_tests, "n_group_lps": group_lps,
-                                  "n_pairs_ruled_out_by_group": len(ruled), "pairs_ruled_out_by_group": tuple(sorted(ruled)),
-                                  "n_decisions_exact": n_exact, "n_decisions_exact_undecided": n_exact_undecided})
+    total = PairOutcome.total(_run_tasks(executor, parallel, tasks, data, progress, len(enum.regions), n_candidates))
+    pairs = tuple(_pair_set(enum, *t) for t in sorted(total.found))  # same order on every executor
+    return ObservabilityAnalysis(enum, full_rank, pairs, total.n_lps, total.n_tested, total.n_skipped_rank,
+                                 time.perf_counter() - t0, _stats(executor.name if parallel else "serial", data, total))

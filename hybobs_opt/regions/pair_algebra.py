@@ -8,6 +8,7 @@ output equalities of ``R_ij``, computed once per pair of output-map classes.
 from __future__ import annotations
 
 import pickle
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,6 +36,23 @@ def scaled_rows(regions, n: int, scale: np.ndarray, centre: np.ndarray):
 def _scaled_regions(enum):
     """Per region of an enumeration, the constraint rows and output maps in scaled coordinates (computed once per task)."""
     return scaled_rows(enum.regions, enum.system.n, enum.scale, enum.centre)
+
+
+@dataclass(frozen=True, slots=True)
+class RestrictedPair:
+    """The rows of one pair set ``R_ij`` on its output-equality subspace (:meth:`PairAlgebra.restricted_rows`).
+
+    ``Gv v <= gv`` on ``w = w0 + N v`` (scaled ``w = (x, x^, U)``); ``directions`` is the
+    :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of ``N``; ``radius_bound``
+    bounds ``|v|`` over the set (the scaled variables lie in the unit box).
+    """
+
+    Gv: np.ndarray
+    gv: np.ndarray
+    w0: np.ndarray
+    N: np.ndarray
+    directions: SubspaceDirections
+    radius_bound: float
 
 
 def _batched_rank(M: np.ndarray) -> np.ndarray:
@@ -116,13 +134,11 @@ class PairAlgebra:
                 self._svd[(a, int(b))] = (U_, S_, Vt, r, N, SubspaceDirections.of(N, self.n, (E[k], r)))
         return [self._svd[(a, int(b))] for b in bs]
 
-    def restricted_rows(self, i: int, js) -> list:
+    def restricted_rows(self, i: int, js) -> list[RestrictedPair | None]:
         """The rows of ``R_ij`` on its output-equality subspace, per ``j`` in ``js`` (scaled ``w = (x, x^, U)``).
 
         ``None`` where the output equalities ``C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i`` have
-        no solution, else ``(Gv, gv, w0, N, directions, radius_bound)``: ``Gv v <= gv`` on
-        ``w = w0 + N v``, the :class:`~hybobs_opt.regions.pair_geometry.SubspaceDirections` of
-        ``N`` and a bound on ``|v|`` over the set (the scaled variables lie in the unit box).
+        no solution, else a :class:`RestrictedPair`.
         """
         js = np.asarray(js, dtype=int)
         if js.size == 0:
@@ -134,7 +150,7 @@ class PairAlgebra:
             HxJ, HUJ, hJ, _, _, fJ = self.scaled[j]
             Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
                                                           EQUALITY_CONSISTENCY_RTOL)
-            out.append((Gv, gv, w0, N, directions, radius0 + norm(w0)) if consistent else None)
+            out.append(RestrictedPair(Gv, gv, w0, N, directions, radius0 + norm(w0)) if consistent else None)
         return out
 
 

@@ -31,7 +31,7 @@ Three questions decide whether ``Proj_x(R_ij)`` is a piece of ``B_T`` (up to mea
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -56,21 +56,20 @@ from ..tolerances import (
     SLACK_CAP,
     ZERO_ROW_TOL,
 )
-
-#: Verdicts of :func:`classify_pair`.
-EMPTY, LOWER_DIMENSIONAL, SAME_STATE, PIECE = "empty", "lower-dimensional", "same state", "piece"
+from .verdicts import PairVerdict
 
 
 @dataclass(frozen=True)
-class PairVerdict:
+class PairClassification:
     """What :func:`classify_pair` found for ``R_ij`` (``verdict``) and for ``R_ji`` (``verdict_ji``).
 
+    A projection that was not asked for is :attr:`PairVerdict.EMPTY <hybobs_opt.regions.PairVerdict.EMPTY>`.
     ``radius`` is the Chebyshev radius of the set inside its affine hull (scaled); ``face`` is
     True when the hull is smaller than the equality subspace (implicit equalities were found).
     """
 
-    verdict: str
-    verdict_ji: str
+    verdict: PairVerdict
+    verdict_ji: PairVerdict
     radius: float
     face: bool
 
@@ -117,21 +116,33 @@ def _slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: flo
     return res
 
 
-def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str):
-    """Certified Chebyshev LP of ``{Gs s <= gs}`` (rows renormalised, constant rows checked).
+@dataclass(frozen=True, slots=True)
+class _Chebyshev:
+    """A certified Chebyshev LP of ``{Gs s <= gs}`` (:func:`_chebyshev`).
 
-    Returns ``(radius, centre, A, bu, lam, keep)``: the radius decided against ``threshold``, the
-    DAQP data, its multipliers (``None`` if HiGHS answered) and the indices of the rows kept in
-    ``A``; ``radius = -inf`` when a constant row is violated.
+    ``radius``: decided against the LP's threshold, ``-inf`` when a constant row is violated;
+    ``centre``: the LP's point; ``A, bu``: the DAQP data; ``lam``: its multipliers (``None`` if
+    HiGHS answered); ``keep``: the indices of the rows kept in ``A``.
     """
+
+    radius: float
+    centre: np.ndarray | None
+    A: np.ndarray
+    bu: np.ndarray
+    lam: np.ndarray | None
+    keep: np.ndarray | None
+
+
+def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str) -> _Chebyshev:
+    """Certified Chebyshev LP of ``{Gs s <= gs}`` (rows renormalised, constant rows checked)."""
     A, bu, ok, keep = slack_lp_rows(Gs, gs, ZERO_ROW_TOL, SLACK_CAP)
     if not ok:
-        return -np.inf, None, A, bu, None, None
+        return _Chebyshev(-np.inf, None, A, bu, None, None)
     if A.shape[0] == 1:
-        return SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep
+        return _Chebyshev(SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep)
     res = _slack_lp(A, bu, radius_bound, threshold, problem)
     radius = res.lower if res.lower > threshold else res.upper
-    return radius, res.w, A, bu, res.lam, keep
+    return _Chebyshev(radius, res.w, A, bu, res.lam, keep)
 
 
 def _witness(centre, A: np.ndarray, bu: np.ndarray):
@@ -146,17 +157,17 @@ def _witness(centre, A: np.ndarray, bu: np.ndarray):
     return c if min_row_slack(A, bu, np.ascontiguousarray(c)) > -CLOSED_SET_TOL else None
 
 
-def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray, lam, keep, centre,
-                   radius_bound: float, tight: dict | None = None):
+def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, lp: _Chebyshev, radius_bound: float, tight: dict | None = None):
     """The implicit equalities certified by the multipliers of a radius-``<= 0`` Chebyshev LP.
 
-    ``A, bu, lam, keep, centre`` are what :func:`_chebyshev` returned for ``{Gs s <= gs}``.
+    ``lp`` is what :func:`_chebyshev` returned for ``{Gs s <= gs}``.
     Returns ``(M, t0)`` with the affine hull within the current frame ``s = t0 + M t``,
-    ``"empty"`` when the equalities found contradict each other, or ``None`` when no implicit
+    :attr:`PairVerdict.EMPTY` when the equalities found contradict each other, or ``None`` when no implicit
     equality is certified (the caller then keeps the set: the safe side).  With a dict
     ``tight``, the certified rows (indices into ``A``) and their slack bounds are stored in it
     as ``tight["rows"]``, ``tight["slack"]`` (see :func:`_certified_implicit_rows`).
     """
+    A, bu, lam, keep, centre = lp.A, lp.bu, lp.lam, lp.keep, lp.centre
     if keep is None or A.shape[0] <= 1:
         return None
     d = Gs.shape[1]
@@ -194,7 +205,7 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, A: np.ndarray, bu: np.ndarray
         return None
     t0 = mm(Vt[:r].T, mm(U_[:, :r].T, e) / s[:r])
     if norm(mm(E, t0) - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + norm(e)) + CLOSED_SET_TOL:
-        return "empty"
+        return PairVerdict.EMPTY
     return Vt[r:].T, t0
 
 
@@ -395,7 +406,7 @@ class _Frame:
 
 def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, n: int, radius_bound: float,
                   want_ij: bool, want_ji: bool, thin_filter: bool = True, problem: str = "R_ij",
-                  directions: SubspaceDirections | None = None) -> PairVerdict:
+                  directions: SubspaceDirections | None = None) -> PairClassification:
     """Questions 1-3 of the module docstring for one pair set on its equality subspace.
 
     Parameters
@@ -426,37 +437,72 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
     parts = [k if want else None for k, want in enumerate((want_ij, want_ji))]
     frame = _Frame(Gv, gv, N, w0, None, None, n, radius_bound, directions)
     if frame.forces_same_state():
-        return PairVerdict(*[EMPTY if p is None else SAME_STATE for p in parts], np.nan, False)
+        return PairClassification(*[PairVerdict.EMPTY if p is None else PairVerdict.SAME_STATE for p in parts], np.nan, False)
     # -- 1. non-empty (closed, to the region tolerance)?
-    radius, centre, A, bu, lam, keep = _chebyshev(Gv, gv, radius_bound, -CLOSED_SET_TOL, problem)
-    if radius <= -CLOSED_SET_TOL:
-        return PairVerdict(EMPTY, EMPTY, radius, False)
-    frame.centre = _witness(centre, A, bu)
-    frame._lp = (A, bu)
-    verdicts = [EMPTY if p is None else "" for p in parts]
-    face = radius <= REGION_SLACK_TOL
-    if not face:
-        frame.ball = float(radius)  # above the LP's threshold: the certified lower bound (a feasible ball)
-    if not face:  # a ball in the equality subspace: its projections only need the thin test
+    lp = _chebyshev(Gv, gv, radius_bound, -CLOSED_SET_TOL, problem)
+    if lp.radius <= -CLOSED_SET_TOL:
+        return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, lp.radius, False)
+    # -- 2. full-dimensional projections: what the equality subspace already decides
+    verdicts = _screen_in_subspace(frame, lp, parts, thin_filter)
+    if all(v for v in verdicts):
+        return PairClassification(*verdicts, lp.radius, False)
+    if lp.radius > REGION_SLACK_TOL:  # a ball in the equality subspace: only question 3 is left
+        verdicts = _decide_remaining(frame, parts, verdicts, thin_filter, None)
+        return PairClassification(verdicts[0], verdicts[1], float(lp.radius), False)
+    # a face: add implicit equalities until the set has a ball in its frame (the multipliers of
+    # the LP above serve the first reduction: it is the same LP)
+    certifier = _ThinCertifier(N, n, radius_bound, lp)
+    hull = _reduce_to_hull(Gv, gv, N, radius_bound, problem, lp, parts, verdicts, certifier)
+    if isinstance(hull, PairClassification):
+        return hull
+    frame = hull.frame(Gv, gv, N, w0, n, radius_bound)
+    if frame.forces_same_state():
+        return PairClassification(*[v or PairVerdict.SAME_STATE for v in verdicts], hull.lp.radius, True)
+    # -- 3. (and 2. in the final frame) for the projections still undecided
+    verdicts = _decide_remaining(frame, parts, verdicts, thin_filter, certifier)
+    return PairClassification(verdicts[0], verdicts[1], float(hull.lp.radius), True)
+
+
+def _screen_in_subspace(frame: _Frame, lp: _Chebyshev, parts: list, thin_filter: bool) -> list[PairVerdict | None]:
+    """Question 2 in the equality subspace, after the Chebyshev LP ``lp`` found the set non-empty.
+
+    With a ball (radius above ``REGION_SLACK_TOL``) each wanted projection gets the thin test; on
+    a face only the rank one, since a projection flat in the subspace is flat in any smaller hull.
+    Returns the verdicts: ``EMPTY`` for a projection not wanted, ``None`` for one undecided.
+    """
+    frame.centre = _witness(lp.centre, lp.A, lp.bu)
+    frame._lp = (lp.A, lp.bu)
+    verdicts: list[PairVerdict | None] = [PairVerdict.EMPTY if p is None else None for p in parts]
+    if lp.radius > REGION_SLACK_TOL:
+        frame.ball = float(lp.radius)  # above the LP's threshold: the certified lower bound (a feasible ball)
         for k, p in enumerate(parts):
             if p is not None and frame.projection_thin(p, thin_filter):
-                verdicts[k] = LOWER_DIMENSIONAL
-        if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, False)
-    else:  # rank first: a projection that is flat in the subspace is flat in any smaller hull
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
+    else:
         for k, p in enumerate(parts):
             if p is not None and not frame.directions.full_rank[p]:
-                verdicts[k] = LOWER_DIMENSIONAL
-        if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, False)
-    # -- 2. affine hull: add implicit equalities until the set has a ball in its frame (the
-    # multipliers of the LP above serve the first reduction: it is the same LP)
-    relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
-    thin_found: set[int] = set()  # projections certified thin (a fact about the set, whatever the frame)
-    tried: dict[int, list[np.ndarray]] = {}  # flat directions already measured, per projection
-    first_tight: dict = {}  # the implicit equalities certified by the first LP, on the set `relaxed`
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
+    return verdicts
 
-    def confirmed_thin(p: int, NM: np.ndarray) -> bool:
+
+class _ThinCertifier:
+    """Confirms on the original pair set that a projection a frame flattens is thin (question 2 on a face).
+
+    What the certificates are measured on is fixed by the first Chebyshev LP ``lp``: its set
+    relaxed by ``CLOSED_SET_TOL`` and the implicit equalities its multipliers certify
+    (``tight``, filled by the first :func:`_affine_reduce`).  The projections found thin and
+    the flat directions already measured are remembered across the frames.
+    """
+
+    def __init__(self, N: np.ndarray, n: int, radius_bound: float, lp: _Chebyshev):
+        self.N, self.n, self.R = N, n, radius_bound
+        A, bu = lp.A, lp.bu
+        self.relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
+        self.thin_found: set[int] = set()  # projections certified thin (a fact about the set, whatever the frame)
+        self.tried: dict[int, list[np.ndarray]] = {}  # flat directions already measured, per projection
+        self.tight: dict = {}  # the implicit equalities certified by the first LP, on the set `relaxed`
+
+    def confirmed_thin(self, p: int, NM: np.ndarray) -> bool:
         """Does the frame ``NM`` flatten projection ``p``, and is the original set certified thin there?
 
         Every flat direction of the frame's projection not measured before is tried, thinnest first,
@@ -466,8 +512,9 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
         whose final hull had three flat directions, were called pieces when only the first one was
         tried; an independent LP oracle, scripts/check_t9_pair_lists.py, found them 2-dimensional).
         """
-        if p in thin_found:
+        if p in self.thin_found:
             return True
+        n = self.n
         P = NM[p * n:(p + 1) * n]
         if P.shape[1] == 0:
             Uu, flat = np.eye(n), list(range(n))
@@ -476,73 +523,101 @@ def classify_pair(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray,
             flat = [k for k in range(n - 1, -1, -1) if k >= sv.size or sv[k] <= RANK_RTOL]
         if not flat:
             return False
-        seen = tried.setdefault(p, [])
+        seen = self.tried.setdefault(p, [])
         for k in flat:
             u = Uu[:, k]
             if any(abs(dot(u, v)) >= 1.0 - RANK_RTOL for v in seen):
                 continue
             seen.append(u)
-            c = mm(N[p * n:(p + 1) * n].T, u)  # u'x in the coordinates of the first LP
-            if relaxed is not None and "rows" in first_tight and \
-                    _tight_width_bound(relaxed[0], first_tight["rows"], first_tight["slack"], c, radius_bound) \
-                    <= 2.0 * REGION_SLACK_TOL - EXACT_DECISION_MARGIN:
-                thin = True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
-            else:
-                thin = relaxed is not None and certified_width_below(relaxed[0], relaxed[1], c, radius_bound=radius_bound,
-                                                                     width=2.0 * REGION_SLACK_TOL)
-            if thin:
-                thin_found.add(p)
+            if self._width_certified(mm(self.N[p * n:(p + 1) * n].T, u)):  # u'x in the coordinates of the first LP
+                self.thin_found.add(p)
                 return True
         return False
 
+    def _width_certified(self, c: np.ndarray) -> bool:
+        """Is the relaxed set certified thinner than ``2 REGION_SLACK_TOL`` along ``c``?"""
+        if self.relaxed is None:
+            return False
+        if "rows" in self.tight and _tight_width_bound(self.relaxed[0], self.tight["rows"], self.tight["slack"], c, self.R) \
+                <= 2.0 * REGION_SLACK_TOL - EXACT_DECISION_MARGIN:
+            return True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
+        return certified_width_below(self.relaxed[0], self.relaxed[1], c, radius_bound=self.R, width=2.0 * REGION_SLACK_TOL)
+
+
+@dataclass(frozen=True, slots=True)
+class _Hull:
+    """The frame ``v = s0 + M s`` that :func:`_reduce_to_hull` reached, and the last Chebyshev LP in it."""
+
+    M: np.ndarray
+    s0: np.ndarray
+    lp: _Chebyshev
+
+    def frame(self, Gv, gv, N, w0, n: int, radius_bound: float) -> _Frame:
+        """The :class:`_Frame` of the hull, with the LP's point as its witness and its ball when certified."""
+        frame = _Frame(Gv, gv, N, w0, self.M, self.s0, n, radius_bound + norm(self.s0))
+        centre = self.lp.centre
+        frame.centre = _witness(centre, self.lp.A, self.lp.bu) if centre is not None and centre.size else centre
+        if self.lp.radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
+            frame.ball = float(self.lp.radius)
+        return frame
+
+
+def _reduce_to_hull(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, radius_bound: float, problem: str, lp: _Chebyshev,
+                    parts: list, verdicts: list, certifier: _ThinCertifier) -> "_Hull | PairClassification":
+    """The affine hull of a face (question 2): implicit equalities added until the set has a ball in its frame.
+
+    Each frame's implicit equalities come from its Chebyshev LP's multipliers (:func:`_affine_reduce`,
+    the first from ``lp``).  The hull only shrinks, so a wanted projection that loses rank on the way
+    is lower-dimensional, which ``certifier`` confirms on the original set (the reduction only
+    proposes); ``verdicts`` is updated in place.  Returns the hull, or the classification when it is
+    decided on the way (empty, or every wanted projection thin).
+    """
     M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
-    for _ in range(Gv.shape[1]):
-        if radius > REGION_SLACK_TOL:
+    for step in range(Gv.shape[1]):
+        if lp.radius > REGION_SLACK_TOL:
             break
         # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s)
-        red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), A, bu, lam, keep, centre, radius_bound + norm(s0),
-                             tight=first_tight if _ == 0 else None)
+        red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), lp, radius_bound + norm(s0),
+                             tight=certifier.tight if step == 0 else None)
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
-        if isinstance(red, str):
-            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
+        if red is PairVerdict.EMPTY:
+            return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
         M2, t0 = red
         s0, M = s0 + mm(M, t0), mm(M, M2)
-        # the hull only shrinks from here: once a wanted projection loses rank it is lower-dimensional,
-        # which a width certificate on the original set confirms (the reduction only proposes)
         NM = mm(N, M)
         for k, p in enumerate(parts):
-            if p is not None and not verdicts[k] and confirmed_thin(p, NM):
-                verdicts[k] = LOWER_DIMENSIONAL
+            if p is not None and not verdicts[k] and certifier.confirmed_thin(p, NM):
+                verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
         if all(v for v in verdicts):
-            return PairVerdict(*verdicts, radius, True)
+            return PairClassification(*verdicts, lp.radius, True)
         if M.shape[1] == 0:
             if np.min(gv - mm(Gv, s0), initial=np.inf) < -CLOSED_SET_TOL:
-                return PairVerdict(EMPTY, EMPTY, -np.inf, True)
-            radius, centre = 0.0, np.zeros(0)
+                return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
+            lp = replace(lp, radius=0.0, centre=np.zeros(0))
             break
-        radius, centre, A, bu, lam, keep = _chebyshev(mm(Gv, M), gv - mm(Gv, s0), radius_bound + norm(s0),
-                                                      REGION_SLACK_TOL, problem + " (affine hull)")
-        if radius == -np.inf:
-            return PairVerdict(EMPTY, EMPTY, -np.inf, True)
-    if face:
-        frame = _Frame(Gv, gv, N, w0, M, s0, n, radius_bound + norm(s0))
-        frame.centre = _witness(centre, A, bu) if centre is not None and centre.size else centre
-        if radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
-            frame.ball = float(radius)
-        if frame.forces_same_state():
-            return PairVerdict(*[v or SAME_STATE for v in verdicts], radius, True)
+        lp = _chebyshev(mm(Gv, M), gv - mm(Gv, s0), radius_bound + norm(s0), REGION_SLACK_TOL, problem + " (affine hull)")
+        if lp.radius == -np.inf:
+            return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
+    return _Hull(M, s0, lp)
+
+
+def _decide_remaining(frame: _Frame, parts: list, verdicts: list, thin_filter: bool,
+                      certifier: _ThinCertifier | None) -> list:
+    """The projections still undecided: question 2 in ``frame`` when it is a face's hull (``certifier``
+    given), then question 3, ``PIECE`` when the set holds two different states, else ``SAME_STATE``."""
     distinct = None
     for k, p in enumerate(parts):
         if verdicts[k]:
             continue
-        if face and (confirmed_thin(p, frame.Nh) if not frame.directions.full_rank[p] else frame.projection_thin(p, thin_filter)):
-            verdicts[k] = LOWER_DIMENSIONAL
+        if certifier is not None and (certifier.confirmed_thin(p, frame.Nh) if not frame.directions.full_rank[p]
+                                      else frame.projection_thin(p, thin_filter)):
+            verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
             continue
         if distinct is None:
             distinct = frame.distinct_states()
-        verdicts[k] = PIECE if distinct else SAME_STATE
-    return PairVerdict(verdicts[0], verdicts[1], float(radius), face)
+        verdicts[k] = PairVerdict.PIECE if distinct else PairVerdict.SAME_STATE
+    return verdicts
 
 
 def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.ndarray, x_scaled_offset: np.ndarray,
@@ -602,4 +677,4 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
     return False
 
 
-__all__ = ["PairVerdict", "SubspaceDirections", "classify_pair", "fixed_state_witness", "EMPTY", "LOWER_DIMENSIONAL", "SAME_STATE", "PIECE"]
+__all__ = ["PairClassification", "SubspaceDirections", "classify_pair", "fixed_state_witness"]

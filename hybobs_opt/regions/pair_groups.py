@@ -33,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .pair_algebra import PairAlgebra, scaled_rows
-from .pair_geometry import PIECE, classify_pair
+from .pair_geometry import classify_pair
+from .verdicts import PairVerdict
 
 
 @dataclass(eq=False)
@@ -51,8 +52,23 @@ def group_depths(T: int, n: int, p: int) -> list[int]:
     return list(range(shortest, T))
 
 
-def group_level_data(enum, depths) -> list[tuple[int, list, np.ndarray]]:
-    """Per prefix length, ``(depth, scaled superset rows, region -> superset)``, what the tasks need.
+@dataclass(frozen=True, slots=True)
+class GroupLevelRows:
+    """What the pair-test tasks need of one prefix length: the data a :class:`GroupLevel` is built from.
+
+    ``rows`` are the supersets' rows and output maps in scaled coordinates
+    (:func:`~hybobs_opt.regions.pair_algebra.scaled_rows`), or those packed into one buffer
+    (:func:`~hybobs_opt.regions.pair_algebra.pack_scaled`) for the worker processes;
+    ``index[k]`` is the superset of region ``k``.
+    """
+
+    depth: int
+    rows: list | bytes
+    index: np.ndarray
+
+
+def group_level_data(enum, depths) -> list[GroupLevelRows]:
+    """Per prefix length, its :class:`GroupLevelRows` (scaled superset rows, region -> superset).
 
     Prefix lengths whose regions do not share their leading output rows are skipped.
     """
@@ -65,7 +81,7 @@ def group_level_data(enum, depths) -> list[tuple[int, list, np.ndarray]]:
         if built is None:
             continue
         supersets, index = built
-        out.append((depth, scaled_rows(supersets, n, enum.scale, enum.centre), index))
+        out.append(GroupLevelRows(depth, scaled_rows(supersets, n, enum.scale, enum.centre), index))
     return out
 
 
@@ -113,13 +129,12 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
                 if rows is None:  # the shared outputs can never be equal
                     done_a, done_b = wa, wb
                 else:
-                    Gv, gv, w0, N, directions, bound = rows
-                    verdict = classify_pair(Gv, gv, N, w0, alg.n, bound, ok_a, ok_b,
+                    verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, alg.n, rows.radius_bound, ok_a, ok_b,
                                             problem=f"group of pairs below prefixes {a}, {b} of length {level.depth} "
                                                     "(Algorithm 3.1, grouped step 3.1.1)",
-                                            directions=directions)
-                    done_a = done_a or (ok_a and verdict.verdict != PIECE)
-                    done_b = done_b or (ok_b and verdict.verdict_ji != PIECE)
+                                            directions=rows.directions)
+                    done_a = done_a or (ok_a and verdict.verdict != PairVerdict.PIECE)
+                    done_b = done_b or (ok_b and verdict.verdict_ji != PairVerdict.PIECE)
             if done_a:
                 hit = members[want_ij[members]]
                 ruled.extend((int(caller[k]), int(other[k])) for k in hit)
@@ -131,4 +146,4 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
     return ruled, n_tests
 
 
-__all__ = ["GroupLevel", "group_depths", "group_level_data", "rule_out_by_groups"]
+__all__ = ["GroupLevel", "GroupLevelRows", "group_depths", "group_level_data", "rule_out_by_groups"]

@@ -180,7 +180,9 @@ def plot_radii(t: np.ndarray, x_true: np.ndarray, runs: Mapping[str, object], pa
     return save_figure(fig, path, title)
 
 
-#: Colours of the region cuts, by label: (word used in the report's text, matplotlib colour).
+#: Colours of the region cuts, by label: (word used in the report's text, matplotlib colour).  The keys
+#: are the values of :class:`~hybobs_opt.regions.PointClass` (a member looks its entry up), written as
+#: strings so that importing this module does not import the regions package.
 CUT_COLOURS: dict[str, tuple[str, str]] = {
     "observable": ("green", "#7fc97f"),
     "unobservable": ("magenta", "#e7298a"),
@@ -213,9 +215,11 @@ def plot_region_cut(cut, path: str | Path, title: str = "", units: Mapping[str, 
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
+    from ..regions import PointClass
+    from ..regions.cuts import LABELS as order
+
     path = Path(path)
     units = units or {}
-    order = ("observable", "unobservable", "infeasible")
     code = np.vectorize({k: i for i, k in enumerate(order)}.get)(cut.labels)
     fig, ax = plt.subplots(figsize=(7.6, 4.6))
     dx = (cut.x_values[1] - cut.x_values[0]) / 2
@@ -227,8 +231,8 @@ def plot_region_cut(cut, path: str | Path, title: str = "", units: Mapping[str, 
     ax.set_ylabel(quantity_label(cut.axes[1], units.get(cut.axes[1])))
     fixed = ", ".join(f"{k} = {v:g}" + (f" {units[k]}" if units.get(k) else "") for k, v in cut.fixed.items())
     ax.set_title(title or f"cut at {fixed}", fontsize=9)
-    ax.legend(handles=[Patch(color=CUT_COLOURS["observable"][1], label="observable (O_T)"),
-                       Patch(color=CUT_COLOURS["unobservable"][1], label="unobservable (B_T)"),
-                       Patch(facecolor=CUT_COLOURS["infeasible"][1], edgecolor="k", label="outside X*_T")],
+    ax.legend(handles=[Patch(color=CUT_COLOURS[PointClass.OBSERVABLE][1], label="observable (O_T)"),
+                       Patch(color=CUT_COLOURS[PointClass.UNOBSERVABLE][1], label="unobservable (B_T)"),
+                       Patch(facecolor=CUT_COLOURS[PointClass.INFEASIBLE][1], edgecolor="k", label="outside X*_T")],
               fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)  # beside, hiding no cell
     return save_figure(fig, path)

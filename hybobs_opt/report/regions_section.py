@@ -32,7 +32,7 @@ from ..studies.paper002_powertrain.figures import (
     reduced_pair_dimensions,
 )
 from ..studies.paper002_powertrain.systems import TABLE1, TABLE2, powertrain3, powertrain5
-from ..regions import analyse_observability, compute_cut
+from ..regions import PointClass, analyse_observability, compute_cut
 from .plots import CUT_COLOURS, plot_region_cut
 from .section import ReportSection, register_section, samples
 
@@ -70,10 +70,10 @@ def _model16_job(spec: dict) -> dict:
         out["omega_m_range"] = rng
     cut = compute_cut(analysis, {"omega_l": OMEGA_L_CUT}, resolution=grid, limits=limits)
     band = band_mask(cut, TABLE1["alpha"])
-    out.update(cut=cut, band_points=int(np.count_nonzero(band & (cut.labels != "infeasible"))),
-               band_unobservable=cut.fraction_of_feasible("unobservable", band),
-               band_observable=cut.fraction_of_feasible("observable", band),
-               observable_of_feasible=cut.fraction_of_feasible("observable"))
+    out.update(cut=cut, band_points=int(np.count_nonzero(band & (cut.labels != PointClass.INFEASIBLE))),
+               band_unobservable=cut.fraction_of_feasible(PointClass.UNOBSERVABLE, band),
+               band_observable=cut.fraction_of_feasible(PointClass.OBSERVABLE, band),
+               observable_of_feasible=cut.fraction_of_feasible(PointClass.OBSERVABLE))
     if spec.get("dimensions"):
         out["reduced_pair_dimensions"] = reduced_pair_dimensions(analysis)
     return out
@@ -93,7 +93,7 @@ def _model17_job(spec: dict) -> dict:
         cut2 = compute_cut(analysis, planes["consistent"], resolution=grid,
                                  limits={"omega_c": planes["consistent_omega_c_range"]})
         out.update(consistent_cut=cut2,
-                   consistent_observable_of_feasible=cut2.fraction_of_feasible("observable"))
+                   consistent_observable_of_feasible=cut2.fraction_of_feasible(PointClass.OBSERVABLE))
     return out
 
 
@@ -129,7 +129,8 @@ def _describe_cut(cut, caption: str) -> str:
             f"{UNITS.get(cut.axes[0], '')}) against {cut.axes[1]} ({_fmt(float(cut.y_values[0]))} to "
             f"{_fmt(float(cut.y_values[-1]))} {UNITS.get(cut.axes[1], '')}) at {fixed}, coloured "
             + ", ".join(f"{CUT_COLOURS[k][0]} where {w} ({_fmt(100 * share[k])} % of the points)" for k, w in
-                        (("observable", "observable"), ("unobservable", "unobservable"), ("infeasible", "outside X*_T"))))
+                        ((PointClass.OBSERVABLE, "observable"), (PointClass.UNOBSERVABLE, "unobservable"),
+                         (PointClass.INFEASIBLE, "outside X*_T"))))
 
 
 def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
@@ -186,7 +187,7 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
     # The paper's plane may miss X*_5 altogether (it does with Table 2): its cut is then one white
     # rectangle, an empty panel, so it is drawn only when some grid point lies in X*_5.
     fig6_html = ""
-    if np.any(paper_cut.labels != "infeasible"):
+    if np.any(paper_cut.labels != PointClass.INFEASIBLE):
         name = "regions_fig6a_paper_plane.png"
         caption = "Fig. 6(a) plane: model (17), T = 5, theta_mc = 0 rad, omega_m = 90 rad/s, omega_l = 30 rad/s"
         plot_region_cut(paper_cut, out / name, title=caption, units=UNITS)
@@ -280,8 +281,8 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
     seconds = time.perf_counter() - t_start
     body = (
         "<p>Algorithm 3.1 of paper 002 on the powertrain models with backlash. Cuts: every grid point is classified "
-        "exactly (" + ", ".join(f"{w}: {CUT_COLOURS[k][0]}" for k, w in (("observable", "observable"),
-        ("unobservable", "unobservable B_T"), ("infeasible", "outside X*_T"))) + "); model (16) cuts are at "
+        "exactly (" + ", ".join(f"{w}: {CUT_COLOURS[k][0]}" for k, w in ((PointClass.OBSERVABLE, "observable"),
+        (PointClass.UNOBSERVABLE, "unobservable B_T"), (PointClass.INFEASIBLE, "outside X*_T"))) + "); model (16) cuts are at "
         f"omega_l = {OMEGA_L_CUT:g} rad/s, with theta in rad on an unscaled axis (the paper multiplies it by "
         f"{THETA_STRETCH:g} for display).</p>"
         + table + band_html + note + "<h3>Timings</h3>" + timing + "<h3>Figures 3(b), 4, 5</h3>" + "".join(images)

@@ -101,7 +101,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
                              {"samples": trace.n_samples, "final_state": trace.x[-1].tolist()}, [fig])
 
     def regions(out: Path, progress) -> ReportSection:
-        from ..regions import analyse_observability, compute_cut
+        from ..regions import PointClass, analyse_observability, compute_cut
         from .plots import CUT_COLOURS, plot_region_cut
 
         analysis = analyse_observability(system, horizon)
@@ -117,7 +117,8 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
             plot_region_cut(cut, out / fig, title=f"{label}, T = {horizon}")
             figs.append(fig)
             shares = ", ".join(f"{CUT_COLOURS[k][0]} {w} {100 * float(np.mean(cut.labels == k)):.3g} %" for k, w in
-                               (("observable", "observable"), ("unobservable", "unobservable"), ("infeasible", "outside X*_T")))
+                               ((PointClass.OBSERVABLE, "observable"), (PointClass.UNOBSERVABLE, "unobservable"),
+                                (PointClass.INFEASIBLE, "outside X*_T")))
             alt = (f"Observability regions of {label} at T = {horizon} on a 41 x 31 grid of {cut.axes[0]} against "
                    f"{cut.axes[1]}: {shares}")
             body += f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>"

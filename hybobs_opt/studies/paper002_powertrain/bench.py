@@ -21,6 +21,7 @@ import numpy as np
 from hybobs_opt.errors import ModelError
 from hybobs_opt.contract import NOISE_FIT_SIGMAS, ObserverTrace
 from hybobs_opt.progress import phase_bars
+from hybobs_opt.regions import PointClass
 from hybobs_opt.observers.comparison import (
     exact_window_labels,
     summarise as _summarise,
@@ -92,7 +93,7 @@ def run_bench(example: str, T: int, steps: int, noise: float, observers: list[st
     analysis_s = time.perf_counter() - t0
     truly = true_window_observable(analysis, trace.q)
     _, labels = exact_window_labels(analysis, trace.x, progress=phase("exact labels", "state"))
-    n_obs = int(np.count_nonzero(labels == "observable"))
+    n_obs = int(np.count_nonzero(labels == PointClass.OBSERVABLE))
     exact_share = n_obs / len(labels) if len(labels) else None
     U = trace.u
     results: dict[str, Any] = {}

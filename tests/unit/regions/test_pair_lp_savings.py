@@ -203,9 +203,9 @@ def test_model17_T9_faces_found_lower_dimensional():
     import importlib.util
 
     from hybobs_opt.geometry._lp_kernels import restricted_pair_rows
-    from hybobs_opt.regions import enumerate_modes
+    from hybobs_opt.regions import PairVerdict, enumerate_modes
     from hybobs_opt.regions.pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions
-    from hybobs_opt.regions.pair_geometry import LOWER_DIMENSIONAL, classify_pair
+    from hybobs_opt.regions.pair_geometry import classify_pair
     from hybobs_opt.tolerances import EQUALITY_CONSISTENCY_RTOL
 
     enum = enumerate_modes(get_example("powertrain5").build(), 9)
@@ -223,8 +223,8 @@ def test_model17_T9_faces_found_lower_dimensional():
         v = classify_pair(Gv, gv, N, w0, n, R, part == 0, part == 1, directions=dirs)
         return v.verdict if part == 0 else v.verdict_ji
 
-    assert verdict(583, 635, 0) == LOWER_DIMENSIONAL
-    assert verdict(210, 718, 1) == LOWER_DIMENSIONAL  # the entry (718, 210), decided from i = 210
+    assert verdict(583, 635, 0) is PairVerdict.LOWER_DIMENSIONAL
+    assert verdict(210, 718, 1) is PairVerdict.LOWER_DIMENSIONAL  # the entry (718, 210), decided from i = 210
     spec = importlib.util.spec_from_file_location("check_pair_lists", HERE.parents[2] / "scripts" / "check_t9_pair_lists.py")
     oracle = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(oracle)
