@@ -33,7 +33,7 @@ import numpy as np
 
 from hybobs_opt.errors import SolverError
 from hybobs_opt.executor import DaskExecutor, ProcessExecutor, SerialExecutor
-from hybobs_opt.geometry.lp import COUNTERS, solve_lp
+from hybobs_opt.geometry.lp import counting_lps, solve_lp
 from hybobs_opt.observers.comparison import wilson_interval
 from hybobs_opt.regions import Cut, analyse_observability, compute_cut, plot_cut
 from hybobs_opt.report.regions_section import PAPER_002
@@ -113,12 +113,12 @@ def _timed_runs(system_factory, T: int, executor, repeats: int, count_lps: bool)
     analysis = None
     for _ in range(repeats):
         system = system_factory()
-        COUNTERS.reset()
         t0 = time.perf_counter()
-        analysis = analyse_observability(system, T, executor=executor)
+        with counting_lps() as counters:
+            analysis = analyse_observability(system, T, executor=executor)
         wall.append(time.perf_counter() - t0)
         runs.append(analysis.summary())
-        highs.append(COUNTERS.confirmed_by_highs)
+        highs.append(counters.confirmed_by_highs)
     s = runs[-1]
     rec = {
         "repeats": repeats,
@@ -131,7 +131,7 @@ def _timed_runs(system_factory, T: int, executor, repeats: int, count_lps: bool)
     }
     if count_lps:
         rec["highs_confirmations"] = highs[-1]
-        rec["daqp_lps"] = COUNTERS.fast
+        rec["daqp_lps"] = counters.fast
     else:
         rec["highs_confirmations"] = None
         rec["note"] = "LP counters live in the worker processes; see the serial run for HiGHS confirmations"
@@ -462,12 +462,12 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
             for kind, ex in exes.items():
                 log(f"(e) model (17), T = {T}, {kind}")
                 r: dict = {"load_average_before": _load()}
-                COUNTERS.reset()
                 for key in RESCUED:
                     RESCUED[key] = 0
                 t0 = time.perf_counter()
                 try:
-                    a = analyse_observability(enum, executor=ex)
+                    with counting_lps() as counters:
+                        a = analyse_observability(enum, executor=ex)
                 except Exception as exc:
                     r["error"] = f"{type(exc).__name__}: {exc}"
                     rec["executors"][kind] = r
@@ -482,7 +482,7 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
                     r[key] = a.stats.get(key)
                 if kind == "serial":
                     grouped_pieces = [(p.i, p.j) for p in a.pairs]
-                    r["highs_confirmations"] = COUNTERS.confirmed_by_highs
+                    r["highs_confirmations"] = counters.confirmed_by_highs
                     r["decided_by_tight_daqp"] = RESCUED["tight_daqp"]
                 r.update(_pair_list_hashes(a))
                 rec["executors"][kind] = r
@@ -496,7 +496,6 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
             if pair_by_pair and "n_pair_lps" in ser:
                 # the same enumeration, every pair tested on its own (group_tests=False)
                 log(f"(e) model (17), T = {T}, serial, pair by pair")
-                COUNTERS.reset()
                 t0 = time.perf_counter()
                 b1 = analyse_observability(enum, group_tests=False)
                 wall1 = time.perf_counter() - t0

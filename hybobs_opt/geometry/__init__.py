@@ -9,8 +9,8 @@ certified max-slack LPs), :mod:`~hybobs_opt.geometry.polytope` (the :class:`Poly
 from .._lazy import lazy_exports
 
 _EXPORTS: dict[str, str] = {
-    **dict.fromkeys(("LPResult", "SlackResult", "certified_width_below", "max_slack", "row_range", "solve_lp",
-                     "solve_slack_lp"), "hybobs_opt.geometry.lp"),
+    **dict.fromkeys(("LPCounters", "LPResult", "SlackResult", "certified_width_below", "counting_lps", "max_slack",
+                     "row_range", "solve_lp", "solve_slack_lp", "verified_lp"), "hybobs_opt.geometry.lp"),
     "Polytope": "hybobs_opt.geometry.polytope",
     "polytope_difference": "hybobs_opt.geometry.difference",
     **dict.fromkeys(("VolumeEstimate", "monte_carlo_volume"), "hybobs_opt.geometry.volume"),

@@ -10,7 +10,9 @@ of this robust one.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -628,22 +630,58 @@ _DAQP_OPTIMAL: dict[int, bool] = {}
 
 @dataclass
 class LPCounters:
-    """How many max-slack LPs ran, and how many needed the robust solver to confirm them."""
+    """How many certified LPs (:func:`max_slack`, :func:`verified_lp`) ran in a block of
+    :func:`counting_lps`: ``fast`` decided by DAQP, ``confirmed_by_highs`` by the robust solver."""
 
     fast: int = 0
     confirmed_by_highs: int = 0
-
-    def reset(self) -> None:
-        self.fast = 0
-        self.confirmed_by_highs = 0
 
     @property
     def total(self) -> int:
         return self.fast + self.confirmed_by_highs
 
 
-#: Process-wide counters (each worker process has its own; executors add them up).
-COUNTERS = LPCounters()
+#: The counters of the innermost :func:`counting_lps` block of this context (outside any block:
+#: counters that nobody reads).
+_ACTIVE_COUNTERS: ContextVar[LPCounters] = ContextVar("hybobs_lp_counters", default=LPCounters())
+
+
+@contextmanager
+def counting_lps() -> Iterator[LPCounters]:
+    """Count the certified LPs solved inside the ``with`` block into new :class:`LPCounters`.
+
+    The caller holds the counts (no process-wide counter to reset or to subtract from); a block
+    nested in another adds its counts to the outer block's when it ends.  A worker process counts
+    its own task's LPs and returns them with the task's result.
+
+    Yields
+    ------
+    LPCounters
+        The counts of the block, final when the block ends.
+    """
+    counters = LPCounters()
+    token = _ACTIVE_COUNTERS.set(counters)
+    try:
+        yield counters
+    finally:
+        _ACTIVE_COUNTERS.reset(token)
+        outer = _ACTIVE_COUNTERS.get()
+        outer.fast += counters.fast
+        outer.confirmed_by_highs += counters.confirmed_by_highs
+
+
+def _count(fast: int = 0, confirmed: int = 0) -> None:
+    counters = _ACTIVE_COUNTERS.get()
+    counters.fast += fast
+    counters.confirmed_by_highs += confirmed
+
+
+def highs_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, replaces_fast: bool = False) -> LPResult:
+    """HiGHS's checked answer to ``min c'x s.t. A x <= b`` (:func:`solve_lp`), counted as one LP
+    confirmed by the robust solver; ``replaces_fast``: the LP was counted as DAQP's by
+    :func:`verified_lp` and its answer did not decide, so this is the same LP, not another one."""
+    _count(fast=-1 if replaces_fast else 0, confirmed=1)
+    return solve_lp(c, A, b, problem=problem)
 
 
 def _daqp_call(H, f, A, bu, lower, sense, **settings):
@@ -683,27 +721,20 @@ def daqp_infeasibility_ok(A: np.ndarray, b: np.ndarray, lam) -> bool:
     return _farkas_ok(A, b, np.zeros((0, A.shape[1])), np.zeros(0), y, np.zeros(0))
 
 
-@dataclass(frozen=True)
-class VerifiedLP:
-    """Answer of :func:`verified_lp`: ``status`` (optimal / infeasible), the point ``v`` and the
-    multipliers ``lam >= 0`` of the rows (optimal only), and which solver gave them."""
+def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, eps_prox: float | None = DAQP_EPS_PROX) -> LPResult:
+    """``min c'x s.t. A x <= b`` by DAQP when its answer verifies in numpy, else by HiGHS (:func:`solve_lp`).
 
-    status: Status
-    v: np.ndarray | None
-    lam: np.ndarray | None
-    solver: str
-
-
-def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, eps_prox: float | None = DAQP_EPS_PROX) -> VerifiedLP:
-    """``min c'v s.t. A v <= b`` by DAQP when its answer verifies in numpy, else by HiGHS (:func:`solve_lp`).
+    The :class:`LPResult` names the solver that answered (``"daqp"`` or ``"highs"``); at an optimum
+    ``x`` is the point and ``duals`` the multipliers ``lambda >= 0`` of the rows.
 
     DAQP's "optimal" must pass :func:`daqp_answer_ok`, its "infeasible" must come with a Farkas
     certificate in its multipliers (:func:`daqp_infeasibility_ok`); any other exit, an exception
     or a failed check sends the LP to HiGHS, whose answer :func:`solve_lp` checks in turn (a
     :class:`SolverError` when that fails too; ``UNBOUNDED`` is then a certified status too).
     """
+    t0 = time.perf_counter()
     d = A.shape[1]
-    COUNTERS.fast += 1
+    _count(fast=1)
     settings = {} if eps_prox is None else {"eps_prox": eps_prox}
     out = _daqp_call(np.zeros((d, d)), c, A, b, np.full(A.shape[0], -1e30), np.zeros(A.shape[0], dtype=np.int32), **settings)
     if out is not None:
@@ -711,15 +742,12 @@ def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, ep
         lam = info.get("lam") if isinstance(info, dict) else None
         status = map_status(DAQP_STATUS, int(flag), solver="daqp")
         if is_optimal(status) and lam is not None and daqp_answer_ok(A, b, x, lam):
-            return VerifiedLP(Status.OPTIMAL, np.asarray(x, dtype=float), np.asarray(lam, dtype=float), "daqp")
+            x = np.asarray(x, dtype=float)
+            return LPResult(Status.OPTIMAL, x, float(dot(c, x)), "daqp", time.perf_counter() - t0,
+                            duals=np.asarray(lam, dtype=float))
         if status == Status.INFEASIBLE and lam is not None and daqp_infeasibility_ok(A, b, lam):
-            return VerifiedLP(Status.INFEASIBLE, None, None, "daqp")
-    COUNTERS.fast -= 1
-    COUNTERS.confirmed_by_highs += 1
-    res = solve_lp(c, A, b, problem=problem)
-    if not res.optimal:
-        return VerifiedLP(res.status, None, None, "highs")
-    return VerifiedLP(Status.OPTIMAL, res.x, res.duals, "highs")
+            return LPResult(Status.INFEASIBLE, None, None, "daqp", time.perf_counter() - t0)
+    return highs_lp(c, A, b, problem=problem, replaces_fast=True)
 
 
 @dataclass(frozen=True)
@@ -789,7 +817,7 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
 
     If neither bound decides ``slack > threshold``, the multipliers are refined by NNLS, and if
     that does not decide either the LP is re-solved with HiGHS and that answer is returned
-    (counted in :data:`COUNTERS`).
+    (counted by :func:`counting_lps`).
 
     Parameters
     ----------
@@ -853,7 +881,7 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     d = A.shape[1] - 1
     f = np.zeros(d + 1)
     f[d] = -1.0
-    COUNTERS.fast += 1
+    _count(fast=1)
     H, lower_bounds, sense = np.zeros((d + 1, d + 1)), np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32)
     # DAQP_EPS_PROX first; on the rare cycling exit (0.2 % of model 17's pair LPs) DAQP's own
     # automatic regularisation usually finishes, then NNLS sharpens its multipliers.
@@ -894,9 +922,7 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
                 if lower > threshold or upper <= threshold:
                     return _exact_slack(A, bu, x, threshold, found, t0, lam)
     # Undecided (or DAQP failed): the robust solver decides.
-    COUNTERS.fast -= 1
-    COUNTERS.confirmed_by_highs += 1
-    res = solve_lp(f, A, bu, problem=problem)
+    res = highs_lp(f, A, bu, problem=problem, replaces_fast=True)
     if res.status == Status.INFEASIBLE:
         return SlackResult(-np.inf, -np.inf, None, "highs", seconds=time.perf_counter() - t0)
     if not is_optimal(res.status):
@@ -977,7 +1003,7 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         ans = verified_lp(-sign * c, A, b, problem="width LP (certified_width_below)")
         if ans.status != Status.OPTIMAL:
             return False  # empty or unbounded: not certified (the safe answer)
-        v, lam = ans.v, ans.lam
+        v, lam = ans.x, ans.duals
         if point is not None and sign > 0 and dot(c, v - point) > width:
             return False
         points.append((v, lam))

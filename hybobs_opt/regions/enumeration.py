@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry._reproducible import matmul as mm
-from ..geometry.lp import COUNTERS, max_slack
+from ..geometry.lp import counting_lps, max_slack
 from ..systems.pwa import PWASystem
 from ..tolerances import BOX_IMPLIED_RTOL, REGION_SLACK_TOL
 
@@ -313,18 +313,18 @@ def enumerate_subtree(system: PWASystem, T: int, prefix: tuple[int, ...]) -> tup
     scale, centre = horizon_scaling(system, T)
     domain = system.domain
     domain_rows = (domain.A, domain.b)
-    start = COUNTERS.total
-    node = _prefix_node(system, T, prefix, domain_rows)
     out: list[ModeRegion] = []
     counts = [0]
-    if len(prefix) == T:
-        slack = _slack(node, scale, centre)
-        counts[0] += 1
-        if slack > REGION_SLACK_TOL:
-            out.append(node.region(slack))
-    else:
-        _expand(system, T, node, scale, centre, domain_rows, out, counts)
-    return out, counts[0], COUNTERS.total - start
+    with counting_lps() as lps:
+        node = _prefix_node(system, T, prefix, domain_rows)
+        if len(prefix) == T:
+            slack = _slack(node, scale, centre)
+            counts[0] += 1
+            if slack > REGION_SLACK_TOL:
+                out.append(node.region(slack))
+        else:
+            _expand(system, T, node, scale, centre, domain_rows, out, counts)
+    return out, counts[0], lps.total
 
 
 def _feasible_prefixes(system: PWASystem, T: int, depth: int) -> tuple[list[tuple[int, ...]], int]:
@@ -380,7 +380,6 @@ def enumerate_modes(
     check_horizon(system, T)
     executor = resolve_executor(executor)
     t0 = time.perf_counter()
-    start = COUNTERS.total
     depth = 0
     parallel = executor.n_workers > 1 and T > 2 and system.n_modes ** T > PARALLEL_MIN_SEQUENCES
     if parallel:
@@ -390,13 +389,13 @@ def enumerate_modes(
             depth += 1
     elif progress is not None and T > 2:
         depth = 2  # a few subtrees to report progress over (the same tests, the same order)
-    prefixes, tested = _feasible_prefixes(system, T, depth) if depth else ([()], 0)
+    with counting_lps() as lps_here:
+        prefixes, tested = _feasible_prefixes(system, T, depth) if depth else ([()], 0)
     if progress is not None:
         progress(0, len(prefixes))
-    lps_here = COUNTERS.total - start
     results = executor.map(_subtree_task, [(system, T, p) for p in prefixes], progress=progress)
     regions: list[ModeRegion] = []
-    n_lps = lps_here
+    n_lps = lps_here.total
     for regs, n_tested, lps in results:
         regions.extend(regs)
         tested += n_tested

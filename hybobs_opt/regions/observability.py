@@ -48,7 +48,7 @@ from ..errors import ModelError
 from ..geometry._lp_kernels import slack_lp_data
 from ..geometry.exact_lp import EXACT
 from ..geometry._reproducible import lstsq, matmul as mm, norm, numerical_rank, row_norms, svd
-from ..geometry.lp import COUNTERS, max_slack, row_range
+from ..geometry.lp import counting_lps, max_slack, row_range
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL, REGION_SLACK_TOL, SLACK_CAP, ZERO_ROW_TOL
 from ..status import Status
 from .pair_geometry import _slack_lp, classify_pair, fixed_state_witness
@@ -500,9 +500,9 @@ def _certified_box(G: np.ndarray, g: np.ndarray, n: int) -> np.ndarray | None:
             c = np.zeros(d)
             c[k] = sign
             ans = verified_lp(-c, G, g, problem=f"bounding box, coordinate {k}")
-            if ans.status != Status.OPTIMAL or ans.lam is None:
+            if ans.status != Status.OPTIMAL or ans.duals is None:
                 return None
-            bound = support_upper_bound(G, g, c, np.ascontiguousarray(ans.lam, dtype=float), R)
+            bound = support_upper_bound(G, g, c, np.ascontiguousarray(ans.duals, dtype=float), R)
             if not np.isfinite(bound):
                 return None
             box[side, k] = sign * bound
@@ -740,9 +740,9 @@ def _group_pass(levels: list[GroupLevel], i_list: list[int], per_i: list[_Candid
     other = np.concatenate([c.js for c in per_i] + [np.zeros(0, dtype=int)])
     want_ij = np.concatenate([c.want_ij for c in per_i] + [np.zeros(0, dtype=bool)])
     want_ji = np.concatenate([c.want_ji for c in per_i] + [np.zeros(0, dtype=bool)])
-    g0 = COUNTERS.total
-    ruled, n_group_tests = rule_out_by_groups(levels, caller, other, want_ij, want_ji)
-    group_lps = COUNTERS.total - g0
+    with counting_lps() as group:
+        ruled, n_group_tests = rule_out_by_groups(levels, caller, other, want_ij, want_ji)
+    group_lps = group.total
     offsets = np.cumsum([0] + [c.js.size for c in per_i])
     per_i = [replace(c, want_ij=want_ij[a:b], want_ji=want_ji[a:b]) for c, a, b in zip(per_i, offsets[:-1], offsets[1:])]
     return per_i, ruled, n_group_tests, group_lps
@@ -754,31 +754,31 @@ def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, i
     With group levels (:mod:`~hybobs_opt.regions.pair_groups`), the group tests run first over
     all the chunk's candidate pairs, then every pair they leave undecided is tested on its own.
     """
-    start = COUNTERS.total
-    algebra, levels = _task_state(shared)
-    if task.blocks is None:
-        per_i = [_candidates(algebra, shared.full_rank, i) for i in task.i_list]
-    else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
-        top = shared.levels[0].index
-        per_i = [_candidates(algebra, shared.full_rank, i, task.blocks[top[i]][top]) for i in task.i_list]
-    n_tested = sum(c.n_tested for c in per_i)
-    n_skipped = sum(c.n_skipped_rank for c in per_i)
-    ruled: list = []
-    n_group_tests = group_lps = 0
-    exact0 = (EXACT.decided, EXACT.undecided)
-    if levels:
-        per_i, ruled, n_group_tests, group_lps = _group_pass(levels, task.i_list, per_i)
-    findings = _PairFindings([], [], [])
-    for k, (i, c) in enumerate(zip(task.i_list, per_i)):
-        keep = c.want_ij | c.want_ji
-        f = _pair_lps(algebra, i, c.js[keep], c.want_ij[keep], c.want_ji[keep])
-        findings.found.extend(f.found)
-        findings.dropped_thin.extend(f.dropped_thin)
-        findings.dropped_same_state.extend(f.dropped_same_state)
-        if progress:
-            progress(k + 1, len(task.i_list))
+    with counting_lps() as lps:
+        algebra, levels = _task_state(shared)
+        if task.blocks is None:
+            per_i = [_candidates(algebra, shared.full_rank, i) for i in task.i_list]
+        else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
+            top = shared.levels[0].index
+            per_i = [_candidates(algebra, shared.full_rank, i, task.blocks[top[i]][top]) for i in task.i_list]
+        n_tested = sum(c.n_tested for c in per_i)
+        n_skipped = sum(c.n_skipped_rank for c in per_i)
+        ruled: list = []
+        n_group_tests = group_lps = 0
+        exact0 = (EXACT.decided, EXACT.undecided)
+        if levels:
+            per_i, ruled, n_group_tests, group_lps = _group_pass(levels, task.i_list, per_i)
+        findings = _PairFindings([], [], [])
+        for k, (i, c) in enumerate(zip(task.i_list, per_i)):
+            keep = c.want_ij | c.want_ji
+            f = _pair_lps(algebra, i, c.js[keep], c.want_ij[keep], c.want_ji[keep])
+            findings.found.extend(f.found)
+            findings.dropped_thin.extend(f.dropped_thin)
+            findings.dropped_same_state.extend(f.dropped_same_state)
+            if progress:
+                progress(k + 1, len(task.i_list))
     return PairOutcome(findings.found, findings.dropped_thin, findings.dropped_same_state, ruled,
-                       n_lps=COUNTERS.total - start, n_tested=n_tested, n_skipped_rank=n_skipped,
+                       n_lps=lps.total, n_tested=n_tested, n_skipped_rank=n_skipped,
                        n_group_tests=n_group_tests, n_group_lps=group_lps,
                        n_decisions_exact=EXACT.decided - exact0[0], n_decisions_exact_undecided=EXACT.undecided - exact0[1])
 

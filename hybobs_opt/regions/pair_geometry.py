@@ -39,7 +39,7 @@ from ..errors import SolverError
 from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
 from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
 from ..geometry.exact_lp import decide_above
-from ..geometry.lp import COUNTERS, VerifiedLP, certified_width_below, solve_lp, verified_lp
+from ..geometry.lp import certified_width_below, highs_lp, verified_lp
 from ..status import Status
 from ..tolerances import (
     BALL_WIDTH_RTOL,
@@ -212,13 +212,10 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, lp: _Chebyshev, radius_bound:
 def _highs_implicit_rows(G: np.ndarray, g: np.ndarray, A: np.ndarray, bu: np.ndarray, radius_bound: float):
     """:func:`_certified_implicit_rows` from the duals of the Chebyshev LP ``(A, bu)`` solved by HiGHS
     (a basic solution: its multipliers sit on the rows that are tight), counted as one LP."""
-    from ..geometry.lp import solve_lp
-
     f = np.zeros(A.shape[1])
     f[-1] = -1.0
-    COUNTERS.confirmed_by_highs += 1
     try:
-        res = solve_lp(f, A, bu, problem="implicit equalities of a face (HiGHS duals)")
+        res = highs_lp(f, A, bu, problem="implicit equalities of a face (HiGHS duals)")
     except SolverError:
         return np.zeros(0, dtype=int), np.zeros(0)
     if res.status != Status.OPTIMAL or res.duals is None or np.asarray(res.duals).shape != (A.shape[0],):
@@ -290,13 +287,13 @@ def _max_abs_certified_below(Gs: np.ndarray, gs: np.ndarray, c: np.ndarray, c0: 
         ans = verified_lp(-sign * c, Gs, gs, problem="distinct-state LP")
         if ans.status != Status.OPTIMAL:
             return False
-        v = ans.v
+        v = ans.x
         if sign * (mm(c, v) + c0) > bound + EXACT_DECISION_MARGIN and np.all(mm(Gs, v) <= gs + CLOSED_SET_TOL):
             return False  # a (nearly) feasible point already has the two states apart
-        top = support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * c0
+        top = support_upper_bound(Gs, gs, sign * c, np.ascontiguousarray(ans.duals, dtype=float), radius_bound) + sign * c0
         if top > bound + EXACT_DECISION_MARGIN:
             return False
-        if top > bound - EXACT_DECISION_MARGIN and decide_above(sign * c, Gs, gs, v, bound - sign * c0, maximise=True, duals=ans.lam) is not False:
+        if top > bound - EXACT_DECISION_MARGIN and decide_above(sign * c, Gs, gs, v, bound - sign * c0, maximise=True, duals=ans.duals) is not False:
             return False  # above, or undecided: not certified
     return True
 
@@ -652,25 +649,22 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
             # DAQP when its answer verifies in numpy (and its bound decides), else HiGHS (checked)
             ans = verified_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
             if ans.status == Status.OPTIMAL and ans.solver == "daqp":
-                v = ans.v
+                v = ans.x
                 if sign * (mm(c, v) + d0[k]) > DISTINCT_STATE_TOL + EXACT_DECISION_MARGIN and np.all(mm(Gr, v) <= gr + CLOSED_SET_TOL):
                     return True
-                top = support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.lam, dtype=float), radius_bound) + sign * d0[k]
+                top = support_upper_bound(Gr, gr, sign * c, np.ascontiguousarray(ans.duals, dtype=float), radius_bound) + sign * d0[k]
                 if top <= DISTINCT_STATE_TOL - EXACT_DECISION_MARGIN:
                     continue
                 if top <= DISTINCT_STATE_TOL + EXACT_DECISION_MARGIN:  # too close for floats: exactly
-                    above = decide_above(sign * c, Gr, gr, v, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.lam)
+                    above = decide_above(sign * c, Gr, gr, v, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.duals)
                     if above is False:
                         continue
                     return True  # above, or undecided (the unobservable side)
-                COUNTERS.fast -= 1
-                COUNTERS.confirmed_by_highs += 1
-                out = solve_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)")
-                ans = VerifiedLP(out.status, out.x, out.duals, "highs")
+                ans = highs_lp(-sign * c, Gr, gr, problem=problem + " (distinct state)", replaces_fast=True)
             if ans.status == Status.OPTIMAL:
-                value = sign * (mm(c, ans.v) + d0[k])
+                value = sign * (mm(c, ans.x) + d0[k])
                 if abs(value - DISTINCT_STATE_TOL) <= HIGHS_DECISION_BAND:  # HiGHS's point: too close, exactly
-                    if decide_above(sign * c, Gr, gr, ans.v, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.lam) is not False:
+                    if decide_above(sign * c, Gr, gr, ans.x, DISTINCT_STATE_TOL - sign * d0[k], maximise=True, duals=ans.duals) is not False:
                         return True
                 elif value > DISTINCT_STATE_TOL:
                     return True
