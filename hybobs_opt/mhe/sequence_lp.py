@@ -446,7 +446,7 @@ class SequenceLPSolver:
         if h.passModel(lp) not in (hs.HighsStatus.kOk, hs.HighsStatus.kWarning):
             raise SolverError(f"sequence LP of mode prefix {tuple(int(q) for q in nd.modes)} (solver 'sequences')",
                               "highs", "model refused by passModel",
-                              hint="solver_options={'lp': 'daqp'}, or solver='highs' (the MILP of eq. (10))")
+                              hint="MHESettings(solver_options={'lp': 'daqp'}), or solver='highs' (the MILP of eq. (10))")
         nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
         return nd.lp
 

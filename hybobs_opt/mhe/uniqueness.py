@@ -67,7 +67,8 @@ class SeparatedProgram:
     options : dict
         The user's solver options.
     build : bool
-        ``False``: only ``epsilon`` is computed (``check_uniqueness=False``); no program is built.
+        ``False``: only ``epsilon`` is computed (the observer's settings have
+        ``check_uniqueness=False``); no program is built.
     epsilon : float, optional
         The cost tolerance itself (norm 2), instead of the relative default below: the observer's
         chi-square quantile with ``noise_std``.
@@ -176,7 +177,7 @@ class SeparatedProgram:
                 break
         if self.miqp is None:
             raise SolverError("uniqueness MIQP of the MHE observer", "daqp", "Hessian not factorised (exit -5)",
-                              hint="check_uniqueness=False (the flag then only means a certified optimum)")
+                              hint="MHESettings(check_uniqueness=False) (the flag then only means a certified optimum)")
         if self.norm == "2":
             return
         c, A0, lb0, ub0, disc0 = self._milp_problem

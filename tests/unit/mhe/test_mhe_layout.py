@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybobs_opt.mhe import MHEObserver, WindowResult
+from hybobs_opt.mhe import MHEObserver, MHESettings, WindowResult
 from hybobs_opt.mhe.backends import Backend, BackendOutcome
 from hybobs_opt.results import SolveResult
 from hybobs_opt.status import Status
@@ -46,7 +46,7 @@ def test_mhe_never_imports_the_observers_package():
 @pytest.mark.parametrize("norm", ["2", "1"])
 def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
     plant, tr, k = window
-    obs = MHEObserver(plant, 3, norm=norm, zero_cost_certificate=False)
+    obs = MHEObserver(plant, 3, norm=norm, settings=MHESettings(zero_cost_certificate=False))
     out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k] * 1.01, uniqueness=True)
     assert isinstance(out, WindowResult) and isinstance(out, SolveResult)
     assert out.status is Status.OPTIMAL and out["status"] == "optimal" and out.optimal
@@ -68,7 +68,8 @@ def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
 def test_not_certified_window_keeps_the_old_keys(window):
     plant, tr, k = window
     # a limited branch and bound, and a prefix search allowed one node QP: nothing certifies the window
-    obs = MHEObserver(plant, 3, solver_options={"iter_limit": 1}, zero_cost_certificate=False, certify_max_nodes=1)
+    obs = MHEObserver(plant, 3, settings=MHESettings(solver_options={"iter_limit": 1}, zero_cost_certificate=False,
+                                                     certify_max_nodes=1))
     out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k])
     assert out.status == Status.NOT_CERTIFIED and "reason" in out and out.residuals == {}
     assert out["solver"] == "daqp" and "solver_status" in out
