@@ -30,11 +30,11 @@ from .result import WindowResult
 from ..contract import noise_bound_vector
 from .set_membership import SetMembershipObserver
 from .settings import MHESettings
-from .uniqueness import SeparatedProgram
+from .uniqueness import SeparatedProgram, UniquenessOutcome
 
 #: The arrival-weight design moved to :mod:`hybobs_opt.synthesis` (``FutureWarning`` until 0.2.0).
 __getattr__, __dir__ = lazy_exports(__name__, {}, dict.fromkeys(("ArrivalPrior", "certified_arrival_prior"), "hybobs_opt.synthesis"))
 
 __all__ = ["KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MHESettings", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceMixture", "SequenceSearch", "SetMembershipObserver",
-           "WindowResult", "big_m_constants", "encode_mld", "noise_bound_vector", "search_sequences",
-           "sequence_mixture"]
+           "UniquenessOutcome", "WindowResult", "big_m_constants", "encode_mld", "noise_bound_vector",
+           "search_sequences", "sequence_mixture"]

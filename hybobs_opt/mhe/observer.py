@@ -128,7 +128,7 @@ from .mld import BigMConstants
 from .residual import weight_matrix
 from .result import WindowResult
 from .settings import MHESettings
-from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram
+from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram, UniquenessOutcome
 from .window import WindowModel
 
 __all__ = ["MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
@@ -841,7 +841,7 @@ class MHEObserver(Observer):
                 raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
             uq = self._uniqueness(U, Y, xs, out)
             uq["includes_prior"] = self.uniqueness_includes_prior
-            alt = uq.pop("alternative") if uq["status"] == "alternative" else None
+            alt = uq.pop("alternative") if uq["status"] == UniquenessOutcome.ALTERNATIVE else None
             out = out.replace(uniqueness=uq, alternative=alt)
         return out
 
@@ -1139,7 +1139,8 @@ class MHEObserver(Observer):
                 label = f"failed ({type(exc).__name__}: {exc})"
             info["analysis_label"] = label
             if label in (OBSERVABLE, UNOBSERVABLE):
-                info["uniqueness"] = {"status": "unique" if label == OBSERVABLE else "not unique for every input",
+                info["uniqueness"] = {"status": UniquenessOutcome.UNIQUE if label == OBSERVABLE
+                                      else UniquenessOutcome.NOT_UNIQUE_FOR_EVERY_INPUT,
                                       "decided_by": "analysis (Definition 2.2, every input sequence)",
                                       "seconds": time.perf_counter() - t0}
                 return label
@@ -1150,12 +1151,12 @@ class MHEObserver(Observer):
             return OBSERVABLE
         uq = self._uniqueness(U, Y, xbar, result)
         uq["includes_prior"] = self.uniqueness_includes_prior
-        if uq["status"] == "alternative":
+        if uq["status"] == UniquenessOutcome.ALTERNATIVE:
             info["alternative"] = uq.pop("alternative")
         info["uniqueness"] = uq
-        if uq["status"] == "unique":
+        if uq["status"] == UniquenessOutcome.UNIQUE:
             return OBSERVABLE
-        if uq["status"] == "alternative":
+        if uq["status"] == UniquenessOutcome.ALTERNATIVE:
             return UNOBSERVABLE
         info["reason"] = f"uniqueness not certified: {uq.get('reason', '?')}"
         return FALLBACK

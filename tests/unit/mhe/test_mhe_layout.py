@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybobs_opt.mhe import MHEObserver, MHESettings, WindowResult
+from hybobs_opt.cli._common import json_default
+from hybobs_opt.mhe import MHEObserver, MHESettings, UniquenessOutcome, WindowResult
 from hybobs_opt.mhe.backends import Backend, BackendOutcome
 from hybobs_opt.results import SolveResult
 from hybobs_opt.status import Status
@@ -58,11 +59,25 @@ def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
     assert "seconds" not in d and "residuals" not in d  # the old keys, exactly
     assert "reason" not in out and out.get("reason") is None and out.get("alternative", 7) == 7
     assert dict(out) == d and out["uniqueness"]["status"] == "unique"
+    assert out["uniqueness"]["status"] is UniquenessOutcome.UNIQUE
     assert json.dumps(str(out.status)) == '"optimal"'
     with pytest.raises(KeyError):
         out["no such key"]
     with pytest.raises(TypeError):
         out.replace(no_such_field=1)
+
+
+def test_uniqueness_outcomes_are_the_strings_of_the_json():
+    """The enum's values are the strings ``info["uniqueness"]["status"]`` has always held: a dict
+    with a member serialises to the same text as with the plain string, with the CLI's encoder too."""
+    assert {o.value for o in UniquenessOutcome} == {"unique", "alternative", "not certified",
+                                                     "not unique for every input"}
+    for outcome in UniquenessOutcome:
+        info = {"uniqueness": {"status": outcome, "decided_by": "x", "threshold": np.float64(1.5)}}
+        plain = {"uniqueness": {"status": outcome.value, "decided_by": "x", "threshold": 1.5}}
+        assert json.dumps(info, default=json_default) == json.dumps(plain)
+        assert str(outcome) == f"{outcome}" == outcome.value and outcome == outcome.value
+        assert json.loads(json.dumps(outcome)) == outcome.value
 
 
 def test_not_certified_window_keeps_the_old_keys(window):
