@@ -13,7 +13,7 @@ over the powertrain3 scenario (model (16), noise-free, three backlash traversals
 
 each in its default configuration (a warm start of zero cost is accepted as the optimum, since
 the cost is nonnegative) and with the branch-and-bound forced at every step
-(``zero_cost_certificate=False``), plus a noisy run (output noise 0.01 rad/s) where the warm start
+(``MHESettings(zero_cost_certificate=False)``), plus a noisy run (output noise 0.01 rad/s) where the warm start
 rarely has zero cost.  For every run: the solver, how each step was certified
 (``solved_by``), the flag counts, the largest state error at steps whose window starts in an
 observable state, and the ratio to the paper's 3 s and to the lookup observer's per-step time
@@ -34,6 +34,7 @@ import numpy as np
 
 from hybobs_opt.contract import NOISE_FIT_SIGMAS
 from hybobs_opt.mhe.mld import big_m_constants
+from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.studies.registry import get_example
 
@@ -172,15 +173,15 @@ def main(argv: list[str] | None = None) -> int:
 
     configs = [
         ("miqp_T3", dict(T=3, norm="2"), True),
-        ("miqp_T3_no_uniqueness", dict(T=3, norm="2", check_uniqueness=False), True),
-        ("miqp_T3_bnb_every_step", dict(T=3, norm="2", zero_cost_certificate=False), True),
+        ("miqp_T3_no_uniqueness", dict(T=3, norm="2", settings=MHESettings(check_uniqueness=False)), True),
+        ("miqp_T3_bnb_every_step", dict(T=3, norm="2", settings=MHESettings(zero_cost_certificate=False)), True),
         ("miqp_T10", dict(T=10, norm="2"), True),
-        ("miqp_T10_no_uniqueness", dict(T=10, norm="2", check_uniqueness=False), True),
-        ("miqp_T10_bnb_every_step", dict(T=10, norm="2", zero_cost_certificate=False), True),
+        ("miqp_T10_no_uniqueness", dict(T=10, norm="2", settings=MHESettings(check_uniqueness=False)), True),
+        ("miqp_T10_bnb_every_step", dict(T=10, norm="2", settings=MHESettings(zero_cost_certificate=False)), True),
         ("milp1_T3", dict(T=3, norm="1"), True),
-        ("milp1_T3_bnb_every_step", dict(T=3, norm="1", zero_cost_certificate=False), True),
+        ("milp1_T3_bnb_every_step", dict(T=3, norm="1", settings=MHESettings(zero_cost_certificate=False)), True),
         ("milpinf_T3", dict(T=3, norm="inf"), True),
-        ("milpinf_T3_bnb_every_step", dict(T=3, norm="inf", zero_cost_certificate=False), True),
+        ("milpinf_T3_bnb_every_step", dict(T=3, norm="inf", settings=MHESettings(zero_cost_certificate=False)), True),
         ("miqp_T3_noisy", dict(T=3, norm="2"), False),
         ("miqp_T10_noisy", dict(T=10, norm="2"), False),
         ("milp1_T3_noisy", dict(T=3, norm="1"), False),

@@ -180,8 +180,7 @@ def run_part(plant, trace, y, T: int, starts: list[int], ref_kwargs: dict, budge
     obs = MHEObserver(plant, T)
     config = {"norm": obs.norm, "solver": obs.solver, "output_weight": "identity (default)",
               "disturbances": bool(obs.enc.disturbances), "arrival_weight": None if getattr(obs, "_Wa", None) is None else "set",
-              "prox_weight": obs.prox_weight, "prox_passes": obs.prox_passes, "polish": obs.polish,
-              "zero_cost_certificate": obs.zero_cost_certificate}
+              **{k: getattr(obs.settings, k) for k in ("prox_weight", "prox_passes", "polish", "zero_cost_certificate")}}
     if obs.enc.disturbances or getattr(obs, "_Wa", None) is not None or getattr(obs, "_Ww", None) is not None:
         raise RuntimeError("the default observer has extra cost terms: the reference solves the plain eq. (10)")
     ref = ExactWindowReference(plant, T)

@@ -198,11 +198,11 @@ def instrument(obs, probe: Probe) -> None:
 
 def run(plant, U, Y, *, norm: str, solver: str | None, profiled: bool, budget_s: float | None = None,
         solver_options: dict | None = None) -> dict:
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
 
     t_build = time.perf_counter()
     obs = MHEObserver(plant, T, norm=norm, solver=solver, fit_tolerance=NOISE_FIT_SIGMAS * NOISE,
-                      solver_options=solver_options)
+                      settings=MHESettings(solver_options=solver_options))
     build_s = time.perf_counter() - t_build
     probe = Probe()
     if profiled:
@@ -301,9 +301,10 @@ def cprofile_steps(plant, U, Y, start: int, count: int, top: int = 25) -> dict:
             "note": "cProfile adds overhead per Python call; compare shares, not absolute times"}
 
 
-#: HiGHS option sets tried on the window MILP (passed as ``MHEObserver(solver_options=...)``, no code
-#: change): its log on one window shows two sub-MIPs (RINS / RENS heuristics) and ~170 cuts at the root
-#: of a 31-column problem, which is where a 1-node solve spends its milliseconds.
+#: HiGHS option sets tried on the window MILP (passed as
+#: ``MHEObserver(settings=MHESettings(solver_options=...))``, no code change): its log on one
+#: window shows two sub-MIPs (RINS / RENS heuristics) and ~170 cuts at the root of a 31-column
+#: problem, which is where a 1-node solve spends its milliseconds.
 HIGHS_VARIANTS = {
     "default": {},
     "no_sub_mip": {"mip_heuristic_run_rins": False, "mip_heuristic_run_rens": False},
@@ -318,10 +319,11 @@ def highs_floor(plant, U, Y, repeats: int) -> dict:
     ``repeats`` times on a warm HiGHS instance, per option set of :data:`HIGHS_VARIANTS`
     (round robin, so the machine's load falls on all alike), and once with every binary fixed
     at the optimum (an LP through the same call)."""
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
 
-    obs = {name: MHEObserver(plant, T, norm="1", fit_tolerance=NOISE_FIT_SIGMAS * NOISE, check_uniqueness=False,
-                             solver_options=opts) for name, opts in HIGHS_VARIANTS.items()}
+    obs = {name: MHEObserver(plant, T, norm="1", fit_tolerance=NOISE_FIT_SIGMAS * NOISE,
+                             settings=MHESettings(check_uniqueness=False, solver_options=opts))
+           for name, opts in HIGHS_VARIANTS.items()}
     ref = obs["default"]
     captured = {}
     solve = ref._backend.solve

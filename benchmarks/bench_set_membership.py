@@ -118,8 +118,9 @@ def coverage(steps: int, T: int, log) -> dict:
                               "noise_bound": beta.tolist(), "n_outside_radius": outside, "flags": flags,
                               "radius_median": np.nanmedian(R, axis=0).tolist() if has.any() else None,
                               "radius_max": np.nanmax(R, axis=0).tolist() if has.any() else None,
-                              "tolerance": np.asarray(getattr(obs, "tolerance", None) if kind != "miqp_bounded" else
-                                                      obs.uniqueness_delta * system.scales()[0][:system.n]).tolist(),
+                              "tolerance": np.asarray(
+                                  getattr(obs, "tolerance", None) if kind != "miqp_bounded" else
+                                  obs.settings.uniqueness_delta * system.scales()[0][:system.n]).tolist(),
                               "seconds_per_step": seconds / len(U)}
                 log(f"{key}: outside {outside}, flags {flags}, {1e3 * seconds / len(U):.2f} ms/step")
     return table

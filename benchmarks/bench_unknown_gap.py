@@ -38,7 +38,7 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 def augmented_mhe_window(T: int, start: int = 1000, alpha: float = 0.037) -> dict:
     """One window of the MIQP (10) on model (16) augmented with alpha, from the scenario's first switch."""
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
     from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario, powertrain3
     from hybobs_opt.systems.parameters import augment_parameters
 
@@ -46,7 +46,7 @@ def augmented_mhe_window(T: int, start: int = 1000, alpha: float = 0.037) -> dic
     plant = powertrain3(alpha=alpha, theta_max=GAP_STUDY_THETA_MAX)
     trace = backlash_scenario(plant, SCENARIO_TORQUES["powertrain3"], t_final=(start + T + 1) * plant.Ts)
     t0 = time.perf_counter()
-    obs = MHEObserver(aug.system, T, check_uniqueness=False)
+    obs = MHEObserver(aug.system, T, settings=MHESettings(check_uniqueness=False))
     build_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     res = obs.solve_window(trace.u[start : start + T], trace.y[start : start + T])

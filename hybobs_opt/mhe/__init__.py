@@ -2,7 +2,8 @@
 
 ``encode_mld`` derives the mixed-logical-dynamical / big-M encoding of a PWA system with every
 big-M constant computed by LPs; ``MHEObserver`` builds the problem once and re-solves it each
-step (2-norm: MIQP by DAQP's branch-and-bound; 1-/inf-norm: MILP by HiGHS) and
+step (2-norm: MIQP by DAQP's branch-and-bound; 1-/inf-norm: MILP by HiGHS), tuned by one
+:class:`MHESettings` (solver options, proximal terms, certification budget, uniqueness test), and
 ``MHEObserver.solve_window`` returns a typed :class:`WindowResult`.  A 2-norm window whose
 branch and bound does not prove the relative gap is certified (or its optimum found) by the exact
 prefix search :func:`search_sequences` (:mod:`hybobs_opt.mhe.certify`).  The package implements the
@@ -28,11 +29,12 @@ from .observer import NORMS, SOLVERS, MHEObserver
 from .result import WindowResult
 from ..contract import noise_bound_vector
 from .set_membership import SetMembershipObserver
-from .uniqueness import SeparatedProgram
+from .settings import MHESettings
+from .uniqueness import SeparatedProgram, UniquenessOutcome
 
 #: The arrival-weight design moved to :mod:`hybobs_opt.synthesis` (``FutureWarning`` until 0.2.0).
 __getattr__, __dir__ = lazy_exports(__name__, {}, dict.fromkeys(("ArrivalPrior", "certified_arrival_prior"), "hybobs_opt.synthesis"))
 
-__all__ = ["KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceMixture", "SequenceSearch", "SetMembershipObserver",
-           "WindowResult", "big_m_constants", "encode_mld", "noise_bound_vector", "search_sequences",
-           "sequence_mixture"]
+__all__ = ["KalmanArrival", "MHEExtension", "MHEFormulation", "MHEObserver", "MHESettings", "MLDEncoding", "NORMS", "SOLVERS", "SeparatedProgram", "SequenceMixture", "SequenceSearch", "SetMembershipObserver",
+           "UniquenessOutcome", "WindowResult", "big_m_constants", "encode_mld", "noise_bound_vector",
+           "search_sequences", "sequence_mixture"]

@@ -107,8 +107,9 @@ class MHEExtension:
     ...     x_ref = ext.add_parameter("x_ref", ext.n)
     ...     ext.add_cost(1e3 * casadi.sumsqr(ext.x[0] - x_ref))
     ...     ext.add_constraint(ext.x[0][0], lo=-0.05, hi=0.05)    # |theta(t-T+1)| <= 0.05
-    >>> obs = MHEObserver(plant, 3, extend=pull, check_uniqueness=False)  # doctest: +SKIP
-    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])                    # doctest: +SKIP
+    >>> obs = MHEObserver(plant, 3, extend=pull,
+    ...                   settings=MHESettings(check_uniqueness=False))  # doctest: +SKIP
+    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])                  # doctest: +SKIP
     """
 
     def __init__(self, sym: MLDSymbols, norm: str, U, Y, xbar, dims: tuple[int, int, int, int, int]):

@@ -31,8 +31,8 @@ Flags (the runtime contract of :mod:`hybobs_opt.contract`):
   cannot tell whether ``x(t-T+1)`` is observable: this second program is what does.  With an
   ``analysis`` (:class:`~hybobs_opt.regions.ObservabilityAnalysis`) its point query at the
   estimate decides instead (Definition 2.2: distinguishable for *every* input sequence, a
-  stronger statement than the data-based one).  With ``check_uniqueness=False`` and no analysis
-  the flag has the old meaning: a certified optimum only, not a unique one.
+  stronger statement than the data-based one).  With ``MHESettings(check_uniqueness=False)`` and
+  no analysis the flag means a certified optimum only, not a unique one.
 * ``unobservable`` -- either the solver certified that the window has *no* model trajectory in
   ``X`` (infeasible), or the optimum is not unique: ``info["alternative"]`` holds another
   window trajectory (``x_start``, ``states``, ``cost``, ``modes``, ``distance``, and the
@@ -48,9 +48,10 @@ Flags (the runtime contract of :mod:`hybobs_opt.contract`):
 Certified optimum: either the solver's status says optimal and the answer passes a numpy re-check
 (finite, integral binaries, one mode per step, every constraint row within tolerance), or a warm
 start of zero cost (the cost is nonnegative).  ``info["certified_optimum"]`` says whether the
-step had one (the old meaning of ``observable``), ``info["cost"]`` is its cost,
+step had one (``observable`` without the uniqueness test), ``info["cost"]`` is its cost,
 ``info["gap_bound"]`` an upper bound on ``cost - optimum`` and ``info["solved_by"]`` says how it
-was certified; ``info["uniqueness"]`` reports the uniqueness test (``status``, ``decided_by``,
+was certified; ``info["uniqueness"]`` reports the uniqueness test (``status``, a
+:class:`~hybobs_opt.mhe.uniqueness.UniquenessOutcome`; ``decided_by``,
 ``separated_cost``, ``separated_cost_bound``, ``threshold = J* + epsilon``, ``seconds``).
 
 Solvers.  Norm 2: ``"daqp"`` (default) is DAQP's branch-and-bound on its persistent workspace
@@ -79,9 +80,10 @@ bounds and of the linear term on the data, and the cost's Hessian (norm 2) or co
 and every backend receives those.  An ``extend`` callable adds cost terms, affine constraints and
 parameters to the same expressions (:class:`~hybobs_opt.mhe.formulation.MHEExtension`).
 
-Layout.  This module holds the runtime object; :mod:`hybobs_opt.mhe.formulation` the problem in
-CasADi; :mod:`hybobs_opt.mhe.window` the model side of a
-window (dynamics, cost, the exact problem of one mode sequence), :mod:`hybobs_opt.mhe.residual`
+Layout.  This module holds the runtime object; :mod:`hybobs_opt.mhe.settings` its solve and
+certification settings (:class:`~hybobs_opt.mhe.settings.MHESettings`);
+:mod:`hybobs_opt.mhe.formulation` the problem in CasADi; :mod:`hybobs_opt.mhe.window` the model
+side of a window (dynamics, cost, the exact problem of one mode sequence), :mod:`hybobs_opt.mhe.residual`
 the weights and the stacked residual, :mod:`hybobs_opt.mhe.uniqueness` the separated program,
 :mod:`hybobs_opt.mhe.backends` one module per solver family behind one signature and
 :mod:`hybobs_opt.mhe.result` the typed answer of a window (:class:`WindowResult`).
@@ -91,11 +93,15 @@ the weights and the stacked residual, :mod:`hybobs_opt.mhe.uniqueness` the separ
 
 from __future__ import annotations
 
+import difflib
+import inspect
 import time
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
 
+from .._deprecation import warn_renamed
 from .._validate import as_positive, as_vector
 from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, Observer, UNOBSERVABLE,
                         WARMING_UP, check_reset_keywords, checked_state, false_alarm_probability,
@@ -108,16 +114,12 @@ from ..tolerances import (
     MEMBERSHIP_RTOL,
     MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_ABS_SUBOPT,
-    MHE_BINARY_PROX_WEIGHT,
     MHE_CERTIFIED_RTOL,
-    MHE_CERTIFY_MAX_NODES,
     MHE_FEASIBILITY_TOL,
     MHE_NOISE_FALSE_ALARM,
     MHE_INTEGRALITY_TOL,
     MHE_MIXTURE_MAX_SEQUENCES,
     MHE_POLISH_SKIP_TOL,
-    MHE_PROX_WEIGHT,
-    MHE_UNIQUENESS_DELTA,
     MHE_ZERO_COST_RTOL,
 )
 from .backends import MILP_SOLVERS, MIQP_SOLVERS, milp_backend, miqp_backend
@@ -126,19 +128,15 @@ from .mixture import sequence_mixture, sequence_posterior_covariance
 from .mld import BigMConstants
 from .residual import weight_matrix
 from .result import WindowResult
-from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram
+from .settings import MHESettings
+from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram, UniquenessOutcome
 from .window import WindowModel
 
-__all__ = ["DEFAULT_PROX_PASSES", "MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
+__all__ = ["MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
 
 NORMS = ("2", "1", "inf")
 #: Solvers per norm; the first one is the default.
 SOLVERS = {"2": MIQP_SOLVERS, "1": MILP_SOLVERS, "inf": MILP_SOLVERS}
-
-#: Proximal-point passes per window (norm 2): a pass is repeated, centred at its minimiser, only
-#: when the minimiser moved away from the warm start (cold starts, mode switches); on noise-free
-#: data a second pass always lands on the zero-cost sequence in the tests, a third is a margin.
-DEFAULT_PROX_PASSES = 3
 
 
 class MHEObserver(Observer):
@@ -156,8 +154,8 @@ class MHEObserver(Observer):
         ``"daqp"`` (default for norm 2), ``"casadi-daqp"``, ``"bonmin"``; ``"highs"`` (default for
         norms 1/inf, via highspy), ``"cbc"`` or ``"casadi-highs"`` (refused when highspy is loaded),
         or ``"sequences"`` (norms 1/inf: the exact mode-prefix branch and bound of small LPs of
-        :class:`~hybobs_opt.mhe.sequence_lp.SequenceLPSolver`, no MIP; ``solver_options={"lp":
-        "highs"}`` solves its LPs by HiGHS alone instead of DAQP first).
+        :class:`~hybobs_opt.mhe.sequence_lp.SequenceLPSolver`, no MIP; ``MHESettings(solver_options=
+        {"lp": "highs"})`` solves its LPs by HiGHS alone instead of DAQP first).
     output_weight, disturbance_weight, arrival_weight : scalar, vector or matrix, optional
         ``W_y`` (default identity: the paper's cost), ``W_w`` (adds disturbances ``w(k)``),
         ``W_a`` (adds the arrival cost); see the module docstring.  The arrival cost is a prior, and the uniqueness
@@ -182,8 +180,8 @@ class MHEObserver(Observer):
         ``J* + epsilon``, weighted by their evidence, about the estimate
         (:mod:`hybobs_opt.mhe.mixture`, ``info["mixture"]``); a window that more than
         :data:`~hybobs_opt.tolerances.MHE_MIXTURE_MAX_SEQUENCES` sequences fit, or whose search
-        stops at ``certify_max_nodes`` / ``certify_time_budget``, is ``fallback``.  (On a step not
-        flagged, ``info["covariance"]`` is the optimal sequence's posterior alone.)  It is claimed
+        stops at the settings' ``certify_max_nodes`` / ``certify_time_budget``, is ``fallback``.
+        (On a step not flagged, ``info["covariance"]`` is the optimal sequence's posterior alone.)  It is claimed
         only while the filter's normalised innovations agree with the stated noise level
         (:class:`~hybobs_opt.mhe.arrival.NoiseConsistencyTest`, ``info["noise_consistency"]``):
         an ``observable`` flag is withdrawn (``unobservable``, the optimum kept as the estimate,
@@ -191,40 +189,13 @@ class MHEObserver(Observer):
         tested a full window of samples since the last reset.
     x0 : (n,) array, optional
         Initial guess (open-loop prediction and first arrival prior); default the centre of ``X``.
-    solver_options : dict, optional
-        Passed to the solver (DAQP settings, HiGHS/CBC/Bonmin options), e.g.
-        ``{"iter_limit": 1}`` or ``{"time_limit": 1e-6}``; they override the defaults, which for
-        DAQP are ``abs_subopt = MHE_ABS_SUBOPT``, ``eps_prox = 0`` and ``cycle_tol =``
-        :data:`~hybobs_opt.tolerances.MHE_DAQP_CYCLE_TOL` (1000 iterations without progress
-        before DAQP gives up with exit -2, "cycling"; DAQP's own default of 10 ends the
-        branch-and-bound on degenerate big-M vertices of 4-mode systems at T = 4-5 with noisy
-        data).  With the DAQP solver they apply to the uniqueness MIQP too.
-    polish : bool
-        Norm 2: re-solve the continuous QP of the optimal mode sequence exactly (removes the
-        proximal term's bias from the estimate; see Notes).
-    prox_weight : float
-        Proximal weight ``eps`` of the MIQP (scaled units), default
-        :data:`~hybobs_opt.tolerances.MHE_PROX_WEIGHT`.
-    binary_prox_weight : float
-        Proximal weight of the binaries, default :data:`~hybobs_opt.tolerances.MHE_BINARY_PROX_WEIGHT`.
-    zero_cost_certificate : bool
-        Accept a warm start of zero cost as the optimum without branch-and-bound (the cost is
-        nonnegative).  ``False`` runs the branch-and-bound at every step (the warm start is then
-        only its incumbent), e.g. to time it.
-    prox_passes : int
-        Largest number of proximal-point passes per window (norm 2; see Notes).
-    certify_max_nodes : int
-        Norm 2: node QPs the exact prefix search (:mod:`hybobs_opt.mhe.certify`) may solve per
-        window when the branch and bound's own certificate does not prove the relative gap
-        :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
-        certified (``fallback``).  Default :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
-    certify_time_budget : float, optional
-        Wall-clock seconds a window's certified solve may take (measured from the start of the
-        window's solve, every norm): the prefix search (norm 2) stops when it is spent, and an
-        optimum certified after it is not used.  Such a window is not certified (``fallback``,
-        never ``observable``; the reason says the time budget was hit).  ``None`` (default): no
-        limit but ``certify_max_nodes``.  The solver calls themselves are not interrupted, so a
-        step can take longer than the budget by one branch and bound or one node QP.
+    settings : MHESettings, optional
+        How each window is solved and certified (:class:`~hybobs_opt.mhe.MHESettings`: solver
+        options, the MIQP's proximal terms, the zero-cost certificate, the budget of the exact
+        prefix search, the uniqueness test); default ``MHESettings()``.  :attr:`settings` holds
+        the settings in force, which differ from these where the observer switches one off
+        (``check_uniqueness`` under ``noise_bound``, ``zero_cost_certificate`` with an
+        extension cost).
     extend : callable, optional
         ``extend(ext)``, called once at construction with a
         :class:`~hybobs_opt.mhe.formulation.MHEExtension` exposing the CasADi symbols of the
@@ -234,10 +205,10 @@ class MHEObserver(Observer):
         affine constraints (``add_constraint``) and parameters (``add_parameter``, values per
         step by :meth:`set_parameter`).  They enter the matrices every solver receives, the cost
         of every trajectory, the problems of the mode sequences, the exact prefix search and
-        the uniqueness program.  Norms 1 / inf with an extension cost refuse
+        the uniqueness program.  Norms 1 / inf with an extension cost refuse settings with
         ``check_uniqueness=True`` (the separated program's norm-2 bound ``J_1 >= ||r||_2`` does
         not hold for a linear term) and never use the zero-cost certificate (a linear term can
-        be negative).
+        be negative: the effective settings have ``zero_cost_certificate=False``).
 
         Example: a pull of the window-start state towards a reference given each step::
 
@@ -249,13 +220,6 @@ class MHEObserver(Observer):
             obs.set_parameter("x_ref", [0.0, 10.0, 10.0])
     big_m : BigMConstants, optional
         Precomputed constants (share them between MHE instances of the same system).
-    check_uniqueness : bool
-        ``True`` (default): flag ``observable`` only when the window trajectory -- the reported
-        state and the window start among it -- is unique (the separated program, see Notes).  ``False``: no second program; ``observable`` then means
-        only "certified optimum" (the flag's old meaning), unless ``analysis`` decides.
-    uniqueness_delta : float
-        Separation ``delta`` of an alternative window state from the optimum's at the same step
-        (inf-norm, units of the half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
     analysis : ObservabilityAnalysis, optional
         A saved analysis of Algorithm 3.1 for this system and ``T``
         (:func:`hybobs_opt.regions.analyse_observability`).  Its point query
@@ -264,7 +228,7 @@ class MHEObserver(Observer):
         stronger than the data-based question of the separated program (an ``unobservable``
         state may still be unique for the input actually applied).  For noisy data it
         classifies the estimate, not the data.  When it answers ``"infeasible"`` (the estimate
-        lies outside ``X*_T``) the separated program decides (``fallback`` if
+        lies outside ``X*_T``) the separated program decides (``fallback`` if the settings have
         ``check_uniqueness=False``).
 
     fit_tolerance : float or (p,) array, optional
@@ -300,12 +264,22 @@ class MHEObserver(Observer):
         gap), and the estimate (the window optimum's last state, or the box's centre when the
         optimum is not certified or lies outside the box) carries ``info["radius"]``: per state,
         the largest distance to a consistent state.  The flag is the radius's: ``observable``
-        when every radius is at most ``uniqueness_delta`` times the half-widths of ``X``
-        (``info["tolerance"]``), ``unobservable`` otherwise (the estimate and its radius are still
+        when every radius is at most the settings' ``uniqueness_delta`` times the half-widths of
+        ``X`` (``info["tolerance"]``), ``unobservable`` otherwise (the estimate and its radius are still
         reported), ``fallback`` when the data contradict the bound or a program has no checked
         answer.  It replaces the uniqueness test (noise-free, a radius within the tolerance is
-        the same claim) and cannot be combined with ``noise_std``, ``analysis`` or
-        ``fit_tolerance``.
+        the same claim; the effective settings have ``check_uniqueness=False``) and cannot be
+        combined with ``noise_std``, ``analysis`` or ``fit_tolerance``.
+    **kwargs
+        Deprecated until hybobs_opt 0.2.0: the fields of :class:`~hybobs_opt.mhe.MHESettings` as
+        keywords (``check_uniqueness=False``), each with a ``FutureWarning``, folded into the
+        settings; refused together with ``settings``.  Any other keyword is a
+        :class:`~hybobs_opt.errors.ModelError` naming it.
+
+    Attributes
+    ----------
+    settings : MHESettings
+        The solve and certification settings in force.
 
     Notes
     -----
@@ -363,8 +337,9 @@ class MHEObserver(Observer):
        the window-start state and the disturbances, ``WindowModel.polish``); after a reset every
        constant mode sequence is tried too.  The best of these is the incumbent.
     2. If the incumbent's cost is zero (to :data:`~hybobs_opt.tolerances.MHE_ZERO_COST_RTOL`) it
-       is optimal, the cost being nonnegative (``solved_by = "warm start"``, unless
-       ``zero_cost_certificate=False``).  On noise-free data this is nearly every step.
+       is optimal, the cost being nonnegative (``solved_by = "warm start"``, unless the
+       settings have ``zero_cost_certificate=False``).  On noise-free data this is nearly every
+       step.
     3. Otherwise the MIQP/MILP is solved with the incumbent as warm start (DAQP: proximal centre
        and objective cutoff; HiGHS: MIP start).  ``solved_by`` is ``"branch-and-bound"`` when the
        solver's point is returned and ``"branch-and-bound (incumbent)"`` when the solver proves
@@ -378,9 +353,9 @@ class MHEObserver(Observer):
     ``gap_bound = J_s (abs_subopt + sum_j eps_j R_j)``, ``R_j`` the largest ``(v_j - v_bar_j)^2``
     over the variable bounds; it is reported, and it is what "certified" means for the MIQP.
     When the minimiser moved away from the centre the MIQP is solved again centred at it
-    (proximal-point passes, at most ``prox_passes``).  With ``polish`` the continuous part is
-    then re-solved exactly for the optimal mode sequence, so the estimate carries no proximal
-    bias.
+    (proximal-point passes, at most the settings' ``prox_passes``).  With ``polish`` the
+    continuous part is then re-solved exactly for the optimal mode sequence, so the estimate
+    carries no proximal bias.
 
     ``"casadi-daqp"`` uses the DAQP copy bundled in CasADi 3.8.2, whose branch-and-bound returns
     NaN with a success status when the problem has equality rows, and wrong points or false
@@ -392,14 +367,38 @@ class MHEObserver(Observer):
     name = "mhe"
 
     def __init__(self, system: PWASystem, T: int, norm: str = "2", solver: str | None = None, output_weight=None,
-                 disturbance_weight=None, arrival_weight=None, *, x0=None, solver_options: dict | None = None,
-                 polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
-                 binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
-                 prox_passes: int = DEFAULT_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
-                 big_m: BigMConstants | None = None,
-                 check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
-                 fit_tolerance=None, certify_time_budget: float | None = None, extend=None, noise_std=None,
-                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None):
+                 disturbance_weight=None, arrival_weight=None, *, x0=None, settings: MHESettings | None = None,
+                 big_m: BigMConstants | None = None, analysis=None, fit_tolerance=None, extend=None, noise_std=None,
+                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None, **kwargs: Any):
+        self._set_problem(system, T, norm, solver, analysis)
+        self.settings = _settings_in_force(settings, kwargs)
+        asked_uniqueness = self.settings.check_uniqueness
+        self.noise_std, noise_epsilon = self._noise_model(noise_std, false_alarm, self.norm, output_weight)
+        self._bounded = self._bounded_noise(noise_bound, analysis, fit_tolerance)
+        if self._bounded is not None:
+            self.settings = replace(self.settings, check_uniqueness=False)  # the radius decides the flag
+        if self.noise_std is not None:
+            output_weight = np.diag(1.0 / self.noise_std)
+            if fit_tolerance is None:
+                fit_tolerance = NOISE_FIT_SIGMAS * self.noise_std
+        self._set_weights(output_weight, disturbance_weight, arrival_weight, initial_std, extend)
+        self._formulate(big_m, extend, asked_uniqueness)
+        self._build()
+        self.model = WindowModel(system, self.T, self.norm, self.enc, self._Wy, self._Ww, self._Wa, res=self._res,
+                                 extension=self._ext)
+        if self._kalman is not None:
+            self._arrival_rows = self._locate_arrival_rows()
+        Ub = system.input_bounds
+        self._U_A = None if Ub is None else Ub.A
+        self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
+        self._x_default = self.model.cx.copy()
+        judge_samples_against(self, system)
+        self.fit_tolerance = self._fit_tolerance(fit_tolerance)
+        self._build_uniqueness(noise_epsilon)
+        self.reset(x0)
+
+    def _set_problem(self, system, T, norm, solver, analysis) -> None:
+        """Check and keep the model, the window length, the norm, the solver and the saved analysis."""
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         if isinstance(T, bool) or not isinstance(T, (int, np.integer)) or T < 1:
@@ -410,28 +409,6 @@ class MHEObserver(Observer):
         solver = SOLVERS[norm][0] if solver is None else str(solver).lower()
         if solver not in SOLVERS[norm]:
             raise ModelError("solver", f"one of {SOLVERS[norm]} for norm {norm!r}", repr(solver))
-        if solver_options is not None and not isinstance(solver_options, dict):
-            raise ModelError("solver_options", "a dict of solver options", type(solver_options).__name__)
-        prox_weight = as_positive(prox_weight, "prox_weight", "a positive finite weight")
-        self.binary_prox_weight = as_positive(binary_prox_weight, "binary_prox_weight", "a positive finite weight")
-        if isinstance(prox_passes, bool) or not isinstance(prox_passes, (int, np.integer)) or prox_passes < 1:
-            raise ModelError("prox_passes", "an integer >= 1", repr(prox_passes))
-        self.prox_passes = int(prox_passes)
-        if isinstance(certify_max_nodes, bool) or not isinstance(certify_max_nodes, (int, np.integer)) or certify_max_nodes < 1:
-            raise ModelError("certify_max_nodes", "an integer >= 1 (node QPs of the prefix search per window)",
-                             repr(certify_max_nodes))
-        self.certify_max_nodes = int(certify_max_nodes)
-        self.certify_time_budget = as_positive(certify_time_budget, "certify_time_budget",
-                                               "None or a positive finite number of seconds", allow_none=True)
-        self.zero_cost_certificate = bool(zero_cost_certificate)
-        if not isinstance(check_uniqueness, (bool, np.bool_)):
-            raise ModelError("check_uniqueness", "True or False", repr(check_uniqueness))
-        self.check_uniqueness = bool(check_uniqueness)
-        if not (isinstance(uniqueness_delta, (int, float, np.floating)) and not isinstance(uniqueness_delta, bool)
-                and np.isfinite(uniqueness_delta) and uniqueness_delta > 0):
-            raise ModelError("uniqueness_delta", "a positive finite separation (units of the half-widths of X)",
-                             repr(uniqueness_delta))
-        self.uniqueness_delta = float(uniqueness_delta)
         if analysis is not None:
             if not callable(getattr(analysis, "classify", None)):
                 raise ModelError("analysis", "an ObservabilityAnalysis (hybobs_opt.regions) with classify(x)",
@@ -444,19 +421,13 @@ class MHEObserver(Observer):
         self.T = int(T)
         self.norm = norm
         self.solver = solver
-        self.polish = bool(polish)
-        self.prox_weight = float(prox_weight)
         self.n, self.m, self.p = system.n, system.m, system.p
         self.state_names = system.state_names
         self.name = f"mhe-{'miqp' if norm == '2' else 'milp'}-{norm}"
-        self.noise_std, noise_epsilon = self._noise_model(noise_std, false_alarm, norm, output_weight)
-        self._bounded = self._bounded_noise(noise_bound, analysis, fit_tolerance)
-        if self._bounded is not None:
-            self.check_uniqueness = False  # the radius decides the flag
-        if self.noise_std is not None:
-            output_weight = np.diag(1.0 / self.noise_std)
-            if fit_tolerance is None:
-                fit_tolerance = NOISE_FIT_SIGMAS * self.noise_std
+
+    def _set_weights(self, output_weight, disturbance_weight, arrival_weight, initial_std, extend) -> None:
+        """The weights ``W_y``, ``W_w``, ``W_a`` of the cost, with the arrival prior or the Kalman
+        filter behind the window when ``arrival_weight`` asks for one."""
         self._Wy = weight_matrix(np.eye(self.p) if output_weight is None else output_weight, self.p, "output_weight")
         self._Ww = weight_matrix(disturbance_weight, self.n, "disturbance_weight")
         self.arrival_prior = self._arrival_prior(arrival_weight)
@@ -467,50 +438,46 @@ class MHEObserver(Observer):
             # built with W_a = I; each window sets the filter's weight (_set_arrival_weight)
             arrival_weight = np.eye(self.n)
         self._Wa = weight_matrix(arrival_weight, self.n, "arrival_weight")
-        # eq. (10) written once in CasADi; every matrix below is extracted from it
-        self.formulation = MHEFormulation(system, self.T, norm, self._Wy, self._Ww, self._Wa, big_m=big_m,
+
+    def _formulate(self, big_m, extend, check_uniqueness: bool) -> None:
+        """Eq. (10) written once in CasADi, with the extension's terms; every matrix of the
+        backends is extracted from it.  ``check_uniqueness`` is the value the caller asked for."""
+        self.formulation = MHEFormulation(self.system, self.T, self.norm, self._Wy, self._Ww, self._Wa, big_m=big_m,
                                           extend=extend)
         self.enc = self.formulation.enc
         self._ext = self.formulation.extension
         if self._ext is not None and self._ext.cost_vector is not None:
             if check_uniqueness:
-                raise ModelError("check_uniqueness", f"False with an extension cost for norm {norm!r} (the separated "
-                                 "program bounds J_1 / J_inf by ||r||_2, which a linear term breaks)", "True")
-            self.zero_cost_certificate = False  # a linear term can be negative: zero cost proves nothing
+                raise ModelError("check_uniqueness", f"False with an extension cost for norm {self.norm!r} (the "
+                                 "separated program bounds J_1 / J_inf by ||r||_2, which a linear term breaks)", "True")
+            # a linear term can be negative: zero cost proves nothing
+            self.settings = replace(self.settings, zero_cost_certificate=False)
         self._params: dict[str, np.ndarray | None] = (
             {} if self._ext is None else dict(zip(self._ext.names, self._ext.defaults)))
         self._theta_idx = np.r_[self.enc.slices["xi0"], self.enc.slices["omega"]]
         self._res = self.formulation.res
-        self._build(dict(solver_options or {}))
-        self.model = WindowModel(system, self.T, norm, self.enc, self._Wy, self._Ww, self._Wa, res=self._res,
-                                 extension=self._ext)
-        if self._kalman is not None:
-            self._arrival_rows = self._locate_arrival_rows()
-        Ub = system.input_bounds
-        self._U_A = None if Ub is None else Ub.A
-        self._U_b = None if Ub is None else Ub.b + MEMBERSHIP_RTOL * (1.0 + np.abs(Ub.b))
-        self._x_default = self.model.cx.copy()
-        judge_samples_against(self, system)
-        self.fit_tolerance = self._fit_tolerance(fit_tolerance)
+
+    def _build_uniqueness(self, noise_epsilon: float | None) -> None:
+        """The separated program of the flag ``observable`` (built only with ``check_uniqueness``;
+        its ``epsilon`` always), and the mode-prefix LPs of solver ``"sequences"``."""
         # With an arrival cost the separated program keeps it: "unique" is then unique given the
         # prior, a weaker claim than the data alone (info["uniqueness"]["includes_prior"]).  Posing
         # it on the data alone needs the data-only minimum of each window, a second MIQP per step.
         self.uniqueness_includes_prior = self._Wa is not None
-        self._separated = SeparatedProgram(self.model, self._res, solver=self.solver, delta=self.uniqueness_delta,
-                                           Js=self._Js, eq_rows=self._eq_rows, milp_problem=self._milp,
-                                           nslack=self._nslack, options=dict(solver_options or {}),
-                                           build=self.check_uniqueness,
-                                           epsilon=noise_epsilon)
+        options = self.settings.solver_options
+        self._separated = SeparatedProgram(self.model, self._res, solver=self.solver,
+                                           delta=self.settings.uniqueness_delta, Js=self._Js, eq_rows=self._eq_rows,
+                                           milp_problem=self._milp, nslack=self._nslack, options=dict(options),
+                                           build=self.settings.check_uniqueness, epsilon=noise_epsilon)
         self._sequences = None
         if self.solver == "sequences":
             from .sequence_lp import SequenceLPSolver
 
             self._sequences = SequenceLPSolver(self.model, self._zero_cost, self._separated,
-                                               lp=(solver_options or {}).get("lp", "daqp"))
+                                               lp=options.get("lp", "daqp"))
         self.uniqueness_epsilon = self._separated.epsilon
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight
-        self.reset(x0)
 
     def _bounded_noise(self, noise_bound, analysis, fit_tolerance):
         """The set-membership box of ``noise_bound`` (a :class:`~hybobs_opt.mhe.SetMembershipObserver`
@@ -530,7 +497,7 @@ class MHEObserver(Observer):
         from .set_membership import SetMembershipObserver
 
         half = self.system.scales()[0][: self.n]
-        box = SetMembershipObserver(self.system, self.T, noise_bound, tolerance=self.uniqueness_delta * half)
+        box = SetMembershipObserver(self.system, self.T, noise_bound, tolerance=self.settings.uniqueness_delta * half)
         self.noise_bound = box.noise_bound
         return box
 
@@ -654,10 +621,11 @@ class MHEObserver(Observer):
         posteriors of every mode sequence that fits within the chi-square threshold
         (:func:`~hybobs_opt.mhe.mixture.sequence_mixture`).  Returns the flag: ``observable``, or
         ``fallback`` when the sequences could not all be found (no covariance is then claimed)."""
-        deadline = None if self.certify_time_budget is None else time.perf_counter() + self.certify_time_budget
+        budget = self.settings.certify_time_budget
+        deadline = None if budget is None else time.perf_counter() + budget
         mix = sequence_mixture(self.model, self._U, self._Y, xbar, result.states[-1],
                                float(result.cost) + float(self.uniqueness_epsilon),
-                               max_sequences=MHE_MIXTURE_MAX_SEQUENCES, max_nodes=self.certify_max_nodes,
+                               max_sequences=MHE_MIXTURE_MAX_SEQUENCES, max_nodes=self.settings.certify_max_nodes,
                                deadline=deadline)
         info["mixture"] = mix.to_dict()
         if not mix.complete:
@@ -713,7 +681,7 @@ class MHEObserver(Observer):
                 f"{ry[k, j]:.3g} > fit_tolerance {self.fit_tolerance[j]:.3g} (a bad sample, or noise above it)")
 
     # ------------------------------------------------------------------ offline
-    def _build(self, options: dict) -> None:
+    def _build(self) -> None:
         """The backend on the matrices extracted from the CasADi formulation (once).
 
         Norm 2: ``H = hessian(cost, v) / J_s + 2 diag(eps)`` (``J_s`` the largest diagonal entry
@@ -721,6 +689,7 @@ class MHEObserver(Observer):
         MILP in ``z = [v; e]`` (:class:`~hybobs_opt.mhe.formulation.MHEFormulation`).
         """
         enc, form = self.enc, self.formulation
+        options = dict(self.settings.solver_options)
         self._eq_rows = enc.lo == enc.hi
         if self.norm == "2":
             Hc = form.hessian
@@ -729,7 +698,7 @@ class MHEObserver(Observer):
             self._Js = float(diag.max()) if diag.max() > 0 else 1.0
             self._zero_cost = MHE_ZERO_COST_RTOL * self._Js
             # proximal weights: continuous variables and binaries (see Notes of the class)
-            self._eps = np.where(enc.discrete, self.binary_prox_weight, self.prox_weight)
+            self._eps = np.where(enc.discrete, self.settings.binary_prox_weight, self.settings.prox_weight)
             self._H = Hc / self._Js + 2.0 * np.diag(self._eps)
             self._backend = miqp_backend(self.solver, self._H, enc.A, enc.lb, enc.ub, enc.discrete, self._eq_rows,
                                          enc, options)
@@ -851,7 +820,7 @@ class MHEObserver(Observer):
             the warm-start mode sequence is simulated from it through the guards.
         uniqueness : bool
             Also run the separated program of the observer's flag on an optimal answer (needs
-            ``check_uniqueness=True`` at construction; a saved ``analysis`` is not consulted):
+            ``settings.check_uniqueness``; a saved ``analysis`` is not consulted):
             ``uniqueness`` (and ``alternative`` when one is found), as in :meth:`step`'s ``info``.
 
         Returns
@@ -869,11 +838,11 @@ class MHEObserver(Observer):
         Xg, mg = self.model.simulate(xs, U)
         out = self._solve(U, Y, xs, Xg, mg, cold=True)
         if uniqueness and out.optimal:
-            if not self.check_uniqueness:
+            if not self.settings.check_uniqueness:
                 raise ModelError("uniqueness", "False for an observer built with check_uniqueness=False", "True")
             uq = self._uniqueness(U, Y, xs, out)
             uq["includes_prior"] = self.uniqueness_includes_prior
-            alt = uq.pop("alternative") if uq["status"] == "alternative" else None
+            alt = uq.pop("alternative") if uq["status"] == UniquenessOutcome.ALTERNATIVE else None
             out = out.replace(uniqueness=uq, alternative=alt)
         return out
 
@@ -901,12 +870,13 @@ class MHEObserver(Observer):
         self._t_window = t0
         bounds = self.enc.bounds(U.reshape(-1))
         out = self._solve_certified(U, Y, x_start, Xg, mg, bounds, cold)
-        if out.optimal and self.certify_time_budget is not None:
+        budget = self.settings.certify_time_budget
+        if out.optimal and budget is not None:
             spent = time.perf_counter() - t0
-            if spent > self.certify_time_budget:
+            if spent > budget:
                 # certified, but later than the budget allows: a late answer is not used
                 out = WindowResult(Status.NOT_CERTIFIED, solver=self.solver, solver_detail=out.solver_detail,
-                                   reason=f"time budget of {self.certify_time_budget:g} s (certify_time_budget) "
+                                   reason=f"time budget of {budget:g} s (certify_time_budget) "
                                           f"exhausted: the optimum was certified after {spent:.3g} s")
         if not out.optimal:
             return out.replace(seconds=time.perf_counter() - t0)
@@ -939,8 +909,8 @@ class MHEObserver(Observer):
                 # with the zero-cost certificate the optimum is >= 0, so the gap is at most the cost
                 best = WindowResult(Status.OPTIMAL, solver=self.solver, solved_by="warm start", polished=False,
                                     x_start=Xg[0].copy(), states=Xg, modes=mg.copy(), w=Wzero, cost=cost,
-                                    gap_bound=cost if self.zero_cost_certificate else np.inf, passes=0)
-                if self.zero_cost_certificate:
+                                    gap_bound=cost if self.settings.zero_cost_certificate else np.inf, passes=0)
+                if self.settings.zero_cost_certificate:
                     return best
                 candidates = []
         # candidate incumbents, solved exactly with their modes fixed: the warm start's mode
@@ -965,9 +935,9 @@ class MHEObserver(Observer):
                 break
         if best is not None:
             Xg, mg, Wg = best.states, best.modes, best.w
-            if best.cost <= self._zero_cost and self.zero_cost_certificate:
+            if best.cost <= self._zero_cost and self.settings.zero_cost_certificate:
                 return best.replace(gap_bound=best.cost)  # the optimum is >= 0
-        passes = self.prox_passes if self.norm == "2" else 1
+        passes = self.settings.prox_passes if self.norm == "2" else 1
         info = None
         for k in range(passes):
             info, moved = self._solve_once(U, Y, x_start, Xg, mg, Wg, lo, hi, rp, incumbent=best)
@@ -1007,10 +977,10 @@ class MHEObserver(Observer):
         from .certify import search_sequences
 
         incumbent = None if best is None else (best.modes, best.cost)
-        deadline = None if self.certify_time_budget is None else self._t_window + self.certify_time_budget
+        budget = self.settings.certify_time_budget
+        deadline = None if budget is None else self._t_window + budget
         found = search_sequences(self.model, U, Y, x_start, incumbent, rtol=MHE_CERTIFIED_RTOL, atol=self._zero_cost,
-                                 max_nodes=self.certify_max_nodes, deadline=deadline,
-                                 time_budget=self.certify_time_budget)
+                                 max_nodes=self.settings.certify_max_nodes, deadline=deadline, time_budget=budget)
         detail = {**({} if info is None else info.solver_detail),
                   "prefix_search": {"nodes": found.nodes, "seconds": found.seconds, "lower_bound": found.lower_bound,
                                     "improved": found.improved, "certified": found.certified}}
@@ -1129,7 +1099,7 @@ class MHEObserver(Observer):
         else:
             x0, W = enc.states(v)[0], enc.disturbance(v)
             states = None
-            if self.norm == "2" and self.polish:
+            if self.norm == "2" and self.settings.polish:
                 pol = self.model.polish(modes, U, Y, x_start, x0, W)
                 if pol is not None:
                     x0, W, states = pol
@@ -1170,23 +1140,24 @@ class MHEObserver(Observer):
                 label = f"failed ({type(exc).__name__}: {exc})"
             info["analysis_label"] = label
             if label in (PointClass.OBSERVABLE, PointClass.UNOBSERVABLE):
-                info["uniqueness"] = {"status": "unique" if label == PointClass.OBSERVABLE else "not unique for every input",
+                info["uniqueness"] = {"status": UniquenessOutcome.UNIQUE if label == PointClass.OBSERVABLE
+                                      else UniquenessOutcome.NOT_UNIQUE_FOR_EVERY_INPUT,
                                       "decided_by": "analysis (Definition 2.2, every input sequence)",
                                       "seconds": time.perf_counter() - t0}
                 return OBSERVABLE if label == PointClass.OBSERVABLE else UNOBSERVABLE  # the point class as a flag
-        if not self.check_uniqueness:
+        if not self.settings.check_uniqueness:
             if self.analysis is not None:
                 info["reason"] = f"analysis label {info['analysis_label']!r} at the estimate and check_uniqueness=False"
                 return FALLBACK
             return OBSERVABLE
         uq = self._uniqueness(U, Y, xbar, result)
         uq["includes_prior"] = self.uniqueness_includes_prior
-        if uq["status"] == "alternative":
+        if uq["status"] == UniquenessOutcome.ALTERNATIVE:
             info["alternative"] = uq.pop("alternative")
         info["uniqueness"] = uq
-        if uq["status"] == "unique":
+        if uq["status"] == UniquenessOutcome.UNIQUE:
             return OBSERVABLE
-        if uq["status"] == "alternative":
+        if uq["status"] == UniquenessOutcome.ALTERNATIVE:
             return UNOBSERVABLE
         info["reason"] = f"uniqueness not certified: {uq.get('reason', '?')}"
         return FALLBACK
@@ -1288,6 +1259,33 @@ class MHEObserver(Observer):
         if self._kalman is not None:
             self._kalman.reset(self._start)  # the filter restarts with the window, from the first prior's spread
         return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason, "certified_optimum": False})
+
+
+def _settings_in_force(settings: MHESettings | None, deprecated: dict[str, Any]) -> MHESettings:
+    """The observer's settings: ``settings``, or the deprecated knob keywords folded into
+    :class:`MHESettings` (one ``FutureWarning`` each).  Any other keyword is refused."""
+    knobs = [f.name for f in fields(MHESettings)]
+    unknown = sorted(k for k in deprecated if k not in knobs)
+    if unknown:
+        known = [k for k in inspect.signature(MHEObserver).parameters if k != "kwargs"] + knobs
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = ""
+        if close:
+            spelt = f"settings=MHESettings({close[0]}=...)" if close[0] in knobs else f"{close[0]}=..."
+            hint = f" (did you mean {spelt}?)"
+        raise ModelError(f"MHEObserver({unknown[0]}=...)", "a keyword of MHEObserver (the solve and certification "
+                         "settings are the fields of settings=MHESettings(...))", f"the keyword {unknown[0]!r}{hint}")
+    for name in deprecated:
+        # the caller's line: this function, MHEObserver.__init__, then the caller
+        warn_renamed(f"MHEObserver({name}=...)", f"MHEObserver(settings=MHESettings({name}=...))", stacklevel=4)
+    if settings is None:
+        return MHESettings(**deprecated)
+    if not isinstance(settings, MHESettings):
+        raise ModelError("settings", "an MHESettings (hybobs_opt.mhe) or None", type(settings).__name__)
+    if deprecated:
+        raise ModelError("settings", f"settings=MHESettings(...) or the deprecated keywords {sorted(deprecated)}, "
+                         "not both", "both given")
+    return settings
 
 
 def _same_pwa(a, b) -> bool:

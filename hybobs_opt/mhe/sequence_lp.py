@@ -53,6 +53,7 @@ from ..tolerances import (
 )
 from .backends.daqp_backend import DAQP_INF
 from .result import WindowResult
+from .uniqueness import UniquenessOutcome
 
 __all__ = ["INCUMBENT_TRIES", "PREFIX_LP_RETRY", "SequenceLPSolver"]
 
@@ -446,7 +447,7 @@ class SequenceLPSolver:
         if h.passModel(lp) not in (hs.HighsStatus.kOk, hs.HighsStatus.kWarning):
             raise SolverError(f"sequence LP of mode prefix {tuple(int(q) for q in nd.modes)} (solver 'sequences')",
                               "highs", "model refused by passModel",
-                              hint="solver_options={'lp': 'daqp'}, or solver='highs' (the MILP of eq. (10))")
+                              hint="MHESettings(solver_options={'lp': 'daqp'}), or solver='highs' (the MILP of eq. (10))")
         nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
         return nd.lp
 
@@ -771,7 +772,7 @@ class SequenceLPSolver:
         try:
             out = self._decide(U, Y, xbar, opt, ctx)
         except Exception as exc:  # a crashing solver must not stop the observer loop
-            out = {"status": "not certified", "reason": f"{type(exc).__name__}: {exc}"}
+            out = {"status": UniquenessOutcome.NOT_CERTIFIED, "reason": f"{type(exc).__name__}: {exc}"}
         out["seconds"] = time.perf_counter() - t0
         return out
 
@@ -790,7 +791,8 @@ class SequenceLPSolver:
         dirs = [(j, s) for j in range(n) for s in (1, -1)
                 if (xi_s[j] + delta <= sep._ubx[j] if s > 0 else xi_s[j] - delta >= sep._lbx[j])]
         if not dirs:
-            return self._later_states(U, Y, xbar, opt, {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
+            return self._later_states(U, Y, xbar, opt, {**base, "status": UniquenessOutcome.UNIQUE,
+                                                         "decided_by": "box (no state of X is delta away)",
                                                          "separated_cost_bound": np.inf})
         lps0 = self.lp_solves
         lowest = np.inf
@@ -815,7 +817,8 @@ class SequenceLPSolver:
             else:
                 b = self._node_bound(nd, ctx, self.lo, self.hi, cutoff=np.nextafter(thr_hi, np.inf), tight=False)
                 if b is None:
-                    return {**base, "status": "not certified", "reason": f"no checked LP answer for mode prefix {nd.modes}"}
+                    return {**base, "status": UniquenessOutcome.NOT_CERTIFIED,
+                            "reason": f"no checked LP answer for mode prefix {nd.modes}"}
                 if b[0] > thr_hi:
                     lowest = min(lowest, b[0])
                     nd.ufruitless = 0
@@ -838,7 +841,7 @@ class SequenceLPSolver:
                 # a zero-cost fit of a square sequence already in the half-space is an alternative
                 bs = self._node_bound(nd, ctx, lo, hi, cutoff=np.nextafter(thr_hi, np.inf), key=(j, s), tight=False)
                 if bs is None:
-                    return {**base, "status": "not certified",
+                    return {**base, "status": UniquenessOutcome.NOT_CERTIFIED,
                             "reason": f"no checked separated LP answer for modes {nd.modes}, direction {(j, s)}"}
                 bound, th, cost = bs
                 if bound <= thr_hi and (th is None or cost > thr_hi) and self.lp_engine == "daqp":
@@ -850,7 +853,8 @@ class SequenceLPSolver:
                     lowest = min(lowest, bound)
                     continue
                 if th is None or cost > thr_hi:
-                    return {**base, "status": "not certified", "separated_cost_bound": min(lowest, bound),
+                    return {**base, "status": UniquenessOutcome.NOT_CERTIFIED,
+                            "separated_cost_bound": min(lowest, bound),
                             "reason": f"separated LP of modes {nd.modes} closed at {bound:.3g}, within the "
                                       f"threshold {thr:.3g} but without a point below it"}
                 mdl, T = self.model, self.T
@@ -859,18 +863,20 @@ class SequenceLPSolver:
                 alt = sep.alternative(x0, nd.modes, U, Y, xbar, W, xs)
                 if alt is not None and alt["cost"] <= thr_lo:
                     self._last_alternative = (nd.index, (j, s))
-                    return {**base, "status": "alternative", "decided_by": "sequence LPs",
+                    return {**base, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "sequence LPs",
                             "separated_cost": alt["cost"], "alternative": alt,
                             "sequence_lps": self.lp_solves - lps0}
                 if alt is not None and alt["cost"] <= thr_hi:
-                    return {**base, "status": "not certified", "in_decision_band": True, "separated_cost": alt["cost"],
+                    return {**base, "status": UniquenessOutcome.NOT_CERTIFIED, "in_decision_band": True,
+                            "separated_cost": alt["cost"],
                             "reason": f"separated cost {alt['cost']:.6g} within the decision band {band:.3g} of "
                                       f"J* + epsilon = {thr:.6g} (decided to the safe side)"}
-                return {**base, "status": "not certified",
+                return {**base, "status": UniquenessOutcome.NOT_CERTIFIED,
                         "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
         self._last_alternative = None
         return self._later_states(U, Y, xbar, opt, {
-            **base, "status": "unique", "decided_by": "sequence LPs (every prefix and direction closed)",
+            **base, "status": UniquenessOutcome.UNIQUE,
+            "decided_by": "sequence LPs (every prefix and direction closed)",
             "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0})
 
     def _later_states(self, U, Y, xbar, opt, start: dict) -> dict:
@@ -880,10 +886,10 @@ class SequenceLPSolver:
             return start
         later = self.sep.decide(U, Y, xbar, opt, steps=range(1, self.T))
         later.pop("seconds", None)
-        if later["status"] == "unique":
+        if later["status"] == UniquenessOutcome.UNIQUE:
             return {**start, "decided_by": f"{start['decided_by']}; later states: {later['decided_by']}",
                     "separated_cost_bound": min(start["separated_cost_bound"], later["separated_cost_bound"])}
         out = {**later, "sequence_lps": start.get("sequence_lps", 0)}
-        if later["status"] != "alternative":
+        if later["status"] != UniquenessOutcome.ALTERNATIVE:
             out["reason"] = f"{later.get('reason', '?')} (later window states; the window start is unique)"
         return out

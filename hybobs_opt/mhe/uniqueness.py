@@ -17,6 +17,7 @@ counts as an alternative.
 
 from __future__ import annotations
 
+import enum
 import time
 
 import numpy as np
@@ -35,12 +36,34 @@ from .residual import StackedResidual
 from .result import WindowResult
 from .window import WindowModel
 
-__all__ = ["SeparatedProgram", "UNIQUENESS_MAX_SOLVES"]
+__all__ = ["SeparatedProgram", "UNIQUENESS_MAX_SOLVES", "UniquenessOutcome"]
 
 #: Largest number of solves of the separated MIQP per window (norm 2): the first, plus the parts
 #: searched again after a point within the proximal bias of the threshold (see
 #: :meth:`SeparatedProgram.decide`); beyond it the step is a fallback.
 UNIQUENESS_MAX_SOLVES = 128
+
+
+class UniquenessOutcome(enum.StrEnum):
+    """Outcome of the uniqueness test behind the flag ``observable``: the ``status`` of
+    ``info["uniqueness"]`` (and of :attr:`~hybobs_opt.mhe.WindowResult.uniqueness`).
+
+    The members are string-valued (:class:`enum.StrEnum`): ``UniquenessOutcome.UNIQUE ==
+    "unique"``, and ``json.dumps`` writes the plain string, so saved ``info`` and ``--json``
+    output keep the text they always had.
+    """
+
+    #: No admissible window trajectory with a state ``delta`` away from the optimum's costs at
+    #: most ``J* + epsilon`` (or the saved analysis says the estimate is observable): ``observable``.
+    UNIQUE = "unique"
+    #: One does (``info["alternative"]`` holds it, re-checked in numpy): ``unobservable``.
+    ALTERNATIVE = "alternative"
+    #: Neither was proven (a solver failure, the decision band, the solve limit; ``reason`` says
+    #: which): ``fallback``.
+    NOT_CERTIFIED = "not certified"
+    #: The saved analysis (Definition 2.2) says the estimate is not observable for every input
+    #: sequence: ``unobservable``.
+    NOT_UNIQUE_FOR_EVERY_INPUT = "not unique for every input"
 
 
 class SeparatedProgram:
@@ -67,7 +90,8 @@ class SeparatedProgram:
     options : dict
         The user's solver options.
     build : bool
-        ``False``: only ``epsilon`` is computed (``check_uniqueness=False``); no program is built.
+        ``False``: only ``epsilon`` is computed (the observer's settings have
+        ``check_uniqueness=False``); no program is built.
     epsilon : float, optional
         The cost tolerance itself (norm 2), instead of the relative default below: the observer's
         chi-square quantile with ``noise_std``.
@@ -176,7 +200,7 @@ class SeparatedProgram:
                 break
         if self.miqp is None:
             raise SolverError("uniqueness MIQP of the MHE observer", "daqp", "Hessian not factorised (exit -5)",
-                              hint="check_uniqueness=False (the flag then only means a certified optimum)")
+                              hint="MHESettings(check_uniqueness=False) (the flag then only means a certified optimum)")
         if self.norm == "2":
             return
         c, A0, lb0, ub0, disc0 = self._milp_problem
@@ -208,14 +232,14 @@ class SeparatedProgram:
     def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult, steps=None) -> dict:
         """Is the window trajectory of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?
 
-        Returns a dict with ``status`` ``"unique"`` (no admissible window trajectory with a state
-        at least ``delta`` away from the optimum's at the same step, inf-norm in units of the
-        half-widths of ``X``, has cost ``<= J* + epsilon``: the reported current state and the
-        window start are both unique), ``"alternative"`` (one has: ``alternative`` holds it, with
-        the ``step`` where it is farthest, verified in numpy) or ``"not certified"`` (``reason``);
-        ``decided_by``, ``separated_cost`` (exact cost of the alternative found, else ``None``),
-        ``separated_cost_bound`` (a proven lower bound of the separated minimum), ``threshold =
-        J* + epsilon``, ``decision_band`` and ``seconds``.
+        Returns a dict with ``status`` (a :class:`UniquenessOutcome`) ``"unique"`` (no admissible
+        window trajectory with a state at least ``delta`` away from the optimum's at the same
+        step, inf-norm in units of the half-widths of ``X``, has cost ``<= J* + epsilon``: the
+        reported current state and the window start are both unique), ``"alternative"`` (one
+        has: ``alternative`` holds it, with the ``step`` where it is farthest, verified in numpy)
+        or ``"not certified"`` (``reason``); ``decided_by``, ``separated_cost`` (exact cost of
+        the alternative found, else ``None``), ``separated_cost_bound`` (a proven lower bound of
+        the separated minimum), ``threshold = J* + epsilon``, ``decision_band`` and ``seconds``.
 
         Parameters
         ----------
@@ -234,7 +258,7 @@ class SeparatedProgram:
         try:
             out = self._decide(U, Y, xbar, opt, steps)
         except Exception as exc:  # a crashing solver must not stop the observer loop
-            out = {"status": "not certified", "reason": f"{type(exc).__name__}: {exc}"}
+            out = {"status": UniquenessOutcome.NOT_CERTIFIED, "reason": f"{type(exc).__name__}: {exc}"}
         out["seconds"] = time.perf_counter() - t0
         return out
 
@@ -360,7 +384,7 @@ class SeparatedProgram:
         xs = self.optimum_states(opt)
         allowed = self.allowed(xs, steps)
         if not allowed.any():
-            return {**base, "status": "unique", "decided_by": "box (no state of X is delta away)",
+            return {**base, "status": UniquenessOutcome.UNIQUE, "decided_by": "box (no state of X is delta away)",
                     "separated_cost_bound": np.inf}
         # 1. a cheap sufficient test for an alternative (it can never prove uniqueness, which
         #    needs every mode sequence): when the optimal sequence's own least-squares map has a
@@ -382,7 +406,7 @@ class SeparatedProgram:
                 if alt is not None:
                     cands.append(alt)
                     if alt["cost"] <= thr_lo:
-                        return {**base, "status": "alternative", "decided_by": "optimal mode sequence",
+                        return {**base, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "optimal mode sequence",
                                 "separated_cost": alt["cost"], "alternative": alt}
         # 2. the separated mixed-integer programs over every mode sequence
         Uf, Yf = U.reshape(-1), Y.reshape(-1)
@@ -467,8 +491,8 @@ class SeparatedProgram:
         detail["solver_solves"] = solves
         if decided:
             by = "branch-and-bound" if self.norm == "2" else "norm-2 bound (MIQP)"
-            return {**base, **detail, "status": "unique", "decided_by": by, "separated_cost_bound": thr_hi,
-                    "separated_cost": min((c["cost"] for c in cands), default=None)}
+            return {**base, **detail, "status": UniquenessOutcome.UNIQUE, "decided_by": by,
+                    "separated_cost_bound": thr_hi, "separated_cost": min((c["cost"] for c in cands), default=None)}
         if self.norm != "2" and not any(c["cost"] <= thr_hi for c in cands):
             # 2b. norms 1 / inf: the MILP decides
             rps = rp / self._Js
@@ -481,7 +505,7 @@ class SeparatedProgram:
                                   col_bounds=(ncol + np.arange(nb), np.zeros(nb), allowed.astype(float)))
             detail = {**detail, **{f"milp_{k}": v for k, v in out.detail.items()}}
             if out.status == "infeasible":
-                return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
+                return {**base, **detail, "status": UniquenessOutcome.UNIQUE, "decided_by": "branch-and-bound",
                         "separated_cost_bound": thr_hi}
             if out.status in ("optimal", "feasible"):
                 alt, why, _, _ = self.verified(np.concatenate([out.v[:nv], out.v[ncol:]]), U, Y, xbar,
@@ -493,7 +517,7 @@ class SeparatedProgram:
                     # minimum (HiGHS's dual bound, else its optimal objective)
                     lb = self._Js * float(out.detail.get("dual_bound", out.detail.get("objective", -np.inf)))
                     if lb > thr_hi:
-                        return {**base, **detail, "status": "unique", "decided_by": "branch-and-bound",
+                        return {**base, **detail, "status": UniquenessOutcome.UNIQUE, "decided_by": "branch-and-bound",
                                 "separated_cost": min((c["cost"] for c in cands), default=None),
                                 "separated_cost_bound": lb}
             else:
@@ -503,14 +527,15 @@ class SeparatedProgram:
             base["separated_cost"] = alt["cost"]
             if alt["cost"] <= thr_lo:
                 if alt["cost"] < J - max((opt.gap_bound or 0.0), 0.0) - eps:
-                    return {**base, **detail, "status": "not certified",
+                    return {**base, **detail, "status": UniquenessOutcome.NOT_CERTIFIED,
                             "reason": "a separated state beats the certified optimum (optimum not global)"}
-                return {**base, **detail, "status": "alternative", "decided_by": "branch-and-bound", "alternative": alt}
+                return {**base, **detail, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "branch-and-bound",
+                        "alternative": alt}
             if alt["cost"] <= thr_hi:
-                return {**base, **detail, "status": "not certified", "in_decision_band": True,
+                return {**base, **detail, "status": UniquenessOutcome.NOT_CERTIFIED, "in_decision_band": True,
                         "reason": f"separated cost {alt['cost']:.6g} within the decision band {band:.3g} of "
                                   f"J* + epsilon = {thr:.6g} (decided to the safe side)"}
-        return {**base, **detail, "status": "not certified",
+        return {**base, **detail, "status": UniquenessOutcome.NOT_CERTIFIED,
                 "reason": why or "separated minimum within the solver's accuracy of J* + epsilon"}
 
     def verified(self, w, U, Y, xbar, xs, allowed, lo, hi, polish: bool) -> tuple:

@@ -13,7 +13,8 @@ periods).  Every one must be refused with a :class:`~hybobs_opt.errors.ModelErro
   function) replaced;
 * ``Polytope(A, b, names)`` and ``Polytope.from_box(lower, upper, names)``;
 * the nine observers' constructors, and their ``reset`` (``x0='abc'``, a complex or boolean
-  ``x0``, wrong lengths, NaN, bad ``q0`` / ``t0``).
+  ``x0``, wrong lengths, NaN, bad ``q0`` / ``t0``), and the moving-horizon observer's
+  ``MHESettings``.
 
 Outcomes: ``ModelError``, ``accepted-garbage`` (the constructor returned), ``other-exception:<type>``.
 """
@@ -211,6 +212,7 @@ def state_table(n: int):
 
 def observer_specs() -> dict[str, tuple]:
     """kind -> (constructor, valid kwargs (lazy), {argument: garbage table}, {reset kwarg: garbage table})."""
+    from hybobs_opt.mhe import MHESettings
     from hybobs_opt.mhe.observer import MHEObserver
     from hybobs_opt.observers.drift_observer import DriftObserver
     from hybobs_opt.observers.hybrid_observer import ContinuousObserver, HybridObserver
@@ -237,11 +239,18 @@ def observer_specs() -> dict[str, tuple]:
             MHEObserver, lambda: {"system": _powertrain()[0], "T": 3, "analysis": _powertrain()[1]},
             {"system": bad_objects(("an-analysis", _powertrain()[1])), "T": S.int_garbage(1) + [("huge", 10**9)],
              "norm": [("unknown", "3"), ("word", "two"), ("float", 5.5), ("None", None)],
-             "solver": [("unknown", "nosuch"), ("int", 5)], "prox_weight": real_table(), "uniqueness_delta": real_table(),
+             "solver": [("unknown", "nosuch"), ("int", 5)],
              "output_weight": [("nan", np.array([[np.nan]])), ("negative", np.array([[-1.0]])), ("str", "x"), ("shape", np.eye(3))],
-             "x0": state_table(3), "analysis": [("int", 5), ("str", "x")], "solver_options": [("str", "x"), ("list", [1])],
-             "check_uniqueness": [("str", "no"), ("int", 2)], "prox_passes": S.int_garbage(1)},
+             "x0": state_table(3), "analysis": [("int", 5), ("str", "x")],
+             "settings": [("int", 5), ("str", "x"), ("dict", {"check_uniqueness": False}), ("object", object())]},
             {"x0": state_table(3)}),
+        "MHESettings": (
+            MHESettings, lambda: {},
+            {"prox_weight": real_table(), "binary_prox_weight": real_table(), "uniqueness_delta": real_table(),
+             "certify_time_budget": [g for g in real_table() if g[0] != "None"],
+             "solver_options": [("str", "x"), ("list", [1])], "check_uniqueness": [("str", "no"), ("int", 2)],
+             "prox_passes": S.int_garbage(1), "certify_max_nodes": S.int_garbage(1)},
+            {}),
         "LocationObserver": (
             LocationObserver, lambda: {"bank": _driveline()[0].bank, "Ts": _driveline()[1]},
             {"bank": bad_objects(("a-design", _driveline()[0].design)), "Ts": real_table(), "x0": state_table(3),
@@ -352,7 +361,7 @@ FAMILY = Family(
                st.one_of(st.tuples(st.just("init"), st.sampled_from(("A", "b", "names")), st.integers(0, 63)),
                          st.tuples(st.just("from_box"), st.sampled_from(("lower", "upper", "names")), st.integers(0, 63))),
                try_polytope, 30),
-        *[Target(f"{kind}(...)", _site(kind), try_observer, 8) for kind in OBSERVERS],
+        *[Target(f"{kind}(...)", _site(kind), try_observer, 8) for kind in OBSERVERS + ("MHESettings",)],
         *[Target(f"{kind}.reset(...)", _site(kind), try_reset, 6) for kind in OBSERVERS],
     ],
 )

@@ -2,10 +2,11 @@
 
 A misspelt keyword must be an error, not a silent default (python-control checks the same).  The
 observers' ``reset`` takes the keywords of :data:`~hybobs_opt.contract.RESET_KEYWORDS` (one call
-resets any observer: each ignores those it has no use for) and refuses every other; the other
-public ``**kwargs`` callables pass their keywords to a function with a fixed signature.  The list
-below is complete: a new public ``**kwargs`` callable fails the inventory test until it is added
-with a check of its own.
+resets any observer: each ignores those it has no use for) and refuses every other;
+``MHEObserver`` takes the fields of ``MHESettings`` as deprecated keywords and refuses every other;
+the other public ``**kwargs`` callables pass their keywords to a function with a fixed signature.
+The list below is complete: a new public ``**kwargs`` callable fails the inventory test until it
+is added with a check of its own.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ PUBLIC = ("hybobs_opt", "hybobs_opt.systems", "hybobs_opt.geometry", "hybobs_opt
 #: Public ``**kwargs`` callables other than ``reset`` and how each refuses an unknown keyword.
 OTHER_KWARGS = {
     "AugmentedSystem.at": "the builder's signature (TypeError)",
+    "MHEObserver.__init__": "ModelError naming the keyword (the deprecated MHESettings fields warn and are folded in)",
     "ObserverLMI.bounds": "jacobian_bounds' signature (TypeError)",
     "WindowResult.replace": "dataclasses.replace (TypeError)",
     "Certificate.__init__": "a typing.Protocol: never instantiated",
@@ -115,8 +117,13 @@ def test_reset_refuses_a_misspelt_keyword_and_takes_the_shared_ones(observers, k
 
 
 def test_the_other_kwargs_callables_refuse_unknown_keywords():
-    from hybobs_opt.mhe import WindowResult
+    from hybobs_opt.mhe import MHEObserver, WindowResult
     from hybobs_opt.status import Status
+
+    with pytest.raises(ModelError, match="chek_uniqueness"):
+        MHEObserver(deadzone_spring(), 3, chek_uniqueness=False)
+    with pytest.warns(FutureWarning, match=r"MHEObserver\(check_uniqueness=\.\.\.\) is deprecated"):
+        assert MHEObserver(deadzone_spring(), 3, check_uniqueness=False).settings.check_uniqueness is False
 
     with pytest.raises(TypeError):
         WindowResult(Status.OPTIMAL).replace(nosuch=1)

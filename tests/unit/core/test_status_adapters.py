@@ -117,10 +117,10 @@ def mhe_window():
 
 @pytest.mark.parametrize("name", sorted(DAQP_EXIT_FLAGS))
 def test_daqp_backend_accepts_only_exit_flag_1(name, mhe_window, monkeypatch):
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
 
     plant, tr = mhe_window
-    obs = MHEObserver(plant, 3, check_uniqueness=False, zero_cost_certificate=False)
+    obs = MHEObserver(plant, 3, settings=MHESettings(check_uniqueness=False, zero_cost_certificate=False))
     k = 10
     good = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k])
     assert good.status is Status.OPTIMAL
@@ -154,10 +154,10 @@ def _highs_members():
 
 @pytest.mark.parametrize("member", _highs_members(), ids=lambda m: m.name)
 def test_highspy_backend_accepts_only_k_optimal(member, mhe_window, monkeypatch):
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
 
     plant, tr = mhe_window
-    obs = MHEObserver(plant, 3, norm="1", check_uniqueness=False, zero_cost_certificate=False)
+    obs = MHEObserver(plant, 3, norm="1", settings=MHESettings(check_uniqueness=False, zero_cost_certificate=False))
     k = 10
     assert obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k]).status is Status.OPTIMAL
     backend = obs._backend

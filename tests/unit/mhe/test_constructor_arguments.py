@@ -4,7 +4,7 @@
 import pytest
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.mhe import MHEObserver, MHESettings
 from hybobs_opt.studies.registry import get_example
 
 
@@ -14,8 +14,6 @@ def plant():
 
 
 @pytest.mark.parametrize("kw, field", [
-    (dict(prox_weight=True), "prox_weight"), (dict(prox_weight="1"), "prox_weight"),
-    (dict(binary_prox_weight=0.0), "binary_prox_weight"), (dict(binary_prox_weight=1j), "binary_prox_weight"),
     (dict(output_weight=[-1.0]), "output_weight"), (dict(output_weight=1j), "output_weight"),
     (dict(output_weight="2"), "output_weight"), (dict(output_weight=[True]), "output_weight"),
     (dict(disturbance_weight=[1.0, -1.0, 1.0]), "disturbance_weight"), (dict(output_weight=[[-1.0]]), "output_weight"),
@@ -27,6 +25,6 @@ def test_a_bad_weight_is_a_model_error_naming_it(plant, kw, field):
 
 
 def test_valid_weights_are_accepted(plant):
-    obs = MHEObserver(plant, 3, output_weight=100, prox_weight=1, binary_prox_weight=2.5,
+    obs = MHEObserver(plant, 3, output_weight=100, settings=MHESettings(prox_weight=1, binary_prox_weight=2.5),
                       disturbance_weight=[1e4, 1e2, 1e3])
-    assert obs.prox_weight == 1.0 and obs.binary_prox_weight == 2.5
+    assert obs.settings.prox_weight == 1.0 and obs.settings.binary_prox_weight == 2.5

@@ -12,6 +12,7 @@ from scipy.optimize import linprog
 from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe.mld import big_m_constants, encode_mld
+from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.studies.paper002_powertrain.systems import TABLE1
@@ -82,7 +83,7 @@ def test_miqp_exact_at_observable_windows_of_model16(plant_trace, certificate):
     T = 3
     assert len(set(tr.q[a:b])) > 1  # a backlash crossing inside the piece
     analysis = analyse_observability(plant, T)
-    obs = MHEObserver(plant, T, zero_cost_certificate=certificate)  # cold start: centre of X
+    obs = MHEObserver(plant, T, settings=MHESettings(zero_cost_certificate=certificate))  # cold start: centre of X
     solved_by = set()
     half = plant.scales()[0][: plant.n]
     checked = unobs = near_edge = 0
@@ -99,7 +100,7 @@ def test_miqp_exact_at_observable_windows_of_model16(plant_trace, certificate):
             # not unique: a verified alternative at least delta away with a cost within epsilon
             assert est.flag == UNOBSERVABLE, est.info.get("uniqueness")
             alt, uq = est.info["alternative"], est.info["uniqueness"]
-            assert alt["distance"] >= obs.uniqueness_delta * (1 - 1e-6) and alt["cost"] <= uq["threshold"]
+            assert alt["distance"] >= obs.settings.uniqueness_delta * (1 - 1e-6) and alt["cost"] <= uq["threshold"]
             continue
         checked += 1
         scale_y = np.max(np.abs(tr.y[a:b]))
@@ -230,7 +231,7 @@ def test_optimum_equals_brute_force_oracle(seed, n_modes, T, mode_outputs, noise
     x_start = rng.uniform(-1, 1, size=2)  # an arbitrary warm start
     for norm, certificate in itertools.product(("2", "1", "inf"), (True, False)):
         # certificate=False: the branch-and-bound decides even when a warm start has zero cost
-        obs = MHEObserver(system, T, norm=norm, big_m=bm, zero_cost_certificate=certificate)
+        obs = MHEObserver(system, T, norm=norm, big_m=bm, settings=MHESettings(zero_cost_certificate=certificate))
         out = obs.solve_window(U, Y, x_start=x_start)
         ref = oracle(system, U, Y, norm)
         assert out["status"] == "optimal", out
@@ -251,8 +252,8 @@ def test_limited_solve_gives_fallback_not_exception(plant_trace, norm, options):
     a = 1000
     # the zero-cost certificate would accept the (exact) warm start without any solver call, and
     # the exact prefix search (norm 2, issue 18) would certify what the limited solve cannot
-    obs = MHEObserver(plant, 3, norm=norm, solver_options=options, x0=tr.x[a], zero_cost_certificate=False,
-                      certify_max_nodes=1)
+    obs = MHEObserver(plant, 3, norm=norm, x0=tr.x[a],
+                      settings=MHESettings(solver_options=options, zero_cost_certificate=False, certify_max_nodes=1))
     flags = []
     for t in range(a, a + 6):
         est = obs.step(tr.u[t], tr.y[t])
@@ -344,7 +345,7 @@ def test_alternative_solvers_agree_on_an_observable_window(plant_trace, norm, so
     plant, tr = plant_trace
     k = 995
     U, Y = tr.u[k:k + 3], tr.y[k:k + 3]
-    obs = MHEObserver(plant, 3, norm=norm, solver=solver, zero_cost_certificate=False)
+    obs = MHEObserver(plant, 3, norm=norm, solver=solver, settings=MHESettings(zero_cost_certificate=False))
     out = obs.solve_window(U, Y, x_start=tr.x[k] * 1.01)
     if out["status"] != "optimal":  # a verified refusal is allowed, a wrong answer is not
         assert out["status"] == "not certified" and solver == "casadi-daqp", out

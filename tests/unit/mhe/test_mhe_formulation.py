@@ -23,7 +23,7 @@ import pytest
 
 import hybobs_opt.mhe.observer as observer_module
 from hybobs_opt.errors import ModelError
-from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.mhe import MHEObserver, MHESettings
 from hybobs_opt.studies import get_example
 
 T = 3
@@ -109,7 +109,7 @@ CONFIGS = [{}, {"disturbance_weight": 2.0, "arrival_weight": [1.0, 0.1, 0.1]}]
 @pytest.mark.parametrize("weights", CONFIGS, ids=["plain", "disturbance+arrival"])
 def test_miqp_matrices_are_the_casadi_hessian_and_jacobians(plant, monkeypatch, weights):
     rec = _recording(monkeypatch)
-    obs = MHEObserver(plant, T, check_uniqueness=False, zero_cost_certificate=False, **weights)
+    obs = MHEObserver(plant, T, settings=MHESettings(check_uniqueness=False, zero_cost_certificate=False), **weights)
     F = obs.formulation
     nv = F.v.numel()
     # the Hessian of the cost, by CasADi here, at a random point and random parameters
@@ -117,7 +117,7 @@ def test_miqp_matrices_are_the_casadi_hessian_and_jacobians(plant, monkeypatch, 
     Hfun = ca.Function("H", [F.v, F.params], [ca.hessian(F.cost, F.v)[0]])
     Hc = np.array(Hfun(rng.normal(size=nv), rng.normal(size=F.params.numel())).full())
     Js = 0.5 * np.max(np.diag(Hc))
-    eps = np.where(obs.enc.discrete, obs.binary_prox_weight, obs.prox_weight)
+    eps = np.where(obs.enc.discrete, obs.settings.binary_prox_weight, obs.settings.prox_weight)
     _close(rec["H"], Hc / Js + 2.0 * np.diag(eps))
     A, lo0, hi0 = _mld_expected(F, np.zeros(F.params.numel()))
     _close(rec["A"], A)
@@ -146,8 +146,8 @@ def test_miqp_matrices_are_the_casadi_hessian_and_jacobians(plant, monkeypatch, 
 @pytest.mark.parametrize("norm", ["1", "inf"])
 def test_milp_matrices_are_the_casadi_jacobians(plant, monkeypatch, norm):
     rec = _recording(monkeypatch)
-    obs = MHEObserver(plant, T, norm=norm, check_uniqueness=False, zero_cost_certificate=False,
-                      arrival_weight=[1.0, 0.1, 0.1])
+    obs = MHEObserver(plant, T, norm=norm, arrival_weight=[1.0, 0.1, 0.1],
+                      settings=MHESettings(check_uniqueness=False, zero_cost_certificate=False))
     F = obs.formulation
     nz = F.z.numel()
     rng = np.random.default_rng(2)
@@ -178,10 +178,10 @@ def test_casadi_plugins_get_the_same_matrices(plant, monkeypatch, norm, solvers)
     """The CasADi plugins are fed from the same formulation (``casadi-highs`` cannot be built in a
     process that has loaded highspy, see the backends' docstrings)."""
     rec = _recording(monkeypatch)
-    MHEObserver(plant, T, norm=norm, check_uniqueness=False)
+    MHEObserver(plant, T, norm=norm, settings=MHESettings(check_uniqueness=False))
     ref = {k: rec[k] for k in ("A", "lb", "ub", "discrete") + (("H",) if norm == "2" else ("c",))}
     for solver in solvers:
-        obs = MHEObserver(plant, T, norm=norm, solver=solver, check_uniqueness=False)
+        obs = MHEObserver(plant, T, norm=norm, solver=solver, settings=MHESettings(check_uniqueness=False))
         assert rec["solver"] == solver
         for k, val in ref.items():
             _close(rec[k], val, rtol=0.0)
@@ -255,7 +255,7 @@ WINDOW_STARTS = (600, 1040, 1500, 2200)
 @pytest.mark.parametrize("binding", [False, True], ids=["cost", "cost+binding-constraint"])
 def test_extension_matches_brute_force_oracle(plant, noisy, binding):
     trace, Ynoisy = noisy
-    obs = MHEObserver(plant, T, extend=_pull, check_uniqueness=False)
+    obs = MHEObserver(plant, T, extend=_pull, settings=MHESettings(check_uniqueness=False))
     half = plant.scales()[0][: plant.n]
     searched = 0
     for s in WINDOW_STARTS:
@@ -285,8 +285,8 @@ def test_prefix_nodes_carry_the_extension_terms(plant, noisy):
     trace, Ynoisy = noisy
     s = 1040
     U, Y = trace.u[s:s + T], Ynoisy[s:s + T]
-    plain = MHEObserver(plant, T, check_uniqueness=False)
-    ext = MHEObserver(plant, T, extend=_pull, check_uniqueness=False)
+    plain = MHEObserver(plant, T, settings=MHESettings(check_uniqueness=False))
+    ext = MHEObserver(plant, T, extend=_pull, settings=MHESettings(check_uniqueness=False))
     ext.set_parameter("x_ref", trace.x[s] + OFFSET)
     ext.model.set_parameters(np.concatenate([trace.x[s] + OFFSET, [trace.x[s][1] + 0.3]]))
     for seq in [(1,), (1, 1), (1, 1, 1)]:
@@ -312,7 +312,7 @@ def test_extension_with_uniqueness_runs(plant, noisy):
 
 def test_extension_parameter_without_value_is_a_fallback(plant, noisy):
     trace, Ynoisy = noisy
-    obs = MHEObserver(plant, T, extend=_pull, check_uniqueness=False, x0=trace.x[600])
+    obs = MHEObserver(plant, T, extend=_pull, settings=MHESettings(check_uniqueness=False), x0=trace.x[600])
     flags = [obs.step(trace.u[k], Ynoisy[k]) for k in range(600, 600 + T)]
     assert flags[-1].flag == "fallback"
     assert "x_ref" in flags[-1].info["reason"]
@@ -339,27 +339,29 @@ def _hook(fn):
 ])
 def test_extension_rejects_what_it_cannot_honour(plant, norm, fn, match):
     with pytest.raises(ModelError, match=match):
-        MHEObserver(plant, T, norm=norm, extend=fn, check_uniqueness=False)
+        MHEObserver(plant, T, norm=norm, extend=fn, settings=MHESettings(check_uniqueness=False))
 
 
 def test_milp_extension_cost_refuses_uniqueness_and_zero_cost(plant):
     with pytest.raises(ModelError, match="check_uniqueness"):
         MHEObserver(plant, T, norm="1", extend=lambda e: e.add_cost(e.x[0][0]))
-    obs = MHEObserver(plant, T, norm="1", extend=lambda e: e.add_cost(1e-3 * e.x[0][0]), check_uniqueness=False)
-    assert obs.zero_cost_certificate is False
+    obs = MHEObserver(plant, T, norm="1", extend=lambda e: e.add_cost(1e-3 * e.x[0][0]),
+                      settings=MHESettings(check_uniqueness=False))
+    assert obs.settings.zero_cost_certificate is False
 
 
 # ---------------------------------------------------------------------- time budget
 @pytest.mark.parametrize("bad", [0, -1.0, float("inf"), float("nan"), "1", True])
 def test_certify_time_budget_is_validated(plant, bad):
     with pytest.raises(ModelError, match="certify_time_budget"):
-        MHEObserver(plant, T, certify_time_budget=bad)
+        MHESettings(certify_time_budget=bad)
 
 
 def test_tiny_time_budget_leaves_noisy_windows_fallback(plant, noisy):
     trace, Ynoisy = noisy
     first = 1000
-    obs = MHEObserver(plant, T, certify_time_budget=1e-9, x0=trace.x[first], fit_tolerance=5 * NOISE)
+    obs = MHEObserver(plant, T, x0=trace.x[first], fit_tolerance=5 * NOISE,
+                      settings=MHESettings(certify_time_budget=1e-9))
     steps = [obs.step(trace.u[k], Ynoisy[k]) for k in range(first, first + 12)]
     active = steps[T - 1:]
     assert not any(e.flag == "observable" for e in active)
@@ -368,7 +370,8 @@ def test_tiny_time_budget_leaves_noisy_windows_fallback(plant, noisy):
     assert all(e.flag == "fallback" for e in hit)
     assert "certify_time_budget" in hit[0].info["reason"]
     # the same windows without the budget are certified
-    free = MHEObserver(plant, T, x0=trace.x[first], fit_tolerance=5 * NOISE, check_uniqueness=False)
+    free = MHEObserver(plant, T, x0=trace.x[first], fit_tolerance=5 * NOISE,
+                       settings=MHESettings(check_uniqueness=False))
     assert any(free.step(trace.u[k], Ynoisy[k]).info.get("certified_optimum") for k in range(first, first + 12))
 
 
@@ -379,7 +382,7 @@ def test_prefix_search_stops_at_its_deadline(plant, noisy):
 
     trace, Ynoisy = noisy
     s = 1040
-    obs = MHEObserver(plant, T, check_uniqueness=False)
+    obs = MHEObserver(plant, T, settings=MHESettings(check_uniqueness=False))
     U, Y = trace.u[s:s + T], Ynoisy[s:s + T]
     found = search_sequences(obs.model, U, Y, trace.x[s], None, rtol=1e-6, atol=0.0, max_nodes=10_000,
                              deadline=time.perf_counter() - 1.0, time_budget=0.5)
@@ -395,8 +398,8 @@ def test_generous_time_budget_changes_nothing(plant, noisy):
     first = 1000
     runs = []
     for budget in (None, 600.0):
-        obs = MHEObserver(plant, T, certify_time_budget=budget, x0=trace.x[first], fit_tolerance=5 * NOISE,
-                          check_uniqueness=False)
+        obs = MHEObserver(plant, T, x0=trace.x[first], fit_tolerance=5 * NOISE,
+                          settings=MHESettings(certify_time_budget=budget, check_uniqueness=False))
         runs.append([obs.step(trace.u[k], Ynoisy[k]) for k in range(first, first + 8)])
     assert [e.flag for e in runs[0]] == [e.flag for e in runs[1]]
     assert np.allclose([e.x for e in runs[0]], [e.x for e in runs[1]], rtol=0, atol=1e-12)
@@ -462,7 +465,7 @@ def test_norm1_extension_matches_brute_force_oracle(plant, noisy):
         ext.add_cost(C_LIN * ext.x[0][1])
         ext.add_constraint(ext.x[0][1] >= w_min)  # a CasADi comparison
 
-    obs = MHEObserver(plant, T, norm="1", extend=hook, check_uniqueness=False)
+    obs = MHEObserver(plant, T, norm="1", extend=hook, settings=MHESettings(check_uniqueness=False))
     for s in WINDOW_STARTS[:3]:
         U, Y = trace.u[s:s + T], Ynoisy[s:s + T]
         w_min = trace.x[s][1] + 0.3

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybobs_opt.mhe import MHEObserver, WindowResult
+from hybobs_opt.cli._common import json_default
+from hybobs_opt.mhe import MHEObserver, MHESettings, UniquenessOutcome, WindowResult
 from hybobs_opt.mhe.backends import Backend, BackendOutcome
 from hybobs_opt.results import SolveResult
 from hybobs_opt.status import Status
@@ -46,7 +47,7 @@ def test_mhe_never_imports_the_observers_package():
 @pytest.mark.parametrize("norm", ["2", "1"])
 def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
     plant, tr, k = window
-    obs = MHEObserver(plant, 3, norm=norm, zero_cost_certificate=False)
+    obs = MHEObserver(plant, 3, norm=norm, settings=MHESettings(zero_cost_certificate=False))
     out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k] * 1.01, uniqueness=True)
     assert isinstance(out, WindowResult) and isinstance(out, SolveResult)
     assert out.status is Status.OPTIMAL and out["status"] == "optimal" and out.optimal
@@ -58,6 +59,7 @@ def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
     assert "seconds" not in d and "residuals" not in d  # the old keys, exactly
     assert "reason" not in out and out.get("reason") is None and out.get("alternative", 7) == 7
     assert dict(out) == d and out["uniqueness"]["status"] == "unique"
+    assert out["uniqueness"]["status"] is UniquenessOutcome.UNIQUE
     assert json.dumps(str(out.status)) == '"optimal"'
     with pytest.raises(KeyError):
         out["no such key"]
@@ -65,10 +67,24 @@ def test_window_result_is_typed_and_reads_like_the_old_dict(window, norm):
         out.replace(no_such_field=1)
 
 
+def test_uniqueness_outcomes_are_the_strings_of_the_json():
+    """The enum's values are the strings ``info["uniqueness"]["status"]`` has always held: a dict
+    with a member serialises to the same text as with the plain string, with the CLI's encoder too."""
+    assert {o.value for o in UniquenessOutcome} == {"unique", "alternative", "not certified",
+                                                     "not unique for every input"}
+    for outcome in UniquenessOutcome:
+        info = {"uniqueness": {"status": outcome, "decided_by": "x", "threshold": np.float64(1.5)}}
+        plain = {"uniqueness": {"status": outcome.value, "decided_by": "x", "threshold": 1.5}}
+        assert json.dumps(info, default=json_default) == json.dumps(plain)
+        assert str(outcome) == f"{outcome}" == outcome.value and outcome == outcome.value
+        assert json.loads(json.dumps(outcome)) == outcome.value
+
+
 def test_not_certified_window_keeps_the_old_keys(window):
     plant, tr, k = window
     # a limited branch and bound, and a prefix search allowed one node QP: nothing certifies the window
-    obs = MHEObserver(plant, 3, solver_options={"iter_limit": 1}, zero_cost_certificate=False, certify_max_nodes=1)
+    obs = MHEObserver(plant, 3, settings=MHESettings(solver_options={"iter_limit": 1}, zero_cost_certificate=False,
+                                                     certify_max_nodes=1))
     out = obs.solve_window(tr.u[k:k + 3], tr.y[k:k + 3], x_start=tr.x[k])
     assert out.status == Status.NOT_CERTIFIED and "reason" in out and out.residuals == {}
     assert out["solver"] == "daqp" and "solver_status" in out

@@ -40,7 +40,7 @@ def test_the_radius_is_the_distance_to_the_farthest_consistent_state(case, norm)
         # the box is the MILPs' widened by their pad (1e-8 of the half-widths)
         assert np.all(np.abs(r - expected) <= 1e-6 * half), (case, k, r, expected)
         assert np.all(np.abs(est.x - trace.x[k]) <= r), (case, k)
-        assert (est.flag == OBSERVABLE) == bool(np.all(r <= obs.uniqueness_delta * half))
+        assert (est.flag == OBSERVABLE) == bool(np.all(r <= obs.settings.uniqueness_delta * half))
         from_optimum += est.info["estimate_from"] == "window optimum"
         assert "uniqueness" not in est.info  # the radius decides, not the separated program
     assert from_optimum > 0
@@ -59,7 +59,7 @@ def test_the_rotation_system_flags_only_states_within_the_tolerance_of_their_mir
         r = est.info["radius"]
         assert r[0] >= abs(est.x[0] - trace.x[k, 0]) and r[0] >= abs(est.x[0] + trace.x[k, 0]) - 1e-9
         if est.flag == OBSERVABLE:
-            assert abs(trace.x[k, 0]) <= obs.uniqueness_delta * half[0] + 1e-7
+            assert abs(trace.x[k, 0]) <= obs.settings.uniqueness_delta * half[0] + 1e-7
 
 
 def test_data_beyond_the_bound_are_a_fallback_and_combinations_are_refused():

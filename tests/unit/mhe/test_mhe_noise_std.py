@@ -53,7 +53,7 @@ def test_flagged_estimates_lie_within_delta_but_for_the_false_alarms():
     out = obs.run(U, Y)
     flagged = out.flags == "observable"
     assert flagged.sum() > 300
-    far = int(np.count_nonzero(scaled_errors(out, X)[flagged] > obs.uniqueness_delta))
+    far = int(np.count_nonzero(scaled_errors(out, X)[flagged] > obs.settings.uniqueness_delta))
     assert far <= binom.ppf(0.999, int(flagged.sum()), alpha)
 
 
@@ -67,7 +67,7 @@ def test_noisier_data_are_not_called_unique_where_the_default_epsilon_does():
     default = MHEObserver(system, 4, fit_tolerance=5 * sigma)
     out = default.run(U, Y)
     flagged = out.flags == "observable"
-    assert np.count_nonzero(scaled_errors(out, X)[flagged] > default.uniqueness_delta) > 10
+    assert np.count_nonzero(scaled_errors(out, X)[flagged] > default.settings.uniqueness_delta) > 10
 
 
 def test_noise_std_sets_the_weight_and_the_chi_square_epsilon():

@@ -24,6 +24,7 @@ from hybobs_opt.contract import FALLBACK, OBSERVABLE, UNOBSERVABLE, WARMING_UP
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe.backends.base import BackendOutcome
 from hybobs_opt.mhe.mld import big_m_constants
+from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario, powertrain3
@@ -77,7 +78,7 @@ def test_without_the_check_the_flag_only_means_certified_optimum():
     system is a certified optimum and is flagged observable, although none is unique."""
     system = mirror_system()
     U, _, Y, _ = mirror_data(system, N=12)
-    obs = MHEObserver(system, 3, check_uniqueness=False)
+    obs = MHEObserver(system, 3, settings=MHESettings(check_uniqueness=False))
     flags = [obs.step(U[k], Y[k]) for k in range(len(U))]
     assert all(e.flag == OBSERVABLE and e.info["certified_optimum"] and "uniqueness" not in e.info for e in flags[2:])
 
@@ -121,8 +122,8 @@ def test_daqp_defaults_do_not_cycle_on_a_4_mode_system(T):
     assert active == 36 and cycled == 0 and fallbacks == 0
     # the same data with DAQP's default do cycle: the system exercises the defect (with the exact
     # prefix search of issue 18 limited to one node QP, which would otherwise certify those windows)
-    old, _, _ = cycling_steps(MHEObserver(system, T, big_m=bm, check_uniqueness=False, certify_max_nodes=1,
-                                          solver_options={"cycle_tol": 10}), U, Y)
+    old, _, _ = cycling_steps(MHEObserver(system, T, big_m=bm, settings=MHESettings(
+        check_uniqueness=False, certify_max_nodes=1, solver_options={"cycle_tol": 10})), U, Y)
     assert old >= 1
 
 
@@ -187,10 +188,10 @@ def test_fractional_milp_answer_is_rejected():
 def test_arguments_are_validated():
     plant = powertrain3()
     with pytest.raises(ModelError) as err:
-        MHEObserver(plant, 3, uniqueness_delta=0.0)
+        MHESettings(uniqueness_delta=0.0)
     assert err.value.field == "uniqueness_delta"
     with pytest.raises(ModelError) as err:
-        MHEObserver(plant, 3, check_uniqueness="yes")
+        MHESettings(check_uniqueness="yes")
     assert err.value.field == "check_uniqueness"
     with pytest.raises(ModelError) as err:
         MHEObserver(plant, 3, analysis=object())
@@ -285,14 +286,14 @@ def test_uniqueness_verdict_equals_enumeration(seed, n_modes, noise):
         out = obs.solve_window(U, Y, x_start=rng.uniform(-1, 1, size=2), uniqueness=True)
         assert out["status"] == "optimal"
         uq = out["uniqueness"]
-        ref = separated_minimum(system, U, Y, out["x_start"], obs.uniqueness_delta, norm)
+        ref = separated_minimum(system, U, Y, out["x_start"], obs.settings.uniqueness_delta, norm)
         thr, J = uq["threshold"], out["cost"]
         slack = 1e-6 * (1.0 + abs(J)) + 0.01 * (thr - J)
         if uq["status"] == "unique":
             assert ref > thr - slack, (norm, ref, thr)
         elif uq["status"] == "alternative":
             alt = out["alternative"]
-            assert alt["cost"] <= thr and alt["distance"] >= obs.uniqueness_delta * (1 - 1e-6)
+            assert alt["cost"] <= thr and alt["distance"] >= obs.settings.uniqueness_delta * (1 - 1e-6)
             assert ref <= alt["cost"] + slack  # the enumeration cannot do worse than a verified point
         else:
             assert thr - slack <= ref, (norm, ref, thr, uq)  # undecided only near the threshold
@@ -340,7 +341,7 @@ def test_flag_agrees_with_the_exact_window_classifier_on_model16():
     bm = big_m_constants(plant)
     for norm in ("2", "1", "inf"):
         obs = MHEObserver(plant, T, norm=norm, x0=tr.x[0], big_m=bm)
-        assert obs.uniqueness_delta == MHE_UNIQUENESS_DELTA
+        assert obs.settings.uniqueness_delta == MHE_UNIQUENESS_DELTA
         counts = collections.Counter()
         for t in needed:
             if t in starts:
@@ -391,7 +392,7 @@ def test_a_separated_minimum_in_the_decision_band_decides_nothing(monkeypatch, c
     out = obs.solve_window(U, Y, x_start=x0, uniqueness=True)
     uq = out["uniqueness"]
     assert uq["decision_band"] == mhe_decision_band(uq["threshold"], uq["epsilon"]) > 0.0
-    ref = separated_minimum(system, U, Y, out["x_start"], obs.uniqueness_delta, norm)
+    ref = separated_minimum(system, U, Y, out["x_start"], obs.settings.uniqueness_delta, norm)
     thr = uq["threshold"]
     gap = abs(ref - thr)
     assert (ref < thr) == (case == "mirror") and gap > 0.5 * uq["epsilon"], (ref, thr)
@@ -438,7 +439,7 @@ def test_the_reported_state_is_separated_not_only_the_window_start(rotation_log,
     system, U, X, Y = rotation_log
     T = 3
     obs = MHEObserver(system, T, norm=norm, solver=solver)
-    delta, h1 = obs.uniqueness_delta, 10.0  # x1 in [-10, 10]
+    delta, h1 = obs.settings.uniqueness_delta, 10.0  # x1 in [-10, 10]
     flags, blind_spot = collections.Counter(), 0
     for k in range(len(U)):
         est = obs.step(U[k], Y[k])

@@ -21,7 +21,7 @@ from scipy.optimize import linprog
 from hybobs_opt import get_example
 from hybobs_opt.contract import NOISE_FIT_SIGMAS
 from hybobs_opt.errors import ModelError
-from hybobs_opt.mhe import MHEObserver
+from hybobs_opt.mhe import MHEObserver, MHESettings
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario
 from hybobs_opt.tolerances import MHE_CERTIFIED_RTOL
 
@@ -127,7 +127,8 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
         Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
         out = obs.solve_window(Uw, Yw, uniqueness=True)
         assert out.optimal, (k0, out.reason)
-        J, unique = _reference(plant, Uw, Yw, norm, out.x_start, obs.uniqueness_delta, obs.uniqueness_epsilon, half)
+        J, unique = _reference(plant, Uw, Yw, norm, out.x_start, obs.settings.uniqueness_delta, obs.uniqueness_epsilon,
+                               half)
         gap = max(MHE_CERTIFIED_RTOL * J, obs._zero_cost)
         assert abs(out.cost - J) <= gap, (k0, out.cost, J)
         status = out.uniqueness["status"]
@@ -140,14 +141,14 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
         if status == "alternative":
             alt = out.alternative
             assert alt["cost"] <= out.cost + obs.uniqueness_epsilon + 1e-12
-            assert alt["distance"] >= obs.uniqueness_delta - 1e-6
+            assert alt["distance"] >= obs.settings.uniqueness_delta - 1e-6
         if ref_obs is not None and i % 2 == 0:  # every other window (the MILP costs ~30 ms a window)
             other = ref_obs.solve_window(Uw, Yw, uniqueness=True)
             if other.optimal and other.uniqueness["status"] in ("unique", "alternative"):
                 assert abs(other.cost - out.cost) <= gap + max(MHE_CERTIFIED_RTOL * other.cost, ref_obs._zero_cost)
                 assert other.uniqueness["status"] == status, (k0, other.uniqueness, out.uniqueness)
                 if status == "unique":
-                    assert np.max(np.abs(other.x_start - out.x_start) / half) <= obs.uniqueness_delta
+                    assert np.max(np.abs(other.x_start - out.x_start) / half) <= obs.settings.uniqueness_delta
     return compared, ties
 
 
@@ -184,7 +185,7 @@ def test_deadzone_spring_exact_against_brute_force():
     for k0 in range(0, steps - T, 9):
         out = obs.solve_window(u[k0:k0 + T], Y[k0:k0 + T], uniqueness=True)
         assert out.optimal, (k0, out.reason)
-        J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.x_start, obs.uniqueness_delta,
+        J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.x_start, obs.settings.uniqueness_delta,
                                obs.uniqueness_epsilon, half)
         assert abs(out.cost - J) <= max(MHE_CERTIFIED_RTOL * J, obs._zero_cost), (k0, out.cost, J)
         if unique is not None:
@@ -224,9 +225,10 @@ def test_bad_sample_is_fallback(bench, bad):
 def test_refusals_and_options(bench):
     plant, U, Y = bench
     with pytest.raises(ModelError, match="sequences"):
-        MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, extend=lambda ext: None)
+        MHEObserver(plant, 3, norm="1", solver="sequences", settings=MHESettings(check_uniqueness=False),
+                    extend=lambda ext: None)
     with pytest.raises(ModelError, match="lp"):
-        MHEObserver(plant, 3, norm="1", solver="sequences", solver_options={"lp": "gurobi"})
+        MHEObserver(plant, 3, norm="1", solver="sequences", settings=MHESettings(solver_options={"lp": "gurobi"}))
     with pytest.raises(ModelError, match="solver"):
         MHEObserver(plant, 3, norm="2", solver="sequences")
     # the solver's own refusal of norm 2 (the observer refuses first; a direct caller reaches this one)
@@ -235,7 +237,8 @@ def test_refusals_and_options(bench):
     with pytest.raises(ModelError, match="'1' or 'inf'"):
         SequenceLPSolver(MHEObserver(plant, 3, norm="2").model, 0.0, None)
     # check_uniqueness=False: a certified optimum is observable without the separated LPs
-    obs = MHEObserver(plant, 3, norm="1", solver="sequences", check_uniqueness=False, solver_options={"lp": "highs"})
+    obs = MHEObserver(plant, 3, norm="1", solver="sequences",
+                      settings=MHESettings(check_uniqueness=False, solver_options={"lp": "highs"}))
     flags = [obs.step(U[k], Y[k]).flag for k in range(6)]
     assert flags[2:] == ["observable"] * 4
 
@@ -247,7 +250,7 @@ def test_a_refused_lp_is_a_fallback_that_names_the_problem(bench):
     from hybobs_opt.errors import SolverError
 
     plant, U, Y = bench
-    obs = MHEObserver(plant, 3, norm="1", solver="sequences", solver_options={"lp": "highs"})
+    obs = MHEObserver(plant, 3, norm="1", solver="sequences", settings=MHESettings(solver_options={"lp": "highs"}))
     seq = obs._sequences
     real = seq._hs
 

@@ -103,10 +103,10 @@ def test_bad_arguments_name_the_field():
 def test_miqp_on_the_augmented_system_estimates_alpha_jointly(aug):
     """The MIQP (10) of the augmented system has alpha as a bounded decision variable: on a window
     through the whole gap its certified optimum returns the true alpha and state."""
-    from hybobs_opt.mhe import MHEObserver
+    from hybobs_opt.mhe import MHEObserver, MHESettings
 
     an = analyse_observability(aug.system, 4)
-    obs = MHEObserver(aug.system, 4, check_uniqueness=False)
+    obs = MHEObserver(aug.system, 4, settings=MHESettings(check_uniqueness=False))
     checked = 0
     for i in an.index_set[:3]:
         reg = an.regions[i]
