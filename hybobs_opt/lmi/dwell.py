@@ -24,7 +24,8 @@ from scipy.linalg import eigh
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
+from ..defaults import BISECTION_RTOL
+from ..tolerances import LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
@@ -374,7 +375,7 @@ class DwellTimeLMI:
         tau_hi : float
             Upper end of the bisection (finite, ``>= 0``).
         rtol : float, default BISECTION_RTOL
-            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         tau_fixed : float, optional
             The fixed-``P`` dwell time, stored in the result (default ``tau_hi``).
 

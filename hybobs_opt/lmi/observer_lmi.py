@@ -44,7 +44,8 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import BISECTION_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
+from ..defaults import BISECTION_RTOL
+from ..tolerances import GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from ..status import Status
 from .bounds import JacobianBounds, jacobian_bounds
 from .lmi_model import (
@@ -485,7 +486,7 @@ class ObserverLMI:
         sigma_cap : float, default SIGMA_CAP
             Upper end of the search (:data:`SIGMA_CAP`, 100).
         rtol : float, default BISECTION_RTOL
-            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         guess : float, optional
             Starting rate of the bracket search (default ``sigma_cap / 8``).
         known : float, optional

@@ -453,7 +453,7 @@ class PolytopicLMI:
         sigma_cap : float, optional
             Upper end of the search (default :data:`.observer_lmi.SIGMA_CAP`).
         rtol : float, optional
-            Relative tolerance of the bisection (default :data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (default :data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         guess : float, optional
             Starting rate of the bracket search.
         known : float, optional
@@ -464,7 +464,7 @@ class PolytopicLMI:
         DecayResult
             The largest rate found and the solution there (no error when ``sigma = 0`` is infeasible).
         """
-        from ..tolerances import BISECTION_RTOL
+        from ..defaults import BISECTION_RTOL
         from .observer_lmi import SIGMA_CAP, bisect_decay
 
         return bisect_decay(lambda sig: self.solve(bounds, sig), SIGMA_CAP if sigma_cap is None else sigma_cap,

@@ -23,7 +23,7 @@ Flags (the runtime contract of :mod:`hybobs_opt.contract`):
   window start among it: a certified global optimum of (10) (see below) and no other admissible
   window trajectory with a state at least ``delta`` away from the optimum's at the same step
   (inf-norm, in units of the half-widths of ``X``,
-  :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
+  :data:`~hybobs_opt.defaults.MHE_UNIQUENESS_DELTA`) reaches a cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
   one sample's squared weighted output half-range, with the floor
   :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`; norms 1 / inf: the square roots),
   proven by a second, separated mixed-integer program (Notes of :class:`MHEObserver`); ``x`` is
@@ -103,20 +103,17 @@ from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS,
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
+from ..defaults import MHE_CERTIFY_MAX_NODES, MHE_MIXTURE_MAX_SEQUENCES, MHE_NOISE_FALSE_ALARM, MHE_UNIQUENESS_DELTA
 from ..tolerances import (
     MEMBERSHIP_RTOL,
-    MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_ABS_SUBOPT,
+    MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_BINARY_PROX_WEIGHT,
     MHE_CERTIFIED_RTOL,
-    MHE_CERTIFY_MAX_NODES,
     MHE_FEASIBILITY_TOL,
-    MHE_NOISE_FALSE_ALARM,
     MHE_INTEGRALITY_TOL,
-    MHE_MIXTURE_MAX_SEQUENCES,
     MHE_POLISH_SKIP_TOL,
     MHE_PROX_WEIGHT,
-    MHE_UNIQUENESS_DELTA,
     MHE_ZERO_COST_RTOL,
 )
 from .backends import MILP_SOLVERS, MIQP_SOLVERS, milp_backend, miqp_backend
@@ -180,7 +177,7 @@ class MHEObserver(Observer):
         posteriors of every mode sequence whose least cost is within the chi-square threshold
         ``J* + epsilon``, weighted by their evidence, about the estimate
         (:mod:`hybobs_opt.mhe.mixture`, ``info["mixture"]``); a window that more than
-        :data:`~hybobs_opt.tolerances.MHE_MIXTURE_MAX_SEQUENCES` sequences fit, or whose search
+        :data:`~hybobs_opt.defaults.MHE_MIXTURE_MAX_SEQUENCES` sequences fit, or whose search
         stops at ``certify_max_nodes`` / ``certify_time_budget``, is ``fallback``.  (On a step not
         flagged, ``info["covariance"]`` is the optimal sequence's posterior alone.)  It is claimed
         only while the filter's normalised innovations agree with the stated noise level
@@ -194,7 +191,7 @@ class MHEObserver(Observer):
         Passed to the solver (DAQP settings, HiGHS/CBC/Bonmin options), e.g.
         ``{"iter_limit": 1}`` or ``{"time_limit": 1e-6}``; they override the defaults, which for
         DAQP are ``abs_subopt = MHE_ABS_SUBOPT``, ``eps_prox = 0`` and ``cycle_tol =``
-        :data:`~hybobs_opt.tolerances.MHE_DAQP_CYCLE_TOL` (1000 iterations without progress
+        :data:`~hybobs_opt.defaults.MHE_DAQP_CYCLE_TOL` (1000 iterations without progress
         before DAQP gives up with exit -2, "cycling"; DAQP's own default of 10 ends the
         branch-and-bound on degenerate big-M vertices of 4-mode systems at T = 4-5 with noisy
         data).  With the DAQP solver they apply to the uniqueness MIQP too.
@@ -216,7 +213,7 @@ class MHEObserver(Observer):
         Norm 2: node QPs the exact prefix search (:mod:`hybobs_opt.mhe.certify`) may solve per
         window when the branch and bound's own certificate does not prove the relative gap
         :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
-        certified (``fallback``).  Default :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
+        certified (``fallback``).  Default :data:`~hybobs_opt.defaults.MHE_CERTIFY_MAX_NODES`.
     certify_time_budget : float, optional
         Wall-clock seconds a window's certified solve may take (measured from the start of the
         window's solve, every norm): the prefix search (norm 2) stops when it is spent, and an
@@ -254,7 +251,7 @@ class MHEObserver(Observer):
         only "certified optimum" (the flag's old meaning), unless ``analysis`` decides.
     uniqueness_delta : float
         Separation ``delta`` of an alternative window state from the optimum's at the same step
-        (inf-norm, units of the half-widths of ``X``), default :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`.
+        (inf-norm, units of the half-widths of ``X``), default :data:`~hybobs_opt.defaults.MHE_UNIQUENESS_DELTA`.
     analysis : ObservabilityAnalysis, optional
         A saved analysis of Algorithm 3.1 for this system and ``T``
         (:func:`hybobs_opt.regions.analyse_observability`).  Its point query

@@ -81,8 +81,9 @@ from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, 
                         noise_std_vector, radius_tolerance_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import max_slack
-from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, MHE_UNIQUENESS_DELTA,
-                          RANK_RTOL, SET_MEMBERSHIP_BOX_RTOL, ZERO_ROW_TOL)
+from ..defaults import MHE_UNIQUENESS_DELTA
+from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, RANK_RTOL,
+                          SET_MEMBERSHIP_BOX_RTOL, ZERO_ROW_TOL)
 from .lookup import input_bound_rows
 
 __all__ = ["NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"]

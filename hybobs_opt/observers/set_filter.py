@@ -46,7 +46,8 @@ from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, 
 from ..errors import ModelError, SolverError
 from ..geometry.lp import solve_lp
 from ..geometry.polytope import Polytope
-from ..tolerances import MHE_UNIQUENESS_DELTA, SET_FILTER_MIN_NOISE_RTOL, SET_FILTER_ROW_RTOL
+from ..defaults import MHE_UNIQUENESS_DELTA
+from ..tolerances import SET_FILTER_MIN_NOISE_RTOL, SET_FILTER_ROW_RTOL
 
 __all__ = ["SetMembershipFilter", "DEFAULT_MAX_PIECES"]
 

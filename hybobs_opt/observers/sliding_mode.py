@@ -27,7 +27,7 @@ Sampled implementation (one Euler step per output sample, step ``h``; the fixed-
   the next state, so the auxiliary state is ``zt_{j+1}(k) = zh_{j+1}(k-1) + w_j(k)``: this makes
   ``zt_{j+1}`` the backward difference of ``zt_j`` (a one-sample-consistent equivalent value;
   with ``zh_{j+1}(k)`` instead, the stage-2 loop has a pole on the unit circle and oscillates).
-- A stage slides (``E_j = 1``) after :data:`~hybobs_opt.tolerances.SMO_SLIDING_HOLD` samples in
+- A stage slides (``E_j = 1``) after :data:`~hybobs_opt.defaults.SMO_SLIDING_HOLD` samples in
   its layer.  The estimate is clipped to the range of the canonical states (the model's operating
   box), which is what makes the explicit gain rule below valid.
 - Optional first-order low-pass filter (time constant ``tau``) of the auxiliary states used for
@@ -41,7 +41,7 @@ Sampled implementation (one Euler step per output sample, step ``h``; the fixed-
 Gains (explicit rule, :func:`design_gains`): ``lambda_j = rho * (z_{j+1}^max - z_{j+1}^min)``
 for ``j < n`` and ``lambda_n = rho * (f^max - f^min)``, with the ranges over the operating box
 and all locations (exact for affine flows) and ``rho`` =
-:data:`~hybobs_opt.tolerances.SMO_GAIN_MARGIN`.  With the estimate clipped to the same ranges,
+:data:`~hybobs_opt.defaults.SMO_GAIN_MARGIN`.  With the estimate clipped to the same ranges,
 ``|e_{j+1}| <= z_{j+1}^max - z_{j+1}^min``, so every stage meets its sliding condition with a
 reaching rate of at least ``(rho - 1)`` times that width (Theorem 2's "there exists a choice of
 lambda_i", made explicit and not tuned per example).
@@ -59,7 +59,7 @@ import numpy as np
 from .._validate import as_int, as_positive, as_vector
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
-from ..tolerances import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
+from ..defaults import SMO_GAIN_MARGIN, SMO_SLIDING_HOLD
 from ..contract import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows, check_reset_keywords
 
 __all__ = [
