@@ -73,6 +73,46 @@ SMO_SLIDING_HOLD: int = 2
 #: samples (Fig. 5 vs Fig. 6).
 SMO_FILTER_STEPS: int = 20
 
+# ---------------------------------------------------------------------- automatic switched-gain design (paper 004)
+# (hybobs_opt.lmi.auto_design: settings read from the model for any scalar-nonlinear system;
+# each rule is reported with the value, and every value can be given instead.)
+
+#: Scaled gain bound as a multiple of the natural rate ``rho``: the rule of thumb "observer up to
+#: ten times faster than the plant", so the gains stay of the size of the model's own numbers
+#: instead of growing until the decay-rate cap.
+AUTO_DESIGN_GAIN_FACTOR: float = 10.0
+
+#: Minimum decay rate of a grown region as a multiple of ``rho``: regions are grown only as far as
+#: their observer still decays at a tenth of the plant's own rate.
+AUTO_DESIGN_DECAY_FACTOR: float = 0.1
+
+#: Hysteresis as a fraction of the scheduling range: half a percent keeps the switching from
+#: chattering on rounding and noise while hardly shrinking the regions.
+AUTO_DESIGN_OVERLAP_FRACTION: float = 0.005
+
+#: Design decay rate as a fraction of each region's largest (as the paper's presets): half the
+#: largest rate leaves room for a common Lyapunov matrix across the switches.
+AUTO_DESIGN_DECAY_FRACTION: float = 0.5
+
+#: Points of the box where the scaled Jacobian norm is sampled for the natural rate (fixed seed:
+#: reproducible): the design needs the rate's size, not its last digit, and a few thousand
+#: Jacobian evaluations cost well under a second.
+AUTO_DESIGN_RATE_SAMPLES: int = 4000
+
+#: Points of each function's argument interval at which the largest rate of the scheduling
+#: coordinate is sampled (:func:`hybobs_opt.lmi.auto_design.max_rate`): 2000 intervals, about
+#: twice the resolution of JACOBIAN_BOUND_SAMPLES.
+AUTO_DESIGN_RATE_FUNCTION_SAMPLES: int = 2001
+
+#: Design attempts of :func:`~hybobs_opt.lmi.auto_design.design_switched` when the hysteresis does
+#: not enforce the dwell time: the design rate fraction is halved (a common ``P`` gets easier,
+#: ``tau`` shorter), twice; each is reported under ``dwell_attempts``.
+DWELL_RETRY_FRACTIONS: tuple[float, ...] = (0.25, 0.125)
+
+#: ... then the overlap is widened to the required hysteresis times this (a 20 % margin over the
+#: hysteresis the dwell-time guarantee needs).
+DWELL_RETRY_WIDEN: float = 1.2
+
 # ====================================================================== moving-horizon observers (paper 002, eq. 10)
 
 #: Node QPs the prefix search of one window may solve before the window is left uncertified
@@ -113,3 +153,43 @@ MHE_NOISE_FALSE_ALARM: float = 1e-3
 #: Model (16), T = 3, 300 steps: 1 x n gives 3.0 / 5.6 / 34 ms per step noise-free / at 1e-3 /
 #: at 0.6 rad/s against 8.0 / 8.3 / 28 ms for the per-state MILPs alone (2 x n: 46 ms at 0.6).
 SET_MEMBERSHIP_SEQUENCES_PER_STATE: float = 1.0
+
+# ====================================================================== observer contract: samples used, steps flagged
+
+#: A sample whose input or output lies outside the range the model can produce (``input_range``,
+#: ``output_range`` of an observer) by more than this fraction of the range's width is not used:
+#: it is flagged ``fallback`` and the step is open loop.  Half the width leaves room for sensor
+#: noise and offsets while a sensor fault (``y = 1e12``) never enters the state.
+RANGE_MARGIN: float = 0.5
+
+#: An estimate outside the model's state set (``state_range`` of an observer) by more than this
+#: fraction of the set's width in some coordinate is never flagged ``observable``: the plant cannot
+#: be there, so the estimate is wrong by at least that much.  1 % leaves room for the transient
+#: overshoot of an observer that has converged and for rounding on the boundary.
+STATE_SET_MARGIN: float = 0.01
+
+#: A Luenberger-type observer whose certified error bound ``b`` allows output errors of at most
+#: ``b sqrt(C_j P^-1 C_j')`` refuses a sample whose output residual exceeds that by more than this
+#: fraction of the output's range width: the sample, or the bound's hypotheses, contradict the
+#: model.  The allowance covers what the sampled error bound does not model, the mismatch between
+#: a continuous plant and the sampled observer between two samples: on the driveline of paper 000
+#: (model output range 5,730 rad/s wide, so an allowance of 5.7 rad/s) the clean runs exceed the
+#: bound by at most 6.4e-3 rad/s (hybrid observer; 3.1e-4 with the true locations), while a sensor
+#: fault ten times the run's largest output (460 rad/s) exceeds it eighty times over.
+INNOVATION_MARGIN: float = 1e-3
+
+#: After this many consecutive samples refused by the innovation test the observer takes the next
+#: one and restarts its error bound from the state box: a persistent contradiction is the bound's
+#: hypothesis failing (a location switch not yet detected, a model mismatch), not one bad sample.
+INNOVATION_PATIENCE: int = 2
+
+#: Noisy data: an observer's fit tolerance of this many output-noise standard deviations
+#: (``MHEObserver(fit_tolerance=NOISE_FIT_SIGMAS * std)``); a Gaussian residual exceeds it about
+#: once in 1.7 million samples.
+NOISE_FIT_SIGMAS: float = 5.0
+
+#: An event-driven observer refuses a time stamp later than the previous accepted one by more than
+#: this many times its model's time scale (the timer durations of one cycle): a clock fault
+#: (``t = 1e300``) must not move the observer's time reference, after which every good sample
+#: would be refused as "before the previous one".  A thousand cycles is no plausible gap in a log.
+TIME_JUMP_FACTOR: float = 1000.0

@@ -290,6 +290,11 @@ AFFINE_PARAMETER_RTOL: float = 1e-9
 #: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
 EQUILIBRIUM_RTOL: float = 1e-9
 
+#: Floor of the natural rate and of the scheduling coordinate's rate in the automatic switched-gain
+#: design (:mod:`hybobs_opt.lmi.auto_design`): a plant at rest on its whole box would otherwise give
+#: a zero gain bound, decay and rate; the floor is far below any rate a moving plant has.
+AUTO_DESIGN_RATE_FLOOR: float = 1e-12
+
 # ====================================================================== LMI / SDP
 
 #: Smallest eigenvalue of a Lyapunov matrix returned by an LMI solve relative to its largest
@@ -637,6 +642,11 @@ LOCATION_INVARIANT_RTOL: float = 1e-9
 #: box) is zero -- an exact model reconstructs to rounding (1e-16 per coordinate, squared).
 BANK_SCORE_ATOL: float = 1e-18
 
+#: Relative floor of every range test of the observer contract (``(1 + |bound|)`` times this,
+#: :func:`hybobs_opt.contract.outside_range`): a degenerate range (a constant output) still admits
+#: rounding.
+RANGE_ABS_RTOL: float = 1e-9
+
 # ====================================================================== simulation and integration
 
 #: Relative / absolute tolerances of the adaptive ODE solver of the nonlinear simulator: tight
@@ -644,3 +654,30 @@ BANK_SCORE_ATOL: float = 1e-18
 #: to 1e-6 rad), loose enough to keep a 30 s vehicle scenario well under a second.
 NONLINEAR_ODE_RTOL: float = 1e-10
 NONLINEAR_ODE_ATOL: float = 1e-10
+
+#: Relative / absolute tolerances of the ODE solver of the hybrid-automaton simulator
+#: (:mod:`hybobs_opt.sim.hybrid`) between events; events are located to about this accuracy, a
+#: hundred times tighter than EVENT_MEMBERSHIP_RTOL.
+HYBRID_ODE_RTOL: float = 1e-9
+HYBRID_ODE_ATOL: float = 1e-12
+
+#: Relative offset of the event threshold of invariant rows that are active when a segment starts.
+#: Events fire on upward crossings only and the state moves inwards after a jump, so the offset
+#: only has to absorb rounding of the located event point (about 1e-16), not model error.
+EVENT_OFFSET_RTOL: float = 1e-12
+
+#: Relative slack with which a located event point is accepted in a guard or target invariant:
+#: the event root is located to about HYBRID_ODE_RTOL, a hundred times tighter than this.
+EVENT_MEMBERSHIP_RTOL: float = 1e-7
+
+#: Relative slack of the end-of-segment check that the state is still in its location's
+#: invariant (a crossing missed inside one solver step shows up far above this).
+SEGMENT_END_RTOL: float = 1e-6
+
+#: Times closer than this (seconds) are the same instant in the hybrid simulator (segment ends,
+#: breakpoints, grid): far above the rounding of times summed from the grid, far below any step.
+HYBRID_TIME_EPS: float = 1e-12
+
+#: Step (in units of the flow) of the probe that decides which of several target locations the
+#: flow enters from a shared boundary point: far below any invariant's width, far above rounding.
+HYBRID_ENTRY_PROBE: float = 1e-9

@@ -97,13 +97,13 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_positive, as_vector
-from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, Observer, UNOBSERVABLE,
-                        WARMING_UP, check_reset_keywords, checked_state, false_alarm_probability,
-                        judge_samples_against, noise_std_vector)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
+                        checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
+from ..defaults import (INNOVATION_MARGIN, MHE_CERTIFY_MAX_NODES, MHE_MIXTURE_MAX_SEQUENCES, MHE_NOISE_FALSE_ALARM,
+                        MHE_UNIQUENESS_DELTA, NOISE_FIT_SIGMAS)
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
-from ..defaults import MHE_CERTIFY_MAX_NODES, MHE_MIXTURE_MAX_SEQUENCES, MHE_NOISE_FALSE_ALARM, MHE_UNIQUENESS_DELTA
 from ..tolerances import (
     MEMBERSHIP_RTOL,
     MHE_ABS_SUBOPT,
@@ -267,13 +267,13 @@ class MHEObserver(Observer):
         Largest output residual ``|y(k) - y^(k)|`` of the optimum in a window the model is taken to
         fit.  A certified optimum that misses a sample by more proves that no trajectory of the
         model explains the window (a bad sample, or noise above the tolerance): the step is
-        ``fallback``.  Default: :data:`~hybobs_opt.contract.INNOVATION_MARGIN` of each output's
+        ``fallback``.  Default: :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` of each output's
         range over the model, for noise-free data; set it to a few noise standard deviations for
         noisy data (``noise_std`` does).
     noise_std : float or (p,) array, optional
         Standard deviation of white Gaussian output noise, per output (norm 2 only).  The output
         weight becomes ``W_y = diag(1 / noise_std)`` (so ``output_weight`` must be omitted), the
-        fit tolerance defaults to :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``noise_std``, and
+        fit tolerance defaults to :data:`~hybobs_opt.defaults.NOISE_FIT_SIGMAS` ``noise_std``, and
         the uniqueness test's ``epsilon`` becomes the chi-square quantile ``chi2_n^-1(1 - false_alarm)``
         of the whitened cost: ``observable`` then says that the likelihood-ratio confidence region
         ``{x0 : J(x0) <= J* + epsilon}`` of the window-start state, of level ``1 - false_alarm``

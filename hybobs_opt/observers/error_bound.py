@@ -22,7 +22,7 @@ observers of paper 000 a plant that is the sampled model: inputs held and output
 samples); it is what the design proves, no more.  What it leaves out is measured, not proven: on
 the driveline the continuous observer's output residual settles near 2e-4 rad/s while the bound
 goes to 1e-13 (the plant between samples is not the sampled model), which is why the innovation
-tests allow :data:`~hybobs_opt.contract.INNOVATION_MARGIN` on top of it and the suite's oracle
+tests allow :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` on top of it and the suite's oracle
 1e-3 of the box.
 """
 

@@ -43,9 +43,10 @@ from ..lmi.solve import SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
 from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
-from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
-                        ObserverTrace, WARMING_UP, check_reset_keywords, checked_index, initial_mode, initial_state,
-                        innovation_excess, judge_samples_against, sample_rows)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, WARMING_UP, check_reset_keywords,
+                        checked_index, initial_mode, initial_state, innovation_excess, judge_samples_against,
+                        sample_rows)
+from ..defaults import INNOVATION_MARGIN, INNOVATION_PATIENCE
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_logic import IDENTIFIED
@@ -566,7 +567,7 @@ class ContinuousObserver(Observer):
 
     def _innovation_excess(self, u: np.ndarray, y: np.ndarray) -> str | None:
         """Why the residual ``y - (C x + D u + c)`` of the current estimate exceeds what the error
-        bound allows plus :data:`~hybobs_opt.contract.INNOVATION_MARGIN` (``None`` if it does not)."""
+        bound allows plus :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` (``None`` if it does not)."""
         if self._innovation_floor is None:
             return None
         C, D, c, C_norms = self._outputs[self.location]

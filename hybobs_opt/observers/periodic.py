@@ -53,7 +53,7 @@ from .._validate import as_flag, as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..status import Status, is_optimal
 from ..systems.event_sampled import PeriodicSystem
-from ..defaults import POSITIVE_LP_KAPPA, POSITIVE_LP_RATE_ATOL
+from ..defaults import POSITIVE_LP_KAPPA, POSITIVE_LP_RATE_ATOL, TIME_JUMP_FACTOR
 from ..tolerances import (
     DEADBEAT_RTOL,
     GAIN_CONSISTENCY_RTOL,
@@ -62,7 +62,8 @@ from ..tolerances import (
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,
 )
-from ..contract import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, checked_state, checked_time, initial_mode, check_reset_keywords
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, TimeGuard, WARMING_UP, check_reset_keywords,
+                        checked_state, checked_time, initial_mode)
 from ..results import Certificate
 
 

@@ -162,7 +162,7 @@ def reaching_time_bounds(gains: GainRule, initial_error: float) -> np.ndarray:
     Stage 1 starts at ``|e_1(0)| = initial_error`` and approaches at rate
     ``lambda_1 - widths[0] = (rho - 1) widths[0]`` at least; stage ``j > 1`` starts once stage
     ``j - 1`` slides, with an error of at most ``widths[j - 1]`` (clipping), and approaches at
-    rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`SMO_SLIDING_HOLD` samples,
+    rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`~hybobs_opt.defaults.SMO_SLIDING_HOLD` samples,
     not included.)
     """
     rate = gains.lambdas - gains.widths

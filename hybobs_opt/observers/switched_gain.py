@@ -36,8 +36,9 @@ from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
 from .error_bound import ErrorBound
-from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, STATE_SET_MARGIN, WARMING_UP, check_reset_keywords,
-                        checked_index, checked_state, initial_mode, outside_range)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, WARMING_UP, check_reset_keywords, checked_index,
+                        checked_state, initial_mode, outside_range)
+from ..defaults import STATE_SET_MARGIN
 
 #: Grid of the scheduling coordinate searched by the initial-region selection.
 INIT_GRID = 721
@@ -85,7 +86,7 @@ class SwitchedGainObserver(Observer):
     input_range : (lower, upper), optional
         The inputs' declared range (a scalar-nonlinear model has no input set of its own): a
         sample whose input lies outside it by more than
-        :data:`~hybobs_opt.contract.RANGE_MARGIN` of its width is refused (``fallback``).
+        :data:`~hybobs_opt.defaults.RANGE_MARGIN` of its width is refused (``fallback``).
         Outputs are always judged against what the model produces on the box.
 
     Notes
@@ -378,7 +379,7 @@ class SwitchedGainObserver(Observer):
         """Wrap the periodic coordinates, clip the others to the box (if ``clip_to_box``).
 
         Records in ``_left_box`` why the integrated estimate left the box by more than
-        :data:`~hybobs_opt.contract.STATE_SET_MARGIN` of its width (``None`` if it did not): the
+        :data:`~hybobs_opt.defaults.STATE_SET_MARGIN` of its width (``None`` if it did not): the
         error bound's hypothesis (estimate and plant in the box) failed on that interval.
         """
         x = self._wrap(x)

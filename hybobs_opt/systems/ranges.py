@@ -1,7 +1,7 @@
 """The ranges a model's signals can take: what a runtime observer judges its samples against.
 
 A runtime observer refuses a sample whose input or output lies outside what its model can
-produce by more than :data:`~hybobs_opt.contract.RANGE_MARGIN` of the range's width, and never
+produce by more than :data:`~hybobs_opt.defaults.RANGE_MARGIN` of the range's width, and never
 flags ``observable`` an estimate outside the model's state set (DESIGN.md, "Conventions": a
 runtime observer judges a sample against the model, not only its type).  This module computes
 those ranges once, when the observer is built:

@@ -10,7 +10,7 @@ deviation ``sigma`` (rad/s) added to the engine speed:
   (``T = 4`` by default: the residual test needs ``T p > n``; also ``T = 6`` as
   ``lookup-noise-T6``), at false-alarm ``1e-3``;
 * ``miqp``: the moving-horizon observer (10) told the noise level (``noise_std``: output weight
-  ``1 / sigma``, fit tolerance :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``sigma``, and
+  ``1 / sigma``, fit tolerance :data:`~hybobs_opt.defaults.NOISE_FIT_SIGMAS` ``sigma``, and
   ``observable`` only when the 99.9 % confidence region of the window-start state lies within
   ``delta``);
 * ``miqp-kalman``: the same with the arrival cost tuned from the noise level
