@@ -27,9 +27,6 @@ MAX_SAMPLES: int = 10_000_000
 #: rows and columns: beyond 100 steps nothing finishes (the papers use ``T <= 5``).
 MAX_HORIZON: int = 100
 
-#: The horizon every command uses when ``--horizon/-T`` is not given (regions, observe, bench,
-#: report): the papers' powertrain studies run at ``T = 3``.
-DEFAULT_HORIZON: int = 3
 
 #: Points of a 2-D grid (a region cut ``NX x NY``): each is a membership test over every region
 #: and three floats per state; 10^6 points is a 1000 x 1000 image, finer than any figure shows.

@@ -221,12 +221,29 @@ MATRIX_EQUAL_RTOL: float = 1e-12
 #: proposes is then confirmed by a width certificate on the original set.
 IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
 
+#: Relative orthogonality at which the Jacobi sweeps of the reproducible singular values
+#: (:mod:`hybobs_opt.geometry._reproducible`) stop (a pair of columns is rotated while
+#: ``|a_p'a_q| > JACOBI_TOL * |a_p| |a_q|``): four units of rounding (``4 * 2^-52``, four times the
+#: double-precision machine epsilon), as LAPACK's ``dgesvj``.
+JACOBI_TOL: float = 4.0 * 2.0 ** -52
+
 #: Popov-Belevitch-Hautus test of (A_i, C_i) in coordinates scaled by the state bounds (location
 #: observer, paper 000): the pair is unobservable when the smallest singular value of
 #: [A - lambda I; C] is below this times the largest.  Eigenvalues are computed to ~1e-13
 #: relative, so a real loss of rank (an exact zero, e.g. the backlash location of the driveline)
 #: sits far below and any observable pair far above.
 OBSERVABILITY_RTOL: float = 1e-9
+
+#: PBH test of the impossibility certificates (:mod:`hybobs_opt.lmi.impossibility`):
+#: ``sigma_min([J - lambda I; C]) <= PBH_RTOL * (1 + ||J|| + ||C||)`` counts as rank loss.  The
+#: Jacobians are evaluated from the model's functions (rounding ~1e-16 relative); a genuine loss of
+#: detectability is an exact zero.
+PBH_RTOL: float = 1e-8
+
+#: An eigenvalue of a Jacobian with ``Re lambda >= -EIGEN_DECAY_RTOL * (1 + ||J||)`` counts as not
+#: decaying (:mod:`hybobs_opt.lmi.impossibility`): a real part that is zero in exact arithmetic
+#: computes to rounding of the eigenvalue solver, ~1e-15 relative.
+EIGEN_DECAY_RTOL: float = 1e-9
 
 #: Constant-drift observers (paper 003): rank decisions of the sequential deadbeat algorithm
 #: (subspace intersections and images), on singular values relative to the largest.  The
@@ -290,10 +307,21 @@ AFFINE_PARAMETER_RTOL: float = 1e-9
 #: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
 EQUILIBRIUM_RTOL: float = 1e-9
 
+#: A candidate symmetry of the model (:mod:`hybobs_opt.lmi.impossibility`) holds at a sample point
+#: when both sides agree to this, relative: a true symmetry reproduces to the rounding of the
+#: model's functions (~1e-15), a false one differs by far more at some of the random points.
+SYMMETRY_RTOL: float = 1e-9
+
 #: Floor of the natural rate and of the scheduling coordinate's rate in the automatic switched-gain
 #: design (:mod:`hybobs_opt.lmi.auto_design`): a plant at rest on its whole box would otherwise give
 #: a zero gain bound, decay and rate; the floor is far below any rate a moving plant has.
 AUTO_DESIGN_RATE_FLOOR: float = 1e-12
+
+#: Initial-region selection of the switched-gain observer: an output whose model value varies over
+#: the grid by less than this (variance relative to its mean square) does not depend on the
+#: scheduling coordinate and is ignored: dividing by a variance at rounding level would let
+#: rounding pick the region.
+SWITCHED_INIT_SPREAD_RTOL: float = 1e-12
 
 # ====================================================================== LMI / SDP
 
@@ -323,6 +351,10 @@ GAIN_BOUND_RTOL: float = 1e-6
 #: undo the guarantee.
 DELAY_DESIGN_RTOL: float = 1e-3
 
+#: The dwell-time bisection stops once ``tau * max_j sigma_j`` is below this (``exp(-tau sigma)``
+#: within 1e-4 of 1: the pair constraints are then at the strict margin's resolution).
+TAU_RATE_FLOOR: float = 1e-4
+
 #: Positive-observer LP (paper 003): the largest contraction rate per visible event that is tried
 #: is ``1 - this``: a rate of 1 proves nothing, and a rate within rounding of 1 proves no more.
 POSITIVE_LP_RATE_MARGIN: float = 1e-6
@@ -348,6 +380,16 @@ ARRIVAL_CONTRACTION_MARGIN: float = 1e-6
 #: times ``||Z||_F`` (after an exact projection that zeroes the Y-coefficient).  Clarabel's rays
 #: are accurate to ~1e-9 relative; anything above 1e-6 is a wrong certificate, not rounding.
 CERTIFICATE_RTOL: float = 1e-6
+
+#: Farkas rays of :mod:`hybobs_opt.lmi.farkas`, re-checked in numpy: ``||A^T y|| <= FARKAS_RTOL
+#: ||A|| ||y||`` and cone membership to ``FARKAS_RTOL ||y||``, on the conic standard form cvxpy
+#: compiles for Clarabel.  Clarabel's rays are accurate to ~1e-9 relative (as for
+#: CERTIFICATE_RTOL); a ray that is no certificate violates these by far more.
+FARKAS_RTOL: float = 1e-7
+
+#: A Farkas ray must also make ``b^T y <= -FARKAS_MARGIN ||b|| ||y||``: a ray that makes ``b^T y``
+#: negative only at rounding level proves nothing.
+FARKAS_MARGIN: float = 1e-9
 
 #: A Perron (Collatz-Wielandt) certificate ``Phi z >= r z`` (paper 003) is re-checked in numpy with
 #: this relative slack on ``r z``: the eigenvector comes from LAPACK to ~1e-15.
@@ -499,6 +541,7 @@ def mhe_decision_band(threshold: float, epsilon: float) -> float:
     MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""
     return max(MHE_DECISION_BAND_EPS_RTOL * abs(float(epsilon)), MHE_DECISION_BAND_COST_RTOL * abs(float(threshold)))
 
+
 #: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  The cutoff
 #: J* + epsilon is widened by the term's largest value at an integral point of the box (sum of
 #: the squared box ranges ~50 on model 16: 5e-12 S_y, five times epsilon); a minimum in that band
@@ -546,6 +589,18 @@ SET_FILTER_ROW_RTOL: float = 1e-10
 #: (noise-free data would otherwise make every piece a slab thinner than HiGHS's feasibility
 #: tolerance, decided by rounding); a wider bound keeps more states, never fewer.
 SET_FILTER_MIN_NOISE_RTOL: float = 1e-7
+
+#: Set-membership filter: the pieces lie in the unit box of ``X`` (scaled), relaxed:
+#: ``|s_i| <= 1 + SET_FILTER_UNIT_BOX_MARGIN`` bounds the residual term of the proven box bounds.
+#: The pieces' rows are relaxed by SET_FILTER_ROW_RTOL at every step (3e-7 of the box after 3,000
+#: steps), so they may reach that far beyond the unit box; the margin covers it.
+SET_FILTER_UNIT_BOX_MARGIN: float = 1e-6
+
+#: Set-membership filter: a row of a piece is redundant when the other rows keep it within this
+#: (relative) of its bound.  Dropping a row that still cuts off up to this much enlarges the piece
+#: by at most that (the safe side: the true state is never dropped), at the level of the rows' own
+#: relaxation.
+SET_FILTER_REDUNDANCY_RTOL: float = 1e-9
 
 # ====================================================================== lookup observer (paper 002, Algorithm 4.1)
 
@@ -647,6 +702,16 @@ BANK_SCORE_ATOL: float = 1e-18
 #: rounding.
 RANGE_ABS_RTOL: float = 1e-9
 
+#: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
+#: in a summary against a noise-free log (:mod:`hybobs_opt.observers.recorded`): far above the
+#: rounding of an exact reconstruction from logged data, far below the error of a wrong estimate.
+WRONG_ESTIMATE_RTOL: float = 1e-6
+
+#: Largest deviation of a log's sample intervals from their median, relative to it, for a
+#: continuous-time observer that needs one sampling period: far above the rounding of time stamps
+#: accumulated in doubles, far below a missing or doubled sample (a deviation of 100 %).
+UNIFORM_PERIOD_RTOL: float = 1e-6
+
 # ====================================================================== simulation and integration
 
 #: Relative / absolute tolerances of the adaptive ODE solver of the nonlinear simulator: tight
@@ -681,3 +746,8 @@ HYBRID_TIME_EPS: float = 1e-12
 #: Step (in units of the flow) of the probe that decides which of several target locations the
 #: flow enters from a shared boundary point: far below any invariant's width, far above rounding.
 HYBRID_ENTRY_PROBE: float = 1e-9
+
+#: Switched-gain observer: RK4 sub-steps are chosen so that (sub-step) x (spectral radius of the
+#: frozen error dynamics) stays below this: well inside RK4's stability interval (2.78 on the
+#: negative real axis).
+RK4_STEP_RADIUS: float = 0.5

@@ -26,7 +26,7 @@ each from a rule on the model that is written down and reported with the value (
 * **maximum rate** of the coordinate (for the dwell-time guarantee): :func:`max_rate`;
 * **region condition**: the least conservative condition of :mod:`.hierarchy` that can be built
   (``"polytopic"``, the vertex LMIs of the Jacobian box; ``"per_function"`` beyond
-  :data:`~.polytopic.MAX_VERTICES` vertices): every gain of the paper's LMI satisfies it, so the
+  :data:`~hybobs_opt.defaults.POLYTOPIC_MAX_VERTICES` vertices): every gain of the paper's LMI satisfies it, so the
   regions are at least as wide.
 
 Every value can be given instead (``given`` in ``sources``).
@@ -42,12 +42,11 @@ import numpy as np
 
 from ..defaults import (AUTO_DESIGN_DECAY_FACTOR, AUTO_DESIGN_DECAY_FRACTION, AUTO_DESIGN_GAIN_FACTOR,
                         AUTO_DESIGN_OVERLAP_FRACTION, AUTO_DESIGN_RATE_FUNCTION_SAMPLES, AUTO_DESIGN_RATE_SAMPLES,
-                        DWELL_RETRY_FRACTIONS, DWELL_RETRY_WIDEN)
+                        DWELL_RETRY_FRACTIONS, DWELL_RETRY_WIDEN, POLYTOPIC_MAX_VERTICES, SIGMA_CAP)
 from ..errors import HybobsError, ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import AUTO_DESIGN_RATE_FLOOR
 from .bounds import jacobian_bounds
-from .observer_lmi import SIGMA_CAP
 from .schedule import coordinate_index
 
 
@@ -247,11 +246,10 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
               "largest rate of the coordinate on the box (zero input)")
     cap = max(SIGMA_CAP, 10.0 * rho)
     from .hierarchy import CONDITIONS
-    from .polytopic import MAX_VERTICES
 
     if condition is None:
         k_fn = system.r + sum(not lin for lin in system.linear_outputs)
-        condition = "polytopic" if 2 ** k_fn <= MAX_VERTICES else "per_function"
+        condition = "polytopic" if 2 ** k_fn <= POLYTOPIC_MAX_VERTICES else "per_function"
         sources["condition"] = "the least conservative condition that can be built (vertices of the Jacobian box)"
     elif condition not in CONDITIONS:
         raise ModelError("condition", f"one of {CONDITIONS}", repr(condition))

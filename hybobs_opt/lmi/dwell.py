@@ -25,7 +25,7 @@ from scipy.linalg import eigh
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..defaults import BISECTION_RTOL
-from ..tolerances import LMI_STRICT_MARGIN
+from ..tolerances import LMI_STRICT_MARGIN, TAU_RATE_FLOOR
 from .bounds import JacobianBounds
 from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
@@ -140,10 +140,6 @@ class DwellResult:
 
 
 _COMPILED: "weakref.WeakKeyDictionary[ScalarNonlinearSystem, dict]" = weakref.WeakKeyDictionary()
-
-#: The dwell-time bisection stops once ``tau * max_j sigma_j`` is below this (``exp(-tau sigma)``
-#: within 1e-4 of 1: the pair constraints are then at the strict margin's resolution).
-TAU_RATE_FLOOR: float = 1e-4
 
 
 class DwellTimeLMI:

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..defaults import BISECTION_RTOL
+from ..defaults import BISECTION_RTOL, SIGMA_CAP
 from ..tolerances import GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from ..status import Status
 from .bounds import JacobianBounds, jacobian_bounds
@@ -58,10 +58,6 @@ from .lmi_model import (
 from .schedule import SchedulingRegion
 from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_problem
 
-#: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
-#: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
-#: search needs a cap; with a gain bound the bound decides.
-SIGMA_CAP: float = 100.0
 
 #: The S-procedure multiplier layouts of :class:`ObserverLMI`.
 MULTIPLIER_MODES = ("single", "per_function")
@@ -484,7 +480,7 @@ class ObserverLMI:
         bounds : JacobianBounds
             Bounds of the region (:meth:`bounds`).
         sigma_cap : float, default SIGMA_CAP
-            Upper end of the search (:data:`SIGMA_CAP`, 100).
+            Upper end of the search (:data:`~hybobs_opt.defaults.SIGMA_CAP`, 100).
         rtol : float, default BISECTION_RTOL
             Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         guess : float, optional

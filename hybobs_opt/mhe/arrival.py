@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contract import noise_std_vector
+from ..defaults import CONSISTENCY_FALSE_ALARM, CONSISTENCY_WINDOW
 from ..errors import ModelError, SolverError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -395,13 +396,6 @@ class KalmanArrival:
     def std(self) -> np.ndarray:
         """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
         return np.sqrt(np.diag(self.P))
-
-
-#: Samples of the noise-consistency test (:class:`NoiseConsistencyTest`).
-CONSISTENCY_WINDOW: int = 10
-
-#: False-alarm probability of one noise-consistency test.
-CONSISTENCY_FALSE_ALARM: float = 1e-3
 
 
 class NoiseConsistencyTest:

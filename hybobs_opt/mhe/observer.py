@@ -100,7 +100,7 @@ from .._validate import as_positive, as_vector
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
                         checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
 from ..defaults import (INNOVATION_MARGIN, MHE_CERTIFY_MAX_NODES, MHE_MIXTURE_MAX_SEQUENCES, MHE_NOISE_FALSE_ALARM,
-                        MHE_UNIQUENESS_DELTA, NOISE_FIT_SIGMAS)
+                        MHE_PROX_PASSES, MHE_UNIQUENESS_DELTA, NOISE_FIT_SIGMAS)
 from ..errors import ModelError
 from ..status import Status
 from ..systems.pwa import PWASystem
@@ -122,19 +122,14 @@ from .mixture import sequence_mixture, sequence_posterior_covariance
 from .mld import BigMConstants
 from .residual import weight_matrix
 from .result import WindowResult
-from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram
+from .uniqueness import SeparatedProgram
 from .window import WindowModel
 
-__all__ = ["DEFAULT_PROX_PASSES", "MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
+__all__ = ["MHEObserver", "NORMS", "SOLVERS"]
 
 NORMS = ("2", "1", "inf")
 #: Solvers per norm; the first one is the default.
 SOLVERS = {"2": MIQP_SOLVERS, "1": MILP_SOLVERS, "inf": MILP_SOLVERS}
-
-#: Proximal-point passes per window (norm 2): a pass is repeated, centred at its minimiser, only
-#: when the minimiser moved away from the warm start (cold starts, mode switches); on noise-free
-#: data a second pass always lands on the zero-cost sequence in the tests, a third is a margin.
-DEFAULT_PROX_PASSES = 3
 
 
 class MHEObserver(Observer):
@@ -328,7 +323,7 @@ class MHEObserver(Observer):
        numpy and the QP of its mode sequence and direction re-solved exactly: at most
        ``J* + epsilon`` makes it an ``alternative``; above (within the proximal bias of the
        threshold) that combination is excluded exactly and the rest searched again, by bounds
-       on the binaries only, in ``T + 1`` disjoint parts (at most ``UNIQUENESS_MAX_SOLVES``
+       on the binaries only, in ``T + 1`` disjoint parts (at most :data:`~hybobs_opt.defaults.MHE_UNIQUENESS_MAX_SOLVES`
        solves, else "not certified").  DAQP's settings are applied before its setup, with
        ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
        as singular and silently switches to proximal iterations, whose answers were measured
@@ -391,7 +386,7 @@ class MHEObserver(Observer):
                  disturbance_weight=None, arrival_weight=None, *, x0=None, solver_options: dict | None = None,
                  polish: bool = True, prox_weight: float = MHE_PROX_WEIGHT,
                  binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT, zero_cost_certificate: bool = True,
-                 prox_passes: int = DEFAULT_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
+                 prox_passes: int = MHE_PROX_PASSES, certify_max_nodes: int = MHE_CERTIFY_MAX_NODES,
                  big_m: BigMConstants | None = None,
                  check_uniqueness: bool = True, uniqueness_delta: float = MHE_UNIQUENESS_DELTA, analysis=None,
                  fit_tolerance=None, certify_time_budget: float | None = None, extend=None, noise_std=None,

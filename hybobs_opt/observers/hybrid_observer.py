@@ -46,7 +46,7 @@ from ..tolerances import LUENBERGER_LMI_MARGIN
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, WARMING_UP, check_reset_keywords,
                         checked_index, initial_mode, initial_state, innovation_excess, judge_samples_against,
                         sample_rows)
-from ..defaults import INNOVATION_MARGIN, INNOVATION_PATIENCE
+from ..defaults import HYBRID_OBSERVER_MAX_VERTEX_DIM, INNOVATION_MARGIN, INNOVATION_PATIENCE, TRANSIENT_FRACTION
 from .error_bound import ErrorBound, induced_log_norm
 from .location_design import affine_key, sqrt_psd
 from .location_logic import IDENTIFIED
@@ -64,13 +64,6 @@ from .location_observer import (
     sampled_observer,
     spectral_abscissa,
 )
-
-#: Vertices of the operating box are enumerated exactly up to this many dimensions (``n + m``).
-MAX_VERTEX_DIM = 12
-
-#: A run has "converged" once the transient term ``c e^{-alpha t} ||eps(0)||`` of the bound is below
-#: this fraction of ``M0`` (the guaranteed error is then at most 1.01 M0).
-TRANSIENT_FRACTION = 0.01
 
 
 # ============================================================================ design
@@ -261,8 +254,9 @@ class ContinuousObserverLMI:
         except ModelError:
             return np.zeros((0, n + m + 1))
         d = n + m
-        if d > MAX_VERTEX_DIM:
-            raise ModelError("automaton", f"n + m <= {MAX_VERTEX_DIM} for the vertex bound of V", f"n + m = {d}")
+        if d > HYBRID_OBSERVER_MAX_VERTEX_DIM:
+            raise ModelError("automaton", f"n + m <= {HYBRID_OBSERVER_MAX_VERTEX_DIM} for the vertex bound of V",
+                             f"n + m = {d}")
         corners = np.array(list(itertools.product(*zip(blo, bhi))), dtype=float).reshape(-1, d)
         return np.hstack([corners, np.ones((corners.shape[0], 1))])
 

@@ -25,15 +25,13 @@ import numpy as np
 
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, WARMING_UP,
                         check_reset_keywords, initial_state, innovation_excess, judge_samples_against, sample_rows)
-from ..defaults import INNOVATION_MARGIN, INNOVATION_PATIENCE
-from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
+from ..defaults import CONVERGENCE_FRACTION, INNOVATION_MARGIN, INNOVATION_PATIENCE
+from .error_bound import LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import ModelError
 from ..lmi.solve import SOLVER
 from ..tolerances import LOCATION_INVARIANT_RTOL
 from .location_design import (
-    DECAY_GUARD,
-    MAX_DECAY_ITERATIONS,
     DelayCertificate,
     LuenbergerLMI,
     ResidualBank,
@@ -373,7 +371,6 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
 
 __all__ = [
     "AMBIGUOUS",
-    "DECAY_GUARD",
     "DelayCertificate",
     "IDENTIFIED",
     "LocationDecision",
@@ -381,7 +378,6 @@ __all__ = [
     "LocationObserver",
     "LocationRun",
     "LuenbergerLMI",
-    "MAX_DECAY_ITERATIONS",
     "NO_CANDIDATE",
     "ResidualBank",
     "ResidualGenerator",

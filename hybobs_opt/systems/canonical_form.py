@@ -30,12 +30,9 @@ from itertools import combinations
 import numpy as np
 
 from ..errors import ModelError
-from ..defaults import DERIVATIVE_BOUND_MARGIN, DERIVATIVE_BOUND_SAMPLES
+from ..defaults import DERIVATIVE_BOUND_MARGIN, DERIVATIVE_BOUND_SAMPLES, TRIANGULAR_CHECK_SAMPLES
 from ..tolerances import CANONICAL_FORM_RTOL, MEMBERSHIP_RTOL, RANK_RTOL, TRIANGULAR_CHECK_RTOL
 
-#: Box samples on which a callable flow's triangular structure is checked (each costs one call
-#: per location; a wrong structure shows up at almost every sample).
-TRIANGULAR_CHECK_SAMPLES = 200
 from .hybrid import HybridAutomaton
 
 __all__ = [

@@ -23,13 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import OUTPUT_RANGE_SAMPLES
 from ..geometry.lp import row_range
 from ..geometry.polytope import Polytope
 
 Range = tuple[np.ndarray, np.ndarray]
-
-#: Samples per argument interval of a nonlinear output (then refined by a bounded scalar search).
-OUTPUT_SAMPLES = 1025
 
 
 def state_range(system: Any) -> Range | None:
@@ -108,7 +106,7 @@ def _scalar_nonlinear_output_range(system: Any) -> Range:
 
     lo, hi = [], []
     for fn, (a, b) in zip(system.h, system.h_ranges):
-        z = np.linspace(a, b, OUTPUT_SAMPLES)
+        z = np.linspace(a, b, OUTPUT_RANGE_SAMPLES)
         v = fn.value(z)
         ext = []
         for sign, k in ((1.0, int(np.argmin(v))), (-1.0, int(np.argmax(v)))):
@@ -126,4 +124,4 @@ def _scalar_nonlinear_output_range(system: Any) -> Range:
     return np.array(lo), np.array(hi)
 
 
-__all__ = ["OUTPUT_SAMPLES", "input_range", "output_range", "state_range"]
+__all__ = ["input_range", "output_range", "state_range"]
