@@ -103,7 +103,7 @@ SYMMETRY_POINTS: int = 200
 #: it bounds the search's cost, SYMMETRY_POINTS model evaluations per candidate.
 MAX_SYMMETRY_CANDIDATES: int = 4096
 
-# ====================================================================== observer design: LMIs, decay-rate searches, gains
+# ====================================================================== observer design: LMIs, decay searches, gains
 
 #: Bisection on the decay rate sigma and on the dwell time tau stops when the bracket is this
 #: fraction of its upper end: 5 % is below the spread between regions, the design uses half the
