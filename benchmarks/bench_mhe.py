@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybobs_opt.contract import NOISE_FIT_SIGMAS
+from hybobs_opt.defaults import NOISE_FIT_SIGMAS
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver

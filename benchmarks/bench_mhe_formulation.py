@@ -46,7 +46,7 @@ def worker(src: str, T: int, norm: str, steps: int) -> dict:
     """One run on the source tree ``src`` (this function only imports hybobs_opt from it)."""
     sys.path.insert(0, src)
     import hybobs_opt
-    from hybobs_opt.contract import NOISE_FIT_SIGMAS
+    from hybobs_opt.defaults import NOISE_FIT_SIGMAS
     from hybobs_opt.mhe import MHEObserver
     from hybobs_opt.studies.registry import get_example
 

@@ -61,7 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybobs_opt.contract import NOISE_FIT_SIGMAS
+from hybobs_opt.defaults import NOISE_FIT_SIGMAS
 
 from ._machine import json_default, machine, versions
 

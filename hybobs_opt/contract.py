@@ -21,7 +21,9 @@ from typing import Any
 import numpy as np
 
 from ._validate import as_positive
+from .defaults import RANGE_MARGIN, STATE_SET_MARGIN, TIME_JUMP_FACTOR
 from .errors import ModelError
+from .tolerances import RANGE_ABS_RTOL
 
 #: Flags an estimate can carry.
 OBSERVABLE = "observable"  #: reconstructed from the data (e.g. a unique consistent state)
@@ -163,39 +165,9 @@ class ObserverTrace:
         return {"median_step_s": float(np.median(s)), "p95_step_s": float(np.percentile(s, 95)), "max_step_s": float(s.max())}
 
 
-#: A sample whose input or output lies outside the range the model can produce (``input_range``,
-#: ``output_range`` of an observer) by more than this fraction of the range's width is not used:
-#: it is flagged ``fallback`` and the step is open loop.  Half the width leaves room for sensor
-#: noise and offsets while a sensor fault (``y = 1e12``) never enters the state.
-RANGE_MARGIN: float = 0.5
-
-#: The older name of :data:`RANGE_MARGIN` (it applied to outputs only).
-OUTPUT_RANGE_MARGIN: float = RANGE_MARGIN
-
-#: An estimate outside the model's state set (``state_range`` of an observer) by more than this
-#: fraction of the set's width in some coordinate is never flagged ``observable``: the plant cannot
-#: be there, so the estimate is wrong by at least that much.  1 % leaves room for the transient
-#: overshoot of an observer that has converged and for rounding on the boundary.
-STATE_SET_MARGIN: float = 0.01
-
-#: A Luenberger-type observer whose certified error bound ``b`` allows output errors of at most
-#: ``b sqrt(C_j P^-1 C_j')`` refuses a sample whose output residual exceeds that by more than this
-#: fraction of the output's range width: the sample, or the bound's hypotheses, contradict the
-#: model.  The allowance covers what the sampled error bound does not model, the mismatch between
-#: a continuous plant and the sampled observer between two samples: on the driveline of paper 000
-#: (model output range 5,730 rad/s wide, so an allowance of 5.7 rad/s) the clean runs exceed the
-#: bound by at most 6.4e-3 rad/s (hybrid observer; 3.1e-4 with the true locations), while a sensor
-#: fault ten times the run's largest output (460 rad/s) exceeds it eighty times over.
-INNOVATION_MARGIN: float = 1e-3
-
-#: After this many consecutive samples refused by the innovation test the observer takes the next
-#: one and restarts its error bound from the state box: a persistent contradiction is the bound's
-#: hypothesis failing (a location switch not yet detected, a model mismatch), not one bad sample.
-INNOVATION_PATIENCE: int = 2
-
 def innovation_excess(r: np.ndarray, allowed: np.ndarray, y: np.ndarray, names=(), what: str = "") -> str | None:
     """Why an output residual ``r`` exceeds ``allowed`` (the error bound's share plus
-    :data:`INNOVATION_MARGIN`) in some output, or ``None``; ``what`` names whose residual it is."""
+    :data:`~hybobs_opt.defaults.INNOVATION_MARGIN`) in some output, or ``None``; ``what`` names whose residual it is."""
     bad = np.nonzero(~(np.abs(r) <= allowed))[0]
     if not bad.size:
         return None
@@ -203,16 +175,6 @@ def innovation_excess(r: np.ndarray, allowed: np.ndarray, y: np.ndarray, names=(
     name = names[j] if j < len(names) else f"y[{j}]"
     return (f"output {name} = {y[j]:.6g} contradicts the model: residual {r[j]:.3g}{what} exceeds the certified "
             f"error bound's {allowed[j]:.3g}")
-
-
-#: Noisy data: an observer's fit tolerance of this many output-noise standard deviations
-#: (``MHEObserver(fit_tolerance=NOISE_FIT_SIGMAS * std)``); a Gaussian residual exceeds it about
-#: once in 1.7 million samples.
-NOISE_FIT_SIGMAS: float = 5.0
-
-#: Relative floor of every range test (``(1 + |bound|)`` times this): a degenerate range (a
-#: constant output) still admits rounding.
-RANGE_ABS_RTOL: float = 1e-9
 
 
 def outside_range(v: np.ndarray, rng, margin: float, names=(), label: str = "y") -> str | None:
@@ -234,13 +196,6 @@ def outside_range(v: np.ndarray, rng, margin: float, names=(), label: str = "y")
     j = int(bad[0])
     name = names[j] if j < len(names) else f"{label}[{j}]"
     return f"{name} = {v[j]:.6g} outside the model's range [{lo[j]:.6g}, {hi[j]:.6g}] by more than {margin:g} of its width"
-
-
-#: An event-driven observer refuses a time stamp later than the previous accepted one by more than
-#: this many times its model's time scale (the timer durations of one cycle): a clock fault
-#: (``t = 1e300``) must not move the observer's time reference, after which every good sample
-#: would be refused as "before the previous one".  A thousand cycles is no plausible gap in a log.
-TIME_JUMP_FACTOR: float = 1000.0
 
 
 class TimeGuard:
@@ -466,9 +421,9 @@ class Observer(ABC):
 
     Samples are judged against the model (:mod:`hybobs_opt.systems.ranges`): an observer that sets
     ``output_range`` or ``input_range = (lo, hi)`` (arrays over the outputs / inputs: what the
-    model can produce) has samples outside them by more than :data:`RANGE_MARGIN` refused like NaN
+    model can produce) has samples outside them by more than :data:`~hybobs_opt.defaults.RANGE_MARGIN` refused like NaN
     samples, and one that sets ``state_range`` never flags ``observable`` an estimate outside the
-    state set by more than :data:`STATE_SET_MARGIN` (the step is flagged ``fallback`` with the
+    state set by more than :data:`~hybobs_opt.defaults.STATE_SET_MARGIN` (the step is flagged ``fallback`` with the
     reason in ``info``)."""
 
     name = "observer"

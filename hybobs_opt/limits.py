@@ -1,10 +1,12 @@
 """Named resource limits: requests beyond them are refused before any memory is allocated.
 
-Like :mod:`hybobs_opt.tolerances`, every limit is defined here with the reason for its size.  A
-limit is far above what any study or sensible use needs; it exists so that a typing error
-(``t_final = 1e12`` instead of ``1e2``) is a :class:`~hybobs_opt.errors.ModelError` naming the
-request and the limit, not a ``MemoryError`` (or a machine swapping) minutes later.  The messages
-name the function parameter; the CLI translates it into its option.
+Like :mod:`hybobs_opt.tolerances` and :mod:`hybobs_opt.defaults`, every limit is defined here
+with the reason for its size.  A limit is far above what any study or sensible use needs; it
+exists so that a typing error (``t_final = 1e12`` instead of ``1e2``) is a
+:class:`~hybobs_opt.errors.ModelError` naming the request and the limit, not a ``MemoryError`` (or
+a machine swapping) minutes later.  The messages name the function parameter; the CLI translates
+it into its option.  Defaults (such as the horizon a command uses when none is given) are in
+:mod:`hybobs_opt.defaults`.
 """
 
 from __future__ import annotations
@@ -27,9 +29,6 @@ MAX_SAMPLES: int = 10_000_000
 #: rows and columns: beyond 100 steps nothing finishes (the papers use ``T <= 5``).
 MAX_HORIZON: int = 100
 
-#: The horizon every command uses when ``--horizon/-T`` is not given (regions, observe, bench,
-#: report): the papers' powertrain studies run at ``T = 3``.
-DEFAULT_HORIZON: int = 3
 
 #: Points of a 2-D grid (a region cut ``NX x NY``): each is a membership test over every region
 #: and three floats per state; 10^6 points is a 1000 x 1000 image, finer than any figure shows.

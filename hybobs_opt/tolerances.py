@@ -1,10 +1,20 @@
 """Named numerical tolerances.
 
-Every tolerance used by the toolbox is defined here, with the reason for its size, so that no
-bare literal decides a geometric or numerical question somewhere deep in the code.  Tolerances
-on geometry are *relative*: they apply in coordinates normalised by the state and input bounds
-(DESIGN.md, "Scale before you solve").
+A tolerance is a threshold that decides a numerical or geometric question: is a point in a set,
+is a matrix rank-deficient, is a solver's answer accurate enough to be used, are two times the
+same instant.  Every such threshold of the toolbox is defined here, with the reason for its size,
+so that no bare literal decides a question somewhere deep in the code.  Values a user could
+reasonably choose instead (horizons, budgets, default bounds, grid sizes) are in
+:mod:`hybobs_opt.defaults`.
+
+Tolerances on geometry are *relative*: they apply in coordinates normalised by the state and
+input bounds (DESIGN.md, "Scale before you solve").  The sections below group the tolerances by
+what they decide.
 """
+
+# ====================================================================== geometry: membership, dimension, emptiness
+# Constraint rows are unit-norm and coordinates scaled to [-1, 1] by the state and input bounds
+# (or by a set's bounding box), so these are relative.
 
 #: Slack allowed when testing ``A z <= b`` for a point, relative to ``1 + |b|`` row-wise.
 MEMBERSHIP_RTOL: float = 1e-9
@@ -17,23 +27,6 @@ FULL_DIMENSION_RTOL: float = 1e-7
 #: on the variables: it holds or fails by its right-hand side alone).  Callers pass rows that were
 #: unit-norm in scaled coordinates before any restriction to a subspace, so this is relative.
 ZERO_ROW_TOL: float = 1e-10
-
-#: Relative singular-value threshold for rank tests (``s_min / s_max``) in scaled coordinates.
-RANK_RTOL: float = 1e-12
-
-#: Relative tolerance used when checking that two affine maps (mode dynamics) are equal.
-MATRIX_EQUAL_RTOL: float = 1e-12
-
-#: A user-supplied derivative of a scalar function (paper 004, eq. 3) must match CasADi's automatic
-#: derivative to this tolerance relative to ``1 + max |f'|`` on the operating box: both are exact
-#: up to rounding, so any real disagreement is a wrong formula, not noise.
-DERIVATIVE_CHECK_RTOL: float = 1e-8
-
-#: Relative / absolute tolerances of the adaptive ODE solver of the nonlinear simulator: tight
-#: enough that the sampled trajectory is exact for the physics checks of the examples (turn angles
-#: to 1e-6 rad), loose enough to keep a 30 s vehicle scenario well under a second.
-NONLINEAR_ODE_RTOL: float = 1e-10
-NONLINEAR_ODE_ATOL: float = 1e-10
 
 #: Cap on the slack variable of max-slack LPs (in scaled coordinates a set inside the unit box has
 #: Chebyshev radius <= 1, so the cap never binds for the sets of interest and keeps LPs bounded).
@@ -48,16 +41,9 @@ REGION_SLACK_TOL: float = 1e-6
 #: this much makes it feasible.  It is the accuracy of the LPs themselves, not a geometric
 #: tolerance: pair sets that only touch (a shared guard face) are exactly feasible, and DAQP's
 #: proximal solves return their points feasible to about 1e-8 (HiGHS's primal tolerance is
-#: 1e-7); at 1e-9, 27 % of the touching pair sets of model 16 at T = 7 could not be decided by
-#: DAQP's certificate and went to HiGHS.  Sets that need more relaxation are empty.
+#: 1e-7); a tighter 1e-9 leaves about a quarter of the touching pair sets of model 16 at T = 7
+#: undecided by DAQP's certificate (they go to HiGHS).  Sets that need more relaxation are empty.
 CLOSED_SET_TOL: float = 1e-7
-
-#: Implicit equalities of a face-confined pair set are added only along directions whose singular
-#: value (unit rows) exceeds this fraction of the largest: two tight rows with opposite normals
-#: differ by rounding (about 1e-8 on model 16 at T = 7) and would otherwise pin a second,
-#: spurious direction, making full projections look flat.  Any dimension drop the reduction
-#: proposes is then confirmed by a width certificate on the original set.
-IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
 
 #: Two states count as different (a pair set ``R_ij`` holds a state ``x^ != x``) when they are
 #: more than this apart in one scaled coordinate.  Ten times REGION_SLACK_TOL: the pair sets are
@@ -65,41 +51,26 @@ IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
 #: about 1e-13; anything closer than this is the same state for every test of the toolbox.
 DISTINCT_STATE_TOL: float = 1e-5
 
+#: A constraint row is implied by the box X x U^T (and dropped) when its largest value over the box
+#: stays below its bound by this relative margin; rows that reach the bound are kept.
+BOX_IMPLIED_RTOL: float = 1e-12
+
+#: Regions: the thin test of a pair set's projection (Algorithm 3.1, paper 002) skips its
+#: two width LPs when a certified Chebyshev ball of radius ``r`` already gives width
+#: ``>= 2 r |c| > 2 REGION_SLACK_TOL (1 + BALL_WIDTH_RTOL)``; the relative margin keeps the
+#: comparison away from the floating-point rounding of the LPs' own width bound (~1e-15 relative),
+#: so the skipped LPs could not have certified the set thin.
+BALL_WIDTH_RTOL: float = 1e-6
+
+# ====================================================================== LP answers and their re-checks
+# (hybobs_opt.geometry.lp: a solver's point, multipliers and verdicts are used only after numpy
+# has checked them against these.)
+
 #: An "optimal" LP point is accepted only if every row ``a'x <= b`` (or ``= b``) holds to
 #: ``LP_POINT_RTOL (1 + |b| + |a| |x|)``, i.e. relative to the terms summed in the row.  HiGHS
 #: certifies a primal feasibility of 1e-7 on its internally scaled problem; ten times that leaves
 #: room for the unscaling, while a point moved by 1e-3 (a corrupted answer) fails by far.
 LP_POINT_RTOL: float = 1e-6
-
-#: Smallest eigenvalue of a Lyapunov matrix returned by an LMI solve relative to its largest
-#: (:func:`hybobs_opt.lmi.solve.checked_lyapunov`): below it ``P`` is singular to working precision
-#: and the gain ``P^-1 Y`` is not determined by the answer.
-LYAPUNOV_MIN_RATIO: float = 1e-12
-
-#: Arrival-cost LMI (:mod:`hybobs_opt.mhe.arrival`), in coordinates scaled by the first prior's
-#: standard deviations: eigenvalues of the information below this fraction of its largest are
-#: set to zero (the solver's interior point leaves ~1e-9 where the optimum has none), and it is
-#: the tolerance of the re-check of ``Z >= 0`` and ``Z <= Z_0``.  The per-mode invariance is
-#: re-checked with no tolerance (see ARRIVAL_CONTRACTION_MARGIN).
-ARRIVAL_LMI_RTOL: float = 1e-7
-
-#: The invariance of the arrival-cost LMI is solved as a strict contraction
-#: ``F_q(P) <= (1 - margin) P``: an invariance met only to the solver's tolerance (1e-9 per step)
-#: drifts without bound along a direction whose error never decays (measured on the backlash of
-#: model (16): the Kalman information fell below the prior's by 0.1 % after 776 steps), while the
-#: margin's slack absorbs it and costs a relative 1e-6 of information.
-ARRIVAL_CONTRACTION_MARGIN: float = 1e-6
-
-#: Floor of the standard deviations of the MHE's Kalman arrival prior
-#: (``MHEObserver(arrival_weight="kalman")``), relative to the state box's half-widths, added to
-#: the filter's covariance (a model-mismatch floor: the prior never claims more than this).
-#: Without process noise the filter's covariance shrinks without end along observable stretches
-#: and the arrival block of DAQP's Hessian grows with it.  Measured on the noisy bench of model
-#: (16) (sigma 0.01 rad/s, 1,500 samples): at 1e-6 the branch and bound's points failed their
-#: verification and the prefix search could not prove the relative gap in 1,269 windows
-#: (fallback); at 1e-4 and 1e-3 none failed (1,489 observable), with omega_l RMS 0.013 / 0.016
-#: rad/s and median steps 6.9 / 4.7 ms.
-MHE_ARRIVAL_MIN_STD_RTOL: float = 1e-3
 
 #: The multipliers HiGHS returns with an "optimal" point must certify it: of the right sign,
 #: stationary and with a zero duality gap, each to this times the size of the terms summed (on
@@ -117,23 +88,59 @@ LP_DUAL_RTOL: float = 1e-6
 #: products is ~1e-15 relative; a wrong verdict (a feasible LP) has no such multipliers at all.
 LP_CERTIFICATE_RTOL: float = 1e-7
 
-#: Equilibration sweeps of :func:`hybobs_opt.geometry.lp.solve_lp` (rows, then columns, by powers
-#: of two, geometric mean of the largest and smallest entry) before every row is set to unit norm.
-#: Each sweep about halves the logarithm of the imbalance; 8 sweeps bring states rescaled by 1e6
-#: and 1e-6 (entries 1e12 apart within a row, which HiGHS drops below its 1e-9 small-value
-#: threshold) within a factor of a few of one, for 4 x 8 small numpy reductions per LP.
-LP_EQUILIBRATION_SWEEPS: int = 8
-
 #: Entries below this times their row's largest are ignored by the geometric-mean scaling (they
 #: are still in the LP): rows built by products (pair sets restricted to their equality subspace)
 #: hold rounding residues of ~1e-16 (measured down to 2.5e-22) where exact arithmetic gives zero,
-#: and a residue taken for a unit drove HiGHS 5e-4 off a row.  100 times the rounding level, and
-#: below the 1e-12 spread of a row whose states are in units 1e6 and 1e-6.
+#: and scaling by such a residue as if it were an entry can push HiGHS's answer 5e-4 off a row.
+#: 100 times the rounding level, and below the 1e-12 spread of a row whose states are in units
+#: 1e6 and 1e-6.
 LP_SCALING_NOISE_RTOL: float = 1e-14
 
-# ---------------------------------------------------------------------- polytope operations
-# (projection, redundancy removal, set difference; paper 002, Sections 2-3).  All of these act in
-# coordinates scaled so that the set's bounding box is [-1, 1]^d.
+#: Rows whose slack at DAQP's point is within this (scaled units) of DAQP's slack variable are
+#: treated as active when the dual multipliers are refined.  DAQP's points violate rows by up to
+#: about 1e-6 here; extra rows only give NNLS more freedom, the bound stays valid for any choice.
+NEAR_ACTIVE_TOL: float = 1e-5
+
+#: DAQP solves an LP (zero Hessian) by proximal-point iterations.  Its automatic setting
+#: (eps_prox = -1e-6) leaves multipliers about 1e-6 off, too loose to certify that two regions
+#: that only touch have a Chebyshev slack of 0 (not above REGION_SLACK_TOL): 44 % of the pair
+#: LPs of model (17), T = 7 then need an NNLS refinement.  A forced proximal weight of 1e-7
+#: gives multipliers that certify 99.5 % of them directly; 1e-10 stalls more often (6 % failed
+#: solves) and the answer is certified by numpy either way, so the value only trades speed.
+DAQP_EPS_PROX: float = 1e-7
+
+#: A DAQP answer flagged optimal is used only when its point satisfies every row to this times
+#: ``1 + |b_k| + |a_k| |x|`` and its multipliers are non-negative to this times their size.
+#: DAQP's proximal points violate the (unit-norm, scaled) rows by up to ~1e-6 (NEAR_ACTIVE_TOL);
+#: ten times that accepts every clean answer, while a corrupted one (a point moved by 1e-3,
+#: negated multipliers) fails by orders of magnitude and goes to HiGHS.
+DAQP_POINT_RTOL: float = 1e-5
+
+#: Regions: DAQP's primal tolerance of the last attempt at a Chebyshev LP of a pair set
+#: of Algorithm 3.1 before HiGHS (``pair_geometry._slack_lp``, when DAQP's default attempts do not
+#: decide).  A face (radius exactly 0) must be told from an empty set at ``-CLOSED_SET_TOL = -1e-7``
+#: by the slack *at the point*; DAQP's default (1e-6) leaves rows violated by ~2e-7-5e-7, 1e-11
+#: leaves ~1e-10 (model 16 at T = 8; the faces of model 17 at T = 7, where HiGHS's point can sit at
+#: slack -3.4e-6).  The bounds stay the numpy-certified ones.
+PAIR_LP_PRIMAL_TOL: float = 1e-11
+
+# ====================================================================== decisions near a threshold
+
+#: A decision taken from certified floating-point bounds (a Chebyshev radius against its
+#: threshold, a width against ``2 REGION_SLACK_TOL``, ``|x - x^|`` against DISTINCT_STATE_TOL) is
+#: taken in floats only when the bound clears the threshold by this much (scaled units, rows of
+#: unit norm); inside the band the LP is re-decided in rational arithmetic
+#: (:mod:`hybobs_opt.geometry.exact_lp`).  The bounds are rigorous up to the rounding of their own
+#: evaluation, about 1e-15 for the data of order one here: a thousand times that.
+EXACT_DECISION_MARGIN: float = 1e-12
+
+#: An LP value taken from HiGHS's point (not a certified bound: its rows hold to LP_POINT_RTOL)
+#: that lies within this of the caller's threshold is re-decided in rational arithmetic.
+HIGHS_DECISION_BAND: float = 1e-6
+
+# ====================================================================== polytope operations
+# (projection, redundancy removal, vertices, volume, set difference; paper 002, Sections 2-3).
+# All of these act in coordinates scaled so that the set's bounding box is [-1, 1]^d.
 
 #: A row is redundant when its maximum over the other rows exceeds its right-hand side by at
 #: most this, relative to ``1 + |b_i|``.  HiGHS certifies optimality to a primal/dual feasibility
@@ -146,6 +153,11 @@ REDUNDANCY_RTOL: float = 1e-7
 #: ``sqrt(d) * 1e-10``, which moves the set by far less than REDUNDANCY_RTOL inside the unit box.
 #: Near-parallel rows that straddle a grid line are simply left to the LP test.
 PARALLEL_ROW_TOL: float = 1e-10
+
+#: Redundancy removal by ray shooting from an interior point: the first row crossed is a facet
+#: only if the next row is crossed later by more than this fraction of the distance; closer
+#: crossings (a ray through a vertex or edge, up to rounding) prove nothing and an LP decides.
+RAY_TIE_RTOL: float = 1e-9
 
 #: Library answers of vertex enumeration, convex hulls and redundancy removal (pycddlib, qhull:
 #: :mod:`hybobs_opt.geometry.vertices`) are checked in coordinates scaled so the vertices' box is
@@ -171,12 +183,6 @@ VERTEX_RANK_RTOL: float = 1e-7
 #: than the redundancy test itself can see; walked edges land within about 1e-12 of true vertices.
 VERTEX_SAME_RTOL: float = 1e-7
 
-#: A degenerate vertex (more than d tight rows) is checked by walking every extreme ray of its
-#: cone of feasible directions, found among the null directions of the (d-1)-subsets of its tight
-#: rows.  Above this many subsets (e.g. the 32 rows at a vertex of the 6-D cross-polytope give
-#: 201,376) the check gives up and the hand-written path answers instead.
-VERTEX_DEGENERATE_MAX_SUBSETS: int = 5000
-
 #: qhull's volume of a hull is accepted when the sum of the volumes of its triangulated facets'
 #: simplices about the centroid, recomputed in numpy, agrees with it to this relative accuracy:
 #: both sum the same positive terms in different orders (rounding ~1e-15 per term), while a wrong
@@ -200,69 +206,90 @@ AFFINE_HULL_RTOL: float = 1e-6
 #: (RANK_RTOL times the largest singular value times ``|z|``) and far below any real conflict.
 EQUALITY_CONSISTENCY_RTOL: float = 1e-7
 
-#: A constraint row is implied by the box X x U^T (and dropped) when its largest value over the box
-#: stays below its bound by this relative margin; rows that reach the bound are kept.
-BOX_IMPLIED_RTOL: float = 1e-12
+# ====================================================================== rank and linear algebra
 
-#: Rows whose slack at DAQP's point is within this (scaled units) of DAQP's slack variable are
-#: treated as active when the dual multipliers are refined.  DAQP's points violate rows by up to
-#: about 1e-6 here; extra rows only give NNLS more freedom, the bound stays valid for any choice.
-NEAR_ACTIVE_TOL: float = 1e-5
+#: Relative singular-value threshold for rank tests (``s_min / s_max``) in scaled coordinates.
+RANK_RTOL: float = 1e-12
 
-#: DAQP solves an LP (zero Hessian) by proximal-point iterations.  Its automatic setting
-#: (eps_prox = -1e-6) leaves multipliers about 1e-6 off, too loose to certify that two regions
-#: that only touch have a Chebyshev slack of 0 (not above REGION_SLACK_TOL): 44 % of the pair
-#: LPs of model (17), T = 7 then needed an NNLS refinement.  A forced proximal weight of 1e-7
-#: gives multipliers that certify 99.5 % of them directly; 1e-10 stalls more often (6 % failed
-#: solves) and the answer is certified by numpy either way, so the value only trades speed.
-DAQP_EPS_PROX: float = 1e-7
+#: Relative tolerance used when checking that two affine maps (mode dynamics) are equal.
+MATRIX_EQUAL_RTOL: float = 1e-12
 
-#: A DAQP answer flagged optimal is used only when its point satisfies every row to this times
-#: ``1 + |b_k| + |a_k| |x|`` and its multipliers are non-negative to this times their size.
-#: DAQP's proximal points violate the (unit-norm, scaled) rows by up to ~1e-6 (NEAR_ACTIVE_TOL);
-#: ten times that accepts every clean answer, while a corrupted one (a point moved by 1e-3,
-#: negated multipliers) fails by orders of magnitude and goes to HiGHS.
-DAQP_POINT_RTOL: float = 1e-5
+#: Implicit equalities of a face-confined pair set are added only along directions whose singular
+#: value (unit rows) exceeds this fraction of the largest: two tight rows with opposite normals
+#: differ by rounding (about 1e-8 on model 16 at T = 7) and would otherwise pin a second,
+#: spurious direction, making full projections look flat.  Any dimension drop the reduction
+#: proposes is then confirmed by a width certificate on the original set.
+IMPLICIT_EQUALITY_RANK_RTOL: float = 1e-6
 
-#: Redundancy removal by ray shooting from an interior point: the first row crossed is a facet
-#: only if the next row is crossed later by more than this fraction of the distance; closer
-#: crossings (a ray through a vertex or edge, up to rounding) prove nothing and an LP decides.
-RAY_TIE_RTOL: float = 1e-9
+#: Relative orthogonality at which the Jacobi sweeps of the reproducible singular values
+#: (:mod:`hybobs_opt.geometry._reproducible`) stop (a pair of columns is rotated while
+#: ``|a_p'a_q| > JACOBI_TOL * |a_p| |a_q|``): four units of rounding (``4 * 2^-52``, four times the
+#: double-precision machine epsilon), as LAPACK's ``dgesvj``.
+JACOBI_TOL: float = 4.0 * 2.0 ** -52
 
-#: Lookup observer (paper 002, Algorithm 4.1): a region test [x_i; U] in P_i passes when every
-#: row (unit-norm in scaled coordinates) is violated by at most this; far above the rounding of
-#: C_i^+ (about 1e-12 relative) and far below any real excursion out of a region.
-LOOKUP_MEMBERSHIP_TOL: float = 1e-7
+#: Popov-Belevitch-Hautus test of (A_i, C_i) in coordinates scaled by the state bounds (location
+#: observer, paper 000): the pair is unobservable when the smallest singular value of
+#: [A - lambda I; C] is below this times the largest.  Eigenvalues are computed to ~1e-13
+#: relative, so a real loss of rank (an exact zero, e.g. the backlash location of the driveline)
+#: sits far below and any observable pair far above.
+OBSERVABILITY_RTOL: float = 1e-9
 
-#: Lookup observer: the output equality C_i x_i = Y - D_i U - f_i of eq. (12) holds when its
-#: residual is below this times max(1, |Y|_inf).  Noise-free data give about 1e-13; raise it
-#: (output_rtol=...) for noisy measurements.
-LOOKUP_OUTPUT_RTOL: float = 1e-8
+#: PBH test of the impossibility certificates (:mod:`hybobs_opt.lmi.impossibility`):
+#: ``sigma_min([J - lambda I; C]) <= PBH_RTOL * (1 + ||J|| + ||C||)`` counts as rank loss.  The
+#: Jacobians are evaluated from the model's functions (rounding ~1e-16 relative); a genuine loss of
+#: detectability is an exact zero.
+PBH_RTOL: float = 1e-8
 
-#: Lookup observer: two candidates of chi are the same state when they differ by less than this
-#: in coordinates scaled by the state bounds (a state on the common boundary of two regions).
-LOOKUP_SAME_STATE_TOL: float = 1e-6
+#: An eigenvalue of a Jacobian with ``Re lambda >= -EIGEN_DECAY_RTOL * (1 + ||J||)`` counts as not
+#: decaying (:mod:`hybobs_opt.lmi.impossibility`): a real part that is zero in exact arithmetic
+#: computes to rounding of the eigenvalue solver, ~1e-15 relative.
+EIGEN_DECAY_RTOL: float = 1e-9
 
-#: Lookup observer: a candidate must lie *strictly* inside its region P_i, by this margin (rows
-#: unit-norm in scaled coordinates).  The paper's regions are not closed: when the true shaft
-#: enters the backlash, the data force the contact region's candidate exactly onto the guard
-#: boundary, which belongs to the backlash sequence.  States closer than this to a boundary are
-#: flagged unobservable (conservative), never wrongly reconstructed.
-LOOKUP_INTERIOR_MARGIN: float = 1e-9
+#: Constant-drift observers (paper 003): rank decisions of the sequential deadbeat algorithm
+#: (subspace intersections and images), on singular values relative to the largest.  The
+#: event-sampled matrices (eqs. 14-15) are products of a few rational numbers of size ~1; a few
+#: products deep the rounding is ~1e-14, while a genuine direction of the error subspace has a
+#: singular value of the size of the rates' ratios (>= 1e-3).
+SEQUENTIAL_RANK_RTOL: float = 1e-9
 
-# ---------------------------------------------------------------------- moving-horizon observers
-# (paper 002, eq. 10; hybobs_opt.mhe).  Constraint rows of the MLD encoding have a largest
-# coefficient of one and the variables are scaled to the state box, so these are relative.
+#: Constant-drift observers: the per-phase linear conditions on a deadbeat gain are consistent
+#: when their least-squares residual is below this times ``1 + |right-hand side|``: rounding gives
+#: ~1e-14, a real conflict between two periods' conditions is of the size of the gains themselves.
+GAIN_CONSISTENCY_RTOL: float = 1e-8
 
-#: A guard row is left out of the big-M encoding when its largest value minus its right-hand side
-#: over X x U is at most this (relative to the row's size): it holds on the whole domain.
-BIGM_IMPLIED_RTOL: float = 1e-9
+#: Constant-drift observers: a transition matrix of the periodic error system counts as zero
+#: (deadbeat reached) when its largest entry is below this times the product of
+#: ``max(1, |M_j|_2)`` over the steps: exactly nilpotent products of the paper's matrices leave
+#: ~1e-16 relative residues.
+DEADBEAT_RTOL: float = 1e-9
 
-# ---------------------------------------------------------------------- observer LMIs (paper 004)
+#: Constant-drift observers: entrywise positivity of ``A_j - L_j C_j`` and ``L_j C_j``
+#: (Remark 4.4) is accepted down to ``-this * max|A_j|``: the paper's gains (20a-b) make some
+#: entries exactly zero in exact arithmetic, which rounds to +-1e-17.
+POSITIVITY_RTOL: float = 1e-12
 
-#: Jacobian bounds (eqs. 4-5) found by dense sampling plus refined critical points are widened
-#: outward by this fraction of ``max |f'|`` on the interval: the refined extrema are exact to
-#: brentq's ~1e-12, so the widening only covers rounding and a critical-point pair narrower than
+#: Sliding-mode observers (paper 001, canonical form (4)): two observability coordinate maps
+#: ``C A_q^k`` (or offsets, or the ``alpha_q`` of two locations) are the same when they differ by
+#: less than this relative to their largest entry.  They are products of the model's own numbers
+#: (Example 3: exact multiples of 100/7), so rounding leaves ~1e-15; a genuine difference between
+#: locations is many orders larger.
+CANONICAL_FORM_RTOL: float = 1e-9
+
+# ====================================================================== checks of a model's functions and structure
+
+#: A user-supplied derivative of a scalar function (paper 004, eq. 3) must match CasADi's automatic
+#: derivative to this tolerance relative to ``1 + max |f'|`` on the operating box: both are exact
+#: up to rounding, so any real disagreement is a wrong formula, not noise.
+DERIVATIVE_CHECK_RTOL: float = 1e-8
+
+#: A callable flow is in the triangular form (4) of paper 001 when ``x_k' - x_{k+1}`` (and
+#: ``y - x1``) is below this times ``1 + |bound of x_{k+1}|`` at every sample: a wrong structure
+#: differs by O(1).
+TRIANGULAR_CHECK_RTOL: float = 1e-9
+
+#: Jacobian bounds (paper 004, eqs. 4-5) found by dense sampling plus refined critical points are
+#: widened outward by this fraction of ``max |f'|`` on the interval: the refined extrema are exact
+#: to brentq's ~1e-12, so the widening only covers rounding and a critical-point pair narrower than
 #: one sampling cell; it is far too small to change a monotonicity verdict (see next tolerance).
 JACOBIAN_BOUND_RTOL: float = 1e-7
 
@@ -271,22 +298,110 @@ JACOBIAN_BOUND_RTOL: float = 1e-7
 #: touches zero at an end point (cos on [0, 80 deg]) stays monotonic after widening.
 MONOTONIC_RTOL: float = 2e-7
 
+#: ``augment_parameters``: relative tolerance of the checks that a parameter enters a PWA system
+#: affinely and only through its affine terms and guard offsets (the system data are computed in
+#: double precision from the parameter, so an affine dependence reproduces to ~1e-15).
+AFFINE_PARAMETER_RTOL: float = 1e-9
+
+#: A state counts as an equilibrium (``lmi.impossibility``) when ``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)``
+#: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
+EQUILIBRIUM_RTOL: float = 1e-9
+
+#: A candidate symmetry of the model (:mod:`hybobs_opt.lmi.impossibility`) holds at a sample point
+#: when both sides agree to this, relative: a true symmetry reproduces to the rounding of the
+#: model's functions (~1e-15), a false one differs by far more at some of the random points.
+SYMMETRY_RTOL: float = 1e-9
+
+#: Floor of the natural rate and of the scheduling coordinate's rate in the automatic switched-gain
+#: design (:mod:`hybobs_opt.lmi.auto_design`): a plant at rest on its whole box would otherwise give
+#: a zero gain bound, decay and rate; the floor is far below any rate a moving plant has.
+AUTO_DESIGN_RATE_FLOOR: float = 1e-12
+
+#: Initial-region selection of the switched-gain observer: an output whose model value varies over
+#: the grid by less than this (variance relative to its mean square) does not depend on the
+#: scheduling coordinate and is ignored: dividing by a variance at rounding level would let
+#: rounding pick the region.
+SWITCHED_INIT_SPREAD_RTOL: float = 1e-12
+
+# ====================================================================== LMI / SDP
+
+#: Smallest eigenvalue of a Lyapunov matrix returned by an LMI solve relative to its largest
+#: (:func:`hybobs_opt.lmi.solve.checked_lyapunov`): below it ``P`` is singular to working precision
+#: and the gain ``P^-1 Y`` is not determined by the answer.
+LYAPUNOV_MIN_RATIO: float = 1e-12
+
 #: Observer LMIs are solved as ``B(P, Y) <= -margin I`` with ``P >= I`` in box-scaled coordinates.
 #: The LMIs are homogeneous there, so any positive margin is no loss of generality; it keeps the
 #: returned point strictly inside the cone so that Clarabel's 1e-8 feasibility error cannot push
 #: it out of ``B <= 0``, which numpy then re-checks.
 LMI_STRICT_MARGIN: float = 1e-6
 
-#: Dual (Farkas) certificates of infeasibility, re-checked in numpy: Z is accepted as PSD, W as
-#: PSD and the Y-coefficient as zero when their violations are below this times ``||Z||_F`` (after
-#: an exact projection that zeroes the Y-coefficient).  Clarabel's rays are accurate to ~1e-9
-#: relative; anything above 1e-6 is a wrong certificate, not rounding.
+#: Strictness margin of the Luenberger decay LMIs of paper 000 (time-normalised so the data are of
+#: order one, P >= I).  Any positive value is no loss of generality; it keeps Clarabel's point
+#: inside the cone.  The decay actually used is recomputed with numpy from the returned P and gain.
+LUENBERGER_LMI_MARGIN: float = 1e-6
+
+#: A gain returned by an observer LMI with ``||L||_2 <= l`` counts as within the bound when
+#: ``||L||_2 <= l (1 + GAIN_BOUND_RTOL)``: the bound is imposed through a Schur complement solved to
+#: ~1e-8, so the recomputed norm can exceed it by rounding only.
+GAIN_BOUND_RTOL: float = 1e-6
+
+#: The decay-rate search of the location observer (paper 000) asks for this fraction more than the
+#: rate the residual bound needs at Delta, so that the rounding of the numpy-verified decay cannot
+#: undo the guarantee.
+DELAY_DESIGN_RTOL: float = 1e-3
+
+#: The dwell-time bisection stops once ``tau * max_j sigma_j`` is below this (``exp(-tau sigma)``
+#: within 1e-4 of 1: the pair constraints are then at the strict margin's resolution).
+TAU_RATE_FLOOR: float = 1e-4
+
+#: Positive-observer LP (paper 003): the largest contraction rate per visible event that is tried
+#: is ``1 - this``: a rate of 1 proves nothing, and a rate within rounding of 1 proves no more.
+POSITIVE_LP_RATE_MARGIN: float = 1e-6
+
+#: Arrival-cost LMI (:mod:`hybobs_opt.mhe.arrival`), in coordinates scaled by the first prior's
+#: standard deviations: eigenvalues of the information below this fraction of its largest are
+#: set to zero (the solver's interior point leaves ~1e-9 where the optimum has none), and it is
+#: the tolerance of the re-check of ``Z >= 0`` and ``Z <= Z_0``.  The per-mode invariance is
+#: re-checked with no tolerance (see ARRIVAL_CONTRACTION_MARGIN).
+ARRIVAL_LMI_RTOL: float = 1e-7
+
+#: The invariance of the arrival-cost LMI is solved as a strict contraction
+#: ``F_q(P) <= (1 - margin) P``: an invariance met only to the solver's tolerance (1e-9 per step)
+#: drifts without bound along a direction whose error never decays (on the backlash of model (16)
+#: the Kalman information falls 0.1 % below the prior's within 776 steps), while the margin's slack
+#: absorbs it and costs a relative 1e-6 of information.
+ARRIVAL_CONTRACTION_MARGIN: float = 1e-6
+
+# ====================================================================== certificates re-checked in numpy
+
+#: Dual (Farkas) certificates of infeasibility of the observer LMIs, re-checked in numpy: Z is
+#: accepted as PSD, W as PSD and the Y-coefficient as zero when their violations are below this
+#: times ``||Z||_F`` (after an exact projection that zeroes the Y-coefficient).  Clarabel's rays
+#: are accurate to ~1e-9 relative; anything above 1e-6 is a wrong certificate, not rounding.
 CERTIFICATE_RTOL: float = 1e-6
 
-#: Bisection on the decay rate sigma and on the dwell time tau stops when the bracket is this
-#: fraction of its upper end: 5 % is below the spread between regions, the design uses half the
-#: largest rate anyway, and it keeps each search to about 8 solves.
-BISECTION_RTOL: float = 5e-2
+#: Farkas rays of :mod:`hybobs_opt.lmi.farkas`, re-checked in numpy: ``||A^T y|| <= FARKAS_RTOL
+#: ||A|| ||y||`` and cone membership to ``FARKAS_RTOL ||y||``, on the conic standard form cvxpy
+#: compiles for Clarabel.  Clarabel's rays are accurate to ~1e-9 relative (as for
+#: CERTIFICATE_RTOL); a ray that is no certificate violates these by far more.
+FARKAS_RTOL: float = 1e-7
+
+#: A Farkas ray must also make ``b^T y <= -FARKAS_MARGIN ||b|| ||y||``: a ray that makes ``b^T y``
+#: negative only at rounding level proves nothing.
+FARKAS_MARGIN: float = 1e-9
+
+#: A Perron (Collatz-Wielandt) certificate ``Phi z >= r z`` (paper 003) is re-checked in numpy with
+#: this relative slack on ``r z``: the eigenvector comes from LAPACK to ~1e-15.
+PERRON_RTOL: float = 1e-9
+
+# ====================================================================== MHE / MIQP
+# (paper 002, eq. 10; hybobs_opt.mhe).  Constraint rows of the MLD encoding have a largest
+# coefficient of one and the variables are scaled to the state box, so these are relative.
+
+#: A guard row is left out of the big-M encoding when its largest value minus its right-hand side
+#: over X x U is at most this (relative to the row's size): it holds on the whole domain.
+BIGM_IMPLIED_RTOL: float = 1e-9
 
 #: Proximal weight of the MIQP (scaled cost units, where the largest diagonal entry of the output
 #: part of the Hessian is one).  DAQP's branch-and-bound needs a positive-definite Hessian, but the
@@ -296,6 +411,14 @@ BISECTION_RTOL: float = 5e-2
 #: well below the output sensitivity of the weakest observable direction (about 1e-7 for model
 #: (16) at T = 3), which 1e-10 does.
 MHE_PROX_WEIGHT: float = 1e-10
+
+#: Proximal weight of the MIQP's binaries (scaled units).  It steers the branch-and-bound towards
+#: the incumbent's mode sequence and biases the choice between two sequences by at most this per
+#: changed binary (included in ``gap_bound``).  Smaller values (1e-12) are still factorised by
+#: DAQP but resolve the nearly indistinguishable sequences of model (16) no better (measured
+#: against enumeration on noisy windows: larger excess cost, not smaller), so it equals
+#: MHE_PROX_WEIGHT.
+MHE_BINARY_PROX_WEIGHT: float = 1e-10
 
 #: Absolute optimality gap of the MIQP branch-and-bound (same scaled units): a node is pruned when
 #: its bound is within this of the incumbent.  The cost is a sum of squares plus the proximal
@@ -323,119 +446,6 @@ MHE_MILP_FEASIBILITY_TOL: float = 1e-9
 #: sensitivity (1e-18 / 1e-7 = 1e-11 of the state range for model (16)), far below any tolerance.
 MHE_POLISH_SKIP_TOL: float = 1e-8
 
-# ---------------------------------------------------------------------- constant-drift observers (paper 003)
-# The event-sampled matrices (eqs. 14-15) are products of a few rational numbers of size ~1, so
-# their rounding is ~1e-15 relative; these tolerances sit well above that and far below any
-# structural quantity (a gain, a rate, a queue length).
-
-#: Rank decisions of the sequential deadbeat algorithm (subspace intersections and images), on
-#: singular values relative to the largest.  A few products deep the rounding is ~1e-14; a genuine
-#: direction of the error subspace has a singular value of the size of the rates' ratios (>= 1e-3).
-SEQUENTIAL_RANK_RTOL: float = 1e-9
-
-#: The per-phase linear conditions on a deadbeat gain are consistent when their least-squares
-#: residual is below this times ``1 + |right-hand side|``: rounding gives ~1e-14, a real conflict
-#: between two periods' conditions is of the size of the gains themselves.
-GAIN_CONSISTENCY_RTOL: float = 1e-8
-
-#: A transition matrix of the periodic error system counts as zero (deadbeat reached) when its
-#: largest entry is below this times the product of ``max(1, |M_j|_2)`` over the steps: exactly
-#: nilpotent products of the paper's matrices leave ~1e-16 relative residues.
-DEADBEAT_RTOL: float = 1e-9
-
-#: Entrywise positivity of ``A_j - L_j C_j`` and ``L_j C_j`` (Remark 4.4) is accepted down to
-#: ``-this * max|A_j|``: the paper's gains (20a-b) make some entries exactly zero in exact
-#: arithmetic, which rounds to +-1e-17.
-POSITIVITY_RTOL: float = 1e-12
-
-#: Positive-observer LP: the copositive Lyapunov vectors are bounded to ``1 <= p <= kappa``.  The
-#: LP is homogeneous in ``p``, so some bound is needed; this one allows weights over four orders of
-#: magnitude (a queue that matters 1e4 times less than another) and keeps Clarabel's
-#: 1e-8 accuracy meaningful after the gains ``L = Z / p`` are recovered.
-POSITIVE_LP_KAPPA: float = 1e4
-
-#: Positive-observer LP: the largest contraction rate per visible event that is tried is
-#: ``1 - this`` (a rate of 1 proves nothing), and the bisection on the rate stops when its bracket
-#: is narrower than POSITIVE_LP_RATE_ATOL (rates are reported to three decimals).
-POSITIVE_LP_RATE_MARGIN: float = 1e-6
-POSITIVE_LP_RATE_ATOL: float = 1e-3
-
-#: A Perron (Collatz-Wielandt) certificate ``Phi z >= r z`` is re-checked in numpy with this
-#: relative slack on ``r z``: the eigenvector comes from LAPACK to ~1e-15.
-PERRON_RTOL: float = 1e-9
-
-# ---------------------------------------------------------------------- sliding-mode observers
-# (paper 001: canonical form (4), observer (5), Theorem 1; hybobs_opt.systems.canonical_form and
-# hybobs_opt.observers.sliding_mode)
-
-#: Two observability coordinate maps ``C A_q^k`` (or offsets, or the ``alpha_q`` of two locations)
-#: are the same when they differ by less than this relative to their largest entry.  They are
-#: products of the model's own numbers (Example 3: exact multiples of 100/7), so rounding leaves
-#: ~1e-15; a genuine difference between locations is many orders larger.
-CANONICAL_FORM_RTOL: float = 1e-9
-
-#: A callable flow is in the triangular form (4) when ``x_k' - x_{k+1}`` (and ``y - x1``) is below
-#: this times ``1 + |bound of x_{k+1}|`` at every sample: a wrong structure differs by O(1).
-TRIANGULAR_CHECK_RTOL: float = 1e-9
-
-#: Samples of the operating box used to check the triangular form of callable flows and to bound
-#: ``f_q`` (the derivative of the last canonical state).  20 000 uniform samples put the largest
-#: gap along a coordinate at ~1e-4 of its range: for Example 2's ``F2 = -40 cos(300 x3 + pi/2)``
-#: (period 0.021 in x3 over [-1, 1]) the sampled peak is within 0.3 % of the true one.
-DERIVATIVE_BOUND_SAMPLES: int = 20_000
-
-#: The sampled range of a callable ``f_q`` is widened by this fraction of itself on both sides, to
-#: cover peaks between samples (see above: 0.3 % for Example 2) with a wide margin.  It enters the
-#: last gain only, whose own margin SMO_GAIN_MARGIN then still holds.
-DERIVATIVE_BOUND_MARGIN: float = 0.1
-
-#: Gain rule of the sliding-mode observer: ``lambda_j = rho * (width of z_{j+1}'s range)`` and
-#: ``lambda_n = rho * (width of f's range)``.  The estimate is clipped to the range, so the error
-#: ``|e_{j+1}|`` that stage ``j`` must dominate never exceeds that width; ``rho = 1.5`` leaves a
-#: reaching rate of at least ``(rho - 1) * width`` (Theorem 2's "there exists a choice of
-#: lambda_i", made explicit).
-SMO_GAIN_MARGIN: float = 1.5
-
-#: A stage counts as sliding (its anti-peaking switch ``E_j`` of eq. 5 closes) after this many
-#: consecutive samples inside its boundary layer ``|e_j| <= h lambda_j``: the first sample inside
-#: still carries part of the reaching injection, the equivalent value is exact from the second.
-SMO_SLIDING_HOLD: int = 2
-
-#: Default time constant of the low-pass filter of the auxiliary states used for the switching
-#: decision, in samples: 20 samples attenuate sample-to-sample noise of the auxiliary states about
-#: 6-fold (standard deviation ``~ 1/sqrt(2 * 20)``) for a delay of 20 samples (Fig. 5 vs Fig. 6).
-SMO_FILTER_STEPS: int = 20
-
-# ---------------------------------------------------------------------- location observer (paper 000)
-
-#: Popov-Belevitch-Hautus test of (A_i, C_i) in coordinates scaled by the state bounds: the pair is
-#: unobservable when the smallest singular value of [A - lambda I; C] is below this times the
-#: largest.  Eigenvalues are computed to ~1e-13 relative, so a real loss of rank (an exact zero,
-#: e.g. the backlash location of the driveline) sits far below and any observable pair far above.
-OBSERVABILITY_RTOL: float = 1e-9
-
-#: Strictness margin of the Luenberger decay LMIs of paper 000 (time-normalised so the data are of
-#: order one, P >= I).  Any positive value is no loss of generality; it keeps Clarabel's point
-#: inside the cone.  The decay actually used is recomputed with numpy from the returned P and gain.
-LUENBERGER_LMI_MARGIN: float = 1e-6
-
-#: The decay-rate search asks for this fraction more than the rate the residual bound needs at
-#: Delta, so that the rounding of the numpy-verified decay cannot undo the guarantee.
-DELAY_DESIGN_RTOL: float = 1e-3
-
-#: Relative slack (times 1 + |b|) added to the guaranteed margin of a location's invariant test on
-#: its generator's state.  It covers rounding and the plant's event instants falling between
-#: samples; it is far below the widths of the invariants of interest.
-LOCATION_INVARIANT_RTOL: float = 1e-9
-
-#: Proximal weight of the MIQP's binaries (scaled units).  It steers the branch-and-bound towards
-#: the incumbent's mode sequence and biases the choice between two sequences by at most this per
-#: changed binary (included in ``gap_bound``).  Smaller values (1e-12) are still factorised by
-#: DAQP but resolve the nearly indistinguishable sequences of model (16) no better (measured
-#: against enumeration on noisy windows: larger excess cost, not smaller), so it equals
-#: MHE_PROX_WEIGHT.
-MHE_BINARY_PROX_WEIGHT: float = 1e-10
-
 #: A warm start whose exact cost is below this times the largest output curvature of the MIQP
 #: (``J_s``, about the squared output range) is accepted as the optimum without branch-and-bound:
 #: the cost of eq. (10) is a sum of squares, so the optimum is at least zero and the accepted
@@ -451,16 +461,6 @@ MHE_ZERO_COST_RTOL: float = 1e-14
 #: (optima 1e-6 .. 6e-5, output noise 0.01 rad/s).  The absolute floor is the zero-cost threshold.
 MHE_CERTIFIED_RTOL: float = 1e-6
 
-#: Node QPs the prefix search of one window may solve before the window is left uncertified
-#: (``fallback``).  Model (16) needs at most 18 at T = 3.
-MHE_CERTIFY_MAX_NODES: int = 20_000
-
-#: Mode sequences that may fit one window within the chi-square threshold before the step is not
-#: flagged (``MHEObserver(noise_std=..., arrival_weight="kalman")``, :mod:`hybobs_opt.mhe.mixture`):
-#: the stated covariance is the mixture of their posteriors, and a window that more sequences fit is
-#: too ambiguous to state one.
-MHE_MIXTURE_MAX_SEQUENCES: int = 32
-
 #: Rounding allowance of a weak-duality lower bound of a mode sequence's LP computed in numpy
 #: (solver ``"sequences"``, :mod:`hybobs_opt.mhe.sequence_lp`): the bound is lowered by this times
 #: the sum of the magnitudes of its terms.  Each term carries a relative rounding error of a few
@@ -475,6 +475,13 @@ SEQUENCE_LP_BOUND_RTOL: float = 1e-13
 #: within the certified gap of the point's cost the LP is solved again by HiGHS.
 SEQUENCE_LP_DAQP_PROX: float = 1e-6
 
+#: Candidate active sets of an interior-point answer (the uniqueness test's robust QP bound): a
+#: row counts as met within this fraction of ``1 + |g|`` ...
+KKT_ACTIVE_SLACK_RTOL: float = 1e-9
+#: ... or when its multiplier is within this fraction of the largest.  Any candidate that passes
+#: the checks is a KKT point, so these choose where to look, never what is accepted.
+KKT_ACTIVE_MULTIPLIER_RTOL: float = 1e-6
+
 #: An extension's norm-2 cost term (``MHEObserver(extend=...)``) is convex when its Hessian's
 #: smallest eigenvalue is at least ``-MHE_EXTENSION_PSD_RTOL`` times its largest; eigenvalues
 #: below that (in absolute value) count as zero curvature.  The Hessian is exact (CasADi's
@@ -485,32 +492,21 @@ MHE_EXTENSION_PSD_RTOL: float = 1e-10
 #: a sum of squares): its component outside, relative to its largest coefficient, at most this.
 MHE_EXTENSION_RANGE_RTOL: float = 1e-9
 
+#: Floor of the standard deviations of the MHE's Kalman arrival prior
+#: (``MHEObserver(arrival_weight="kalman")``), relative to the state box's half-widths, added to
+#: the filter's covariance (a model-mismatch floor: the prior never claims more than this).
+#: Without process noise the filter's covariance shrinks without end along observable stretches
+#: and the arrival block of DAQP's Hessian grows with it.  On the noisy bench of model (16)
+#: (sigma 0.01 rad/s, 1,500 samples) a floor of 1e-6 makes the branch and bound's points fail
+#: their verification and leaves the relative gap unproven by the prefix search in 1,269 windows
+#: (fallback); at 1e-4 and 1e-3 none fails (1,489 observable), with omega_l RMS 0.013 / 0.016
+#: rad/s and median steps 6.9 / 4.7 ms.
+MHE_ARRIVAL_MIN_STD_RTOL: float = 1e-3
+
 # ---------------------------------------------------------------------- MHE uniqueness (paper 002, eq. 10)
 # The MHE flags a window "observable" only when no admissible window-start state at least
-# MHE_UNIQUENESS_DELTA away (inf-norm, coordinates scaled by the half-widths of X) reaches a cost
-# within epsilon of the optimum; see hybobs_opt.mhe.observer.
-
-#: Separation of an alternative window-start state, inf-norm in units of the half-widths of X.
-#: Model (16) at T = 3: the weakest observable direction moves the engine speed by 1.9e-4 of its
-#: half-range per unit of scaled state, so an alternative 0.05 away costs 8.9e-11 of one sample's
-#: squared output half-range, 90 times MHE_UNIQUENESS_COST_RTOL and 15 times the MIQP's bias
-#: band; at 0.01 it would be 3.5e-12, inside that band ("unique" then rarely provable), and a
-#: larger value would call states 10 % of the box apart "the same".
-MHE_UNIQUENESS_DELTA: float = 0.05
-
-#: With ``MHEObserver(noise_std=...)``: one minus the level of the confidence region whose extent
-#: decides ``observable`` (epsilon = chi2_n^-1(1 - this) of the whitened cost); the same default
-#: false-alarm probability as the noise-aware lookup observer.
-MHE_NOISE_FALSE_ALARM: float = 1e-3
-
-#: ``augment_parameters``: relative tolerance of the checks that a parameter enters a PWA system
-#: affinely and only through its affine terms and guard offsets (the system data are computed in
-#: double precision from the parameter, so an affine dependence reproduces to ~1e-15).
-AFFINE_PARAMETER_RTOL: float = 1e-9
-
-#: ``ParameterBank``: a running innovation score below this (squared half-widths of the state
-#: box) is zero -- an exact model reconstructs to rounding (1e-16 per coordinate, squared).
-BANK_SCORE_ATOL: float = 1e-18
+# MHE_UNIQUENESS_DELTA (hybobs_opt.defaults) away (inf-norm, coordinates scaled by the
+# half-widths of X) reaches a cost within epsilon of the optimum; see hybobs_opt.mhe.observer.
 
 #: Epsilon of the uniqueness test (norm 2): an alternative counts when its cost is at most
 #: J* + this * S_y, S_y one sample's squared weighted output half-range (norms 1 / inf: the square
@@ -540,11 +536,33 @@ MHE_DECISION_BAND_EPS_RTOL: float = 1e-6
 MHE_DECISION_BAND_COST_RTOL: float = 1e-12
 
 
+def mhe_decision_band(threshold: float, epsilon: float) -> float:
+    """Half-width of the band around the uniqueness threshold ``J* + epsilon`` inside which the
+    MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""
+    return max(MHE_DECISION_BAND_EPS_RTOL * abs(float(epsilon)), MHE_DECISION_BAND_COST_RTOL * abs(float(threshold)))
+
+
+#: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  The cutoff
+#: J* + epsilon is widened by the term's largest value at an integral point of the box (sum of
+#: the squared box ranges ~50 on model 16: 5e-12 S_y, five times epsilon); a minimum in that band
+#: is resolved by excluding its mode sequence exactly (QP) and searching the rest again.  It is
+#: the first rung of a ladder (x3, x10, ...): the observer takes the first whose Hessian DAQP
+#: factorises with zero_tol a tenth of it (1e-13 on model 16 at T = 3; 3e-13 from ~40 variables,
+#: DAQP's own factorisation losing ~nv * 1e-16 on the pivots; 1e-14 never passes).
+MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
+
+# ====================================================================== set-membership observers and stated radii
+
 #: The set-membership observer's box is widened on each side by this fraction of the state box's
 #: half-widths: its MILPs hold their rows to HiGHS's feasibility tolerance (1e-9, scaled), so a
 #: bound is exact to about that level, not to the last bit.  Model (16) noise-free: the true state
-#: was up to 3e-11 outside the unpadded box (omega_l, half-width 50: 6e-13 of it).
+#: lies up to 3e-11 outside the unpadded box (omega_l, half-width 50: 6e-13 of it).
 SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
+
+#: The set-membership observer's check of an extreme point against its MILP's dual bound: the
+#: point's value may lie this much (relative to ``1 + |value|``) beyond the bound -- HiGHS's
+#: feasibility tolerance, not a disagreement.
+SET_MEMBERSHIP_BOUND_RTOL: float = 1e-7
 
 #: Rounding allowance when a true state is compared with a stated radius (``|x^ - x| <= r (1 +
 #: RADIUS_CHECK_RTOL) + RADIUS_CHECK_ATOL``, :meth:`~hybobs_opt.contract.ObserverTrace.n_outside_radius`):
@@ -552,19 +570,6 @@ SET_MEMBERSHIP_BOX_RTOL: float = 1e-8
 #: (:data:`SET_MEMBERSHIP_BOX_RTOL`), so this only keeps a state on the boundary inside.
 RADIUS_CHECK_RTOL: float = 1e-9
 RADIUS_CHECK_ATOL: float = 1e-12
-
-
-#: The set-membership observer's check of an extreme point against its MILP's dual bound: the
-#: point's value may lie this much (relative to ``1 + |value|``) beyond the bound -- HiGHS's
-#: feasibility tolerance, not a disagreement.
-SET_MEMBERSHIP_BOUND_RTOL: float = 1e-7
-
-#: The set-membership observer first enumerates the window's feasible mode sequences (one
-#: feasibility MILP each, with no-good cuts) and bounds each by 2n LPs; a window with more than
-#: this many times ``n`` sequences goes to the 2n per-state MILPs instead, which then cost less.
-#: Model (16), T = 3, 300 steps: 1 x n gave 3.0 / 5.6 / 34 ms per step noise-free / at 1e-3 /
-#: at 0.6 rad/s against 8.0 / 8.3 / 28 ms for the per-state MILPs alone (2 x n: 46 ms at 0.6).
-SET_MEMBERSHIP_SEQUENCES_PER_STATE: float = 1.0
 
 #: Bounded-noise lookup observer (``NoiseAwareLookupObserver(noise_bound=...)``): a residual row of a
 #: mode sequence may exceed its noise bound by this much, relative to ``1 + max |residual|`` in
@@ -585,59 +590,52 @@ SET_FILTER_ROW_RTOL: float = 1e-10
 #: tolerance, decided by rounding); a wider bound keeps more states, never fewer.
 SET_FILTER_MIN_NOISE_RTOL: float = 1e-7
 
-#: Candidate active sets of an interior-point answer (the uniqueness test's robust QP bound): a
-#: row counts as met within this fraction of ``1 + |g|`` ...
-KKT_ACTIVE_SLACK_RTOL: float = 1e-9
-#: ... or when its multiplier is within this fraction of the largest.  Any candidate that passes
-#: the checks is a KKT point, so these choose where to look, never what is accepted.
-KKT_ACTIVE_MULTIPLIER_RTOL: float = 1e-6
+#: Set-membership filter: the pieces lie in the unit box of ``X`` (scaled), relaxed:
+#: ``|s_i| <= 1 + SET_FILTER_UNIT_BOX_MARGIN`` bounds the residual term of the proven box bounds.
+#: The pieces' rows are relaxed by SET_FILTER_ROW_RTOL at every step (3e-7 of the box after 3,000
+#: steps), so they may reach that far beyond the unit box; the margin covers it.
+SET_FILTER_UNIT_BOX_MARGIN: float = 1e-6
 
+#: Set-membership filter: a row of a piece is redundant when the other rows keep it within this
+#: (relative) of its bound.  Dropping a row that still cuts off up to this much enlarges the piece
+#: by at most that (the safe side: the true state is never dropped), at the level of the rows' own
+#: relaxation.
+SET_FILTER_REDUNDANCY_RTOL: float = 1e-9
 
-def mhe_decision_band(threshold: float, epsilon: float) -> float:
-    """Half-width of the band around the uniqueness threshold ``J* + epsilon`` inside which the
-    MHE's uniqueness test decides nothing (see :data:`MHE_DECISION_BAND_EPS_RTOL`)."""
-    return max(MHE_DECISION_BAND_EPS_RTOL * abs(float(epsilon)), MHE_DECISION_BAND_COST_RTOL * abs(float(threshold)))
+# ====================================================================== lookup observer (paper 002, Algorithm 4.1)
 
+#: A region test [x_i; U] in P_i passes when every row (unit-norm in scaled coordinates) is
+#: violated by at most this; far above the rounding of C_i^+ (about 1e-12 relative) and far below
+#: any real excursion out of a region.
+LOOKUP_MEMBERSHIP_TOL: float = 1e-7
 
-#: Proximal weight of the uniqueness MIQP (same scaled units as MHE_PROX_WEIGHT).  The cutoff
-#: J* + epsilon is widened by the term's largest value at an integral point of the box (sum of
-#: the squared box ranges ~50 on model 16: 5e-12 S_y, five times epsilon); a minimum in that band
-#: is resolved by excluding its mode sequence exactly (QP) and searching the rest again.  It is
-#: the first rung of a ladder (x3, x10, ...): the observer takes the first whose Hessian DAQP
-#: factorises with zero_tol a tenth of it (1e-13 on model 16 at T = 3; 3e-13 from ~40 variables,
-#: DAQP's own factorisation losing ~nv * 1e-16 on the pivots; 1e-14 never passes).
-MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
+#: The output equality C_i x_i = Y - D_i U - f_i of eq. (12) holds when its residual is below
+#: this times max(1, |Y|_inf).  Noise-free data give about 1e-13; raise it (output_rtol=...) for
+#: noisy measurements.
+LOOKUP_OUTPUT_RTOL: float = 1e-8
 
-#: DAQP's ``cycle_tol`` for the MHE's branch-and-bound: iterations without objective progress
-#: before DAQP reports cycling (exit -2).  DAQP's default of 10 stops 1-6 of 36 noisy windows of
-#: 4-mode PWA systems at T = 4-5 in the MIQP of eq. (10) (degenerate big-M vertices take longer
-#: non-progress streaks; 20 already cures them) and 13-36 of 36 once the uniqueness MIQP runs
-#: too.  With 1000: none on 5 such systems at T = 4 and 5 (a rare true cycle of a warm-started
-#: solve is retried on a fresh workspace, see hybobs_opt.mhe.observer); a node that truly cycles
-#: still ends after ~1000 iterations as "not certified" (a fallback), never as a wrong answer.
-MHE_DAQP_CYCLE_TOL: int = 1000
+#: Two candidates of chi are the same state when they differ by less than this in coordinates
+#: scaled by the state bounds (a state on the common boundary of two regions).
+LOOKUP_SAME_STATE_TOL: float = 1e-6
 
-# ---------------------------------------------------------------------- lookup observer, input bounds
-#: Lookup observer (paper 002, Algorithm 4.1): the rows of a region that only bound an input (the
-#: copies of U for each step) are tested *closed*, ``<= LOOKUP_INPUT_BOUND_TOL`` (unit rows in
-#: scaled coordinates), unlike the strict guard rows: nothing lies beyond U, so an input resting on
-#: its bound (zero engine torque) must not empty chi.  The same tolerance makes a sample *bad* when
-#: its input leaves U by more: 1e-9 of the input's half-range (7e-8 N m for T_m in [0, 140]) is far
-#: above the rounding of an input stored at its bound and far below any real excursion.
+#: A candidate must lie *strictly* inside its region P_i, by this margin (rows unit-norm in scaled
+#: coordinates).  The paper's regions are not closed: when the true shaft enters the backlash,
+#: the data force the contact region's candidate exactly onto the guard boundary, which belongs
+#: to the backlash sequence.  States closer than this to a boundary are flagged unobservable
+#: (conservative), never wrongly reconstructed.
+LOOKUP_INTERIOR_MARGIN: float = 1e-9
+
+#: The rows of a region that only bound an input (the copies of U for each step) are tested
+#: *closed*, ``<= LOOKUP_INPUT_BOUND_TOL`` (unit rows in scaled coordinates), unlike the strict
+#: guard rows: nothing lies beyond U, so an input resting on its bound (zero engine torque) must
+#: not empty chi.  The same tolerance makes a sample *bad* when its input leaves U by more: 1e-9 of
+#: the input's half-range (7e-8 N m for T_m in [0, 140]) is far above the rounding of an input
+#: stored at its bound and far below any real excursion.
 LOOKUP_INPUT_BOUND_TOL: float = 1e-9
 
-#: A gain returned by an observer LMI with ``||L||_2 <= l`` counts as within the bound when
-#: ``||L||_2 <= l (1 + GAIN_BOUND_RTOL)``: the bound is imposed through a Schur complement solved to
-#: ~1e-8, so the recomputed norm can exceed it by rounding only.
-GAIN_BOUND_RTOL: float = 1e-6
-
-#: A state counts as an equilibrium (``lmi.impossibility``) when ``||x'|| <= EQUILIBRIUM_RTOL (1 + ||x||)``
-#: at zero input: rounding of the model's functions at a true equilibrium is ~1e-16.
-EQUILIBRIUM_RTOL: float = 1e-9
-
 # ---------------------------------------------------------------------- C export of the lookup observer
-# (paper 002, Algorithm 4.1; hybobs_opt.observers.c_export).  The double export uses the observer's
-# own tolerances above; these are the simplex of its B~_T LPs and the single-precision variant.
+# (hybobs_opt.observers.c_export).  The double export uses the observer's own tolerances above;
+# these are the simplex of its B~_T LPs and the single-precision variant.
 
 #: The exported simplex of a B~_T LP (``max t``, rows unit-norm in scaled coordinates, entries of
 #: order one): a tableau entry is a pivot candidate above this, far above the rounding of a few
@@ -668,13 +666,14 @@ C_EXPORT_F32_INPUT_BOUND_TOL: float = 1e-5
 #: single-precision candidates of one state differ by ~1e-6.
 C_EXPORT_F32_SAME_STATE_TOL: float = 1e-4
 
-#: ``float32`` export: membership of the ``B~_T`` screen rows and the LP's decision ``t > -tol``.
+#: ``float32`` export: membership of the ``B~_T`` screen rows and the LP's decision ``t > -tol``
+#: (single-precision memberships carry ~1e-6 of rounding).
 C_EXPORT_F32_MEMBERSHIP_TOL: float = 1e-5
 
 #: ``float32`` export: pivot threshold of the simplex (entries of order one, rounding ~1e-7).
 C_EXPORT_F32_LP_PIVOT_TOL: float = 1e-5
 
-#: ``float32`` export: improving reduced cost of the simplex.
+#: ``float32`` export: improving reduced cost of the simplex (rounding of the objective row ~1e-7).
 C_EXPORT_F32_LP_COST_TOL: float = 1e-6
 
 #: ``float32`` export: refused when the a priori rounding of the candidates of eq. (13) in single
@@ -683,35 +682,72 @@ C_EXPORT_F32_LP_COST_TOL: float = 1e-6
 #: pessimistic: model (16) has 0.7 % (T = 3) and 1.3 % (T = 5), while its reconstructions on the bench
 #: scenario differ from double precision by at most 0.007 % and 0.002 % of the half-ranges, with every
 #: flag equal; model (17) at T = 5 has 1080 % (C_i^+ amplifies the rounding of the engine speed), and
-#: its single-precision export flagged 402 of 3,000 windows observable that double precision places
+#: its single-precision export flags 402 of 3,000 windows observable that double precision places
 #: in B~_T.
 C_EXPORT_F32_MAX_ROUNDING: float = 0.05
 
-#: Regions: the thin test of a pair set's projection (Algorithm 3.1, paper 002) skips its
-#: two width LPs when a certified Chebyshev ball of radius ``r`` already gives width
-#: ``>= 2 r |c| > 2 REGION_SLACK_TOL (1 + BALL_WIDTH_RTOL)``; the relative margin keeps the
-#: comparison away from the floating-point rounding of the LPs' own width bound (~1e-15 relative),
-#: so the skipped LPs could not have certified the set thin.
-BALL_WIDTH_RTOL: float = 1e-6
+# ====================================================================== other observers at run time
 
-#: Regions: DAQP's primal tolerance of the last attempt at a Chebyshev LP of a pair set
-#: of Algorithm 3.1 before HiGHS (``pair_geometry._slack_lp``, when DAQP's default attempts do not
-#: decide).  A face (radius exactly 0) must be told from an empty set at ``-CLOSED_SET_TOL = -1e-7``
-#: by the slack *at the point*; DAQP's default (1e-6) leaves rows violated by ~2e-7-5e-7, 1e-11
-#: leaves ~1e-10 (model 16, T = 8, the LP HiGHS returned "Not Set" on; the faces of model 17 at
-#: T = 7 HiGHS's point put at slack -3.4e-6).  The bounds stay the numpy-certified ones.
-PAIR_LP_PRIMAL_TOL: float = 1e-11
+#: Location observer (paper 000): relative slack (times 1 + |b|) added to the guaranteed margin of
+#: a location's invariant test on its generator's state.  It covers rounding and the plant's event
+#: instants falling between samples; it is far below the widths of the invariants of interest.
+LOCATION_INVARIANT_RTOL: float = 1e-9
 
-# ---------------------------------------------------------------------- decisions near a threshold
+#: ``ParameterBank``: a running innovation score below this (squared half-widths of the state
+#: box) is zero -- an exact model reconstructs to rounding (1e-16 per coordinate, squared).
+BANK_SCORE_ATOL: float = 1e-18
 
-#: A decision taken from certified floating-point bounds (a Chebyshev radius against its
-#: threshold, a width against ``2 REGION_SLACK_TOL``, ``|x - x^|`` against DISTINCT_STATE_TOL) is
-#: taken in floats only when the bound clears the threshold by this much (scaled units, rows of
-#: unit norm); inside the band the LP is re-decided in rational arithmetic
-#: (:mod:`hybobs_opt.geometry.exact_lp`).  The bounds are rigorous up to the rounding of their own
-#: evaluation, about 1e-15 for the data of order one here: a thousand times that.
-EXACT_DECISION_MARGIN: float = 1e-12
+#: Relative floor of every range test of the observer contract (``(1 + |bound|)`` times this,
+#: :func:`hybobs_opt.contract.outside_range`): a degenerate range (a constant output) still admits
+#: rounding.
+RANGE_ABS_RTOL: float = 1e-9
 
-#: An LP value taken from HiGHS's point (not a certified bound: its rows hold to LP_POINT_RTOL)
-#: that lies within this of the caller's threshold is re-decided in rational arithmetic.
-HIGHS_DECISION_BAND: float = 1e-6
+#: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
+#: in a summary against a noise-free log (:mod:`hybobs_opt.observers.recorded`): far above the
+#: rounding of an exact reconstruction from logged data, far below the error of a wrong estimate.
+WRONG_ESTIMATE_RTOL: float = 1e-6
+
+#: Largest deviation of a log's sample intervals from their median, relative to it, for a
+#: continuous-time observer that needs one sampling period: far above the rounding of time stamps
+#: accumulated in doubles, far below a missing or doubled sample (a deviation of 100 %).
+UNIFORM_PERIOD_RTOL: float = 1e-6
+
+# ====================================================================== simulation and integration
+
+#: Relative / absolute tolerances of the adaptive ODE solver of the nonlinear simulator: tight
+#: enough that the sampled trajectory is exact for the physics checks of the examples (turn angles
+#: to 1e-6 rad), loose enough to keep a 30 s vehicle scenario well under a second.
+NONLINEAR_ODE_RTOL: float = 1e-10
+NONLINEAR_ODE_ATOL: float = 1e-10
+
+#: Relative / absolute tolerances of the ODE solver of the hybrid-automaton simulator
+#: (:mod:`hybobs_opt.sim.hybrid`) between events; events are located to about this accuracy, a
+#: hundred times tighter than EVENT_MEMBERSHIP_RTOL.
+HYBRID_ODE_RTOL: float = 1e-9
+HYBRID_ODE_ATOL: float = 1e-12
+
+#: Relative offset of the event threshold of invariant rows that are active when a segment starts.
+#: Events fire on upward crossings only and the state moves inwards after a jump, so the offset
+#: only has to absorb rounding of the located event point (about 1e-16), not model error.
+EVENT_OFFSET_RTOL: float = 1e-12
+
+#: Relative slack with which a located event point is accepted in a guard or target invariant:
+#: the event root is located to about HYBRID_ODE_RTOL, a hundred times tighter than this.
+EVENT_MEMBERSHIP_RTOL: float = 1e-7
+
+#: Relative slack of the end-of-segment check that the state is still in its location's
+#: invariant (a crossing missed inside one solver step shows up far above this).
+SEGMENT_END_RTOL: float = 1e-6
+
+#: Times closer than this (seconds) are the same instant in the hybrid simulator (segment ends,
+#: breakpoints, grid): far above the rounding of times summed from the grid, far below any step.
+HYBRID_TIME_EPS: float = 1e-12
+
+#: Step (in units of the flow) of the probe that decides which of several target locations the
+#: flow enters from a shared boundary point: far below any invariant's width, far above rounding.
+HYBRID_ENTRY_PROBE: float = 1e-9
+
+#: Switched-gain observer: RK4 sub-steps are chosen so that (sub-step) x (spectral radius of the
+#: frozen error dynamics) stays below this: well inside RK4's stability interval (2.78 on the
+#: negative real axis).
+RK4_STEP_RADIUS: float = 0.5

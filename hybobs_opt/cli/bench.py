@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ..limits import DEFAULT_HORIZON, MAX_HORIZON, MAX_SAMPLES
+from ..defaults import DEFAULT_HORIZON
+from ..limits import MAX_HORIZON, MAX_SAMPLES
 from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
                       command_cache, load_system, print_json)
 

@@ -10,7 +10,8 @@ import argparse
 from pathlib import Path
 
 from ..errors import ModelError
-from ..limits import DEFAULT_HORIZON, MAX_HORIZON
+from ..defaults import DEFAULT_HORIZON
+from ..limits import MAX_HORIZON
 from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, command_cache,
                       load_system, print_json)
 

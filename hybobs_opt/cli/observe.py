@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ModelError
-from ..limits import DEFAULT_HORIZON
+from ..defaults import DEFAULT_HORIZON
 from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
                       check_output_path, command_cache, load_system, print_json)
 

@@ -10,7 +10,8 @@ import argparse
 import math
 
 from ..errors import ModelError
-from ..limits import DEFAULT_HORIZON, MAX_GRID_POINTS, MAX_HORIZON
+from ..defaults import DEFAULT_HORIZON
+from ..limits import MAX_GRID_POINTS, MAX_HORIZON
 from ._common import (StoreWithRenamedAlias, add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
                       as_options, check_figure_path, check_output_path, command_cache, executor_from_args, load_system,
                       print_json)

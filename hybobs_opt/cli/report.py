@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ..limits import DEFAULT_HORIZON, MAX_HORIZON
+from ..defaults import DEFAULT_HORIZON
+from ..limits import MAX_HORIZON
 from ._common import SYSTEM_HELP, add_force_argument, as_options, check_output_dir, examples_help, load_system, print_json
 
 

@@ -23,7 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="constant input (repeat; default: centre of the input bounds, or 0). Not for examples")
     p.add_argument("--q0", type=int, default=None, help="initial mode/location of a hybrid automaton (0..N-1) or "
                    "constant-drift system (1..Q, default 1)")
-    p.add_argument("--steps", type=int, default=None, help="samples of a PWA run (default 100: hybobs_opt.sim.any_system.DEFAULT_PWA_STEPS)")
+    p.add_argument("--steps", type=int, default=None, help="samples of a PWA run (default 100: hybobs_opt.defaults.SIM_PWA_STEPS)")
     p.add_argument("--dt", type=float, default=None, help="output sample time of a continuous-time run (s; not for a "
                    "PWA system, whose sample time is Ts)")
     add_force_argument(p)

@@ -24,13 +24,8 @@ import math
 import numpy as np
 
 from .._numba_cache import finalize_kernels, kernel
-
-#: Relative orthogonality at which the Jacobi sweeps stop (a pair of columns is rotated while
-#: ``|a_p'a_q| > JACOBI_TOL * |a_p| |a_q|``); a few units of rounding, as LAPACK's ``dgesvj``.
-JACOBI_TOL = 4.0 * np.finfo(float).eps
-#: Sweeps after which the Jacobi iteration stops even if a pair is still above the tolerance
-#: (quadratic convergence takes 5-10 on the matrices here; the answer is deterministic either way).
-JACOBI_MAX_SWEEPS = 60
+from ..defaults import JACOBI_MAX_SWEEPS
+from ..tolerances import JACOBI_TOL
 
 
 @kernel(cache=True)

@@ -29,8 +29,7 @@ from fractions import Fraction
 
 import numpy as np
 
-#: Simplex pivots after which :func:`exact_lp_optimum` gives up (``None``).
-MAX_EXACT_PIVOTS = 60
+from ..defaults import EXACT_LP_MAX_PIVOTS
 
 
 @dataclass
@@ -146,7 +145,7 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
         The optimal value, proven by an exactly feasible vertex and exactly non-negative
         multipliers; ``None`` when the rows have rank below ``d``, the first basis is neither
         primal nor dual feasible, the LP is infeasible or unbounded along the pivots, or more than
-        :data:`MAX_EXACT_PIVOTS` pivots are needed.
+        :data:`~hybobs_opt.defaults.EXACT_LP_MAX_PIVOTS` pivots are needed.
     """
     from ._reproducible import matmul
 
@@ -169,7 +168,7 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
     if basis is None:
         return None
     phase_one = None  # the real cost while phase 1 runs on an artificial one
-    for _ in range(MAX_EXACT_PIVOTS + 1):
+    for _ in range(EXACT_LP_MAX_PIVOTS + 1):
         AB = [Ai[i] for i in basis]
         ABt = [[AB[r][j] for r in range(d)] for j in range(d)]
         sol = _solve_int(AB, [bi[i] for i in basis])
@@ -250,4 +249,4 @@ def decide_above(c, A, b, hint, threshold: float, maximise: bool, duals=None) ->
     return opt > Fraction(float(threshold))
 
 
-__all__ = ["EXACT", "ExactCounters", "MAX_EXACT_PIVOTS", "decide_above", "exact_lp_optimum"]
+__all__ = ["EXACT", "ExactCounters", "decide_above", "exact_lp_optimum"]

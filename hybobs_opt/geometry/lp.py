@@ -21,7 +21,8 @@ from scipy.optimize import linprog
 from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
-from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_EQUILIBRATION_SWEEPS, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
+from ..defaults import LP_EQUILIBRATION_SWEEPS
+from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
 from ..results import Certificate
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._validate import as_int, as_items, as_matrix, as_names, as_vector
+from ..defaults import EXACT_VOLUME_MAX_DIM
 from ..errors import ModelError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
@@ -47,13 +48,6 @@ from .vertices import COUNTERS as LIBRARY_COUNTERS
 from .vertices import enumerate_vertices, hull_rows
 from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 
-#: Largest dimension in which ``Polytope.volume(method="auto")`` is exact (qhull on the
-#: vertices); above it the volume is estimated by Monte Carlo.  ``method="exact"`` works in any
-#: dimension, but qhull's triangulated hull of a 6-D polytope can hold 10^5 simplices (0.3-0.8 s).
-EXACT_VOLUME_MAX_DIM: int = 4
-
-#: Old name of :data:`EXACT_VOLUME_MAX_DIM` (vertex enumeration is no longer limited to it).
-VERTEX_MAX_DIM: int = EXACT_VOLUME_MAX_DIM
 
 #: Largest dimension in which :meth:`Polytope.remove_redundant` decides the facets from the
 #: checked vertex set (measured in 2-6 D, benchmarks/bench_polytope.py); above it the LPs decide,

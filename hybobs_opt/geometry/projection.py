@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from ..defaults import HULL_MAX_SUPPORT_LPS
 from ..errors import ModelError, SolverError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
@@ -29,10 +30,6 @@ from .redundancy import irredundant
 #: dimension, while the hull method needs only ~(facets + vertices) LPs; set this module attribute
 #: (or pass ``hull_max_dim``) to move the switch.
 HULL_PROJECTION_MAX_DIM: int = 5
-
-#: Safety cap on the support LPs of one iterative-hull projection; reaching it means the hull
-#: does not converge (numerical trouble), which raises :class:`SolverError`.
-HULL_MAX_SUPPORT_LPS: int = 20000
 
 
 @dataclass(frozen=True)

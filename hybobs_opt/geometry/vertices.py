@@ -42,12 +42,12 @@ from itertools import combinations
 import numpy as np
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
 
+from ..defaults import VERTEX_DEGENERATE_MAX_SUBSETS
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
     PARALLEL_ROW_TOL,
     REDUNDANCY_RTOL,
     VERTEX_CHECK_RTOL,
-    VERTEX_DEGENERATE_MAX_SUBSETS,
     VERTEX_RANK_RTOL,
     VERTEX_SAME_RTOL,
     VERTEX_TIGHT_RTOL,

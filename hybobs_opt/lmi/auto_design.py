@@ -14,18 +14,19 @@ each from a rule on the model that is written down and reported with the value (
   interval (the half-width alone when the rate is 0).  A box that is much larger than the motion
   (positions bounded only for modelling) then does not make the LMI badly conditioned;
 * **natural rate** ``rho``: the largest ``||S^-1 J(x) S||_2`` of the scaled Jacobian
-  ``J = A + F diag(f'(E x)) E`` on :data:`RATE_SAMPLES` points of the box -- how fast the plant
-  itself moves, in 1/time unit;
-* **gain bound**: ``||L||_2 <= GAIN_FACTOR * rho * max(S) / min(W)`` with ``W_j = ||C_j S||`` the
-  output scales: the scaled gain at most :data:`GAIN_FACTOR` times the plant's rate (the rule of
+  ``J = A + F diag(f'(E x)) E`` on :data:`~hybobs_opt.defaults.AUTO_DESIGN_RATE_SAMPLES` points of
+  the box -- how fast the plant itself moves, in 1/time unit;
+* **gain bound**: ``||L||_2 <= AUTO_DESIGN_GAIN_FACTOR * rho * max(S) / min(W)`` with
+  ``W_j = ||C_j S||`` the output scales: the scaled gain at most
+  :data:`~hybobs_opt.defaults.AUTO_DESIGN_GAIN_FACTOR` times the plant's rate (the rule of
   thumb "observer up to ten times faster than the plant"), so the gains stay of the size of the
   model's own numbers instead of growing until the decay-rate cap;
-* **minimum decay** of each grown region: ``DECAY_FACTOR * rho``;
-* **hysteresis** ``epsilon``: :data:`OVERLAP_FRACTION` of the range;
+* **minimum decay** of each grown region: ``AUTO_DESIGN_DECAY_FACTOR * rho``;
+* **hysteresis** ``epsilon``: :data:`~hybobs_opt.defaults.AUTO_DESIGN_OVERLAP_FRACTION` of the range;
 * **maximum rate** of the coordinate (for the dwell-time guarantee): :func:`max_rate`;
 * **region condition**: the least conservative condition of :mod:`.hierarchy` that can be built
   (``"polytopic"``, the vertex LMIs of the Jacobian box; ``"per_function"`` beyond
-  :data:`~.polytopic.MAX_VERTICES` vertices): every gain of the paper's LMI satisfies it, so the
+  :data:`~hybobs_opt.defaults.POLYTOPIC_MAX_VERTICES` vertices): every gain of the paper's LMI satisfies it, so the
   regions are at least as wide.
 
 Every value can be given instead (``given`` in ``sources``).
@@ -39,27 +40,14 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import (AUTO_DESIGN_DECAY_FACTOR, AUTO_DESIGN_DECAY_FRACTION, AUTO_DESIGN_GAIN_FACTOR,
+                        AUTO_DESIGN_OVERLAP_FRACTION, AUTO_DESIGN_RATE_FUNCTION_SAMPLES, AUTO_DESIGN_RATE_SAMPLES,
+                        DWELL_RETRY_FRACTIONS, DWELL_RETRY_WIDEN, POLYTOPIC_MAX_VERTICES, SIGMA_CAP)
 from ..errors import HybobsError, ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
+from ..tolerances import AUTO_DESIGN_RATE_FLOOR
 from .bounds import jacobian_bounds
-from .observer_lmi import SIGMA_CAP
 from .schedule import coordinate_index
-
-#: Scaled gain bound as a multiple of the natural rate ``rho``.
-GAIN_FACTOR: float = 10.0
-#: Minimum decay rate of a grown region as a multiple of ``rho``.
-DECAY_FACTOR: float = 0.1
-#: Hysteresis as a fraction of the scheduling range.
-OVERLAP_FRACTION: float = 0.005
-#: Design decay rate as a fraction of each region's largest (as the presets).
-DECAY_FRACTION: float = 0.5
-#: Points of the box where the scaled Jacobian norm is sampled (fixed seed: reproducible).
-RATE_SAMPLES: int = 4000
-#: Points of each function's argument interval in :func:`max_rate`.
-RATE_FUNCTION_SAMPLES: int = 2001
-#: Floor of the natural rate and of the coordinate's rate (a plant at rest on its whole box would
-#: otherwise give a zero gain bound, decay and rate).
-RATE_FLOOR: float = 1e-12
 
 
 @dataclass(frozen=True)
@@ -101,7 +89,7 @@ class DesignSettings:
     min_decay: float
     overlap: float
     max_rate: float
-    decay_fraction: float = DECAY_FRACTION
+    decay_fraction: float = AUTO_DESIGN_DECAY_FRACTION
     sigma_cap: float = SIGMA_CAP
     sources: dict[str, str] = field(default_factory=dict)
     condition: str = "polytopic"
@@ -114,7 +102,7 @@ class DesignSettings:
                 "sigma_cap": self.sigma_cap, "condition": self.condition, "sources": dict(self.sources)}
 
 
-def max_rate(system: ScalarNonlinearSystem, coordinate: int, samples: int = RATE_FUNCTION_SAMPLES) -> float:
+def max_rate(system: ScalarNonlinearSystem, coordinate: int, samples: int = AUTO_DESIGN_RATE_FUNCTION_SAMPLES) -> float:
     """Largest ``|x_k'|`` over the operating box with zero input (model units per time unit).
 
     Each state derivative of the class is a sum of terms in single box coordinates or single
@@ -140,7 +128,7 @@ def model_scaling(system: ScalarNonlinearSystem) -> np.ndarray:
     return np.where(rates > 0, np.minimum(half, rates), half).astype(float)
 
 
-def natural_rate(system: ScalarNonlinearSystem, scaling: np.ndarray, samples: int = RATE_SAMPLES) -> float:
+def natural_rate(system: ScalarNonlinearSystem, scaling: np.ndarray, samples: int = AUTO_DESIGN_RATE_SAMPLES) -> float:
     """``max ||S^-1 J(x) S||_2`` over ``samples`` seeded random points of the box (and its corners' centre)."""
     rng = np.random.default_rng(0)
     lo, hi = system.box_lower, system.box_upper
@@ -189,9 +177,9 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     gain_bound : float, optional
         Bound on ``||L||_2`` (default: the gain rule above).
     min_decay : float, optional
-        Minimum decay rate of each grown region (default ``DECAY_FACTOR * rho``).
+        Minimum decay rate of each grown region (default ``AUTO_DESIGN_DECAY_FACTOR * rho``).
     overlap : float, optional
-        Hysteresis ``epsilon``, ``>= 0`` (default ``OVERLAP_FRACTION`` of the range).
+        Hysteresis ``epsilon``, ``>= 0`` (default ``AUTO_DESIGN_OVERLAP_FRACTION`` of the range).
     rate : float, optional
         Largest rate of the coordinate, for the dwell time (default :func:`max_rate`).
     scaling : (n,) array_like, optional
@@ -237,7 +225,7 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
         if S.shape != (system.n,) or not np.all(np.isfinite(S) & (S > 0)):
             raise ModelError("scaling", f"{system.n} positive numbers", repr(scaling))
         sources["scaling"] = "given"
-    rho = max(natural_rate(system, S), RATE_FLOOR)
+    rho = max(natural_rate(system, S), AUTO_DESIGN_RATE_FLOOR)
     W = np.linalg.norm(system.C * S[None, :], axis=1)
     W = np.where(W > 0, W, 1.0)
 
@@ -250,39 +238,33 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
         sources[label] = "given"
         return float(value)
 
-    gb = pick(gain_bound, "gain_bound", GAIN_FACTOR * rho * S.max() / W.min(),
-              f"{GAIN_FACTOR:g} x natural rate x max(scaling) / min(output scale)")
-    md = pick(min_decay, "min_decay", DECAY_FACTOR * rho, f"{DECAY_FACTOR:g} x natural rate")
-    ov = pick(overlap, "overlap", OVERLAP_FRACTION * (hi - lo), f"{OVERLAP_FRACTION:g} x range")
-    mr = pick(rate, "max_rate", max(max_rate(system, k), RATE_FLOOR), "largest rate of the coordinate on the box (zero input)")
+    gb = pick(gain_bound, "gain_bound", AUTO_DESIGN_GAIN_FACTOR * rho * S.max() / W.min(),
+              f"{AUTO_DESIGN_GAIN_FACTOR:g} x natural rate x max(scaling) / min(output scale)")
+    md = pick(min_decay, "min_decay", AUTO_DESIGN_DECAY_FACTOR * rho, f"{AUTO_DESIGN_DECAY_FACTOR:g} x natural rate")
+    ov = pick(overlap, "overlap", AUTO_DESIGN_OVERLAP_FRACTION * (hi - lo), f"{AUTO_DESIGN_OVERLAP_FRACTION:g} x range")
+    mr = pick(rate, "max_rate", max(max_rate(system, k), AUTO_DESIGN_RATE_FLOOR),
+              "largest rate of the coordinate on the box (zero input)")
     cap = max(SIGMA_CAP, 10.0 * rho)
     from .hierarchy import CONDITIONS
-    from .polytopic import MAX_VERTICES
 
     if condition is None:
         k_fn = system.r + sum(not lin for lin in system.linear_outputs)
-        condition = "polytopic" if 2 ** k_fn <= MAX_VERTICES else "per_function"
+        condition = "polytopic" if 2 ** k_fn <= POLYTOPIC_MAX_VERTICES else "per_function"
         sources["condition"] = "the least conservative condition that can be built (vertices of the Jacobian box)"
     elif condition not in CONDITIONS:
         raise ModelError("condition", f"one of {CONDITIONS}", repr(condition))
     else:
         sources["condition"] = "given"
-    return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, DECAY_FRACTION, cap, sources, condition)
-
-
-#: Design attempts of :func:`design_switched` when the hysteresis does not enforce the dwell time:
-#: the design rate fraction is halved (a common ``P`` gets easier, ``tau`` shorter), then the
-#: overlap widened to the required hysteresis (x 1.2).  Each is reported under ``dwell_attempts``.
-DWELL_RETRY_FRACTIONS: tuple[float, ...] = (0.25, 0.125)
-DWELL_RETRY_WIDEN: float = 1.2
+    return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, AUTO_DESIGN_DECAY_FRACTION, cap, sources, condition)
 
 
 def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, accept_unenforced_dwell: bool = False):
     """Regions grown on the settings' range and the switched gains with the dwell time (paper 004, Section 5).
 
     When the hysteresis does not enforce the dwell time (Theorem 6 needs it), the design is redone
-    with a smaller design-rate fraction (:data:`DWELL_RETRY_FRACTIONS`) and then, unless the overlap
-    was given, with the overlap widened to the required hysteresis; the attempts are recorded on
+    with a smaller design-rate fraction (:data:`~hybobs_opt.defaults.DWELL_RETRY_FRACTIONS`) and
+    then, unless the overlap was given, with the overlap widened to the required hysteresis
+    (times :data:`~hybobs_opt.defaults.DWELL_RETRY_WIDEN`); the attempts are recorded on
     the design (``design.dwell_attempts``).  If none enforces it, :class:`~hybobs_opt.lmi.switched.DwellTimeError`
     is raised unless ``accept_unenforced_dwell`` (then the last design comes with a
     :class:`~hybobs_opt.lmi.switched.DwellTimeWarning` and the text in ``design.warnings``).

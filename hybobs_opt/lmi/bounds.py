@@ -5,12 +5,14 @@ bounds ``U_i <= f_i' <= V_i`` and ``M_j <= h_j' <= N_j`` are computed over the a
 that the operating box (or one region of it) allows:
 
 * **method "sampled+refined"** (default): the derivative is evaluated on a dense grid
-  (:data:`BOUND_SAMPLES` points, CasADi), every sign change of the *second* derivative between two
-  samples is refined to a critical point of ``f'`` by ``brentq``, and the bounds are the extreme
-  values over the end points, the samples and the critical points.  They are then widened outward
-  by :data:`~hybobs_opt.tolerances.JACOBIAN_BOUND_RTOL` times ``max |f'|`` (the margin is stored
-  on the result), except across zero: a derivative whose sampled extremes keep one sign keeps it in
-  the bounds (so a monotonic function never gets a sector with ``U V < 0``).  Exact up to rounding unless ``f''`` changes sign twice inside one sampling cell.
+  (:data:`~hybobs_opt.defaults.JACOBIAN_BOUND_SAMPLES` points, CasADi), every sign change of the
+  *second* derivative between two samples is refined to a critical point of ``f'`` by ``brentq``,
+  and the bounds are the extreme values over the end points, the samples and the critical points.
+  They are then widened outward by :data:`~hybobs_opt.tolerances.JACOBIAN_BOUND_RTOL` times
+  ``max |f'|`` (the margin is stored on the result), except across zero: a derivative whose
+  sampled extremes keep one sign keeps it in the bounds (so a monotonic function never gets a
+  sector with ``U V < 0``).  Exact up to rounding unless ``f''`` changes sign twice inside one
+  sampling cell.
 * **method "user"**: a derivative range supplied by the user (no margin); it is checked against
   the samples and rejected when the derivative leaves it.
 * **method "linear"**: an identity output, ``M_j = N_j = 1``.
@@ -32,15 +34,12 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
+from ..defaults import JACOBIAN_BOUND_SAMPLES
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
 from ..tolerances import JACOBIAN_BOUND_RTOL, MONOTONIC_RTOL
 from .schedule import SchedulingRegion, argument_intervals, coordinate_index, make_region
 
-#: Samples of the derivative per argument interval.  With the refinement of critical points this
-#: only has to resolve the sign pattern of ``f''``; 1025 points resolve the 5 turns of the piston
-#: sensors' spiral with ~40 samples per half-turn.
-BOUND_SAMPLES: int = 1025
 
 NONDECREASING = "nondecreasing"
 NONINCREASING = "nonincreasing"
@@ -148,7 +147,7 @@ def derivative_bound(
     kind: str = "f",
     index: int = 0,
     given: tuple[float, float] | None = None,
-    samples: int = BOUND_SAMPLES,
+    samples: int = JACOBIAN_BOUND_SAMPLES,
 ) -> DerivativeBound:
     """Bounds of ``fn'`` over ``[lo, hi]`` (eqs. 4-5 of paper 004); see the module for the method.
 
@@ -287,7 +286,7 @@ def jacobian_bounds(
     region: SchedulingRegion | None = None,
     *,
     given: Mapping[tuple[str, int], tuple[float, float]] | None = None,
-    samples: int = BOUND_SAMPLES,
+    samples: int = JACOBIAN_BOUND_SAMPLES,
 ) -> JacobianBounds:
     """Bounds ``U, V`` (eq. 5) and ``M, N`` (eq. 4) of ``system`` over ``region``.
 
@@ -319,7 +318,7 @@ def jacobian_bounds(
     return JacobianBounds(region, fb, hb, tuple(lin[j] and ("h", j) not in given for j in range(system.p)))
 
 
-def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int = BOUND_SAMPLES) -> np.ndarray:
+def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int = JACOBIAN_BOUND_SAMPLES) -> np.ndarray:
     """Arguments in ``(lo, hi)`` where ``fn'`` changes sign (local extrema of ``fn``), refined by brentq.
 
     Parameters
@@ -328,7 +327,7 @@ def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int =
         The function.
     lo, hi : float
         The argument interval.
-    samples : int, default BOUND_SAMPLES
+    samples : int, default JACOBIAN_BOUND_SAMPLES
         Grid size on which sign changes of ``fn'`` are looked for (at least 3).
 
     Raises
@@ -353,7 +352,7 @@ def monotonic_pieces(
     coordinate: int | str,
     lo: float | None = None,
     hi: float | None = None,
-    samples: int = 4 * BOUND_SAMPLES,
+    samples: int = 4 * JACOBIAN_BOUND_SAMPLES,
 ) -> tuple[np.ndarray, list[SchedulingRegion]]:
     """Split a scheduling range where any function of that coordinate changes direction.
 
@@ -370,7 +369,7 @@ def monotonic_pieces(
         The scheduling state (index or name).
     lo, hi : float, optional
         The range in model units (default: the operating box).
-    samples : int, default 4 * BOUND_SAMPLES
+    samples : int, default 4 * JACOBIAN_BOUND_SAMPLES
         Grid size of :func:`slope_change_points`.
 
     Returns

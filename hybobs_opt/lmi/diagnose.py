@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import SIGMA_CAP
 from ..errors import HybobsError, InfeasibleError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
 from .certificates import InfeasibilityCertificate
 from .hierarchy import HierarchyResult, condition_hierarchy, design_lmi, verified_rate
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
-from .observer_lmi import SIGMA_CAP, DecayResult, LMISolution, ObserverLMI
+from .observer_lmi import DecayResult, LMISolution, ObserverLMI
 from .solve import SOLVER
 from .schedule import SchedulingRegion, coordinate_index, make_region
 from .subtraction import SubtractionCheck, theorem5_check

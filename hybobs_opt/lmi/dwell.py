@@ -25,7 +25,8 @@ from scipy.linalg import eigh
 from .._validate import as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import BISECTION_RTOL, LMI_STRICT_MARGIN
+from ..defaults import BISECTION_RTOL
+from ..tolerances import LMI_STRICT_MARGIN, TAU_RATE_FLOOR
 from .bounds import JacobianBounds
 from .lmi_model import LMIParameters, box_scaling, lmi_data, lmi_expression
 from .schedule import SchedulingRegion
@@ -138,10 +139,6 @@ class DwellResult:
 
 
 _COMPILED: "weakref.WeakKeyDictionary[ScalarNonlinearSystem, dict]" = weakref.WeakKeyDictionary()
-
-#: The dwell-time bisection stops once ``tau * max_j sigma_j`` is below this (``exp(-tau sigma)``
-#: within 1e-4 of 1: the pair constraints are then at the strict margin's resolution).
-TAU_RATE_FLOOR: float = 1e-4
 
 
 class DwellTimeLMI:
@@ -373,7 +370,7 @@ class DwellTimeLMI:
         tau_hi : float
             Upper end of the bisection (finite, ``>= 0``).
         rtol : float, default BISECTION_RTOL
-            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         tau_fixed : float, optional
             The fixed-``P`` dwell time, stored in the result (default ``tau_hi``).
 

@@ -9,7 +9,7 @@ and the problem is infeasible exactly when (theorem of alternatives) some ``y`` 
 s^T y >= 0`` would be a contradiction.  :func:`conic_certificate` solves the compiled problem with
 Clarabel and takes its infeasibility ray; :meth:`FarkasCertificate.verify` re-checks the three
 conditions with numpy alone (eigenvalues for the PSD blocks, unpacked from Clarabel's scaled upper
-triangle), relative to the sizes of ``A``, ``b`` and ``y`` (:data:`FARKAS_RTOL`).
+triangle), relative to the sizes of ``A``, ``b`` and ``y`` (:data:`~hybobs_opt.tolerances.FARKAS_RTOL`).
 
 What is proven is the infeasibility of the problem exactly as posed, with its margins (a strict
 LMI written ``B <= -margin I`` is certified for that margin): the certificate names no more.
@@ -23,12 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..results import Certificate
+from ..tolerances import FARKAS_MARGIN, FARKAS_RTOL
 
-#: Relative tolerance of the re-check: ``||A^T y|| <= FARKAS_RTOL ||A|| ||y||``, cone membership to
-#: ``FARKAS_RTOL ||y||``, and ``b^T y <= -FARKAS_MARGIN ||b|| ||y||`` (a ray that makes ``b^T y``
-#: negative only at rounding level proves nothing).
-FARKAS_RTOL: float = 1e-7
-FARKAS_MARGIN: float = 1e-9
 
 #: Smallest positive float: the relative residuals of an all-zero ``A`` or ``b`` stay finite.
 _TINY: float = float(np.finfo(float).tiny)

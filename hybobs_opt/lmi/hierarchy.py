@@ -26,13 +26,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import POLYTOPIC_MAX_VERTICES
 from ..errors import HybobsError, ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
 from .certificates import certify_infeasible
 from .lmi_model import LMI_NAMES
 from .observer_lmi import ObserverLMI
-from .polytopic import MAX_VERTICES, PolytopicLMI, vertex_decay, vertex_matrices, vertex_slopes
+from .polytopic import PolytopicLMI, vertex_decay, vertex_matrices, vertex_slopes
 from .schedule import SchedulingRegion
 
 #: The conditions, in the order of the hierarchy.
@@ -294,8 +295,8 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
             continue
         try:
             lmi = design_lmi(system, key, scaling=scaling)
-        except ModelError as exc:  # the polytopic condition beyond MAX_VERTICES vertices
-            results.append(ConditionResult(key, name, False, "skipped", skipped=f"not built: {exc} (at most {MAX_VERTICES} vertices)"))
+        except ModelError as exc:  # the polytopic condition beyond POLYTOPIC_MAX_VERTICES vertices
+            results.append(ConditionResult(key, name, False, "skipped", skipped=f"not built: {exc} (at most {POLYTOPIC_MAX_VERTICES} vertices)"))
             continue
         sol = lmi.solve(bounds, sigma)
         if sol.feasible:

@@ -29,24 +29,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import DETECTABILITY_SAMPLES, MAX_SYMMETRY_CANDIDATES, SYMMETRY_POINTS
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import EQUILIBRIUM_RTOL
+from ..tolerances import EIGEN_DECAY_RTOL, EQUILIBRIUM_RTOL, PBH_RTOL, SYMMETRY_RTOL
 from .bounds import slope_change_points
 from .schedule import coordinate_index, make_region
 from ..results import Certificate
-
-#: Samples of the scheduling range searched for undetectable points (besides the roots of the
-#: output slopes and the range ends).
-DETECTABILITY_SAMPLES: int = 257
-#: PBH test: ``sigma_min([J - lambda I; C]) <= PBH_RTOL * (1 + ||J|| + ||C||)`` counts as rank loss.
-PBH_RTOL: float = 1e-8
-#: An eigenvalue with ``Re lambda >= -MODE_RTOL * (1 + ||J||)`` counts as not decaying.
-MODE_RTOL: float = 1e-9
-#: Random points at which a candidate symmetry is checked, and the relative tolerance.
-SYMMETRY_POINTS: int = 200
-SYMMETRY_RTOL: float = 1e-9
-#: Largest number of sign patterns x centres tried (the search is exhaustive below it).
-MAX_SYMMETRY_CANDIDATES: int = 4096
 
 
 def _fmt_complex(lam: complex) -> str:
@@ -94,7 +82,7 @@ class UndetectablePoint(Certificate):
         scale = 1.0 + np.linalg.norm(J, 2) + np.linalg.norm(C, 2)
         tol = 1e3 * PBH_RTOL * scale
         return bool(np.linalg.norm(J @ v - self.eigenvalue * v) <= tol and np.linalg.norm(C @ v) <= tol
-                    and self.eigenvalue.real >= -MODE_RTOL * scale)
+                    and self.eigenvalue.real >= -EIGEN_DECAY_RTOL * scale)
 
     @property
     def reason(self) -> str:
@@ -104,7 +92,7 @@ class UndetectablePoint(Certificate):
     @property
     def claim(self) -> str:
         name = self.system.state_names[self.coordinate]
-        kind = "unstable" if self.eigenvalue.real > MODE_RTOL * (1 + np.linalg.norm(self.system.dynamics_jacobian(self.x), 2)) else "marginal"
+        kind = "unstable" if self.eigenvalue.real > EIGEN_DECAY_RTOL * (1 + np.linalg.norm(self.system.dynamics_jacobian(self.x), 2)) else "marginal"
         text = (f"At {name} = {self.s:.6g} the linearisation has the {kind} eigenvalue {_fmt_complex(self.eigenvalue)} "
                 f"whose mode the outputs do not see (C(x) v = 0): the frozen error dynamics J - L C keep it for every "
                 f"gain L, so no constant, switched or time-varying gain satisfies a quadratic Lyapunov condition on any "
@@ -127,7 +115,7 @@ def _undetectable_mode(J: np.ndarray, C: np.ndarray):
     scale = 1.0 + np.linalg.norm(J, 2) + np.linalg.norm(C, 2)
     best = None
     for lam in np.linalg.eigvals(J):
-        if lam.real < -MODE_RTOL * scale:
+        if lam.real < -EIGEN_DECAY_RTOL * scale:
             continue
         M = np.vstack([J - lam * np.eye(n), C.astype(complex)])
         _, sv, vh = np.linalg.svd(M)
@@ -155,7 +143,7 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     lo, hi : float, optional
         The range in model units (default: the operating box).
     samples : int, default DETECTABILITY_SAMPLES
-        Number of grid points (:data:`DETECTABILITY_SAMPLES`).
+        Number of grid points (:data:`~hybobs_opt.defaults.DETECTABILITY_SAMPLES`).
 
     Raises
     ------
@@ -257,7 +245,7 @@ class OutputSymmetry(Certificate):
         Parameters
         ----------
         points : int, default SYMMETRY_POINTS
-            Number of random points drawn in ``[lower, upper]`` (:data:`SYMMETRY_POINTS`).
+            Number of random points drawn in ``[lower, upper]`` (:data:`~hybobs_opt.defaults.SYMMETRY_POINTS`).
         seed : int, default 1
             Seed of the random points (the search itself uses 0, so these are fresh).
         """
@@ -337,7 +325,7 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
     Every diagonal sign pattern ``S != I`` with ``S B = B`` is tried with the centres of
     :func:`_centre_candidates` for the flipped coordinates; a candidate is accepted when the
     vector field is equivariant and the output invariant at ``points`` random points of
-    ``box ∩ T(box)`` to :data:`SYMMETRY_RTOL`, and ``T`` moves some of them.
+    ``box ∩ T(box)`` to :data:`~hybobs_opt.tolerances.SYMMETRY_RTOL`, and ``T`` moves some of them.
 
     Parameters
     ----------

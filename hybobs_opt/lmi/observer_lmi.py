@@ -45,7 +45,8 @@ import numpy as np
 from .._validate import as_positive
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import BISECTION_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
+from ..defaults import BISECTION_RTOL, SIGMA_CAP
+from ..tolerances import GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from ..status import Status
 from .bounds import JacobianBounds, jacobian_bounds
 from .lmi_model import (
@@ -58,10 +59,6 @@ from .lmi_model import (
 from .schedule import SchedulingRegion
 from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_problem
 
-#: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
-#: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
-#: search needs a cap; with a gain bound the bound decides.
-SIGMA_CAP: float = 100.0
 
 #: The S-procedure multiplier layouts of :class:`ObserverLMI`.
 MULTIPLIER_MODES = ("single", "per_function")
@@ -481,9 +478,9 @@ class ObserverLMI:
         bounds : JacobianBounds
             Bounds of the region (:meth:`bounds`).
         sigma_cap : float, default SIGMA_CAP
-            Upper end of the search (:data:`SIGMA_CAP`, 100).
+            Upper end of the search (:data:`~hybobs_opt.defaults.SIGMA_CAP`, 100).
         rtol : float, default BISECTION_RTOL
-            Relative tolerance of the bisection (:data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         guess : float, optional
             Starting rate of the bracket search (default ``sigma_cap / 8``).
         known : float, optional

@@ -38,6 +38,7 @@ from functools import cached_property
 import cvxpy as cp
 import numpy as np
 
+from ..defaults import POLYTOPIC_MAX_VERTICES
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import CERTIFICATE_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
@@ -45,10 +46,6 @@ from .bounds import JacobianBounds
 from .lmi_model import LMIData, box_scaling, lmi_data
 from .solve import INFEASIBLE, POINT_STATUSES, solve_problem
 from ..results import Certificate
-
-#: Largest number of vertices (``2^(r + p_n)``) the condition is built for; beyond it the
-#: problem grows too large to be useful and the hierarchy stops at the multiplier LMIs.
-MAX_VERTICES: int = 256
 
 
 def vertex_slopes(bounds: JacobianBounds) -> np.ndarray:
@@ -267,7 +264,7 @@ class PolytopicLMI:
     Raises
     ------
     ModelError
-        More than :data:`MAX_VERTICES` vertices.
+        More than :data:`~hybobs_opt.defaults.POLYTOPIC_MAX_VERTICES` vertices.
     """
 
     form = "polytopic"
@@ -281,8 +278,9 @@ class PolytopicLMI:
         self.d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         self.sdata = self.data.scaled(self.d)
         k = self.sdata.r + self.sdata.p_nl
-        if 2 ** k > MAX_VERTICES:
-            raise ModelError("system", f"at most {MAX_VERTICES} vertices of the Jacobian box for the polytopic condition",
+        if 2 ** k > POLYTOPIC_MAX_VERTICES:
+            raise ModelError("system",
+                             f"at most {POLYTOPIC_MAX_VERTICES} vertices of the Jacobian box for the polytopic condition",
                              f"2^{k} = {2 ** k}")
         self.n_vertices = 2 ** k
         self.gain_bound = None if gain_bound is None else float(gain_bound)
@@ -451,9 +449,9 @@ class PolytopicLMI:
         bounds : JacobianBounds
             The Jacobian box of the region.
         sigma_cap : float, optional
-            Upper end of the search (default :data:`.observer_lmi.SIGMA_CAP`).
+            Upper end of the search (default :data:`~hybobs_opt.defaults.SIGMA_CAP`).
         rtol : float, optional
-            Relative tolerance of the bisection (default :data:`~hybobs_opt.tolerances.BISECTION_RTOL`).
+            Relative tolerance of the bisection (default :data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         guess : float, optional
             Starting rate of the bracket search.
         known : float, optional
@@ -464,8 +462,8 @@ class PolytopicLMI:
         DecayResult
             The largest rate found and the solution there (no error when ``sigma = 0`` is infeasible).
         """
-        from ..tolerances import BISECTION_RTOL
-        from .observer_lmi import SIGMA_CAP, bisect_decay
+        from ..defaults import BISECTION_RTOL, SIGMA_CAP
+        from .observer_lmi import bisect_decay
 
         return bisect_decay(lambda sig: self.solve(bounds, sig), SIGMA_CAP if sigma_cap is None else sigma_cap,
                             BISECTION_RTOL if rtol is None else rtol, guess, known=known)

@@ -21,11 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import SIGMA_CAP
 from ..errors import HybobsError, InfeasibleError, ModelError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds
 from .dwell import DwellTimeLMI, dwell_for_hysteresis, dwell_time_fixed, hysteresis_for_dwell
-from .observer_lmi import SIGMA_CAP, ObserverLMI
+from .observer_lmi import ObserverLMI
 from .schedule import SchedulingRegion, adjacent_pairs, coordinate_index, make_region
 from .solve import COUNTERS, SOLVER
 
@@ -368,7 +369,6 @@ def _growth_failure(system, lmi, k: int, a: float, b: float, min_decay: float, s
                               f"gain either but no certificate verified ({fmissing}).{proof}")
     raise InfeasibleError(problem, fcert, f"no gain with decay rate {min_decay:g} satisfies the {condition} condition on "
                           f"{where}, whatever the gain bound." + proof)
-
 
 
 def synthesize_switched(

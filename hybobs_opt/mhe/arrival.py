@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..defaults import CONSISTENCY_FALSE_ALARM, CONSISTENCY_WINDOW
 from ..systems.pwa import PWASystem
 
 __all__ = ["KalmanArrival", "NoiseConsistencyTest"]
@@ -100,13 +101,6 @@ class KalmanArrival:
     def std(self) -> np.ndarray:
         """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
         return np.sqrt(np.diag(self.P))
-
-
-#: Samples of the noise-consistency test (:class:`NoiseConsistencyTest`).
-CONSISTENCY_WINDOW: int = 10
-
-#: False-alarm probability of one noise-consistency test.
-CONSISTENCY_FALSE_ALARM: float = 1e-3
 
 
 class NoiseConsistencyTest:

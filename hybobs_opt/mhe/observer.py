@@ -23,7 +23,7 @@ Flags (the runtime contract of :mod:`hybobs_opt.contract`):
   window start among it: a certified global optimum of (10) (see below) and no other admissible
   window trajectory with a state at least ``delta`` away from the optimum's at the same step
   (inf-norm, in units of the half-widths of ``X``,
-  :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_DELTA`) reaches a cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
+  :data:`~hybobs_opt.defaults.MHE_UNIQUENESS_DELTA`) reaches a cost within ``epsilon`` of it (:data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_RTOL` times
   one sample's squared weighted output half-range, with the floor
   :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_COST_ATOL`; norms 1 / inf: the square roots),
   proven by a second, separated mixed-integer program (Notes of :class:`MHEObserver`); ``x`` is
@@ -103,22 +103,21 @@ import numpy as np
 
 from .._deprecation import warn_renamed
 from .._validate import as_positive, as_vector
-from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, NOISE_FIT_SIGMAS, OBSERVABLE, Observer, UNOBSERVABLE,
-                        WARMING_UP, check_reset_keywords, checked_state, false_alarm_probability,
-                        judge_samples_against, noise_std_vector)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
+                        checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
+from ..defaults import (INNOVATION_MARGIN, MHE_MIXTURE_MAX_SEQUENCES, MHE_NOISE_FALSE_ALARM,
+                        NOISE_FIT_SIGMAS)
 from ..errors import ModelError
 from ..regions.verdicts import PointClass
 from ..status import Status
 from ..systems.pwa import PWASystem
 from ..tolerances import (
     MEMBERSHIP_RTOL,
-    MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_ABS_SUBOPT,
+    MHE_ARRIVAL_MIN_STD_RTOL,
     MHE_CERTIFIED_RTOL,
     MHE_FEASIBILITY_TOL,
-    MHE_NOISE_FALSE_ALARM,
     MHE_INTEGRALITY_TOL,
-    MHE_MIXTURE_MAX_SEQUENCES,
     MHE_POLISH_SKIP_TOL,
     MHE_ZERO_COST_RTOL,
 )
@@ -129,10 +128,10 @@ from .mld import BigMConstants
 from .residual import weight_matrix
 from .result import WindowResult
 from .settings import MHESettings
-from .uniqueness import UNIQUENESS_MAX_SOLVES, SeparatedProgram, UniquenessOutcome
+from .uniqueness import SeparatedProgram, UniquenessOutcome
 from .window import WindowModel
 
-__all__ = ["MHEObserver", "NORMS", "SOLVERS", "UNIQUENESS_MAX_SOLVES"]
+__all__ = ["MHEObserver", "NORMS", "SOLVERS"]
 
 NORMS = ("2", "1", "inf")
 #: Solvers per norm; the first one is the default.
@@ -235,13 +234,13 @@ class MHEObserver(Observer):
         Largest output residual ``|y(k) - y^(k)|`` of the optimum in a window the model is taken to
         fit.  A certified optimum that misses a sample by more proves that no trajectory of the
         model explains the window (a bad sample, or noise above the tolerance): the step is
-        ``fallback``.  Default: :data:`~hybobs_opt.contract.INNOVATION_MARGIN` of each output's
+        ``fallback``.  Default: :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` of each output's
         range over the model, for noise-free data; set it to a few noise standard deviations for
         noisy data (``noise_std`` does).
     noise_std : float or (p,) array, optional
         Standard deviation of white Gaussian output noise, per output (norm 2 only).  The output
         weight becomes ``W_y = diag(1 / noise_std)`` (so ``output_weight`` must be omitted), the
-        fit tolerance defaults to :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``noise_std``, and
+        fit tolerance defaults to :data:`~hybobs_opt.defaults.NOISE_FIT_SIGMAS` ``noise_std``, and
         the uniqueness test's ``epsilon`` becomes the chi-square quantile ``chi2_n^-1(1 - false_alarm)``
         of the whitened cost: ``observable`` then says that the likelihood-ratio confidence region
         ``{x0 : J(x0) <= J* + epsilon}`` of the window-start state, of level ``1 - false_alarm``
@@ -306,7 +305,7 @@ class MHEObserver(Observer):
        numpy and the QP of its mode sequence and direction re-solved exactly: at most
        ``J* + epsilon`` makes it an ``alternative``; above (within the proximal bias of the
        threshold) that combination is excluded exactly and the rest searched again, by bounds
-       on the binaries only, in ``T + 1`` disjoint parts (at most ``UNIQUENESS_MAX_SOLVES``
+       on the binaries only, in ``T + 1`` disjoint parts (at most :data:`~hybobs_opt.defaults.MHE_UNIQUENESS_MAX_SOLVES`
        solves, else "not certified").  DAQP's settings are applied before its setup, with
        ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
        as singular and silently switches to proximal iterations, whose answers were measured

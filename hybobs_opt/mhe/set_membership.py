@@ -31,14 +31,8 @@ import numpy as np
 
 from ..errors import ModelError
 from ..status import Status
-from ..tolerances import (
-    MHE_FEASIBILITY_TOL,
-    MHE_INTEGRALITY_TOL,
-    MHE_UNIQUENESS_DELTA,
-    SET_MEMBERSHIP_BOUND_RTOL,
-    SET_MEMBERSHIP_BOX_RTOL,
-    SET_MEMBERSHIP_SEQUENCES_PER_STATE,
-)
+from ..defaults import MHE_UNIQUENESS_DELTA, SET_MEMBERSHIP_SEQUENCES_PER_STATE
+from ..tolerances import MHE_FEASIBILITY_TOL, MHE_INTEGRALITY_TOL, SET_MEMBERSHIP_BOUND_RTOL, SET_MEMBERSHIP_BOX_RTOL
 from .backends.highs_backend import HighspyBackend
 from .mld import encode_mld
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
@@ -70,7 +64,7 @@ class SetMembershipObserver(Observer):
     max_sequences : int, optional
         Windows with at most this many feasible mode sequences are bounded sequence by sequence
         (one feasibility MILP each, then 2n LPs); others by the 2n per-state MILPs.  Default
-        :data:`~hybobs_opt.tolerances.SET_MEMBERSHIP_SEQUENCES_PER_STATE` times ``n``; 0 uses the
+        :data:`~hybobs_opt.defaults.SET_MEMBERSHIP_SEQUENCES_PER_STATE` times ``n``; 0 uses the
         per-state MILPs only.  Both give the same box (to HiGHS's tolerances); only the time differs.
 
     Notes

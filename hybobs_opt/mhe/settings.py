@@ -19,14 +19,10 @@ import numpy as np
 
 from .._validate import as_positive
 from ..errors import ModelError
-from ..tolerances import MHE_BINARY_PROX_WEIGHT, MHE_CERTIFY_MAX_NODES, MHE_PROX_WEIGHT, MHE_UNIQUENESS_DELTA
+from ..defaults import MHE_CERTIFY_MAX_NODES, MHE_PROX_PASSES, MHE_UNIQUENESS_DELTA
+from ..tolerances import MHE_BINARY_PROX_WEIGHT, MHE_PROX_WEIGHT
 
-__all__ = ["DEFAULT_PROX_PASSES", "MHESettings"]
-
-#: Proximal-point passes per window (norm 2): a pass is repeated, centred at its minimiser, only
-#: when the minimiser moved away from the warm start (cold starts, mode switches); on noise-free
-#: data a second pass always lands on the zero-cost sequence in the tests, a third is a margin.
-DEFAULT_PROX_PASSES = 3
+__all__ = ["MHESettings"]
 
 
 @dataclass(frozen=True)
@@ -64,7 +60,7 @@ class MHESettings:
         switches it off (a linear term can be negative: zero cost proves nothing).
     prox_passes : int
         Largest number of proximal-point passes per window (norm 2), default
-        :data:`DEFAULT_PROX_PASSES`: a pass is repeated, centred at its minimiser, when the
+        :data:`~hybobs_opt.defaults.MHE_PROX_PASSES`: a pass is repeated, centred at its minimiser, when the
         minimiser moved away from the warm start.
     certify_max_nodes : int
         Norm 2: node QPs the exact prefix search (:mod:`hybobs_opt.mhe.certify`) may solve per
@@ -110,7 +106,7 @@ class MHESettings:
     prox_weight: float = MHE_PROX_WEIGHT
     binary_prox_weight: float = MHE_BINARY_PROX_WEIGHT
     zero_cost_certificate: bool = True
-    prox_passes: int = DEFAULT_PROX_PASSES
+    prox_passes: int = MHE_PROX_PASSES
     certify_max_nodes: int = MHE_CERTIFY_MAX_NODES
     certify_time_budget: float | None = None
     check_uniqueness: bool = True

@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from ..defaults import MHE_UNIQUENESS_MAX_SOLVES
 from ..errors import SolverError
 from ..tolerances import (
     MHE_FEASIBILITY_TOL,
@@ -36,12 +37,7 @@ from .residual import StackedResidual
 from .result import WindowResult
 from .window import WindowModel
 
-__all__ = ["SeparatedProgram", "UNIQUENESS_MAX_SOLVES", "UniquenessOutcome"]
-
-#: Largest number of solves of the separated MIQP per window (norm 2): the first, plus the parts
-#: searched again after a point within the proximal bias of the threshold (see
-#: :meth:`SeparatedProgram.decide`); beyond it the step is a fallback.
-UNIQUENESS_MAX_SOLVES = 128
+__all__ = ["SeparatedProgram", "UniquenessOutcome"]
 
 
 class UniquenessOutcome(enum.StrEnum):
@@ -446,8 +442,8 @@ class SeparatedProgram:
         stack, solves, why, decided = [ub0], 0, None, True
         while stack:
             ub = stack.pop()
-            if solves >= UNIQUENESS_MAX_SOLVES:
-                why, decided = f"no decision within {UNIQUENESS_MAX_SOLVES} solves of the separated MIQP", False
+            if solves >= MHE_UNIQUENESS_MAX_SOLVES:
+                why, decided = f"no decision within {MHE_UNIQUENESS_MAX_SOLVES} solves of the separated MIQP", False
                 break
             # largest proximal term at an integral point of the box: the continuous variables'
             # box ranges around the centre, two binaries per step for the modes (the centre is

@@ -27,8 +27,8 @@ never leave, then Bland's rule, so it ends without cycling; it stops as soon as 
 has ``t > -tol``.  The Python observer certifies the same decision (DAQP with dual bounds, HiGHS
 when undecided) and caches cuts that spare it LPs, which changes no answer.  The answers can
 differ only when the optimum lies within rounding of ``-LOOKUP_MEMBERSHIP_TOL``, or when an LP
-reaches the pivot limit :data:`LP_PIVOTS_PER_LP` (then the C code answers "in ``B~_T``": flag
-``unobservable``, never a wrong reconstruction, and counts it in ``state.n_lp_limits``).
+reaches the pivot limit :data:`~hybobs_opt.defaults.C_EXPORT_LP_PIVOTS_PER_LP` (then the C code
+answers "in ``B~_T``": flag ``unobservable``, never a wrong reconstruction, and counts it in ``state.n_lp_limits``).
 
 The header comment prints the table bytes (flash) and a bound on the multiply-adds of one step,
 counted from the tables: every region's rows, every screen row, and every piece's LP at the pivot
@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from .._output_files import write_output_text
+from ..defaults import C_EXPORT_LP_PIVOTS_PER_LP
 from ..errors import ModelError
 from ..limits import MAX_EXPORT_TABLE_BYTES
 from ..tolerances import (
@@ -72,12 +73,6 @@ from ..tolerances import (
 )
 from . import _lookup_kernels as K
 
-#: Pivots allowed to one ``B~_T`` LP of the exported code, per row and column of its tableau
-#: (the limit of a piece with ``k`` rows and ``d`` columns is ``LP_PIVOTS_PER_LP * (k + d + 2)``).
-#: The LPs of the benchmark scenarios take at most a few pivots per column (model (17), T = 5:
-#: see ``benchmarks/results/export.json``); the limit exists so that the worst case of a step is
-#: bounded, and an LP that reaches it answers "in ``B~_T``" (conservative).
-LP_PIVOTS_PER_LP = 2
 
 #: Bytes of a C ``int`` (index tables) on the targets the export is meant for (ILP32, LP64).
 INT_BYTES = 4
@@ -416,7 +411,7 @@ class _Tables:
             self._add("LP_B0", np.concatenate([b0 for _, b0, _ in pp.lp]) if pp.lp else np.zeros(0))
             self._add("LP_B1", np.vstack([B1 for _, _, B1 in pp.lp]) if pp.lp else np.zeros(0))
             nr, nc = rows + 1, cols + 1
-            pivots = LP_PIVOTS_PER_LP * (rows + cols + 2)
+            pivots = C_EXPORT_LP_PIVOTS_PER_LP * (rows + cols + 2)
             # per LP: b = b0 + B1 x, then per pivot the ratio test (nr divisions), the pivot row and
             # objective scaled (2 nc), every other row and the right-hand sides updated (nr nc)
             per_lp = rows * n + pivots * (nr + 2 * nc + nr * nc)
@@ -576,7 +571,7 @@ class _Writer:
             "ARITH": "float (IEEE binary32)" if f32 else "double (IEEE binary64)",
             "BTILDE": btilde, "N_PIECES": data.n_pieces, "N_REGIONS": s["n_regions"],
             "TOLS": "\n".join(f" *     {k:<16} {v!r}" for k, v in t.items() if v is not None),
-            "PIVOTS": LP_PIVOTS_PER_LP,
+            "PIVOTS": C_EXPORT_LP_PIVOTS_PER_LP,
             "F32NOTE": ("\n * Single precision: the candidates of eq. (13) round by at most "
                         f"{data.float32_rounding:.2g} of the states'\n * half-ranges; decisions within that of a "
                         "region boundary or a piece of B~_T can differ from double." if f32 else ""),
@@ -601,7 +596,7 @@ class _Writer:
             "HB_N": d.n, "HB_M": d.m, "HB_P": d.p, "HB_T": d.T, "HB_PT": d.p * d.T, "HB_D": c["D"],
             "HB_K": c["K"], "HB_NX": c["K"] * d.n, "HB_NR": c["K"] * d.p * d.T, "HB_Q": c["Q"], "HB_NI": c["NI"],
             "HB_GLC": c["GLC"], "HB_NPIECES": d.n_pieces, "HB_PAIRS": 1 if obs.btilde_test == "pairs" else 0,
-            "HB_LP_PIVOTS": LP_PIVOTS_PER_LP,
+            "HB_LP_PIVOTS": C_EXPORT_LP_PIVOTS_PER_LP,
         }
         lines = [f"#define {k} {v}" for k, v in defs.items()]
         consts = {"OUTPUT_RTOL": t["output_rtol"], "SAME_TOL": t["same_state_tol"], "MEMBER_TOL": t["membership_tol"],

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..contract import OBSERVABLE, Observer, ObserverTrace
+from ..defaults import EXACT_LABEL_SAMPLES
 
 
 def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
@@ -42,11 +43,6 @@ def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
         k = seqs.get(tuple(int(v) for v in q[t - T + 1 : t + 1]))
         out[t] = k is not None and analysis.full_rank[k]
     return out
-
-
-#: At most this many window-start states are classified exactly per bench run (point queries of
-#: Definition 2.2, about 1 ms each on model 16 at T = 3 and 17 ms on model 17 at T = 5).
-EXACT_LABEL_SAMPLES = 300
 
 
 def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMPLES,

@@ -51,7 +51,9 @@ from .._validate import as_flag, as_positive
 from ..errors import ModelError
 from ..systems.constant_drift import ConstantDriftSystem
 from ..systems.event_sampled import PeriodicSystem, periodic_system
-from ..contract import TIME_JUMP_FACTOR, FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, TimeGuard, checked_time, initial_mode, check_reset_keywords
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, TimeGuard, WARMING_UP,
+                        check_reset_keywords, checked_time, initial_mode)
+from ..defaults import TIME_JUMP_FACTOR
 from ..synthesis.periodic_gains import PeriodicGains, analyse_gains, deadbeat_gains
 
 

@@ -3,7 +3,7 @@
 A Luenberger-type observer (the continuous observer of paper 000, the switched-gain observer of
 paper 004) reconstructs the state only asymptotically: its first estimates are as wrong as its
 initial guess.  It flags ``observable`` only once a bound on its error, certified by its design's
-Lyapunov function, is below :data:`CONVERGENCE_FRACTION` of the state set's width in every
+Lyapunov function, is below :data:`~hybobs_opt.defaults.CONVERGENCE_FRACTION` of the state set's width in every
 coordinate; before, it flags ``warming_up`` (DESIGN.md: a flag ``observable`` means the state is
 determined by the data).
 
@@ -22,7 +22,7 @@ observers of paper 000 a plant that is the sampled model: inputs held and output
 samples); it is what the design proves, no more.  What it leaves out is measured, not proven: on
 the driveline the continuous observer's output residual settles near 2e-4 rad/s while the bound
 goes to 1e-13 (the plant between samples is not the sampled model), which is why the innovation
-tests allow :data:`~hybobs_opt.contract.INNOVATION_MARGIN` on top of it and the suite's oracle
+tests allow :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` on top of it and the suite's oracle
 1e-3 of the box.
 """
 
@@ -34,12 +34,8 @@ import math
 import numpy as np
 from scipy.linalg import eigh
 
-#: An observer flags ``observable`` once its certified error bound is below this fraction of the
-#: state set's width in every coordinate (the same 1 % as the state-set test of the contract).
-CONVERGENCE_FRACTION: float = 0.01
+from ..defaults import CONVERGENCE_FRACTION, ERROR_BOUND_MAX_VERTEX_STATES
 
-#: Above this many states the initial bound uses the box's half-diagonal instead of its 2^n vertices.
-MAX_VERTEX_STATES: int = 12
 
 #: ``log`` of the largest float: a bound beyond it is reported as that (``exp`` would overflow).
 LOG_FLOAT_MAX: float = math.log(np.finfo(float).max)
@@ -69,7 +65,7 @@ class ErrorBound:
         if not (np.all(np.isfinite(self.lo)) and np.all(np.isfinite(self.hi))):
             self.log_b = math.inf
             return
-        if n <= MAX_VERTEX_STATES:
+        if n <= ERROR_BOUND_MAX_VERTEX_STATES:
             V = np.array(list(itertools.product(*zip(self.lo, self.hi))), dtype=float)
             D = V - np.asarray(x0, dtype=float)[None, :]
             b2 = float(np.max(np.einsum("ki,ij,kj->k", D, P, D)))
@@ -111,4 +107,4 @@ def induced_log_norm(M: np.ndarray, P: np.ndarray) -> float:
     return 0.5 * math.log(max(w, FLOAT_TINY))
 
 
-__all__ = ["CONVERGENCE_FRACTION", "ErrorBound", "FLOAT_TINY", "LOG_FLOAT_MAX", "MAX_VERTEX_STATES", "induced_log_norm"]
+__all__ = ["ErrorBound", "FLOAT_TINY", "LOG_FLOAT_MAX", "induced_log_norm"]

@@ -18,9 +18,10 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_instance, as_int, as_positive
-from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
-                        ObserverTrace, WARMING_UP, check_reset_keywords, checked_index, initial_mode, initial_state,
-                        innovation_excess, judge_samples_against, sample_rows)
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, WARMING_UP, check_reset_keywords,
+                        checked_index, initial_mode, initial_state, innovation_excess, judge_samples_against,
+                        sample_rows)
+from ..defaults import INNOVATION_MARGIN, INNOVATION_PATIENCE, TRANSIENT_FRACTION
 from ..errors import ModelError
 from ..synthesis.continuous_design import ContinuousDesign, ConvergenceBound
 from ..synthesis.location_design import ResidualBank, affine_key, sampled_observer
@@ -28,10 +29,6 @@ from ..systems.hybrid import HybridAutomaton
 from .error_bound import ErrorBound, induced_log_norm
 from .location_logic import AMBIGUOUS, IDENTIFIED
 from .location_observer import LocationObserver, detection_delays
-
-#: A run has "converged" once the transient term ``c e^{-alpha t} ||eps(0)||`` of the bound is below
-#: this fraction of ``M0`` (the guaranteed error is then at most 1.01 M0).
-TRANSIENT_FRACTION = 0.01
 
 
 class ContinuousObserver(Observer):
@@ -123,7 +120,7 @@ class ContinuousObserver(Observer):
 
     def _innovation_excess(self, u: np.ndarray, y: np.ndarray) -> str | None:
         """Why the residual ``y - (C x + D u + c)`` of the current estimate exceeds what the error
-        bound allows plus :data:`~hybobs_opt.contract.INNOVATION_MARGIN` (``None`` if it does not)."""
+        bound allows plus :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` (``None`` if it does not)."""
         if self._innovation_floor is None:
             return None
         C, D, c, C_norms = self._outputs[self.location]

@@ -20,7 +20,7 @@ positive semidefinite in floating point for any gain), symmetrised after every u
 
 Flags (:mod:`hybobs_opt.contract`): ``observable`` when the largest standard deviation of the
 estimate, in units of the state box's half-widths, is below ``observable_std``
-(:data:`OBSERVABLE_STD`): the data pin the state down to a small fraction of its range.
+(:data:`~hybobs_opt.defaults.KALMAN_OBSERVABLE_STD`): the data pin the state down to a small fraction of its range.
 Otherwise ``unobservable``.  A bad sample (not numeric, wrong length, NaN or Inf, outside the
 model's ranges, or no valid mode) gives ``fallback`` with the reason in ``info["reason"]`` and a
 time update only (the returned estimate is then the prediction ``x(k|k-1)``); it never raises.
@@ -38,14 +38,9 @@ from numpy.typing import ArrayLike
 from .._validate import as_positive
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, check_reset_keywords,
                         checked_state, judge_samples_against, noise_std_vector, trace_length)
+from ..defaults import KALMAN_OBSERVABLE_STD
 from ..errors import ModelError
 from ..systems.pwa import PWASystem
-
-#: The estimate is flagged ``observable`` when its largest standard deviation is below this
-#: fraction of the state box's half-width in that coordinate: the data then place the state within
-#: 1 % of its range with one-sigma confidence (the default prior, one half-width, is 100 times
-#: wider), which is what "reconstructed from the data" means for a stochastic estimate.
-OBSERVABLE_STD: float = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +140,7 @@ class ModeSequenceKalmanFilter(Observer):
         otherwise.
     observable_std : float, optional
         Threshold of the ``observable`` flag, a fraction of the state box's half-widths
-        (default :data:`OBSERVABLE_STD`).
+        (default :data:`~hybobs_opt.defaults.KALMAN_OBSERVABLE_STD`).
     judge_ranges : bool, optional
         Judge samples against the model's input and output ranges and the estimate against its
         state set (:func:`~hybobs_opt.contract.judge_samples_against`; default ``True``).
@@ -166,8 +161,8 @@ class ModeSequenceKalmanFilter(Observer):
     name = "kalman (true modes)"
 
     def __init__(self, system: PWASystem, noise_std, *, process_std=0.0, x0: ArrayLike | None = None,
-                 P0: ArrayLike | None = None, modes: ArrayLike | None = None, observable_std: float = OBSERVABLE_STD,
-                 judge_ranges: bool = True):
+                 P0: ArrayLike | None = None, modes: ArrayLike | None = None,
+                 observable_std: float = KALMAN_OBSERVABLE_STD, judge_ranges: bool = True):
         if not isinstance(system, PWASystem):
             raise ModelError("system", "a PWASystem", type(system).__name__)
         self.system = system

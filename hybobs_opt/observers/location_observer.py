@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from ..contract import (Estimate, FALLBACK, INNOVATION_MARGIN, INNOVATION_PATIENCE, OBSERVABLE, Observer,
-                        ObserverTrace, UNOBSERVABLE, WARMING_UP, check_reset_keywords, initial_state,
-                        innovation_excess, judge_samples_against, sample_rows)
-from .error_bound import CONVERGENCE_FRACTION, LOG_FLOAT_MAX, induced_log_norm
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, ObserverTrace, UNOBSERVABLE, WARMING_UP,
+                        check_reset_keywords, initial_state, innovation_excess, judge_samples_against, sample_rows)
+from ..defaults import CONVERGENCE_FRACTION, INNOVATION_MARGIN, INNOVATION_PATIENCE
+from .error_bound import LOG_FLOAT_MAX, induced_log_norm
 from .._validate import as_instance, as_positive
 from ..errors import ModelError
 from ..tolerances import LOCATION_INVARIANT_RTOL
@@ -166,7 +166,7 @@ class LocationObserver(Observer):
     # ------------------------------------------------------------------ one step
     def _innovation_excess(self, u: np.ndarray, y: np.ndarray) -> str | None:
         """Why the residual of the generator whose error bound is tracked (the identified location's)
-        exceeds what that bound allows plus :data:`~hybobs_opt.contract.INNOVATION_MARGIN` (``None``:
+        exceeds what that bound allows plus :data:`~hybobs_opt.defaults.INNOVATION_MARGIN` (``None``:
         it does not, or no bound is tracked)."""
         g = self._bound_group
         if g < 0 or self._innovation_floor is None:

@@ -81,15 +81,12 @@ from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, 
                         noise_std_vector, radius_tolerance_vector)
 from ..errors import ModelError, SolverError
 from ..geometry.lp import max_slack
-from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, MHE_UNIQUENESS_DELTA,
-                          RANK_RTOL, SET_MEMBERSHIP_BOX_RTOL, ZERO_ROW_TOL)
+from ..defaults import MHE_UNIQUENESS_DELTA, NOISE_LOOKUP_FALSE_ALARM
+from ..tolerances import (BOUNDED_RESIDUAL_RTOL, LOOKUP_INPUT_BOUND_TOL, LOOKUP_MEMBERSHIP_TOL, RANK_RTOL,
+                          SET_MEMBERSHIP_BOX_RTOL, ZERO_ROW_TOL)
 from .lookup import input_bound_rows
 
-__all__ = ["NoiseAwareLookupObserver", "DEFAULT_FALSE_ALARM"]
-
-#: Default probability that the true mode sequence fails the tests of one window (residual and
-#: membership together): about three false alarms in a 3,000-sample run.
-DEFAULT_FALSE_ALARM: float = 1e-3
+__all__ = ["NoiseAwareLookupObserver"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,7 +125,7 @@ class NoiseAwareLookupObserver(Observer):
     input_noise_bound : float, sequence or dict, optional
         With ``noise_bound``: a bound on each measured input's noise, in input units (default 0:
         the inputs are known exactly).
-    false_alarm : float, default DEFAULT_FALSE_ALARM
+    false_alarm : float, default NOISE_LOOKUP_FALSE_ALARM
         Probability that the true mode sequence fails the tests of one window, in (0, 0.5)
         (Gaussian noise only).
     tolerance : float, sequence or dict, optional
@@ -155,7 +152,7 @@ class NoiseAwareLookupObserver(Observer):
     name = "lookup-noise"
 
     def __init__(self, analysis, noise_std=None, *, noise_bound=None, input_noise_bound=None,
-                 false_alarm: float = DEFAULT_FALSE_ALARM, tolerance=None):
+                 false_alarm: float = NOISE_LOOKUP_FALSE_ALARM, tolerance=None):
         from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
 
         as_instance(analysis, "analysis", ObservabilityAnalysis,

@@ -13,8 +13,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import as_flag, as_positive
-from ..contract import (FALLBACK, OBSERVABLE, TIME_JUMP_FACTOR, WARMING_UP, Estimate, Observer, TimeGuard,
-                        check_reset_keywords, checked_state, checked_time, initial_mode)
+from ..contract import (FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, TimeGuard, check_reset_keywords,
+                        checked_state, checked_time, initial_mode)
+from ..defaults import TIME_JUMP_FACTOR
 from ..errors import ModelError
 from ..synthesis.periodic_gains import PeriodicGains, analyse_gains, as_periodic_system
 from ..systems.event_sampled import PeriodicSystem

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..contract import FLAGS, OBSERVABLE, ObserverTrace
 from ..errors import ModelError
+from ..tolerances import UNIFORM_PERIOD_RTOL, WRONG_ESTIMATE_RTOL
 
 #: Observer kinds for PWA systems, and the norm of the moving-horizon ones.
 PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1", "milp_inf": "inf",
@@ -24,13 +25,6 @@ PWA_OBSERVERS: dict[str, str | None] = {"lookup": None, "miqp": "2", "milp": "1"
 #: Observer kinds that take a bound on the output noise (required by ``set_membership``; the lookup
 #: observer with one reports certified radii).
 NOISE_BOUND_OBSERVERS = ("lookup", "set_membership", "miqp", "milp", "milp_inf")
-
-#: Relative error (to ``max(1, |x|)``) above which an estimate flagged observable counts as wrong
-#: in a summary against a noise-free log.
-WRONG_ESTIMATE_RTOL = 1e-6
-#: Largest deviation of a log's sample intervals from their median, relative to it, for a
-#: continuous-time observer that needs one sampling period.
-UNIFORM_PERIOD_RTOL = 1e-6
 
 
 def check_observer_kinds(kinds: Sequence[str]) -> list[str]:
@@ -243,7 +237,8 @@ def _lyapunov_entry(entry: dict, n: int, where: str) -> dict:
 
 
 def sample_period(log, field: str = "t") -> float:
-    """The sampling period of a log's time column (uniform to :data:`UNIFORM_PERIOD_RTOL`), for continuous-time observers."""
+    """The sampling period of a log's time column (uniform to
+    :data:`~hybobs_opt.tolerances.UNIFORM_PERIOD_RTOL`), for continuous-time observers."""
     if log.t is None or log.t.size < 2:
         raise ModelError(field, "a time column (t or time) with at least two samples: a continuous-time observer "
                          "integrates between samples", "none")

@@ -47,12 +47,12 @@ from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, 
 from ..errors import ModelError, SolverError
 from ..geometry.lp import solve_lp
 from ..geometry.polytope import Polytope
-from ..tolerances import MHE_UNIQUENESS_DELTA, SET_FILTER_MIN_NOISE_RTOL, SET_FILTER_ROW_RTOL
+from ..defaults import MHE_UNIQUENESS_DELTA, SET_FILTER_MAX_PIECES
+from ..tolerances import (SET_FILTER_MIN_NOISE_RTOL, SET_FILTER_REDUNDANCY_RTOL, SET_FILTER_ROW_RTOL,
+                          SET_FILTER_UNIT_BOX_MARGIN)
 
-__all__ = ["SetMembershipFilter", "DEFAULT_MAX_PIECES"]
+__all__ = ["SetMembershipFilter"]
 
-#: Largest number of polytopes kept in the union (the nearest two are merged beyond it).
-DEFAULT_MAX_PIECES: int = 8
 
 #: Every this many steps each piece's redundant rows are removed by LPs (in between, only rows
 #: implied by the piece's mapped bounding box go, which needs no LP).
@@ -60,13 +60,6 @@ REDUNDANCY_PERIOD: int = 10
 
 #: A piece with more rows than this has its redundant rows removed at once.
 MAX_ROWS_BEFORE_REDUNDANCY: int = 60
-
-#: The pieces lie in the unit box of ``X`` (scaled), relaxed: ``|s_i| <= 1 + UNIT_BOX_MARGIN``
-#: bounds the residual term of the proven box bounds.
-UNIT_BOX_MARGIN: float = 1e-6
-
-#: A row is redundant when the other rows keep it within this (relative) of its bound.
-REDUNDANCY_RTOL: float = 1e-9
 
 
 def _row_box(P: Polytope, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -149,7 +142,7 @@ class _PieceLP:
         if active is not None:
             y = np.where(active, y, 0.0)
         r = np.asarray(c, dtype=float) - A.T @ y
-        return float(y @ b + np.abs(r).sum() * (1.0 + UNIT_BOX_MARGIN))
+        return float(y @ b + np.abs(r).sum() * (1.0 + SET_FILTER_UNIT_BOX_MARGIN))
 
     def box(self) -> tuple[np.ndarray, np.ndarray]:
         """Proven ``(lower, upper)`` of the piece, 2n re-solves."""
@@ -190,7 +183,7 @@ class SetMembershipFilter(Observer):
     tolerance : float, sequence or dict, optional
         Largest radius per state for the flag ``observable``; default ``MHE_UNIQUENESS_DELTA``
         times the half-widths of ``X``'s bounding box.
-    max_pieces : int, default DEFAULT_MAX_PIECES
+    max_pieces : int, default SET_FILTER_MAX_PIECES
         Largest number of polytopes kept.
 
     Notes
@@ -205,7 +198,7 @@ class SetMembershipFilter(Observer):
 
     name = "set-filter"
 
-    def __init__(self, system, noise_bound, *, tolerance=None, max_pieces: int = DEFAULT_MAX_PIECES):
+    def __init__(self, system, noise_bound, *, tolerance=None, max_pieces: int = SET_FILTER_MAX_PIECES):
         from ..systems.pwa import PWASystem
 
         if not isinstance(system, PWASystem):
@@ -256,7 +249,7 @@ class SetMembershipFilter(Observer):
         if not pieces:
             pieces, boxes = [self._X], None  # every piece left X: the next sample says whether the data agree
         self._pieces = pieces
-        one = np.ones(self.n) * (1.0 + UNIT_BOX_MARGIN)
+        one = np.ones(self.n) * (1.0 + SET_FILTER_UNIT_BOX_MARGIN)
         if boxes is None:
             boxes = [_row_box(P, self.n) for P in pieces]
         self._piece_boxes = [(np.maximum(lo, -one), np.minimum(hi, one)) for lo, hi in boxes]
@@ -338,7 +331,7 @@ class SetMembershipFilter(Observer):
         except ModelError:
             return None
         except SolverError:
-            one = np.full(self.n, 1.0 + UNIT_BOX_MARGIN)
+            one = np.full(self.n, 1.0 + SET_FILTER_UNIT_BOX_MARGIN)
             return -one, one
 
     def _predict(self, pieces: list[tuple[Polytope, int]], u: np.ndarray, boxes: list | None = None) -> list[Polytope]:
@@ -370,7 +363,7 @@ class SetMembershipFilter(Observer):
                 continue
             if full_pass or R.A.shape[0] > MAX_ROWS_BEFORE_REDUNDANCY:
                 self.n_lps += R.A.shape[0]
-                keep = model.irredundant(REDUNDANCY_RTOL)
+                keep = model.irredundant(SET_FILTER_REDUNDANCY_RTOL)
                 R = Polytope(R.A[keep], R.b[keep])
             nxt.append(R)
             nxt_boxes.append((lo1, hi1) if lo1 is not None else _row_box(R, self.n))
@@ -410,7 +403,7 @@ class SetMembershipFilter(Observer):
         if merged.A.shape[0] > MAX_ROWS_BEFORE_REDUNDANCY:
             model = _PieceLP(merged.A, merged.b)
             if model.feasible():
-                keep = model.irredundant(REDUNDANCY_RTOL)
+                keep = model.irredundant(SET_FILTER_REDUNDANCY_RTOL)
                 merged = Polytope(merged.A[keep], merged.b[keep])
         return [R for k, R in enumerate(pieces) if k not in (i, j)] + [merged]
 

@@ -27,7 +27,7 @@ Sampled implementation (one Euler step per output sample, step ``h``; the fixed-
   the next state, so the auxiliary state is ``zt_{j+1}(k) = zh_{j+1}(k-1) + w_j(k)``: this makes
   ``zt_{j+1}`` the backward difference of ``zt_j`` (a one-sample-consistent equivalent value;
   with ``zh_{j+1}(k)`` instead, the stage-2 loop has a pole on the unit circle and oscillates).
-- A stage slides (``E_j = 1``) after :data:`~hybobs_opt.tolerances.SMO_SLIDING_HOLD` samples in
+- A stage slides (``E_j = 1``) after :data:`~hybobs_opt.defaults.SMO_SLIDING_HOLD` samples in
   its layer.  The estimate is clipped to the range of the canonical states (the model's operating
   box), which is what makes the explicit gain rule below valid.
 - Optional first-order low-pass filter (time constant ``tau``) of the auxiliary states used for
@@ -55,7 +55,7 @@ from .._validate import as_int, as_positive, as_vector
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm, observability_form
 from ..synthesis.sliding_mode_gains import GainRule, design_gains
-from ..tolerances import SMO_SLIDING_HOLD
+from ..defaults import SMO_SLIDING_HOLD
 from ..contract import FALLBACK, OBSERVABLE, WARMING_UP, Estimate, Observer, ObserverTrace, checked_state, judge_samples_against, sample_rows, check_reset_keywords
 
 __all__ = ["IndicatorMetrics", "SlidingModeObserver", "SlidingModeRun", "convergence_times", "indicator_metrics"]

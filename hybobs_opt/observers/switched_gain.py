@@ -36,17 +36,10 @@ from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..systems.ranges import output_range, state_range
 from .error_bound import ErrorBound
-from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, STATE_SET_MARGIN, WARMING_UP, check_reset_keywords,
-                        checked_index, checked_state, initial_mode, outside_range)
-
-#: Grid of the scheduling coordinate searched by the initial-region selection.
-INIT_GRID = 721
-#: Initial-region selection: an output whose model value varies over the grid by less than this
-#: (variance relative to its mean square) does not depend on the coordinate and is ignored.
-INIT_SPREAD_RTOL = 1e-12
-#: RK4 sub-steps are chosen so that (sub-step) x (spectral radius of the frozen error dynamics)
-#: stays below this: well inside RK4's stability interval (2.78 on the negative real axis).
-RK4_STEP_RADIUS = 0.5
+from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, WARMING_UP, check_reset_keywords, checked_index,
+                        checked_state, initial_mode, outside_range)
+from ..defaults import STATE_SET_MARGIN, SWITCHED_INIT_GRID
+from ..tolerances import RK4_STEP_RADIUS, SWITCHED_INIT_SPREAD_RTOL
 
 
 class SwitchedGainObserver(Observer):
@@ -67,7 +60,7 @@ class SwitchedGainObserver(Observer):
         After the selection, move the estimate's scheduling coordinate into the selected region
         (``clip``, the default), onto the identified value, or leave it.
     substeps : int, optional
-        RK4 sub-steps per sample (default: from the gains, see :data:`RK4_STEP_RADIUS`).
+        RK4 sub-steps per sample (default: from the gains, see :data:`~hybobs_opt.tolerances.RK4_STEP_RADIUS`).
     clip_to_box : bool
         Keep the estimate in the operating box (default).  The Jacobian bounds (4)-(5) behind
         every gain hold only there: a large initial error can otherwise throw the estimate into an
@@ -85,14 +78,14 @@ class SwitchedGainObserver(Observer):
     input_range : (lower, upper), optional
         The inputs' declared range (a scalar-nonlinear model has no input set of its own): a
         sample whose input lies outside it by more than
-        :data:`~hybobs_opt.contract.RANGE_MARGIN` of its width is refused (``fallback``).
+        :data:`~hybobs_opt.defaults.RANGE_MARGIN` of its width is refused (``fallback``).
         Outputs are always judged against what the model produces on the box.
 
     Notes
     -----
     Flags: ``warming_up`` while the initial region is selected and until the certified error
     bound of :meth:`error_bound` is below
-    :data:`~hybobs_opt.observers.error_bound.CONVERGENCE_FRACTION` of the box in every
+    :data:`~hybobs_opt.defaults.CONVERGENCE_FRACTION` of the box in every
     coordinate, ``observable`` after; ``fallback`` for a refused sample (open loop: the bound
     grows at the region's open-loop rate, or restarts from the box when the input is unknown).
     Gains without Lyapunov matrices (``P``, ``sigma``) certify nothing: their flag stays
@@ -337,7 +330,7 @@ class SwitchedGainObserver(Observer):
         Y = np.asarray(Y, dtype=float).reshape(-1, self.p)
         lo = min(r.lo for r in self.regions)
         hi = max(r.hi for r in self.regions)
-        grid = np.linspace(lo, hi, INIT_GRID)
+        grid = np.linspace(lo, hi, SWITCHED_INIT_GRID)
         X = np.tile(self.x, (grid.size, 1))
         X[:, self.k] = grid
         u0 = np.zeros(self.m) if U is None or len(U) == 0 else np.asarray(U, dtype=float).reshape(-1, self.m)[0]
@@ -378,7 +371,7 @@ class SwitchedGainObserver(Observer):
         """Wrap the periodic coordinates, clip the others to the box (if ``clip_to_box``).
 
         Records in ``_left_box`` why the integrated estimate left the box by more than
-        :data:`~hybobs_opt.contract.STATE_SET_MARGIN` of its width (``None`` if it did not): the
+        :data:`~hybobs_opt.defaults.STATE_SET_MARGIN` of its width (``None`` if it did not): the
         error bound's hypothesis (estimate and plant in the box) failed on that interval.
         """
         x = self._wrap(x)
@@ -598,12 +591,12 @@ def _normalised_residual(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
     reproduce its size anywhere on the grid: the piston's output slope at an estimate that is
     still at rest (velocity ~1e-6 mm/s) varies by 1e-12 of the measured slope over the grid, and
     dividing by that variance alone let rounding pick the far end of the stroke.  An output that
-    does not depend on the coordinate (spread below INIT_SPREAD_RTOL of its size) is ignored.
+    does not depend on the coordinate (spread below SWITCHED_INIT_SPREAD_RTOL of its size) is ignored.
     """
     out = np.zeros(model.shape[0])
     for j in range(model.shape[1]):
         spread = float(np.var(model[:, j]))
-        if spread > INIT_SPREAD_RTOL * (1.0 + float(np.mean(model[:, j] ** 2))):
+        if spread > SWITCHED_INIT_SPREAD_RTOL * (1.0 + float(np.mean(model[:, j] ** 2))):
             out += (model[:, j] - measured[j]) ** 2 / (spread + float(measured[j]) ** 2)
     return out
 

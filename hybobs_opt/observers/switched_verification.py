@@ -22,19 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import (VERIFY_ERROR_FRACTION, VERIFY_FROZEN_GRID, VERIFY_MAX_CORNERS, VERIFY_N_INITIAL_ERRORS,
+                        VERIFY_TOLERANCE_FRACTION)
 from ..errors import ModelError
 from .switched_gain import SwitchedGainObserver, convergence_time
-
-#: Grid points of the scheduling coordinate per region (frozen check).
-FROZEN_GRID: int = 33
-#: At most this many combinations of the other states (the centre plus box corners) per grid point.
-MAX_CORNERS: int = 16
-#: Default initial errors: this many, each state's error uniform in +- ERROR_FRACTION of the
-#: box half-width (seeded; the first one is + ERROR_FRACTION on every state).
-N_INITIAL_ERRORS: int = 4
-ERROR_FRACTION: float = 0.1
-#: Default convergence tolerance: this fraction of each state's box half-width.
-TOLERANCE_FRACTION: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -116,7 +107,7 @@ def _half_widths(system) -> np.ndarray:
     return np.where(d > 0, d, 1.0)
 
 
-def frozen_checks(design, grid: int = FROZEN_GRID) -> list[FrozenCheck]:
+def frozen_checks(design, grid: int = VERIFY_FROZEN_GRID) -> list[FrozenCheck]:
     """The frozen-Jacobian check of every region (module docstring)."""
     system = design.system
     k = design.coordinate
@@ -124,7 +115,7 @@ def frozen_checks(design, grid: int = FROZEN_GRID) -> list[FrozenCheck]:
     centre = 0.5 * (lo_b + hi_b)
     others = [i for i in range(system.n) if i != k]
     combos = [centre]
-    for bits in itertools.islice(itertools.product((0, 1), repeat=len(others)), MAX_CORNERS - 1):
+    for bits in itertools.islice(itertools.product((0, 1), repeat=len(others)), VERIFY_MAX_CORNERS - 1):
         x = centre.copy()
         x[others] = np.where(np.array(bits, dtype=bool), hi_b[others], lo_b[others])
         combos.append(x)
@@ -165,9 +156,10 @@ def verify_switched_design(design, scenario=None, *, scenario_name: str | None =
         True run to observe (``t``, ``x``, ``u``, ``y``); default: :func:`free_response` over
         ``t_final`` (default ``10 / min sigma_i``, at most 60 time units).
     initial_errors : (k, n) array, optional
-        Initial estimation errors (default :data:`N_INITIAL_ERRORS` seeded ones).
+        Initial estimation errors (default :data:`~hybobs_opt.defaults.VERIFY_N_INITIAL_ERRORS` seeded ones).
     tolerance : (n,) array, optional
-        Per-state convergence tolerance (default :data:`TOLERANCE_FRACTION` of the box half-width).
+        Per-state convergence tolerance (default :data:`~hybobs_opt.defaults.VERIFY_TOLERANCE_FRACTION` of the box
+        half-width).
     periodic : mapping, optional
         Periodic coordinates for the observer (``{"psi": 2 pi}``): wrapped, not clipped.
     """
@@ -192,14 +184,14 @@ def verify_switched_design(design, scenario=None, *, scenario_name: str | None =
     dt = float(t[1] - t[0])
     if initial_errors is None:
         rng = np.random.default_rng(seed)
-        E0 = [ERROR_FRACTION * d]
-        E0 += [ERROR_FRACTION * d * rng.uniform(-1.0, 1.0, n) for _ in range(N_INITIAL_ERRORS - 1)]
+        E0 = [VERIFY_ERROR_FRACTION * d]
+        E0 += [VERIFY_ERROR_FRACTION * d * rng.uniform(-1.0, 1.0, n) for _ in range(VERIFY_N_INITIAL_ERRORS - 1)]
         E0 = np.array(E0)
     else:
         E0 = np.asarray(initial_errors, dtype=float)
         if E0.ndim != 2 or E0.shape[1] != n or not np.all(np.isfinite(E0)):
             raise ModelError("initial_errors", f"finite rows of {n} state errors", f"shape {E0.shape}")
-    tol = TOLERANCE_FRACTION * d if tolerance is None else np.asarray(tolerance, dtype=float)
+    tol = VERIFY_TOLERANCE_FRACTION * d if tolerance is None else np.asarray(tolerance, dtype=float)
     if tol.shape != (n,) or not np.all(tol > 0):
         raise ModelError("tolerance", f"{n} positive per-state tolerances", repr(tolerance))
     times, finals, switches = [], [], []

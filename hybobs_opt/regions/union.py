@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import EXACT_VOLUME_MAX_DIM
 from ..errors import ModelError
 from ..geometry.difference import polytope_difference
 from ..geometry._common import resolve_coordinate
-from ..geometry.polytope import VERTEX_MAX_DIM
 from .._validate import as_names
 from ..geometry.polytope import Polytope
 from ..geometry.volume import VolumeEstimate, monte_carlo_volume
@@ -204,7 +204,7 @@ class PolytopeUnion:
         Parameters
         ----------
         method : {"auto", "exact", "monte-carlo"}
-            ``"exact"`` (dimension ``<= VERTEX_MAX_DIM``): the union is made disjoint,
+            ``"exact"`` (dimension ``<= EXACT_VOLUME_MAX_DIM``): the union is made disjoint,
             ``P_1, P_2 \\ P_1, P_3 \\ (P_1 u P_2), ...`` by :meth:`difference`, and the exact piece
             volumes are summed.  ``"monte-carlo"``: hit-and-miss in the union's bounding box.
             ``"auto"``: exact when the dimension allows.
@@ -218,7 +218,7 @@ class PolytopeUnion:
         if method not in ("auto", "exact", "monte-carlo"):
             raise ModelError("method", "'auto', 'exact' or 'monte-carlo'", repr(method))
         if method == "auto":
-            method = "exact" if self.dim <= VERTEX_MAX_DIM else "monte-carlo"
+            method = "exact" if self.dim <= EXACT_VOLUME_MAX_DIM else "monte-carlo"
         pieces = [p for p in self.pieces if not p.is_empty()]
         if not pieces:
             return VolumeEstimate(0.0, 0.0, method, 0 if method == "exact" else int(n_samples))

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..studies.paper002_powertrain.bench import run_bench
-from ..tolerances import MHE_UNIQUENESS_DELTA
+from ..defaults import MHE_UNIQUENESS_DELTA
 from .section import ReportSection, register_section, samples
 
 #: Steps of the scenario (1 ms each) and of the MHE runs (they cost milliseconds per step).

@@ -35,7 +35,7 @@ from ..studies.paper001_sliding_mode.scenarios import (  # noqa: E402
 )
 from ..studies.paper001_sliding_mode.comparison import COMPARISON_RTOL, lookup_comparison  # noqa: E402
 from ..systems.canonical_form import theorem1_pairs  # noqa: E402
-from ..tolerances import SMO_FILTER_STEPS  # noqa: E402
+from ..defaults import SMO_FILTER_STEPS  # noqa: E402
 from .section import ReportSection, register_section  # noqa: E402
 
 

@@ -162,7 +162,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         intro = ""
         if noise_bound is not None:
             from ..contract import noise_bound_vector
-            from ..tolerances import MHE_UNIQUENESS_DELTA
+            from ..defaults import MHE_UNIQUENESS_DELTA
 
             beta = noise_bound_vector(noise_bound, system.output_names)
             intro = ("<p>Bounded output noise: "

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..defaults import SIM_PWA_STEPS, SIM_T_FINAL
 from ..errors import ModelError
 from ..limits import check_samples
 from .constant_drift import simulate_constant_drift
@@ -15,11 +16,6 @@ from .hybrid import simulate_hybrid
 from .nonlinear import simulate_nonlinear
 from .pwa import simulate_pwa
 from .trace import Trace
-
-#: Samples of a PWA run when neither ``steps`` nor ``t_final`` is given.
-DEFAULT_PWA_STEPS = 100
-#: Final time of a continuous-time run when ``t_final`` is not given (time units of the model).
-DEFAULT_T_FINAL = 10.0
 
 
 def _assign(values: Mapping[str, float] | None, names, default: np.ndarray, field: str) -> np.ndarray:
@@ -46,9 +42,9 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     """Simulate ``system`` from ``x0`` (by state name; others at the centre of the state bounds)
     under the constant input ``u`` (by input name; others at the centre of the input bounds).
 
-    PWA systems run ``steps`` samples (or ``t_final / Ts``; default :data:`DEFAULT_PWA_STEPS`) and
+    PWA systems run ``steps`` samples (or ``t_final / Ts``; default :data:`~hybobs_opt.defaults.SIM_PWA_STEPS`) and
     stop where the trajectory leaves ``X x U``; continuous-time systems run to ``t_final``
-    (default :data:`DEFAULT_T_FINAL`) with output sample time ``dt``.  A constant-drift system
+    (default :data:`~hybobs_opt.defaults.SIM_T_FINAL`) with output sample time ``dt``.  A constant-drift system
     starts in mode ``q0`` (default 1) from ``x0`` (default all ones).
 
     Parameters
@@ -95,7 +91,7 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
         if u:
             raise ModelError("u", "no input (a constant-drift system has none)", f"{dict(u)}")
         xs = _assign(x0, system.state_names, np.ones(system.n_states), "x0")
-        return simulate_constant_drift(system, xs, 1 if q0 is None else q0, 0.0, t_final or DEFAULT_T_FINAL, dt)
+        return simulate_constant_drift(system, xs, 1 if q0 is None else q0, 0.0, t_final or SIM_T_FINAL, dt)
     if kind not in ("PWASystem", "HybridAutomaton", "ScalarNonlinearSystem"):
         raise ModelError("system", "a PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem", kind)
     bounds = system.box if kind == "ScalarNonlinearSystem" else system.state_bounds
@@ -113,13 +109,13 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
             if n < 1:
                 raise ModelError("t_final", f"at least one sampling period Ts = {system.Ts:g}", repr(t_final))
         else:
-            n = DEFAULT_PWA_STEPS
+            n = SIM_PWA_STEPS
         return simulate_pwa(system, xs, np.tile(us, (n, 1)), on_blocked="stop")
     if kind == "HybridAutomaton":
         if t_final is not None and t_final < (dt or 1e-2):
             raise ModelError("t_final", f"at least one sample period dt = {dt or 1e-2:g}", repr(t_final))
-        return simulate_hybrid(system, xs, t_final or DEFAULT_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)
-    horizon = t_final or DEFAULT_T_FINAL
+        return simulate_hybrid(system, xs, t_final or SIM_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)
+    horizon = t_final or SIM_T_FINAL
     if dt is not None and horizon < dt:
         raise ModelError("t_final", f"at least one sample period dt = {dt:g}", repr(t_final))
     return simulate_nonlinear(system, xs, (lambda t: us) if system.m else None, horizon, dt or horizon / 1000)

@@ -11,33 +11,11 @@ from .._validate import as_positive
 from ..errors import HybobsError, ModelError
 from ..limits import check_samples, sample_count
 from ..systems.hybrid import HybridAutomaton
+from ..tolerances import (EVENT_MEMBERSHIP_RTOL, EVENT_OFFSET_RTOL, HYBRID_ENTRY_PROBE, HYBRID_ODE_ATOL,
+                          HYBRID_ODE_RTOL, HYBRID_TIME_EPS, SEGMENT_END_RTOL)
 from .trace import Trace
 
 InputFn = Callable[[float], np.ndarray]
-
-#: Relative/absolute tolerances of the ODE solver between events.
-ODE_RTOL = 1e-9
-ODE_ATOL = 1e-12
-
-#: Relative offset of the event threshold of invariant rows that are active when a segment starts.
-#: Events fire on upward crossings only and the state moves inwards after a jump, so the offset
-#: only has to absorb rounding of the located event point (about 1e-16), not model error.
-EVENT_OFFSET_RTOL = 1e-12
-
-#: Relative slack with which a located event point is accepted in a guard or target invariant:
-#: the event root is located to about ODE_RTOL, a hundred times tighter than this.
-EVENT_MEMBERSHIP_RTOL = 1e-7
-
-#: Relative slack of the end-of-segment check that the state is still in its location's
-#: invariant (a crossing missed inside one solver step shows up far above this).
-SEGMENT_END_RTOL = 1e-6
-
-#: Times closer than this (seconds) are the same instant (segment ends, breakpoints, grid).
-TIME_EPS = 1e-12
-
-#: Step (in units of the flow) of the probe that decides which of several target locations the
-#: flow enters from a shared boundary point.
-ENTRY_PROBE = 1e-9
 
 
 class SimulationError(HybobsError):
@@ -79,7 +57,8 @@ def simulate_hybrid(
     """Simulate ``automaton`` from ``x0`` on ``[t0, t_final]`` and sample the result every ``dt``.
 
     Between events the location's flow is integrated with an explicit Runge-Kutta method
-    (``RK45``, tolerances :data:`ODE_RTOL`, :data:`ODE_ATOL`).  An event is the state leaving
+    (``RK45``, tolerances :data:`~hybobs_opt.tolerances.HYBRID_ODE_RTOL`,
+    :data:`~hybobs_opt.tolerances.HYBRID_ODE_ATOL`).  An event is the state leaving
     the current location's invariant (one terminal event function per invariant row,
     ``a_k' z - b_k`` crossing zero upwards); the next location is chosen among the current
     location's successors in the location graph, by edge guard and target invariant, and the
@@ -131,10 +110,10 @@ def simulate_hybrid(
     t, x = float(t0), x0.copy()
     n_inv = automaton.locations
 
-    while t < t_final - TIME_EPS:
+    while t < t_final - HYBRID_TIME_EPS:
         if len(events) > max_events:
             raise SimulationError(f"more than {max_events} location changes before t = {t:.6g}: Zeno behaviour?")
-        t_stop = next(s for s in stops if s > t + TIME_EPS)
+        t_stop = next(s for s in stops if s > t + HYBRID_TIME_EPS)
         inv = n_inv[q].invariant
         lifted = inv.dim != automaton.n
 
@@ -165,11 +144,11 @@ def simulate_hybrid(
             return ev
 
         ev_fns = [make_event(k) for k in range(inv.n_constraints)]
-        sol = solve_ivp(rhs, (t, t_stop), x, method="RK45", rtol=ODE_RTOL, atol=ODE_ATOL, events=ev_fns or None, dense_output=True)
+        sol = solve_ivp(rhs, (t, t_stop), x, method="RK45", rtol=HYBRID_ODE_RTOL, atol=HYBRID_ODE_ATOL, events=ev_fns or None, dense_output=True)
         if sol.status == -1:
             raise SimulationError(f"ODE solver failed in location {n_inv[q].name} at t = {t:.6g}: {sol.message}")
         t_end = float(sol.t[-1])
-        mask = (grid >= t - TIME_EPS) & (grid <= t_end + TIME_EPS) & np.isnan(xs[:, 0])
+        mask = (grid >= t - HYBRID_TIME_EPS) & (grid <= t_end + HYBRID_TIME_EPS) & np.isnan(xs[:, 0])
         if np.any(mask):
             xs[mask] = sol.sol(grid[mask]).T
             qs[mask] = q
@@ -211,7 +190,7 @@ def _jump(automaton: HybridAutomaton, q: int, x: np.ndarray, u: np.ndarray) -> t
         # Several targets on a shared boundary: take the one the flow moves into.
         def inside_after(target_x):
             target, xn = target_x
-            probe = xn + ENTRY_PROBE * automaton.flow(target, xn, u)
+            probe = xn + HYBRID_ENTRY_PROBE * automaton.flow(target, xn, u)
             return automaton.in_invariant(target, probe, u, rtol=0.0)
         inside = [c for c in candidates if inside_after(c)]
         candidates = inside or candidates

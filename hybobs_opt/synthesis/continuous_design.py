@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_positive
+from ..defaults import HYBRID_OBSERVER_MAX_VERTEX_DIM
 from ..errors import InfeasibleError, ModelError, SolverError
 from ..lmi.solve import SOLVER, SOLVER_ERROR, checked_lyapunov, solve_problem
 from ..status import is_infeasible, is_optimal
@@ -45,9 +46,6 @@ from ..systems.hybrid import HybridAutomaton
 from ..tolerances import LUENBERGER_LMI_MARGIN
 from .location_design import (affine_key, certified_decay, check_observable, distinct_dynamics, jordan_kappa,
                               location_label, spectral_abscissa, sqrt_psd)
-
-#: Vertices of the operating box are enumerated exactly up to this many dimensions (``n + m``).
-MAX_VERTEX_DIM = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,8 +234,9 @@ class ContinuousObserverLMI:
         except ModelError:
             return np.zeros((0, n + m + 1))
         d = n + m
-        if d > MAX_VERTEX_DIM:
-            raise ModelError("automaton", f"n + m <= {MAX_VERTEX_DIM} for the vertex bound of V", f"n + m = {d}")
+        if d > HYBRID_OBSERVER_MAX_VERTEX_DIM:
+            raise ModelError("automaton", f"n + m <= {HYBRID_OBSERVER_MAX_VERTEX_DIM} for the vertex bound of V",
+                             f"n + m = {d}")
         corners = np.array(list(itertools.product(*zip(blo, bhi))), dtype=float).reshape(-1, d)
         return np.hstack([corners, np.ones((corners.shape[0], 1))])
 

@@ -52,12 +52,11 @@ from ..tolerances import (
     MATRIX_EQUAL_RTOL,
     OBSERVABILITY_RTOL,
 )
+from ..defaults import LOCATION_DECAY_GUARD, LOCATION_MAX_DECAY_ITERATIONS
 
 __all__ = [
-    "DECAY_GUARD",
     "DelayCertificate",
     "LuenbergerLMI",
-    "MAX_DECAY_ITERATIONS",
     "ResidualBank",
     "ResidualGenerator",
     "affine_key",
@@ -72,15 +71,6 @@ __all__ = [
     "sqrt_psd",
     "state_scale",
 ]
-
-
-#: Numerical guard on the decay-rate search when no ``max_decay`` is given (1/s): far beyond any
-#: sampled implementation, it only stops a diverging search.
-DECAY_GUARD = 1e7
-
-#: Iterations of the decay fixed point ``alpha <- log(beta(alpha) Z0 / epsilon) / Delta``; the bound
-#: ``beta`` hardly moves with ``alpha`` (it tends to ``||C||``), so 2-4 are the rule.
-MAX_DECAY_ITERATIONS = 30
 
 
 # ============================================================================ helpers
@@ -517,7 +507,7 @@ def design_residual_bank(
     check_observable(automaton)
     n, p = automaton.n, automaton.p
     lmi = LuenbergerLMI(n, p, gain_bound)
-    cap = DECAY_GUARD if max_decay is None else float(max_decay)
+    cap = LOCATION_DECAY_GUARD if max_decay is None else float(max_decay)
     scale = state_scale(automaton)
     gens: list[ResidualGenerator] = []
     solved: list[tuple[np.ndarray, np.ndarray, ResidualGenerator]] = []
@@ -568,7 +558,7 @@ def _search_decay(lmi: LuenbergerLMI, A, C, delta, epsilon, z0, gain_bound, cap,
     # Any bound beta e^{-alpha t} Z0 has beta >= ||C|| (take t = 0), hence this starting rate.
     alpha = max(math.log(nC * z0 / epsilon), 1.0) / delta
     total, last_status = 0.0, ""
-    for it in range(1, MAX_DECAY_ITERATIONS + 1):
+    for it in range(1, LOCATION_MAX_DECAY_ITERATIONS + 1):
         if alpha > cap:
             # a limit of the design's search, not a proof that no gain exists
             raise SolverError(

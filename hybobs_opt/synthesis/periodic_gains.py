@@ -54,12 +54,11 @@ from ..errors import InfeasibleError, ModelError, SolverError
 from ..results import Certificate
 from ..status import Status, is_optimal
 from ..systems.event_sampled import PeriodicSystem
+from ..defaults import POSITIVE_LP_KAPPA, POSITIVE_LP_RATE_ATOL
 from ..tolerances import (
     DEADBEAT_RTOL,
     GAIN_CONSISTENCY_RTOL,
     PERRON_RTOL,
-    POSITIVE_LP_KAPPA,
-    POSITIVE_LP_RATE_ATOL,
     POSITIVE_LP_RATE_MARGIN,
     POSITIVITY_RTOL,
     SEQUENTIAL_RANK_RTOL,

@@ -3,7 +3,7 @@
 Explicit rule (:func:`design_gains`): ``lambda_j = rho * (z_{j+1}^max - z_{j+1}^min)``
 for ``j < n`` and ``lambda_n = rho * (f^max - f^min)``, with the ranges over the operating box
 and all locations (exact for affine flows) and ``rho`` =
-:data:`~hybobs_opt.tolerances.SMO_GAIN_MARGIN`.  With the estimate clipped to the same ranges,
+:data:`~hybobs_opt.defaults.SMO_GAIN_MARGIN`.  With the estimate clipped to the same ranges,
 ``|e_{j+1}| <= z_{j+1}^max - z_{j+1}^min``, so every stage meets its sliding condition with a
 reaching rate of at least ``(rho - 1)`` times that width (Theorem 2's "there exists a choice of
 lambda_i", made explicit and not tuned per example).
@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.canonical_form import ObservabilityForm
-from ..tolerances import SMO_GAIN_MARGIN
+from ..defaults import SMO_GAIN_MARGIN
 
 __all__ = ["GainRule", "design_gains", "discretization_band", "reaching_time_bounds"]
 
@@ -109,7 +109,7 @@ def reaching_time_bounds(gains: GainRule, initial_error: float) -> np.ndarray:
     Stage 1 starts at ``|e_1(0)| = initial_error`` and approaches at rate
     ``lambda_1 - widths[0] = (rho - 1) widths[0]`` at least; stage ``j > 1`` starts once stage
     ``j - 1`` slides, with an error of at most ``widths[j - 1]`` (clipping), and approaches at
-    rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`SMO_SLIDING_HOLD` samples,
+    rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`~hybobs_opt.defaults.SMO_SLIDING_HOLD` samples,
     not included.)
     """
     rate = gains.lambdas - gains.widths

@@ -30,18 +30,9 @@ from itertools import combinations
 import numpy as np
 
 from ..errors import ModelError
-from ..tolerances import (
-    CANONICAL_FORM_RTOL,
-    DERIVATIVE_BOUND_MARGIN,
-    DERIVATIVE_BOUND_SAMPLES,
-    MEMBERSHIP_RTOL,
-    RANK_RTOL,
-    TRIANGULAR_CHECK_RTOL,
-)
+from ..defaults import DERIVATIVE_BOUND_MARGIN, DERIVATIVE_BOUND_SAMPLES, TRIANGULAR_CHECK_SAMPLES
+from ..tolerances import CANONICAL_FORM_RTOL, MEMBERSHIP_RTOL, RANK_RTOL, TRIANGULAR_CHECK_RTOL
 
-#: Box samples on which a callable flow's triangular structure is checked (each costs one call
-#: per location; a wrong structure shows up at almost every sample).
-TRIANGULAR_CHECK_SAMPLES = 200
 from .hybrid import HybridAutomaton
 
 __all__ = [
@@ -161,7 +152,7 @@ class ObservabilityForm:
         canonical state.  The observer clips its estimate to it.
     f_lower, f_upper : float
         Range of ``z_n' = f_q(z)`` over ``X`` and every location (exact for affine flows, sampled
-        and widened by :data:`~hybobs_opt.tolerances.DERIVATIVE_BOUND_MARGIN` for callable ones).
+        and widened by :data:`~hybobs_opt.defaults.DERIVATIVE_BOUND_MARGIN` for callable ones).
     f_bound_method : str
         ``"interval"`` (exact) or ``"sampled"``.
     transforms : tuple of LocationTransform

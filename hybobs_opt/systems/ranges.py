@@ -1,7 +1,7 @@
 """The ranges a model's signals can take: what a runtime observer judges its samples against.
 
 A runtime observer refuses a sample whose input or output lies outside what its model can
-produce by more than :data:`~hybobs_opt.contract.RANGE_MARGIN` of the range's width, and never
+produce by more than :data:`~hybobs_opt.defaults.RANGE_MARGIN` of the range's width, and never
 flags ``observable`` an estimate outside the model's state set (DESIGN.md, "Conventions": a
 runtime observer judges a sample against the model, not only its type).  This module computes
 those ranges once, when the observer is built:
@@ -23,13 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from ..defaults import OUTPUT_RANGE_SAMPLES
 from ..geometry.lp import row_range
 from ..geometry.polytope import Polytope
 
 Range = tuple[np.ndarray, np.ndarray]
-
-#: Samples per argument interval of a nonlinear output (then refined by a bounded scalar search).
-OUTPUT_SAMPLES = 1025
 
 
 def state_range(system: Any) -> Range | None:
@@ -108,7 +106,7 @@ def _scalar_nonlinear_output_range(system: Any) -> Range:
 
     lo, hi = [], []
     for fn, (a, b) in zip(system.h, system.h_ranges):
-        z = np.linspace(a, b, OUTPUT_SAMPLES)
+        z = np.linspace(a, b, OUTPUT_RANGE_SAMPLES)
         v = fn.value(z)
         ext = []
         for sign, k in ((1.0, int(np.argmin(v))), (-1.0, int(np.argmax(v)))):
@@ -126,4 +124,4 @@ def _scalar_nonlinear_output_range(system: Any) -> Range:
     return np.array(lo), np.array(hi)
 
 
-__all__ = ["OUTPUT_SAMPLES", "input_range", "output_range", "state_range"]
+__all__ = ["input_range", "output_range", "state_range"]

@@ -30,6 +30,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from ..defaults import FUNCTION_CHECK_SAMPLES
 from ..errors import ModelError
 from ..geometry.lp import row_range
 from ..tolerances import DERIVATIVE_CHECK_RTOL
@@ -37,10 +38,6 @@ from ._model_io import ModelDictMixin
 from .._validate import as_matrix, as_names, as_text, names_or_default, probe_callable
 from ..geometry.polytope import Polytope
 
-#: Number of points of each function's argument interval at which values and derivatives are
-#: checked for NaN/Inf (and user derivatives against automatic differentiation) at construction.
-#: A sample test, not a proof: a pole strictly between two samples is not seen.
-FUNCTION_CHECK_SAMPLES: int = 257
 
 GFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 SXMap = Callable[[ca.SX], ca.SX]
@@ -291,7 +288,7 @@ class ScalarNonlinearSystem(ModelDictMixin):
     Notes
     -----
     Validation: shapes and finiteness of every matrix; the box bounded and non-empty; every
-    ``f_i``/``h_j`` and its derivative finite on :data:`FUNCTION_CHECK_SAMPLES` points of its
+    ``f_i``/``h_j`` and its derivative finite on :data:`~hybobs_opt.defaults.FUNCTION_CHECK_SAMPLES` points of its
     argument interval over the box; a supplied derivative equal to the automatic one there (to
     :data:`~hybobs_opt.tolerances.DERIVATIVE_CHECK_RTOL`); ``g`` returning a finite ``(n,)``
     vector at the centre of the box.

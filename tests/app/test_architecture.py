@@ -332,3 +332,60 @@ def test_the_history_finder_finds_an_issue_number(monkeypatch, tmp_path):
     monkeypatch.setattr(sys.modules[__name__], "PACKAGE", copy)
     found = history_in_core_text()
     assert len([v for v in found if "_probe.py" in v]) == 2
+
+
+# ---------------------------------------------------------------------- the value modules
+#: Core modules that hold named values, each with its reason: numerical tolerances, design
+#: defaults and budgets, resource limits.  They sit at the bottom of the core.
+VALUE_MODULES = ("hybobs_opt.tolerances", "hybobs_opt.defaults", "hybobs_opt.limits")
+
+#: A module-level constant whose name says "tolerance" or "default" belongs in tolerances.py or
+#: defaults.py, not in another core module.
+VALUE_NAME = r"(_RTOL|_ATOL|_TOL|_EPS|_MARGIN)$|^DEFAULT_"
+
+
+def _constants(path: Path) -> list[tuple[int, str]]:
+    out = []
+    for node in ast.parse(path.read_text(), str(path)).body:
+        if isinstance(node, (ast.Assign, ast.AnnAssign)):
+            target = node.target if isinstance(node, ast.AnnAssign) else node.targets[0]
+            if isinstance(target, ast.Name) and target.id.isupper():
+                out.append((node.lineno, target.id))
+    return out
+
+
+@pytest.mark.parametrize("name", ["hybobs_opt.tolerances", "hybobs_opt.defaults"])
+def test_tolerances_and_defaults_are_core_leaves(name):
+    """tolerances.py and defaults.py are core and import nothing of the package (every module may
+    import them; limits.py needs the errors)."""
+    assert tier(name) == "core"
+    path = PACKAGE.parent / (name.replace(".", "/") + ".py")
+    assert [mod for _, mod in imports_of(path) if _under(mod, "hybobs_opt")] == []
+
+
+@pytest.mark.parametrize("name", ["hybobs_opt.tolerances", "hybobs_opt.defaults"])
+def test_every_tolerance_and_default_states_its_reason(name):
+    """Every constant of tolerances.py / defaults.py has a ``#:`` comment (Sphinx reads it) right
+    above it, or continues the line of a pair documented together (``*_RTOL`` then ``*_ATOL``)."""
+    path = PACKAGE.parent / (name.replace(".", "/") + ".py")
+    lines = path.read_text().splitlines()
+    consts = _constants(path)
+    assert consts
+    previous = {line for line, _ in consts}
+    bare = [f"{name}.{const}" for line, const in consts
+            if not lines[line - 2].startswith("#:") and (line - 1) not in previous]
+    assert bare == []
+
+
+def test_no_other_core_module_defines_a_tolerance_or_default():
+    """Tolerance- and default-named constants of the core live in tolerances.py / defaults.py."""
+    import re
+
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = module_name(path)
+        if tier(name) != "core" or name in VALUE_MODULES:
+            continue
+        bad += [f"{path.relative_to(PACKAGE.parent)}:{line}: {const}" for line, const in _constants(path)
+                if re.search(VALUE_NAME, const)]
+    assert bad == []

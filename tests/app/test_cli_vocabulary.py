@@ -11,7 +11,7 @@ import pytest
 
 from hybobs_opt import __version__
 from hybobs_opt.cli import build_parser, main
-from hybobs_opt.limits import DEFAULT_HORIZON
+from hybobs_opt.defaults import DEFAULT_HORIZON
 
 
 def _subparsers():

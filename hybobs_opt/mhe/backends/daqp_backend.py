@@ -14,7 +14,8 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from ...status import DAQP_EXIT_FLAGS, DAQP_STATUS, Status, map_status
-from ...tolerances import MHE_ABS_SUBOPT, MHE_DAQP_CYCLE_TOL
+from ...defaults import MHE_DAQP_CYCLE_TOL
+from ...tolerances import MHE_ABS_SUBOPT
 from .base import BackendOutcome, with_col_bounds
 
 __all__ = ["DaqpBackend", "DAQP_INF", "daqp_flag"]

@@ -24,7 +24,7 @@ from hybobs_opt.synthesis.sliding_mode_gains import discretization_band
 from hybobs_opt.systems.canonical_form import ObservabilityForm, observability_form
 from hybobs_opt.systems.hybrid import Edge, HybridAutomaton, Location
 from hybobs_opt.geometry.polytope import Polytope
-from hybobs_opt.tolerances import SMO_FILTER_STEPS
+from hybobs_opt.defaults import SMO_FILTER_STEPS
 
 # ---------------------------------------------------------------------------------- a system not from the paper
 def relay_oscillator(damping: float = 0.5, drive: float = 1.0, bound: float = 5.0) -> HybridAutomaton:

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.contract import NOISE_FIT_SIGMAS, ObserverTrace
+from hybobs_opt.contract import ObserverTrace
+from hybobs_opt.defaults import NOISE_FIT_SIGMAS
 from hybobs_opt.progress import phase_bars
 from hybobs_opt.regions import PointClass
 from hybobs_opt.observers.comparison import (

@@ -10,7 +10,7 @@ deviation ``sigma`` (rad/s) added to the engine speed:
   (``T = 4`` by default: the residual test needs ``T p > n``; also ``T = 6`` as
   ``lookup-noise-T6``), at false-alarm ``1e-3``;
 * ``miqp``: the moving-horizon observer (10) told the noise level (``noise_std``: output weight
-  ``1 / sigma``, fit tolerance :data:`~hybobs_opt.contract.NOISE_FIT_SIGMAS` ``sigma``, and
+  ``1 / sigma``, fit tolerance :data:`~hybobs_opt.defaults.NOISE_FIT_SIGMAS` ``sigma``, and
   ``observable`` only when the 99.9 % confidence region of the window-start state lies within
   ``delta``);
 * ``miqp-kalman``: the same with the arrival cost tuned from the noise level
@@ -98,7 +98,7 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
     lookup_horizons : sequence of int, default NOISE_LOOKUP_HORIZONS
         Horizons of the noise-aware lookup observer (each with ``T p > n``).
     false_alarm : float, optional
-        Its false-alarm probability (default :data:`~hybobs_opt.observers.noise_lookup.DEFAULT_FALSE_ALARM`).
+        Its false-alarm probability (default :data:`~hybobs_opt.defaults.NOISE_LOOKUP_FALSE_ALARM`).
     seed : int, default 0
         Seed of the noise (the same draw scaled to each level).
     progress : callable, optional
@@ -117,7 +117,8 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
     from hybobs_opt.observers.comparison import true_window_observable
     from hybobs_opt.observers.kalman import ModeSequenceKalmanFilter
     from hybobs_opt.observers.lookup import LookupObserver
-    from hybobs_opt.observers.noise_lookup import DEFAULT_FALSE_ALARM, NoiseAwareLookupObserver
+    from hybobs_opt.defaults import NOISE_LOOKUP_FALSE_ALARM
+    from hybobs_opt.observers.noise_lookup import NoiseAwareLookupObserver
     from hybobs_opt.observers.comparison import timed_steps
 
     from .bench import bench_trace
@@ -157,7 +158,8 @@ def run_noise_study(example: str = "powertrain3", noise_levels=NOISE_LEVELS, ste
                 out, warm = timed_steps(obs, trace.u, y), 2
             elif horizon is not None:
                 obs = NoiseAwareLookupObserver(noise_analyses[horizon], sigma,
-                                               false_alarm=DEFAULT_FALSE_ALARM if false_alarm is None else false_alarm)
+                                               false_alarm=(NOISE_LOOKUP_FALSE_ALARM if false_alarm is None
+                                                            else false_alarm))
                 out, warm = timed_steps(obs, trace.u, y), horizon - 1
             elif name in ("miqp", "miqp-kalman"):
                 from hybobs_opt.mhe import MHEObserver

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from hybobs_opt.errors import ModelError
-from hybobs_opt.tolerances import MHE_UNIQUENESS_DELTA
+from hybobs_opt.defaults import MHE_UNIQUENESS_DELTA
 
 __all__ = ["RADIUS_OBSERVERS", "run_radius_study"]
 

@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 from scipy.optimize import nnls as scipy_nnls
 
+from hybobs_opt.defaults import JACOBI_MAX_SWEEPS
 from hybobs_opt.geometry import _reproducible as R
+from hybobs_opt.tolerances import JACOBI_TOL
 
 
 def _python_matmul(A, B):
@@ -118,8 +120,8 @@ def test_jacobi_and_completion_mirrors_are_the_kernels_bit_for_bit():
     for m, k in ((19, 9), (7, 7), (12, 3)):
         A = _graded(rng, m, k)
         W1, V1, W2, V2 = A.copy(), np.eye(k), A.copy(), np.eye(k)
-        n1 = R._jacobi_kernel(W1, V1, R.JACOBI_TOL, 1e-300, R.JACOBI_MAX_SWEEPS)
-        n2 = R._jacobi_numpy(W2, V2, R.JACOBI_TOL, 1e-300, R.JACOBI_MAX_SWEEPS)
+        n1 = R._jacobi_kernel(W1, V1, JACOBI_TOL, 1e-300, JACOBI_MAX_SWEEPS)
+        n2 = R._jacobi_numpy(W2, V2, JACOBI_TOL, 1e-300, JACOBI_MAX_SWEEPS)
         assert n1 == n2 and np.array_equal(W1, W2) and np.array_equal(V1, V2)
         Q1 = np.zeros((m, m))
         Q1[:, :2] = np.linalg.qr(rng.normal(size=(m, 2)))[0]
@@ -146,8 +148,8 @@ def test_batched_singular_values_are_the_svds_bits():
         assert np.array_equal(S, per)
         tall = np.ascontiguousarray(M if m >= k else M.transpose(0, 2, 1))
         if nb and min(m, k):
-            assert np.array_equal(R._singular_values_numpy(tall, R.JACOBI_TOL, R.JACOBI_MAX_SWEEPS),
-                                  R._singular_values_kernel(tall, R.JACOBI_TOL, R.JACOBI_MAX_SWEEPS))
+            assert np.array_equal(R._singular_values_numpy(tall, JACOBI_TOL, JACOBI_MAX_SWEEPS),
+                                  R._singular_values_kernel(tall, JACOBI_TOL, JACOBI_MAX_SWEEPS))
             ref = np.linalg.svd(M, compute_uv=False)
             assert np.allclose(S, ref, rtol=1e-12, atol=1e-13 * np.max(ref, axis=1, keepdims=True).max())
         ranks = R.numerical_ranks(S, 1e-9)

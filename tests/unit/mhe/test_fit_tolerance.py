@@ -8,7 +8,8 @@ as well as the model allowed and the optimum flagged ``observable``, omega_m 117
 import numpy as np
 import pytest
 
-from hybobs_opt.contract import FALLBACK, INNOVATION_MARGIN, OBSERVABLE
+from hybobs_opt.contract import FALLBACK, OBSERVABLE
+from hybobs_opt.defaults import INNOVATION_MARGIN
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe import MHEObserver
 from hybobs_opt.systems.ranges import output_range

@@ -16,10 +16,10 @@ import warnings
 
 import pytest
 
-from hybobs_opt import tolerances
+from hybobs_opt import defaults, tolerances
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe import MHEObserver, MHESettings, big_m_constants
-from hybobs_opt.mhe.settings import DEFAULT_PROX_PASSES
+from hybobs_opt.defaults import MHE_PROX_PASSES
 from hybobs_opt.studies.registry import get_example
 
 #: A valid value other than the default, per field.
@@ -66,14 +66,14 @@ def test_every_field_has_a_changed_value_and_an_invalid_one():
     assert {field for field, _ in INVALID} == names - {"polish", "zero_cost_certificate"}
 
 
-def test_the_defaults_are_the_tolerances(plant, big_m):
+def test_the_defaults_are_the_named_values(plant, big_m):
     s = MHESettings()
     assert s == MHESettings(solver_options=None)
     assert (s.prox_weight, s.binary_prox_weight, s.certify_max_nodes, s.uniqueness_delta) == (
-        tolerances.MHE_PROX_WEIGHT, tolerances.MHE_BINARY_PROX_WEIGHT, tolerances.MHE_CERTIFY_MAX_NODES,
-        tolerances.MHE_UNIQUENESS_DELTA)
+        tolerances.MHE_PROX_WEIGHT, tolerances.MHE_BINARY_PROX_WEIGHT, defaults.MHE_CERTIFY_MAX_NODES,
+        defaults.MHE_UNIQUENESS_DELTA)
     assert (s.solver_options, s.polish, s.zero_cost_certificate, s.prox_passes, s.certify_time_budget,
-            s.check_uniqueness) == ({}, True, True, DEFAULT_PROX_PASSES, None, True)
+            s.check_uniqueness) == ({}, True, True, MHE_PROX_PASSES, None, True)
     with warnings.catch_warnings():
         warnings.simplefilter("error", FutureWarning)
         assert MHEObserver(plant, 3, big_m=big_m).settings == s

@@ -28,7 +28,7 @@ from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario, powertrain3
-from hybobs_opt.tolerances import MHE_UNIQUENESS_DELTA
+from hybobs_opt.defaults import MHE_UNIQUENESS_DELTA
 
 
 

@@ -19,7 +19,7 @@ import pytest
 from scipy.optimize import linprog
 
 from hybobs_opt import get_example
-from hybobs_opt.contract import NOISE_FIT_SIGMAS
+from hybobs_opt.defaults import NOISE_FIT_SIGMAS
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe import MHEObserver, MHESettings
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario

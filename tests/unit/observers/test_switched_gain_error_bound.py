@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from hybobs_opt.cli import main
-from hybobs_opt.observers.error_bound import CONVERGENCE_FRACTION
+from hybobs_opt.defaults import CONVERGENCE_FRACTION
 from hybobs_opt.observers.recorded import gains_from_json
 from hybobs_opt.observers.switched_gain import SwitchedGainObserver
 from hybobs_opt.studies.paper004_nonmonotonic.scenarios import cached_design, run_example

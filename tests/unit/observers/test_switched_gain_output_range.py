@@ -2,7 +2,7 @@
 
 Before: after one sample ``y = 1e12`` the piston's switched-gain observer ended 68 mm/s off while
 flagging ``observable``.  Now a sample outside the range the model's outputs can take on the
-operating box, by more than ``OUTPUT_RANGE_MARGIN`` of its width, is flagged ``fallback`` and the step
+operating box, by more than ``RANGE_MARGIN`` of its width, is flagged ``fallback`` and the step
 is open loop; plausible noise is still used.  The reference is the same observer on the clean
 record (no shared code with the range check).
 """
@@ -10,7 +10,7 @@ record (no shared code with the range check).
 import numpy as np
 import pytest
 
-from hybobs_opt.contract import OUTPUT_RANGE_MARGIN
+from hybobs_opt.defaults import RANGE_MARGIN
 from hybobs_opt.observers.switched_gain import SwitchedGainObserver
 from hybobs_opt.studies import get_example
 from hybobs_opt.studies.paper004_nonmonotonic.scenarios import cached_design
@@ -78,6 +78,6 @@ def test_noise_inside_the_margin_is_used(piston_run):
     system, trace, run = piston_run
     lo, hi = SwitchedGainObserver(system, cached_design("magnetic_piston").regions, 1e-3).output_range
     Y = trace.y.copy()
-    Y[FAULT_STEP, 0] = hi[0] + 0.4 * OUTPUT_RANGE_MARGIN * (hi[0] - lo[0])  # beyond the range, inside the margin
+    Y[FAULT_STEP, 0] = hi[0] + 0.4 * RANGE_MARGIN * (hi[0] - lo[0])  # beyond the range, inside the margin
     ot, _ = run(Y)
     assert ot.flags[FAULT_STEP] != "fallback"
