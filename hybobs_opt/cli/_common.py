@@ -225,11 +225,6 @@ def examples_help() -> str:
     return ", ".join(ex.name for ex in list_examples())
 
 
-def system_help() -> str:
-    """:data:`SYSTEM_HELP` with the example names (computed when ``--help`` is shown)."""
-    return SYSTEM_HELP + f"; the examples: {examples_help()}"
-
-
 def check_figure_path(option: str, path: Any, force: bool = False) -> None:
     """``ModelError`` unless ``path`` names a figure file matplotlib can write and
     :func:`check_output_path` accepts it (checked before any work).
@@ -323,18 +318,6 @@ def check_output_dir(option: str, path: Any, force: bool, marker: str | None) ->
         ancestor = ancestor.parent
     if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
         raise ModelError(option, "a directory that can be created", f"{str(path)!r} (below {str(ancestor)!r})")
-
-
-def reject_given(args: argparse.Namespace, options: Mapping[str, Any], expected: str) -> None:
-    """``ModelError`` for the first option of ``options`` (attribute -> its default) that was given.
-
-    ``expected`` says why the option does not apply (e.g. "no value for an example (it runs its
-    paper's scenario)").
-    """
-    for attr, default in options.items():
-        value = getattr(args, attr, default)
-        if value != default:
-            raise ModelError(f"--{attr.replace('_', '-')}", expected, repr(value) if not isinstance(value, bool) else "given")
 
 
 @contextmanager

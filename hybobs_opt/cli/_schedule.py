@@ -92,18 +92,6 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
                         "model: settings read from the model (default for every other system)")
 
 
-def example_and_preset(name: str):
-    """The example ``name`` and its preset (the paper 004 examples)."""
-    from ..studies import get_example
-    from ..studies.paper004_nonmonotonic.presets import get_preset
-
-    example = get_example(name)
-    if example.kind != "scalar_nonlinear":
-        raise ModelError("example", "a scalar-nonlinear example of paper 004 (vehicle_tracking, magnetic_piston)",
-                         f"{example.name!r} of kind {example.kind!r}")
-    return example, get_preset(example.name)
-
-
 def design_setup(args: argparse.Namespace):
     """``(named, preset, settings)``: the preset path (``settings`` None) for a paper example, the model path otherwise."""
     from ..lmi.auto_design import design_settings

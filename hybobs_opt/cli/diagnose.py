@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from ._common import add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
-from ._schedule import add_design_arguments, design_setup, example_and_preset, parse_range
+from ._schedule import add_design_arguments, design_setup, parse_range
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
 

@@ -159,11 +159,6 @@ def _resolution(text: str) -> tuple[int, int]:
     return nx, ny
 
 
-def _query_points(analysis, path: str, state_names: tuple[str, ...]) -> list[bool]:
-    """Whether each state of the ``--query`` file is observable (old helper: read, then test)."""
-    return [analysis.is_observable(p) for p in _read_query(path, state_names)]
-
-
 def _read_query(path: str, state_names: tuple[str, ...]) -> list[list[float]]:
     import csv
     import math

@@ -294,13 +294,6 @@ def _rows_defect(A, b, E, e, z) -> str | None:
     return None
 
 
-def _pow2(v: np.ndarray) -> np.ndarray:
-    """Nearest powers of two (scaling by them is exact in floating point); 1 where ``v`` is 0 or not finite."""
-    v = np.asarray(v, dtype=float)
-    ok = np.isfinite(v) & (v > 0)
-    return np.where(ok, np.exp2(np.round(np.log2(np.where(ok, v, 1.0)))), 1.0)
-
-
 def _pow2_inv(v: np.ndarray) -> np.ndarray:
     """``_pow2(1 / v)``, with 1 where ``v`` is 0 (an all-zero column or cost: nothing to scale)."""
     v = np.asarray(v, dtype=float)

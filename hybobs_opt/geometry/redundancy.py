@@ -184,9 +184,9 @@ def facets_from_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray, tight: np.
     """Mask of the rows of ``{A y <= b}`` to keep, decided from its checked vertex set, or why not.
 
     ``A`` holds unit rows in coordinates scaled to the vertices' box, ``Y`` the complete vertex
-    set of the (bounded) polytope and ``tight`` its vertex-row incidence, as
-    :func:`hybobs_opt.geometry.vertices.check_vertices` returns them.  Parallel rows are grouped
-    first as in :func:`irredundant` (the tightest kept).  A row is kept when it is a facet: its
+    set of the (bounded) polytope and ``tight`` its vertex-row incidence, as the verified
+    enumeration of :func:`hybobs_opt.geometry.vertices.enumerate_vertices` returns them.  Parallel
+    rows are grouped first as in :func:`irredundant` (the tightest kept).  A row is kept when it is a facet: its
     tight vertices span an affine space of dimension ``d - 1``; every other row is implied, since
     a full-dimensional polytope is the intersection of its facets' halfspaces and the vertex set is
     complete.  Each kept row must also carry a certificate of non-redundancy checked in numpy: the

@@ -153,41 +153,6 @@ class CheckedVertices:
     rays: np.ndarray
 
 
-def check_vertices(A: np.ndarray, b: np.ndarray, Y: np.ndarray) -> CheckedVertices | str:
-    """Check that ``Y`` is the complete vertex set of ``{y : A y <= b}`` (unit rows, scaled).
-
-    The feasibility test, the merging of duplicates, the tight sets and the walk along the edges
-    of every simple vertex run in one compiled call
-    (:func:`hybobs_opt.geometry._vertex_kernels.check_kernel`); the edges of degenerate vertices
-    (more than ``d`` tight rows) are found and walked here in numpy.
-
-    Parameters
-    ----------
-    A : (m, d) array
-        Unit rows, in coordinates where the set is of size about one.
-    b : (m,) array
-        Right-hand sides.
-    Y : (n, d) array
-        The candidate vertices (``n >= 1``).
-
-    Returns
-    -------
-    CheckedVertices or str
-        The checked set, or the reason it failed (a sentence).
-    """
-    m, d = A.shape
-    if Y.ndim != 2 or Y.shape[1] != d or Y.shape[0] == 0:
-        return f"no points of dimension {d}"
-    if not np.isfinite(Y).all():
-        return "a point is not finite"
-    A = np.ascontiguousarray(A, dtype=float)
-    b = np.ascontiguousarray(b, dtype=float)
-    Y = np.ascontiguousarray(Y, dtype=float)
-    code, i, j, keep, T, deg, rays = check_kernel(A, b, Y, VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL,
-                                                  VERTEX_RANK_RTOL, VERTEX_SAME_RTOL)
-    return _finish_check(A, b, Y, code, i, j, keep, T, deg, rays)
-
-
 def _finish_check(A, b, Y, code, i, j, keep, T, deg, rays) -> CheckedVertices | str:
     """The kernel's verdict as a reason, or the degenerate vertices' edges walked and the result."""
     d = A.shape[1]

@@ -110,12 +110,6 @@ def make_region(system: ScalarNonlinearSystem, coordinate: int | str, lo: float,
     return region
 
 
-def full_region(system: ScalarNonlinearSystem, coordinate: int | str) -> SchedulingRegion:
-    """The whole operating range of the coordinate."""
-    k = coordinate_index(system, coordinate)
-    return make_region(system, k, system.box_lower[k], system.box_upper[k])
-
-
 def _is_axis_box(system: ScalarNonlinearSystem) -> bool:
     A = system.box.A
     return bool(np.all(np.count_nonzero(np.abs(A) > 0, axis=1) == 1))
