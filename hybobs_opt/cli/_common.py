@@ -20,8 +20,29 @@ from ..limits import MAX_WORKERS_PER_CORE
 
 
 def print_json(obj: Any) -> None:
-    """Print ``obj`` as one line of JSON (numpy arrays and scalars become lists and numbers)."""
-    print(json.dumps(obj, default=json_default))
+    """Print ``obj`` as one line of strict JSON: numpy arrays and scalars become lists and numbers, and
+    a NaN or infinite number becomes ``null`` (``NaN`` / ``Infinity`` are not JSON and strict parsers
+    refuse them)."""
+    print(json.dumps(strict_json(obj), default=json_default, allow_nan=False))
+
+
+def strict_json(value: Any) -> Any:
+    """``value`` with every NaN or infinite float (numpy's included, in arrays too) replaced by ``None``."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return strict_json(value.tolist())
+    if isinstance(value, np.floating):
+        return strict_json(float(value))
+    return value
 
 
 def json_default(value: Any) -> Any:

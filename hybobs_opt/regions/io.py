@@ -125,6 +125,7 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
         "analysis_stats": {"n_pair_lps": analysis.n_pair_lps, "n_pairs_tested": analysis.n_pairs_tested,
                            "n_pairs_skipped_rank": analysis.n_pairs_skipped_rank, "seconds": analysis.seconds,
                            "n_pairs_dropped_thin": analysis.stats.get("n_pairs_dropped_thin"),
+                           "n_pairs_dropped_same_state": analysis.stats.get("n_pairs_dropped_same_state"),
                            "n_pairs_ruled_out_by_group": analysis.stats.get("n_pairs_ruled_out_by_group"),
                            "n_decisions_exact": analysis.stats.get("n_decisions_exact")},
         "summary": analysis.summary(),
@@ -352,6 +353,9 @@ def _checked_analysis(data: dict[str, Any], system: PWASystem, where: str) -> Ob
                                      _count(st, "n_pairs_tested", aw), _count(st, "n_pairs_skipped_rank", aw),
                                      _seconds(st, "seconds", aw),
                                      {"n_pairs_dropped_thin": _count(st, "n_pairs_dropped_thin", aw, allow_none=True),
+                                      # absent from files written before it was saved
+                                      "n_pairs_dropped_same_state": _count(st, "n_pairs_dropped_same_state", aw, allow_none=True)
+                                      if "n_pairs_dropped_same_state" in st else None,
                                       # absent from files written before the grouped pair tests
                                       "n_pairs_ruled_out_by_group": _count(st, "n_pairs_ruled_out_by_group", aw, allow_none=True)
                                       if "n_pairs_ruled_out_by_group" in st else None,
@@ -452,6 +456,8 @@ def _check_summary(data: dict, analysis: ObservabilityAnalysis, where: str) -> N
         keys += ("n_pairs_ruled_out_by_group",)  # files written before the grouped pair tests have none
     if "n_decisions_exact" in summary or ours["n_decisions_exact"] is not None:
         keys += ("n_decisions_exact",)  # nor those written before the exact re-decisions
+    if ours["n_pairs_dropped_same_state"] is not None:
+        keys += ("n_pairs_dropped_same_state",)  # nor those written before it was saved
     for key in keys:
         if key not in summary or summary[key] != ours[key] or isinstance(summary[key], bool) != isinstance(ours[key], bool):
             raise ModelError(f"{where}: summary.{key}", f"{ours[key]!r} (from the file's regions, pairs and statistics)",

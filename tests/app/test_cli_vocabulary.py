@@ -110,3 +110,22 @@ def test_simulate_and_regions_plots_get_the_examples_units(tmp_path, monkeypatch
                  "--plot", str(tmp_path / "c.png")]) == 0
     assert seen["trace"] == seen["cut"] == {"theta": "rad", "omega_m": "rad/s", "omega_l": "rad/s"}
     assert (tmp_path / "s.png").stat().st_size > 0 and (tmp_path / "c.png").stat().st_size > 0
+
+
+def test_cli_json_is_strict(capsys):
+    """``--json`` output is strict JSON: a NaN or an infinity is ``null`` (strict parsers refuse ``NaN``)."""
+    import json
+
+    import numpy as np
+
+    from hybobs_opt.cli._common import print_json
+
+    print_json({"a": float("nan"), "b": [1.0, float("inf"), np.float64("-inf")], "c": np.array([np.nan, 2.0]),
+                "d": (np.float32(1.5), True, None, "NaN")})
+    text = capsys.readouterr().out
+
+    def refuse(name):
+        raise ValueError(name)
+
+    assert json.loads(text, parse_constant=refuse) == {"a": None, "b": [1.0, None, None], "c": [None, 2.0],
+                                                        "d": [1.5, True, None, "NaN"]}
