@@ -1,6 +1,6 @@
-"""The arrival weight tuned from the noise level (issue 18): :func:`certified_arrival_prior`.
+"""The arrival weight tuned from the noise level: :func:`certified_arrival_prior`.
 
-Oracles that share no code with :mod:`hybobs_opt.mhe.arrival`:
+Oracles that share no code with :mod:`hybobs_opt.synthesis.arrival_weight`:
 
 * scipy's discrete algebraic Riccati equation: on a system whose modes share one observable
   linear model, started below ``P_inf``, the most informative invariant prior is the inverse of
