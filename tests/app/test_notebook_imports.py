@@ -27,8 +27,8 @@ import pytest
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[2] / "notebooks").glob("*.ipynb"))
 
 #: Core sub-packages whose ``__init__`` is a public face (names in ``__all__``).
-CORE_PACKAGES = ("hybobs_opt.systems", "hybobs_opt.sim", "hybobs_opt.regions", "hybobs_opt.lmi", "hybobs_opt.mhe",
-                 "hybobs_opt.observers", "hybobs_opt.geometry")
+CORE_PACKAGES = ("hybobs_opt.systems", "hybobs_opt.sim", "hybobs_opt.regions", "hybobs_opt.synthesis", "hybobs_opt.lmi",
+                 "hybobs_opt.mhe", "hybobs_opt.observers", "hybobs_opt.geometry")
 STUDIES = "hybobs_opt.studies"
 APPLICATION = ("hybobs_opt.report", "hybobs_opt.cli")
 #: Old module / package path -> its new home (the modules and the package issue 13 moved).
