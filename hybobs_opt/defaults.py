@@ -110,6 +110,15 @@ MAX_SYMMETRY_CANDIDATES: int = 4096
 #: largest rate anyway, and it keeps each search to about 8 solves.
 BISECTION_RTOL: float = 5e-2
 
+#: Re-solves of a condition's decay search with a larger internal gain bound (the LMIs bound
+#: ``||L||_2`` sufficiently, through ``P >= alpha I``, so their gains usually stay well inside the
+#: user's bound): the internal bound grows while the returned gain's own norm stays within the
+#: user's bound (:mod:`hybobs_opt.lmi.decay_design`).
+GAIN_BOUND_TIGHTENING_STEPS: int = 6
+
+#: The internal bound stops growing once the returned gain uses this fraction of the user's bound.
+GAIN_BOUND_TIGHT_FRACTION: float = 0.98
+
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
 #: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
 #: search needs a cap; with a gain bound the bound decides.

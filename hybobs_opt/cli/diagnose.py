@@ -60,7 +60,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                 lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
                 diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                                 min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
-                                scaling=settings.scaling, condition=settings.condition)
+                                scaling=settings.scaling, condition=settings.condition, required_decay=args.min_decay)
     finally:
         close()
     paths = None if out_dir is None else write_diagnosis_report(diag, out_dir, file_slug(named.label))
@@ -73,18 +73,24 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print_json(out)
         return 0
     h = diag.hierarchy
-    if diag.feasible:
-        verdict = f"FEASIBLE: a constant gain exists ({h.feasible_condition} condition)"
+    if diag.design is not None:
+        verdict = diag.design.headline(f"{coordinate} in [{lo:g}, {hi:g}] {unit}".strip())
     elif h.strongest_infeasible is not None:
         verdict = f"INFEASIBLE up to the {h.strongest_infeasible} condition (certified)"
     else:
         verdict = "UNDECIDED"
-    print(f"{named.label}, {coordinate} in [{lo:g}, {hi:g}] {unit}: {verdict}".replace("  ", " "))
+    print(f"{named.label}: {verdict}" if diag.design is not None else
+          f"{named.label}, {coordinate} in [{lo:g}, {hi:g}] {unit}: {verdict}".replace("  ", " "))
+    searched = {} if diag.design is None else {c.condition: c for c in diag.design.by_condition}
+    bound = "" if diag.gain_bound is None else f" with ||L||_2 <= {diag.gain_bound:g}"
     for c in h.conditions:
         if c.feasible:
-            state = "feasible" + (f" (implied by {c.implied_by})" if c.implied_by else "")
-            if c.sigma_verified is not None:
-                state += f", vertex-checked decay {c.sigma_verified:.4g} 1/s"
+            state = "feasible without a gain bound" + (f" (implied by {c.implied_by})" if c.implied_by else "")
+            best = searched.get(c.key)
+            if best is not None and best.feasible:
+                state += f"; largest decay rate{bound}: {best.sigma_verified:.4g} 1/s (vertex-checked)"
+            elif best is not None:
+                state += f"; no gain{bound}"
         else:
             state = "infeasible, certificate verified in numpy" if c.verified else f"not decided ({c.skipped or c.status})"
         print(f"  {c.name}: {state}")

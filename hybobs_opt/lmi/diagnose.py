@@ -24,7 +24,8 @@ from ..errors import HybobsError, InfeasibleError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
 from .certificates import InfeasibilityCertificate
-from .hierarchy import HierarchyResult, condition_hierarchy, design_lmi, verified_rate
+from .decay_design import DecayDesign, decay_optimal_design
+from .hierarchy import HierarchyResult, condition_hierarchy
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
 from .observer_lmi import DecayResult, LMISolution, ObserverLMI
 from .solve import SOLVER
@@ -84,9 +85,14 @@ class Diagnosis:
     symmetries : list of OutputSymmetry, optional
         Mirror maps the outputs cannot detect.
     design_condition : str, optional
-        The condition the gain is designed with (the first feasible one).
+        The condition of the recommended gain: the one with the largest verified decay rate within
+        the gain bound (:mod:`.decay_design`).
     sigma_verified : float, optional
-        Decay rate the designed ``(P, L)`` proves on every vertex of the Jacobian box.
+        Decay rate the recommended ``(P, L)`` proves on every vertex of the Jacobian box.
+    design : DecayDesign, optional
+        The decay-optimal search of every condition within the gain bound (when a constant gain exists).
+    required_decay : float, optional
+        The decay rate the constant gain was required to reach (``None``: any positive rate).
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -113,6 +119,13 @@ class Diagnosis:
     symmetries: list[OutputSymmetry] = field(default_factory=list)
     design_condition: str | None = None
     sigma_verified: float | None = None
+    design: DecayDesign | None = None
+    required_decay: float | None = None
+
+    @property
+    def gain_accepted(self) -> bool:
+        """A constant gain exists within the gain bound and reaches the required decay rate."""
+        return self.feasible and self.design is not None and self.design.met
 
     @property
     def paper_lmi_feasible(self) -> bool:
@@ -124,13 +137,15 @@ class Diagnosis:
         """What is proven on the range, in one paragraph (the first of :attr:`next_steps`)."""
         where = f"{self.region.name} in {self.interval_text(self.region)}"
         parts = []
+        if self.design is not None:
+            parts.append(self.design.headline(where))
         inside = [p for p in self.undetectable if self.region.lo - 1e-12 <= p.s <= self.region.hi + 1e-12]
         if inside:
             p = inside[0]
             parts.append(f"No observer gain (constant, switched or time-varying) satisfies a quadratic Lyapunov "
                          f"condition on {where}. Proof: {p.claim}")
         if self.hierarchy is not None:
-            parts.append(self.hierarchy.claim(where))
+            parts.append(self.hierarchy.claim(where, with_gain=self.design is None))
         for sym in self.symmetries:
             parts.append(sym.claim)
         return " ".join(parts)
@@ -167,6 +182,9 @@ class Diagnosis:
             "feasible_condition": None if self.hierarchy is None else self.hierarchy.feasible_condition,
             "strongest_infeasible": None if self.hierarchy is None else self.hierarchy.strongest_infeasible,
             "verdict": self.verdict,
+            "gain_accepted": self.gain_accepted,
+            "required_decay": self.required_decay,
+            "decay_design": None if self.design is None else self.design.to_dict(),
             "hierarchy": None if self.hierarchy is None else self.hierarchy.to_dict(),
             "undetectable_points": [p.to_dict() for p in self.undetectable],
             "indistinguishable": [q.to_dict() for q in self.symmetries],
@@ -213,6 +231,7 @@ def diagnose(
     scaling: np.ndarray | None = None,
     suggest: bool = True,
     condition: str = "paper",
+    required_decay: float | None = None,
 ) -> Diagnosis:
     """Diagnose the constant-gain observer LMI of ``system`` on ``coordinate`` in ``[lo, hi]``.
 
@@ -231,6 +250,9 @@ def diagnose(
         Grow switching regions when the range is infeasible.
     condition : {"paper", "per_function", "polytopic"}
         The region condition (:mod:`.hierarchy`) the suggested regions are grown with.
+    required_decay : float, optional
+        Decay rate the constant gain must reach; a gain within the bound that does not reach it is
+        refused (the verdict's first line says so) and switching regions are suggested instead.
 
     Raises
     ------
@@ -259,25 +281,19 @@ def diagnose(
     t5 = theorem5_check(system, region, bounds=bounds, original=lmi)
     breakpoints, pieces = monotonic_pieces(system, k, lo, hi)
     suggested, suggest_error = None, ""
-    decay, design_key, rate = None, hier.feasible_condition, None
+    decay, design_key, rate, design = None, hier.feasible_condition, None, None
     if hier.feasible:
-        try:
-            design = design_lmi(system, design_key, gain_bound=gain_bound, scaling=lmi.d)
-            decay = design.max_decay(bounds, sigma_cap)
-            if not decay.solution.feasible:
-                from .farkas import verified_farkas
-
-                what = f"{design_key} condition with ||L||_2 <= {gain_bound:g}"
-                cert = verified_farkas(design, f"the {what} at decay rate 0")
-                if cert is None:
-                    raise SolverError(what, SOLVER, decay.solution.status, "no gain and no verified certificate")
-                raise InfeasibleError(what, cert, "not feasible at decay rate 0")
-            rate = verified_rate(system, bounds, decay.solution.P, decay.solution.L)
-        except HybobsError as exc:
-            decay = None
+        design = decay_optimal_design(system, bounds, gain_bound=gain_bound, min_decay=required_decay,
+                                      sigma_cap=sigma_cap, scaling=lmi.d)
+        best = design.best
+        if best is not None:
+            decay, design_key, rate = best.search, best.condition, best.sigma_verified
+        else:
             rate = hier.gain.sigma_verified
-            suggest_error = f"no gain within the bound ||L|| <= {gain_bound:g}: {exc}" if gain_bound is not None else str(exc)
-    elif suggest:
+            suggest_error = next((c.reason for c in reversed(design.by_condition) if c.reason), "")
+    if required_decay is not None:
+        min_decay = float(required_decay)  # the suggested regions must meet the requirement too
+    if suggest and (not hier.feasible or not design.met):
         try:
             suggested = grow_regions(system, k, lo, hi, overlap=overlap, min_decay=min_decay, gain_bound=gain_bound,
                                      scaling=lmi.d, condition=condition)
@@ -285,7 +301,7 @@ def diagnose(
             suggest_error = str(exc)
     d = Diagnosis(system, region, unit, factor, bounds, hier.feasible, sol, cert, decay, t5, breakpoints, pieces,
                   suggested, suggest_error, gain_bound, min_decay, overlap, [], 0.0, hier, undetectable, symmetries,
-                  design_key, rate)
+                  design_key, rate, design, required_decay)
     d.next_steps = _next_steps(d)
     d.seconds = time.perf_counter() - t0
     return d
@@ -295,17 +311,19 @@ def _next_steps(d: Diagnosis) -> list[str]:
     u = f" {d.unit}" if d.unit else ""
     name = d.region.name
     steps = [d.verdict]
-    if d.feasible:
+    if d.gain_accepted:
         cond = d.design_condition
-        if d.decay is not None:
-            steps.append(f"Design with the {cond} condition: largest decay rate {d.decay.sigma_max:.4g} 1/s"
-                         + (f" with ||L||_2 <= {d.gain_bound:g}" if d.gain_bound is not None else "")
-                         + (f", {d.sigma_verified:.4g} 1/s proven by the returned P and L on every vertex of the "
-                            "Jacobian box" if d.sigma_verified is not None else "") + ".")
-        elif d.suggest_error:
-            steps.append(f"But not within the gain bound: {d.suggest_error}.")
+        steps.append(f"Design with the {cond} condition: largest decay rate {d.decay.sigma_max:.4g} 1/s"
+                     + (f" with ||L||_2 <= {d.gain_bound:g}" if d.gain_bound is not None else "")
+                     + (f", {d.sigma_verified:.4g} 1/s proven by the returned P and L on every vertex of the "
+                        "Jacobian box" if d.sigma_verified is not None else "") + ".")
         steps.append("Synthesise it with `hybobs synth` over this range; no switching is needed.")
         return steps
+    if d.feasible:
+        what = ("a larger gain bound" if not d.design.within_bound else
+                "a lower required decay rate or a larger gain bound")
+        steps.append(f"A constant gain exists on the range without these requirements; either accept {what}, or "
+                     "switch gains between regions on which the requirements are met.")
     if d.certificate is not None:
         nm = ", ".join(b.name for b in d.bounds.nonmonotonic)
         steps.append(f"Why the paper's LMI fails ({d.certificate.theorem}): "

@@ -183,13 +183,16 @@ class HierarchyResult:
         """The feasible condition whose gain is recommended (the first feasible one)."""
         return next((c for c in self.conditions if c.feasible), None)
 
-    def claim(self, where: str) -> str:
+    def claim(self, where: str, with_gain: bool = True) -> str:
         """What the hierarchy proves on the region (``where`` names it, e.g. ``"theta in [0, 1]"``).
 
         Parameters
         ----------
         where : str
             Text naming the region in the claim.
+        with_gain : bool, default True
+            Quote the feasible condition's gain and rate (its first feasible point, at decay rate 0
+            without a gain bound); ``False`` when a designed gain is stated elsewhere.
         """
         strongest = self.strongest_infeasible
         feas = self.gain
@@ -206,10 +209,13 @@ class HierarchyResult:
                              "box; it does not prove that no constant gain makes the error converge.")
         if feas is not None:
             how = "" if feas.implied_by is None else f" (implied by {feas.implied_by})"
-            rate = "" if feas.sigma_verified is None else (
-                f", decay rate {feas.sigma_verified:.4g} 1/s proven on every vertex of the Jacobian box (numpy re-check)")
-            parts.append(f"A constant gain exists on {where}: {condition_name(feas.key, self.form)} is feasible{how}"
-                         f"{rate}; L = {np.round(feas.L, 6).tolist()}.")
+            if not with_gain:
+                parts.append(f"Without a gain bound, {condition_name(feas.key, self.form)} is feasible{how}.")
+            else:
+                rate = "" if feas.sigma_verified is None else (
+                    f", decay rate {feas.sigma_verified:.4g} 1/s proven on every vertex of the Jacobian box (numpy re-check)")
+                parts.append(f"A constant gain exists on {where}: {condition_name(feas.key, self.form)} is feasible{how}"
+                             f"{rate}; L = {np.round(feas.L, 6).tolist()}.")
         elif strongest != "polytopic":
             undecided = [c for c in self.conditions if not c.feasible and not c.verified]
             if undecided:

@@ -69,3 +69,33 @@ def test_commands_reject_bad_input(lmi_cli, argv, msg, capsys, tmp_path):
     argv = [a if a != "x.json" else str(tmp_path / "x.json") for a in argv]
     assert lmi_cli.main(argv + (["--out", str(tmp_path)] if argv[0] == "diagnose" else [])) == 2
     assert msg in capsys.readouterr().err
+
+
+ROBOT = "examples/models/flexible_joint_robot.toml"
+
+
+def test_diagnose_says_first_that_no_gain_meets_the_bound(lmi_cli, capsys):
+    """A gain bound no gain can meet is the verdict's first line, not a later bullet; the JSON agrees."""
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert "NO GAIN WITHIN ||L||_2 <= 5" in first and "FEASIBLE" not in first.split(":")[1]
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["feasible"] is True and out["gain_accepted"] is False  # a gain exists, none within the bound
+    assert out["verdict"].startswith("NO GAIN WITHIN ||L||_2 <= 5")
+    assert out["decay_design"]["within_bound"] is False
+    assert not any("no switching is needed" in s for s in out["next_steps"])
+
+
+def test_diagnose_min_decay_is_met_or_refused(lmi_cli, capsys):
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "50", "--json"]) == 0
+    rate = json.loads(capsys.readouterr().out)["decay_design"]["sigma_verified"]
+    assert rate > 1.0
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "50", "--min-decay", f"{2 * rate:.6g}", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["gain_accepted"] is False and out["verdict"].startswith("DECAY NOT MET")
+    assert out["required_decay"] == pytest.approx(2 * rate, rel=1e-5)
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "50", "--min-decay", f"{0.5 * rate:.6g}"]) == 0
+    text = capsys.readouterr().out
+    assert text.splitlines()[0].split(": ", 1)[1].startswith("FEASIBLE: a constant gain with ||L||_2 <= 50")
+    assert "no switching is needed" in text
