@@ -29,18 +29,18 @@ def print_json(obj: Any) -> None:
 def strict_json(value: Any) -> Any:
     """``value`` with every NaN or infinite float (numpy's included, in arrays too) replaced by ``None``."""
     import math
+    import sys
 
-    import numpy as np
-
+    np = sys.modules.get("numpy")  # no numpy value can exist unless numpy is loaded: do not load it
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
         return {k: strict_json(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [strict_json(v) for v in value]
-    if isinstance(value, np.ndarray):
+    if np is not None and isinstance(value, np.ndarray):
         return strict_json(value.tolist())
-    if isinstance(value, np.floating):
+    if np is not None and isinstance(value, np.floating):
         return strict_json(float(value))
     return value
 

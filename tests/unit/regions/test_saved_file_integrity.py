@@ -111,7 +111,8 @@ BASE = _decision_data(ANALYSIS)
 
 #: Entries no answer depends on: the example's parameters (information; the system is rebuilt
 #: from the stored model), the Chebyshev radii, and two summary entries not derived from others.
-INFORMATIONAL = (("params",), ("example",), ("summary", "n_pairs_dropped_same_state"), ("summary", "executor"))
+INFORMATIONAL = (("params",), ("example",), ("summary", "n_pairs_dropped_same_state"), ("summary", "executor"),
+                 ("analysis_stats", "n_pairs_dropped_same_state"))  # a count, absent from older files
 
 
 def _informational(path):
