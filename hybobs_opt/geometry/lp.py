@@ -716,7 +716,7 @@ def daqp_infeasibility_ok(A: np.ndarray, b: np.ndarray, lam) -> bool:
 
 
 def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, eps_prox: float | None = DAQP_EPS_PROX) -> LPResult:
-    """``min c'x s.t. A x <= b`` by DAQP when its answer verifies in numpy, else by HiGHS (:func:`solve_lp`).
+    """Minimise ``c'x`` subject to ``A x <= b`` by DAQP when its answer verifies in numpy, else by HiGHS (:func:`solve_lp`).
 
     The :class:`LPResult` names the solver that answered (``"daqp"`` or ``"highs"``); at an optimum
     ``x`` is the point and ``duals`` the multipliers ``lambda >= 0`` of the rows.

@@ -134,7 +134,7 @@ class ContinuousDesign:
 
 class ContinuousObserverLMI:
     """The continuous-observer LMI of the module docstring, compiled once (``alpha`` and the gain
-    bound are cvxpy ``Parameter``s; :meth:`solve` re-solves for a new decay rate).
+    bound are cvxpy ``Parameter`` objects; :meth:`solve` re-solves for a new decay rate).
 
     Parameters
     ----------

@@ -214,7 +214,7 @@ def sampled_observer(A, B, E, C, D, c, K, Ts: float) -> tuple[np.ndarray, np.nda
 
 # ============================================================================ the LMI
 class LuenbergerLMI:
-    """Decay-rate LMI with a conditioning objective, compiled once with cvxpy ``Parameter``s.
+    """Decay-rate LMI with a conditioning objective, compiled once with cvxpy ``Parameter`` objects.
 
     ``min gamma  s.t.  I <= P <= gamma I,  sym(A' P + P A - C' Y' - Y C) + 2 alpha P <= -margin I``
     (and ``[[l I, Y'], [Y, l I]] >= 0``, i.e. ``||Y|| <= l`` so ``||L|| = ||P^{-1} Y|| <= l``, when a
