@@ -358,6 +358,11 @@ NOISE_LMI_ROUNDING_RTOL: float = 1e-12
 #: is not an answer to the problem posed (the next solver of the chain is tried).
 NOISE_LMI_REPAIR_RTOL: float = 1e-4
 
+#: A required decay rate ``r`` that the noise design refuses is certified unreachable at ``r (1 - this)``:
+#: strict infeasibility of the polytopic condition there excludes every non-strict solution at
+#: ``alpha >= r``; 1e-6 is far below the decay searches' 5 % resolution and far above rounding.
+NOISE_RATE_CERTIFICATE_RTOL: float = 1e-6
+
 #: A noise-bound design's stated per-state bound and level must equal ``sqrt(level (P^-1)_kk)`` and
 #: ``sum(mu) / alpha`` recomputed from its ``P``, ``mu`` and ``alpha`` to this relative accuracy: both
 #: come from the same numpy formulas, so only rounding (the inverse of a scaled ``P`` of condition

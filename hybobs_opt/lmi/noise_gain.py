@@ -737,22 +737,38 @@ def _polytopic_rate(system, bounds, gain_bound, d, sigma_cap):
 
 
 def _no_rate_error(system, bounds, lmi, rate: float, gain_bound):
-    """The error for a decay rate no gain reaches: InfeasibleError with a verified certificate, else SolverError."""
+    """The error for a decay rate ``rate`` no gain reaches, or ``None`` when the polytopic condition holds there.
+
+    The polytopic condition (:mod:`.polytopic`) is solved, and certified, at ``rate (1 -``
+    :data:`~hybobs_opt.tolerances.NOISE_RATE_CERTIFICATE_RTOL` ``)``: strict infeasibility there
+    excludes a non-strict solution of the noise LMI at every ``alpha >= rate`` (its blocks contain
+    the polytopic ones, and non-strict at ``alpha`` is strict at any lower rate).  The polytopic
+    certificate speaks for every gain; under a gain bound, when it does not verify, the Farkas ray
+    of the bounded problem speaks for the problem as posed (the bound's sufficient LMI form and
+    :data:`~hybobs_opt.tolerances.LMI_STRICT_MARGIN`).  Without either: a :class:`SolverError`.
+    """
+    from ..tolerances import NOISE_RATE_CERTIFICATE_RTOL
     from .farkas import verified_farkas
 
-    sol = lmi.solve(bounds, rate)
+    r_cert = rate * (1.0 - NOISE_RATE_CERTIFICATE_RTOL)
+    sol = lmi.solve(bounds, r_cert)
     if sol.feasible:
         return None
-    where = "the region" if bounds.region is None else f"{bounds.region.name} in [{bounds.region.lo:.6g}, {bounds.region.hi:.6g}]"
-    what = (f"noise-gain design of {system.name} on {where} at decay rate {rate:g}"
-            + ("" if gain_bound is None else f" with ||L||_2 <= {gain_bound:g}"))
+    reg = bounds.region
+    where = "the whole operating box" if reg is None else f"{reg.name} in [{reg.lo:.6g}, {reg.hi:.6g}]"
+    bound_text = "" if gain_bound is None else f" with ||L||_2 <= {gain_bound:g}"
+    what = f"noise-gain design of {system.name} on {where} at decay rate {rate:g}{bound_text}"
+    need = "any positive decay rate" if rate == 0.0 else f"a decay rate of {rate:g} or more"
     cert = lmi.certify(sol)
-    if cert is None:
-        cert = verified_farkas(lmi, f"the polytopic condition at decay rate {rate:g}")
     if cert is not None:
-        return InfeasibleError(what, cert, "no gain gives V = e'Pe this decay rate on every vertex of the Jacobian box "
-                               "(the polytopic condition, which the noise LMI implies, is infeasible; certificate "
-                               "re-checked in numpy)")
+        return InfeasibleError(what, cert, f"no gain gives V = e'Pe {need} on every vertex of the Jacobian box (the "
+                               f"polytopic condition, which the noise LMI implies, is infeasible at {r_cert:.6g}; "
+                               "certificate re-checked in numpy)")
+    cert = verified_farkas(lmi, f"the polytopic condition at decay rate {r_cert:.6g}{bound_text}")
+    if cert is not None:
+        return InfeasibleError(what, cert, f"the polytopic condition at decay rate {r_cert:.6g}{bound_text}, which a "
+                               f"noise design at {need} satisfies up to the condition's strict margin, is infeasible "
+                               "as posed (the bound in its sufficient LMI form; Farkas certificate re-checked in numpy)")
     return SolverError(what, SOLVER, str(sol.status), "no point was confirmed and no certificate of infeasibility "
                        "verified; lower the required decay rate, raise the gain bound or rescale the model")
 
@@ -805,8 +821,9 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     Raises
     ------
     InfeasibleError
-        No gain (within the bound) reaches ``min_decay`` (or any positive rate): the polytopic
-        condition's certificate, re-checked in numpy.
+        No gain reaches ``min_decay`` (or any positive rate): the polytopic condition's certificate,
+        re-checked in numpy (under a gain bound, possibly the Farkas ray of the bounded condition as
+        posed; see :func:`_no_rate_error`).
     SolverError
         No rate gave a checked design and no certificate was verified.
     """

@@ -402,7 +402,7 @@ def _left_region(design: NoiseBoundDesign, run: NoiseRun) -> np.ndarray:
 
 
 def check_noise_bound(design: NoiseBoundDesign, drive: Drive, x0, *, e0=None, t_final: float | None = None,
-                      dt: float | None = None, random_runs: int = 8, hold: float | None = None, seed: int = 0,
+                      dt: float | None = None, random_runs: int = 8, hold_steps: int = 10, seed: int = 0,
                       families=("random", "sinusoid", "sign"), sin_factors=(0.8, 1.0, 1.25),
                       rtol: float = 1e-6) -> NoiseSimulationCheck:
     """Simulate ``design`` under bounded noises (module docstring) and compare the errors with its bound.
@@ -424,8 +424,8 @@ def check_noise_bound(design: NoiseBoundDesign, drive: Drive, x0, *, e0=None, t_
         Step (default: 0.1 over the largest eigenvalue modulus of the frozen vertex systems).
     random_runs : int, default 8
         Runs of random noise.
-    hold : float, optional
-        Hold time of the random noise (default: ``10 dt``).
+    hold_steps : int, default 10
+        Steps each value of the random noise is held (its switches stay on the step grid).
     seed : int
         Seed of the first random run (run ``r`` has seed ``seed + r``).
     families : tuple of str
@@ -457,7 +457,7 @@ def check_noise_bound(design: NoiseBoundDesign, drive: Drive, x0, *, e0=None, t_
     if t_final is None:
         periods = [2 * math.pi / s.omega for s in sins if s.omega > 0]
         t_final = t_tr + max(10.0 / design.alpha, 5 * max(periods, default=0.0))
-    hold = 10 * dt if hold is None else float(hold)
+    hold = max(int(hold_steps), 1) * dt
     batches: list[tuple[str, Noise, int]] = []
     if "random" in families:
         batches.append(("random", random_noise(design.noise, hold, seed + np.arange(random_runs)), random_runs))
