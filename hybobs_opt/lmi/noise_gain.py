@@ -76,6 +76,7 @@ import numpy as np
 
 from .._validate import as_positive
 from ..errors import InfeasibleError, ModelError, SolverError
+from ..results import Certificate
 from ..status import Status
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import GAIN_BOUND_RTOL, NOISE_BOUND_RECHECK_RTOL, NOISE_LMI_REPAIR_RTOL, NOISE_LMI_ROUNDING_RTOL
@@ -223,8 +224,11 @@ class NoiseBoundCheck:
 
 
 @dataclass(frozen=True)
-class NoiseBoundDesign:
+class NoiseBoundDesign(Certificate):
     """A gain with a certified ultimate bound on the estimation error under bounded noise.
+
+    It is its own certificate (:class:`~hybobs_opt.results.Certificate`): ``P``, ``mu`` and ``alpha``
+    are the evidence, :meth:`verify` re-checks them in numpy.
 
     The claim (module docstring): while the plant state and the estimate stay in the region of
     ``bounds``, ``V = e' P e`` obeys ``V' <= -alpha (V - level)``, so the error enters the ellipsoid
@@ -305,6 +309,24 @@ class NoiseBoundDesign:
     scaling: np.ndarray = field(default=None, repr=False)
     system: ScalarNonlinearSystem = field(default=None, repr=False)
     bounds: JacobianBounds = field(default=None, repr=False)
+
+    #: The result the evidence applies (the attribute of every certificate of the package).
+    theorem = "invariant ellipsoid under bounded noise (peak-to-peak bound) on the polytopic Jacobian box"
+
+    @property
+    def reason(self) -> str:
+        """The claim and its mechanism, for this design."""
+        if not self.feasible or self.bound is None:
+            return f"no noise-bound design (status {self.status})"
+        bounds = ", ".join(f"{b:.4g}" for b in self.bound)
+        names = ", ".join(self.system.state_names) if self.system is not None else "the states"
+        dist = "" if not self.disturbance.size else (
+            f" and disturbance |w_i| <= {np.array2string(self.disturbance, precision=4)}")
+        return (f"V = e'Pe with V' + alpha V - sum_j mu_j nu_j^2 <= 0 at every vertex of the Jacobian box (alpha = "
+                f"{self.alpha:.4g}; verify() re-checks the vertex blocks in numpy): for output noise "
+                f"|v_j| <= {np.array2string(self.noise, precision=4)}{dist} the error enters and stays in e'Pe <= "
+                f"{self.level:.6g}, where |e_k| <= ({bounds}) for ({names}), as long as the state and the estimate "
+                f"stay in the region of the box")
 
     @property
     def relative_bound(self) -> np.ndarray | None:
