@@ -268,7 +268,7 @@ class NoiseBoundDesign(Certificate):
         ``"per_channel"`` or ``"pooled"``.
     internal_gain_bound : float or None
         The bound the LMI was solved with: at least ``gain_bound``, raised while the gain's own norm
-        stays within it (the LMI's bound is sufficient, not necessary).
+        stays within ``gain_bound`` (the LMI's bound is sufficient, not necessary).
     lmi_max_eig : tuple of float
         The re-check's largest eigenvalue per vertex block (each ``<= 0``).
     p_min_eig : float or None

@@ -336,3 +336,12 @@ def test_bounds_hold_over_more_random_seeds(pendulum, robot, vehicle, seed):
                                       families=("random",), hold_steps=hold_steps)
             assert check.left_region == 0 and check.plant_left_box == 0
             assert check.exceeded == 0 and check.envelope_exceeded == 0
+
+
+def test_tradeoff_figure_is_written(scalar, tmp_path):
+    from hybobs_opt.lmi.plots import plot_noise_tradeoff
+
+    system, bounds = scalar
+    curve = noise_tradeoff(system, bounds, [VBAR], [1.0, 4.0, 8.1], gain_bound=L_MAX)
+    out = plot_noise_tradeoff(curve, tmp_path / "tradeoff.png", curve.designs[1], ["x"])
+    assert out.stat().st_size > 1000 and out.read_bytes()[:4] == b"\x89PNG"
