@@ -282,7 +282,9 @@ def test_simulator_matches_an_independent_integration(pendulum):
     np.testing.assert_allclose(run.x_hat[:, 0, :], ref[2:].T, atol=1e-7)
 
 
-def assert_bound_holds_and_is_not_vacuous(design, check, name: str, min_runs: int = 20):
+def assert_bound_holds_and_is_not_vacuous(design, check, name: str, record, min_runs: int = 20):
+    record(f"{name}_ratio", check.ratio.tolist())  # bound / largest simulated error, per state (junit XML)
+    record(f"{name}_alpha", design.alpha)
     assert check.runs >= min_runs
     assert check.left_region == 0 and check.plant_left_box == 0, f"{name}: a run left the region; no test"
     assert check.exceeded == 0, f"{name}: the error exceeded the certified bound"
@@ -292,25 +294,25 @@ def assert_bound_holds_and_is_not_vacuous(design, check, name: str, min_runs: in
     assert ratio <= 10.0, f"{name}: bound / largest simulated error = {check.ratio} (> 10 for some state)"
 
 
-def test_pendulum_bound_holds_under_bounded_noise(pendulum):
+def test_pendulum_bound_holds_under_bounded_noise(pendulum, record_property):
     _, _, design = pendulum
     drive, x0 = pendulum_drive()
     check = check_noise_bound(design, drive, x0, e0=np.array([0.05, 0.2]), random_runs=14)
-    assert_bound_holds_and_is_not_vacuous(design, check, "pendulum")
+    assert_bound_holds_and_is_not_vacuous(design, check, "pendulum", record_property)
 
 
-def test_robot_bound_holds_under_bounded_noise(robot):
+def test_robot_bound_holds_under_bounded_noise(robot, record_property):
     _, _, design = robot
     check = check_noise_bound(design, robot_drive, np.zeros(4), e0=np.array([0.05, 0.0, 0.1, 0.0]), random_runs=12)
-    assert_bound_holds_and_is_not_vacuous(design, check, "robot")
+    assert_bound_holds_and_is_not_vacuous(design, check, "robot", record_property)
 
 
-def test_vehicle_bound_holds_under_bounded_noise(vehicle):
+def test_vehicle_bound_holds_under_bounded_noise(vehicle, record_property):
     system, _, design = vehicle
     assert design.alpha >= 1.0 * (1 - 1e-4)
     check = check_noise_bound(design, vehicle_drive, vehicle_start(system), e0=np.array([1.0, -1.0, 0.05, 0.01]),
                               random_runs=8)
-    assert_bound_holds_and_is_not_vacuous(design, check, "vehicle")
+    assert_bound_holds_and_is_not_vacuous(design, check, "vehicle", record_property)
 
 
 def test_pendulum_search_finds_the_smallest_bound_on_the_curve(pendulum):
