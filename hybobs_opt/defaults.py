@@ -124,6 +124,23 @@ GAIN_BOUND_TIGHT_FRACTION: float = 0.98
 #: search needs a cap; with a gain bound the bound decides.
 SIGMA_CAP: float = 100.0
 
+#: Noise-bound design (:mod:`hybobs_opt.lmi.noise_gain`): rates of ``alpha`` on the first, geometric,
+#: grid over ``[NOISE_ALPHA_MIN_FRACTION sigma_max, sigma_max]``: nine points over three decades are
+#: a factor of 2.4 apart.  On the examples (the scalar oracle, the pendulum, the robot, the vehicle)
+#: the bound is unimodal in ``log alpha`` with its minimum between 0.02 and 0.5 of ``sigma_max``, so
+#: the golden-section refinement between the best point's neighbours starts in the right bracket.
+NOISE_ALPHA_GRID: int = 9
+
+#: Lower end of the noise design's grid as a fraction of the largest decay rate ``sigma_max``: for a
+#: fixed gain the bound grows like ``1/sqrt(alpha)`` as ``alpha -> 0`` (the scalar case in closed
+#: form), and on the examples the best rate is at least 0.02 ``sigma_max``.
+NOISE_ALPHA_MIN_FRACTION: float = 1e-3
+
+#: The golden-section refinement over ``log alpha`` stops when its bracket spans this relative width
+#: (1 %): the bound is flat near its minimum (quadratic in ``log alpha``), so the last percent of
+#: ``alpha`` changes it by far less than a percent.
+NOISE_ALPHA_RTOL: float = 1e-2
+
 #: Largest number of vertices (``2^(r + p_n)``) the polytopic condition is built for; beyond it the
 #: problem grows too large to be useful and the hierarchy stops at the multiplier LMIs.
 POLYTOPIC_MAX_VERTICES: int = 256

@@ -346,6 +346,29 @@ LUENBERGER_LMI_MARGIN: float = 1e-6
 #: ~1e-8, so the recomputed norm can exceed it by rounding only.
 GAIN_BOUND_RTOL: float = 1e-6
 
+#: The numpy re-check of the noise LMI (:mod:`hybobs_opt.lmi.noise_gain`) makes every vertex block's
+#: largest eigenvalue at most ``-2 x this`` times the blocks' norm (balanced coordinates), so that the
+#: rounding of numpy's eigenvalues (about ``n eps ||B||``, 1e-15 for these sizes) and of the
+#: round trip to model units cannot turn the re-check's ``<= 0`` into a false pass or fail.
+NOISE_LMI_ROUNDING_RTOL: float = 1e-12
+
+#: The numpy repair of a solver's point of the noise LMI may lower ``alpha`` and raise the ellipsoid's
+#: level by at most this fraction: Clarabel's points violate the blocks by about its 1e-8 relative
+#: feasibility tolerance, which the repair absorbs at a cost far below this; a point that needs more
+#: is not an answer to the problem posed (the next solver of the chain is tried).
+NOISE_LMI_REPAIR_RTOL: float = 1e-4
+
+#: A required decay rate ``r`` that the noise design refuses is certified unreachable at ``r (1 - this)``:
+#: strict infeasibility of the polytopic condition there excludes every non-strict solution at
+#: ``alpha >= r``; 1e-6 is far below the decay searches' 5 % resolution and far above rounding.
+NOISE_RATE_CERTIFICATE_RTOL: float = 1e-6
+
+#: A noise-bound design's stated per-state bound and level must equal ``sqrt(level (P^-1)_kk)`` and
+#: ``sum(mu) / alpha`` recomputed from its ``P``, ``mu`` and ``alpha`` to this relative accuracy: both
+#: come from the same numpy formulas, so only rounding (the inverse of a scaled ``P`` of condition
+#: number up to ~1e6) separates them.
+NOISE_BOUND_RECHECK_RTOL: float = 1e-9
+
 #: The decay-rate search of the location observer (paper 000) asks for this fraction more than the
 #: rate the residual bound needs at Delta, so that the rounding of the numpy-verified decay cannot
 #: undo the guarantee.

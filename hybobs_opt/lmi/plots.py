@@ -1,4 +1,4 @@
-"""Figures of the LMI results: a :class:`~hybobs_opt.lmi.diagnose.Diagnosis`'s Jacobian bounds."""
+"""Figures of the LMI results: a :class:`~hybobs_opt.lmi.diagnose.Diagnosis`'s Jacobian bounds, the noise-bound trade-off."""
 
 from __future__ import annotations
 
@@ -77,4 +77,52 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
     return path
 
 
-__all__ = ["plot_jacobian_bounds"]
+def plot_noise_tradeoff(curve, path: str | Path, design=None, state_names=None) -> Path:
+    """The smallest certified error bound against the decay rate of ``V`` (:func:`.noise_gain.noise_tradeoff`).
+
+    Top: the worst per-state bound relative to the reference sizes; bottom: each state's bound in
+    model units.  Rates with no certified design are left out.
+
+    Parameters
+    ----------
+    curve : NoiseTradeoff
+        From :func:`hybobs_opt.lmi.noise_gain.noise_tradeoff`.
+    path : path-like
+        Output file (PNG).
+    design : NoiseBoundDesign, optional
+        A design to mark (e.g. the one of :func:`~hybobs_opt.lmi.noise_gain.noise_optimal_design`).
+    state_names : sequence of str, optional
+        Labels of the states (default ``x1, x2, ...``).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    ok = np.asarray(curve.feasible, dtype=bool)
+    a = np.asarray(curve.alpha_certified, dtype=float)[ok]
+    n = curve.bound.shape[1]
+    names = list(state_names) if state_names is not None else [f"x{k + 1}" for k in range(n)]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6.0), sharex=True)
+    top.loglog(a, np.asarray(curve.worst_relative)[ok], "o-", color="k", lw=1.2, ms=3)
+    top.set_ylabel("worst bound / reference size", fontsize=8)
+    for k in range(n):
+        bottom.loglog(a, curve.bound[ok, k], "o-", lw=1.0, ms=3, label=names[k])
+    bottom.set_ylabel("ultimate bound on |e_k| (model units)", fontsize=8)
+    bottom.set_xlabel("decay rate alpha of V = e'Pe (1/s)", fontsize=8)
+    if design is not None and getattr(design, "feasible", False):
+        top.axvline(design.alpha, color="tab:red", lw=0.8, ls="--", label=f"design alpha = {design.alpha:.3g}")
+        top.legend(fontsize=7, loc="best")
+    bottom.legend(fontsize=7, loc="best")
+    for ax in (top, bottom):
+        ax.grid(alpha=0.3, which="both")
+    fig.suptitle("certified error bound under bounded noise against the decay rate", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+__all__ = ["plot_jacobian_bounds", "plot_noise_tradeoff"]
