@@ -398,3 +398,25 @@ def command_cache(args: argparse.Namespace) -> Iterator[Any]:
     cache = ResultCache(log=log)
     with use_cache(cache):
         yield cache
+
+
+def bound_entries(entries, names: tuple, option: str, field: str, what: str) -> dict:
+    """``NAME=VALUE`` entries (or one bare ``VALUE`` for every name) as a dict by name, checked."""
+    from ..contract import noise_bound_vector
+
+    bound: dict[str, float] = {}
+    for entry in entries:
+        name, sep, value = entry.partition("=")
+        if not sep:
+            name, value = "", entry
+        try:
+            number = float(value)
+        except ValueError:
+            raise ModelError(option, "NAME=VALUE with a number VALUE (or one number)", repr(entry)) from None
+        for nm in ([name] if name else names):
+            if nm in bound:
+                raise ModelError(option, f"each {what} once", repr(entry))
+            bound[nm] = number
+    with as_options({field: option}):
+        noise_bound_vector(bound, names, field)
+    return bound

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_argument, add_system_argument, check_output_dir, file_slug, print_json
+from ._common import add_force_argument, add_system_argument, bound_entries, check_output_dir, file_slug, print_json
 from ._schedule import add_design_arguments, design_setup, parse_range
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
@@ -29,6 +29,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_design_arguments(p)
     p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None,
                    help="write the Markdown and HTML reports into DIR (none without it); --out is its old name")
+    p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
+                   help="bound on an output's noise in its units (repeatable; a bare VALUE bounds every output): "
+                        "also design the gain with the smallest certified ultimate error bound under that noise")
     add_force_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 
@@ -46,6 +49,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     named, preset, settings = design_setup(args)
     check_output_dir("--out-dir", out_dir, args.force, f"diagnose_{file_slug(named.label)}.md")  # before any LMI
     system = named.system
+    noise = None if not args.noise_bound else bound_entries(args.noise_bound, tuple(system.output_names), "--noise-bound",
+                                                            "noise_bound", "output")
     update, close = counter_bar(not args.json, "LMI solves", "solve")
     try:
         with counting_solves(None if update is None else (lambda n: update(n, None))):
@@ -55,12 +60,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                 diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
                                 factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
                                 overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
-                                scaling=scaling_for(preset, system))
+                                scaling=scaling_for(preset, system), noise_bound=noise)
             else:
                 lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
                 diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                                 min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
-                                scaling=settings.scaling, condition=settings.condition, required_decay=args.min_decay)
+                                scaling=settings.scaling, condition=settings.condition, required_decay=args.min_decay,
+                                noise_bound=noise)
     finally:
         close()
     paths = None if out_dir is None else write_diagnosis_report(diag, out_dir, file_slug(named.label))
@@ -94,6 +100,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         else:
             state = "infeasible, certificate verified in numpy" if c.verified else f"not decided ({c.skipped or c.status})"
         print(f"  {c.name}: {state}")
+    nd = diag.noise_design
+    if nd is not None and nd.feasible:
+        print(f"  under output noise {dict(zip(system.output_names, nd.noise.tolist()))}: ||L||_2 = {nd.gain_norm:.4g}, "
+              f"decay rate {nd.alpha:.4g} 1/s, certified ultimate bound "
+              + ", ".join(f"|e_{n}| <= {b:.4g}" for n, b in zip(system.state_names, nd.bound)))
+    elif diag.noise_error:
+        print(f"  no certified error bound under the stated noise: {diag.noise_error}")
     for p_ in diag.undetectable:
         print(f"  undetectable point: {p_.claim}")
     for q in diag.symmetries:

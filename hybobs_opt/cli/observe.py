@@ -7,8 +7,9 @@ import argparse
 
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
-from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
-                      check_output_path, command_cache, load_system, print_json)
+from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument,
+                      as_options, bound_entries, check_figure_path, check_output_path, command_cache, load_system,
+                      print_json)
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
 
@@ -237,25 +238,3 @@ def input_noise_bound_option(entries, system, kinds, noise_bound):
         raise ModelError("--input-noise-bound", "no set_membership among the observers (its MILPs take the inputs "
                          "as exact)", repr(entries[0]))
     return bound_entries(entries, tuple(system.input_names), "--input-noise-bound", "input_noise_bound", "input")
-
-
-def bound_entries(entries, names: tuple, option: str, field: str, what: str) -> dict:
-    """``NAME=VALUE`` entries (or one bare ``VALUE`` for every name) as a dict by name, checked."""
-    from ..contract import noise_bound_vector
-
-    bound: dict[str, float] = {}
-    for entry in entries:
-        name, sep, value = entry.partition("=")
-        if not sep:
-            name, value = "", entry
-        try:
-            number = float(value)
-        except ValueError:
-            raise ModelError(option, "NAME=VALUE with a number VALUE (or one number)", repr(entry)) from None
-        for nm in ([name] if name else names):
-            if nm in bound:
-                raise ModelError(option, f"each {what} once", repr(entry))
-            bound[nm] = number
-    with as_options({field: option}):
-        noise_bound_vector(bound, names, field)
-    return bound

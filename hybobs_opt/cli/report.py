@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
             if args.data is None:
                 raise ModelError("--noise-bound", "--data as well (the radii are those of the observers on a log)",
                                  repr(args.noise_bound[0]))
-            from .observe import bound_entries
+            from ._common import bound_entries
 
             args.noise_bound = bound_entries(args.noise_bound, tuple(named.system.output_names), "--noise-bound",
                                              "noise_bound", "output")

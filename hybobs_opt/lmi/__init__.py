@@ -12,6 +12,9 @@ Modules, one concept each:
 * :mod:`.subtraction` -- Theorem 5 (linear subtraction does not help);
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
+* :mod:`.decay_design` -- the decay-optimal constant gain within a gain bound, over every condition;
+* :mod:`.noise_gain` -- the gain with the smallest certified error bound under bounded noise (invariant ellipsoid);
+* :mod:`.noise_sim` -- simulations of the observer under bounded noise that check that bound;
 * :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
 * :mod:`.auto_design` -- design settings (coordinate, scaling, gain bound, decay) read from the model;
 * :mod:`.plots` -- figures of the results (the Jacobian bounds of a diagnosis; loads matplotlib on first use).
@@ -24,6 +27,7 @@ from .._lazy import lazy_exports
 from .auto_design import DesignSettings, design_settings, design_switched, scheduling_candidates
 from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_bounds, monotonic_pieces, slope_change_points
 from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
+from .decay_design import ConditionDecay, DecayDesign, decay_optimal_design
 from .diagnose import Diagnosis, diagnose
 from .hierarchy import CONDITIONS, ConditionResult, HierarchyResult, condition_hierarchy
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
@@ -36,9 +40,16 @@ from .subtraction import SubtractionCheck, theorem5_check
 from .switched import DwellTimeError, DwellTimeWarning, RegionGain, SwitchedDesign, grow_regions, synthesize_switched
 
 # Figures import matplotlib: imported on first use.
-__getattr__, __dir__ = lazy_exports(__name__, {"plot_jacobian_bounds": "hybobs_opt.lmi.plots"})
+# The noise-gain SDPs are imported on first use too (they build cvxpy problems of their own).
+__getattr__, __dir__ = lazy_exports(__name__, {
+    **dict.fromkeys(("plot_jacobian_bounds", "plot_noise_tradeoff"), "hybobs_opt.lmi.plots"),
+    **dict.fromkeys(("NoiseBoundDesign", "NoiseTradeoff", "noise_optimal_design", "noise_tradeoff"),
+                    "hybobs_opt.lmi.noise_gain"),
+})
 
 __all__ = [
+    "ConditionDecay", "DecayDesign", "NoiseBoundDesign", "NoiseTradeoff", "decay_optimal_design", "noise_optimal_design",
+    "noise_tradeoff", "plot_noise_tradeoff",
     "COUNTERS", "CONDITIONS", "ConditionResult", "DwellTimeError", "DwellTimeWarning", "HierarchyResult", "OutputSymmetry",
     "PolytopicCertificate", "PolytopicLMI", "UndetectablePoint", "condition_hierarchy", "output_symmetries",
     "undetectable_points", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",

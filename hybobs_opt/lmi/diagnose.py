@@ -25,6 +25,7 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from .bounds import JacobianBounds, jacobian_bounds, monotonic_pieces
 from .certificates import InfeasibilityCertificate
 from .decay_design import DecayDesign, decay_optimal_design
+from .noise_gain import NoiseBoundDesign, noise_optimal_design
 from .hierarchy import HierarchyResult, condition_hierarchy
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
 from .observer_lmi import DecayResult, LMISolution, ObserverLMI
@@ -93,6 +94,11 @@ class Diagnosis:
         The decay-optimal search of every condition within the gain bound (when a constant gain exists).
     required_decay : float, optional
         The decay rate the constant gain was required to reach (``None``: any positive rate).
+    noise_design : NoiseBoundDesign, optional
+        With a stated output-noise bound: the gain with the smallest certified ultimate error bound
+        (:mod:`.noise_gain`) within the gain bound and at the required rate.
+    noise_error : str
+        Why no noise design was found (empty otherwise).
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -121,6 +127,8 @@ class Diagnosis:
     sigma_verified: float | None = None
     design: DecayDesign | None = None
     required_decay: float | None = None
+    noise_design: NoiseBoundDesign | None = None
+    noise_error: str = ""
 
     @property
     def gain_accepted(self) -> bool:
@@ -148,6 +156,16 @@ class Diagnosis:
             parts.append(self.hierarchy.claim(where, with_gain=self.design is None))
         for sym in self.symmetries:
             parts.append(sym.claim)
+        nd = self.noise_design
+        if nd is not None and nd.feasible:
+            names = self.system.state_names
+            bound = ", ".join(f"|e_{nm}| <= {b:.4g}" for nm, b in zip(names, nd.bound))
+            parts.append(f"Under output noise |v| <= {np.round(nd.noise, 6).tolist()}: a gain with ||L||_2 = "
+                         f"{nd.gain_norm:.4g} and decay rate {nd.alpha:.4g} 1/s of V (without noise) drives the "
+                         f"error into {bound} and keeps it there (an invariant ellipsoid, re-checked in numpy, "
+                         f"while the state and the estimate stay on {where}).")
+        elif self.noise_error:
+            parts.append(f"No certified error bound under the stated noise: {self.noise_error}")
         return " ".join(parts)
 
     def show(self, value: float) -> float:
@@ -185,6 +203,8 @@ class Diagnosis:
             "gain_accepted": self.gain_accepted,
             "required_decay": self.required_decay,
             "decay_design": None if self.design is None else self.design.to_dict(),
+            "noise_design": None if self.noise_design is None else self.noise_design.to_dict(),
+            "noise_error": self.noise_error or None,
             "hierarchy": None if self.hierarchy is None else self.hierarchy.to_dict(),
             "undetectable_points": [p.to_dict() for p in self.undetectable],
             "indistinguishable": [q.to_dict() for q in self.symmetries],
@@ -232,6 +252,7 @@ def diagnose(
     suggest: bool = True,
     condition: str = "paper",
     required_decay: float | None = None,
+    noise_bound=None,
 ) -> Diagnosis:
     """Diagnose the constant-gain observer LMI of ``system`` on ``coordinate`` in ``[lo, hi]``.
 
@@ -253,6 +274,10 @@ def diagnose(
     required_decay : float, optional
         Decay rate the constant gain must reach; a gain within the bound that does not reach it is
         refused (the verdict's first line says so) and switching regions are suggested instead.
+    noise_bound : float, sequence or dict, optional
+        Bound on each output's noise, in the outputs' units
+        (:func:`~hybobs_opt.contract.noise_bound_vector`): when a gain within the bound exists, the
+        gain with the smallest certified ultimate error bound is designed too (:mod:`.noise_gain`).
 
     Raises
     ------
@@ -291,6 +316,18 @@ def diagnose(
         else:
             rate = hier.gain.sigma_verified
             suggest_error = next((c.reason for c in reversed(design.by_condition) if c.reason), "")
+    noise_design, noise_error = None, ""
+    if noise_bound is not None and design is not None and design.met:
+        from ..contract import noise_bound_vector
+
+        vbar = noise_bound_vector(noise_bound, system.output_names)
+        try:
+            noise_design = noise_optimal_design(system, bounds, vbar, gain_bound=gain_bound, min_decay=required_decay,
+                                                scaling=lmi.d)
+        except HybobsError as exc:
+            noise_error = str(exc)
+    elif noise_bound is not None:
+        noise_error = "no constant gain within the requirements on the range (see the verdict)"
     if required_decay is not None:
         min_decay = float(required_decay)  # the suggested regions must meet the requirement too
     if suggest and (not hier.feasible or not design.met):
@@ -301,7 +338,7 @@ def diagnose(
             suggest_error = str(exc)
     d = Diagnosis(system, region, unit, factor, bounds, hier.feasible, sol, cert, decay, t5, breakpoints, pieces,
                   suggested, suggest_error, gain_bound, min_decay, overlap, [], 0.0, hier, undetectable, symmetries,
-                  design_key, rate, design, required_decay)
+                  design_key, rate, design, required_decay, noise_design, noise_error)
     d.next_steps = _next_steps(d)
     d.seconds = time.perf_counter() - t0
     return d

@@ -31,7 +31,37 @@ from .section import ReportSection, register_section  # noqa: E402
 from .._output_files import write_output_text
 
 
-def _diagnosis_markdown(diag, example: str, fig_name: str) -> str:
+def _decay_and_noise_markdown(diag, tradeoff_fig: str | None) -> list[str]:
+    """The decay-optimal design per condition and, under stated noise, the certified bound and its curve."""
+    lines: list[str] = []
+    if diag.design is not None:
+        bound = "none" if diag.design.gain_bound is None else f"{diag.design.gain_bound:g}"
+        lines += ["## Largest decay rate within the gain bound", "",
+                  f"Gain bound ||L||_2 <= {bound}; decay rate of V = e'Pe proven on every vertex of the Jacobian box "
+                  "(numpy).", "", "| condition | decay rate [1/s] | ||L||_2 | note |", "|---|---|---|---|"]
+        for c in diag.design.by_condition:
+            if c.feasible:
+                lines.append(f"| {c.condition} | {c.sigma_verified:.4g} | {np.linalg.norm(c.L, 2):.4g} | |")
+            else:
+                lines.append(f"| {c.condition} | - | - | {c.reason[:160]} |")
+        lines.append("")
+    nd = diag.noise_design
+    if nd is not None and nd.feasible:
+        names = diag.system.state_names
+        lines += ["## Error bound under bounded output noise", "",
+                  f"Noise |v| <= {np.round(nd.noise, 6).tolist()} (output units).  Gain with ||L||_2 = {nd.gain_norm:.4g}, "
+                  f"decay rate {nd.alpha:.4g} 1/s of V without noise; certified ultimate bound (invariant ellipsoid, "
+                  "re-checked in numpy, while the state and the estimate stay on the range):", "",
+                  "| state | bound |", "|---|---|"] + [f"| {n} | {b:.4g} |" for n, b in zip(names, nd.bound)] + [""]
+        if tradeoff_fig is not None:
+            lines += [f"![The smallest certified error bound against the decay rate of V under the stated noise]({tradeoff_fig})",
+                      ""]
+    elif diag.noise_error:
+        lines += ["## Error bound under bounded output noise", "", diag.noise_error, ""]
+    return lines
+
+
+def _diagnosis_markdown(diag, example: str, fig_name: str, tradeoff_fig: str | None = None) -> str:
     d = diag.to_dict()
     u = diag.unit
     lines = [f"# Observer LMI diagnosis: {example}", "",
@@ -49,6 +79,7 @@ def _diagnosis_markdown(diag, example: str, fig_name: str) -> str:
             lines.append(f"| {c.name} | {'infeasible' if c.verified else 'not decided'} | "
                          + ("dual certificate re-checked in numpy" if c.verified else (c.skipped or str(c.status))) + " |")
     lines.append("")
+    lines += _decay_and_noise_markdown(diag, tradeoff_fig)
     if diag.undetectable:
         lines += ["## Undetectable points (hold for every gain)", ""] + [f"- {p.claim}" for p in diag.undetectable] + [""]
     if diag.symmetries:
@@ -143,11 +174,32 @@ def write_diagnosis_report(diag, out_dir: str | Path, example: str) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     fig = f"bounds_{example}.png"
     plot_jacobian_bounds(diag, out / fig)
-    md = _diagnosis_markdown(diag, example, fig)
+    figures = [str(out / fig)]
+    tradeoff = _tradeoff_figure(diag, out, example)
+    if tradeoff is not None:
+        figures.append(str(out / tradeoff))
+    md = _diagnosis_markdown(diag, example, fig, tradeoff)
     md_path, html_path = out / f"diagnose_{example}.md", out / f"diagnose_{example}.html"
     write_output_text(md_path, md)
     write_output_text(html_path, _markdown_to_html(md, f"diagnose {example}"))
-    return {"markdown": str(md_path), "html": str(html_path), "figures": [str(out / fig)]}
+    return {"markdown": str(md_path), "html": str(html_path), "figures": figures}
+
+
+def _tradeoff_figure(diag, out: Path, example: str) -> str | None:
+    """``noise_tradeoff_<example>.png``: the certified bound against the decay rate, over rates from a tenth of
+    the noise design's to the largest proven one (``None`` without a noise design)."""
+    nd = diag.noise_design
+    if nd is None or not nd.feasible or diag.design is None or diag.design.best is None:
+        return None
+    from ..lmi.noise_gain import noise_tradeoff
+    from ..lmi.plots import plot_noise_tradeoff
+
+    top = max(diag.design.best.sigma_verified, nd.alpha)
+    alphas = np.geomspace(max(nd.alpha / 10.0, top * 1e-3), top, 12)
+    curve = noise_tradeoff(diag.system, diag.bounds, nd.noise, alphas, gain_bound=diag.gain_bound, scaling=None)
+    name = f"noise_tradeoff_{example}.png"
+    plot_noise_tradeoff(curve, out / name, design=nd, state_names=diag.system.state_names)
+    return name
 
 
 # ---------------------------------------------------------------------------- the section

@@ -99,3 +99,17 @@ def test_diagnose_min_decay_is_met_or_refused(lmi_cli, capsys):
     text = capsys.readouterr().out
     assert text.splitlines()[0].split(": ", 1)[1].startswith("FEASIBLE: a constant gain with ||L||_2 <= 50")
     assert "no switching is needed" in text
+
+
+def test_diagnose_with_a_noise_bound_states_a_certified_error_bound(lmi_cli, capsys, tmp_path):
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "200", "--noise-bound", "0.01", "--out-dir", str(tmp_path),
+                         "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    nd = out["noise_design"]
+    assert nd["feasible"] is True and nd["noise"] == [0.01, 0.01] and nd["gain_norm"] <= 200 * (1 + 1e-6)
+    assert len(nd["bound"]) == 4 and all(0 < b < np.inf for b in nd["bound"])
+    assert nd["alpha"] > 0 and max(nd["lmi_max_eig"]) <= 0
+    assert "Under output noise |v| <= [0.01, 0.01]" in out["verdict"]
+    assert any(f.endswith(".png") and "noise_tradeoff" in f for f in out["report"]["figures"])
+    assert lmi_cli.main(["diagnose", ROBOT, "--noise-bound", "nosuch=1"]) == 2
+    assert "--noise-bound" in capsys.readouterr().err
