@@ -177,6 +177,7 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["diagnose", "vehicle_tracking", "--settings", "model"], "--min-decay", NUMBER + ["-1", "1e300"]),
     (["diagnose", "vehicle_tracking", "--settings", "model"], "--overlap", NUMBER + ["-1", "1e300"]),
     (["diagnose", "vehicle_tracking"], "--condition", ["nosuch", ""]),
+    (["diagnose", "vehicle_tracking"], "--noise-bound", ["-1", "nosuch=0.1", "abc", "nan", "X=0.1,Y=0.1"]),
     (["diagnose", "vehicle_tracking"], "--settings", ["nosuch", ""]),
     (["diagnose", "vehicle_tracking"], "--out", [F("existing")]),
     (["diagnose"], None, ["nosuch", "powertrain3", F("bin")]),
