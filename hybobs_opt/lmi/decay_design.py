@@ -15,9 +15,11 @@ recomputed in numpy (:func:`.hierarchy.verified_rate`).
 
 What is proven, and its first line:
 
-* no condition is feasible with ``||L||_2 <= gain_bound`` even at ``sigma = 0`` -- the polytopic
-  condition, the weakest, is infeasible, with a Farkas certificate re-checked in numpy: no gain
-  within the bound has a quadratic Lyapunov function on the Jacobian box;
+* no condition is feasible with the LMIs' bound on the gain even at ``sigma = 0`` -- the polytopic
+  condition, the weakest, is infeasible in that form, with a Farkas certificate re-checked in
+  numpy.  The form (``P >= a I``, ``[[P, Y], [Y', a l^2 I]] >= 0``) is sufficient for
+  ``||L||_2 <= gain_bound``, not necessary, so this proves that the design finds no gain within
+  the bound, not that none exists;
 * a required rate ``min_decay`` is not reached: the largest certified rate within the bound is
   below it (the search's bracket says where it stopped; the claim is about the conditions, not
   about every gain);
@@ -145,9 +147,10 @@ class DecayDesign:
             bound = "" if self.gain_bound is None else f" WITHIN ||L||_2 <= {self.gain_bound:g}"
             if last is not None and last.certificate is not None:
                 weakest = condition_name(last.condition, self.form)
-                return (f"NO GAIN{bound}: no constant gain{self._bound_text()} satisfies {weakest} on {where}, nor "
-                        "therefore any condition before it (infeasible at decay rate 0, certificate re-checked in "
-                        "numpy).")
+                return (f"NO GAIN FOUND{bound}: {weakest}, with the LMIs' bound on the gain (P >= a I and "
+                        f"[[P, Y], [Y', a l^2 I]] >= 0, sufficient for ||L||_2 <= {self.gain_bound:g}), is infeasible "
+                        f"at decay rate 0 on {where}, and so is every condition before it (certificate re-checked in "
+                        "numpy); a gain within the bound that this form excludes is not ruled out.")
             return (f"UNDECIDED{bound}: no solve found a constant gain{self._bound_text()} on {where} and no "
                     "certificate of infeasibility was verified; nothing is claimed.")
         rate = best.sigma_verified if best is not None else 0.0

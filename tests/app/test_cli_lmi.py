@@ -78,11 +78,11 @@ def test_diagnose_says_first_that_no_gain_meets_the_bound(lmi_cli, capsys):
     """A gain bound no gain can meet is the verdict's first line, not a later bullet; the JSON agrees."""
     assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5"]) == 0
     first = capsys.readouterr().out.splitlines()[0]
-    assert "NO GAIN WITHIN ||L||_2 <= 5" in first and "FEASIBLE" not in first.split(":")[1]
+    assert "NO GAIN FOUND WITHIN ||L||_2 <= 5" in first and "FEASIBLE" not in first.split(":")[1]
     assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is True and out["gain_accepted"] is False  # a gain exists, none within the bound
-    assert out["verdict"].startswith("NO GAIN WITHIN ||L||_2 <= 5")
+    assert out["verdict"].startswith("NO GAIN FOUND WITHIN ||L||_2 <= 5")
     assert out["decay_design"]["within_bound"] is False
     assert not any("no switching is needed" in s for s in out["next_steps"])
 
