@@ -206,3 +206,24 @@ def noise_study_case(name: str, steps: int):
         U = dc_motor_drive(steps)
         return system, U, simulate_pwa(system, np.zeros(3), U), 1e-3
     raise ValueError(name)
+
+
+def saddle_tanh():
+    """A saddle with a non-monotonic bounded nonlinearity and a saturating sensor (issue 35's own system).
+
+    ``x1' = x2``, ``x2' = x1 + sin(2 x1) / 2``, ``y = 2 tanh(x1 / 2)`` on ``|x1| <= 2``, ``|x2| <= 3``:
+    ``A = [[0, 1], [1, 0]]`` (eigenvalues +-1, a saddle), ``F = [0; 1]``, ``E = [1, 0]``,
+    ``f(z) = sin(2 z) / 2`` (slope ``cos(2 z)`` in ``[-1, 1]``: non-monotonic) and
+    ``h(z) = 2 tanh(z / 2)`` (slope ``1 - tanh(z / 2)^2`` in ``(0, 1]``: monotonic, nonlinear).
+    Known structure: the error dynamics ``[[-l1 mu, 1], [1 + theta - l2 mu, 0]]`` need
+    ``l2 mu > 1 + theta`` at every slope, so on ``x1 in [0, 1.5]`` (``theta <= 1``,
+    ``mu >= 1 - tanh(0.75)^2 = 0.597``) no gain with ``l2 <= 3.35`` works.
+    """
+    from hybobs_opt.systems import ScalarFunction, ScalarNonlinearSystem
+
+    box = Polytope.from_box([-2.0, -3.0], [2.0, 3.0], ("x1", "x2"))
+    return ScalarNonlinearSystem(
+        box=box, A=[[0.0, 1.0], [1.0, 0.0]], F=[[0.0], [1.0]], E=[[1.0, 0.0]],
+        f=(ScalarFunction.from_text("sin(2z)/2", "sin(2*z)/2", "cos(2*z)"),),
+        C=[[1.0, 0.0]], h=(ScalarFunction.from_text("2 tanh(z/2)", "2*tanh(z/2)", "1 - tanh(z/2)**2"),),
+        state_names=("x1", "x2"), output_names=("y",), name="saddle_tanh")
