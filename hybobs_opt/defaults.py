@@ -119,6 +119,36 @@ GAIN_BOUND_TIGHTENING_STEPS: int = 6
 #: The internal bound stops growing once the returned gain uses this fraction of the user's bound.
 GAIN_BOUND_TIGHT_FRACTION: float = 0.98
 
+#: Exact-gain-bound search (:mod:`hybobs_opt.lmi.gain_search`).  Bisections inside the search stop at
+#: this relative bracket: the rate kept is the re-checked rate of the pair, so a finer bracket only
+#: changes where each step stops (0.5 % costs about 3 more solves per bisection than 5 %).
+GAIN_SEARCH_RTOL: float = 5e-3
+
+#: Convex-concave steps per start at most; the steps stop earlier once one gains less than
+#: GAIN_SEARCH_MIN_GAIN (relative).  On the pendulum and the saddle system 2-6 steps converge; from
+#: an ill-conditioned P (the robot, the vehicle) the steps creep (0.3 % each) and the IPOPT polish
+#: gets further: 40 steps instead of 8 changed no final rate of the five systems of the decay oracle.
+GAIN_SEARCH_CCP_STEPS: int = 8
+
+#: Relative gain below which the convex-concave steps stop.
+GAIN_SEARCH_MIN_GAIN: float = 1e-3
+
+#: IPOPT iterations of one polish (the smooth NLP of the search, about 200 unknowns on the vehicle):
+#: the converged polishes of the examples take 30-400.
+GAIN_SEARCH_IPOPT_ITERATIONS: int = 1000
+
+#: Polish rounds per start (each re-centred at the last certified pair), while one improves.
+GAIN_SEARCH_POLISH_ROUNDS: int = 4
+
+#: Eigenvalue screen: Sobol points of the gain box (rounded up to a power of two), the best kept for
+#: Nelder-Mead on the eigenvalue bound, its evaluations per start, and the best certified.  On the
+#: robot and the vehicle (8 unknowns) 4096 points, 16 kept and 3 certified find gains within 5 %
+#: of the independent search's best in 3-10 s; the screen itself takes 0.1 s.
+GAIN_SEARCH_SCREEN_SAMPLES: int = 4096
+GAIN_SEARCH_SCREEN_KEEP: int = 16
+GAIN_SEARCH_SCREEN_EVALUATIONS: int = 2000
+GAIN_SEARCH_CERTIFY: int = 3
+
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
 #: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
 #: search needs a cap; with a gain bound the bound decides.

@@ -346,6 +346,11 @@ LUENBERGER_LMI_MARGIN: float = 1e-6
 #: ~1e-8, so the recomputed norm can exceed it by rounding only.
 GAIN_BOUND_RTOL: float = 1e-6
 
+#: A candidate of the exact-gain-bound search replaces the best pair only when its re-checked rate is
+#: larger by this fraction: rates equal to rounding come out the same on every machine, so the pair
+#: returned does not depend on which of two equal candidates a processor's last bits favour.
+SEARCH_IMPROVEMENT_RTOL: float = 1e-6
+
 #: The numpy re-check of the noise LMI (:mod:`hybobs_opt.lmi.noise_gain`) makes every vertex block's
 #: largest eigenvalue at most ``-2 x this`` times the blocks' norm (balanced coordinates), so that the
 #: rounding of numpy's eigenvalues (about ``n eps ||B||``, 1e-15 for these sizes) and of the

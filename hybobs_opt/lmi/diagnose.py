@@ -58,7 +58,8 @@ class Diagnosis:
     certificate : InfeasibilityCertificate or None
         Why the paper's LMI is infeasible, when it is.
     decay : DecayResult or None
-        Largest decay rate of the feasible condition (with the gain bound).
+        The bisection of the best condition's LMI within the gain bound (the recommended gain,
+        ``design.best``, may come from the exact-bound search of :mod:`.gain_search` instead).
     theorem5 : SubtractionCheck
         Theorem 5's transformed LMI on the region.
     breakpoints : array
@@ -222,14 +223,16 @@ class Diagnosis:
         if self.certificate is not None:
             out["certificate"] = self.certificate.to_dict()
         if self.feasible:
-            if self.decay is not None:
-                sol = self.decay.solution
-                L, P, sigma = sol.L, sol.P, sol.sigma
+            best = None if self.design is None else self.design.best
+            if best is not None:
+                L, P = best.L, best.P
+                sigma = best.sigma_lmi if best.sigma_lmi is not None else best.sigma_verified
+                method = best.method
             else:
                 g = self.hierarchy.gain
-                L, P, sigma = g.L, g.P, 0.0
+                L, P, sigma, method = g.L, g.P, 0.0, "feasibility"
             out["gain"] = {"L": L.tolist(), "P": P.tolist(), "sigma": sigma, "condition": self.design_condition,
-                           "sigma_max": None if self.decay is None else self.decay.sigma_max,
+                           "method": method, "sigma_max": None if self.decay is None else self.decay.sigma_max,
                            "sigma_verified": self.sigma_verified,
                            "decay_search": None if self.decay is None else self.decay.to_dict(),
                            "gain_bound": self.gain_bound}
@@ -312,7 +315,9 @@ def diagnose(
                                       sigma_cap=sigma_cap, scaling=lmi.d)
         best = design.best
         if best is not None:
-            decay, design_key, rate = best.search, best.condition, best.sigma_verified
+            conditions = [c for c in design.by_condition if c.feasible]
+            decay = max(conditions, key=lambda c: c.sigma_verified).search if conditions else None
+            design_key, rate = best.condition, best.sigma_verified
         else:
             rate = hier.gain.sigma_verified
             suggest_error = next((c.reason for c in reversed(design.by_condition) if c.reason), "")
@@ -350,10 +355,12 @@ def _next_steps(d: Diagnosis) -> list[str]:
     steps = [d.verdict]
     if d.gain_accepted:
         cond = d.design_condition
-        steps.append(f"Design with the {cond} condition: largest decay rate {d.decay.sigma_max:.4g} 1/s"
+        best = d.design.best
+        how = ("by bisection on its LMI" if best.method == "bisection" else
+               "at the gain of the local search under the exact gain bound")
+        steps.append(f"Design with the {cond} condition ({how}): decay rate {d.sigma_verified:.4g} 1/s"
                      + (f" with ||L||_2 <= {d.gain_bound:g}" if d.gain_bound is not None else "")
-                     + (f", {d.sigma_verified:.4g} 1/s proven by the returned P and L on every vertex of the "
-                        "Jacobian box" if d.sigma_verified is not None else "") + ".")
+                     + ", proven by the returned P and L on every vertex of the Jacobian box.")
         steps.append("Synthesise it with `hybobs synth` over this range; no switching is needed.")
         return steps
     if d.feasible:

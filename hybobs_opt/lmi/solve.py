@@ -158,8 +158,17 @@ def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, 
         try:
             problem.solve(solver=solver, **options)
         except (cp.error.SolverError, ArithmeticError, ValueError, RuntimeError) as exc:
-            # RuntimeError: the solver's own crash (a Rust panic of Clarabel, a CVXOPT failure)
+            # RuntimeError: the solver's own crash (a CVXOPT failure)
             return SOLVER_ERROR, f"{solver}: {type(exc).__name__}: {exc}"
+        except BaseException as exc:
+            # a Rust panic inside Clarabel ("Eigval error" in a PSD cone's step length) surfaces as
+            # pyo3's PanicException, which derives from BaseException, not Exception
+            if type(exc).__name__ != "PanicException":
+                raise
+            # the panicked solver object stays in cvxpy's warm-start cache and panics on every
+            # later update ("Option::unwrap() on a None value"): drop it so the next solve starts fresh
+            getattr(problem, "_solver_cache", {}).pop(solver, None)
+            return SOLVER_ERROR, f"{solver}: Rust panic: {exc}"
     status = map_status(CVXPY_STATUS, problem.status, solver=f"cvxpy/{solver}")
     if status in POINT_STATUSES and not _point_is_finite(problem):
         return SOLVER_ERROR, f"{solver}: status {status} with a missing or non-finite point"

@@ -74,16 +74,25 @@ def test_commands_reject_bad_input(lmi_cli, argv, msg, capsys, tmp_path):
 ROBOT = "examples/models/flexible_joint_robot.toml"
 
 
-def test_diagnose_says_first_that_no_gain_meets_the_bound(lmi_cli, capsys):
-    """A gain bound no gain can meet is the verdict's first line, not a later bullet; the JSON agrees."""
-    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5"]) == 0
-    first = capsys.readouterr().out.splitlines()[0]
-    assert "NO GAIN FOUND WITHIN ||L||_2 <= 5" in first and "FEASIBLE" not in first.split(":")[1]
+def test_diagnose_gain_bound_is_the_first_line_and_the_gain_meets_it(lmi_cli, capsys):
+    """With --gain-bound the first line says what holds within the bound, and the gain it recommends
+    meets the bound: at 5 the LMIs' sufficient form of the bound is infeasible but the exact-bound
+    search finds a gain; at 1 neither finds one, and the verdict says so first."""
     assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["feasible"] is True and out["gain_accepted"] is False  # a gain exists, none within the bound
-    assert out["verdict"].startswith("NO GAIN FOUND WITHIN ||L||_2 <= 5")
+    assert out["verdict"].startswith("FEASIBLE: a constant gain with ||L||_2 <= 5 and decay rate")
+    assert out["gain_accepted"] is True and out["gain"]["method"] == "exact-bound search"
+    assert np.linalg.norm(np.array(out["gain"]["L"]), 2) <= 5 * (1 + 1e-6)
+    assert not any(c["feasible"] for c in out["decay_design"]["conditions"])
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert "NO GAIN FOUND WITHIN ||L||_2 <= 1" in first and "FEASIBLE" not in first.split(":")[1]
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["feasible"] is True and out["gain_accepted"] is False  # a gain exists, none found within the bound
+    assert out["verdict"].startswith("NO GAIN FOUND WITHIN ||L||_2 <= 1")
     assert out["decay_design"]["within_bound"] is False
+    assert out["decay_design"]["exact_bound_search"]["found"] is False
     assert not any("no switching is needed" in s for s in out["next_steps"])
 
 
