@@ -32,6 +32,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
                    help="bound on an output's noise in its units (repeatable; a bare VALUE bounds every output): "
                         "also design the gain with the smallest certified ultimate error bound under that noise")
+    p.add_argument("--exact-bound-search", action="store_true", dest="exact_bound_search",
+                   help="with a gain bound, also search the polytopic condition under the exact bound ||L||_2 <= "
+                        "GAIN_BOUND (a local search, seconds; on ill-conditioned systems the local optimum it reaches "
+                        "can depend on the BLAS kernels, so its rate is proven but not reproducible to the last digit)")
     add_force_argument(p)
     p.add_argument("--json", action="store_true", help="machine-readable verdict and certificate")
 
@@ -60,13 +64,14 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                 diag = diagnose(system, preset.coordinate, preset.to_model(lo), preset.to_model(hi), unit=preset.unit,
                                 factor=preset.factor, gain_bound=preset.gain_bound, min_decay=preset.min_decay,
                                 overlap=preset.to_model(preset.overlap), sigma_cap=preset.sigma_cap,
-                                scaling=scaling_for(preset, system), noise_bound=noise)
+                                scaling=scaling_for(preset, system), noise_bound=noise,
+                                exact_bound_search=args.exact_bound_search)
             else:
                 lo, hi, coordinate, unit = settings.lo, settings.hi, settings.coordinate, ""
                 diag = diagnose(system, settings.coordinate, settings.lo, settings.hi, gain_bound=settings.gain_bound,
                                 min_decay=settings.min_decay, overlap=settings.overlap, sigma_cap=settings.sigma_cap,
                                 scaling=settings.scaling, condition=settings.condition, required_decay=args.min_decay,
-                                noise_bound=noise)
+                                noise_bound=noise, exact_bound_search=args.exact_bound_search)
     finally:
         close()
     paths = None if out_dir is None else write_diagnosis_report(diag, out_dir, file_slug(named.label))

@@ -256,6 +256,7 @@ def diagnose(
     condition: str = "paper",
     required_decay: float | None = None,
     noise_bound=None,
+    exact_bound_search: bool = False,
 ) -> Diagnosis:
     """Diagnose the constant-gain observer LMI of ``system`` on ``coordinate`` in ``[lo, hi]``.
 
@@ -281,6 +282,9 @@ def diagnose(
         Bound on each output's noise, in the outputs' units
         (:func:`~hybobs_opt.contract.noise_bound_vector`): when a gain within the bound exists, the
         gain with the smallest certified ultimate error bound is designed too (:mod:`.noise_gain`).
+    exact_bound_search : bool, default False
+        With a gain bound, also search the polytopic condition under the exact bound
+        (:func:`.gain_search.decay_gain_search`); see :func:`.decay_design.decay_optimal_design`.
 
     Raises
     ------
@@ -312,7 +316,7 @@ def diagnose(
     decay, design_key, rate, design = None, hier.feasible_condition, None, None
     if hier.feasible:
         design = decay_optimal_design(system, bounds, gain_bound=gain_bound, min_decay=required_decay,
-                                      sigma_cap=sigma_cap, scaling=lmi.d)
+                                      sigma_cap=sigma_cap, scaling=lmi.d, search_exact_bound=exact_bound_search)
         best = design.best
         if best is not None:
             conditions = [c for c in design.by_condition if c.feasible]
@@ -368,6 +372,9 @@ def _next_steps(d: Diagnosis) -> list[str]:
                 "a lower required decay rate or a larger gain bound")
         steps.append(f"A constant gain exists on the range without these requirements; either accept {what}, or "
                      "switch gains between regions on which the requirements are met.")
+        if d.gain_bound is not None and d.design.exact_search is None:
+            steps.append("The conditions bound the gain through a sufficient LMI form; the local search under the "
+                         "exact bound (--exact-bound-search, or exact_bound_search=True) may find a gain they exclude.")
     if d.certificate is not None:
         nm = ", ".join(b.name for b in d.bounds.nonmonotonic)
         steps.append(f"Why the paper's LMI fails ({d.certificate.theorem}): "

@@ -79,15 +79,20 @@ def test_diagnose_gain_bound_is_the_first_line_and_the_gain_meets_it(lmi_cli, ca
     meets the bound: at 5 the LMIs' sufficient form of the bound is infeasible but the exact-bound
     search finds a gain; at 1 neither finds one, and the verdict says so first."""
     assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)  # the conditions alone: their form of the bound excludes every gain
+    assert out["verdict"].startswith("NO GAIN FOUND WITHIN ||L||_2 <= 5") and out["gain_accepted"] is False
+    assert out["decay_design"]["exact_bound_search"] is None
+    assert any("--exact-bound-search" in s for s in out["next_steps"])
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "5", "--exact-bound-search", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["verdict"].startswith("FEASIBLE: a constant gain with ||L||_2 <= 5 and decay rate")
     assert out["gain_accepted"] is True and out["gain"]["method"] == "exact-bound search"
     assert np.linalg.norm(np.array(out["gain"]["L"]), 2) <= 5 * (1 + 1e-6)
     assert not any(c["feasible"] for c in out["decay_design"]["conditions"])
-    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1"]) == 0
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1", "--exact-bound-search"]) == 0
     first = capsys.readouterr().out.splitlines()[0]
     assert "NO GAIN FOUND WITHIN ||L||_2 <= 1" in first and "FEASIBLE" not in first.split(":")[1]
-    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1", "--json"]) == 0
+    assert lmi_cli.main(["diagnose", ROBOT, "--gain-bound", "1", "--exact-bound-search", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is True and out["gain_accepted"] is False  # a gain exists, none found within the bound
     assert out["verdict"].startswith("NO GAIN FOUND WITHIN ||L||_2 <= 1")

@@ -53,9 +53,18 @@ def test_best_gain_is_within_the_bound_and_its_rate_holds_on_the_oracle_vertices
             assert -O.vertex_lyapunov_max_eig(c.P, c.L, "cos", LO, HI) >= c.sigma_verified * (1 - 1e-6) - 1e-9
 
 
-def test_the_exact_bound_search_proves_more_than_the_conditions_and_says_how(pendulum_cos):
+def test_the_internal_bound_is_raised_only_within_the_users_bound(pendulum_cos):
     system, _, bounds = pendulum_cos
     design = decay_optimal_design(system, bounds, gain_bound=20.0)
+    best = design.best
+    assert best.internal_gain_bound >= 20.0 and best.method == "bisection"
+    untightened = [c for c in design.by_condition if c.feasible and c is not best]
+    assert all(c.internal_gain_bound == 20.0 for c in untightened)
+
+
+def test_the_exact_bound_search_proves_more_than_the_conditions_and_says_how(pendulum_cos):
+    system, _, bounds = pendulum_cos
+    design = decay_optimal_design(system, bounds, gain_bound=20.0, search_exact_bound=True)
     best = design.best
     convex = max(c.sigma_verified for c in design.by_condition if c.feasible)
     # the conditions' sufficient bound (P >= a I) leaves part of the ball unused; the search does not
@@ -65,15 +74,15 @@ def test_the_exact_bound_search_proves_more_than_the_conditions_and_says_how(pen
     assert -O.vertex_lyapunov_max_eig(best.P, best.L, "cos", LO, HI) >= best.sigma_verified * (1 - 1e-6) - 1e-9
     assert "local search under the exact bound" in design.headline("theta in R")
     assert "a larger rate is not ruled out" in design.headline("theta in R")
-    # without the search the best condition's gain is reported, by bisection
-    plain = decay_optimal_design(system, bounds, gain_bound=20.0, search_exact_bound=False)
+    # without the search (the default) the best condition's gain is reported, by bisection
+    plain = decay_optimal_design(system, bounds, gain_bound=20.0)
     assert plain.exact_search is None and plain.best.method == "bisection"
     assert plain.best.sigma_verified == pytest.approx(convex)
 
 
 def test_a_gain_the_lmis_bound_excludes_is_found_by_the_exact_bound_search(robot):
     system, region, bounds = robot
-    design = decay_optimal_design(system, bounds, gain_bound=5.0)
+    design = decay_optimal_design(system, bounds, gain_bound=5.0, search_exact_bound=True)
     # every condition with the LMIs' form of the bound is infeasible, with a certificate ...
     assert not any(c.feasible for c in design.by_condition)
     last = design.by_condition[-1]
@@ -97,7 +106,7 @@ def test_a_gain_the_lmis_bound_excludes_is_found_by_the_exact_bound_search(robot
 
 def test_a_bound_no_gain_meets_is_the_first_line_with_a_certificate(robot):
     system, region, bounds = robot
-    design = decay_optimal_design(system, bounds, gain_bound=1.0)
+    design = decay_optimal_design(system, bounds, gain_bound=1.0, search_exact_bound=True)
     assert not design.within_bound and not design.met and design.best is None
     last = design.by_condition[-1]
     assert last.condition == "polytopic" and last.certificate is not None and last.certificate.verify()
@@ -108,12 +117,11 @@ def test_a_bound_no_gain_meets_is_the_first_line_with_a_certificate(robot):
 
 def test_a_required_rate_is_met_or_refused(robot):
     system, _, bounds = robot
-    # the conditions' bisections only: the verdicts read the same with the search's rate
-    free = decay_optimal_design(system, bounds, gain_bound=50.0, search_exact_bound=False)
+    free = decay_optimal_design(system, bounds, gain_bound=50.0)
     rate = free.best.sigma_verified
     assert rate > 0
-    above = decay_optimal_design(system, bounds, gain_bound=50.0, min_decay=2 * rate, search_exact_bound=False)
+    above = decay_optimal_design(system, bounds, gain_bound=50.0, min_decay=2 * rate)
     assert above.within_bound and not above.met
     assert above.headline("R").startswith("DECAY NOT MET:") and f"{2 * rate:g}" in above.headline("R")
-    below = decay_optimal_design(system, bounds, gain_bound=50.0, min_decay=0.5 * rate, search_exact_bound=False)
+    below = decay_optimal_design(system, bounds, gain_bound=50.0, min_decay=0.5 * rate)
     assert below.met and below.headline("R").startswith("FEASIBLE:")

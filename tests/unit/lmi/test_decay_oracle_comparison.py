@@ -36,7 +36,8 @@ def test_design_reaches_90_percent_of_the_oracles_best_rate(case, systems):
     region = make_region(system, case["coordinate"], case["lo"], case["hi"])
     bounds = jacobian_bounds(system, region)
     bound = case["gain_bound"]
-    design = decay_optimal_design(system, bounds, gain_bound=bound, scaling=model_scaling(system))
+    design = decay_optimal_design(system, bounds, gain_bound=bound, scaling=model_scaling(system),
+                                  search_exact_bound=True)
     best = design.best
     recorded = RECORD[case["id"]]
     assert best is not None and design.within_bound
