@@ -149,6 +149,13 @@ GAIN_SEARCH_SCREEN_KEEP: int = 16
 GAIN_SEARCH_SCREEN_EVALUATIONS: int = 2000
 GAIN_SEARCH_CERTIFY: int = 3
 
+#: Switched noise bound (:mod:`hybobs_opt.lmi.switched_noise`): the common rates of the joint SDP, as
+#: fractions of the smallest per-region optimum rate, and the couplings ``m`` as fractions of the way
+#: from 1 to ``e^{alpha tau}`` (the largest jump the dwell time allows): 4 x 4 SDPs, about 1 s on the
+#: vehicle's two regions.
+SWITCHED_NOISE_ALPHAS: tuple[float, ...] = (0.25, 0.5, 1.0, 1.5)
+SWITCHED_NOISE_COUPLINGS: tuple[float, ...] = (0.1, 0.3, 0.5, 0.8)
+
 #: Default upper end of the decay-rate bisection (1/s).  Without a gain bound the LMIs of the
 #: examples stay feasible for very large sigma with absurd gains (high-gain behaviour), so the
 #: search needs a cap; with a gain bound the bound decides.

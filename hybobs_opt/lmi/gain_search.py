@@ -61,7 +61,7 @@ from .observer_lmi import bisect_decay
 from .polytopic import vertex_decay, vertex_matrices, vertex_slopes
 from .solve import POINT_STATUSES, solve_problem
 
-__all__ = ["GainSearchResult", "SearchStart", "decay_gain_search", "eigenvalue_bound"]
+__all__ = ["GainSearchResult", "SearchStart", "decay_gain_search", "eigenvalue_bound", "gain_decay_rate"]
 
 
 # ---------------------------------------------------------------------------- results
@@ -478,6 +478,57 @@ def _screen(V: _Vertices) -> list[tuple[float, np.ndarray]]:
 
 
 # ---------------------------------------------------------------------------- the search
+def _problem(system: ScalarNonlinearSystem, bounds: JacobianBounds, bound: float, scaling) -> tuple[_Vertices, np.ndarray]:
+    """The scaled vertex matrices with the bound, and the column order of the scaled gains (linear outputs first)."""
+    d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
+    As, Cs = vertex_matrices(lmi_data(system).scaled(d), vertex_slopes(bounds))
+    lin = np.array(system.linear_outputs, dtype=bool)
+    cols = np.concatenate([np.nonzero(lin)[0], np.nonzero(~lin)[0]]).astype(int)
+    return _Vertices(tuple(As), tuple(Cs), d, bound), cols
+
+
+def _ceiling(V: _Vertices) -> float:
+    """``2 max_v (||A_v|| + ||L|| ||C_v||)`` in the scaled coordinates: no gain in the ball gives a larger rate."""
+    return 2.0 * max(np.linalg.norm(A, 2) + V.bound * np.linalg.norm(C, 2) / float(V.d.min()) for A, C in zip(V.As, V.Cs))
+
+
+def gain_decay_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, L: np.ndarray, *,
+                    scaling: np.ndarray | None = None) -> tuple[float, np.ndarray | None]:
+    """The largest decay rate of ``V = e'Pe`` a Lyapunov matrix proves for the given gain on every vertex.
+
+    For a fixed gain the polytopic condition is an LMI in ``P`` (a generalized eigenvalue problem in
+    ``sigma``), solved by bisection; the rate returned is the one the returned ``P`` proves in numpy
+    (:func:`.polytopic.vertex_decay`), within :data:`~hybobs_opt.defaults.GAIN_SEARCH_RTOL` of the
+    bisection's bracket.
+
+    Parameters
+    ----------
+    system : ScalarNonlinearSystem
+    bounds : JacobianBounds
+        The Jacobian box of the region.
+    L : (n, p) array
+        The gain (model units, outputs in model order).
+    scaling : (n,) array, optional
+        State scaling of the LMIs (default: the box half-widths).
+
+    Returns
+    -------
+    rate, P
+        The proven rate (``-inf`` when no ``P`` was found) and ``P`` in model coordinates (or ``None``).
+    """
+    L = np.asarray(L, dtype=float)
+    if L.shape != (system.n, system.p) or not np.all(np.isfinite(L)):
+        raise ModelError("L", f"a finite ({system.n}, {system.p}) gain", f"shape {L.shape}")
+    norm = float(np.linalg.norm(L, 2))
+    V, cols = _problem(system, bounds, max(norm, 1e-300), scaling)
+    Lb = L[:, cols] / V.d[:, None]
+    rate, P = _certify(V, Lb, None, _ceiling(V), _Counter(), {})
+    if P is None or not np.isfinite(rate):
+        return float("-inf"), None
+    P_model = P / V.d[:, None] / V.d[None, :]
+    return float(rate), 0.5 * (P_model + P_model.T)
+
+
 def decay_gain_search(system: ScalarNonlinearSystem, bounds: JacobianBounds, gain_bound: float, *,
                       starts: tuple[tuple[str, np.ndarray, np.ndarray], ...] = (), screen: bool = True,
                       scaling: np.ndarray | None = None, sigma_cap: float | None = None) -> GainSearchResult:
@@ -515,12 +566,9 @@ def decay_gain_search(system: ScalarNonlinearSystem, bounds: JacobianBounds, gai
     if not (np.isfinite(bound) and bound > 0):
         raise ModelError("gain_bound", "a positive finite bound on ||L||_2", repr(gain_bound))
     t0 = time.perf_counter()
-    d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
-    As, Cs = vertex_matrices(lmi_data(system).scaled(d), vertex_slopes(bounds))
-    V = _Vertices(tuple(As), tuple(Cs), d, bound)
-    lin = np.array(system.linear_outputs, dtype=bool)
-    cols = np.concatenate([np.nonzero(lin)[0], np.nonzero(~lin)[0]]).astype(int)
-    ceiling = 2.0 * max(np.linalg.norm(A, 2) + bound * np.linalg.norm(C, 2) / float(d.min()) for A, C in zip(As, Cs))
+    V, cols = _problem(system, bounds, bound, scaling)
+    d = V.d
+    ceiling = _ceiling(V)
     cap = ceiling if sigma_cap is None else min(float(sigma_cap), ceiling)
     counter, cache = _Counter(), {}
 

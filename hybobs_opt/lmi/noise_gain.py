@@ -505,15 +505,19 @@ class NoiseGainLMI:
         State scaling (default: the box half-widths).
     multipliers : {"per_channel", "pooled"}
         See the module docstring.
+    fixed_gain : bool, default False
+        Analyse a given gain instead of designing one: ``Y = P L`` with ``L`` a parameter (set by
+        :meth:`solve`'s ``gain``), so the blocks are LMIs in ``(P, mu)`` alone.
 
     Raises
     ------
     ModelError
-        A system with ``g(y, u)``, too many vertices, a bad scaling or multiplier layout.
+        A system with ``g(y, u)``, too many vertices, a bad scaling or multiplier layout, or a gain
+        bound with a fixed gain.
     """
 
     def __init__(self, system: ScalarNonlinearSystem, *, n_disturbance: int = 0, gain_bound: float | None = None,
-                 scaling: np.ndarray | None = None, multipliers: str = "per_channel"):
+                 scaling: np.ndarray | None = None, multipliers: str = "per_channel", fixed_gain: bool = False):
         from ..defaults import POLYTOPIC_MAX_VERTICES
 
         if not isinstance(system, ScalarNonlinearSystem):
@@ -537,27 +541,31 @@ class NoiseGainLMI:
         self.n_vertices = 2 ** k
         self.order = _output_order(system)
         self.gain_bound = None if gain_bound is None else float(gain_bound)
+        self.fixed_gain = bool(fixed_gain)
+        if self.fixed_gain and self.gain_bound is not None:
+            raise ModelError("gain_bound", "no bound with a fixed gain (the gain is given)", repr(gain_bound))
         self._build()
 
     @classmethod
     def compiled(cls, system: ScalarNonlinearSystem, *, n_disturbance: int = 0, gain_bound: float | None = None,
-                 scaling: np.ndarray | None = None, multipliers: str = "per_channel") -> "NoiseGainLMI":
+                 scaling: np.ndarray | None = None, multipliers: str = "per_channel",
+                 fixed_gain: bool = False) -> "NoiseGainLMI":
         """The process-wide compiled LMI (keyed by the system, the sizes, the scaling and the layout).
 
         Parameters
         ----------
         system : ScalarNonlinearSystem
             The cache key (held weakly).
-        n_disturbance, gain_bound, scaling, multipliers
+        n_disturbance, gain_bound, scaling, multipliers, fixed_gain
             As for :class:`NoiseGainLMI`; the gain bound's value is set on every call.
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
-        key = (int(n_disturbance), gain_bound is None, d.tobytes(), multipliers)
+        key = (int(n_disturbance), gain_bound is None, d.tobytes(), multipliers, bool(fixed_gain))
         per = _COMPILED.setdefault(system, {})
         obj = per.get(key)
         if obj is None:
             obj = per[key] = cls(system, n_disturbance=n_disturbance, gain_bound=gain_bound, scaling=d,
-                                 multipliers=multipliers)
+                                 multipliers=multipliers, fixed_gain=fixed_gain)
         elif gain_bound is not None:
             obj.set_gain_bound(gain_bound)
         return obj
@@ -566,7 +574,12 @@ class NoiseGainLMI:
         n, p, m = self.system.n, self.system.p, self.m
         q = p + m
         self.P = cp.Variable((n, n), symmetric=True, name="P")
-        self.Y = cp.Variable((n, p), name="Y")
+        if self.fixed_gain:  # scaled gain, columns in output order (linear outputs first)
+            self.L_par = cp.Parameter((n, p), name="L", value=np.zeros((n, p)))
+            self.Y = self.P @ self.L_par
+        else:
+            self.L_par = None
+            self.Y = cp.Variable((n, p), name="Y")
         self.mu = cp.Variable(q, nonneg=True, name="mu")
         self.Bv = cp.Variable((n, n), symmetric=True, name="B")
         self.t = cp.Variable(name="t")
@@ -625,7 +638,7 @@ class NoiseGainLMI:
     # -- solving
     def solve(self, bounds: JacobianBounds, alpha: float, noise: np.ndarray, *, W: np.ndarray | None = None,
               disturbance: np.ndarray | None = None, reference: np.ndarray | None = None,
-              noise_scale: float = 1.0) -> NoiseBoundDesign:
+              noise_scale: float = 1.0, gain: np.ndarray | None = None) -> NoiseBoundDesign:
         """One SDP at decay rate ``alpha``: the smallest worst relative bound, re-checked in numpy.
 
         Parameters
@@ -646,6 +659,9 @@ class NoiseGainLMI:
             The SDP is solved for the noise divided by this (the design is linear in the noise:
             ``P`` scales as its inverse square, ``L`` not at all), which keeps ``P`` of order one
             when it is about the size of the relative bound.
+        gain : (n, p) array
+            The gain analysed (model units, columns in output order); required for an LMI built
+            with ``fixed_gain=True``, refused otherwise.
 
         Returns
         -------
@@ -656,6 +672,11 @@ class NoiseGainLMI:
         system, n = self.system, self.system.n
         alpha = as_positive(alpha, "alpha", "a positive decay rate of V")
         vbar, Wm, wbar, ref = _check_noise(system, noise, W, disturbance, reference, self.m)
+        if self.fixed_gain != (gain is not None):
+            raise ModelError("gain", "a gain exactly when the LMI was built with fixed_gain=True",
+                             "none" if gain is None else "a gain")
+        if gain is not None:
+            self.L_par.value = _check_gain(gain, system)[:, self.order] / self.d[:, None]
         As, Cs = _scaled_vertices(system, bounds, self.d)
         for par, A in zip(self.A_par, As):
             par.value = A
@@ -697,7 +718,9 @@ class NoiseGainLMI:
         w = np.linalg.eigvalsh(Pt)
         if not w[0] > 0.0:
             return failed(p_min_eig=float(w[0]))
-        L_bar = np.linalg.solve(Pt, np.asarray(self.Y.value, dtype=float))
+        # a fixed gain is delivered as given (the re-check below is of that gain)
+        L_bar = (np.array(self.L_par.value, dtype=float) if self.fixed_gain
+                 else np.linalg.solve(Pt, np.asarray(self.Y.value, dtype=float)))
         mu = np.clip(np.asarray(self.mu.value, dtype=float), 0.0, None)
         P_bar = Pt / r0 ** 2  # the LMI was solved for the noise / r0
         alpha2, mu2, blocks = _repair(P_bar, L_bar, alpha, mu, As, Cs, v_ord, W_bar)
@@ -718,6 +741,14 @@ class NoiseGainLMI:
         return NoiseBoundDesign(True, status, L, P, float(alpha2), mu2, level, bound, gain_norm=gain,
                                 lmi_max_eig=eigs, p_min_eig=float(w[0] / r0 ** 2),
                                 seconds=time.perf_counter() - t0, **base)
+
+
+def _check_gain(gain, system) -> np.ndarray:
+    """A gain to analyse: a finite ``(n, p)`` array (model units, columns in output order)."""
+    L = np.asarray(gain, dtype=float)
+    if L.shape != (system.n, system.p) or not np.all(np.isfinite(L)):
+        raise ModelError("gain", f"a finite ({system.n}, {system.p}) observer gain", f"shape {np.shape(gain)}")
+    return L
 
 
 def _check_noise(system, noise, W, disturbance, reference, m_expected: int | None = None):
@@ -799,7 +830,7 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
                          gain_bound: float | None = None, min_decay: float | None = None,
                          alpha: float | None = None, scaling: np.ndarray | None = None, reference=None,
                          multipliers: str = "per_channel", sigma_cap: float | None = None,
-                         grid: int | None = None, rtol: float | None = None) -> NoiseBoundDesign:
+                         grid: int | None = None, rtol: float | None = None, gain=None) -> NoiseBoundDesign:
     """The gain with the smallest certified ultimate error bound under bounded noise (module docstring).
 
     Parameters
@@ -834,6 +865,10 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     rtol : float, optional
         Relative width in ``alpha`` at which the golden-section refinement stops (default
         :data:`~hybobs_opt.defaults.NOISE_ALPHA_RTOL`).
+    gain : (n, p) array, optional
+        Analyse this gain (model units, output order) instead of designing one: the same search
+        over ``alpha`` with ``Y = P L`` fixed, up to the largest rate a Lyapunov matrix proves for
+        the gain (:func:`.gain_search.gain_decay_rate`).  No gain bound with it.
 
     Returns
     -------
@@ -857,9 +892,15 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     gain_bound = as_positive(gain_bound, "gain_bound", "a positive finite bound on ||L||_2", allow_none=True)
     min_decay = as_positive(min_decay, "min_decay", "a positive decay rate", allow_none=True)
     vbar, Wm, wbar, ref = _check_noise(system, noise, W, disturbance, reference)
-    build = dict(n_disturbance=wbar.size, scaling=scaling, multipliers=multipliers)
+    if gain is not None:
+        if gain_bound is not None:
+            raise ModelError("gain_bound", "no gain bound when a gain is given to analyse", repr(gain_bound))
+        gain = _check_gain(gain, system)
+    build = dict(n_disturbance=wbar.size, scaling=scaling, multipliers=multipliers, fixed_gain=gain is not None)
     lmi = NoiseGainLMI.compiled(system, gain_bound=gain_bound, **build)
     kw = dict(W=Wm if wbar.size else None, disturbance=wbar if wbar.size else None, reference=ref)
+    if gain is not None:
+        kw["gain"] = gain
     log: list[tuple[float, float, str]] = []
     state = {"scale": None, "best": None}
     tol = math.log(1.0 + (NOISE_ALPHA_RTOL if rtol is None else rtol))
@@ -894,17 +935,29 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
         run(alpha)
         lo = hi = alpha
     else:
-        plmi, decay = _polytopic_rate(system, bounds, gain_bound, lmi.d, SIGMA_CAP if sigma_cap is None else sigma_cap)
-        hi = float(decay.sigma_max)
-        if min_decay is not None and min_decay > hi:
-            err = _no_rate_error(system, bounds, plmi, float(min_decay), gain_bound)
-            if err is not None:
-                raise err
-            hi = float(min_decay)
-        if hi <= 0.0:
-            raise _no_rate_error(system, bounds, plmi, 0.0, gain_bound) or SolverError(
-                f"noise-gain design of {system.name}", SOLVER, "no positive decay rate",
-                "raise the gain bound or shrink the region")
+        if gain is not None:
+            from .gain_search import gain_decay_rate
+
+            hi = gain_decay_rate(system, bounds, gain, scaling=lmi.d)[0]
+            if not hi > 0.0:
+                raise ModelError("gain", "a gain whose error dynamics one quadratic Lyapunov function proves stable "
+                                 "on every vertex of the Jacobian box", f"best proven rate {hi:.4g}")
+            if min_decay is not None and min_decay > hi:
+                raise ModelError("min_decay", f"at most {hi:.6g}, the largest rate proven for the gain",
+                                 f"{min_decay:g}")
+        else:
+            plmi, decay = _polytopic_rate(system, bounds, gain_bound, lmi.d,
+                                          SIGMA_CAP if sigma_cap is None else sigma_cap)
+            hi = float(decay.sigma_max)
+            if min_decay is not None and min_decay > hi:
+                err = _no_rate_error(system, bounds, plmi, float(min_decay), gain_bound)
+                if err is not None:
+                    raise err
+                hi = float(min_decay)
+            if hi <= 0.0:
+                raise _no_rate_error(system, bounds, plmi, 0.0, gain_bound) or SolverError(
+                    f"noise-gain design of {system.name}", SOLVER, "no positive decay rate",
+                    "raise the gain bound or shrink the region")
         lo = max(min_decay or 0.0, hi * NOISE_ALPHA_MIN_FRACTION)
         k = NOISE_ALPHA_GRID if grid is None else max(int(grid), 2)
         alphas = np.geomspace(lo, hi, k) if hi > lo else np.array([lo])
