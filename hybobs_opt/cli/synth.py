@@ -3,7 +3,11 @@ gains per region, the dwell time ``tau`` and the hysteresis (paper 004); writes 
 prints ``regions`` (each with its ``interval``, ``L``, ``P``, ``sigma``, ``sigma_verified`` and the
 ``decay_search`` log), ``tau``, ``settings``, ``solver_counts`` and ``verification`` (the frozen error
 dynamics of every region and the switched observer simulated from several initial errors, with
-convergence times: :mod:`hybobs_opt.observers.switched_verification`).  A hysteresis that does not
+convergence times: :mod:`hybobs_opt.observers.switched_verification`).  ``--noise-bound NAME=VALUE``
+adds ``noise_bound``: the certified ultimate error bound of the switched observer under that
+output noise, with the dwell time it needs, and ``noise_design``: gains on the same regions that
+minimise that bound at the design's slowest rate and gain bound (:mod:`hybobs_opt.lmi.switched_noise`;
+the gains file keeps the synthesised gains).  A hysteresis that does not
 enforce the dwell time is an error unless ``--accept-unenforced-dwell`` (then it is in ``warnings``).
 Any scalar-nonlinear system: the paper's examples use their published settings, every other
 system settings read from the model (:mod:`hybobs_opt.lmi.auto_design`).
@@ -18,7 +22,8 @@ import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ._common import add_force_argument, add_system_argument, check_output_path, json_default, print_json
+from ._common import (add_force_argument, add_system_argument, bound_entries, check_output_path, json_default,
+                      print_json)
 from ._schedule import add_design_arguments, design_setup, parse_range
 
 HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
@@ -37,6 +42,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-verify", action="store_true", help="skip the simulation and frozen-Jacobian checks")
     p.add_argument("--periodic", action="append", default=[], metavar="STATE=PERIOD",
                    help="a periodic state (e.g. psi=6.283185307179586) the verification's observer wraps")
+    p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
+                   help="bound on an output's noise in its units (repeatable; a bare VALUE bounds every output): "
+                        "also certify the switched observer's ultimate error bound under that noise")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     named, preset, settings = design_setup(args)
     system = named.system
     periodic = _periodic(args.periodic, system)
+    noise = None if not args.noise_bound else bound_entries(args.noise_bound, tuple(system.output_names),
+                                                            "--noise-bound", "noise_bound", "output")
     accept = bool(args.accept_unenforced_dwell)
     update, close = counter_bar(not args.json, "LMI solves", "solve")
     try:
@@ -84,7 +94,13 @@ def run(args: argparse.Namespace) -> int:
             periodic = periodic or PERIODIC.get(named.example.name)
         design = dataclasses.replace(design, verification=verify_switched_design(design, scenario, scenario_name=name,
                                                                                   periodic=periodic))
+    snb = snd = None
+    if noise is not None:
+        snb, snd = _noise_bounds(design, noise, preset, settings, args.json)
     out = design.to_dict(unit, factor)
+    if snb is not None:
+        out["noise_bound"] = snb.to_dict(unit, factor)
+        out["noise_design"] = snd.to_dict(unit, factor)
     out["example"] = named.label
     out["system_label"] = named.label
     out["range"] = [lo, hi]
@@ -119,8 +135,34 @@ def run(args: argparse.Namespace) -> int:
               + (f", worst convergence time {sim.worst_convergence_time:.4g} s" if sim.converged else ""))
         for note in v.notes:
             print(f"warning: {note}", file=sys.stderr)
+    if snb is not None:
+        print(f"noise, synthesised gains: {snb.claim()}")
+        print(f"noise, gains designed for it (decay rate >= {min(r.sigma for r in design.regions):.4g} 1/s): "
+              f"{snd.claim()}")
     print(f"gains written to {path}")
     return 0
+
+
+def _noise_bounds(design, noise: dict, preset, settings, quiet: bool):
+    """The certified bounds under ``noise`` (by output name) of the design's gains and of gains designed for it."""
+    from ..contract import noise_bound_vector
+    from ..lmi.switched_noise import switched_noise_bound
+    from ..progress import counter_bar
+    from ..studies.paper004_nonmonotonic.presets import scaling_for
+
+    system = design.system
+    scaling = scaling_for(preset, system) if preset is not None else settings.scaling
+    vbar = noise_bound_vector(noise, system.output_names)
+    update, close = counter_bar(not quiet, "noise SDPs", "SDP")
+    tick = None if update is None else (lambda n: update(n, None))
+    try:
+        given = switched_noise_bound(design, vbar, reference=scaling, scaling=scaling, progress=tick)
+        designed = switched_noise_bound(design, vbar, reference=scaling, scaling=scaling, design_gains=True,
+                                        gain_bound=design.gain_bound, min_decay=min(r.sigma for r in design.regions),
+                                        progress=tick)
+    finally:
+        close()
+    return given, designed
 
 
 def _periodic(items: list[str], system) -> dict[str, float] | None:

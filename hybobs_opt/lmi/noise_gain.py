@@ -329,6 +329,19 @@ class NoiseBoundDesign(Certificate):
                 f"stay in the region of the box")
 
     @property
+    def peak_to_peak_gain(self) -> np.ndarray | None:
+        """Per state, the bound per unit of the largest output-noise bound (``None`` with a disturbance).
+
+        The design is linear in the noise (``P`` scales as its inverse square), so for the same
+        gain a noise ``c vbar`` gives the bound ``c bound``: this is the peak-to-peak gain from the
+        output noise to each error component.
+        """
+        top = float(np.max(self.noise)) if self.noise.size else 0.0
+        if self.bound is None or self.disturbance.size or top <= 0.0:
+            return None
+        return self.bound / top
+
+    @property
     def relative_bound(self) -> np.ndarray | None:
         """``bound / reference`` per state."""
         return None if self.bound is None else self.bound / self.reference
@@ -432,6 +445,7 @@ class NoiseBoundDesign(Certificate):
 
         return {"feasible": self.feasible, "status": str(self.status), "alpha": self.alpha,
                 "alpha_solved": self.alpha_solved, "level": self.level, "bound": arr(self.bound),
+                "peak_to_peak_gain": arr(self.peak_to_peak_gain),
                 "relative_bound": arr(self.relative_bound),
                 "worst_relative": self.worst_relative if self.feasible else None, "reference": arr(self.reference),
                 "noise": arr(self.noise), "disturbance": arr(self.disturbance), "W": arr(self.W),

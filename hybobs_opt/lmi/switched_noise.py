@@ -45,6 +45,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..status import Status
+from ..tolerances import GAIN_BOUND_RTOL
 from .noise_gain import (NoiseBoundDesign, _bounds_from, _check_noise, _output_order, _repair, _scaled_vertices,
                          noise_optimal_design)
 from .solve import POINT_STATUSES, solve_problem
@@ -86,6 +87,9 @@ class SwitchedNoiseBound:
         ``"per region"`` (each ellipsoid on its own) or ``"joint"`` (one SDP with the switches coupled).
     candidates : tuple of dict
         Every candidate tried (``alpha``, ``m``, the jump, the dwell needed and the worst relative bound).
+    gains : str
+        ``"given"`` (the design's gains, bounded) or ``"designed"`` (new gains minimising the bound,
+        in ``by_region[i].L``).
     """
 
     design: SwitchedDesign = field(repr=False)
@@ -102,6 +106,7 @@ class SwitchedNoiseBound:
     seconds: float
     method: str = "per region"
     candidates: tuple = ()
+    gains: str = "given"
 
     @property
     def holds(self) -> bool:
@@ -123,23 +128,27 @@ class SwitchedNoiseBound:
                     f"at a switch and shrink at rate {self.alpha:.4g} 1/s, so switches must be more than "
                     f"{self.dwell_needed:.4g} s apart; the dwell time assumed ({self.dwell_source}) is {self.dwell:.4g} s.")
         bound = ", ".join(f"|e_{nm}| <= {b:.4g}" for nm, b in zip(names, self.bound))
+        whose = "its gain" if self.gains == "given" else "the gain designed for it"
         return (f"Under output noise |v| <= {noise} the switched observer's error ends in {bound} (each region's "
-                f"invariant ellipsoid for its gain, re-checked in numpy, inflated by sqrt(u*) = {math.sqrt(self.level):.4g} "
+                f"invariant ellipsoid for {whose}, re-checked in numpy, inflated by sqrt(u*) = {math.sqrt(self.level):.4g} "
                 f"for switches at least {self.dwell:.4g} s apart ({self.dwell_source}; {self.dwell_needed:.4g} s "
                 "needed), while the state and the estimate stay in the active region).")
 
-    def to_dict(self) -> dict:
+    def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
+        """JSON-ready fields; region intervals in the display unit (model value / ``factor``)."""
         def arr(a):
             return None if a is None else np.asarray(a).tolist()
 
         return {"holds": self.holds, "bound": arr(self.bound), "peak_to_peak_gain": arr(self.peak_to_peak_gain),
                 "noise": arr(self.noise), "alpha": self.alpha, "jump": self.jump, "dwell": self.dwell,
                 "dwell_source": self.dwell_source, "dwell_needed": self.dwell_needed, "level": self.level,
-                "method": self.method, "claim": self.claim(), "candidates": list(self.candidates),
+                "method": self.method, "gains": self.gains, "claim": self.claim(), "candidates": list(self.candidates),
                 "jumps": [{"from": i, "to": j, "mu": mu} for (i, j), mu in sorted(self.jumps.items())],
-                "regions": [{"interval": [r.region.lo, r.region.hi], "sigma": r.sigma,
+                "unit": unit,
+                "regions": [{"interval": [r.region.lo / factor, r.region.hi / factor], "sigma": r.sigma,
                              "sigma_verified": r.sigma_verified, "alpha": d.alpha, "level": d.level,
-                             "bound": arr(d.bound), "gain_norm": d.gain_norm, "verified": bool(d.verify())}
+                             "bound": arr(d.bound), "gain_norm": d.gain_norm, "verified": bool(d.verify()),
+                             **({"L": arr(d.L)} if self.gains == "designed" else {})}
                             for r, d in zip(self.design.regions, self.by_region)],
                 "seconds": self.seconds}
 
@@ -156,34 +165,55 @@ def _jump(Pi: np.ndarray, ci: float, Pj: np.ndarray, cj: float) -> float:
 
 
 class _JointNoiseLMI:
-    """The noise blocks of every region with fixed gains, coupled by ``P_b <= m P_a`` for every switch ``(a, b)``.
+    """The noise blocks of every region, coupled by ``P_b <= m P_a`` for every switch ``(a, b)``.
 
-    Parameters (cvxpy): the common rate ``alpha``, the coupling ``m``, each region's closed-loop
-    vertex matrices ``A_v - L_i C_v`` and ``L_i diag(vbar)`` (scaled coordinates).
+    With fixed gains the parameters are each region's closed-loop vertex matrices ``A_v - L_i C_v``
+    and ``L_i diag(vbar)``; with ``design_gains`` the gains are unknowns (``Y_i = P_i L_i``), the
+    parameters the vertex matrices ``A_v, C_v`` and ``vbar``, and an optional bound on each
+    ``||L_i||_2`` takes the sufficient form of :mod:`.noise_gain` (scaled coordinates throughout).
+    The common rate ``alpha`` and the coupling ``m`` are parameters too.
     """
 
-    def __init__(self, n: int, p: int, vertices: list[int], pairs, w_ref: np.ndarray):
+    def __init__(self, n: int, p: int, vertices: list[int], pairs, w_ref: np.ndarray, *, design_gains: bool = False,
+                 gain_bound: float | None = None, d: np.ndarray | None = None):
+        self.design_gains = design_gains
         self.alpha = cp.Parameter(nonneg=True, value=1.0)
         self.m = cp.Parameter(nonneg=True, value=1.0)
+        self.v = cp.Parameter(p, nonneg=True, value=np.ones(p))
         self.t = cp.Variable()
-        self.P, self.mu, self.Acl, self.LV = [], [], [], []
+        self.P, self.Y, self.mu, self.A, self.C, self.LV = [], [], [], [], [], []
         cons = []
         for nv in vertices:
             P = cp.Variable((n, n), symmetric=True)
             mu = cp.Variable(p, nonneg=True)
             B = cp.Variable((n, n), symmetric=True)
-            Acl = [cp.Parameter((n, n)) for _ in range(nv)]
-            LV = cp.Parameter((n, p))
-            for M in Acl:
-                B11 = P @ M + M.T @ P + self.alpha * P
-                B12 = -P @ LV
-                blk = cp.bmat([[B11, B12], [B12.T, -cp.diag(mu)]])
+            A = [cp.Parameter((n, n)) for _ in range(nv)]
+            if design_gains:
+                Y = cp.Variable((n, p))
+                C = [cp.Parameter((p, n)) for _ in range(nv)]
+                noise_col = -Y @ cp.diag(self.v)
+                LV = None
+            else:
+                Y, C = None, []
+                LV = cp.Parameter((n, p))
+                noise_col = -P @ LV
+            for v in range(nv):
+                B11 = (P @ A[v] + A[v].T @ P - Y @ C[v] - C[v].T @ Y.T if design_gains else P @ A[v] + A[v].T @ P)
+                blk = cp.bmat([[B11 + self.alpha * P, noise_col], [noise_col.T, -cp.diag(mu)]])
                 cons.append(0.5 * (blk + blk.T) << 0)
             G = cp.bmat([[P, np.eye(n)], [np.eye(n), B]])
             cons += [0.5 * (G + G.T) >> 0, cp.multiply(w_ref, cp.diag(B)) <= self.t, cp.sum(mu) == self.alpha]
+            if design_gains and gain_bound is not None:
+                dmax = float(d.max())
+                kappa = cp.Variable(nonneg=True)
+                cons.append(P >> kappa * np.diag((d / dmax) ** 2))
+                H = cp.bmat([[P, Y], [Y.T, (gain_bound / dmax) ** 2 * kappa * np.eye(p)]])
+                cons.append(0.5 * (H + H.T) >> 0)
             self.P.append(P)
+            self.Y.append(Y)
             self.mu.append(mu)
-            self.Acl.append(Acl)
+            self.A.append(A)
+            self.C.append(C)
             self.LV.append(LV)
         for a, b in pairs:
             for i, j in ((a, b), (b, a)):
@@ -214,7 +244,9 @@ def _combine(regions: list[NoiseBoundDesign], pairs, dwell: float):
 
 
 def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None = None, reference=None,
-                         scaling: np.ndarray | None = None, progress=None) -> SwitchedNoiseBound:
+                         scaling: np.ndarray | None = None, design_gains: bool = False,
+                         gain_bound: float | None = None, min_decay: float | None = None,
+                         progress=None) -> SwitchedNoiseBound:
     """The ultimate error bound of ``design``'s switched observer under output noise ``|v_j| <= noise[j]``.
 
     Parameters
@@ -230,6 +262,13 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
         Per-state sizes the bound is minimised against (default: the box half-widths).
     scaling : (n,) array, optional
         State scaling of the noise LMIs (default: the box half-widths).
+    design_gains : bool, default False
+        Design new gains on the design's regions that minimise the bound (``Y_i = P_i L_i``
+        unknown), instead of bounding the design's own gains.
+    gain_bound : float, optional
+        With ``design_gains``: ``||L_i||_2 <= gain_bound`` (sufficient LMI form).
+    min_decay : float, optional
+        With ``design_gains``: the rate ``alpha`` (of ``V`` without noise) must reach this.
     progress : callable, optional
         Called with the number of SDPs solved so far.
 
@@ -264,10 +303,15 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
         if progress is not None:
             progress(done[0])
 
-    # each region on its own (its gain's best invariant ellipsoid)
+    if not design_gains and (gain_bound is not None or min_decay is not None):
+        raise ModelError("gain_bound, min_decay", "only with design_gains=True (the design's gains are given)",
+                         "a value")
+    # each region on its own (its gain's, or its best gain's, invariant ellipsoid)
     alone = []
     for r in design.regions:
-        alone.append(noise_optimal_design(system, r.bounds, vbar, gain=r.L, reference=ref, scaling=scaling))
+        alone.append(noise_optimal_design(system, r.bounds, vbar, gain_bound=gain_bound, min_decay=min_decay,
+                                          reference=ref, scaling=scaling) if design_gains else
+                     noise_optimal_design(system, r.bounds, vbar, gain=r.L, reference=ref, scaling=scaling))
         tick()
     best = (_combine(alone, design.pairs, dwell), alone, "per region")
     candidates = [_candidate_row(None, None, best[0], ref)]
@@ -276,19 +320,29 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
     d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
     order = _output_order(system)
     verts = [_scaled_vertices(system, r.bounds, d) for r in design.regions]
-    lmi = _JointNoiseLMI(n, p, [len(v[0]) for v in verts], design.pairs, (d / ref) ** 2)
+    lmi = _JointNoiseLMI(n, p, [len(v[0]) for v in verts], design.pairs, (d / ref) ** 2, design_gains=design_gains,
+                         gain_bound=gain_bound, d=d)
     r0 = max(a.worst_relative for a in alone)  # noise divisor: keeps the P_i of order one
     Lbars = [r.L[:, order] / d[:, None] for r in design.regions]
     for k, (As, Cs) in enumerate(verts):
-        for par, A, C in zip(lmi.Acl[k], As, Cs):
-            par.value = A - Lbars[k] @ C
-        lmi.LV[k].value = Lbars[k] * (vbar[order] / r0)[None, :]
+        if design_gains:
+            for par, A in zip(lmi.A[k], As):
+                par.value = A
+            for par, C in zip(lmi.C[k], Cs):
+                par.value = C
+        else:
+            for par, A, C in zip(lmi.A[k], As, Cs):
+                par.value = A - Lbars[k] @ C
+            lmi.LV[k].value = Lbars[k] * (vbar[order] / r0)[None, :]
+    lmi.v.value = vbar[order] / r0
     top = min(a.alpha_solved for a in alone)
-    for alpha in top * np.asarray(SWITCHED_NOISE_ALPHAS):
+    alphas = [a for a in top * np.asarray(SWITCHED_NOISE_ALPHAS) if min_decay is None or a >= min_decay]
+    for alpha in alphas:
         for frac in SWITCHED_NOISE_COUPLINGS:
             m = 1.0 + (math.exp(alpha * dwell) - 1.0) * frac
             lmi.alpha.value, lmi.m.value = float(alpha), float(m)
-            regions = _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, alpha, solve_problem)
+            regions = _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, alpha, solve_problem,
+                                   gain_bound)
             tick()
             if regions is None:
                 candidates.append({"alpha": float(alpha), "m": float(m), "status": "no checked point"})
@@ -299,7 +353,8 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
                 best = (combined, regions, "joint")
     (jumps, alpha, jump, needed, level, bound), regions, method = best
     return SwitchedNoiseBound(design, tuple(regions), jumps, float(alpha), float(jump), dwell, source, float(needed),
-                              level, bound, vbar, time.perf_counter() - t0, method, tuple(candidates))
+                              level, bound, vbar, time.perf_counter() - t0, method, tuple(candidates),
+                              "designed" if design_gains else "given")
 
 
 def _worst(combined, ref) -> float:
@@ -320,7 +375,8 @@ def _candidate_row(alpha, m, combined, ref) -> dict:
             "worst_relative": worst if np.isfinite(worst) else None}
 
 
-def _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, alpha, solve) -> list | None:
+def _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, alpha, solve,
+                 gain_bound: float | None = None) -> list | None:
     """The joint SDP's point as re-checked per-region designs, or ``None`` (no point, or a check failed)."""
     out = solve(lmi.problem)
     if out.status not in POINT_STATUSES:
@@ -334,15 +390,26 @@ def _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, alp
         if not np.all(np.isfinite(P_bar)) or np.linalg.eigvalsh(P_bar)[0] <= 0:
             return None
         mu = np.clip(np.asarray(mv, dtype=float), 0.0, None)
-        a2, mu2, blocks = _repair(P_bar, Lbars[k], float(alpha), mu, As, Cs, vbar[order], np.zeros((system.n, 0)))
+        if lmi.design_gains:
+            Yv = lmi.Y[k].value
+            if Yv is None or not np.all(np.isfinite(Yv)):
+                return None
+            Lbar = np.linalg.solve(P_bar * r0 ** 2, np.asarray(Yv, dtype=float))
+            L = np.zeros((system.n, system.p))
+            L[:, order] = d[:, None] * Lbar
+            if gain_bound is not None and np.linalg.norm(L, 2) > gain_bound * (1 + GAIN_BOUND_RTOL):
+                return None
+        else:
+            Lbar, L = Lbars[k], r.L
+        a2, mu2, blocks = _repair(P_bar, Lbar, float(alpha), mu, As, Cs, vbar[order], np.zeros((system.n, 0)))
         eigs = tuple(float(np.linalg.eigvalsh(B)[-1]) for B in blocks)
         if not (a2 > 0 and max(eigs) <= 0.0):
             return None
         level = float(np.sum(mu2)) / a2
         P = P_bar / d[:, None] / d[None, :]
-        regions.append(NoiseBoundDesign(True, Status.OPTIMAL, r.L, 0.5 * (P + P.T), float(a2), mu2, level,
+        regions.append(NoiseBoundDesign(True, Status.OPTIMAL, L, 0.5 * (P + P.T), float(a2), mu2, level,
                                         _bounds_from(P_bar, d, level), ref, vbar, np.zeros(0), np.zeros((system.n, 0)),
-                                        None, float(np.linalg.norm(r.L, 2)), "per_channel", lmi_max_eig=eigs,
+                                        gain_bound, float(np.linalg.norm(L, 2)), "per_channel", lmi_max_eig=eigs,
                                         p_min_eig=float(np.linalg.eigvalsh(P_bar)[0]), alpha_solved=float(alpha),
                                         scaling=d, system=system, bounds=r.bounds))
     return regions

@@ -455,6 +455,10 @@ CAMPAIGN = [
     (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--coordinate", "psi"], "--settings model"),
     (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--settings", "model", "--min-decay", "-1"], "--min-decay"),
     (["synth", "vehicle_tracking", "--out", "{dir}", "--no-verify"], "--out"),
+    (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--noise-bound", "-1"], "--noise-bound"),
+    (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--noise-bound", "abc"], "--noise-bound"),
+    (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--noise-bound", "nosuch=1"], "--noise-bound"),
+    (["synth", "vehicle_tracking", "--out", "{dir}/g.json", "--noise-bound", "Y_meas=nan"], "--noise-bound"),
     (["synth", "powertrain3", "--out", "{dir}/g.json"], "scalar-nonlinear"),
     # model
     (["model", "check"], "SYSTEM"),
