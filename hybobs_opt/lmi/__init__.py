@@ -13,8 +13,10 @@ Modules, one concept each:
 * :mod:`.dwell` -- dwell time (eqs. 47-48) searched jointly over the ``P_i``, hysteresis;
 * :mod:`.switched` -- per-region synthesis and automatic region growth;
 * :mod:`.decay_design` -- the decay-optimal constant gain within a gain bound, over every condition;
+* :mod:`.gain_search` -- the polytopic condition under the exact gain bound, searched locally;
 * :mod:`.noise_gain` -- the gain with the smallest certified error bound under bounded noise (invariant ellipsoid);
 * :mod:`.noise_sim` -- simulations of the observer under bounded noise that check that bound;
+* :mod:`.switched_noise` -- the switched observer's certified error bound under bounded noise, with its dwell time;
 * :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
 * :mod:`.auto_design` -- design settings (coordinate, scaling, gain bound, decay) read from the model;
 * :mod:`.plots` -- figures of the results (the Jacobian bounds of a diagnosis; loads matplotlib on first use).
@@ -29,6 +31,7 @@ from .bounds import DerivativeBound, JacobianBounds, derivative_bound, jacobian_
 from .certificates import DualCertificate, InfeasibilityCertificate, certify_infeasible
 from .decay_design import ConditionDecay, DecayDesign, decay_optimal_design
 from .diagnose import Diagnosis, diagnose
+from .gain_search import GainSearchResult, SearchStart, decay_gain_search, gain_decay_rate
 from .hierarchy import CONDITIONS, ConditionResult, HierarchyResult, condition_hierarchy
 from .impossibility import OutputSymmetry, UndetectablePoint, output_symmetries, undetectable_points
 from .polytopic import PolytopicCertificate, PolytopicLMI
@@ -45,11 +48,13 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     **dict.fromkeys(("plot_jacobian_bounds", "plot_noise_tradeoff"), "hybobs_opt.lmi.plots"),
     **dict.fromkeys(("NoiseBoundDesign", "NoiseTradeoff", "noise_optimal_design", "noise_tradeoff"),
                     "hybobs_opt.lmi.noise_gain"),
+    **dict.fromkeys(("SwitchedNoiseBound", "switched_noise_bound"), "hybobs_opt.lmi.switched_noise"),
 })
 
 __all__ = [
     "ConditionDecay", "DecayDesign", "NoiseBoundDesign", "NoiseTradeoff", "decay_optimal_design", "noise_optimal_design",
-    "noise_tradeoff", "plot_noise_tradeoff",
+    "noise_tradeoff", "plot_noise_tradeoff", "GainSearchResult", "SearchStart", "decay_gain_search", "gain_decay_rate",
+    "SwitchedNoiseBound", "switched_noise_bound",
     "COUNTERS", "CONDITIONS", "ConditionResult", "DwellTimeError", "DwellTimeWarning", "HierarchyResult", "OutputSymmetry",
     "PolytopicCertificate", "PolytopicLMI", "UndetectablePoint", "condition_hierarchy", "output_symmetries",
     "undetectable_points", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",
