@@ -68,6 +68,10 @@ FUNCTION_CHECK_SAMPLES: int = 257
 #: 1025 points resolve the 5 turns of the piston sensors' spiral with ~40 samples per half-turn.
 JACOBIAN_BOUND_SAMPLES: int = 1025
 
+#: Argument intervals per scalar function whose sampled derivative bounds are kept for re-use
+#: (:func:`hybobs_opt.lmi.bounds.derivative_bound`): the regions of a design and of its bisections.
+JACOBIAN_BOUND_CACHE_SIZE: int = 512
+
 #: Samples per argument interval of a nonlinear output's range (then refined by a bounded scalar
 #: search); the same resolution as JACOBIAN_BOUND_SAMPLES.
 OUTPUT_RANGE_SAMPLES: int = 1025

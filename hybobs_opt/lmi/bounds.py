@@ -27,6 +27,7 @@ extrema and can always therefore be represented using piecewise monotonic functi
 from __future__ import annotations
 
 import weakref
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -34,7 +35,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
-from ..defaults import JACOBIAN_BOUND_SAMPLES
+from ..defaults import JACOBIAN_BOUND_CACHE_SIZE, JACOBIAN_BOUND_SAMPLES
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarFunction, ScalarNonlinearSystem
 from ..tolerances import JACOBIAN_BOUND_RTOL, MONOTONIC_RTOL
@@ -47,6 +48,11 @@ CONSTANT = "constant"
 NON_MONOTONIC = "non-monotonic"
 
 _SECOND: "weakref.WeakKeyDictionary[ScalarFunction, ca.Function]" = weakref.WeakKeyDictionary()
+
+#: Per function, the sampled bounds already computed, by interval (least recently used dropped
+#: beyond :data:`~hybobs_opt.defaults.JACOBIAN_BOUND_CACHE_SIZE`).  A ``DerivativeBound`` is
+#: immutable, so one object can be handed out again.
+_BOUND_CACHE: "weakref.WeakKeyDictionary[ScalarFunction, OrderedDict]" = weakref.WeakKeyDictionary()
 
 
 def _second_derivative(fn: ScalarFunction) -> ca.Function:
@@ -169,6 +175,27 @@ def derivative_bound(
         A derivative that is NaN or infinite on the interval, a ``given`` range with its lower
         bound above its upper bound or not finite, or a ``given`` range the derivative leaves.
     """
+    if given is None:
+        # The sampled bounds depend only on the function and the interval: a bisection over regions
+        # and every later design of the same system ask again for the same intervals.
+        key = (float(lo), float(hi), kind, int(index), int(samples))
+        cache = _BOUND_CACHE.get(fn)
+        if cache is None:
+            cache = _BOUND_CACHE[fn] = OrderedDict()
+        out = cache.get(key)
+        if out is None:
+            out = cache[key] = _derivative_bound(fn, lo, hi, kind, index, None, samples)
+            if len(cache) > JACOBIAN_BOUND_CACHE_SIZE:
+                cache.popitem(last=False)
+        else:
+            cache.move_to_end(key)
+        return out
+    return _derivative_bound(fn, lo, hi, kind, index, given, samples)
+
+
+def _derivative_bound(fn: ScalarFunction, lo: float, hi: float, kind: str, index: int,
+                      given: tuple[float, float] | None, samples: int) -> DerivativeBound:
+    """:func:`derivative_bound` computed (no cache)."""
     label = f"{kind}[{index}] ({fn.name})"
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
         raise ModelError(f"{label} argument interval", "finite lo <= hi", f"[{lo}, {hi}]")

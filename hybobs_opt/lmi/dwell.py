@@ -355,10 +355,19 @@ class DwellTimeLMI:
             one per region) when the point passes the numpy re-check, else ``None``.
         """
         self.mu.value = np.exp(-tau * np.array(self.sigmas))
-        out = solve_problem(self.problem, accept=lambda: self._check(tau) is not None)
+        accepted: list = []
+
+        def accept() -> bool:
+            checked = self._check(tau)
+            if checked is not None:
+                accepted.append(checked)
+            return checked is not None
+
+        out = solve_problem(self.problem, accept=accept)
         if out.status not in POINT_STATUSES:
             return None
-        return self._check(tau)
+        # the chain stops at the first point that passes the re-check: that check is the answer's
+        return accepted[-1] if accepted else self._check(tau)
 
     def search(self, tau_hi: float, rtol: float = BISECTION_RTOL, tau_fixed: float | None = None) -> DwellResult:
         """Bisection on ``tau`` in ``[0, tau_hi]`` (``tau_hi`` must be feasible, e.g. the fixed-P value).

@@ -36,6 +36,7 @@ builds its cvxpy problem once, with the region's bounds as ``Parameter``s, and r
 
 from __future__ import annotations
 
+import dataclasses
 import weakref
 from dataclasses import dataclass, field
 
@@ -423,8 +424,19 @@ class ObserverLMI:
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
         s = self.sdata.sector(bounds, self.shifted)
         self.par.assign(s, sigma)
-        # An inaccurate point that passes the re-check ends the solver chain (no fallback needed).
-        out = solve_problem(self.problem, accept=lambda: self._read_point(bounds, s, sigma, None).feasible)
+        # An inaccurate point that passes the re-check ends the solver chain (no fallback needed);
+        # the point it accepted is the current one, so its re-check is the answer's.
+        accepted: list[LMISolution] = []
+
+        def accept() -> bool:
+            sol = self._read_point(bounds, s, sigma, None)
+            if sol.feasible:
+                accepted.append(sol)
+            return sol.feasible
+
+        out = solve_problem(self.problem, accept=accept)
+        if accepted and out.status in POINT_STATUSES:
+            return dataclasses.replace(accepted[-1], status=out.status, outcome=out)
         region = bounds.region
         if out.status == INFEASIBLE:
             Z = self.lmi_constraint.dual_value

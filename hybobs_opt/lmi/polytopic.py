@@ -30,6 +30,7 @@ Infeasibility is certified by multipliers ``Z_v >= 0``, ``sum_v tr Z_v = 1``, wi
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import weakref
 from dataclasses import dataclass, field
@@ -369,7 +370,18 @@ class PolytopicLMI:
         for par, C in zip(self.C_par, Cs):
             par.value = C
         self.sigma.value = float(sigma)
-        out = solve_problem(self.problem, accept=lambda: self._read_point(bounds, As, Cs, sigma, None).feasible)
+        accepted: list[PolytopicSolution] = []
+
+        def accept() -> bool:
+            sol = self._read_point(bounds, As, Cs, sigma, None)
+            if sol.feasible:
+                accepted.append(sol)
+            return sol.feasible
+
+        out = solve_problem(self.problem, accept=accept)
+        if accepted and out.status in POINT_STATUSES:
+            # the chain stopped at the point that passed this re-check: it is the answer's
+            return dataclasses.replace(accepted[-1], status=out.status, outcome=out)
         if out.status == INFEASIBLE:
             duals = [c.dual_value for c in self.vertex_constraints]
             farkas = None if any(z is None for z in duals) else [np.asarray(z, dtype=float) for z in duals]

@@ -4,13 +4,19 @@ Every LMI of the package is a cvxpy problem built once with ``Parameter``s and r
 The first solve of a problem canonicalises it (cvxpy's DPP compilation); later solves only
 substitute the parameters, which is what :data:`COUNTERS` lets the benchmarks check: the share of
 wall time in cvxpy compilation versus inside Clarabel.
+
+cvxpy keeps one compiled form per problem object and discards it whenever the problem is solved
+with another solver, so a fallback solver is handed a sibling problem (the same objective and
+constraint objects, hence the same variables, parameters and dual values) that keeps its own
+compiled form: a fallback neither canonicalises the problem again on every rescue nor forces the
+next Clarabel solve to.
 """
 
 from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
@@ -127,6 +133,66 @@ def constraint_residuals(problem: cp.Problem) -> dict[str, float]:
     return out
 
 
+class LazyResiduals(Mapping):
+    """:func:`constraint_residuals` of a solver's point, evaluated on first read.
+
+    cvxpy evaluates each constraint's violation through its expression tree in Python, which
+    costs as much as the solve itself for the small LMIs and is read only for reports.  The values
+    of the problem's variables and parameters at the solve are kept (copies), so the residuals
+    are those of that point even after later solves of the same problem; they are put back for
+    the evaluation and the current values restored afterwards.
+    """
+
+    def __init__(self, problem: cp.Problem):
+        self._problem = problem
+        self._values = [(leaf, _copy_value(leaf.value)) for leaf in _leaves(problem)]
+        self._result: dict[str, float] | None = None
+
+    def _evaluate(self) -> dict[str, float]:
+        if self._result is None:
+            current = [(leaf, leaf.value) for leaf, _ in self._values]
+            try:
+                for leaf, value in self._values:
+                    _set_value(leaf, value)
+                self._result = constraint_residuals(self._problem)
+            finally:
+                for leaf, value in current:
+                    _set_value(leaf, value)
+            self._problem = self._values = None  # the point is no longer needed
+        return self._result
+
+    def __getitem__(self, key: str) -> float:
+        return self._evaluate()[key]
+
+    def __iter__(self):
+        return iter(self._evaluate())
+
+    def __len__(self) -> int:
+        return len(self._evaluate())
+
+    def __repr__(self) -> str:
+        return repr(self._evaluate())
+
+
+def _leaves(problem: cp.Problem) -> list:
+    """The problem's variables and parameters (listed once per problem object: cvxpy walks the
+    expression tree on every call of ``variables()``)."""
+    leaves = getattr(problem, "_hybobs_leaves", None)
+    if leaves is None:
+        leaves = list(problem.variables()) + list(problem.parameters())
+        problem._hybobs_leaves = leaves
+    return leaves
+
+
+def _copy_value(value):
+    return None if value is None else np.array(value, dtype=float, copy=True)
+
+
+def _set_value(leaf, value) -> None:
+    # stored as cvxpy stores a solver's point (no re-validation: the value was the leaf's own)
+    leaf.save_value(value)
+
+
 #: Conic solvers tried, in order, when Clarabel cannot decide a problem (a status other than
 #: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...): Clarabel again with ten
 #: times its static KKT regularisation (the vehicle's LMIs at the decay-rate cap fail in the
@@ -151,7 +217,27 @@ def _available(name: str) -> bool:
 _INSTALLED = frozenset(cp.installed_solvers())
 
 
+def solver_problem(problem: cp.Problem, solver: str) -> cp.Problem:
+    """The problem object to hand to ``solver``: ``problem`` itself for Clarabel, else its sibling
+    for that solver (built on first use and kept on ``problem``).
+
+    The sibling shares the objective and constraint objects, so a solve of it sets the same
+    variables' values and constraints' dual values as a solve of ``problem`` would; it only keeps
+    its own compiled form (see the module docstring).
+    """
+    if solver == SOLVER:
+        return problem
+    siblings = getattr(problem, "_hybobs_siblings", None)
+    if siblings is None:
+        siblings = problem._hybobs_siblings = {}
+    sib = siblings.get(solver)
+    if sib is None:
+        sib = siblings[solver] = cp.Problem(problem.objective, problem.constraints)
+    return sib
+
+
 def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, str]:
+    """One solve of ``problem`` (the object given, see :func:`solver_problem`) by ``solver``."""
     with warnings.catch_warnings():
         # "Solution may be inaccurate" is carried by the status, which callers check.
         warnings.simplefilter("ignore", UserWarning)
@@ -177,7 +263,9 @@ def _run_once(problem: cp.Problem, solver: str, options: dict) -> tuple[Status, 
 
 def _point_is_finite(problem: cp.Problem) -> bool:
     """Every variable of ``problem`` has a value and every entry is finite."""
-    for v in problem.variables():
+    for v in _leaves(problem):
+        if not isinstance(v, cp.Variable):
+            continue
         val = v.value
         if val is None or not np.all(np.isfinite(np.asarray(val, dtype=float))):
             return False
@@ -259,13 +347,14 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
         if only_without_point and had_point:
             # a point near the boundary failed the re-check: a first-order method will not do better
             break
-        status, message = _run_once(problem, name, options)
+        target = solver_problem(problem, name)
+        status, message = _run_once(target, name, options)
         used = label
         attempts.append((label, str(status)))
         if message:
             messages.append(message)
-        compile_s += float(getattr(problem, "compilation_time", 0.0) or 0.0)
-        stats = getattr(problem, "solver_stats", None)
+        compile_s += float(getattr(target, "compilation_time", 0.0) or 0.0)
+        stats = getattr(target, "solver_stats", None)
         if stats is not None and status != SOLVER_ERROR:
             solver_s += float(getattr(stats, "solve_time", 0.0) or 0.0)
         if status in POINT_STATUSES and accept is not None:
@@ -290,7 +379,7 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
             COUNTERS.rescued[used] = COUNTERS.rescued.get(used, 0) + 1
     if not (status == INFEASIBLE or accepted or (status == OPTIMAL and accept is None)):
         COUNTERS.undecided += 1
-    residuals = constraint_residuals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
+    residuals = LazyResiduals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
     listener = _ON_SOLVE.get()
     if listener is not None:
         listener(COUNTERS.calls)
