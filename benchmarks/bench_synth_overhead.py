@@ -328,29 +328,35 @@ def plain_problem(problem, values: dict | None, variables: dict, parameters: dic
 DECIDED = ("optimal", "infeasible")
 
 
-def plain_pass(records: list) -> dict:
-    """Each recorded solve on its plain constant copy, once: times and statuses."""
+def _plain_solve(prob) -> str:
+    """One plain ``prob.solve(solver="CLARABEL")``: its status, or ``error: ...`` (a Rust panic included)."""
     import warnings
 
     import cvxpy as cp
 
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            prob.solve(solver="CLARABEL")
+            return str(prob.status)
+        except (cp.error.SolverError, ArithmeticError, ValueError, RuntimeError) as exc:
+            return f"error: {type(exc).__name__}"
+        except BaseException as exc:  # Clarabel's Rust panic; its solver object is dropped from the cache
+            if type(exc).__name__ != "PanicException":
+                raise
+            prob._solver_cache.pop("CLARABEL", None)
+            return "error: PanicException"
+
+
+def plain_pass(records: list) -> dict:
+    """Each recorded solve on its plain constant copy, once: times and statuses."""
     build = solve = 0.0
     statuses = []
     for rec in records:
         t0 = time.perf_counter()
         prob = plain_problem(rec["problem"], {p.id: v for p, v in rec["values"]}, {})
         t1 = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                prob.solve(solver="CLARABEL")
-                st = str(prob.status)
-            except (cp.error.SolverError, ArithmeticError, ValueError, RuntimeError) as exc:
-                st = f"error: {type(exc).__name__}"
-            except BaseException as exc:  # Clarabel's Rust panic
-                if type(exc).__name__ != "PanicException":
-                    raise
-                st = "error: PanicException"
+        st = _plain_solve(prob)
         t2 = time.perf_counter()
         build += t1 - t0
         solve += t2 - t1
@@ -373,28 +379,13 @@ def plain_dpp_setup(records: list) -> list:
 
 
 def plain_dpp_pass(seq: list) -> dict:
-    import warnings
-
-    import cvxpy as cp
-
     total = 0.0
     statuses = []
     for prob, vals in seq:
         t0 = time.perf_counter()
         for par, v in vals:
             par.value = v if np.ndim(v) else float(v)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                prob.solve(solver="CLARABEL")
-                st = str(prob.status)
-            except (cp.error.SolverError, ArithmeticError, ValueError, RuntimeError) as exc:
-                st = f"error: {type(exc).__name__}"
-            except BaseException as exc:
-                if type(exc).__name__ != "PanicException":
-                    raise
-                prob._solver_cache.pop("CLARABEL", None)
-                st = "error: PanicException"
+        st = _plain_solve(prob)
         total += time.perf_counter() - t0
         statuses.append(st)
     return {"seconds": total, "statuses": statuses}

@@ -58,7 +58,7 @@ from .lmi_model import (
     lmi_form,
 )
 from .schedule import SchedulingRegion
-from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_problem
+from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_checked
 
 
 #: The S-procedure multiplier layouts of :class:`ObserverLMI`.
@@ -426,17 +426,9 @@ class ObserverLMI:
         self.par.assign(s, sigma)
         # An inaccurate point that passes the re-check ends the solver chain (no fallback needed);
         # the point it accepted is the current one, so its re-check is the answer's.
-        accepted: list[LMISolution] = []
-
-        def accept() -> bool:
-            sol = self._read_point(bounds, s, sigma, None)
-            if sol.feasible:
-                accepted.append(sol)
-            return sol.feasible
-
-        out = solve_problem(self.problem, accept=accept)
-        if accepted and out.status in POINT_STATUSES:
-            return dataclasses.replace(accepted[-1], status=out.status, outcome=out)
+        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, s, sigma, None))
+        if point is not None:
+            return dataclasses.replace(point, status=out.status, outcome=out)
         region = bounds.region
         if out.status == INFEASIBLE:
             Z = self.lmi_constraint.dual_value

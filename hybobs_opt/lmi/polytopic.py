@@ -45,7 +45,7 @@ from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import CERTIFICATE_RTOL, GAIN_BOUND_RTOL, LMI_STRICT_MARGIN
 from .bounds import JacobianBounds
 from .lmi_model import LMIData, box_scaling, lmi_data
-from .solve import INFEASIBLE, POINT_STATUSES, solve_problem
+from .solve import INFEASIBLE, POINT_STATUSES, solve_checked, solve_problem
 from ..results import Certificate
 
 
@@ -370,18 +370,10 @@ class PolytopicLMI:
         for par, C in zip(self.C_par, Cs):
             par.value = C
         self.sigma.value = float(sigma)
-        accepted: list[PolytopicSolution] = []
-
-        def accept() -> bool:
-            sol = self._read_point(bounds, As, Cs, sigma, None)
-            if sol.feasible:
-                accepted.append(sol)
-            return sol.feasible
-
-        out = solve_problem(self.problem, accept=accept)
-        if accepted and out.status in POINT_STATUSES:
+        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, As, Cs, sigma, None))
+        if point is not None:
             # the chain stopped at the point that passed this re-check: it is the answer's
-            return dataclasses.replace(accepted[-1], status=out.status, outcome=out)
+            return dataclasses.replace(point, status=out.status, outcome=out)
         if out.status == INFEASIBLE:
             duals = [c.dual_value for c in self.vertex_constraints]
             farkas = None if any(z is None for z in duals) else [np.asarray(z, dtype=float) for z in duals]

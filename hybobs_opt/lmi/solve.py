@@ -272,6 +272,24 @@ def _point_is_finite(problem: cp.Problem) -> bool:
     return True
 
 
+def solve_checked(problem: cp.Problem, read):
+    """:func:`solve_problem` with ``read()`` (the caller's point, re-checked) as the chain's ``accept``.
+
+    Returns ``(outcome, point)``: ``point`` is the re-checked point that ended the chain (its
+    check is the answer's, so it is not repeated), or ``None`` when no point passed.
+    """
+    accepted = []
+
+    def accept() -> bool:
+        point = read()
+        if point.feasible:
+            accepted.append(point)
+        return point.feasible
+
+    out = solve_problem(problem, accept=accept)
+    return out, (accepted[-1] if accepted and out.status in POINT_STATUSES else None)
+
+
 def checked_lyapunov(P, what: str, solver: str = SOLVER) -> np.ndarray:
     """The symmetric part of a Lyapunov matrix returned by ``solver`` for ``what``, once checked in
     numpy: finite and positive definite (smallest eigenvalue above
