@@ -119,6 +119,15 @@ class SwitchedNoiseBound:
         top = float(np.max(self.noise)) if self.noise.size else 0.0
         return None if self.bound is None or top <= 0 else self.bound / top
 
+    @property
+    def wider_than_regions(self) -> bool:
+        """The bound on the scheduling coordinate exceeds the narrowest region: the condition that the state
+        stays in the active region is then not made plausible by the bound itself."""
+        if self.bound is None:
+            return False
+        k = self.design.coordinate
+        return bool(self.bound[k] > min(r.region.hi - r.region.lo for r in self.design.regions))
+
     def claim(self) -> str:
         """What is proven, in one sentence."""
         names = self.design.system.state_names
@@ -132,14 +141,16 @@ class SwitchedNoiseBound:
         return (f"Under output noise |v| <= {noise} the switched observer's error ends in {bound} (each region's "
                 f"invariant ellipsoid for {whose}, re-checked in numpy, inflated by sqrt(u*) = {math.sqrt(self.level):.4g} "
                 f"for switches at least {self.dwell:.4g} s apart ({self.dwell_source}; {self.dwell_needed:.4g} s "
-                "needed), while the state and the estimate stay in the active region).")
+                "needed), while the state and the estimate stay in the active region)."
+                + (f" The bound on {names[self.design.coordinate]} is wider than a region, so it does not keep the "
+                   "state in the active region by itself." if self.wider_than_regions else ""))
 
     def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
         """JSON-ready fields; region intervals in the display unit (model value / ``factor``)."""
         def arr(a):
             return None if a is None else np.asarray(a).tolist()
 
-        return {"holds": self.holds, "bound": arr(self.bound), "peak_to_peak_gain": arr(self.peak_to_peak_gain),
+        return {"holds": self.holds, "bound": arr(self.bound), "wider_than_regions": self.wider_than_regions, "peak_to_peak_gain": arr(self.peak_to_peak_gain),
                 "noise": arr(self.noise), "alpha": self.alpha, "jump": self.jump, "dwell": self.dwell,
                 "dwell_source": self.dwell_source, "dwell_needed": self.dwell_needed, "level": self.level,
                 "method": self.method, "gains": self.gains, "claim": self.claim(), "candidates": list(self.candidates),
