@@ -17,6 +17,7 @@ Modules, one concept each:
 * :mod:`.noise_gain` -- the gain with the smallest certified error bound under bounded noise (invariant ellipsoid);
 * :mod:`.noise_sim` -- simulations of the observer under bounded noise that check that bound;
 * :mod:`.switched_noise` -- the switched observer's certified error bound under bounded noise, with its dwell time;
+* :mod:`.switched_noise_sim` -- simulations of the switched observer under bounded noise that check that bound;
 * :mod:`.diagnose` -- the verdict, certificate and remedy for one range;
 * :mod:`.auto_design` -- design settings (coordinate, scaling, gain bound, decay) read from the model;
 * :mod:`.plots` -- figures of the results (the Jacobian bounds of a diagnosis; loads matplotlib on first use).
@@ -48,13 +49,15 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     **dict.fromkeys(("plot_jacobian_bounds", "plot_noise_tradeoff"), "hybobs_opt.lmi.plots"),
     **dict.fromkeys(("NoiseBoundDesign", "NoiseTradeoff", "noise_optimal_design", "noise_tradeoff"),
                     "hybobs_opt.lmi.noise_gain"),
-    **dict.fromkeys(("SwitchedNoiseBound", "switched_noise_bound"), "hybobs_opt.lmi.switched_noise"),
+    **dict.fromkeys(("StateCertificate", "SwitchedNoiseBound", "switched_noise_bound"), "hybobs_opt.lmi.switched_noise"),
+    **dict.fromkeys(("SwitchedNoiseSimulationCheck", "check_switched_noise_bound"), "hybobs_opt.lmi.switched_noise_sim"),
 })
 
 __all__ = [
     "ConditionDecay", "DecayDesign", "NoiseBoundDesign", "NoiseTradeoff", "decay_optimal_design", "noise_optimal_design",
     "noise_tradeoff", "plot_noise_tradeoff", "GainSearchResult", "SearchStart", "decay_gain_search", "gain_decay_rate",
-    "SwitchedNoiseBound", "switched_noise_bound",
+    "StateCertificate", "SwitchedNoiseBound", "switched_noise_bound", "SwitchedNoiseSimulationCheck",
+    "check_switched_noise_bound",
     "COUNTERS", "CONDITIONS", "ConditionResult", "DwellTimeError", "DwellTimeWarning", "HierarchyResult", "OutputSymmetry",
     "PolytopicCertificate", "PolytopicLMI", "UndetectablePoint", "condition_hierarchy", "output_symmetries",
     "undetectable_points", "DerivativeBound", "DesignSettings", "design_settings", "design_switched", "scheduling_candidates", "Diagnosis", "DualCertificate", "DwellTimeLMI", "InfeasibilityCertificate",

@@ -118,6 +118,8 @@ class GainSearchResult:
     solves, failed_solves : int
         Conic solves, and those that returned no usable point (counted as "not feasible").
     seconds : float
+    gain_bound : float
+        The bound on ``||L||_2`` searched under (model units).
     """
 
     found: bool

@@ -31,7 +31,9 @@ ellipsoids are also designed *jointly*: one SDP over all ``P_i`` and multipliers
 ``alpha``, with ``P_j <= m P_i`` for every switch (levels are 1: ``sum_j mu_j = alpha``), which
 bounds the jump by ``m``; ``(alpha, m)`` run over a grid with ``m < e^{alpha tau}``.  The
 candidate kept is the one whose final bound (recomputed in numpy from the re-checked ``P_i``,
-levels and rates, never from ``m``) has the smallest worst ratio to the reference sizes.
+levels and rates, never from ``m``) has the smallest worst ratio to the reference sizes.  Every
+certificate bounds every state, so each state's bound is then tightened by a certificate whose
+``P_i`` minimise that state's bound alone (the same gains and rate; :class:`StateCertificate`).
 """
 
 from __future__ import annotations
@@ -51,7 +53,35 @@ from .noise_gain import (NoiseBoundDesign, _bounds_from, _check_noise, _output_o
 from .solve import POINT_STATUSES, solve_problem
 from .switched import SwitchedDesign
 
-__all__ = ["SwitchedNoiseBound", "switched_noise_bound"]
+__all__ = ["StateCertificate", "SwitchedNoiseBound", "switched_noise_bound"]
+
+
+@dataclass(frozen=True)
+class StateCertificate:
+    """A certificate of the switched bound chosen for one state (its ``P_i`` minimise that state's bound).
+
+    Parameters
+    ----------
+    state : int
+        The state it was chosen for.
+    by_region : tuple of NoiseBoundDesign
+        The regions' re-checked ellipsoids.
+    jumps, alpha, jump, dwell_needed, level, bound
+        As for :class:`SwitchedNoiseBound`, of this certificate (``bound`` covers every state).
+    """
+
+    state: int
+    by_region: tuple = field(repr=False)
+    jumps: dict = field(repr=False)
+    alpha: float
+    jump: float
+    dwell_needed: float
+    level: float
+    bound: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"state": self.state, "alpha": self.alpha, "jump": self.jump, "dwell_needed": self.dwell_needed,
+                "level": self.level, "bound": self.bound.tolist()}
 
 
 @dataclass(frozen=True)
@@ -90,6 +120,9 @@ class SwitchedNoiseBound:
     gains : str
         ``"given"`` (the design's gains, bounded) or ``"designed"`` (new gains minimising the bound,
         in ``by_region[i].L``).
+    state_certificates : tuple of StateCertificate
+        Certificates that each bound one state tighter than ``by_region`` does (same gains, same
+        rate, ``P_i`` chosen for that state); ``bound[k]`` is the smallest bound any certificate gives.
     """
 
     design: SwitchedDesign = field(repr=False)
@@ -107,6 +140,7 @@ class SwitchedNoiseBound:
     method: str = "per region"
     candidates: tuple = ()
     gains: str = "given"
+    state_certificates: tuple = ()
 
     @property
     def holds(self) -> bool:
@@ -128,6 +162,43 @@ class SwitchedNoiseBound:
         k = self.design.coordinate
         return bool(self.bound[k] > min(r.region.hi - r.region.lo for r in self.design.regions))
 
+    def scaled(self, factor: float) -> "SwitchedNoiseBound":
+        """The certified bound of the same switched observer for the output noise ``factor * noise``.
+
+        The certificate is homogeneous in the noise: each region's vertex blocks
+        ``[[He(P A_cl) + alpha P, -P L diag(vbar)], [., -diag(mu)]]`` at ``(P / s^2, s vbar)`` are the
+        blocks at ``(P, vbar)`` under the congruence ``diag(I / s, I)``, so they stay negative
+        semidefinite with the same ``alpha``, ``mu`` and level ``c = sum(mu) / alpha``; every ``P_i``
+        scales alike, so the jumps ``mu_ij``, the dwell time needed and ``u*`` are unchanged and the
+        bound scales by ``s``.  The returned designs are re-checked by their ``verify()`` like any other.
+
+        Parameters
+        ----------
+        factor : float
+            ``s > 0``.
+
+        Returns
+        -------
+        SwitchedNoiseBound
+            With ``P_i / s^2``, noise and bounds times ``s``; ``candidates`` dropped (they describe the search).
+        """
+        from dataclasses import replace
+
+        s = float(factor)
+        if not (math.isfinite(s) and s > 0):
+            raise ModelError("factor", "a positive finite noise factor", repr(factor))
+
+        def region(d):
+            d2 = replace(d, P=d.P / s ** 2, noise=d.noise * s, bound=None if d.bound is None else d.bound * s)
+            chk = d2.check()
+            return replace(d2, lmi_max_eig=chk.vertex_max_eig, p_min_eig=chk.p_min_eig)
+
+        states = tuple(replace(c, by_region=tuple(region(d) for d in c.by_region), bound=c.bound * s)
+                       for c in self.state_certificates)
+        return replace(self, by_region=tuple(region(d) for d in self.by_region),
+                       bound=None if self.bound is None else self.bound * s, noise=self.noise * s, candidates=(),
+                       state_certificates=states)
+
     def claim(self) -> str:
         """What is proven, in one sentence."""
         names = self.design.system.state_names
@@ -142,6 +213,9 @@ class SwitchedNoiseBound:
                 f"invariant ellipsoid for {whose}, re-checked in numpy, inflated by sqrt(u*) = {math.sqrt(self.level):.4g} "
                 f"for switches at least {self.dwell:.4g} s apart ({self.dwell_source}; {self.dwell_needed:.4g} s "
                 "needed), while the state and the estimate stay in the active region)."
+                + ("" if not self.state_certificates else
+                   " The bounds on " + ", ".join(names[c.state] for c in self.state_certificates)
+                   + " come from certificates chosen for those states (same gains and rate).")
                 + (f" The bound on {names[self.design.coordinate]} is wider than a region, so it does not keep the "
                    "state in the active region by itself." if self.wider_than_regions else ""))
 
@@ -154,6 +228,7 @@ class SwitchedNoiseBound:
                 "noise": arr(self.noise), "alpha": self.alpha, "jump": self.jump, "dwell": self.dwell,
                 "dwell_source": self.dwell_source, "dwell_needed": self.dwell_needed, "level": self.level,
                 "method": self.method, "gains": self.gains, "claim": self.claim(), "candidates": list(self.candidates),
+                "state_certificates": [c.to_dict() for c in self.state_certificates],
                 "jumps": [{"from": i, "to": j, "mu": mu} for (i, j), mu in sorted(self.jumps.items())],
                 "unit": unit,
                 "regions": [{"interval": [r.region.lo / factor, r.region.hi / factor], "sigma": r.sigma,
@@ -190,6 +265,7 @@ class _JointNoiseLMI:
         self.design_gains = design_gains
         self.alpha = cp.Parameter(nonneg=True, value=1.0)
         self.m = cp.Parameter(nonneg=True, value=1.0)
+        self.w = cp.Parameter(n, nonneg=True, value=np.asarray(w_ref, dtype=float))  # objective weights per state
         self.v = cp.Parameter(p, nonneg=True, value=np.ones(p))
         self.t = cp.Variable()
         self.P, self.Y, self.mu, self.A, self.C, self.LV = [], [], [], [], [], []
@@ -213,7 +289,7 @@ class _JointNoiseLMI:
                 blk = cp.bmat([[B11 + self.alpha * P, noise_col], [noise_col.T, -cp.diag(mu)]])
                 cons.append(0.5 * (blk + blk.T) << 0)
             G = cp.bmat([[P, np.eye(n)], [np.eye(n), B]])
-            cons += [0.5 * (G + G.T) >> 0, cp.multiply(w_ref, cp.diag(B)) <= self.t, cp.sum(mu) == self.alpha]
+            cons += [0.5 * (G + G.T) >> 0, cp.multiply(self.w, cp.diag(B)) <= self.t, cp.sum(mu) == self.alpha]
             if design_gains and gain_bound is not None:
                 dmax = float(d.max())
                 kappa = cp.Variable(nonneg=True)
@@ -363,9 +439,34 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
             if _better(combined, best[0], ref):
                 best = (combined, regions, "joint")
     (jumps, alpha, jump, needed, level, bound), regions, method = best
+    per_state = []
+    if method == "joint" and bound is not None:
+        # one certificate per state, each minimising that state's bound at the best rate
+        w_all = (d / ref) ** 2
+        a_best = best[1][0].alpha_solved
+        for k in range(n):
+            lmi.w.value = np.where(np.arange(n) == k, w_all, 0.0)
+            lmi.alpha.value = float(a_best)
+            best_k = None
+            for frac in SWITCHED_NOISE_COUPLINGS:
+                lmi.m.value = float(1.0 + (math.exp(a_best * dwell) - 1.0) * frac)
+                regs = _joint_point(lmi, system, design, verts, Lbars, vbar, order, d, ref, r0, a_best, solve_problem,
+                                    gain_bound)
+                tick()
+                if regs is None:
+                    continue
+                comb = _combine(regs, design.pairs, dwell)
+                if comb[5] is not None and (best_k is None or comb[5][k] < best_k[0][5][k]):
+                    best_k = (comb, regs)
+            if best_k is not None and best_k[0][5][k] < bound[k]:
+                per_state.append(StateCertificate(k, tuple(best_k[1]), *best_k[0]))
+        if per_state:
+            bound = bound.copy()
+            for c in per_state:
+                bound[c.state] = min(bound[c.state], c.bound[c.state])
     return SwitchedNoiseBound(design, tuple(regions), jumps, float(alpha), float(jump), dwell, source, float(needed),
                               level, bound, vbar, time.perf_counter() - t0, method, tuple(candidates),
-                              "designed" if design_gains else "given")
+                              "designed" if design_gains else "given", tuple(per_state))
 
 
 def _worst(combined, ref) -> float:
