@@ -58,7 +58,7 @@ from .lmi_model import (
     lmi_form,
 )
 from .schedule import SchedulingRegion
-from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_checked
+from .solve import INFEASIBLE, POINT_STATUSES, SolveOutcome, solve_checked, solve_problem
 
 
 #: The S-procedure multiplier layouts of :class:`ObserverLMI`.
@@ -426,7 +426,7 @@ class ObserverLMI:
         self.par.assign(s, sigma)
         # An inaccurate point that passes the re-check ends the solver chain (no fallback needed);
         # the point it accepted is the current one, so its re-check is the answer's.
-        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, s, sigma, None))
+        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, s, sigma, None), solve_problem)
         if point is not None:
             return dataclasses.replace(point, status=out.status, outcome=out)
         region = bounds.region

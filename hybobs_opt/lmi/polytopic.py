@@ -370,7 +370,8 @@ class PolytopicLMI:
         for par, C in zip(self.C_par, Cs):
             par.value = C
         self.sigma.value = float(sigma)
-        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, As, Cs, sigma, None))
+        out, point = solve_checked(self.problem, lambda: self._read_point(bounds, As, Cs, sigma, None),
+                                   solve_problem)
         if point is not None:
             # the chain stopped at the point that passed this re-check: it is the answer's
             return dataclasses.replace(point, status=out.status, outcome=out)

@@ -272,11 +272,13 @@ def _point_is_finite(problem: cp.Problem) -> bool:
     return True
 
 
-def solve_checked(problem: cp.Problem, read):
+def solve_checked(problem: cp.Problem, read, solve=None):
     """:func:`solve_problem` with ``read()`` (the caller's point, re-checked) as the chain's ``accept``.
 
     Returns ``(outcome, point)``: ``point`` is the re-checked point that ended the chain (its
-    check is the answer's, so it is not repeated), or ``None`` when no point passed.
+    check is the answer's, so it is not repeated), or ``None`` when no point passed.  ``solve``
+    replaces :func:`solve_problem` (the caller's module-level name, so that a test substituting it
+    there reaches this call).
     """
     accepted = []
 
@@ -286,7 +288,7 @@ def solve_checked(problem: cp.Problem, read):
             accepted.append(point)
         return point.feasible
 
-    out = solve_problem(problem, accept=accept)
+    out = (solve or solve_problem)(problem, accept=accept)
     return out, (accepted[-1] if accepted and out.status in POINT_STATUSES else None)
 
 

@@ -178,6 +178,7 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["diagnose", "vehicle_tracking", "--settings", "model"], "--overlap", NUMBER + ["-1", "1e300"]),
     (["diagnose", "vehicle_tracking"], "--condition", ["nosuch", ""]),
     (["diagnose", "vehicle_tracking"], "--noise-bound", ["-1", "nosuch=0.1", "abc", "nan", "X=0.1,Y=0.1"]),
+    (["diagnose", "vehicle_tracking"], "--exact-bound-search", ["yes", "0"]),
     (["diagnose", "vehicle_tracking"], "--settings", ["nosuch", ""]),
     (["diagnose", "vehicle_tracking"], "--out", [F("existing")]),
     (["diagnose"], None, ["nosuch", "powertrain3", F("bin")]),
@@ -198,6 +199,8 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["synth", "vehicle_tracking", "--out", F("dir") + "/g.json"], "--settings", ["nosuch", ""]),
     (["synth", "vehicle_tracking", "--out", F("dir") + "/g.json"], "--accept-unenforced-dwell", ["1", "yes"]),
     (["synth", "vehicle_tracking", "--out", F("dir") + "/g.json"], "--no-verify", ["yes", "0"]),
+    (["synth", "vehicle_tracking", "--out", F("dir") + "/g.json"], "--noise-bound",
+     ["-1", "nosuch=0.1", "abc", "nan", "X_meas=0.1,Y_meas=0.1"]),
     # model
     (["model"], None, ["nosuch", ""]),
     (["model", "check"], None, ["nosuch", F("bin"), F("empty"), F("text.json"), F("dir")]),
