@@ -204,9 +204,6 @@ class _Trial:
 
     feasible: bool
     status: str
-    rate: float = float("-inf")
-    P: np.ndarray | None = None
-    Lbar: np.ndarray | None = None
 
 
 class _Counter:
@@ -244,12 +241,12 @@ def _certify(V: _Vertices, Lbar: np.ndarray, hint: np.ndarray | None, cap: float
     from ..defaults import GAIN_SEARCH_RTOL
 
     n = V.n
-    start = hint if hint is not None and np.all(np.isfinite(hint)) and np.linalg.eigvalsh(0.5 * (hint + hint.T)).min() > 0 \
-        else _lyapunov_hint(V, Lbar)
-    if start is None:
-        return float("-inf"), None
+    usable = hint is not None and np.all(np.isfinite(hint)) and np.linalg.eigvalsh(0.5 * (hint + hint.T)).min() > 0
+    start = hint if usable else _lyapunov_hint(V, Lbar)
     T, Ti = _frame(start)
-    lmi = cache.setdefault("fixed", _FixedGain(n, len(V.As)))
+    if "fixed" not in cache:  # one compiled problem per search
+        cache["fixed"] = _FixedGain(n, len(V.As))
+    lmi = cache["fixed"]
     for par, A, C in zip(lmi.M, V.As, V.Cs):
         par.value = Ti @ (A - Lbar @ C) @ T
     best: list = [V.rate(start, Lbar), start]
@@ -277,8 +274,8 @@ def _certify(V: _Vertices, Lbar: np.ndarray, hint: np.ndarray | None, cap: float
     return (best[0], best[1]) if np.isfinite(best[0]) else (float("-inf"), None)
 
 
-def _lyapunov_hint(V: _Vertices, Lbar: np.ndarray) -> np.ndarray | None:
-    """A Lyapunov matrix of the first vertex's closed loop (a frame for step 1), or ``None``."""
+def _lyapunov_hint(V: _Vertices, Lbar: np.ndarray) -> np.ndarray:
+    """A Lyapunov matrix of the first vertex's closed loop (a frame for step 1; the identity when unstable)."""
     from scipy.linalg import solve_continuous_lyapunov
 
     Acl = V.As[0] - Lbar @ V.Cs[0]
@@ -314,7 +311,9 @@ def _convex_concave(V: _Vertices, P: np.ndarray, Lbar: np.ndarray, rate: float, 
                     cache: dict) -> tuple[float, np.ndarray, np.ndarray, int]:
     from ..defaults import GAIN_SEARCH_CCP_STEPS, GAIN_SEARCH_MIN_GAIN, GAIN_SEARCH_RTOL
 
-    lmi = cache.setdefault("ccp", _ConvexConcave(V.n, V.p, len(V.As), V.bound))
+    if "ccp" not in cache:
+        cache["ccp"] = _ConvexConcave(V.n, V.p, len(V.As), V.bound)
+    lmi = cache["ccp"]
     steps = 0
     for steps in range(1, GAIN_SEARCH_CCP_STEPS + 1):
         T, Ti = _frame(P)
