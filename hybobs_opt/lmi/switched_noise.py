@@ -34,6 +34,10 @@ candidate kept is the one whose final bound (recomputed in numpy from the re-che
 levels and rates, never from ``m``) has the smallest worst ratio to the reference sizes.  Every
 certificate bounds every state, so each state's bound is then tightened by a certificate whose
 ``P_i`` minimise that state's bound alone (the same gains and rate; :class:`StateCertificate`).
+
+With ``design_gains=True`` the gains are unknowns too (``Y_i = P_i L_i``, the bound on ``||L_i||``
+in the sufficient form of :mod:`.noise_gain`, ``alpha`` at least a required rate): the same
+search then designs gains for the noise on the design's regions instead of bounding its own.
 """
 
 from __future__ import annotations
