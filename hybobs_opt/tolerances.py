@@ -346,6 +346,15 @@ LUENBERGER_LMI_MARGIN: float = 1e-6
 #: ~1e-8, so the recomputed norm can exceed it by rounding only.
 GAIN_BOUND_RTOL: float = 1e-6
 
+#: The IPOPT polish of the exact-gain-bound search (:mod:`hybobs_opt.lmi.gain_search`), in the frame
+#: where the current ``P`` is the identity and time is scaled by the current rate: ``P = R R^T +
+#: floor I`` keeps ``P`` positive definite; the start is the current pair at ``1 - margin`` times its
+#: rate (so the slack factors start positive definite); IPOPT's tolerance and Nelder-Mead's on the
+#: eigenvalue bound.  Nothing they decide is trusted: every point is re-certified in numpy.
+GAIN_SEARCH_P_FLOOR: float = 1e-3
+GAIN_SEARCH_START_MARGIN: float = 1e-3
+GAIN_SEARCH_SOLVER_TOL: float = 1e-10
+
 #: A candidate of the exact-gain-bound search replaces the best pair only when its re-checked rate is
 #: larger by this fraction: rates equal to rounding come out the same on every machine, so the pair
 #: returned does not depend on which of two equal candidates a processor's last bits favour.

@@ -54,7 +54,8 @@ import numpy as np
 
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
-from ..tolerances import GAIN_BOUND_RTOL, LMI_STRICT_MARGIN, SEARCH_IMPROVEMENT_RTOL
+from ..tolerances import (GAIN_BOUND_RTOL, GAIN_SEARCH_P_FLOOR, GAIN_SEARCH_SOLVER_TOL, GAIN_SEARCH_START_MARGIN,
+                          LMI_STRICT_MARGIN, SEARCH_IMPROVEMENT_RTOL)
 from .bounds import JacobianBounds
 from .lmi_model import box_scaling, lmi_data
 from .observer_lmi import bisect_decay
@@ -395,7 +396,7 @@ def _polish(V: _Vertices, P: np.ndarray, Lbar: np.ndarray, rate: float) -> tuple
     ST = np.diag(V.d) @ T
     bound = V.bound / rho
     nt, pt = n * (n + 1) // 2, p * (p + 1) // 2
-    eps = 1e-3
+    eps = GAIN_SEARCH_P_FLOOR
     r_v = ca.SX.sym("R", nt)
     l_v = ca.SX.sym("L", n * p)
     s_v = ca.SX.sym("sigma")
@@ -404,7 +405,7 @@ def _polish(V: _Vertices, P: np.ndarray, Lbar: np.ndarray, rate: float) -> tuple
     R = _lower(r_v, n)
     Pm = R @ R.T + eps * ca.SX.eye(n)
     Lm = ca.reshape(l_v, n, p)
-    s0 = 1.0 - 1e-3
+    s0 = 1.0 - GAIN_SEARCH_START_MARGIN
     cons, x0 = [], []
     for A, C, q in zip(As, Cs, q_v):
         Acl = A - Lm @ C
@@ -428,7 +429,7 @@ def _polish(V: _Vertices, P: np.ndarray, Lbar: np.ndarray, rate: float) -> tuple
     init = np.concatenate([np.sqrt(1.0 - eps) * np.eye(n)[np.tril_indices(n)], Lt0.T.ravel(), [s0], *x0, g0])
     solver = ca.nlpsol("gain_search_polish", "ipopt", {"x": x, "f": -s_v, "g": ca.vertcat(*cons)},
                        {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0,
-                        "ipopt.max_iter": GAIN_SEARCH_IPOPT_ITERATIONS, "ipopt.tol": 1e-10})
+                        "ipopt.max_iter": GAIN_SEARCH_IPOPT_ITERATIONS, "ipopt.tol": GAIN_SEARCH_SOLVER_TOL})
     try:
         out = solver(x0=init, lbg=0, ubg=0)
     except RuntimeError:
@@ -471,7 +472,7 @@ def _screen(V: _Vertices) -> list[tuple[float, np.ndarray]]:
             Lb = Si[:, None] * to_ball(V.d[:, None] * v.reshape(n, p))
             return -float(eigenvalue_bound(V.As, V.Cs, Lb[None])[0])
         res = minimize(neg, Lbars[i].ravel(), method="Nelder-Mead",
-                       options={"maxfev": GAIN_SEARCH_SCREEN_EVALUATIONS, "xatol": 1e-10, "fatol": 1e-10, "adaptive": True})
+                       options={"maxfev": GAIN_SEARCH_SCREEN_EVALUATIONS, "xatol": GAIN_SEARCH_SOLVER_TOL, "fatol": GAIN_SEARCH_SOLVER_TOL, "adaptive": True})
         Lb = V.clip(Si[:, None] * to_ball(V.d[:, None] * res.x.reshape(n, p)))
         out.append((float(eigenvalue_bound(V.As, V.Cs, Lb[None])[0]), Lb))
     out.sort(key=lambda t: -t[0])
