@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
+from .._native_output import captured_native_output
 from ..errors import ModelError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
 from ..tolerances import (GAIN_BOUND_RTOL, GAIN_SEARCH_P_FLOOR, GAIN_SEARCH_SOLVER_TOL, GAIN_SEARCH_START_MARGIN,
@@ -427,9 +428,10 @@ def _polish(V: _Vertices, P: np.ndarray, Lbar: np.ndarray, rate: float) -> tuple
         return None
     x = ca.vertcat(r_v, l_v, s_v, *q_v, g_v)
     init = np.concatenate([np.sqrt(1.0 - eps) * np.eye(n)[np.tril_indices(n)], Lt0.T.ravel(), [s0], *x0, g0])
-    solver = ca.nlpsol("gain_search_polish", "ipopt", {"x": x, "f": -s_v, "g": ca.vertcat(*cons)},
-                       {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0,
-                        "ipopt.max_iter": GAIN_SEARCH_IPOPT_ITERATIONS, "ipopt.tol": GAIN_SEARCH_SOLVER_TOL})
+    with captured_native_output("casadi nlpsol 'ipopt'"):
+        solver = ca.nlpsol("gain_search_polish", "ipopt", {"x": x, "f": -s_v, "g": ca.vertcat(*cons)},
+                           {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0,
+                            "ipopt.max_iter": GAIN_SEARCH_IPOPT_ITERATIONS, "ipopt.tol": GAIN_SEARCH_SOLVER_TOL})
     try:
         out = solver(x0=init, lbg=0, ubg=0)
     except RuntimeError:

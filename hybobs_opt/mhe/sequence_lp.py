@@ -41,6 +41,7 @@ import time
 
 import numpy as np
 
+from .._native_output import captured_native_output
 from ..errors import ModelError, SolverError
 from ..status import Status
 from ..tolerances import (
@@ -418,7 +419,8 @@ class SequenceLPSolver:
         """The node's persistent HiGHS LP in ``[theta; e]``: ``R theta - E e <= -r``,
         ``R theta + E e >= -r``, ``G theta <= g``, ``lo <= theta <= hi``, ``e >= 0``."""
         hs = self._hs
-        h = hs.Highs()
+        with captured_native_output("highspy.Highs"):
+            h = hs.Highs()
         for key, val in (("output_flag", False), ("presolve", "off"),
                          ("primal_feasibility_tolerance", MHE_MILP_FEASIBILITY_TOL),
                          ("dual_feasibility_tolerance", MHE_MILP_FEASIBILITY_TOL)):

@@ -41,6 +41,7 @@ import time
 
 import numpy as np
 
+from .._native_output import captured_native_output
 from .._validate import as_int
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, check_reset_keywords,
                         judge_samples_against, noise_bound_vector, radius_tolerance_vector)
@@ -94,7 +95,8 @@ class _PieceLP:
         self._hs = highspy
         self.A, self.b = A, b
         k, n = A.shape
-        h = highspy.Highs()
+        with captured_native_output("highspy.Highs"):
+            h = highspy.Highs()
         h.setOptionValue("output_flag", False)
         inf = highspy.kHighsInf
         lp = highspy.HighsLp()

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from ..._native_output import captured_native_output
 from ...status import CASADI_BONMIN_STATUS, CASADI_CBC_STATUS, CASADI_HIGHS_STATUS, DAQP_STATUS, Status, map_status
 from ..mld import MLDEncoding
 from .base import BackendOutcome, quiet_stdout, with_col_bounds
@@ -92,7 +93,8 @@ class CasadiDaqpBackend:
         self._Hdm = ca.DM(self._Hw)
         self._lbw, self._ubw = lb[keep], ub[keep]
         opts = {"discrete": [bool(d) for d in discrete[keep]], "error_on_fail": False, "daqp": dict(options)}
-        self._solver = ca.conic("mhe_daqp", "daqp", {"h": self._Hdm.sparsity(), "a": self._Aw.sparsity()}, opts)
+        with captured_native_output("casadi conic 'daqp'"):
+            self._solver = ca.conic("mhe_daqp", "daqp", {"h": self._Hdm.sparsity(), "a": self._Aw.sparsity()}, opts)
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
               start: np.ndarray | None = None, col_bounds: tuple | None = None) -> BackendOutcome:
@@ -168,7 +170,8 @@ class BonminBackend:
                  "milp_log_level": 0, "fp_log_level": 0, "oa_log_level": 0}
         opts = {"discrete": [bool(d) for d in discrete], "print_time": False, "error_on_fail": False,
                 "bonmin": {**quiet, **options}}
-        self._solver = ca.nlpsol("mhe_bonmin", "bonmin", {"x": x, "p": gp, "f": f, "g": con}, opts)
+        with captured_native_output("casadi nlpsol 'bonmin'"):
+            self._solver = ca.nlpsol("mhe_bonmin", "bonmin", {"x": x, "p": gp, "f": f, "g": con}, opts)
         self._lb, self._ub, self._H = lb, ub, H
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
@@ -233,7 +236,8 @@ class CasadiMilpBackend:
         else:
             base = {"loglevel": 0, "allowableGap": 0.0, "ratioGap": 0.0}
             opts = {"discrete": [bool(d) for d in discrete], "error_on_fail": False, "cbc": {**base, **options}}
-        self._solver = ca.conic(f"mhe_{plugin}", plugin, {"a": self._A.sparsity(), "h": ca.Sparsity(nx, nx)}, opts)
+        with captured_native_output(f"casadi conic {plugin!r}"):
+            self._solver = ca.conic(f"mhe_{plugin}", plugin, {"a": self._A.sparsity(), "h": ca.Sparsity(nx, nx)}, opts)
         self._c, self._lb, self._ub = c, lb, ub
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,

@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from ..._native_output import captured_native_output
 from ...errors import ModelError
 from ...status import Status, highs_status
 from ...tolerances import MHE_MILP_FEASIBILITY_TOL
@@ -57,7 +58,8 @@ class HighspyBackend:
         import highspy
 
         self._hs = highspy
-        h = highspy.Highs()
+        with captured_native_output("highspy.Highs"):
+            h = highspy.Highs()
         for key, value in {**HIGHS_BASE_OPTIONS, **options}.items():
             if h.setOptionValue(key, value) != highspy.HighsStatus.kOk:
                 raise ModelError(f"solver_options[{key!r}]", "a HiGHS option name and a valid value", repr(value))
