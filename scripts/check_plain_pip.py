@@ -107,8 +107,11 @@ def main(argv: list[str] | None = None) -> int:
         out = _step("the README's first example", [py, example], cwd=src, env=env)
         print("   " + out.strip().replace("\n", "\n   "), flush=True)
 
+        tests = [t for t in TESTS if (src / t).is_file()]
+        if len(tests) < len(TESTS):  # an older checkout (--root) may predate some of them
+            print(f"   not in this checkout: {sorted(set(TESTS) - set(tests))}", flush=True)
         out = _step("the CLI JSON tests", [py, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "2",
-                                           "--dist", "worksteal", *TESTS], cwd=src, env=env)
+                                           "--dist", "worksteal", *tests], cwd=src, env=env)
         print("   " + out.strip().splitlines()[-1], flush=True)
         print("plain-pip check passed", flush=True)
         return 0
