@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "hybobs_opt needs Python >= 3.11, found " + sys.version.split()[0])'
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,distributed,models,solvers,docs]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,distributed,models,docs]'
 	@# compile the numba kernels once into the user's cache (otherwise every test worker compiles them)
 	$(PY) -m hybobs_opt._warm_up > /dev/null
 	@touch $(STAMP)

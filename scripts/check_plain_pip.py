@@ -9,7 +9,10 @@ versions the package's own bounds allow.  This check (CI's plain-pip job):
 3. copies the tests, the examples and the pytest configuration (not the package) into a scratch
    directory, so the tests import the installed wheel, and checks that they do;
 4. runs the README's first Python example and the CLI JSON tests (every command's ``--json`` output
-   against its golden record, and the solver-banner tests of ``tests/unit/core/test_native_output.py``).
+   against its golden record, and the solver-banner tests of ``tests/unit/core/test_native_output.py``);
+5. builds the wheel and the sdist with ``python -m build`` and follows the README's sdist recipe:
+   unpack it, ``pip install -c constraints.txt '.[test]'`` into another fresh environment, and run
+   ``python -m pytest tests/unit/core`` there (``--no-sdist`` skips this part).
 
 Exit status 0 when all pass; otherwise the failing step's output and status 1.
 
@@ -32,7 +35,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parents[1]
 
 #: Distributions whose installed versions the check prints (the solvers and numerics the answers rest on).
-REPORTED = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "casadi", "highspy", "daqp", "numba", "matplotlib",
+REPORTED = ("numpy", "scipy", "cvxpy", "clarabel", "cvxopt", "osqp", "casadi", "highspy", "daqp", "numba", "matplotlib",
             "pycddlib-standalone", "pytest")
 
 #: The tests run against the installed wheel.
@@ -63,12 +66,42 @@ def readme_example(readme: Path) -> str:
     return block.group(1)
 
 
+def check_sdist(python: str, py: Path, root: Path, work: Path) -> None:
+    """``python -m build`` gives a wheel and an sdist, and the README's sdist recipe passes."""
+    import tarfile
+
+    built = work / "build"
+    shutil.rmtree(built, ignore_errors=True)
+    _step("install build", [py, "-m", "pip", "install", "--quiet", "build"], cwd=work)
+    _step("python -m build", [py, "-m", "build", "--outdir", built, root], cwd=work)
+    sdists, wheels = sorted(built.glob("hybobs_opt-*.tar.gz")), sorted(built.glob("hybobs_opt-*.whl"))
+    if len(sdists) != 1 or len(wheels) != 1:
+        raise SystemExit(f"python -m build made {[p.name for p in built.iterdir()]}, not one sdist and one wheel")
+    unpacked = work / "sdist"
+    shutil.rmtree(unpacked, ignore_errors=True)
+    with tarfile.open(sdists[0]) as tar:
+        tar.extractall(unpacked, filter="data")
+    src = next(unpacked.iterdir())
+    venv = work / "venv-sdist"
+    shutil.rmtree(venv, ignore_errors=True)
+    _step("fresh virtual environment for the sdist", [python, "-m", "venv", venv], cwd=work)
+    spy = venv / ("Scripts" if os.name == "nt" else "bin") / "python"
+    _step("the sdist recipe: pip install -c constraints.txt '.[test]'",
+          [spy, "-m", "pip", "install", "--quiet", "-c", "constraints.txt", ".[test]"], cwd=src)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env["OPENBLAS_NUM_THREADS"] = env.get("OPENBLAS_NUM_THREADS", "1")
+    out = _step("the sdist recipe: python -m pytest tests/unit/core -q",
+                [spy, "-m", "pytest", "tests/unit/core", "-q", "-p", "no:cacheprovider"], cwd=src, env=env)
+    print("   " + out.strip().splitlines()[-1], flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--root", type=Path, default=HERE, help="the checkout to build and test (default: this one)")
     parser.add_argument("--workdir", type=Path, default=None, help="scratch directory (default: a new temporary one)")
     parser.add_argument("--keep", action="store_true", help="keep the scratch directory")
     parser.add_argument("--python", default=sys.executable, help="the Python that builds the wheel and the venv")
+    parser.add_argument("--no-sdist", action="store_true", help="skip python -m build and the sdist recipe")
     args = parser.parse_args(argv)
     root = args.root.resolve()
     work = (args.workdir or Path(tempfile.mkdtemp(prefix="hybobs-plain-pip-"))).resolve()
@@ -76,7 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         dist, venv, src = work / "dist", work / "venv", work / "src"
         shutil.rmtree(dist, ignore_errors=True)
+        had_build_dir = (root / "build").exists()
         _step("build the wheel", [args.python, "-m", "pip", "wheel", "--no-deps", "--quiet", "-w", dist, root], cwd=work)
+        if not had_build_dir:  # setuptools builds in the checkout's build/: leave the checkout as it was
+            shutil.rmtree(root / "build", ignore_errors=True)
         wheel = next(dist.glob("hybobs_opt-*.whl"))
         shutil.rmtree(venv, ignore_errors=True)
         _step("fresh virtual environment", [args.python, "-m", "venv", venv], cwd=work)
@@ -113,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
         out = _step("the CLI JSON tests", [py, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "2",
                                            "--dist", "worksteal", *tests], cwd=src, env=env)
         print("   " + out.strip().splitlines()[-1], flush=True)
+        if not args.no_sdist:
+            check_sdist(args.python, py, root, work)
         print("plain-pip check passed", flush=True)
         return 0
     finally:

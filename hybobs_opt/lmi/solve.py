@@ -196,8 +196,8 @@ def _set_value(leaf, value) -> None:
 #: Conic solvers tried, in order, when Clarabel cannot decide a problem (a status other than
 #: ``optimal`` or ``infeasible``: ``solver_error``, ``*_inaccurate``...): Clarabel again with ten
 #: times its static KKT regularisation (the vehicle's LMIs at the decay-rate cap fail in the
-#: factorisation with the default 1e-8 and are decided with 1e-7), then CVXOPT (optional extra
-#: ``solvers``), an interior-point method with its own scaling (3 steps of iterative refinement: at
+#: factorisation with the default 1e-8 and are decided with 1e-7), then CVXOPT (a core
+#: dependency), an interior-point method with its own scaling (3 steps of iterative refinement: at
 #: the degenerate optimum of the norm objective its KKT system turns singular without them), then
 #: SCS (a cvxpy dependency), a first-order method run to tight tolerances, only when no solver
 #: returned a point at all (a point that failed the re-check lies near the boundary, where SCS's
