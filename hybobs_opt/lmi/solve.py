@@ -59,7 +59,7 @@ class _ProblemText:
         p = self.problem
         n_vars = sum(int(v.size) for v in p.variables())
         n_psd = sum(1 for c in p.constraints if type(c).__name__ == "PSD")
-        return f"{n_vars} scalar variables, {len(p.constraints)} constraints ({n_psd} PSD)"
+        return f"{n_vars} variable entries, {len(p.constraints)} constraints ({n_psd} PSD)"
 
 
 @dataclass
