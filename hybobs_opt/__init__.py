@@ -63,6 +63,7 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),
     "PhaseProgress": "hybobs_opt.progress",
     "warm_up": "hybobs_opt._warm_up",
+    "verbose_logging": "hybobs_opt._logging",
     # the installed example catalogues (this package's: the seed papers' examples)
     **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.systems.catalogue"),
 }
