@@ -885,6 +885,8 @@ class MHEObserver(Observer):
             solver's details, ``seconds`` and ``residuals``.  It reads like the dict this method
             used to return (``out["status"]``, ``out.get("alternative")``; ``out.to_dict()``).
         """
+        if not self.verbose:
+            return self._solve_window(U, Y, x_start, uniqueness)
         with verbose_logging(self.verbose):
             return self._solve_window(U, Y, x_start, uniqueness)
 
