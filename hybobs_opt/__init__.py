@@ -17,6 +17,8 @@ cheap::
     from hybobs_opt import PWASystem, analyse_observability, LookupObserver, MHEObserver
 """
 
+import logging
+
 from ._lazy import lazy_exports
 from .errors import BuildError, HybobsError, InfeasibleError, ModelError, SolverError
 
@@ -61,10 +63,16 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("ResultCache", "cached_analysis", "use_cache"), "hybobs_opt.cache"),
     "PhaseProgress": "hybobs_opt.progress",
     "warm_up": "hybobs_opt._warm_up",
+    "verbose_logging": "hybobs_opt._logging",
     # the installed example catalogues (this package's: the seed papers' examples)
     **dict.fromkeys(("get_example", "list_examples"), "hybobs_opt.systems.catalogue"),
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+# The library convention: the package's loggers ("hybobs_opt.*") write nowhere unless the
+# application configures logging (or passes verbose=True / hybobs -v: hybobs_opt._logging).
+logging.getLogger(__name__).addHandler(logging.NullHandler())
+del logging
 
 __all__ = ["BuildError", "HybobsError", "InfeasibleError", "ModelError", "SolverError", "__version__", *sorted(_EXPORTS)]

@@ -133,6 +133,61 @@ class ObserverTrace:
             raise ModelError("x_true", f"shape {self.x_hat.shape}", f"shape {x_true.shape}")
         return self.x_hat - x_true
 
+    def to_pandas(self, t: np.ndarray | None = None) -> Any:
+        """The run as a pandas DataFrame, one row per step: the columns :func:`~hybobs_opt.sim.log.write_estimates` writes, and the step times.
+
+        Parameters
+        ----------
+        t : (N,) array_like, optional
+            Sample times, a first column ``t`` when given (e.g. the log's ``log.t``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns, in order: ``t`` (when given), one per state with the estimate (named by
+            ``state_names``, else ``x1, x2, ...``), ``mode`` (estimated mode, ``-1`` unknown),
+            ``flag`` (one of :data:`FLAGS`), ``seconds`` (compute time of the step) and, when
+            some step states a certified radius, ``radius_<state>`` per state (``nan`` where a
+            step states none); a default ``RangeIndex``.
+
+        Raises
+        ------
+        ModelError
+            ``t`` does not have one entry per step, or pandas is not installed (the ``interop``
+            extra).
+
+        See Also
+        --------
+        hybobs_opt.sim.log.write_estimates : The same columns (without ``seconds``) in a CSV file.
+        hybobs_opt.sim.trace.Trace.to_pandas : The simulated truth to compare with.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hybobs_opt import ObserverTrace
+        >>> run = ObserverTrace(np.array([[0.0], [1.0]]), np.array([-1, 0]), np.array(["warming_up", "observable"]),
+        ...                     np.array([1e-3, 2e-3]), ("x",), "demo")
+        >>> run.to_pandas(t=[0.0, 0.1]).to_dict("list")
+        {'t': [0.0, 0.1], 'x': [0.0, 1.0], 'mode': [-1, 0], 'flag': ['warming_up', 'observable'], 'seconds': [0.001, 0.002]}
+        """
+        from ._frames import frame
+
+        N, n = self.x_hat.shape
+        names = list(self.state_names) or [f"x{i + 1}" for i in range(n)]
+        columns = []
+        if t is not None:
+            t = np.asarray(t, dtype=float).reshape(-1)
+            if t.size != N:
+                raise ModelError("t", f"one time per step ({N})", f"{t.size}")
+            columns.append(("t", t))
+        columns += list(zip(names, self.x_hat.T))
+        columns += [("mode", np.asarray(self.mode, dtype=int)), ("flag", np.asarray(self.flags, dtype=object)),
+                    ("seconds", np.asarray(self.seconds, dtype=float))]
+        R = self.radii() if len(self.info) == N else None
+        if R is not None:
+            columns += [(f"radius_{nm}", R[:, i]) for i, nm in enumerate(names)]
+        return frame(columns, "ObserverTrace")
+
     def flag_counts(self) -> dict[str, int]:
         return {f: int(np.count_nonzero(self.flags == f)) for f in FLAGS}
 

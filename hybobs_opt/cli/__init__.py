@@ -6,6 +6,9 @@ One module per command (``examples``, ``simulate``, ``report``, ``regions``, ``o
 the package (numpy, the solvers) is loaded inside ``run``, so ``hybobs --help`` and
 ``hybobs examples`` start without importing cvxpy, CasADi or numba.
 
+``hybobs -v COMMAND ...`` logs the package's progress at INFO (``-vv``: DEBUG, every solver call)
+to stderr, never to stdout, so ``--json`` output stays one JSON document.
+
 Exit codes: 0 success, 2 bad input or a failed computation.  Every error is one line: on stderr
 ``hybobs COMMAND: error: MESSAGE``, or under ``--json`` one JSON object on stdout with ``error``
 (the message), ``command`` and, when known, ``field``, ``expected`` and ``got`` (a
@@ -80,6 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Optimization-based state observers for hybrid systems (hybobs_opt).",
     )
     parser.add_argument("--version", action="version", version=f"hybobs {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="log progress to stderr: -v at INFO (phases, undecided solves), -vv at DEBUG (every solve)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module_name in COMMANDS.items():
         module = importlib.import_module(f"{__name__}.{module_name}")
@@ -160,13 +165,18 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0) if not isinstance(exc.code, str) else 2
     as_json = bool(getattr(args, "json", False)) or as_json
     try:
+        import logging
+
+        from .._logging import verbose_logging
         from ..limits import raised_pair_lp_budget
         from ._common import as_options
 
         max_lps = getattr(args, "max_lps", None)
         if max_lps is not None and max_lps < 1:
             raise ModelError("--max-lps", "a positive number of LPs", repr(max_lps))
-        with raised_pair_lp_budget(max_lps), as_options({"max_pair_lps": "--max-lps"}):
+        verbose = getattr(args, "verbose", 0)
+        level = None if not verbose else logging.INFO if verbose == 1 else logging.DEBUG
+        with verbose_logging(level), raised_pair_lp_budget(max_lps), as_options({"max_pair_lps": "--max-lps"}):
             return int(args.func(args) or 0)
     except HybobsError as exc:
         return report_error(args.command, str(exc), as_json, **_error_fields(exc))

@@ -35,11 +35,13 @@ Every value can be given instead (``given`` in ``sources``).
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from .._logging import with_verbose
 from ..defaults import (AUTO_DESIGN_DECAY_FACTOR, AUTO_DESIGN_DECAY_FRACTION, AUTO_DESIGN_GAIN_FACTOR,
                         AUTO_DESIGN_OVERLAP_FRACTION, AUTO_DESIGN_RATE_FUNCTION_SAMPLES, AUTO_DESIGN_RATE_SAMPLES,
                         DWELL_RETRY_FRACTIONS, DWELL_RETRY_WIDEN, POLYTOPIC_MAX_VERTICES, SIGMA_CAP)
@@ -258,7 +260,12 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     return DesignSettings(name, lo, hi, S, rho, gb, md, ov, mr, AUTO_DESIGN_DECAY_FRACTION, cap, sources, condition)
 
 
-def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, accept_unenforced_dwell: bool = False):
+_log = logging.getLogger(__name__)
+
+
+@with_verbose
+def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, accept_unenforced_dwell: bool = False,
+                    verbose: bool | int = False):
     """Regions grown on the settings' range and the switched gains with the dwell time (paper 004, Section 5).
 
     When the hysteresis does not enforce the dwell time (Theorem 6 needs it), the design is redone
@@ -278,6 +285,9 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     accept_unenforced_dwell : bool, default False
         Return the last design with a warning instead of raising when no attempt enforces the dwell
         time.
+    verbose : bool or int, default False
+        Log the progress (and every LMI solve at DEBUG) to standard error: ``True`` at INFO, or a
+        logging level (:func:`hybobs_opt._logging.verbose_logging`).
 
     Returns
     -------
@@ -312,6 +322,8 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
                                          sigma_cap=settings.sigma_cap, scaling=settings.scaling,
                                          max_rate=settings.max_rate, overlap=overlap, accept_unenforced_dwell=True,
                                          condition=settings.condition, min_decay=settings.min_decay)
+        _log.info("design attempt %d: overlap %.4g, decay fraction %.3g: %d regions, dwell time %.4g s, enforced: %s",
+                  len(attempts) + 1, overlap, fraction, len(design.regions), design.tau, design.dwell_enforced)
         attempts.append({"overlap": overlap, "decay_fraction": fraction, "regions": len(design.regions),
                          "tau": design.tau, "epsilon_required": design.epsilon_required,
                          "dwell_enforced": design.dwell_enforced})
@@ -325,5 +337,6 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
         if not accept_unenforced_dwell:
             raise DwellTimeError(design)
         for text in design.warnings:
-            warnings.warn(text, DwellTimeWarning, stacklevel=2)
+            # 3: the caller of the verbose wrapper (hybobs_opt._logging.with_verbose)
+            warnings.warn(text, DwellTimeWarning, stacklevel=3)
     return design

@@ -14,11 +14,13 @@ when an undetectable point lies in the range.
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._logging import with_verbose
 from ..defaults import SIGMA_CAP
 from ..errors import HybobsError, InfeasibleError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
@@ -239,6 +241,10 @@ class Diagnosis:
         return out
 
 
+_log = logging.getLogger(__name__)
+
+
+@with_verbose
 def diagnose(
     system: ScalarNonlinearSystem,
     coordinate: int | str,
@@ -257,6 +263,7 @@ def diagnose(
     required_decay: float | None = None,
     noise_bound=None,
     exact_bound_search: bool = False,
+    verbose: bool | int = False,
 ) -> Diagnosis:
     """Diagnose the constant-gain observer LMI of ``system`` on ``coordinate`` in ``[lo, hi]``.
 
@@ -285,6 +292,9 @@ def diagnose(
     exact_bound_search : bool, default False
         With a gain bound, also search the polytopic condition under the exact bound
         (:func:`.gain_search.decay_gain_search`); see :func:`.decay_design.decay_optimal_design`.
+    verbose : bool or int, default False
+        Log the progress (and every LMI solve at DEBUG) to standard error: ``True`` at INFO, or a
+        logging level (:func:`hybobs_opt._logging.verbose_logging`).
 
     Raises
     ------
@@ -298,10 +308,13 @@ def diagnose(
     lo = float(system.box_lower[k]) if lo is None else float(lo)
     hi = float(system.box_upper[k]) if hi is None else float(hi)
     region = make_region(system, k, lo, hi)
+    _log.info("diagnose: the constant-gain observer LMI of %s on %s in [%.6g, %.6g]", system.name, region.name, lo, hi)
     bounds = jacobian_bounds(system, region)
     lmi = ObserverLMI.compiled(system, scaling=scaling)
     hier = condition_hierarchy(system, region, bounds=bounds, scaling=lmi.d,
                                region_text=f"{region.name} in [{lo / factor:.4g}, {hi / factor:.4g}] {unit}".strip())
+    _log.info("diagnose: condition hierarchy decided (feasible condition: %s) after %.3g s", hier.feasible_condition,
+              time.perf_counter() - t0)
     paper = hier.get("paper")
     sol = paper.solution if paper.solution is not None else lmi.solve(bounds, 0.0)
     cert = paper.certificate if isinstance(paper.certificate, InfeasibilityCertificate) else None
@@ -340,6 +353,7 @@ def diagnose(
     if required_decay is not None:
         min_decay = float(required_decay)  # the suggested regions must meet the requirement too
     if suggest and (not hier.feasible or not design.met):
+        _log.info("diagnose: growing switching regions on [%.6g, %.6g]", lo, hi)
         try:
             suggested = grow_regions(system, k, lo, hi, overlap=overlap, min_decay=min_decay, gain_bound=gain_bound,
                                      scaling=lmi.d, condition=condition)
@@ -350,6 +364,7 @@ def diagnose(
                   design_key, rate, design, required_decay, noise_design, noise_error)
     d.next_steps = _next_steps(d)
     d.seconds = time.perf_counter() - t0
+    _log.info("diagnose: done in %.3g s (a constant gain %s)", d.seconds, "exists" if hier.feasible else "does not exist")
     return d
 
 

@@ -14,6 +14,7 @@ next Clarabel solve to.
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -42,6 +43,23 @@ SOLVER_ERROR = Status.SOLVER_ERROR
 POINT_STATUSES = (Status.OPTIMAL, Status.OPTIMAL_INACCURATE)
 
 SOLVER = "CLARABEL"
+
+_log = logging.getLogger(__name__)
+
+
+class _ProblemText:
+    """The size of a cvxpy problem for a log record, computed only if the record is written."""
+
+    __slots__ = ("problem",)
+
+    def __init__(self, problem: cp.Problem):
+        self.problem = problem
+
+    def __str__(self) -> str:
+        p = self.problem
+        n_vars = sum(int(v.size) for v in p.variables())
+        n_psd = sum(1 for c in p.constraints if type(c).__name__ == "PSD")
+        return f"{n_vars} variable entries, {len(p.constraints)} constraints ({n_psd} PSD)"
 
 
 @dataclass
@@ -400,6 +418,11 @@ def solve_problem(problem: cp.Problem, *, fallback: bool = True, accept=None) ->
     if not (status == INFEASIBLE or accepted or (status == OPTIMAL and accept is None)):
         COUNTERS.undecided += 1
     residuals = LazyResiduals(problem) if status in (OPTIMAL, Status.OPTIMAL_INACCURATE) else {}
+    _log.debug("LMI solve: problem of %s; solver %s, status %s, %.3g s (compile %.3g s, solver %.3g s)",
+               _ProblemText(problem), used, status, seconds, compile_s, solver_s)
+    if len(attempts) > 1:
+        _log.info("LMI solve not decided by %s alone: attempts %s, answer %s (%s) after %.3g s", SOLVER,
+                  ", ".join(f"{label}: {st}" for label, st in attempts), status, used, seconds)
     listener = _ON_SOLVE.get()
     if listener is not None:
         listener(COUNTERS.calls)

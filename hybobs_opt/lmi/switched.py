@@ -14,6 +14,7 @@ decay rate ``min_decay`` exists, and the next one starts ``2 epsilon`` below its
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from collections.abc import Sequence
@@ -21,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._logging import with_verbose
 from ..defaults import SIGMA_CAP
 from ..errors import HybobsError, InfeasibleError, ModelError, SolverError
 from ..systems.scalar_nonlinear import ScalarNonlinearSystem
@@ -371,6 +373,10 @@ def _growth_failure(system, lmi, k: int, a: float, b: float, min_decay: float, s
                           f"{where}, whatever the gain bound." + proof)
 
 
+_log = logging.getLogger(__name__)
+
+
+@with_verbose
 def synthesize_switched(
     system: ScalarNonlinearSystem,
     regions: Sequence[SchedulingRegion],
@@ -385,6 +391,7 @@ def synthesize_switched(
     accept_unenforced_dwell: bool = False,
     condition: str = "paper",
     min_decay: float | None = None,
+    verbose: bool | int = False,
 ) -> SwitchedDesign:
     """Gains per region and the joint dwell time (paper 004, Section 5, Theorem 6).
 
@@ -418,6 +425,9 @@ def synthesize_switched(
     min_decay : float, optional
         The rate the regions were grown for: the decay search tries it, so ``sigma_max`` is not
         reported below it by the bisection's tolerance.
+    verbose : bool or int, default False
+        Log the progress (and every LMI solve at DEBUG) to standard error: ``True`` at INFO, or a
+        logging level (:func:`hybobs_opt._logging.verbose_logging`).
 
     Raises
     ------
@@ -460,6 +470,8 @@ def synthesize_switched(
                                   "no constant gain with a quadratic Lyapunov function on this region"
                                   + ("" if lmi.gain_bound is None else f" within ||L||_2 <= {lmi.gain_bound:.4g}"))
         guess = dr.sigma_max if dr.sigma_max > 0 else None
+        _log.info("switched design: region %s in [%.6g, %.6g], largest decay rate %.4g (%d LMI solves so far)", reg.name,
+                  reg.lo, reg.hi, dr.sigma_max, COUNTERS.calls - calls0)
         # the solution at sigma_max also satisfies the LMI at the smaller design rate
         per.append((reg, b, dr, decay_fraction * dr.sigma_max, dr.solution))
     pairs = adjacent_pairs(regions)
@@ -497,8 +509,12 @@ def synthesize_switched(
                             None if max_rate is None else float(max_rate), eps_req, dwell_g, gain_bound,
                             COUNTERS.calls - calls0, time.perf_counter() - t0, dwell_solves, min_pair, counts,
                             bool(accept_unenforced_dwell))
+    _log.info("switched design: %d regions, dwell time %.4g s (fixed-P %.4g s), %d LMI solves, %.3g s", len(regions),
+              design.tau, design.tau_fixed, design.solves,
+              time.perf_counter() - t0)
     if design.dwell_enforced is False and not accept_unenforced_dwell:
         raise DwellTimeError(design)
     for text in design.warnings:
-        warnings.warn(text, DwellTimeWarning, stacklevel=2)
+        # 3: the caller of the verbose wrapper (hybobs_opt._logging.with_verbose)
+        warnings.warn(text, DwellTimeWarning, stacklevel=3)
     return design

@@ -95,6 +95,7 @@ from __future__ import annotations
 
 import difflib
 import inspect
+import logging
 import time
 from dataclasses import fields, replace
 from typing import Any
@@ -102,6 +103,7 @@ from typing import Any
 import numpy as np
 
 from .._deprecation import warn_renamed
+from .._logging import verbose_level, verbose_logging
 from .._validate import as_positive, as_vector
 from ..contract import (Estimate, FALLBACK, OBSERVABLE, Observer, UNOBSERVABLE, WARMING_UP, check_reset_keywords,
                         checked_state, false_alarm_probability, judge_samples_against, noise_std_vector)
@@ -269,6 +271,11 @@ class MHEObserver(Observer):
         answer.  It replaces the uniqueness test (noise-free, a radius within the tolerance is
         the same claim; the effective settings have ``check_uniqueness=False``) and cannot be
         combined with ``noise_std``, ``analysis`` or ``fit_tolerance``.
+    verbose : bool or int, default False
+        Log the windows of :meth:`step`, :meth:`run` and :meth:`solve_window` to standard error:
+        ``True`` (INFO) shows each run's summary and every window that is not certified,
+        ``logging.DEBUG`` every window (backend, status, how it was solved, seconds); see
+        :func:`hybobs_opt._logging.verbose_logging`.
     **kwargs
         Deprecated until hybobs_opt 0.2.0: the fields of :class:`~hybobs_opt.mhe.MHESettings` as
         keywords (``check_uniqueness=False``), each with a ``FutureWarning``, folded into the
@@ -368,7 +375,10 @@ class MHEObserver(Observer):
     def __init__(self, system: PWASystem, T: int, norm: str = "2", solver: str | None = None, output_weight=None,
                  disturbance_weight=None, arrival_weight=None, *, x0=None, settings: MHESettings | None = None,
                  big_m: BigMConstants | None = None, analysis=None, fit_tolerance=None, extend=None, noise_std=None,
-                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None, **kwargs: Any):
+                 false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None,
+                 verbose: bool | int = False, **kwargs: Any):
+        verbose_level(verbose)  # refused before any work when it is not a level
+        self.verbose = verbose
         self._set_problem(system, T, norm, solver, analysis)
         self.settings = _settings_in_force(settings, kwargs)
         asked_uniqueness = self.settings.check_uniqueness
@@ -806,6 +816,50 @@ class MHEObserver(Observer):
         return X, modes
 
     # ------------------------------------------------------------------ one solve
+    def step(self, u, y) -> Estimate:
+        """Process one sample ``(u(t), y(t))`` and return the estimate of ``x(t)`` (:meth:`Observer.step <hybobs_opt.contract.Observer.step>`).
+
+        Parameters
+        ----------
+        u : (m,) array_like
+            Input sample.
+        y : (p,) array_like
+            Output sample.
+
+        Returns
+        -------
+        Estimate
+            The estimate, its mode, flag, compute time and details (``info``: the window's
+            :meth:`WindowResult.to_dict <hybobs_opt.mhe.result.WindowResult.to_dict>` and the flag's reasons).
+        """
+        if not self.verbose:
+            return super().step(u, y)
+        with verbose_logging(self.verbose):
+            return super().step(u, y)
+
+    def run(self, U, Y):
+        """Run :meth:`step` over a recorded trace (:meth:`Observer.run <hybobs_opt.contract.Observer.run>`).
+
+        Parameters
+        ----------
+        U : sequence of (m,) samples
+            Inputs, one row per step.
+        Y : sequence of (p,) samples
+            Outputs, one row per step (same number as ``U``).
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates of every step.
+        """
+        with verbose_logging(self.verbose):
+            t0 = time.perf_counter()
+            trace = super().run(U, Y)
+            _log.info("MHE run (T = %d, norm %s, solver %s): %d samples in %.3g s, flags %s", self.T, self.norm,
+                      self.solver, trace.n_steps, time.perf_counter() - t0,
+                      {k: v for k, v in trace.flag_counts().items() if v})
+            return trace
+
     def solve_window(self, U: np.ndarray, Y: np.ndarray, x_start: np.ndarray | None = None,
                      uniqueness: bool = False) -> WindowResult:
         """Solve eq. (10) on one window (no observer state is changed).
@@ -831,6 +885,12 @@ class MHEObserver(Observer):
             solver's details, ``seconds`` and ``residuals``.  It reads like the dict this method
             used to return (``out["status"]``, ``out.get("alternative")``; ``out.to_dict()``).
         """
+        if not self.verbose:
+            return self._solve_window(U, Y, x_start, uniqueness)
+        with verbose_logging(self.verbose):
+            return self._solve_window(U, Y, x_start, uniqueness)
+
+    def _solve_window(self, U, Y, x_start, uniqueness: bool) -> WindowResult:
         U = np.asarray(U, dtype=float).reshape(self.T, self.m)
         Y = np.asarray(Y, dtype=float).reshape(self.T, self.p)
         xs = self._x_default if x_start is None else np.asarray(x_start, dtype=float).reshape(self.n)
@@ -878,7 +938,12 @@ class MHEObserver(Observer):
                                    reason=f"time budget of {budget:g} s (certify_time_budget) "
                                           f"exhausted: the optimum was certified after {spent:.3g} s")
         if not out.optimal:
-            return out.replace(seconds=time.perf_counter() - t0)
+            out = out.replace(seconds=time.perf_counter() - t0)
+            _log.info("MHE window: solver %s, status %s, %.3g s: %s", out.solver or self.solver, out.status, out.seconds,
+                      out.reason or "no reason given")
+            return out
+        _log.debug("MHE window: solver %s, status %s, solved by %s, %.3g s", out.solver or self.solver, out.status,
+                   out.solved_by, time.perf_counter() - t0)
         model, Uc = self.model, U.copy()  # the observer's window buffer changes in place
 
         def residuals() -> dict[str, float]:
@@ -1258,6 +1323,9 @@ class MHEObserver(Observer):
         if self._kalman is not None:
             self._kalman.reset(self._start)  # the filter restarts with the window, from the first prior's spread
         return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason, "certified_optimum": False})
+
+
+_log = logging.getLogger(__name__)
 
 
 def _settings_in_force(settings: MHESettings | None, deprecated: dict[str, Any]) -> MHESettings:

@@ -14,7 +14,7 @@ the observer's own keys (``certified_optimum``, ``uniqueness``, ``alternative``,
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -160,6 +160,60 @@ class WindowResult(Mapping):
         if self.alternative is not None:
             out["alternative"] = self.alternative
         return out
+
+    def to_pandas(self, state_names: Sequence[str] = ()) -> Any:
+        """The window's trajectory as a pandas DataFrame, one row per sample of the window.
+
+        Parameters
+        ----------
+        state_names : sequence of str, optional
+            Names of the states (``system.state_names``); default ``x1, x2, ...``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns, in order: ``k`` (sample of the window, ``0`` is the window start
+            ``x(t-T+1)``), one per state (the trajectory ``states``), ``mode`` (``modes``) and
+            ``w_<state>`` per state (the disturbance ``w`` from sample ``k`` to ``k + 1``;
+            ``nan`` on the last row, which has none); a default ``RangeIndex``.
+
+        Raises
+        ------
+        ModelError
+            The window returned no trajectory (field ``states``; ``reason`` says why), the names
+            do not fit, or pandas is not installed (the ``interop`` extra).
+
+        See Also
+        --------
+        WindowResult.to_dict : The scalar fields and arrays as a dict.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hybobs_opt.mhe.result import WindowResult
+        >>> res = WindowResult("optimal", states=np.array([[1.0], [0.5]]), modes=np.array([0, 1]),
+        ...                    w=np.array([[0.0]]))
+        >>> res.to_pandas(("x",)).to_dict("list")
+        {'k': [0, 1], 'x': [1.0, 0.5], 'mode': [0, 1], 'w_x': [0.0, nan]}
+        """
+        from .._frames import frame
+        from ..errors import ModelError
+
+        if self.states is None:
+            raise ModelError("states", "a window that returned a trajectory", f"none (status {self.status}"
+                             + (f": {self.reason})" if self.reason else ")"))
+        X = np.asarray(self.states, dtype=float)
+        T, n = X.shape
+        names = list(state_names) or [f"x{i + 1}" for i in range(n)]
+        if len(names) != n:
+            raise ModelError("state_names", f"{n} names (the window's states)", f"{len(names)}")
+        W = np.full((T, n), np.nan)
+        if self.w is not None:
+            w = np.asarray(self.w, dtype=float).reshape(-1, n)
+            W[: w.shape[0]] = w
+        modes = np.full(T, -1) if self.modes is None else np.asarray(self.modes, dtype=int)
+        return frame([("k", np.arange(T)), *zip(names, X.T), ("mode", modes),
+                      *((f"w_{nm}", W[:, i]) for i, nm in enumerate(names))], "WindowResult")
 
     # ------------------------------------------------------------------ read access as a dict
     def __getitem__(self, key: str) -> Any:

@@ -38,12 +38,14 @@ the flat directions tried is kept as a piece -- a set of measure zero added to `
 from __future__ import annotations
 
 import functools
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .._logging import with_verbose
 from ..errors import ModelError
 from ..geometry._lp_kernels import slack_lp_data
 from ..geometry.exact_lp import EXACT
@@ -893,6 +895,10 @@ def _stats(executor_name: str, data: PairTaskData, total: PairOutcome) -> dict:
             "n_decisions_exact": total.n_decisions_exact, "n_decisions_exact_undecided": total.n_decisions_exact_undecided}
 
 
+_log = logging.getLogger(__name__)
+
+
+@with_verbose
 def analyse_observability(
     system_or_enum,
     T: int | None = None,
@@ -901,6 +907,7 @@ def analyse_observability(
     progress: Callable[[int, int], None] | None = None,
     group_tests: bool = True,
     max_pair_lps: int | None = None,
+    verbose: bool | int = False,
 ) -> ObservabilityAnalysis:
     """Run mode enumeration (if needed) and Algorithm 3.1 of paper 002.
 
@@ -927,11 +934,17 @@ def analyse_observability(
         a horizon predicted beyond it is refused before any LP, with the prediction.  Default
         :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` (or the budget the CLI's ``--max-lps``
         set).  Not checked when a ``ModeEnumeration`` is given (its size is known).
+    verbose : bool or int, default False
+        Log the phases (mode enumeration, pair tests) to standard error: ``True`` at INFO, or a
+        logging level (:func:`hybobs_opt._logging.verbose_logging`).
     """
     from ..executor import resolve_executor
 
     executor = resolve_executor(executor)
+    t_enum = time.perf_counter()
     enum = _enumeration(system_or_enum, T, executor, progress, max_pair_lps)
+    _log.info("Algorithm 3.1 of paper 002 at T = %d: mode enumeration gave %d regions (%.3g s)", enum.T,
+              len(enum.regions), time.perf_counter() - t_enum)
     t0 = time.perf_counter()
     n = enum.system.n
     sx = enum.scale[:n]
@@ -951,5 +964,8 @@ def analyse_observability(
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
     total = PairOutcome.total(_run_tasks(executor, parallel, tasks, data, progress, len(enum.regions), n_candidates))
     pairs = tuple(_pair_set(enum, *t) for t in sorted(total.found))  # same order on every executor
+    _log.info("pair tests: %d of %d candidate pairs tested with %d LPs (%s), %d pair sets R_ij found (%.3g s)",
+              total.n_tested, n_candidates, total.n_lps, executor.name if parallel else "serial", len(pairs),
+              time.perf_counter() - t0)
     return ObservabilityAnalysis(enum, full_rank, pairs, total.n_lps, total.n_tested, total.n_skipped_rank,
                                  time.perf_counter() - t0, _stats(executor.name if parallel else "serial", data, total))

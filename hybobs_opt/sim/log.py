@@ -19,8 +19,10 @@ gives the same doubles.
 from __future__ import annotations
 
 import csv
+import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -64,14 +66,72 @@ class SignalLog:
     def n_samples(self) -> int:
         return self.U.shape[0]
 
+    def to_pandas(self, system) -> Any:
+        """The log as a pandas DataFrame that :func:`read_log` reads back to the same arrays.
 
-def read_log(path: str | Path, system) -> SignalLog:
-    """Read a CSV log of ``system`` (anything with ``input_names``, ``output_names``, ``state_names``).
+        Parameters
+        ----------
+        system : object
+            The system the log was read for (its ``input_names``, ``output_names`` and
+            ``state_names`` name the columns).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns, in order: ``t`` (when the log has times), the inputs, the outputs, the
+            states (when the log has them; a state that is also an output is one column) and
+            ``q`` (when the log has the true mode); a default ``RangeIndex``.
+
+        Raises
+        ------
+        ModelError
+            The system's names do not fit the arrays, or pandas is not installed (the
+            ``interop`` extra).
+
+        See Also
+        --------
+        read_log : The way back.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from types import SimpleNamespace
+        >>> from hybobs_opt.sim.log import SignalLog
+        >>> system = SimpleNamespace(input_names=("u",), output_names=("y",), state_names=("x",))
+        >>> log = SignalLog("mem", np.array([[1.0], [0.0]]), np.array([[0.5], [0.25]]), np.array([0.0, 0.1]), None)
+        >>> log.to_pandas(system).to_dict("list")
+        {'t': [0.0, 0.1], 'u': [1.0, 0.0], 'y': [0.5, 0.25]}
+        """
+        from .._frames import frame
+
+        names = {"input_names": (tuple(system.input_names), self.U), "output_names": (tuple(system.output_names), self.Y)}
+        if self.X is not None:
+            names["state_names"] = (tuple(system.state_names), self.X)
+        for key, (nm, arr) in names.items():
+            if len(nm) != arr.shape[1]:
+                raise ModelError(f"system.{key}", f"{arr.shape[1]} names (the log's columns)", f"{len(nm)}")
+        columns = [] if self.t is None else [("t", self.t)]
+        for nm, arr in names.values():
+            columns += list(zip(nm, arr.T))
+        if self.Q is not None:
+            columns.append(("q", self.Q))
+        return frame(columns, "SignalLog")
+
+
+def read_log(path: str | Path | Any, system) -> SignalLog:
+    """Read a log of ``system`` (anything with ``input_names``, ``output_names``, ``state_names``): a CSV file or a pandas DataFrame.
+
+    A DataFrame is judged exactly like the file: its column names are the header (the same
+    required, optional and refused columns), every cell must be a finite number in a numeric
+    column (a text, boolean or date column is refused, not converted), and errors name the row
+    by its position (``DataFrame row 0`` is the first).  Its index is not read: a named index
+    (``df.set_index("t")``) is refused so that a time column is not dropped unseen; use
+    ``df.reset_index()``.
 
     Parameters
     ----------
-    path : str or Path
-        The CSV file.
+    path : str, Path or pandas.DataFrame
+        The CSV file, or a DataFrame with one column per signal and one row per sample.
     system : object
         Any object with ``input_names``, ``output_names`` and ``state_names`` (a system class of
         :mod:`hybobs_opt.systems`).
@@ -79,16 +139,76 @@ def read_log(path: str | Path, system) -> SignalLog:
     Returns
     -------
     SignalLog
-        The columns as arrays in the system's order.
+        The columns as arrays in the system's order (``path`` is ``"DataFrame"`` for a DataFrame).
 
     Raises
     ------
     ModelError
         The file is unreadable or empty, a column is missing, unknown or repeated, or a cell is
-        not a finite number; the message names the file, the line and the column.
+        not a finite number; the message names the file (or ``DataFrame``), the line (row) and
+        the column.
+
+    See Also
+    --------
+    hybobs_opt.sim.trace.Trace.to_pandas : A simulated trace as a DataFrame this function reads.
+    SignalLog.to_pandas : The way back.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from types import SimpleNamespace
+    >>> from hybobs_opt import read_log
+    >>> system = SimpleNamespace(input_names=("u",), output_names=("y",), state_names=("x",))
+    >>> log = read_log(pd.DataFrame({"t": [0.0, 0.1], "u": [1.0, 0.0], "y": [0.5, 0.25]}), system)
+    >>> log.U.tolist(), log.Y.tolist(), log.t.tolist(), log.X
+    ([[1.0], [0.0]], [[0.5], [0.25]], [0.0, 0.1], None)
     """
-    path = Path(path)
     inputs, outputs, states = tuple(system.input_names), tuple(system.output_names), tuple(system.state_names)
+    if _is_dataframe(path):
+        label = "DataFrame"
+        header, data = _frame_table(path, inputs, outputs, states)
+
+        def where(i: int) -> str:
+            return f"DataFrame row {i}"
+    else:
+        path = Path(path)
+        label = str(path)
+        header, data, lines = _csv_table(path, inputs, outputs, states)
+
+        def where(i: int) -> str:
+            return f"{path} line {lines[i]}"
+    names = _check_header(label, header, inputs, outputs, states)
+    needed, times, modes, state_cols, extra_states = names
+    if data.shape[0] == 0:
+        raise ModelError(label, "at least one sample after the header", "none")
+    for name in sorted({h for h in header if header.count(h) > 1}):
+        cols = [c for c, h in enumerate(header) if h == name]
+        differ = np.flatnonzero(np.any(data[:, cols] != data[:, cols[:1]], axis=1))
+        if differ.size:
+            raise ModelError(f"{where(int(differ[0]))} column {name!r}", "a column that appears twice to "
+                             "hold the same values (one signal)", "two different values")
+
+    def columns(names):
+        return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
+
+    t = data[:, header.index(times[0])] if times else None
+    if t is not None and np.any(np.diff(t) <= 0):
+        i = int(np.argmax(np.diff(t) <= 0)) + 1
+        raise ModelError(f"{where(i)} column {times[0]!r}", "strictly increasing times",
+                         f"{t[i]!r} after {t[i - 1]!r}")
+    X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
+    Q = None
+    if modes:
+        q = data[:, header.index(modes[0])]
+        bad = np.flatnonzero(q != np.round(q))
+        if bad.size:
+            raise ModelError(f"{where(int(bad[0]))} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
+        Q = q.astype(int)
+    return SignalLog(label, columns(inputs), columns(outputs), t, X, Q)
+
+
+def _csv_table(path: Path, inputs, outputs, states) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """``(header, data, line of each row)`` of a CSV log (the header checked before the rows are read)."""
     try:
         # utf-8-sig: a byte-order mark (spreadsheets write one) is not part of the first column's name
         with path.open(newline="", encoding="utf-8-sig") as fh:
@@ -98,40 +218,51 @@ def read_log(path: str | Path, system) -> SignalLog:
             if first is None:
                 raise ModelError(str(path), "a header row naming the columns, then one row per sample", "an empty file")
             header = [h.strip() for h in first]
-            names = _check_header(path, header, inputs, outputs, states)
+            _check_header(str(path), header, inputs, outputs, states)
             data, lines = _read_rows(path, reader, header)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ModelError(str(path), "a readable CSV log", f"{type(exc).__name__}: {exc}") from None
-    needed, times, modes, state_cols, extra_states = names
-    if data.shape[0] == 0:
-        raise ModelError(str(path), "at least one sample after the header", "none")
-    for name in sorted({h for h in header if header.count(h) > 1}):
-        cols = [c for c, h in enumerate(header) if h == name]
-        differ = np.flatnonzero(np.any(data[:, cols] != data[:, cols[:1]], axis=1))
-        if differ.size:
-            raise ModelError(f"{path} line {lines[int(differ[0])]} column {name!r}", "a column that appears twice to "
-                             "hold the same values (one signal)", "two different values")
-
-    def columns(names):
-        return data[:, [header.index(nm) for nm in names]] if names else np.zeros((data.shape[0], 0))
-
-    t = data[:, header.index(times[0])] if times else None
-    if t is not None and np.any(np.diff(t) <= 0):
-        i = int(np.argmax(np.diff(t) <= 0)) + 1
-        raise ModelError(f"{path} line {lines[i]} column {times[0]!r}", "strictly increasing times",
-                         f"{t[i]!r} after {t[i - 1]!r}")
-    X = columns(states) if extra_states or (states and len(state_cols) == len(states)) else None
-    Q = None
-    if modes:
-        q = data[:, header.index(modes[0])]
-        bad = np.flatnonzero(q != np.round(q))
-        if bad.size:
-            raise ModelError(f"{path} line {lines[int(bad[0])]} column {modes[0]!r}", "an integer mode", repr(float(q[bad[0]])))
-        Q = q.astype(int)
-    return SignalLog(str(path), columns(inputs), columns(outputs), t, X, Q)
+    return header, data, lines
 
 
-def _check_header(path: Path, header: list[str], inputs, outputs, states) -> tuple:
+def _is_dataframe(value: Any) -> bool:
+    """Whether ``value`` is a pandas DataFrame (without importing pandas when it is not loaded)."""
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(value, pd.DataFrame)
+
+
+def _frame_table(df, inputs, outputs, states) -> tuple[list[str], np.ndarray]:
+    """``(header, data)`` of a DataFrame log: string column names, numeric finite cells, no named index."""
+    import pandas as pd
+
+    header = list(df.columns)
+    bad = [c for c in header if not isinstance(c, str)]
+    if bad:
+        raise ModelError("DataFrame columns", "column names that are strings (the system's signal names)",
+                         f"{bad[0]!r} of type {type(bad[0]).__name__}")
+    if not header:
+        raise ModelError("DataFrame", "a column per signal, then one row per sample", "no columns")
+    if any(nm is not None for nm in df.index.names):
+        raise ModelError("DataFrame index", "an unnamed index (the time as a column t or time: df.reset_index())",
+                         f"an index named {[nm for nm in df.index.names]}")
+    _check_header("DataFrame", header, inputs, outputs, states)
+    data = np.empty((len(df), len(header)))
+    for c, name in enumerate(header):
+        col = df.iloc[:, c]
+        dtype = col.dtype
+        if pd.api.types.is_bool_dtype(dtype) or not pd.api.types.is_numeric_dtype(dtype) \
+                or pd.api.types.is_complex_dtype(dtype):
+            raise ModelError(f"DataFrame column {name!r}", "a numeric column (int or float)", f"dtype {dtype}")
+        values = col.to_numpy(dtype=float, na_value=np.nan)
+        finite = np.isfinite(values)
+        if not finite.all():
+            i = int(np.argmin(finite))
+            raise ModelError(f"DataFrame row {i} column {name!r}", "a finite number", repr(col.iloc[i]))
+        data[:, c] = values
+    return header, data
+
+
+def _check_header(path: str, header: list[str], inputs, outputs, states) -> tuple:
     """The header's columns checked against the system's names: ``(needed, times, modes,
     state_cols, extra_states)``."""
     needed = list(dict.fromkeys(inputs + outputs))

@@ -99,6 +99,45 @@ class Trace:
             "events": [_jsonable(e) for e in self.events],
         }
 
+    def to_pandas(self) -> Any:
+        """The trace as a pandas DataFrame, one row per sample, the columns of :meth:`to_csv`.
+
+        The frame is a log of the system: :func:`~hybobs_opt.sim.log.read_log` reads it back
+        (inputs, outputs, time, true states and modes).  A name shared by an output and a state
+        (an output that is a state) is one column, as in a log.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns, in order: ``t`` (sample times), one per state (``state_names``), ``q``
+            (discrete state), one per input (``input_names``), one per output (``output_names``);
+            a default ``RangeIndex``.
+
+        Raises
+        ------
+        ModelError
+            An output and a state of the same name hold different values, or pandas is not
+            installed (the ``interop`` extra).
+
+        See Also
+        --------
+        hybobs_opt.sim.log.read_log : Reads the frame as a log.
+        Trace.to_csv : The same columns in a CSV file.
+
+        Examples
+        --------
+        >>> from hybobs_opt import Trace
+        >>> tr = Trace([0.0, 0.1], [[1.0], [0.5]], [0, 1], [[2.0], [0.0]], [[1.0], [0.5]], ("x",), ("u",), ("y",))
+        >>> df = tr.to_pandas()
+        >>> list(df.columns), df["x"].tolist(), df["q"].tolist()
+        (['t', 'x', 'q', 'u', 'y'], [1.0, 0.5], [0, 1])
+        """
+        from .._frames import frame
+
+        columns = [("t", self.t), *zip(self.state_names, self.x.T), ("q", self.q), *zip(self.input_names, self.u.T),
+                   *zip(self.output_names, self.y.T)]
+        return frame(columns, "Trace")
+
     def to_csv(self, path: str | Path) -> None:
         """Write one row per sample with columns ``t, <states>, q, <inputs>, <outputs>``.
 

@@ -9,8 +9,9 @@ lookup-table deadbeat observer of paper 002.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.linalg import expm
@@ -127,6 +128,112 @@ class Location:
         elif probe is not None:
             probe_callable(self.output, probe, f"{f}.output", p, "output(x, u) -> y", at)
         return Location(self.name, self.invariant, A, B, E, C, D, c, self.flow, self.output)
+
+
+    @classmethod
+    def from_control(cls, name: str, sys: Any, invariant: Polytope, *, E: Sequence[float] | None = None,
+                     c: Sequence[float] | None = None) -> "Location":
+        """A location with the affine flow ``x' = A x + B u + E`` and output ``y = C x + D u + c`` of a python-control system.
+
+        Parameters
+        ----------
+        name : str
+            Name of the location.
+        sys : control.StateSpace
+            Continuous-time system (``dt=0``) holding ``A, B, C, D``; a discrete-time one is
+            refused (field ``sys.dt``).
+        invariant : Polytope
+            Region of the state (or of ``(x, u)``) where the location is active.
+        E : (n,) array_like, optional
+            Affine term of the flow (default zeros; a ``StateSpace`` cannot hold it).
+        c : (p,) array_like, optional
+            Affine term of the output (default zeros).
+
+        Returns
+        -------
+        Location
+            The location; its shapes are checked when a :class:`HybridAutomaton` is built of it.
+
+        Raises
+        ------
+        ModelError
+            ``sys`` is not a continuous-time ``StateSpace``, or python-control is not installed
+            (the ``interop`` extra).
+
+        See Also
+        --------
+        Location.to_control : The way back.
+        hybobs_opt.systems.pwa.PWAMode.from_control : A discrete-time mode.
+
+        Examples
+        --------
+        >>> import control
+        >>> from hybobs_opt import Location, Polytope
+        >>> sys = control.ss([[0.0, 1.0], [-1.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]])
+        >>> loc = Location.from_control("centre", sys, Polytope.from_box([-5, -5], [5, 5]), E=[0.0, -0.5])
+        >>> loc.A.tolist(), loc.E.tolist(), loc.is_affine
+        ([[0.0, 1.0], [-1.0, 0.0]], [0.0, -0.5], True)
+        """
+        from .control_bridge import check_state_space
+
+        A, B, C, D, _ = check_state_space(sys, "sys", discrete=False)
+        return cls(name, invariant, A, B, np.zeros(A.shape[0]) if E is None else E, C, D,
+                   np.zeros(C.shape[0]) if c is None else c)
+
+    def to_control(self, *, drop_affine: bool = False, states: Sequence[str] = (), inputs: Sequence[str] = (),
+                   outputs: Sequence[str] = ()) -> Any:
+        """The linear part ``(A, B, C, D)`` of an affine location as a continuous-time python-control system.
+
+        A ``StateSpace`` has no affine terms: a location with a non-zero ``E`` or ``c`` is
+        refused unless ``drop_affine=True`` (then they stay on the location).  The invariant is
+        not carried.
+
+        Parameters
+        ----------
+        drop_affine : bool, default False
+            Convert a location with non-zero affine terms by leaving them out.
+        states, inputs, outputs : sequence of str, optional
+            Signal names (python-control's ``x[0]``, ... when empty).
+
+        Returns
+        -------
+        control.StateSpace
+            Continuous-time system (``dt=0``) named after the location.
+
+        Raises
+        ------
+        ModelError
+            A callable flow or output (field ``flow`` / ``output``), a non-zero affine term without
+            ``drop_affine``, a location without inputs (python-control 0.10 cannot hold one), or
+            python-control is not installed.
+
+        See Also
+        --------
+        Location.from_control : The way in.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hybobs_opt import Location, Polytope
+        >>> loc = Location("centre", Polytope.from_box([-5, -5], [5, 5]), A=np.array([[0.0, 1.0], [-1.0, 0.0]]),
+        ...                B=np.array([[0.0], [1.0]]), C=np.array([[1.0, 0.0]]))
+        >>> sys = loc.to_control()
+        >>> sys.A.tolist(), sys.dt, sys.name
+        ([[0.0, 1.0], [-1.0, 0.0]], 0, 'centre')
+        """
+        from .control_bridge import affine_or_refuse, make_state_space
+
+        label = f"Location {self.name!r}"
+        if self.A is None:
+            raise ModelError(f"{label}.flow", "an affine flow (A, B, E) to convert", "a callable flow")
+        if self.C is None:
+            raise ModelError(f"{label}.output", "an affine output (C, D, c) to convert", "a callable output")
+        affine_or_refuse([("E", self.E), ("c", self.c)], drop_affine, label)
+        n, p = self.A.shape[0], self.C.shape[0]
+        B = np.zeros((n, 0)) if self.B is None else self.B.reshape(n, -1)
+        D = np.zeros((p, B.shape[1])) if self.D is None else self.D
+        return make_state_space(self.A, B, self.C, D, 0, field=f"{label}.B", name=self.name, states=states,
+                                inputs=inputs, outputs=outputs)
 
 
 def _input_matrix(value, field: str, n: int, m: int) -> np.ndarray:

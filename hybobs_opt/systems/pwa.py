@@ -11,6 +11,7 @@ import hashlib
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -96,6 +97,111 @@ class PWAMode:
         if self.guard.dim != n + m:
             raise ModelError(f"{f}.guard", f"a polytope of dimension n + m = {n + m}", f"dimension {self.guard.dim}")
         return PWAMode(A, B, a, C, self.guard, D, c, self.name or f"mode{index}")
+
+    @classmethod
+    def from_control(cls, sys: Any, guard: Polytope, *, a: Sequence[float] | None = None,
+                     c: Sequence[float] | None = None, name: str | None = None) -> "PWAMode":
+        """The mode ``x+ = A x + B u + a``, ``y = C x + D u + c`` on ``guard`` from a python-control system.
+
+        Parameters
+        ----------
+        sys : control.StateSpace
+            Discrete-time system (``dt > 0`` or ``dt=True``) holding ``A, B, C, D``.  A
+            continuous-time one is refused: discretise it first (``control.c2d(sys, Ts, "zoh")``).
+        guard : Polytope
+            ``Q_i`` over the stacked vector ``(x, u)``.
+        a : (n,) array_like, optional
+            Affine term of the state update (default zeros; a ``StateSpace`` cannot hold it).
+        c : (p,) array_like, optional
+            Affine term of the output (default zeros).
+        name : str, optional
+            Label of the mode; default: the ss object's name when the user gave one, else ``""``.
+
+        Returns
+        -------
+        PWAMode
+            The mode; its shapes are checked against the system's when a :class:`PWASystem` is
+            built of it.
+
+        Raises
+        ------
+        ModelError
+            ``sys`` is not a ``StateSpace``, is continuous-time (field ``sys.dt``), or python-control
+            is not installed (the ``interop`` extra).
+
+        See Also
+        --------
+        PWAMode.to_control : The way back (linear part only).
+        PWASystem.from_control : A whole PWA system from one ss object per mode.
+
+        Examples
+        --------
+        >>> import control
+        >>> from hybobs_opt import PWAMode, Polytope
+        >>> sys = control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], True, name="left")
+        >>> mode = PWAMode.from_control(sys, Polytope.from_box([-1, -1], [0, 1]), a=[0.1])
+        >>> mode.name, mode.A.tolist(), mode.a.tolist()
+        ('left', [[0.5]], [0.1])
+        """
+        from .control_bridge import check_state_space, given_name
+
+        A, B, C, D, _ = check_state_space(sys, "sys", discrete=True)
+        n, p = A.shape[0], C.shape[0]
+        a = np.zeros(n) if a is None else a
+        c = np.zeros(p) if c is None else c
+        return cls(A, B, a, C, guard, D, c, given_name(sys) if name is None else name)
+
+    def to_control(self, dt: float | bool = True, *, drop_affine: bool = False, states: Sequence[str] = (),
+                   inputs: Sequence[str] = (), outputs: Sequence[str] = ()) -> Any:
+        """The linear part ``(A, B, C, D)`` of the mode as a discrete-time python-control system.
+
+        A ``StateSpace`` has no affine terms: a mode with a non-zero ``a`` or ``c`` is refused
+        unless ``drop_affine=True``, and then the returned system is only the linear part (the
+        terms stay on the mode: ``mode.a``, ``mode.c``).  The guard is not carried either.
+
+        Parameters
+        ----------
+        dt : float or True, default True
+            Sampling period of the ss object (``True``: discrete, unspecified period).
+        drop_affine : bool, default False
+            Convert a mode with non-zero affine terms by leaving them out.
+        states, inputs, outputs : sequence of str, optional
+            Signal names (python-control's ``x[0]``, ... when empty).
+
+        Returns
+        -------
+        control.StateSpace
+            Discrete-time system named after the mode.
+
+        Raises
+        ------
+        ModelError
+            Non-zero affine terms without ``drop_affine`` (field ``a`` or ``c``), a mode without
+            inputs (python-control 0.10 cannot hold one), or python-control is not installed.
+
+        See Also
+        --------
+        PWAMode.from_control : The way in.
+        PWASystem.to_control : Every mode of a system, with its names and sampling time.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hybobs_opt import PWAMode, Polytope
+        >>> mode = PWAMode(np.array([[0.5]]), np.array([[1.0]]), np.zeros(1), np.array([[1.0]]),
+        ...                Polytope.from_box([-1, -1], [0, 1]), name="left")
+        >>> sys = mode.to_control(0.1)
+        >>> sys.A.tolist(), sys.dt, sys.name
+        ([[0.5]], 0.1, 'left')
+        """
+        from .control_bridge import affine_or_refuse, make_state_space
+
+        affine_or_refuse([("a", self.a), ("c", self.c)], drop_affine, f"mode {self.name!r}" if self.name else "mode")
+        n, p = self.A.shape[0], self.C.shape[0]
+        B = np.zeros((n, 0)) if self.B is None else self.B
+        D = np.zeros((p, B.shape[1])) if self.D is None else self.D
+        return make_state_space(self.A, B, self.C, D, _control_dt(dt), field="mode.B", name=self.name,
+                                states=states, inputs=inputs, outputs=outputs)
 
 
 #: Values of ``PWASystem.partition``.
@@ -330,8 +436,166 @@ class PWASystem(ModelDictMixin):
         """
         return self._scales
 
+    # ------------------------------------------------------------------ python-control
+    @classmethod
+    def from_control(cls, systems: Sequence[Any], guards: Sequence[Polytope], state_bounds: Polytope,
+                     input_bounds: Polytope | None = None, *, affine: Sequence[Sequence[float] | None] | None = None,
+                     output_affine: Sequence[Sequence[float] | None] | None = None,
+                     mode_names: Sequence[str] | None = None, state_names: Sequence[str] | None = None,
+                     input_names: Sequence[str] | None = None, output_names: Sequence[str] | None = None,
+                     name: str = "pwa", partition: str = "check") -> "PWASystem":
+        """A PWA system (eq. 1, paper 002) with one python-control system per mode.
+
+        Parameters
+        ----------
+        systems : sequence of control.StateSpace
+            Discrete-time systems (``dt > 0`` or ``dt=True``), one per mode; numeric sampling
+            periods must agree and become ``Ts`` (``None`` when every ``dt`` is ``True``).
+        guards : sequence of Polytope
+            The guard ``Q_i`` over ``(x, u)`` of each mode.
+        state_bounds : Polytope
+            Bounded state set ``X``.
+        input_bounds : Polytope or None, optional
+            Bounded input set ``U``.
+        affine : sequence of (n,) array_like or None, optional
+            The affine terms ``a_i`` of the state update, one per mode (``None`` entries: zeros).
+        output_affine : sequence of (p,) array_like or None, optional
+            The affine terms ``c_i`` of the output, one per mode.
+        mode_names : sequence of str, optional
+            Labels of the modes; default: the ss objects' names where the user gave them.
+        state_names, input_names, output_names : sequence of str, optional
+            Signal names; default: the ss objects' labels when the user gave them (they must then
+            agree between the modes), else ``x1, ...``, ``u1, ...``, ``y1, ...``.
+        name : str, default "pwa"
+            Label of the system.
+        partition : {"check", "ordered", "none"}, default "check"
+            What construction proves about the guards (see :class:`PWASystem`).
+
+        Returns
+        -------
+        PWASystem
+            The validated system.
+
+        Raises
+        ------
+        ModelError
+            A system is not a discrete-time ``StateSpace``, the sampling periods or given labels
+            disagree, a list has the wrong length, the usual checks of :class:`PWASystem` fail,
+            or python-control is not installed (the ``interop`` extra).
+
+        See Also
+        --------
+        PWAMode.from_control : One mode.
+        PWASystem.to_control : The way back.
+
+        Examples
+        --------
+        >>> import control
+        >>> from hybobs_opt import PWASystem, Polytope
+        >>> left = control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], 0.1, states=["x"], inputs=["u"], outputs=["y"])
+        >>> right = control.ss([[0.8]], [[1.0]], [[1.0]], [[0.0]], 0.1, states=["x"], inputs=["u"], outputs=["y"])
+        >>> pwa = PWASystem.from_control([left, right],
+        ...                              [Polytope.from_box([-1, -1], [0, 1]), Polytope.from_box([0, -1], [1, 1])],
+        ...                              Polytope.from_box([-1], [1]), Polytope.from_box([-1], [1]),
+        ...                              affine=[[0.1], None])
+        >>> pwa.n_modes, pwa.Ts, pwa.state_names, pwa.modes[0].a.tolist()
+        (2, 0.1, ('x',), [0.1])
+        """
+        from .control_bridge import check_state_space, given_labels, given_name, sampling_time
+
+        systems = list(as_items(systems, "systems", object, "a control.StateSpace"))
+        guards = list(as_items(guards, "guards", Polytope, "a Polytope over (x, u)"))
+        if len(guards) != len(systems):
+            raise ModelError("guards", f"one guard per system ({len(systems)})", f"{len(guards)}")
+        per_mode = {}
+        for key, values in (("affine", affine), ("output_affine", output_affine), ("mode_names", mode_names)):
+            if values is None:
+                values = [None] * len(systems)
+            elif isinstance(values, (str, bytes)) or len(values) != len(systems):
+                raise ModelError(key, f"one entry per system ({len(systems)})",
+                                 repr(values) if isinstance(values, (str, bytes)) else f"{len(values)}")
+            per_mode[key] = list(values)
+        dts, modes = [], []
+        for i, sys in enumerate(systems):
+            check_state_space(sys, f"systems[{i}]", discrete=True)
+            dts.append(sys.dt)
+            mode_name = per_mode["mode_names"][i]
+            modes.append(PWAMode.from_control(sys, guards[i], a=per_mode["affine"][i], c=per_mode["output_affine"][i],
+                                              name=mode_name if mode_name is not None else None))
+        Ts = sampling_time(dts, "systems[*].dt")
+        names = {}
+        for key, attr, given in (("state_names", "state_labels", state_names), ("input_names", "input_labels", input_names),
+                                 ("output_names", "output_labels", output_names)):
+            if given is not None:
+                names[key] = given
+                continue
+            labels = {given_labels(getattr(sys, attr)) for sys in systems} - {()}
+            if len(labels) > 1:
+                raise ModelError(key, f"the same {attr} on every system (or {key}=...)", f"{sorted(labels)}")
+            names[key] = labels.pop() if labels else ()
+        return cls(tuple(modes), state_bounds, input_bounds, names["state_names"], names["input_names"],
+                   names["output_names"], Ts, name, partition)
+
+    def to_control(self, *, drop_affine: bool = False) -> list[Any]:
+        """Each mode's linear part as a discrete-time python-control system (``dt = Ts``, or ``True``).
+
+        A ``StateSpace`` has neither affine terms nor a guard: the guards stay on the system
+        (``modes[i].guard``), and a system with a non-zero affine term ``a_i`` or ``c_i`` is
+        refused unless ``drop_affine=True``; then the list holds the linear parts only and the
+        terms are ``modes[i].a`` and ``modes[i].c``.
+
+        Parameters
+        ----------
+        drop_affine : bool, default False
+            Convert the linear parts of modes with non-zero affine terms.
+
+        Returns
+        -------
+        list of control.StateSpace
+            One per mode, named after the mode, with the system's state, input and output names.
+
+        Raises
+        ------
+        ModelError
+            A non-zero affine term without ``drop_affine`` (field ``modes[i].a`` / ``.c``), a system
+            without inputs (python-control 0.10 cannot hold one), or python-control is not installed.
+
+        See Also
+        --------
+        PWASystem.from_control : The way back.
+        PWAMode.to_control : One mode.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hybobs_opt import PWAMode, PWASystem, Polytope
+        >>> modes = [PWAMode(np.array([[0.5]]), np.array([[1.0]]), np.zeros(1), np.array([[1.0]]),
+        ...                  Polytope.from_box([-1, -1], [0, 1]), name="left"),
+        ...          PWAMode(np.array([[0.8]]), np.array([[1.0]]), np.array([0.1]), np.array([[1.0]]),
+        ...                  Polytope.from_box([0, -1], [1, 1]), name="right")]
+        >>> pwa = PWASystem(modes, Polytope.from_box([-1], [1]), Polytope.from_box([-1], [1]), Ts=0.1)
+        >>> [(s.name, s.A.tolist(), s.dt) for s in pwa.to_control(drop_affine=True)]
+        [('left', [[0.5]], 0.1), ('right', [[0.8]], 0.1)]
+        """
+        from .control_bridge import affine_or_refuse
+
+        for i, mode in enumerate(self.modes):
+            affine_or_refuse([("a", mode.a), ("c", mode.c)], drop_affine, f"modes[{i}]")
+        dt = True if self.Ts is None else float(self.Ts)
+        return [mode.to_control(dt, drop_affine=True, states=self.state_names, inputs=self.input_names,
+                                outputs=self.output_names) for mode in self.modes]
+
     def __repr__(self) -> str:
         return f"PWASystem(name={self.name!r}, n={self.n}, m={self.m}, p={self.p}, modes={self.n_modes})"
+
+
+def _control_dt(dt) -> float | bool:
+    """``dt`` of a python-control discrete-time system: ``True`` or a positive finite period."""
+    if dt is True:
+        return True
+    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)) or not (np.isfinite(dt) and dt > 0):
+        raise ModelError("dt", "True or a positive finite sampling period", repr(dt))
+    return float(dt)
 
 
 def _shape(arr: np.ndarray) -> str:
