@@ -117,6 +117,28 @@ class ResultCache:
     events : list of dict
         One record per event: ``kind``, ``what``, ``outcome`` (``"hit"``, ``"stored"``,
         ``"refused"``, ``"not stored"``), ``path``, ``seconds`` and, when refused, ``reason``.
+
+    See Also
+    --------
+    use_cache : make a cache the active one.
+    cached_analysis : an observability analysis through the active cache.
+
+    Examples
+    --------
+    A cache in a directory of its own; ``log`` receives one line per load or store:
+
+    >>> import tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> cache = ResultCache(tempfile.mkdtemp(), log=print)
+    >>> plant = get_example("powertrain3").build()
+    >>> with use_cache(cache):
+    ...     analysis = cached_analysis(plant, 3)
+    ...     again = cached_analysis(plant, 3)
+    observability analysis of 'powertrain3 (tau=0.08333)' (T = 3): computed and stored in the cache (...)
+    observability analysis of 'powertrain3 (tau=0.08333)' (T = 3): loaded from the cache (...)
+    >>> [entry["kind"] for entry in cache.entries()]
+    ['analysis']
+    >>> n_files, n_bytes = cache.clear()            # empties the directory
     """
 
     def __init__(self, directory: str | os.PathLike | None = None, log: Callable[[str], None] | None = None):
@@ -397,6 +419,27 @@ def use_cache(cache: ResultCache | None) -> Iterator[ResultCache | None]:
     cache : ResultCache or None
         The cache that :func:`cached_analysis`, the lookup observer's tables and the exact window
         labels read and write inside the block; ``None`` switches caching off there.
+
+    Yields
+    ------
+    ResultCache or None
+        ``cache``, active until the block ends (the previous active cache is restored then).
+
+    See Also
+    --------
+    ResultCache : the cache.
+    cached_analysis : reads and writes the active cache.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> plant = get_example("powertrain3").build()
+    >>> with use_cache(ResultCache(tempfile.mkdtemp(), log=print)) as cache:
+    ...     analysis = cached_analysis(plant, 3)
+    observability analysis of ...: computed and stored in the cache (...)
+    >>> with use_cache(None):                         # caching off inside the block
+    ...     analysis = cached_analysis(plant, 3)
     """
     if cache is not None and not isinstance(cache, ResultCache):
         raise ModelError("cache", "a ResultCache or None", type(cache).__name__)
@@ -443,6 +486,27 @@ def cached_analysis(system, T: int, *, executor=None, progress=None):
     Returns
     -------
     ObservabilityAnalysis
+
+    See Also
+    --------
+    hybobs_opt.regions.analyse_observability : the computation itself.
+    use_cache, ResultCache : the active cache.
+
+    Examples
+    --------
+    Without an active cache it computes the analysis; inside ``use_cache`` the second call loads
+    what the first stored:
+
+    >>> import numpy as np, tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> plant = get_example("powertrain3").build()
+    >>> cached_analysis(plant, 3).is_observable(np.array([0.06, 39.0, 3.25]))
+    True
+    >>> with use_cache(ResultCache(tempfile.mkdtemp(), log=print)):
+    ...     analysis = cached_analysis(plant, 3)
+    ...     analysis = cached_analysis(plant, 3)
+    observability analysis of ...: computed and stored in the cache (...)
+    observability analysis of ...: loaded from the cache (...)
     """
     from .regions import analyse_observability
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import atexit
 import importlib
+import importlib.util
 import os
 import shutil
 import tempfile
@@ -28,6 +29,11 @@ if "HYBOBS_CACHE_DIR" not in os.environ:
     atexit.register(shutil.rmtree, _CACHE, True)
 
 _PACKAGE = Path(__file__).resolve().parent
+
+#: doctest name -> the optional package its example runs (skipped, with the reason, without it)
+NEEDS_EXTRA = {
+    "hybobs_opt.executor.DaskExecutor": "distributed",
+}
 
 
 def _missing_extra(path: Path) -> bool:
@@ -47,3 +53,12 @@ def pytest_ignore_collect(collection_path: Path, config) -> bool | None:
             and _missing_extra(collection_path)):
         return True
     return None
+
+
+def pytest_collection_modifyitems(session, config, items) -> None:
+    import pytest
+
+    for item in items:
+        module = NEEDS_EXTRA.get(item.name)
+        if module is not None and importlib.util.find_spec(module) is None:
+            item.add_marker(pytest.mark.skip(reason=f"needs the optional package {module!r}"))

@@ -26,7 +26,23 @@ def _gather(futures, progress: Progress) -> list[Any]:
 
 
 class SerialExecutor:
-    """Run everything in this process."""
+    """Run everything in this process.
+
+    See Also
+    --------
+    ProcessExecutor, DaskExecutor : the same interface on local processes or a Dask cluster.
+    make_executor : one of the three from command-line style options.
+
+    Examples
+    --------
+    >>> from hybobs_opt import SerialExecutor
+    >>> executor = SerialExecutor()
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.map_shared(pow, [1, 2, 3], 2)      # pow(item, 2)
+    [1, 4, 9]
+    >>> executor.close()
+    """
 
     name = "serial"
     n_workers = 1
@@ -101,6 +117,22 @@ class ProcessExecutor:
     ----------
     n_workers : int, optional
         Number of processes (default: ``os.cpu_count()``).
+
+    See Also
+    --------
+    SerialExecutor : the same interface in this process.
+    make_executor : an executor from command-line style options.
+
+    Examples
+    --------
+    The analyses that accept an ``executor`` (:func:`~hybobs_opt.regions.analyse_observability`)
+    spread their work over its processes; ``map`` keeps the order of the items:
+
+    >>> from hybobs_opt import ProcessExecutor
+    >>> executor = ProcessExecutor(n_workers=2)
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.close()
     """
 
     name = "processes"
@@ -176,6 +208,22 @@ class DaskExecutor:
     ------
     ModelError
         If ``distributed`` is not installed, both or neither are given, or ``local_workers < 1``.
+
+    See Also
+    --------
+    ProcessExecutor : local processes without Dask.
+    make_executor : ``dask_local`` / ``scheduler`` give this executor.
+
+    Examples
+    --------
+    A one-worker local cluster (a few seconds to start); ``scheduler="tcp://HOST:PORT"`` joins a
+    running one instead:
+
+    >>> from hybobs_opt import DaskExecutor
+    >>> executor = DaskExecutor(local_workers=1)
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.close()
     """
 
     name = "dask"
@@ -249,10 +297,31 @@ def make_executor(kind: str = "processes", n_workers: int | None = None, schedul
     dask_local : int, optional
         Workers of a Dask ``LocalCluster``: gives a :class:`DaskExecutor`.
 
+    Returns
+    -------
+    SerialExecutor, ProcessExecutor or DaskExecutor
+        The executor the options name; the caller closes it.
+
     Raises
     ------
     ModelError
         On an unknown ``kind``.
+
+    See Also
+    --------
+    SerialExecutor, ProcessExecutor, DaskExecutor : what it builds.
+
+    Examples
+    --------
+    >>> from hybobs_opt import make_executor
+    >>> executor = make_executor("serial")
+    >>> type(executor).__name__, executor.map(abs, [-2, 3])
+    ('SerialExecutor', [2, 3])
+    >>> executor.close()
+    >>> make_executor("threads")
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: executor: expected ...
     """
     if scheduler is not None or dask_local is not None:
         return DaskExecutor(scheduler, dask_local)
