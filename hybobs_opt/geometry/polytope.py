@@ -73,10 +73,32 @@ class Polytope:
     names : sequence of str, optional
         Names of the ``d`` coordinates (``z1 ... zd`` by default).
 
+    See Also
+    --------
+    polytope_difference : the pieces of a difference of polytopes.
+    row_range : the interval of linear functionals over a polytope.
+    monte_carlo_volume : the volume of a union of polytopes.
+
     Notes
     -----
     Strict and non-strict inequalities are not distinguished: the paper's regions are "not
     necessarily closed" (paper 002, eq. 1), and membership ties are broken by mode order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> square = Polytope.from_box([-1.0, -1.0], [1.0, 1.0])
+    >>> square
+    Polytope(dim=2, n_constraints=4, names=('z1', 'z2'))
+    >>> square.contains(np.array([0.5, -0.5])), square.contains(np.array([1.5, 0.0]))
+    (True, False)
+    >>> half = square.intersect(Polytope(np.array([[1.0, 1.0]]), np.array([0.0])))  # z1 + z2 <= 0
+    >>> volume = half.volume()                       # a VolumeEstimate, exact in 2-D
+    >>> round(volume.value, 6), volume.method, half.is_bounded(), half.is_empty()
+    (2.0, 'exact', True, False)
+    >>> sorted(half.vertices().round(6).tolist())    # the triangle's corners
+    [[-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0]]
     """
 
     A: np.ndarray
