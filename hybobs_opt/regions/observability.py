@@ -99,6 +99,25 @@ class PairSet:
         Equalities over ``[x; x^; U]`` (equal outputs).
     slack : float
         The Chebyshev radius above.
+
+    See Also
+    --------
+    ObservabilityAnalysis.pairs : the pair sets of an analysis.
+    PairVerdict : what the test of one pair decides.
+
+    Examples
+    --------
+    At ``T = 4`` the rank test leaves pairs of regions whose outputs can agree; each kept pair set
+    ``R_ij`` is a piece of ``B_T``:
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> analysis = analyse_observability(get_example("powertrain3").build(gear_ratio=1 / 2), 4)
+    >>> len(analysis.pairs)
+    32
+    >>> pair = analysis.pairs[0]
+    >>> (pair.i, pair.j), pair.G.shape, pair.E.shape     # G [x; x^; U] <= g, E [x; x^; U] = e
+    ((6, 8), (69, 10), (4, 10))
     """
 
     i: int
@@ -144,6 +163,27 @@ class ObservabilityAnalysis:
         Internal cache of the pair lookups; leave it at its default.
     _xboxes : array or None
         Internal cache of the bounding boxes of ``Proj_x(P_k)``; leave it at its default.
+
+    See Also
+    --------
+    analyse_observability : computes it.
+    save_analysis, load_analysis : to and from a file.
+    hybobs_opt.observers.LookupObserver : the deadbeat observer built on it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> analysis.T, len(analysis.regions), sum(analysis.full_rank)   # regions P_i, of full rank
+    (3, 16, 4)
+    >>> analysis.status.value                       # every LP of it was certified
+    'optimal'
+    >>> x = np.array([0.06, 39.0, 3.25])
+    >>> analysis.classify(x).value, analysis.is_observable(x)
+    ('observable', True)
     """
 
     enumeration: ModeEnumeration
@@ -927,6 +967,33 @@ def analyse_observability(
         a horizon predicted beyond it is refused before any LP, with the prediction.  Default
         :data:`~hybobs_opt.limits.MAX_PREDICTED_PAIR_LPS` (or the budget the CLI's ``--max-lps``
         set).  Not checked when a ``ModeEnumeration`` is given (its size is known).
+
+    Returns
+    -------
+    ObservabilityAnalysis
+        The regions of eq. (4), their rank test, the pieces of ``B_T`` and the exact point query
+        of Definition 2.2.
+
+    See Also
+    --------
+    enumerate_modes : its first phase.
+    ObservabilityAnalysis : what it returns.
+    compute_cut : a plane of its point query.
+    hybobs_opt.cached_analysis : the same through the cache.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> analysis.summary()["n_regions"], analysis.summary()["n_unobservable_pieces"]
+    (16, 12)
+    >>> analysis.is_observable(np.array([0.06, 39.0, 3.25]))    # Definition 2.2, decided exactly
+    True
+    >>> analysis.classify(np.array([0.0, 30.0, 2.5])).value       # in the backlash gap
+    'unobservable'
     """
     from ..executor import resolve_executor
 
