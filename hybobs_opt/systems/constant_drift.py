@@ -120,12 +120,26 @@ class ConstantDriftSystem(ModelDictMixin):
         ``{0, q}``, or a violated Assumption 2.1-2.6; the error's ``field`` names the assumption
         and the mode, e.g. ``"Assumption 2.3 (mode 2)"``.
 
+    See Also
+    --------
+    hybobs_opt.sim.simulate_constant_drift : its exact simulation.
+    event_maps, periodic_system : the system sampled at its events.
+
     Notes
     -----
     The data are kept exactly as the paper states them so that the event-sampled model of
     Section 3 (eqs. 11-15: ``A~_q = I + f_{sigma(q)} e_{k_sigma(q)}^T / (-e_{k_sigma(q)}^T f_{sigma(q)})``
     and so on) can be computed from ``f``, ``trigger``, ``alpha``, :meth:`successor` and
     :attr:`visible_event_modes` alone.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> server.mode_names
+    ('setup type 1', 'serve type 1', 'setup type 2', 'serve type 2')
+    >>> server.f.shape, server.trigger, server.alpha, server.h    # drifts, triggers, resets, outputs
+    ((4, 3), array([0, 1, 0, 2]), array([0., 1., 0., 2.]), array([0, 0, 0, 4]))
     """
 
     f: np.ndarray

@@ -79,10 +79,22 @@ class ScalarFunction:
         CasADi automatic differentiation of ``expr``.  A supplied derivative is checked against
         automatic differentiation on the operating box by :class:`ScalarNonlinearSystem`.
 
+    See Also
+    --------
+    ScalarNonlinearSystem : uses them as ``f_i`` and ``h_j``.
+
     Notes
     -----
     The CasADi functions are built once, here; :meth:`value` and :meth:`deriv` evaluate them on
     numpy arrays of any shape (CasADi maps a scalar function over a row of arguments).
+
+    Examples
+    --------
+    >>> import casadi as ca, numpy as np
+    >>> from hybobs_opt.systems import ScalarFunction
+    >>> cosine = ScalarFunction("cos", ca.cos)             # derivative by automatic differentiation
+    >>> float(cosine.value(0.0)), float(cosine.deriv(np.pi / 2))
+    (1.0, -1.0)
     """
 
     name: str
@@ -285,6 +297,12 @@ class ScalarNonlinearSystem(ModelDictMixin):
     name : str
         Label of the system.
 
+    See Also
+    --------
+    ScalarFunction : its scalar nonlinearities.
+    hybobs_opt.sim.simulate_nonlinear : simulates it.
+    hybobs_opt.lmi.jacobian_bounds : the Jacobian bounds of its observer LMIs.
+
     Notes
     -----
     Validation: shapes and finiteness of every matrix; the box bounded and non-empty; every
@@ -292,6 +310,17 @@ class ScalarNonlinearSystem(ModelDictMixin):
     argument interval over the box; a supplied derivative equal to the automatic one there (to
     :data:`~hybobs_opt.tolerances.DERIVATIVE_CHECK_RTOL`); ``g`` returning a finite ``(n,)``
     vector at the centre of the box.
+
+    Examples
+    --------
+    The tracked vehicle of paper 004 (eqs. 56-59): ``X' = V cos(psi)``, ``Y' = V sin(psi)``, ...
+
+    >>> from hybobs_opt import get_example
+    >>> vehicle = get_example("vehicle_tracking").build()
+    >>> vehicle.n, vehicle.m, vehicle.p, [f.name for f in vehicle.f]
+    (4, 1, 2, ['V cos(psi)', 'V sin(psi)', 'V/(l_f+l_r) tan(delta_f)'])
+    >>> vehicle.F.shape, vehicle.E.shape                  # x' = A x + F f(E x) + B u
+    ((4, 3), (3, 4))
     """
 
     box: Polytope
