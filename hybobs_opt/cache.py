@@ -161,6 +161,11 @@ class ResultCache:
             The kind of entry (``"analysis"``, ``"lookup-pieces"``, ``"exact-labels"``).
         parts : mapping
             What the entry depends on besides the code (JSON-serialisable).
+
+        Returns
+        -------
+        str
+            64 hexadecimal digits naming the entry.
         """
         from . import __version__
 
@@ -178,6 +183,11 @@ class ResultCache:
             Its :meth:`key` (the first 32 hex digits name the file).
         suffix : str
             ``".json"`` (an analysis) or ``".npz"`` (arrays).
+
+        Returns
+        -------
+        Path
+            Where the entry's file is (or would be) in the cache directory.
         """
         return self.directory / f"{kind}-{key[:32]}{suffix}"
 
@@ -283,6 +293,11 @@ class ResultCache:
             miss, or when the entry is refused).
         what : str, optional
             What the events call the entry (default: the system's name and ``T``).
+
+        Returns
+        -------
+        ObservabilityAnalysis
+            The stored analysis, or the one ``compute()`` returned (then stored).
         """
         from .regions.io import load_analysis, save_analysis
         from .systems.fingerprint import system_fingerprint
@@ -339,6 +354,11 @@ class ResultCache:
             string arrays (no objects: entries are read with ``allow_pickle=False``).
         what : str
             What the events call the entry.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The stored arrays, or the ones ``compute()`` returned (then stored).
         """
         key = self.key(kind, parts)
         path = self.path(kind, key, ".npz")
@@ -382,7 +402,13 @@ class ResultCache:
 
     # ------------------------------------------------------------------ housekeeping
     def entries(self) -> list[dict[str, Any]]:
-        """The entries on disk: ``name``, ``kind``, ``bytes``, ``modified`` (POSIX time), sorted by name."""
+        """The entries on disk: ``name``, ``kind``, ``bytes``, ``modified`` (POSIX time), sorted by name.
+
+        Returns
+        -------
+        list of dict
+            One record per entry: ``name``, ``kind``, ``bytes``, ``modified``.
+        """
         if not self.directory.is_dir():
             return []
         out = []
@@ -395,7 +421,13 @@ class ResultCache:
 
     def clear(self) -> tuple[int, int]:
         """Delete the toolbox's entries, their MACs and stale temporary files (files of its naming
-        pattern only: nothing else in the directory is touched); returns ``(files, bytes)`` removed."""
+        pattern only: nothing else in the directory is touched); returns ``(files, bytes)`` removed.
+
+        Returns
+        -------
+        (int, int)
+            The number of files and of bytes removed.
+        """
         if not self.directory.is_dir():
             return 0, 0
         files = size = 0

@@ -48,7 +48,13 @@ class SerialExecutor:
     n_workers = 1
 
     def map_shared(self, fn, items, shared, progress: Progress = None) -> list[Any]:
-        """``[fn(item, shared) for item in items]``: :meth:`map` with one argument common to all calls."""
+        """``[fn(item, shared) for item in items]``: :meth:`map` with one argument common to all calls.
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
         return self.map(lambda item: fn(item, shared), items, progress)
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], progress: Progress = None) -> list[Any]:
@@ -179,7 +185,13 @@ class ProcessExecutor:
         return _gather([pool.submit(fn, item) for item in items], progress)
 
     def map_shared(self, fn, items, shared, progress: Progress = None) -> list[Any]:
-        """``[fn(item, shared) for item in items]`` in the worker processes (``shared`` pickled with each item)."""
+        """``[fn(item, shared) for item in items]`` in the worker processes (``shared`` pickled with each item).
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
         items = list(items)
         if len(items) <= 1 or self.n_workers == 1:
             return SerialExecutor().map_shared(fn, items, shared, progress)
@@ -271,6 +283,11 @@ class DaskExecutor:
 
         Embedded in every task instead, large shared data make a large task graph (model 17 at
         T = 9: 34 MB for 4 tasks, and Dask warns); scattered, it travels once per worker.
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
         """
         items = list(items)
         [future] = self._client.scatter([shared], broadcast=True, hash=False)

@@ -118,6 +118,11 @@ class PhaseProgress:
             The phase ("pair tests").
         unit : str
             What it counts ("pair").
+
+        Returns
+        -------
+        callable
+            ``callback(done, total)`` that reports ``(name, unit, done, total)``.
         """
         return lambda done, total: self._report(name, unit, done, total)
 

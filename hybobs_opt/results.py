@@ -65,7 +65,15 @@ class SolveResult(Protocol):
     @property
     def residuals(self) -> dict[str, float]: ...
 
-    def to_dict(self) -> dict: ...
+    def to_dict(self) -> dict:
+        """JSON-ready record of the answer.
+
+        Returns
+        -------
+        dict
+            At least ``status``, ``seconds`` and ``residuals``; the implementations add their own fields.
+        """
+        ...
 
 
 class Certificate(ABC):
@@ -116,8 +124,20 @@ class Certificate(ABC):
 
     @abstractmethod
     def verify(self) -> bool:
-        """Re-check the evidence in plain numpy (no solver); ``True`` when it holds."""
+        """Re-check the evidence in plain numpy (no solver); ``True`` when it holds.
+
+        Returns
+        -------
+        bool
+            ``True`` when the evidence holds in numpy.
+        """
 
     def to_dict(self) -> dict:
-        """JSON-ready summary: the class, the reason and whether :meth:`verify` holds."""
+        """JSON-ready summary: the class, the reason and whether :meth:`verify` holds.
+
+        Returns
+        -------
+        dict
+            ``certificate`` (the class name), ``reason`` and ``verified``.
+        """
         return {"certificate": type(self).__name__, "reason": str(self.reason), "verified": bool(self.verify())}

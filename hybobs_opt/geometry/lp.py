@@ -87,6 +87,14 @@ class LPResult:
         return is_optimal(self.status)
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the LP's answer.
+
+        Returns
+        -------
+        dict
+            ``status``, ``x`` (a list, ``None`` without a point), ``objective``, ``solver``, ``seconds``,
+            ``residuals`` and ``certificate`` (its record, or ``None``).
+        """
         return {"status": self.status, "x": None if self.x is None else self.x.tolist(), "objective": self.objective,
                 "solver": self.solver, "seconds": self.seconds, "residuals": dict(self.residuals),
                 "certificate": None if self.certificate is None else self.certificate.to_dict()}
@@ -908,6 +916,14 @@ class SlackResult:
         return {} if self.w is None else {"certified_gap": float(self.upper - self.lower)}
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the certified slack.
+
+        Returns
+        -------
+        dict
+            ``status``, ``lower``, ``upper``, ``solver``, ``w`` (a list, or ``None``), ``seconds`` and
+            ``residuals``.
+        """
         return {"status": self.status, "lower": self.lower, "upper": self.upper, "solver": self.solver,
                 "w": None if self.w is None else np.asarray(self.w).tolist(), "seconds": self.seconds,
                 "residuals": self.residuals}

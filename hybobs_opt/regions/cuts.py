@@ -99,9 +99,24 @@ class Cut:
         return float(np.mean(self.labels[m] == label)) if m.any() else float("nan")
 
     def grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grid coordinates of the cut.
+
+        Returns
+        -------
+        X, Y : (ny, nx) ndarray
+            ``numpy.meshgrid`` of ``x_values`` and ``y_values``, shaped like ``labels``.
+        """
         return np.meshgrid(self.x_values, self.y_values)
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the cut.
+
+        Returns
+        -------
+        dict
+            ``axes``, ``fixed``, ``x_values``, ``y_values``, ``labels`` (nested lists) and
+            ``fraction_observable_of_feasible``.
+        """
         return {
             "axes": list(self.axes),
             "fixed": dict(self.fixed),

@@ -236,6 +236,11 @@ class ObservabilityAnalysis:
         threshold ``-REGION_SLACK_TOL`` (a pair is left out only when it is certified empty by
         more than the region tolerance, the safe side for the observer).  No rank screen either.
         Computed on demand (one LP per pair) and cached.
+
+        Returns
+        -------
+        tuple of PairSet
+            The pair sets, lower-dimensional ones included.
         """
         if "_reduced_all" not in self._pair_cache:
             algebra = _PairAlgebra(_scaled_regions(self.enumeration), self.system.n)
@@ -295,6 +300,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        list of int
+            The region indices.
         """
         x = self._check_point(x)
         boxes = self._x_boxes()
@@ -332,6 +342,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        bool
+            Whether ``x`` is in ``O_T``.
         """
         return self.classify(x) == PointClass.OBSERVABLE
 
@@ -348,6 +363,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        PointClass
+            The class of ``x``.
 
         Raises
         ------
@@ -487,12 +507,24 @@ class ObservabilityAnalysis:
         return self.enumeration.seconds + self.seconds
 
     def to_dict(self) -> dict:
-        """JSON-ready record (:meth:`summary` with the ``status``) of the result protocol."""
+        """JSON-ready record (:meth:`summary` with the ``status``) of the result protocol.
+
+        Returns
+        -------
+        dict
+            :meth:`summary` with ``status``.
+        """
         return {"status": str(self.status), **self.summary()}
 
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict:
-        """The ``hybobs regions --json`` record."""
+        """The ``hybobs regions --json`` record.
+
+        Returns
+        -------
+        dict
+            Counts of regions, pieces and LPs, and timings.
+        """
         enum = self.enumeration
         return {
             "example": self.system.name,

@@ -95,6 +95,11 @@ class Trace:
         name : str
             One of :attr:`state_names`.
 
+        Returns
+        -------
+        (N,) ndarray
+            The column of ``x``.
+
         Raises
         ------
         ModelError
@@ -106,7 +111,13 @@ class Trace:
             raise ModelError("state name", f"one of {self.state_names}", repr(name)) from None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary with the arrays as nested lists (the ``--json`` contract)."""
+        """JSON-ready dictionary with the arrays as nested lists (the ``--json`` contract).
+
+        Returns
+        -------
+        dict
+            ``t``, ``x``, ``q``, ``u``, ``y`` as lists, the four name tuples as lists and the events.
+        """
         return {
             "t": self.t.tolist(),
             "x": self.x.tolist(),

@@ -54,7 +54,13 @@ class LazyCallable:
         self._fn: Callable[..., Any] | None = None
 
     def resolve(self) -> Callable[..., Any]:
-        """The referenced function (imported once)."""
+        """The referenced function (imported once).
+
+        Returns
+        -------
+        callable
+            The imported function.
+        """
         if self._fn is None:
             module, _, name = self.reference.partition(":")
             self._fn = getattr(importlib.import_module(module), name)
@@ -206,7 +212,13 @@ class Example:
                       f"t_final = {t_final:g} s at the scenario's sample period {self.sample_time:g} s")
 
     def simulate(self, t_final: float | None = None, **params: Any):
-        """Build the system with ``params`` and run the paper's scenario up to ``t_final``."""
+        """Build the system with ``params`` and run the paper's scenario up to ``t_final``.
+
+        Returns
+        -------
+        Trace
+            The scenario's trajectory.
+        """
         unknown = set(params) - set(self.params)
         if unknown:
             raise ModelError(
@@ -220,7 +232,14 @@ class Example:
         return self.scenario(system, t_final=self.default_t_final if t_final is None else t_final)
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``hybobs examples --json`` record."""
+        """The ``hybobs examples --json`` record.
+
+        Returns
+        -------
+        dict
+            The example's name, kind, paper (and its title), summary, states, parameters, default
+            horizon, sample time and observer kinds.
+        """
         return {
             "name": self.name,
             "kind": self.kind,

@@ -149,6 +149,11 @@ class ArrivalPrior(Certificate):
 
         The block LMI's own eigenvalues are not used: near a singular ``Z`` they can be tiny
         while the statement above is violated.
+
+        Returns
+        -------
+        dict of str to float
+            One relative margin per claim.
         """
         Z, n = self.information, self.information.shape[0]
         s = self.initial_std
@@ -178,14 +183,26 @@ class ArrivalPrior(Certificate):
 
     def verify(self) -> bool:
         """Whether ``Z`` and ``Z_0 - Z`` are positive semidefinite to ``ARRIVAL_LMI_RTOL`` and every
-        mode's invariance holds with no tolerance at all (a per-step tolerance would accumulate)."""
+        mode's invariance holds with no tolerance at all (a per-step tolerance would accumulate).
+
+        Returns
+        -------
+        bool
+            Whether every claim holds.
+        """
         out = self.check()
         return bool(all(np.isfinite(v) for v in out.values())
                     and out["Z"] >= -ARRIVAL_LMI_RTOL and out["Z0 - Z"] >= -ARRIVAL_LMI_RTOL
                     and all(v >= 0.0 for k, v in out.items() if k.startswith("mode")))
 
     def to_dict(self) -> dict:
-        """JSON-ready summary (weight, information, noise levels, objective, status, residuals)."""
+        """JSON-ready summary (weight, information, noise levels, objective, status, residuals).
+
+        Returns
+        -------
+        dict
+            The summary.
+        """
         return {"weight": self.weight.tolist(), "information": self.information.tolist(),
                 "noise_std": self.noise_std.tolist(),
                 "disturbance_std": None if self.disturbance_std is None else self.disturbance_std.tolist(),

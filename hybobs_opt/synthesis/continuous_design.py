@@ -145,10 +145,23 @@ class ContinuousDesign:
         ----------
         q : int
             0-based location index.
+
+        Returns
+        -------
+        ndarray
+            ``G_q``.
         """
         return self.G[self.group_of[q]]
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the design.
+
+        Returns
+        -------
+        dict
+            The requested and proven decay rates, ``cond_P``, the gains' norms, spectral abscissae and
+            Jordan condition numbers, ``sigma``, ``V``, the solver's status and time.
+        """
         return {
             "requested_decay": self.requested_decay,
             "decay": self.decay,
@@ -289,6 +302,11 @@ class ContinuousObserverLMI:
     # ------------------------------------------------------------------ solve
     def solve(self, decay: float) -> ContinuousDesign:
         """Gains for the decay rate ``decay`` (1/s).
+
+        Returns
+        -------
+        ContinuousDesign
+            The gains and the common ``P`` for ``decay``.
 
         Raises
         ------
@@ -475,11 +493,24 @@ class ConvergenceBound:
             ``||eps(t0)||``, the Euclidean error at ``t0``.
         t0 : float, default 0.0
             Initial time.
+
+        Returns
+        -------
+        ndarray
+            The bound on ``||eps(t)||`` at each time of ``t`` (shaped like ``t``).
         """
         t = np.asarray(t, dtype=float)
         return self.transient_factor * np.exp(-self.decay * np.maximum(t - t0, 0.0)) * e0 + self.M0
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the bound.
+
+        Returns
+        -------
+        dict
+            ``delta``, ``dwell_time``, ``decay``, ``sigma``, ``M0``, ``M0_P``, ``M0_per_state``,
+            ``transient_factor``, ``V`` and ``M0_paper_eq20``.
+        """
         return {"delta": self.delta, "dwell_time": self.dwell_time, "decay": self.decay, "sigma": self.sigma,
                 "M0": self.M0, "M0_P": self.M0_P, "M0_per_state": self.M0_per_state.tolist(),
                 "transient_factor": self.transient_factor, "V": self.V, "M0_paper_eq20": self.M0_paper}

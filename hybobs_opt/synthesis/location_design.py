@@ -263,6 +263,12 @@ class LuenbergerLMI:
         Only an ``optimal`` status gives a point (:func:`~hybobs_opt.status.is_optimal`: an
         ``optimal_inaccurate`` answer is not accepted), and only ``infeasible`` gives ``None``.
 
+        Returns
+        -------
+        (P, L, status, seconds) or None
+            The Lyapunov matrix, the gain, the solver status and the solve time; ``None`` when
+            infeasible.
+
         Raises
         ------
         SolverError
@@ -375,6 +381,14 @@ class ResidualGenerator:
         return self.A - self.L @ self.C
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the generator.
+
+        Returns
+        -------
+        dict
+            Its locations, decay rate, ``cond_P``, gain norm, residual and LMI bounds, guaranteed delay,
+            the paper's delay and condition (9), and the solver's status, solves and time.
+        """
         return {
             "locations": self.label,
             "decay": self.decay,
@@ -438,6 +452,14 @@ class ResidualBank:
     seconds: float = 0.0
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the bank.
+
+        Returns
+        -------
+        dict
+            ``delta``, ``epsilon``, ``z0_bound``, ``gain_bound``, ``design_seconds`` and ``generators``
+            (one :meth:`ResidualGenerator.summary` each).
+        """
         return {
             "delta": self.delta,
             "epsilon": self.epsilon,
@@ -485,7 +507,13 @@ class DelayCertificate(Certificate):
     gain_bound: float
 
     def lower_bound(self) -> float:
-        """Guaranteed ``||r(Delta)||`` for the worst initial mismatch of norm ``Z0``."""
+        """Guaranteed ``||r(Delta)||`` for the worst initial mismatch of norm ``Z0``.
+
+        Returns
+        -------
+        float
+            A lower bound on ``||r(Delta)||`` valid for every gain with ``||L|| <= gain_bound``.
+        """
         nC = float(np.linalg.norm(self.C, 2))
         h = float(np.linalg.norm(self.A, 2)) + self.gain_bound * nC
         return nC * self.z0_bound * (2.0 - math.exp(min(h * self.delta, 700.0)))
@@ -498,7 +526,13 @@ class DelayCertificate(Certificate):
                 f"for an initial mismatch of norm Z0 = {self.z0_bound:g} (paper 000, eq. 13)")
 
     def verify(self) -> bool:
-        """Re-check with numpy that the residual bound exceeds the threshold."""
+        """Re-check with numpy that the residual bound exceeds the threshold.
+
+        Returns
+        -------
+        bool
+            Whether :meth:`lower_bound` exceeds ``epsilon``.
+        """
         return bool(self.lower_bound() > self.epsilon)
 
 

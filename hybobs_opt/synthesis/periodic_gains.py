@@ -163,7 +163,14 @@ class PeriodicGains:
         return self.deadbeat_steps is not None
 
     def to_dict(self) -> dict:
-        """JSON-ready summary."""
+        """JSON-ready summary.
+
+        Returns
+        -------
+        dict
+            ``L``, ``method``, ``deadbeat_steps``, ``monodromy_radius``, ``positive``, ``rate``,
+            ``status`` and ``seconds``.
+        """
         return {
             "L": self.L.tolist(),
             "method": self.method,
@@ -344,7 +351,13 @@ class NoDeadbeatCertificate(Certificate):
                 "a period even by the best gains: errors in it never show in the visible event times")
 
     def verify(self) -> bool:
-        """Re-check ``S subset G(S)`` with numpy (rank of ``[G(S), S]`` equals rank of ``G(S)``)."""
+        """Re-check ``S subset G(S)`` with numpy (rank of ``[G(S), S]`` equals rank of ``G(S)``).
+
+        Returns
+        -------
+        bool
+            Whether the subspace is invariant.
+        """
         if self.basis.shape[1] == 0:
             return False
         G = _propagate_minimal(self.A, self.C, self.basis, self.start, self.A.shape[0])
@@ -394,7 +407,13 @@ class DeadbeatConflictCertificate(Certificate):
                 f"{self.residual:.3g}): no periodic gain reaches deadbeat in the minimal number of events")
 
     def verify(self) -> bool:
-        """Recompute the conditions with numpy and re-check that they are inconsistent."""
+        """Recompute the conditions with numpy and re-check that they are inconsistent.
+
+        Returns
+        -------
+        bool
+            Whether the conditions are inconsistent.
+        """
         E, f = _conditions(self.A, self.C, self.starts)[self.phase - 1]
         if E is None:
             return False
@@ -616,7 +635,13 @@ class PerronCertificate(Certificate):
                 f"larger closed loop, so {what}")
 
     def verify(self) -> bool:
-        """Recompute ``U``, ``Phi(U)`` and the ratio ``min (Phi z)_i / z_i`` in numpy."""
+        """Recompute ``U``, ``Phi(U)`` and the ratio ``min (Phi z)_i / z_i`` in numpy.
+
+        Returns
+        -------
+        bool
+            Whether the ratio is at least ``threshold``.
+        """
         A, C = self.A, self.C
         if np.any(A < 0) or np.any(C < 0):
             return False
@@ -737,7 +762,13 @@ class CopositiveCertificate(Certificate):
                 "positive observer (16) (p_(j+1)' M_j <= rate p_j', M_j = A_j - L_j C_j >= 0): the error converges")
 
     def check(self) -> dict:
-        """The numpy re-check: positivity margins, ``min p`` and the rate recomputed from ``p``."""
+        """The numpy re-check: positivity margins, ``min p`` and the rate recomputed from ``p``.
+
+        Returns
+        -------
+        dict
+            The margins and the recomputed rate.
+        """
         V = self.A.shape[0]
         LC = self.L[:, :, None] * self.C[:, None, :]
         M = self.A - LC
@@ -750,7 +781,13 @@ class CopositiveCertificate(Certificate):
                 "min_p": float(self.p.min()), "rate": worst}
 
     def verify(self) -> bool:
-        """``M_j >= 0``, ``L_j C_j >= 0``, ``p > 0`` and ``p_{j+1}^T M_j <= rate p_j^T`` with ``rate < 1``."""
+        """``M_j >= 0``, ``L_j C_j >= 0``, ``p > 0`` and ``p_{j+1}^T M_j <= rate p_j^T`` with ``rate < 1``.
+
+        Returns
+        -------
+        bool
+            Whether the certificate holds.
+        """
         c = self.check()
         return bool(c["min_closed_loop"] >= -POSITIVITY_RTOL and c["min_LC"] >= -POSITIVITY_RTOL and c["min_p"] > 0
                     and c["rate"] <= self.rate * (1.0 + PERRON_RTOL) + PERRON_RTOL and self.rate < 1.0)

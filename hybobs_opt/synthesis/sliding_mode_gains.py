@@ -59,6 +59,13 @@ class GainRule:
     rule: str
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the gains.
+
+        Returns
+        -------
+        dict
+            ``lambdas``, ``widths``, ``margin`` and ``rule``.
+        """
         return {"lambdas": self.lambdas.tolist(), "widths": self.widths.tolist(), "margin": self.margin, "rule": self.rule}
 
 

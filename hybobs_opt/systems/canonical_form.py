@@ -143,6 +143,11 @@ class SwitchingFunction:
         ----------
         x : (n,) array_like
             Original state.
+
+        Returns
+        -------
+        float
+            ``sigma(x)``.
         """
         return float(self.x_row @ np.asarray(x, dtype=float))
 
@@ -153,6 +158,11 @@ class SwitchingFunction:
         ----------
         z : (n,) array_like
             Canonical state.
+
+        Returns
+        -------
+        float
+            ``sigma(z)``.
         """
         return float(self.z_row @ np.asarray(z, dtype=float) + self.z_offset)
 
@@ -250,6 +260,11 @@ class ObservabilityForm:
         ----------
         x : (n,) or (N, n) array_like
             Original state(s).
+
+        Returns
+        -------
+        ndarray
+            The canonical coordinates, shaped like ``x``.
         """
         return np.asarray(x, dtype=float) @ self.T.T + self.d
 
@@ -260,6 +275,11 @@ class ObservabilityForm:
         ----------
         z : (n,) or (N, n) array_like
             Canonical state(s).
+
+        Returns
+        -------
+        ndarray
+            The original coordinates, shaped like ``z``.
         """
         return (np.asarray(z, dtype=float) - self.d) @ self.T_inv.T
 
@@ -273,6 +293,11 @@ class ObservabilityForm:
             0-based location index.
         z : (n,) array_like
             Canonical state.
+
+        Returns
+        -------
+        float
+            The value of the last line of form (4).
         """
         z = np.asarray(z, dtype=float)
         if self.alpha is not None:
@@ -339,6 +364,11 @@ class ObservabilityForm:
         ----------
         z : (n,) or (N, n) array_like
             Canonical state(s).
+
+        Returns
+        -------
+        ndarray
+            The switching functions' values.
         """
         z = np.asarray(z, dtype=float)
         rows = np.array([s.z_row for s in self.switching]).reshape(-1, self.n)
@@ -346,7 +376,13 @@ class ObservabilityForm:
         return z @ rows.T + offs
 
     def describe(self) -> dict:
-        """JSON-ready summary (coordinates, ``P_q``, switching functions, ranges)."""
+        """JSON-ready summary (coordinates, ``P_q``, switching functions, ranges).
+
+        Returns
+        -------
+        dict
+            The summary.
+        """
         out = {
             "T": self.T.tolist(),
             "d": self.d.tolist(),
@@ -768,6 +804,13 @@ class Theorem1Result:
     observable: bool | None
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the conditions and the verdict.
+
+        Returns
+        -------
+        dict
+            Every field of the result, ``L_point`` as a list (or ``None``).
+        """
         return {
             "i": self.i, "j": self.j, "M_dim": self.M_dim, "M_discrete": self.M_discrete,
             "nontransverse_dim": self.nontransverse_dim, "S_dim": self.S_dim, "L_dim": self.L_dim,

@@ -271,6 +271,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            The next mode, ``1 ... Q``.
         """
         self._check_mode(q, "q")
         return 1 + (q % self.n_modes)
@@ -282,6 +287,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            The previous mode, ``1 ... Q``.
         """
         self._check_mode(q, "q")
         return self.n_modes if q == 1 else q - 1
@@ -293,6 +303,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            ``q`` in a visible mode, else 0.
         """
         self._check_mode(q, "q")
         return int(self.h[q - 1])
@@ -317,6 +332,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        bool
+            Whether the event leaving ``q`` is visible.
         """
         self._check_mode(q, "q")
         return q in self._v
@@ -328,6 +348,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        bool
+            Whether ``q`` is a setup (timer) mode.
         """
         self._check_mode(q, "q")
         return int(self.trigger[q - 1]) == 0
@@ -351,6 +376,11 @@ class ConstantDriftSystem(ModelDictMixin):
             Name of ``x`` in the :class:`ModelError` raised on a bad state.
         mode_field : str, default "q"
             Name of ``q`` in the :class:`ModelError` raised on a bad mode.
+
+        Returns
+        -------
+        (N+1,) ndarray
+            ``x``, read-only.
 
         Raises
         ------
@@ -384,6 +414,11 @@ class ConstantDriftSystem(ModelDictMixin):
             State in the flow set of mode ``q`` (checked by :meth:`validate_state`).
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        float
+            Time until the event that ends mode ``q``.
         """
         arr = self.validate_state(x, q)
         return self._dwell(arr, q)
@@ -402,6 +437,11 @@ class ConstantDriftSystem(ModelDictMixin):
         tau : float
             Flow time, in ``[0, mode_duration(x, q)]``; at the upper end the trigger component is set
             to exactly 0.
+
+        Returns
+        -------
+        (N+1,) ndarray
+            The state after ``tau``.
 
         Raises
         ------

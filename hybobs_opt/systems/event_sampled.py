@@ -309,6 +309,11 @@ class PeriodicSystem:
         v : int
             Mode number, one of :attr:`event_modes`.
 
+        Returns
+        -------
+        int
+            The phase, ``1 ... V``.
+
         Raises
         ------
         ModelError
@@ -326,6 +331,11 @@ class PeriodicSystem:
         ----------
         j : int
             Phase in ``1..V``.
+
+        Returns
+        -------
+        int
+            The next phase, ``1 ... V``.
         """
         return 1 + (j % self.period)
 
@@ -339,6 +349,13 @@ class PeriodicSystem:
             Phase in ``1..V``.
         x_bar : (N,) array_like
             Reduced state at the visible event that starts phase ``j``.
+
+        Returns
+        -------
+        x_next : (N,) ndarray
+            The state at the next visible event.
+        dt : float
+            The time until it.
 
         Raises
         ------
@@ -377,6 +394,11 @@ class PeriodicSystem:
             Observer gains (one row per phase); ``None`` gives the open-loop product of the ``A_j``.
         start : int, default 1
             Phase (``1..V``) whose matrix is applied first.
+
+        Returns
+        -------
+        (N, N) ndarray
+            The product over one period.
         """
         M = self.A if L is None else self.closed_loop(L)
         i0 = self._index(start)
@@ -396,6 +418,11 @@ class PeriodicSystem:
             Phase (``1..V``) whose matrix is applied first.
         steps : int
             Number of factors; phases wrap around cyclically (``steps = 0`` gives the identity).
+
+        Returns
+        -------
+        (N, N) ndarray
+            The product over ``steps`` phases.
         """
         i0 = self._index(start)
         out = np.eye(self.n)
@@ -437,6 +464,11 @@ class PeriodicSystem:
             Gains to check: real, finite, one row per phase.
         field : str, default "L"
             Name of ``L`` in the :class:`ModelError` raised on bad gains.
+
+        Returns
+        -------
+        (V, N) ndarray
+            The gains, one row per phase.
 
         Raises
         ------

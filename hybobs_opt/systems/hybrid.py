@@ -117,6 +117,11 @@ class Location:
             A point inside the invariant at which the callable flow / output are evaluated once to
             check their shape; ``None`` skips that check.
 
+        Returns
+        -------
+        Location
+            The checked copy.
+
         Raises
         ------
         ModelError
@@ -381,6 +386,11 @@ class HybridAutomaton(ModelDictMixin):
         ----------
         q : int
             0-based location index.
+
+        Returns
+        -------
+        tuple of int
+            The target locations of the edges leaving ``q``.
         """
         return tuple(e.target for e in self.edges if e.source == q)
 
@@ -406,6 +416,11 @@ class HybridAutomaton(ModelDictMixin):
             Input, used when the invariant is over ``(x, u)``; ``None`` means zeros.
         rtol : float, optional
             Relative tolerance of the membership test; ``None`` uses :meth:`Polytope.contains`'s default.
+
+        Returns
+        -------
+        bool
+            Whether ``(x, u)`` is in location ``q``'s invariant.
         """
         inv = self.locations[q].invariant
         z = np.asarray(x, dtype=float) if inv.dim == self.n else np.concatenate([np.asarray(x, dtype=float), self._u(u)])
@@ -495,6 +510,11 @@ class HybridAutomaton(ModelDictMixin):
         ----------
         Ts : float
             Sampling period (positive, in the automaton's time unit).
+
+        Returns
+        -------
+        PWASystem
+            One mode per location, exact for inputs held over each sample period.
 
         Raises
         ------

@@ -90,6 +90,11 @@ class AugmentedSystem:
             State of the original system.
         params : mapping
             Value of every parameter.
+
+        Returns
+        -------
+        (n + k,) ndarray
+            The original state followed by the parameter values, in ``parameters`` order.
         """
         missing = [p for p in self.parameters if p not in params]
         if missing:
@@ -97,7 +102,13 @@ class AugmentedSystem:
         return np.concatenate([np.asarray(x, dtype=float).reshape(-1), [float(params[p]) for p in self.parameters]])
 
     def at(self, **params: float) -> PWASystem:
-        """The original system at the given parameter values (``build(**params)``)."""
+        """The original system at the given parameter values (``build(**params)``).
+
+        Returns
+        -------
+        PWASystem
+            The system built at those parameter values.
+        """
         return self.build(**params)
 
 

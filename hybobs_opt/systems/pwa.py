@@ -89,6 +89,11 @@ class PWAMode:
         n, m, p : int
             Numbers of states, inputs and outputs of the system.
 
+        Returns
+        -------
+        PWAMode
+            The checked copy.
+
         Raises
         ------
         ModelError
@@ -332,6 +337,11 @@ class PWASystem(ModelDictMixin):
         u : (m,) array_like, optional
             Input; ``None`` for a system without inputs.
 
+        Returns
+        -------
+        int
+            The index into ``modes``.
+
         Raises
         ------
         ModelError
@@ -351,6 +361,11 @@ class PWASystem(ModelDictMixin):
             State at sample ``k``.
         u : (m,) array_like, optional
             Input at sample ``k``; ``None`` for a system without inputs.
+
+        Returns
+        -------
+        (n,) ndarray
+            ``x(k+1)``.
         """
         i = self.mode_of(x, u)
         mode = self.modes[i]
@@ -366,6 +381,11 @@ class PWASystem(ModelDictMixin):
             State.
         u : (m,) array_like, optional
             Input; ``None`` for a system without inputs.
+
+        Returns
+        -------
+        (p,) ndarray
+            ``y(k)``.
         """
         i = self.mode_of(x, u)
         mode = self.modes[i]
@@ -376,6 +396,11 @@ class PWASystem(ModelDictMixin):
         """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md.
 
         Computed once at construction (read-only arrays).
+
+        Returns
+        -------
+        scale, centre : (n + m,) ndarray
+            ``z = centre + scale * w`` maps ``w in [-1, 1]`` onto the box.
         """
         return self._scales
 

@@ -150,6 +150,11 @@ class ScalarFunction:
         ----------
         name : str, default "identity"
             Label of the function.
+
+        Returns
+        -------
+        ScalarFunction
+            The identity, with derivative 1.
         """
         return cls(name, lambda z: z, lambda z: ca.SX(1.0))
 
@@ -173,6 +178,11 @@ class ScalarFunction:
             Name of the argument in ``expr`` and ``derivative`` (an identifier).
         field : str, optional
             Name of the entry in error messages.
+
+        Returns
+        -------
+        ScalarFunction
+            The parsed function (text checked by :func:`~hybobs_opt.systems.parse_expression`).
 
         Raises
         ------
@@ -207,6 +217,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape.
+
+        Returns
+        -------
+        ndarray
+            ``f(z)``, shaped like ``z``.
         """
         return self._eval(self._value_fn, z)
 
@@ -219,6 +234,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape (same shape out).
+
+        Returns
+        -------
+        ndarray
+            ``f'(z)``, shaped like ``z``.
         """
         return self._eval(self._deriv_fn, z)
 
@@ -229,6 +249,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape (same shape out).
+
+        Returns
+        -------
+        ndarray
+            ``f'(z)``, shaped like ``z``.
         """
         return self._eval(self._autodiff_fn, z)
 
@@ -240,6 +265,11 @@ class ScalarFunction:
         ----------
         z : casadi.SX
             Symbolic scalar argument.
+
+        Returns
+        -------
+        casadi.SX
+            ``f(z)``.
         """
         return ca.substitute(self._value_sx, self._z, z)
 
@@ -250,6 +280,11 @@ class ScalarFunction:
         ----------
         z : casadi.SX
             Symbolic scalar argument.
+
+        Returns
+        -------
+        casadi.SX
+            ``f'(z)``.
         """
         return ca.substitute(self._deriv_sx, self._z, z)
 
@@ -491,6 +526,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(r,)`` or ``(N, r)``.
         """
         X, single = self._states(x)
         Z = X @ self.E.T
@@ -504,6 +544,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(r,)`` or ``(N, r)``.
         """
         X, single = self._states(x)
         Z = X @ self.E.T
@@ -517,6 +562,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m,)`` or ``(N, m)``.
         """
         X, single = self._states(x)
         Z = X @ self.C.T
@@ -530,6 +580,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m,)`` or ``(N, m)``.
         """
         X, single = self._states(x)
         Z = X @ self.C.T
@@ -545,6 +600,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
             State(s); the result is ``(p,)`` or ``(N, p)``.
         u : array_like, optional
             Ignored.
+
+        Returns
+        -------
+        ndarray
+            ``y``, ``(p,)`` or ``(N, p)``.
         """
         X, single = self._states(x)
         Y = np.asarray(self._out_fn(X.T), dtype=float).reshape(self.p, X.shape[0]).T
@@ -559,6 +619,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
             State(s); the result has the same shape.
         u : (k,) or (N, k) array_like, optional
             Input(s); one ``(k,)`` input is applied to every state of a batch; ``None`` means zeros.
+
+        Returns
+        -------
+        ndarray
+            ``dx/dt``, shaped like ``x``.
         """
         X, single = self._states(x)
         U = self._inputs(u, X.shape[0], single)
@@ -578,6 +643,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(n, n)`` or ``(N, n, n)``.
         """
         D = self.f_derivatives(x)
         J = self.A + np.einsum("ir,...r,rj->...ij", self.F, D, self.E)
@@ -590,6 +660,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m, n)`` or ``(N, m, n)``.
         """
         D = self.h_derivatives(x)
         return D[..., :, None] * self.C
@@ -602,6 +677,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : casadi.SX
             Symbolic state, ``(n, 1)``.
+
+        Returns
+        -------
+        casadi.SX
+            ``(n,)`` expression.
         """
         return self._dyn_fn(x)
 
@@ -612,6 +692,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : casadi.SX
             Symbolic state, ``(n, 1)``.
+
+        Returns
+        -------
+        casadi.SX
+            ``(p,)`` expression.
         """
         return self._out_fn(x)
 

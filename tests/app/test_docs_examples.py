@@ -9,7 +9,9 @@ checks that they are exactly the public names of ``hybobs_opt.__all__`` and each
 * its numpydoc docstring has an ``Examples`` section (``make doctest`` runs them);
 * its docstring has a ``See Also`` section;
 * a function that returns a value (a return annotation other than ``None``, or a ``return <value>``
-  in its own body) has a ``Returns`` (or, for a generator, ``Yields``) section.
+  in its own body) has a ``Returns`` (or, for a generator, ``Yields``) section, and so has every
+  public method of a listed class that returns a value (properties excepted: their docstring is
+  the attribute's description).
 
 Constants (``CONDITIONS``, ``COUNTERS``, ...) are data, not callables, and are not counted.
 """
@@ -75,9 +77,20 @@ def _callables(page: str):
         yield f"{module}.{name}", obj
 
 
+def _public_methods(cls):
+    """``(name, function)`` of each public method defined in ``cls`` itself (not properties)."""
+    for attr, member in vars(cls).items():
+        if attr.startswith("_") or isinstance(member, property):
+            continue
+        func = member.__func__ if isinstance(member, (classmethod, staticmethod)) else member
+        if inspect.isfunction(func):
+            yield attr, func
+
+
 def offenders(page: str) -> dict[str, list[str]]:
-    """``{"Examples": [...], "Returns": [...], "See Also": [...]}``: the entries of ``page`` without that section."""
-    out: dict[str, list[str]] = {"Examples": [], "Returns": [], "See Also": []}
+    """The entries of ``page`` without each section: ``"Examples"``, ``"See Also"``, ``"Returns"``
+    (functions) and ``"Returns of methods"`` (public methods of the classes)."""
+    out: dict[str, list[str]] = {"Examples": [], "Returns": [], "See Also": [], "Returns of methods": []}
     for label, obj in _callables(page):
         doc = _doc(obj)
         if not doc["Examples"]:
@@ -87,6 +100,11 @@ def offenders(page: str) -> dict[str, list[str]]:
         is_exception = inspect.isclass(obj) and issubclass(obj, BaseException)
         if inspect.isroutine(obj) and not is_exception and returns_value(obj) and not (doc["Returns"] or doc["Yields"]):
             out["Returns"].append(label)
+        if inspect.isclass(obj) and not is_exception:
+            for attr, func in _public_methods(obj):
+                method_doc = _doc(func)
+                if returns_value(func) and not (method_doc["Returns"] or method_doc["Yields"]):
+                    out["Returns of methods"].append(f"{label}.{attr}")
     return out
 
 
@@ -95,7 +113,7 @@ def test_pages_found():
 
 
 @pytest.mark.parametrize("page", sorted(_PAGES))
-@pytest.mark.parametrize("section", ["Examples", "Returns", "See Also"])
+@pytest.mark.parametrize("section", ["Examples", "Returns", "See Also", "Returns of methods"])
 def test_every_entry_has_section(page, section):
     missing = offenders(page)[section]
     print(f"{page}: {len(missing)} without {section}: {missing}")
