@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.hybobs-installed
 PYTEST_ARGS ?= -n 2 --dist worksteal
 
-.PHONY: demo test bench docs install clean
+.PHONY: demo test bench docs doctest install clean
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "hybobs_opt needs Python >= 3.11, found " + sys.version.split()[0])'
@@ -39,6 +39,10 @@ bench: $(STAMP)
 docs: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m sphinx -b html -W --keep-going docs docs/_build/html
 	@echo "Open $(CURDIR)/docs/_build/html/index.html"
+
+# The Examples sections of the docstrings, run as doctests (make test does not run them).
+doctest: $(STAMP)
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest --doctest-modules -q -n 2 hybobs_opt
 
 clean:
 	rm -rf out .pytest_cache docs/_build docs/api/generated

@@ -33,6 +33,21 @@ def warm_up() -> dict:
     dict
         Seconds per phase (``import``, ``system``, ``analysis``, ``lookup_kernels``, ``observer``, ``polytope``),
         ``cache_dir`` and ``kernels_compiled`` (per kernel module).
+
+    See Also
+    --------
+    hybobs_opt.regions.analyse_observability, hybobs_opt.observers.LookupObserver : what it runs.
+
+    Examples
+    --------
+    Run once after installing (``make install`` does): later processes load the compiled kernels.
+
+    >>> from hybobs_opt import warm_up
+    >>> report = warm_up()
+    >>> sorted(report["kernels_compiled"])
+    ['hybobs_opt.geometry._lp_kernels', ...]
+    >>> "analysis" in report and "observer" in report
+    True
     """
     import numpy as np
 

@@ -117,6 +117,28 @@ class ResultCache:
     events : list of dict
         One record per event: ``kind``, ``what``, ``outcome`` (``"hit"``, ``"stored"``,
         ``"refused"``, ``"not stored"``), ``path``, ``seconds`` and, when refused, ``reason``.
+
+    See Also
+    --------
+    use_cache : make a cache the active one.
+    cached_analysis : an observability analysis through the active cache.
+
+    Examples
+    --------
+    A cache in a directory of its own; ``log`` receives one line per load or store:
+
+    >>> import tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> cache = ResultCache(tempfile.mkdtemp(), log=print)
+    >>> plant = get_example("powertrain3").build()
+    >>> with use_cache(cache):
+    ...     analysis = cached_analysis(plant, 3)
+    ...     again = cached_analysis(plant, 3)
+    observability analysis of 'powertrain3 (tau=0.08333)' (T = 3): computed and stored in the cache (...)
+    observability analysis of 'powertrain3 (tau=0.08333)' (T = 3): loaded from the cache (...)
+    >>> [entry["kind"] for entry in cache.entries()]
+    ['analysis']
+    >>> n_files, n_bytes = cache.clear()            # empties the directory
     """
 
     def __init__(self, directory: str | os.PathLike | None = None, log: Callable[[str], None] | None = None):
@@ -139,6 +161,11 @@ class ResultCache:
             The kind of entry (``"analysis"``, ``"lookup-pieces"``, ``"exact-labels"``).
         parts : mapping
             What the entry depends on besides the code (JSON-serialisable).
+
+        Returns
+        -------
+        str
+            64 hexadecimal digits naming the entry.
         """
         from . import __version__
 
@@ -156,6 +183,11 @@ class ResultCache:
             Its :meth:`key` (the first 32 hex digits name the file).
         suffix : str
             ``".json"`` (an analysis) or ``".npz"`` (arrays).
+
+        Returns
+        -------
+        Path
+            Where the entry's file is (or would be) in the cache directory.
         """
         return self.directory / f"{kind}-{key[:32]}{suffix}"
 
@@ -261,6 +293,11 @@ class ResultCache:
             miss, or when the entry is refused).
         what : str, optional
             What the events call the entry (default: the system's name and ``T``).
+
+        Returns
+        -------
+        ObservabilityAnalysis
+            The stored analysis, or the one ``compute()`` returned (then stored).
         """
         from .regions.io import load_analysis, save_analysis
         from .systems.fingerprint import system_fingerprint
@@ -317,6 +354,11 @@ class ResultCache:
             string arrays (no objects: entries are read with ``allow_pickle=False``).
         what : str
             What the events call the entry.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The stored arrays, or the ones ``compute()`` returned (then stored).
         """
         key = self.key(kind, parts)
         path = self.path(kind, key, ".npz")
@@ -360,7 +402,13 @@ class ResultCache:
 
     # ------------------------------------------------------------------ housekeeping
     def entries(self) -> list[dict[str, Any]]:
-        """The entries on disk: ``name``, ``kind``, ``bytes``, ``modified`` (POSIX time), sorted by name."""
+        """The entries on disk: ``name``, ``kind``, ``bytes``, ``modified`` (POSIX time), sorted by name.
+
+        Returns
+        -------
+        list of dict
+            One record per entry: ``name``, ``kind``, ``bytes``, ``modified``.
+        """
         if not self.directory.is_dir():
             return []
         out = []
@@ -373,7 +421,13 @@ class ResultCache:
 
     def clear(self) -> tuple[int, int]:
         """Delete the toolbox's entries, their MACs and stale temporary files (files of its naming
-        pattern only: nothing else in the directory is touched); returns ``(files, bytes)`` removed."""
+        pattern only: nothing else in the directory is touched); returns ``(files, bytes)`` removed.
+
+        Returns
+        -------
+        (int, int)
+            The number of files and of bytes removed.
+        """
         if not self.directory.is_dir():
             return 0, 0
         files = size = 0
@@ -397,6 +451,27 @@ def use_cache(cache: ResultCache | None) -> Iterator[ResultCache | None]:
     cache : ResultCache or None
         The cache that :func:`cached_analysis`, the lookup observer's tables and the exact window
         labels read and write inside the block; ``None`` switches caching off there.
+
+    Yields
+    ------
+    ResultCache or None
+        ``cache``, active until the block ends (the previous active cache is restored then).
+
+    See Also
+    --------
+    ResultCache : the cache.
+    cached_analysis : reads and writes the active cache.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> plant = get_example("powertrain3").build()
+    >>> with use_cache(ResultCache(tempfile.mkdtemp(), log=print)) as cache:
+    ...     analysis = cached_analysis(plant, 3)
+    observability analysis of ...: computed and stored in the cache (...)
+    >>> with use_cache(None):                         # caching off inside the block
+    ...     analysis = cached_analysis(plant, 3)
     """
     if cache is not None and not isinstance(cache, ResultCache):
         raise ModelError("cache", "a ResultCache or None", type(cache).__name__)
@@ -443,6 +518,27 @@ def cached_analysis(system, T: int, *, executor=None, progress=None):
     Returns
     -------
     ObservabilityAnalysis
+
+    See Also
+    --------
+    hybobs_opt.regions.analyse_observability : the computation itself.
+    use_cache, ResultCache : the active cache.
+
+    Examples
+    --------
+    Without an active cache it computes the analysis; inside ``use_cache`` the second call loads
+    what the first stored:
+
+    >>> import numpy as np, tempfile
+    >>> from hybobs_opt import ResultCache, cached_analysis, get_example, use_cache
+    >>> plant = get_example("powertrain3").build()
+    >>> cached_analysis(plant, 3).is_observable(np.array([0.06, 39.0, 3.25]))
+    True
+    >>> with use_cache(ResultCache(tempfile.mkdtemp(), log=print)):
+    ...     analysis = cached_analysis(plant, 3)
+    ...     analysis = cached_analysis(plant, 3)
+    observability analysis of ...: computed and stored in the cache (...)
+    observability analysis of ...: loaded from the cache (...)
     """
     from .regions import analyse_observability
 

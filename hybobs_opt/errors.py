@@ -21,6 +21,21 @@ class HybobsError(Exception):
         The message (and any further arguments), as for :class:`Exception`.
     **kwargs
         None accepted (:class:`Exception` takes no keyword arguments).
+
+    See Also
+    --------
+    ModelError, SolverError, InfeasibleError, BuildError : the errors raised on purpose.
+
+    Examples
+    --------
+    Catch every error the toolbox raises on purpose (and nothing else) with one clause:
+
+    >>> from hybobs_opt import HybobsError, ModelError
+    >>> try:
+    ...     raise ModelError("horizon", "an integer >= 1", "0")
+    ... except HybobsError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ModelError - horizon: expected an integer >= 1, got 0
     """
 
 
@@ -35,6 +50,21 @@ class ModelError(HybobsError, ValueError):
         What was expected there (shape, range, property).
     got
         Optional description of what was received.
+
+    See Also
+    --------
+    HybobsError : the base class.
+
+    Examples
+    --------
+    The message names the field, what was expected and what was given; the parts are attributes:
+
+    >>> from hybobs_opt import ModelError
+    >>> error = ModelError("horizon", "an integer >= 1", "0")
+    >>> str(error)
+    'horizon: expected an integer >= 1, got 0'
+    >>> error.field, error.expected, error.got
+    ('horizon', 'an integer >= 1', '0')
     """
 
     def __init__(self, field: str, expected: str, got: str | None = None):
@@ -61,6 +91,24 @@ class InfeasibleError(HybobsError):
         The proof of infeasibility (with ``verify()``), or ``None``.
     detail : str, optional
         Explanation appended to the message.
+
+    See Also
+    --------
+    hybobs_opt.Certificate : the evidence ``certificate`` holds.
+    SolverError : a failure without a proof.
+
+    Examples
+    --------
+    The error carries the certificate that proves the infeasibility; here the Farkas certificate
+    of an infeasible LP:
+
+    >>> import numpy as np
+    >>> from hybobs_opt import InfeasibleError
+    >>> from hybobs_opt.geometry import solve_lp
+    >>> certificate = solve_lp(np.array([1.0]), np.array([[1.0], [-1.0]]), np.array([-1.0, 0.0])).certificate
+    >>> error = InfeasibleError("LP x <= -1, x >= 0", certificate)
+    >>> error.certificate.verify()
+    True
     """
 
     def __init__(self, problem: str, certificate: Any = None, detail: str = ""):
@@ -89,6 +137,20 @@ class SolverError(HybobsError):
         The solver's status.
     hint : str, optional
         What to try, appended to the message.
+
+    See Also
+    --------
+    InfeasibleError : a proven infeasibility, not a failure.
+    hybobs_opt.Status : the status vocabulary of ``status``.
+
+    Examples
+    --------
+    >>> from hybobs_opt import SolverError
+    >>> error = SolverError("LP", "highs", "time_limit", "raise the limit")
+    >>> str(error)
+    "LP: solver highs returned status 'time_limit'; try: raise the limit"
+    >>> error.solver, error.status
+    ('highs', 'time_limit')
     """
 
     def __init__(self, problem: str, solver: str, status: str, hint: str = ""):
@@ -116,6 +178,19 @@ class BuildError(HybobsError):
         ``"compile"`` or ``"run"``.
     output : str
         The compiler's or the program's messages (the first lines).
+
+    See Also
+    --------
+    hybobs_opt.observers.export_lookup_c : the C export whose check raises it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import BuildError
+    >>> error = BuildError("the C export", "compile", "x.c:1: error")
+    >>> str(error)
+    'the C export: the compile step failed: x.c:1: error'
+    >>> error.stage
+    'compile'
     """
 
     def __init__(self, what: str, stage: str, output: str = ""):

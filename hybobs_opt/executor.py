@@ -26,13 +26,35 @@ def _gather(futures, progress: Progress) -> list[Any]:
 
 
 class SerialExecutor:
-    """Run everything in this process."""
+    """Run everything in this process.
+
+    See Also
+    --------
+    ProcessExecutor, DaskExecutor : the same interface on local processes or a Dask cluster.
+    make_executor : one of the three from command-line style options.
+
+    Examples
+    --------
+    >>> from hybobs_opt import SerialExecutor
+    >>> executor = SerialExecutor()
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.map_shared(pow, [1, 2, 3], 2)      # pow(item, 2)
+    [1, 4, 9]
+    >>> executor.close()
+    """
 
     name = "serial"
     n_workers = 1
 
     def map_shared(self, fn, items, shared, progress: Progress = None) -> list[Any]:
-        """``[fn(item, shared) for item in items]``: :meth:`map` with one argument common to all calls."""
+        """``[fn(item, shared) for item in items]``: :meth:`map` with one argument common to all calls.
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
         return self.map(lambda item: fn(item, shared), items, progress)
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], progress: Progress = None) -> list[Any]:
@@ -101,6 +123,22 @@ class ProcessExecutor:
     ----------
     n_workers : int, optional
         Number of processes (default: ``os.cpu_count()``).
+
+    See Also
+    --------
+    SerialExecutor : the same interface in this process.
+    make_executor : an executor from command-line style options.
+
+    Examples
+    --------
+    The analyses that accept an ``executor`` (:func:`~hybobs_opt.regions.analyse_observability`)
+    spread their work over its processes; ``map`` keeps the order of the items:
+
+    >>> from hybobs_opt import ProcessExecutor
+    >>> executor = ProcessExecutor(n_workers=2)
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.close()
     """
 
     name = "processes"
@@ -147,7 +185,13 @@ class ProcessExecutor:
         return _gather([pool.submit(fn, item) for item in items], progress)
 
     def map_shared(self, fn, items, shared, progress: Progress = None) -> list[Any]:
-        """``[fn(item, shared) for item in items]`` in the worker processes (``shared`` pickled with each item)."""
+        """``[fn(item, shared) for item in items]`` in the worker processes (``shared`` pickled with each item).
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
         items = list(items)
         if len(items) <= 1 or self.n_workers == 1:
             return SerialExecutor().map_shared(fn, items, shared, progress)
@@ -176,6 +220,22 @@ class DaskExecutor:
     ------
     ModelError
         If ``distributed`` is not installed, both or neither are given, or ``local_workers < 1``.
+
+    See Also
+    --------
+    ProcessExecutor : local processes without Dask.
+    make_executor : ``dask_local`` / ``scheduler`` give this executor.
+
+    Examples
+    --------
+    A one-worker local cluster (a few seconds to start); ``scheduler="tcp://HOST:PORT"`` joins a
+    running one instead:
+
+    >>> from hybobs_opt import DaskExecutor
+    >>> executor = DaskExecutor(local_workers=1)
+    >>> executor.map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    >>> executor.close()
     """
 
     name = "dask"
@@ -223,6 +283,11 @@ class DaskExecutor:
 
         Embedded in every task instead, large shared data make a large task graph (model 17 at
         T = 9: 34 MB for 4 tasks, and Dask warns); scattered, it travels once per worker.
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
         """
         items = list(items)
         [future] = self._client.scatter([shared], broadcast=True, hash=False)
@@ -249,10 +314,31 @@ def make_executor(kind: str = "processes", n_workers: int | None = None, schedul
     dask_local : int, optional
         Workers of a Dask ``LocalCluster``: gives a :class:`DaskExecutor`.
 
+    Returns
+    -------
+    SerialExecutor, ProcessExecutor or DaskExecutor
+        The executor the options name; the caller closes it.
+
     Raises
     ------
     ModelError
         On an unknown ``kind``.
+
+    See Also
+    --------
+    SerialExecutor, ProcessExecutor, DaskExecutor : what it builds.
+
+    Examples
+    --------
+    >>> from hybobs_opt import make_executor
+    >>> executor = make_executor("serial")
+    >>> type(executor).__name__, executor.map(abs, [-2, 3])
+    ('SerialExecutor', [2, 3])
+    >>> executor.close()
+    >>> make_executor("threads")
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: executor: expected ...
     """
     if scheduler is not None or dask_local is not None:
         return DaskExecutor(scheduler, dask_local)

@@ -85,6 +85,20 @@ class PhaseProgress:
     report : callable
         ``report(phase, unit, done, total)``: ``phase`` names the work ("pair tests"),
         ``unit`` what ``done`` and ``total`` count ("pair").
+
+    See Also
+    --------
+    hybobs_opt.regions.analyse_observability : reports its phases to one.
+
+    Examples
+    --------
+    >>> from hybobs_opt import PhaseProgress
+    >>> progress = PhaseProgress(lambda phase, unit, done, total: print(f"{phase}: {done}/{total} {unit}s"))
+    >>> progress("mode enumeration", "prefix", 3, 9)
+    mode enumeration: 3/9 prefixs
+    >>> pair_tests = progress.phase("pair tests", "pair")    # a plain (done, total) callback
+    >>> pair_tests(5, 5)
+    pair tests: 5/5 pairs
     """
 
     def __init__(self, report: Callable[[str, str, int, int], None]):
@@ -104,6 +118,11 @@ class PhaseProgress:
             The phase ("pair tests").
         unit : str
             What it counts ("pair").
+
+        Returns
+        -------
+        callable
+            ``callback(done, total)`` that reports ``(name, unit, done, total)``.
         """
         return lambda done, total: self._report(name, unit, done, total)
 

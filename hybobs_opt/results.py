@@ -33,6 +33,27 @@ class SolveResult(Protocol):
     residuals : dict of str to float
         Constraint residuals at the returned point (largest violation per constraint family, in
         the units the result documents; empty when no point was returned).
+
+    See Also
+    --------
+    hybobs_opt.geometry.LPResult : the LP answer, one implementation of this protocol.
+    hybobs_opt.Status : the vocabulary of ``status``.
+
+    Examples
+    --------
+    Every solver answer of the toolbox is a ``SolveResult``: a status, the residuals at the
+    returned point and the wall time.
+
+    >>> import numpy as np
+    >>> from hybobs_opt import SolveResult, is_optimal
+    >>> from hybobs_opt.geometry import solve_lp
+    >>> result = solve_lp(np.array([1.0, 1.0]), bounds=[(1, 2), (0, 3)])
+    >>> isinstance(result, SolveResult), is_optimal(result.status)
+    (True, True)
+    >>> result.residuals
+    {'bounds': 0.0}
+    >>> sorted(result.to_dict())
+    ['certificate', 'objective', 'residuals', 'seconds', 'solver', 'status', 'x']
     """
 
     @property
@@ -44,7 +65,15 @@ class SolveResult(Protocol):
     @property
     def residuals(self) -> dict[str, float]: ...
 
-    def to_dict(self) -> dict: ...
+    def to_dict(self) -> dict:
+        """JSON-ready record of the answer.
+
+        Returns
+        -------
+        dict
+            At least ``status``, ``seconds`` and ``residuals``; the implementations add their own fields.
+        """
+        ...
 
 
 class Certificate(ABC):
@@ -61,6 +90,28 @@ class Certificate(ABC):
     ----------
     reason : str
         The verdict and its mechanism, stated for the system at hand.
+
+    See Also
+    --------
+    hybobs_opt.InfeasibleError : carries a certificate that verifies.
+    hybobs_opt.geometry.solve_lp : an infeasible LP's answer holds a Farkas certificate.
+
+    Examples
+    --------
+    An infeasible LP (``x <= -1`` and ``x >= 0``) answers with a Farkas certificate, which re-checks
+    itself in numpy:
+
+    >>> import numpy as np
+    >>> from hybobs_opt import Certificate
+    >>> from hybobs_opt.geometry import solve_lp
+    >>> result = solve_lp(np.array([1.0]), np.array([[1.0], [-1.0]]), np.array([-1.0, 0.0]))
+    >>> result.status.value
+    'infeasible'
+    >>> certificate = result.certificate
+    >>> isinstance(certificate, Certificate), certificate.verify()
+    (True, True)
+    >>> print(certificate.reason)
+    LP is infeasible: non-negative multipliers combine its rows into 0 <= b'y + e'w < 0
     """
 
     __slots__ = ()
@@ -73,8 +124,20 @@ class Certificate(ABC):
 
     @abstractmethod
     def verify(self) -> bool:
-        """Re-check the evidence in plain numpy (no solver); ``True`` when it holds."""
+        """Re-check the evidence in plain numpy (no solver); ``True`` when it holds.
+
+        Returns
+        -------
+        bool
+            ``True`` when the evidence holds in numpy.
+        """
 
     def to_dict(self) -> dict:
-        """JSON-ready summary: the class, the reason and whether :meth:`verify` holds."""
+        """JSON-ready summary: the class, the reason and whether :meth:`verify` holds.
+
+        Returns
+        -------
+        dict
+            ``certificate`` (the class name), ``reason`` and ``verified``.
+        """
         return {"certificate": type(self).__name__, "reason": str(self.reason), "verified": bool(self.verify())}

@@ -60,7 +60,23 @@ __all__ = [
 
 
 class Status(enum.StrEnum):
-    """Outcome of one solve; the values are the strings the toolbox has always written to JSON."""
+    """Outcome of one solve; the values are the strings the toolbox has always written to JSON.
+
+    See Also
+    --------
+    is_optimal : the one acceptance policy.
+    map_status : a solver's raw answer in this vocabulary.
+
+    Examples
+    --------
+    >>> from hybobs_opt import Status, is_optimal
+    >>> Status.OPTIMAL.value
+    'optimal'
+    >>> Status("optimal_inaccurate") is Status.OPTIMAL_INACCURATE
+    True
+    >>> is_optimal(Status.OPTIMAL), is_optimal(Status.OPTIMAL_INACCURATE)
+    (True, False)
+    """
 
     OPTIMAL = "optimal"
     OPTIMAL_INACCURATE = "optimal_inaccurate"
@@ -107,6 +123,25 @@ def map_status(table: Mapping[Any, Status], raw: Any, *, solver: str) -> Status:
         ``table[raw]``, or :attr:`Status.UNKNOWN` for anything the table does not list
         (including unhashable or ``None`` values): an unlisted answer is never an exception and
         never accepted.
+
+    See Also
+    --------
+    Status : the vocabulary.
+    is_optimal : the acceptance policy applied to the mapped status.
+
+    Examples
+    --------
+    ``scipy.optimize.linprog``'s integer status through its adapter table; an unknown raw value is
+    ``unknown``, never optimal:
+
+    >>> from hybobs_opt import Status, map_status
+    >>> from hybobs_opt.status import LINPROG_STATUS
+    >>> map_status(LINPROG_STATUS, 0, solver="linprog") is Status.OPTIMAL
+    True
+    >>> map_status(LINPROG_STATUS, 2, solver="linprog").value
+    'infeasible'
+    >>> map_status(LINPROG_STATUS, 99, solver="linprog").value
+    'unknown'
     """
     del solver  # kept in the signature so every call site names the solver it translates
     if isinstance(raw, Status):
@@ -128,6 +163,24 @@ def is_optimal(status: Any) -> bool:
     ----------
     status : Status or str
         A status (a plain string compares equal to its :class:`Status`).
+
+    Returns
+    -------
+    bool
+        Whether ``status`` is :attr:`Status.OPTIMAL` (or its string ``"optimal"``).
+
+    See Also
+    --------
+    is_infeasible : the other status a caller may act on.
+    map_status : a solver's raw answer in the one vocabulary.
+
+    Examples
+    --------
+    >>> from hybobs_opt import Status, is_optimal
+    >>> is_optimal(Status.OPTIMAL), is_optimal("optimal")
+    (True, True)
+    >>> is_optimal(Status.OPTIMAL_INACCURATE), is_optimal(Status.LIMIT)
+    (False, False)
     """
     return status == Status.OPTIMAL
 
@@ -139,6 +192,22 @@ def is_infeasible(status: Any) -> bool:
     ----------
     status : Status or str
         A status (a plain string compares equal to its :class:`Status`).
+
+    Returns
+    -------
+    bool
+        Whether ``status`` is :attr:`Status.INFEASIBLE`; ``"infeasible_inaccurate"`` is not.
+
+    See Also
+    --------
+    is_optimal : the acceptance policy for optimal answers.
+    hybobs_opt.InfeasibleError : raised with a certificate that proves the infeasibility.
+
+    Examples
+    --------
+    >>> from hybobs_opt import Status, is_infeasible
+    >>> is_infeasible(Status.INFEASIBLE), is_infeasible(Status.INFEASIBLE_INACCURATE)
+    (True, False)
     """
     return status == Status.INFEASIBLE
 

@@ -32,6 +32,23 @@ def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Pol
     list of Polytope
         Irredundant pieces whose union is the closure of ``R \\ Q`` up to lower-dimensional
         sets; ``[R]`` when ``R`` and ``Q`` share no interior.
+
+    See Also
+    --------
+    Polytope : the pieces.
+
+    Examples
+    --------
+    The square ``[-1, 1]^2`` minus the centred square of half its side: four pieces, whose areas
+    add up to 4 - 1 = 3:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope, polytope_difference
+    >>> outer = Polytope.from_box([-1.0, -1.0], [1.0, 1.0])
+    >>> inner = Polytope.from_box([-0.5, -0.5], [0.5, 0.5])
+    >>> pieces = polytope_difference(outer, inner, np.ones(2))
+    >>> len(pieces), round(sum(piece.volume().value for piece in pieces), 6)
+    (4, 3.0)
     """
     if not R.intersect(Q).is_full_dimensional(scale):
         return [R]

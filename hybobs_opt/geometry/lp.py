@@ -56,6 +56,21 @@ class LPResult:
         Proof of an ``INFEASIBLE`` / ``UNBOUNDED`` status.
     duals : array, optional
         Multipliers ``lambda >= 0`` of the inequality rows at an optimum.
+
+    See Also
+    --------
+    solve_lp, verified_lp : return it.
+    hybobs_opt.SolveResult : the protocol it implements.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import solve_lp
+    >>> result = solve_lp(np.array([1.0, 1.0]), bounds=[(1, 2), (0, 3)])   # min x1 + x2 on a box
+    >>> result.status.value, result.x, result.objective, result.solver
+    ('optimal', array([1., 0.]), 1.0, 'highs')
+    >>> result.residuals
+    {'bounds': 0.0}
     """
 
     status: Status
@@ -72,6 +87,14 @@ class LPResult:
         return is_optimal(self.status)
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the LP's answer.
+
+        Returns
+        -------
+        dict
+            ``status``, ``x`` (a list, ``None`` without a point), ``objective``, ``solver``, ``seconds``,
+            ``residuals`` and ``certificate`` (its record, or ``None``).
+        """
         return {"status": self.status, "x": None if self.x is None else self.x.tolist(), "objective": self.objective,
                 "solver": self.solver, "seconds": self.seconds, "residuals": dict(self.residuals),
                 "certificate": None if self.certificate is None else self.certificate.to_dict()}
@@ -113,12 +136,33 @@ def solve_lp(
         "infeasible" / "unbounded" verdict for which no certificate verifies.  The last exception
         of the solver, if any, is chained.
 
+    See Also
+    --------
+    verified_lp : DAQP first, this as the fallback.
+    row_range : two of these LPs per functional.
+    scipy.optimize.linprog : the same LP form.
+
     Notes
     -----
     The LP is equilibrated first (rows and columns scaled by powers of two, :func:`_equilibrate`),
     so the answer does not depend on the units of the data; every check is done on that exact
     equivalent problem.  HiGHS's automatic choice runs first; on a failed check its interior-point
     and dual simplex solvers are tried (they fail on different degenerate instances).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import solve_lp
+    >>> A_ub, b_ub = np.array([[-1.0, -1.0]]), np.array([-1.0])            # x1 + x2 >= 1
+    >>> result = solve_lp(np.array([2.0, 1.0]), A_ub, b_ub, bounds=[(0, None), (0, None)])
+    >>> result.status.value, result.x, result.objective
+    ('optimal', array([0., 1.]), 1.0)
+
+    An infeasible LP answers with a certificate that re-checks in numpy:
+
+    >>> result = solve_lp(np.array([1.0]), np.array([[1.0], [-1.0]]), np.array([-1.0, 0.0]))
+    >>> result.status.value, result.certificate.verify()
+    ('infeasible', True)
     """
     c = np.asarray(c, dtype=float).reshape(-1)
     if bounds is None:
@@ -569,6 +613,22 @@ def row_range(
         (``"bounds of {label}"``: "a bounded set"), unless allowed.
     SolverError
         If HiGHS cannot answer an LP (see :func:`solve_lp`).
+
+    See Also
+    --------
+    solve_lp : each of its LPs.
+    Polytope.bounding_box : the ranges of the coordinates.
+
+    Examples
+    --------
+    The range of ``z1 + z2`` and ``z1 - z2`` over the square:
+
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import row_range
+    >>> row_range(A, b, np.array([[1.0, 1.0], [1.0, -1.0]]))
+    array([[-2.,  2.],
+           [-2.,  2.]])
     """
     A = np.atleast_2d(np.asarray(A, dtype=float))
     b = np.asarray(b, dtype=float).reshape(-1)
@@ -625,7 +685,22 @@ _DAQP_OPTIMAL: dict[int, bool] = {}
 @dataclass
 class LPCounters:
     """How many certified LPs (:func:`max_slack`, :func:`verified_lp`) ran in a block of
-    :func:`counting_lps`: ``fast`` decided by DAQP, ``confirmed_by_highs`` by the robust solver."""
+    :func:`counting_lps`: ``fast`` decided by DAQP, ``confirmed_by_highs`` by the robust solver.
+
+    See Also
+    --------
+    counting_lps : fills one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import counting_lps, max_slack
+    >>> with counting_lps() as counts:
+    ...     result = max_slack(A, b, radius_bound=10.0, threshold=0.5)
+    >>> counts.fast, counts.confirmed_by_highs            # decided by DAQP, none sent to HiGHS
+    (1, 0)
+    """
 
     fast: int = 0
     confirmed_by_highs: int = 0
@@ -652,6 +727,21 @@ def counting_lps() -> Iterator[LPCounters]:
     ------
     LPCounters
         The counts of the block, final when the block ends.
+
+    See Also
+    --------
+    LPCounters : the counts.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import certified_width_below, counting_lps, max_slack
+    >>> with counting_lps() as counts:
+    ...     result = max_slack(A, b, radius_bound=10.0, threshold=0.5)
+    ...     narrow = certified_width_below(A, b, np.array([1.0, 0.0]), radius_bound=10.0, width=2.5)
+    >>> counts
+    LPCounters(fast=3, confirmed_by_highs=0)
     """
     counters = LPCounters()
     token = _ACTIVE_COUNTERS.set(counters)
@@ -725,6 +815,28 @@ def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, ep
     certificate in its multipliers (:func:`daqp_infeasibility_ok`); any other exit, an exception
     or a failed check sends the LP to HiGHS, whose answer :func:`solve_lp` checks in turn (a
     :class:`SolverError` when that fails too; ``UNBOUNDED`` is then a certified status too).
+
+    Returns
+    -------
+    LPResult
+        The answer of the solver that answered (``solver`` is ``"daqp"`` or ``"highs"``); at an
+        optimum ``x`` and the row multipliers ``duals``.
+
+    See Also
+    --------
+    solve_lp : the HiGHS path.
+    max_slack : the certified slack LP.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import verified_lp
+    >>> result = verified_lp(np.array([1.0, 1.0]), A, b, problem="corner of the square")
+    >>> result.status.value, result.solver, np.round(result.x, 6), round(result.objective, 6)
+    ('optimal', 'daqp', array([-1., -1.]), -2.0)
+    >>> np.round(result.duals, 6)                  # the rows -z1 <= 1 and -z2 <= 1 are active
+    array([0., 0., 1., 1.])
     """
     t0 = time.perf_counter()
     d = A.shape[1]
@@ -773,6 +885,19 @@ class SlackResult:
         DAQP's multipliers of the LP's rows.
     seconds : float, default 0.0
         Wall time of the solve.
+
+    See Also
+    --------
+    max_slack, solve_slack_lp : return it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import max_slack
+    >>> result = max_slack(A, b, radius_bound=10.0, threshold=0.5)
+    >>> round(result.lower, 6), round(result.upper, 6)      # certified from w and from the multipliers
+    (1.0, 1.0)
     """
 
     lower: float
@@ -791,6 +916,14 @@ class SlackResult:
         return {} if self.w is None else {"certified_gap": float(self.upper - self.lower)}
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the certified slack.
+
+        Returns
+        -------
+        dict
+            ``status``, ``lower``, ``upper``, ``solver``, ``w`` (a list, or ``None``), ``seconds`` and
+            ``residuals``.
+        """
         return {"status": self.status, "lower": self.lower, "upper": self.upper, "solver": self.solver,
                 "w": None if self.w is None else np.asarray(self.w).tolist(), "seconds": self.seconds,
                 "residuals": self.residuals}
@@ -825,6 +958,31 @@ def max_slack(G: np.ndarray, g: np.ndarray, *, radius_bound: float, threshold: f
         The decision the caller will take (``slack > threshold``).
     problem : str
         Name for error messages.
+
+    Returns
+    -------
+    SlackResult
+        The certified interval ``[lower, upper]`` of the largest slack, the point ``w`` that proves
+        ``lower`` and the solver that answered.
+
+    See Also
+    --------
+    SlackResult : what it returns.
+    solve_slack_lp : the LP after the constant rows are handled.
+    certified_width_below : the certified width of a polytope along a direction.
+
+    Examples
+    --------
+    The Chebyshev radius of the square ``|w_i| <= 1`` is 1, at its centre:
+
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import max_slack
+    >>> result = max_slack(A, b, radius_bound=10.0, threshold=0.5)
+    >>> round(result.lower, 6), round(result.upper, 6), result.w, result.solver
+    (1.0, 1.0, array([0., 0.]), 'daqp')
+    >>> result.lower > 0.5                            # the decision the caller takes
+    True
     """
     G = np.ascontiguousarray(G, dtype=float)
     g = np.ascontiguousarray(g, dtype=float)
@@ -869,6 +1027,24 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     -------
     SlackResult
         Certified lower and upper bounds of the slack, the point and the solver that decided.
+
+    See Also
+    --------
+    max_slack : builds its data and handles the constant rows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import solve_slack_lp
+    >>> from hybobs_opt.geometry._lp_kernels import slack_lp_data
+    >>> from hybobs_opt.tolerances import SLACK_CAP, ZERO_ROW_TOL
+    >>> data, rhs, ok = slack_lp_data(A, b, ZERO_ROW_TOL, SLACK_CAP)
+    >>> data.shape                                     # 4 rows and the cap on t, over (w, t)
+    (5, 3)
+    >>> result = solve_slack_lp(data, rhs, 10.0, 0.5, "square")
+    >>> round(result.lower, 6), round(result.upper, 6)
+    (1.0, 1.0)
     """
     t0 = time.perf_counter()
     k = A.shape[0] - 1
@@ -989,6 +1165,30 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
         Width to certify.
     point : (d,) ndarray, optional
         A (nearly) feasible point that allows skipping the second LP.
+
+    Returns
+    -------
+    bool
+        ``True`` when the width is certified to be at most ``width``; ``False`` means "not
+        certified" (the safe answer), not "wider".
+
+    See Also
+    --------
+    max_slack : the certified slack LP.
+    row_range : the range of a functional, without a certificate on a threshold.
+
+    Examples
+    --------
+    The square ``|v_i| <= 1`` has width 2 along ``v1``:
+
+    >>> import numpy as np
+    >>> A, b = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4)     # the square |z_i| <= 1
+    >>> from hybobs_opt.geometry import certified_width_below
+    >>> c = np.array([1.0, 0.0])
+    >>> certified_width_below(A, b, c, radius_bound=10.0, width=2.5)
+    True
+    >>> certified_width_below(A, b, c, radius_bound=10.0, width=1.5)
+    False
     """
     total = 0.0
     points = []

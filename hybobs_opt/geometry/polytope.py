@@ -73,10 +73,32 @@ class Polytope:
     names : sequence of str, optional
         Names of the ``d`` coordinates (``z1 ... zd`` by default).
 
+    See Also
+    --------
+    polytope_difference : the pieces of a difference of polytopes.
+    row_range : the interval of linear functionals over a polytope.
+    monte_carlo_volume : the volume of a union of polytopes.
+
     Notes
     -----
     Strict and non-strict inequalities are not distinguished: the paper's regions are "not
     necessarily closed" (paper 002, eq. 1), and membership ties are broken by mode order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> square = Polytope.from_box([-1.0, -1.0], [1.0, 1.0])
+    >>> square
+    Polytope(dim=2, n_constraints=4, names=('z1', 'z2'))
+    >>> square.contains(np.array([0.5, -0.5])), square.contains(np.array([1.5, 0.0]))
+    (True, False)
+    >>> half = square.intersect(Polytope(np.array([[1.0, 1.0]]), np.array([0.0])))  # z1 + z2 <= 0
+    >>> volume = half.volume()                       # a VolumeEstimate, exact in 2-D
+    >>> round(volume.value, 6), volume.method, half.is_bounded(), half.is_empty()
+    (2.0, 'exact', True, False)
+    >>> sorted(half.vertices().round(6).tolist())    # the triangle's corners
+    [[-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0]]
     """
 
     A: np.ndarray
@@ -103,6 +125,11 @@ class Polytope:
             Bounds of each coordinate (same length ``d``).
         names : sequence of str, optional
             Coordinate names (``z1 ... zd`` by default).
+
+        Returns
+        -------
+        Polytope
+            The box as ``2 d`` rows.
         """
         lo = as_vector(lower, "lower", None)
         hi = as_vector(upper, "upper", lo.size)
@@ -126,6 +153,11 @@ class Polytope:
             Dimension ``d >= 1``.
         names : sequence of str, optional
             Coordinate names (``z1 ... zd`` by default).
+
+        Returns
+        -------
+        Polytope
+            An empty polytope of dimension ``dim``.
         """
         dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         A = np.zeros((2, dim))
@@ -142,6 +174,11 @@ class Polytope:
             Dimension ``d >= 1``.
         names : sequence of str, optional
             Coordinate names (``z1 ... zd`` by default).
+
+        Returns
+        -------
+        Polytope
+            ``R^dim`` with no rows.
         """
         dim = as_int(dim, "dim", 1, "a dimension (an integer >= 1)")
         return cls(np.zeros((0, dim)), np.zeros(0), as_names(names, "names", dim, "z"))
@@ -221,6 +258,11 @@ class Polytope:
             One point or one point per row.
         rtol : float, default MEMBERSHIP_RTOL
             Relative slack of each row (:data:`~hybobs_opt.tolerances.MEMBERSHIP_RTOL`).
+
+        Returns
+        -------
+        bool or (N,) bool ndarray
+            Whether the point (each point) satisfies ``A z <= b``.
         """
         z = np.asarray(points, dtype=float)
         single = z.ndim == 1
@@ -232,7 +274,13 @@ class Polytope:
         return bool(inside[0]) if single else inside
 
     def normalized(self) -> "Polytope":
-        """Rows scaled to unit 2-norm; all-zero rows are dropped (or flagged if they make the set empty)."""
+        """Rows scaled to unit 2-norm; all-zero rows are dropped (or flagged if they make the set empty).
+
+        Returns
+        -------
+        Polytope
+            The same set with unit-norm rows.
+        """
         norms = np.linalg.norm(self.A, axis=1)
         zero = norms <= ZERO_ROW_TOL
         if np.any(zero & (self.b < 0)):
@@ -244,6 +292,11 @@ class Polytope:
     def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
         """Tightest axis-aligned box ``(lower, upper)`` by 2d LPs.
 
+        Returns
+        -------
+        lower, upper : (d,) ndarray
+            The smallest box containing the polytope.
+
         Raises
         ------
         ModelError
@@ -253,7 +306,13 @@ class Polytope:
         return r[:, 0].copy(), r[:, 1].copy()
 
     def is_bounded(self) -> bool:
-        """True when every coordinate is bounded above and below (and the set is non-empty)."""
+        """True when every coordinate is bounded above and below (and the set is non-empty).
+
+        Returns
+        -------
+        bool
+            Whether the set is non-empty and bounded.
+        """
         try:
             self.bounding_box()
         except ModelError:
@@ -293,7 +352,13 @@ class Polytope:
         return centre, float(res.x[-1])
 
     def is_empty(self) -> bool:
-        """True when no point satisfies ``A z <= b``."""
+        """True when no point satisfies ``A z <= b``.
+
+        Returns
+        -------
+        bool
+            Whether the set is empty (decided by a certified LP).
+        """
         res = solve_lp(np.zeros(self.dim), self.A, self.b, problem="emptiness test")
         return res.status == "infeasible"
 
@@ -311,6 +376,11 @@ class Polytope:
         rtol : float, default FULL_DIMENSION_RTOL
             Smallest radius counted as full-dimensional
             (:data:`~hybobs_opt.tolerances.FULL_DIMENSION_RTOL`).
+
+        Returns
+        -------
+        bool
+            Whether the set has an interior of radius above ``rtol`` (scaled coordinates).
         """
         if scale is None:
             try:
@@ -330,6 +400,11 @@ class Polytope:
         ----------
         other : Polytope
             Polytope of the same dimension; the result keeps this polytope's names.
+
+        Returns
+        -------
+        Polytope
+            The rows of both sets.
         """
         _check_polytope(other, "other")
         if other.dim != self.dim:
@@ -343,6 +418,11 @@ class Polytope:
         ----------
         other : Polytope
             The second factor; names are concatenated (dropped if they collide).
+
+        Returns
+        -------
+        Polytope
+            The product, of dimension ``self.dim + other.dim``.
         """
         _check_polytope(other, "other")
         A = np.block(
@@ -367,6 +447,11 @@ class Polytope:
             Distinct 0-based indices in ``R^dim`` of this polytope's coordinates, in order.
         names : sequence of str, optional
             Names of the ``dim`` coordinates (``z1 ...`` by default).
+
+        Returns
+        -------
+        Polytope
+            The set ``{z in R^dim : z[coords] in self}``.
         """
         dim = as_int(dim, "dim", self.dim, f"a dimension (an integer >= {self.dim}, this polytope's)")
         coords = [as_int(c, f"coords[{i}]", 0, f"a coordinate index in 0..{dim - 1}")
@@ -388,6 +473,11 @@ class Polytope:
         ----------
         coord : int or str
             0-based index or name of the coordinate.
+
+        Returns
+        -------
+        int
+            The coordinate's index.
 
         Raises
         ------

@@ -28,6 +28,19 @@ class VolumeEstimate:
         bounding box).
     n_samples : int
         Number of Monte Carlo samples (``0`` for the exact method).
+
+    See Also
+    --------
+    monte_carlo_volume : the sampled estimate.
+
+    Examples
+    --------
+    :meth:`Polytope.volume` returns one: exact (qhull or cddlib) in low dimension.
+
+    >>> from hybobs_opt.geometry import Polytope
+    >>> estimate = Polytope.from_box([0.0, 0.0, 0.0], [1.0, 2.0, 3.0]).volume()
+    >>> round(estimate.value, 6), estimate.stderr, estimate.method, estimate.n_samples
+    (6.0, 0.0, 'exact', 0)
     """
 
     value: float
@@ -59,6 +72,23 @@ def monte_carlo_volume(
     -------
     value, stderr : float
         ``p V_box`` and ``V_box sqrt(p (1 - p) / n)`` with ``p`` the hit fraction.
+
+    See Also
+    --------
+    VolumeEstimate : the volume with its method and error.
+    Polytope.volume : the exact volume of one polytope.
+
+    Examples
+    --------
+    The unit disc (area pi) from 20000 samples of the box ``[-1, 1]^2``; a seed makes it
+    reproducible:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import monte_carlo_volume
+    >>> value, stderr = monte_carlo_volume(lambda z: (z ** 2).sum(axis=1) <= 1.0, -np.ones(2), np.ones(2),
+    ...                                    20000, rng=0)
+    >>> round(value, 2), round(stderr, 3)
+    (3.16, 0.012)
     """
     if n_samples < 1:
         raise ModelError("n_samples", "a positive integer", str(n_samples))

@@ -33,6 +33,25 @@ class Cut:
         Grid coordinates.
     labels : (len(y), len(x)) object array
         One of :data:`LABELS` (a :class:`~hybobs_opt.regions.PointClass`, equal to its string) per grid point.
+
+    See Also
+    --------
+    compute_cut : computes it.
+    plot_cut : draws it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> from hybobs_opt.regions import compute_cut
+    >>> cut = compute_cut(analysis, {"omega_l": 25.0}, resolution=(11, 9))
+    >>> cut.fixed, cut.x_values.shape, cut.y_values.shape
+    ({'omega_l': 25.0}, (11,), (9,))
+    >>> sorted({label.value for label in cut.labels.ravel()})
+    ['infeasible', 'observable', 'unobservable']
     """
 
     axes: tuple[str, str]
@@ -80,9 +99,24 @@ class Cut:
         return float(np.mean(self.labels[m] == label)) if m.any() else float("nan")
 
     def grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grid coordinates of the cut.
+
+        Returns
+        -------
+        X, Y : (ny, nx) ndarray
+            ``numpy.meshgrid`` of ``x_values`` and ``y_values``, shaped like ``labels``.
+        """
         return np.meshgrid(self.x_values, self.y_values)
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the cut.
+
+        Returns
+        -------
+        dict
+            ``axes``, ``fixed``, ``x_values``, ``y_values``, ``labels`` (nested lists) and
+            ``fraction_observable_of_feasible``.
+        """
         return {
             "axes": list(self.axes),
             "fixed": dict(self.fixed),
@@ -105,10 +139,29 @@ def parse_assignments(items: list[str] | None, state_names: tuple[str, ...], opt
     option : str, default "fixed"
         Name of the option in error messages (e.g. the command-line flag).
 
+    Returns
+    -------
+    dict of str to float
+        The values by state name, in the order given.
+
     Raises
     ------
     ModelError
         On an item without ``=``, an unknown name, or a value that is not a number.
+
+    See Also
+    --------
+    compute_cut : takes the result as ``fixed``.
+
+    Examples
+    --------
+    >>> from hybobs_opt.regions import parse_assignments
+    >>> parse_assignments(["omega_l=25", "theta=0.01"], ("theta", "omega_m", "omega_l"))
+    {'omega_l': 25.0, 'theta': 0.01}
+    >>> parse_assignments(["speed=3"], ("theta", "omega_m", "omega_l"), option="--cut")
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: --cut: expected ...
     """
     out: dict[str, float] = {}
     for item in items or []:
@@ -144,6 +197,34 @@ def compute_cut(
         ``{state name: (lo, hi)}`` for the free axes; default: the state bounds.
     progress : callable, optional
         ``progress(done, total)`` after each grid point is classified.
+
+    Returns
+    -------
+    Cut
+        The grid and its labels (observable, unobservable, outside ``X*_T``).
+
+    See Also
+    --------
+    Cut : what it returns.
+    plot_cut : draws it.
+    parse_assignments : the ``fixed`` states from ``NAME=VALUE`` strings.
+
+    Examples
+    --------
+    The plane ``(theta, omega_m)`` at ``omega_l = 25`` rad/s, like Fig. 3 of paper 002, on a coarse
+    grid:
+
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> from hybobs_opt.regions import compute_cut
+    >>> cut = compute_cut(analysis, {"omega_l": 25.0}, resolution=(21, 15))
+    >>> cut.axes, cut.labels.shape
+    (('theta', 'omega_m'), (15, 21))
+    >>> round(cut.fraction("observable"), 3), round(cut.fraction_of_feasible("observable"), 3)
+    (0.638, 0.703)
     """
     system = analysis.system
     names = system.state_names
@@ -193,6 +274,26 @@ def plot_cut(cut: Cut, path, title: str = "", stretch: dict[str, float] | None =
     -------
     str or Path
         ``path``.
+
+    See Also
+    --------
+    compute_cut : the cut.
+    hybobs_opt.report.plot_region_cut : the report's version, with units.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.regions import compute_cut, plot_cut
+    >>> cut = compute_cut(analysis, {"omega_l": 25.0}, resolution=(11, 9))
+    >>> path = plot_cut(cut, Path(tempfile.mkdtemp()) / "cut.png", title="T = 3, omega_l = 25")
+    >>> Path(path).read_bytes()[:4]
+    b'...PNG'
     """
     from ..plotting import pyplot
 

@@ -42,6 +42,20 @@ class ModeRegion:
         i.e. the current time of a moving-horizon observer (paper 002, Section 4).
     slack : float
         Chebyshev radius of ``P_i`` in scaled coordinates (certified lower bound).
+
+    See Also
+    --------
+    enumerate_modes : the regions of a system.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import enumerate_modes
+    >>> region = enumerate_modes(get_example("powertrain3").build(), 3).regions[0]
+    >>> region.sequence                                 # three steps in mode 0 (negative contact)
+    (0, 0, 0)
+    >>> region.H.shape[1], region.Phi.shape            # polytope over (x, U); outputs Y = Phi x + ...
+    (6, (3, 3))
     """
 
     sequence: tuple[int, ...]
@@ -86,6 +100,21 @@ class ModeEnumeration:
         Wall time of the enumeration.
     stats : dict
         ``executor`` and ``split_depth`` of the run.
+
+    See Also
+    --------
+    enumerate_modes : computes it.
+    ModeRegion : one region.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import enumerate_modes
+    >>> enumeration = enumerate_modes(get_example("powertrain3").build(), 3)
+    >>> enumeration.T, enumeration.n, enumeration.m, len(enumeration.regions)
+    (3, 3, 1, 16)
+    >>> enumeration.n_lps                              # LPs that proved a prefix feasible or not
+    33
     """
 
     system: PWASystem
@@ -374,6 +403,21 @@ def enumerate_modes(
     Returns
     -------
     ModeEnumeration
+
+    See Also
+    --------
+    ModeEnumeration : what it returns.
+    analyse_observability : runs it first.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import enumerate_modes
+    >>> enumeration = enumerate_modes(get_example("powertrain3").build(), 3)
+    >>> len(enumeration.regions), enumeration.regions[0].sequence    # 16 feasible sequences of 3 modes
+    (16, (0, 0, 0))
+    >>> enumeration.n_prefixes_tested, enumeration.n_prefixes_total
+    (33, 39)
     """
     from ..executor import resolve_executor
 

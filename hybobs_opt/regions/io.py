@@ -100,6 +100,24 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
     -------
     Path
         ``path``.
+
+    See Also
+    --------
+    load_analysis : reads the file back.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.regions import load_analysis, save_analysis
+    >>> path = save_analysis(analysis, Path(tempfile.mkdtemp()) / "regions.json", example="powertrain3")
+    >>> path.suffix, load_analysis(path).is_observable(np.array([0.06, 39.0, 3.25]))
+    ('.json', True)
     """
     enum = analysis.enumeration
     model = enum.system.to_dict()
@@ -147,6 +165,12 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
         holds no model, from the stored example name and parameters,
         :func:`hybobs_opt.systems.resolve.resolve_system`); its fingerprint is checked too.
 
+    Returns
+    -------
+    ObservabilityAnalysis
+        The analysis as saved, its system rebuilt from the stored model (or checked against
+        ``system``).
+
     Raises
     ------
     ModelError
@@ -155,6 +179,25 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
         not match its checksum (edited or corrupted), it was computed for another system than
         ``system``, or its content is not consistent with the system (an entry of the wrong type
         or shape, a region whose maps are not its mode sequence's).
+
+    See Also
+    --------
+    save_analysis : writes the file.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.regions import load_analysis, save_analysis
+    >>> path = save_analysis(analysis, Path(tempfile.mkdtemp()) / "regions.json")
+    >>> loaded = load_analysis(path, system=plant)        # refuses a file of another system
+    >>> loaded.T, len(loaded.regions), loaded.is_observable(np.array([0.06, 39.0, 3.25]))
+    (3, 16, True)
     """
     where = REGIONS_FILE.where(path)
     data = read_json(path, REGIONS_FILE)

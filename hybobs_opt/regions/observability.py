@@ -101,6 +101,25 @@ class PairSet:
         Equalities over ``[x; x^; U]`` (equal outputs).
     slack : float
         The Chebyshev radius above.
+
+    See Also
+    --------
+    ObservabilityAnalysis.pairs : the pair sets of an analysis.
+    PairVerdict : what the test of one pair decides.
+
+    Examples
+    --------
+    At ``T = 4`` the rank test leaves pairs of regions whose outputs can agree; each kept pair set
+    ``R_ij`` is a piece of ``B_T``:
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> analysis = analyse_observability(get_example("powertrain3").build(gear_ratio=1 / 2), 4)
+    >>> len(analysis.pairs)
+    32
+    >>> pair = analysis.pairs[0]
+    >>> (pair.i, pair.j), pair.G.shape, pair.E.shape     # G [x; x^; U] <= g, E [x; x^; U] = e
+    ((6, 8), (69, 10), (4, 10))
     """
 
     i: int
@@ -146,6 +165,27 @@ class ObservabilityAnalysis:
         Internal cache of the pair lookups; leave it at its default.
     _xboxes : array or None
         Internal cache of the bounding boxes of ``Proj_x(P_k)``; leave it at its default.
+
+    See Also
+    --------
+    analyse_observability : computes it.
+    save_analysis, load_analysis : to and from a file.
+    hybobs_opt.observers.LookupObserver : the deadbeat observer built on it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> analysis.T, len(analysis.regions), sum(analysis.full_rank)   # regions P_i, of full rank
+    (3, 16, 4)
+    >>> analysis.status.value                       # every LP of it was certified
+    'optimal'
+    >>> x = np.array([0.06, 39.0, 3.25])
+    >>> analysis.classify(x).value, analysis.is_observable(x)
+    ('observable', True)
     """
 
     enumeration: ModeEnumeration
@@ -198,6 +238,11 @@ class ObservabilityAnalysis:
         threshold ``-REGION_SLACK_TOL`` (a pair is left out only when it is certified empty by
         more than the region tolerance, the safe side for the observer).  No rank screen either.
         Computed on demand (one LP per pair) and cached.
+
+        Returns
+        -------
+        tuple of PairSet
+            The pair sets, lower-dimensional ones included.
         """
         if "_reduced_all" not in self._pair_cache:
             algebra = _PairAlgebra(_scaled_regions(self.enumeration), self.system.n)
@@ -257,6 +302,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        list of int
+            The region indices.
         """
         x = self._check_point(x)
         boxes = self._x_boxes()
@@ -294,6 +344,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        bool
+            Whether ``x`` is in ``O_T``.
         """
         return self.classify(x) == PointClass.OBSERVABLE
 
@@ -310,6 +365,11 @@ class ObservabilityAnalysis:
         ----------
         x : (n,) array_like
             A finite state.
+
+        Returns
+        -------
+        PointClass
+            The class of ``x``.
 
         Raises
         ------
@@ -449,12 +509,24 @@ class ObservabilityAnalysis:
         return self.enumeration.seconds + self.seconds
 
     def to_dict(self) -> dict:
-        """JSON-ready record (:meth:`summary` with the ``status``) of the result protocol."""
+        """JSON-ready record (:meth:`summary` with the ``status``) of the result protocol.
+
+        Returns
+        -------
+        dict
+            :meth:`summary` with ``status``.
+        """
         return {"status": str(self.status), **self.summary()}
 
     # ------------------------------------------------------------------ summary
     def summary(self) -> dict:
-        """The ``hybobs regions --json`` record."""
+        """The ``hybobs regions --json`` record.
+
+        Returns
+        -------
+        dict
+            Counts of regions, pieces and LPs, and timings.
+        """
         enum = self.enumeration
         return {
             "example": self.system.name,
@@ -937,6 +1009,33 @@ def analyse_observability(
     verbose : bool or int, default False
         Log the phases (mode enumeration, pair tests) to standard error: ``True`` at INFO, or a
         logging level (:func:`hybobs_opt._logging.verbose_logging`).
+
+    Returns
+    -------
+    ObservabilityAnalysis
+        The regions of eq. (4), their rank test, the pieces of ``B_T`` and the exact point query
+        of Definition 2.2.
+
+    See Also
+    --------
+    enumerate_modes : its first phase.
+    ObservabilityAnalysis : what it returns.
+    compute_cut : a plane of its point query.
+    hybobs_opt.cached_analysis : the same through the cache.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.regions import analyse_observability
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> analysis = analyse_observability(plant, 3)              # Algorithm 3.1, horizon T = 3
+    >>> analysis.summary()["n_regions"], analysis.summary()["n_unobservable_pieces"]
+    (16, 12)
+    >>> analysis.is_observable(np.array([0.06, 39.0, 3.25]))    # Definition 2.2, decided exactly
+    True
+    >>> analysis.classify(np.array([0.0, 30.0, 2.5])).value       # in the backlash gap
+    'unobservable'
     """
     from ..executor import resolve_executor
 

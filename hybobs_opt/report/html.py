@@ -68,6 +68,24 @@ def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = N
     -------
     dict
         ``{"index": path, "quick": bool, "sections": [{"key", "title", "ok", "summary", "figures", "seconds"}]}``
+
+    See Also
+    --------
+    register_section : add a section.
+    ReportSection : one section's content.
+
+    Examples
+    --------
+    The whole report is ``hybobs report --out-dir DIR``; ``only`` builds some sections:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.report import ReportSection, build_report, register_section
+    >>> register_section("greeting", lambda out_dir, progress: ReportSection("Greeting", "<p>Hi.</p>"))
+    >>> out = Path(tempfile.mkdtemp())
+    >>> result = build_report(out, only=["greeting"])
+    >>> sorted(path.name for path in out.iterdir()), result["sections"][0]["ok"]
+    (['index.html', 'summary.json'], True)
     """
     if not isinstance(quick, bool):
         raise ModelError("quick", "True or False", repr(quick))

@@ -48,6 +48,23 @@ def plot_trace(trace: Trace, path: str | Path, title: str = "", max_states: int 
     -------
     Path
         The file written.
+
+    See Also
+    --------
+    plot_region_cut : the report's figure of a cut.
+    hybobs_opt.sim.Trace : what it draws.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.report import plot_trace
+    >>> example = get_example("switching_server")
+    >>> path = plot_trace(example.simulate(t_final=20.0), Path(tempfile.mkdtemp()) / "server.png",
+    ...                   title=example.summary, units=example.state_units)
+    >>> path.name, path.read_bytes()[1:4]
+    ('server.png', b'PNG')
     """
     path = Path(path)
     n = min(trace.x.shape[1], max_states)
@@ -211,6 +228,24 @@ def plot_region_cut(cut, path: str | Path, title: str = "", units: Mapping[str, 
     -------
     Path
         The file written.
+
+    See Also
+    --------
+    hybobs_opt.regions.compute_cut : the cut.
+    hybobs_opt.regions.plot_cut : the same drawing without units.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import analyse_observability, get_example
+    >>> from hybobs_opt.regions import compute_cut
+    >>> from hybobs_opt.report import plot_region_cut
+    >>> cut = compute_cut(analyse_observability(get_example("powertrain3").build(), 3), {"omega_l": 25.0},
+    ...                   resolution=(11, 9))
+    >>> path = plot_region_cut(cut, Path(tempfile.mkdtemp()) / "cut.png", units={"theta": "rad", "omega_m": "rad/s"})
+    >>> path.read_bytes()[1:4]
+    b'PNG'
     """
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch

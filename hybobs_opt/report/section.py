@@ -17,7 +17,20 @@ SectionBuilder = Callable[[Path, Callable[[str], None]], "ReportSection"]
 
 @dataclass
 class ReportSection:
-    """One section of the report: a title, an HTML body, and a JSON-ready summary."""
+    """One section of the report: a title, an HTML body, and a JSON-ready summary.
+
+    See Also
+    --------
+    register_section : adds a section builder to the report.
+    build_report : builds the report.
+
+    Examples
+    --------
+    >>> from hybobs_opt.report import ReportSection
+    >>> section = ReportSection("Hello", "<p>One paragraph.</p>", summary={"answer": 42})
+    >>> section.title, section.summary, section.figures
+    ('Hello', {'answer': 42}, [])
+    """
 
     title: str
     body_html: str
@@ -40,7 +53,26 @@ def samples(full: int, quick: int) -> int:
 
 
 def register_section(key: str, builder: SectionBuilder) -> None:
-    """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``."""
+    """Add a section builder ``builder(out_dir, progress) -> ReportSection`` under ``key``.
+
+    See Also
+    --------
+    ReportSection : what a builder returns.
+    build_report : runs the builders.
+
+    Examples
+    --------
+    A section of your own, built alone into a report directory:
+
+    >>> import tempfile
+    >>> from hybobs_opt.report import ReportSection, build_report, register_section
+    >>> def hello(out_dir, progress):
+    ...     return ReportSection("Hello", "<p>One paragraph.</p>", summary={"answer": 42})
+    >>> register_section("hello", hello)
+    >>> result = build_report(tempfile.mkdtemp(), only=["hello"])
+    >>> [(s["key"], s["ok"], s["summary"]) for s in result["sections"]]
+    [('hello', True, {'answer': 42})]
+    """
     if any(k == key for k, _ in _SECTIONS):
         return
     _SECTIONS.append((key, builder))

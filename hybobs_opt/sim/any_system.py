@@ -79,6 +79,27 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     ModelError
         On a system of another class, a name that is not one of the system's, or a non-positive or
         misplaced ``steps``, ``t_final`` or ``dt``.
+
+    See Also
+    --------
+    simulate_pwa, simulate_hybrid, simulate_constant_drift, simulate_nonlinear : what it calls.
+
+    Examples
+    --------
+    One call for every system class; states and inputs by name, the others at the centre of their
+    bounds:
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.sim import simulate_system
+    >>> plant = get_example("powertrain3").build()
+    >>> trace = simulate_system(plant, x0={"theta": 0.06, "omega_m": 39.0, "omega_l": 3.25}, u={"T_m": 40.0}, steps=500)
+    >>> trace.x.shape
+    (500, 3)
+    >>> simulate_system(plant, x0={"omega_m": 39.0}, u={"T_m": 40.0}, steps=500).x.shape  # left X x U early
+    (82, 3)
+    >>> server = simulate_system(get_example("switching_server").build(), t_final=10.0)
+    >>> server.events[0]["kind"], server.events[0]["t"]
+    ('mode transition', 1.0)
     """
     kind = type(system).__name__
     if steps is not None and (kind != "PWASystem" or isinstance(steps, bool) or int(steps) != steps or steps < 1):

@@ -78,6 +78,26 @@ def simulate_constant_drift(
         If ``system`` is not a ``ConstantDriftSystem``, ``x0``/``q0`` is not a valid state
         (wrong length, NaN/Inf, negative entry, ``x0 != 0`` outside a timer mode), the times are
         not finite or ``t_final < t0``, or ``dt`` is not positive.
+
+    See Also
+    --------
+    simulate_system : the same with defaults by name.
+    hybobs_opt.systems.ConstantDriftSystem : the system class.
+
+    Examples
+    --------
+    The switching server of paper 003 from the paper's initial state (``x0 = alpha_1``, mode 1):
+
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.sim import simulate_constant_drift
+    >>> server = get_example("switching_server").build()
+    >>> trace = simulate_constant_drift(server, [1.0, 0.0, 0.0], 1, 0.0, 10.0)
+    >>> first = trace.events[0]
+    >>> first["t"], first["from_mode"], first["to_mode"], first["trigger"]
+    (1.0, 1, 2, 'x0')
+    >>> [server.mode_names[q - 1] for q in (first["from_mode"], first["to_mode"])]
+    ['setup type 1', 'serve type 1']
     """
     if not isinstance(system, ConstantDriftSystem):
         raise ModelError("system", "a ConstantDriftSystem", type(system).__name__)

@@ -27,6 +27,23 @@ class SimulationError(HybobsError):
         The message, as for :class:`HybobsError`.
     **kwargs
         None accepted (:class:`Exception` takes no keyword arguments).
+
+    See Also
+    --------
+    simulate_hybrid : raises it on a Zeno execution or a state outside every invariant.
+    hybobs_opt.HybobsError : the base class.
+
+    Examples
+    --------
+    >>> from hybobs_opt import HybobsError
+    >>> from hybobs_opt.sim import SimulationError
+    >>> issubclass(SimulationError, HybobsError)
+    True
+    >>> try:
+    ...     raise SimulationError("more than 1000 events before t = 0.2: Zeno execution?")
+    ... except HybobsError as exc:
+    ...     print(type(exc).__name__, exc)
+    SimulationError more than 1000 events before t = 0.2: Zeno execution?
     """
 
 
@@ -89,6 +106,26 @@ def simulate_hybrid(
     Trace
         Samples on ``t0, t0 + dt, ...``, with ``events`` listing every location change
         (``t``, ``from``, ``to``, ``x``).
+
+    See Also
+    --------
+    simulate_hybrid_fixed_step : fixed steps, location re-evaluated from the state.
+    hybobs_opt.systems.HybridAutomaton : the automaton.
+
+    Examples
+    --------
+    The driveline of paper 000 under a constant -10 N m torque: the backlash makes it change
+    location twice in the first 0.2 s.
+
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.sim import simulate_hybrid
+    >>> driveline = get_example("driveline").build()
+    >>> trace = simulate_hybrid(driveline, [0.025, 0.0, 0.0], 1.0, u=[-10.0])
+    >>> trace.x.shape                                    # samples every dt = 1 ms
+    (1001, 3)
+    >>> [(round(e["t"], 3), e["from"], e["to"]) for e in trace.events[:2]]
+    [(0.102, 2, 1), (0.189, 1, 0)]
     """
     x0 = np.asarray(x0, dtype=float)
     if x0.shape != (automaton.n,):

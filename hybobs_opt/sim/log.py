@@ -53,6 +53,30 @@ class SignalLog:
         The true states when the log has the state columns.
     Q : (N,) int array or None
         The true mode when the log has a ``q`` or ``mode`` column.
+
+    See Also
+    --------
+    read_log : reads one from a CSV file.
+    hybobs_opt.observe_log : runs observers on one.
+
+    Examples
+    --------
+    A log read from CSV holds the inputs, outputs, times and (when the file has them) the true
+    states and modes as arrays:
+
+    >>> import numpy as np, tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import get_example, read_log, simulate_pwa
+    >>> plant = get_example("powertrain3").build()
+    >>> trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((50, 1), 40.0))
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> trace.to_csv(folder / "log.csv")         # columns t, states, q, inputs, outputs
+
+    >>> log = read_log(folder / "log.csv", plant)
+    >>> log.n_samples, log.U.shape, log.Y.shape, log.X.shape
+    (50, (50, 1), (50, 1), (50, 3))
+    >>> log.t[:3]
+    array([0.   , 0.001, 0.002])
     """
 
     path: str
@@ -150,18 +174,33 @@ def read_log(path: str | Path | Any, system) -> SignalLog:
 
     See Also
     --------
-    hybobs_opt.sim.trace.Trace.to_pandas : A simulated trace as a DataFrame this function reads.
-    SignalLog.to_pandas : The way back.
+    SignalLog : what it returns.
+    write_estimates : the observers' estimates back to CSV.
+    hybobs_opt.observe_log : the observers on the log.
+    hybobs_opt.sim.trace.Trace.to_pandas : a simulated trace as a DataFrame this function reads.
+    SignalLog.to_pandas : the way back.
 
     Examples
     --------
-    >>> import pandas as pd
-    >>> from types import SimpleNamespace
-    >>> from hybobs_opt import read_log
-    >>> system = SimpleNamespace(input_names=("u",), output_names=("y",), state_names=("x",))
-    >>> log = read_log(pd.DataFrame({"t": [0.0, 0.1], "u": [1.0, 0.0], "y": [0.5, 0.25]}), system)
-    >>> log.U.tolist(), log.Y.tolist(), log.t.tolist(), log.X
-    ([[1.0], [0.0]], [[0.5], [0.25]], [0.0, 0.1], None)
+    >>> import numpy as np, tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import get_example, read_log, simulate_pwa
+    >>> plant = get_example("powertrain3").build()
+    >>> trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((50, 1), 40.0))
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> trace.to_csv(folder / "log.csv")         # columns t, states, q, inputs, outputs
+
+    >>> (folder / "log.csv").read_text().splitlines()[0]
+    't,theta,omega_m,omega_l,q,T_m,omega_m'
+    >>> log = read_log(folder / "log.csv", plant)
+    >>> log.U[:2, 0], log.Y[:2, 0]
+    (array([40., 40.]), array([39.     , 38.84555556]))
+
+    A DataFrame with the same columns reads the same way:
+
+    >>> log_df = read_log(trace.to_pandas(), plant)
+    >>> bool((log_df.U == log.U).all() and (log_df.Y == log.Y).all())
+    True
     """
     inputs, outputs, states = tuple(system.input_names), tuple(system.output_names), tuple(system.state_names)
     if _is_dataframe(path):
@@ -340,6 +379,30 @@ def write_estimates(path: str | Path, trace, t: np.ndarray | None = None) -> Pat
     -------
     Path
         ``path``.
+
+    See Also
+    --------
+    read_log : reads the log the estimates come from.
+    hybobs_opt.observe_log : the estimates.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import get_example, read_log, simulate_pwa
+    >>> plant = get_example("powertrain3").build()
+    >>> trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((50, 1), 40.0))
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> trace.to_csv(folder / "log.csv")         # columns t, states, q, inputs, outputs
+
+    >>> from hybobs_opt import observe_log, write_estimates
+    >>> log = read_log(folder / "log.csv", plant)
+    >>> trace, summary = observe_log(plant, log, ["lookup"], 3)["lookup"]
+    >>> path = write_estimates(folder / "estimates.csv", trace, log.t)
+    >>> path.read_text().splitlines()[0]
+    't,theta,omega_m,omega_l,mode,flag'
+    >>> path.read_text().splitlines()[3].split(",")[-2:]
+    ['2', 'observable']
     """
     path = Path(path)
     names = list(trace.state_names) or [f"x{i + 1}" for i in range(trace.x_hat.shape[1])]

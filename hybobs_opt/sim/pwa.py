@@ -32,6 +32,25 @@ def simulate_pwa_batch(system: PWASystem, X0: np.ndarray, U: np.ndarray) -> tupl
         Modes ``i(0) ... i(T-1)``; ``-1`` where ``(x, u)`` left ``X x U`` (the evolution is blocked).
     Y : (K, T, p) array
         Outputs ``y(0) ... y(T-1)``.
+
+    See Also
+    --------
+    simulate_pwa : one trajectory as a Trace.
+
+    Examples
+    --------
+    Four initial states, ten steps each, in one call:
+
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> from hybobs_opt.sim import simulate_pwa_batch
+    >>> X0 = np.array([[0.06, 39.0, 3.25], [0.0, 10.0, 1.0], [-0.06, 5.0, 2.0], [0.01, 0.0, 0.0]])
+    >>> X, Q, Y = simulate_pwa_batch(plant, X0, np.full((4, 10, 1), 40.0))
+    >>> X.shape, Q.shape, Y.shape
+    ((4, 11, 3), (4, 10), (4, 10, 1))
+    >>> Q[:, 0]                                    # the mode of each initial state
+    array([2, 1, 0, 1])
     """
     X0 = np.asarray(X0, dtype=float)
     U = np.asarray(U, dtype=float)
@@ -79,6 +98,23 @@ def simulate_pwa(system: PWASystem, x0, U, *, on_blocked: str = "raise") -> Trac
     -------
     Trace
         ``T`` samples ``(t, x(t), i(t), u(t), y(t))`` with ``t = k Ts`` (or ``k`` if ``Ts`` is None).
+
+    See Also
+    --------
+    simulate_pwa_batch : many initial states at once.
+    hybobs_opt.systems.PWASystem : the system class (eq. 1 of paper 002).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> from hybobs_opt.sim import simulate_pwa
+    >>> trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((2000, 1), 40.0))
+    >>> trace.x.shape, sorted(set(trace.q.tolist()))     # 2 s at Ts = 1 ms, modes visited
+    ((2000, 3), [0, 1, 2])
+    >>> trace.x[-1].round(2)                           # twist angle, engine and wheel speeds
+    array([-0.05, 20.57,  1.7 ])
     """
     if on_blocked not in ("raise", "stop"):
         raise ModelError("on_blocked", "'raise' or 'stop'", repr(on_blocked))

@@ -35,6 +35,27 @@ class Trace:
         Optional names of the discrete states, indexed by ``q``.
     events : list of dict
         Optional event log (time, kind, from, to, ...), e.g. guard crossings or served-queue switches.
+
+    See Also
+    --------
+    simulate_system : a trace of any system class.
+    Trace.to_csv : the trace as a CSV file.
+
+    Examples
+    --------
+    Every simulator returns one; the arrays are indexed by sample:
+
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> plant = get_example("powertrain3").build()             # model (16) of paper 002
+    >>> from hybobs_opt.sim import simulate_pwa
+    >>> trace = simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((100, 1), 40.0))
+    >>> trace.t.shape, trace.x.shape, trace.q.shape, trace.u.shape, trace.y.shape
+    ((100,), (100, 3), (100,), (100, 1), (100, 1))
+    >>> trace.state_names, trace.input_names, trace.output_names
+    (('theta', 'omega_m', 'omega_l'), ('T_m',), ('omega_m',))
+    >>> trace.location_names[trace.q[0]]                     # the mode at t = 0
+    'positive_contact'
     """
 
     t: np.ndarray
@@ -74,6 +95,11 @@ class Trace:
         name : str
             One of :attr:`state_names`.
 
+        Returns
+        -------
+        (N,) ndarray
+            The column of ``x``.
+
         Raises
         ------
         ModelError
@@ -85,7 +111,13 @@ class Trace:
             raise ModelError("state name", f"one of {self.state_names}", repr(name)) from None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary with the arrays as nested lists (the ``--json`` contract)."""
+        """JSON-ready dictionary with the arrays as nested lists (the ``--json`` contract).
+
+        Returns
+        -------
+        dict
+            ``t``, ``x``, ``q``, ``u``, ``y`` as lists, the four name tuples as lists and the events.
+        """
         return {
             "t": self.t.tolist(),
             "x": self.x.tolist(),

@@ -28,7 +28,21 @@ PAPERS: dict[str, str] = {
 
 
 class LazyCallable:
-    """A ``"package.module:function"`` reference that imports and calls the function on first use."""
+    """A ``"package.module:function"`` reference that imports and calls the function on first use.
+
+    See Also
+    --------
+    Example : its ``build`` and ``scenario`` may be given so.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies import LazyCallable
+    >>> hypot = LazyCallable("math:hypot")               # nothing is imported yet
+    >>> hypot
+    LazyCallable('math:hypot')
+    >>> hypot(3, 4)
+    5.0
+    """
 
     __slots__ = ("reference", "_fn")
 
@@ -40,7 +54,13 @@ class LazyCallable:
         self._fn: Callable[..., Any] | None = None
 
     def resolve(self) -> Callable[..., Any]:
-        """The referenced function (imported once)."""
+        """The referenced function (imported once).
+
+        Returns
+        -------
+        callable
+            The imported function.
+        """
         if self._fn is None:
             module, _, name = self.reference.partition(":")
             self._fn = getattr(importlib.import_module(module), name)
@@ -92,6 +112,25 @@ class Example:
         The unit of each state as its paper gives it (``"rad/s"``, ``"vehicles"``; ``""`` for a
         dimensionless state), used on the axes of the figures (:meth:`state_label`); empty: none
         declared.
+
+    See Also
+    --------
+    get_example : one example by name.
+    list_examples : all of them.
+    hybobs_opt.sim.simulate_system : simulate a built system with other settings.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> example = get_example("powertrain3")
+    >>> example.paper, example.kind, example.state_names
+    ('002', 'pwa', ('theta', 'omega_m', 'omega_l'))
+    >>> example.state_label("omega_m"), example.params
+    ('omega_m [rad/s]', {'gear_ratio': 0.08333333333333333})
+    >>> plant = example.build(gear_ratio=1 / 2)          # the system, with other parameters
+    >>> trace = example.simulate()                       # the paper's scenario
+    >>> trace.x.shape
+    (3000, 3)
     """
 
     name: str
@@ -173,7 +212,13 @@ class Example:
                       f"t_final = {t_final:g} s at the scenario's sample period {self.sample_time:g} s")
 
     def simulate(self, t_final: float | None = None, **params: Any):
-        """Build the system with ``params`` and run the paper's scenario up to ``t_final``."""
+        """Build the system with ``params`` and run the paper's scenario up to ``t_final``.
+
+        Returns
+        -------
+        Trace
+            The scenario's trajectory.
+        """
         unknown = set(params) - set(self.params)
         if unknown:
             raise ModelError(
@@ -187,7 +232,14 @@ class Example:
         return self.scenario(system, t_final=self.default_t_final if t_final is None else t_final)
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``hybobs examples --json`` record."""
+        """The ``hybobs examples --json`` record.
+
+        Returns
+        -------
+        dict
+            The example's name, kind, paper (and its title), summary, states, parameters, default
+            horizon, sample time and observer kinds.
+        """
         return {
             "name": self.name,
             "kind": self.kind,
@@ -208,7 +260,31 @@ _REGISTRY: dict[str, Example] = {}
 
 
 def register(example: Example) -> Example:
-    """Add ``example`` to the registry (names must be unique)."""
+    """Add ``example`` to the registry (names must be unique).
+
+    Returns
+    -------
+    Example
+        ``example`` itself (so it can be used as a decorator's result).
+
+    See Also
+    --------
+    Example : what is registered.
+    get_example : finds it afterwards.
+
+    Examples
+    --------
+    A variant of a shipped example under a name of its own:
+
+    >>> import dataclasses
+    >>> from hybobs_opt.studies import get_example, register
+    >>> half = dataclasses.replace(get_example("powertrain3"), name="powertrain3_half_gear",
+    ...                            params={"gear_ratio": 0.5})
+    >>> register(half) is half
+    True
+    >>> get_example("powertrain3_half_gear").params
+    {'gear_ratio': 0.5}
+    """
     if example.name in _REGISTRY:
         raise ModelError("example name", "a unique name", f"duplicate {example.name!r}")
     _REGISTRY[example.name] = example
@@ -216,7 +292,28 @@ def register(example: Example) -> Example:
 
 
 def get_example(name: str) -> Example:
-    """Look an example up by name; the error lists the valid names."""
+    """Look an example up by name; the error lists the valid names.
+
+    Returns
+    -------
+    Example
+        The registered example; ``build()`` gives its system, ``simulate()`` its scenario.
+
+    See Also
+    --------
+    list_examples : every registered example.
+    hybobs_opt.systems.get_example : the same across every installed catalogue.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies import get_example
+    >>> get_example("traffic_junction").summary
+    'Signalized 3-flow T-junction, clearing policy; sensor on lane 1 only (Sec. 5)'
+    >>> get_example("powertrain")
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: example: expected one of [...], got 'powertrain'
+    """
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -224,7 +321,24 @@ def get_example(name: str) -> Example:
 
 
 def list_examples() -> list[Example]:
-    """All registered examples, in registration order (papers 000 to 004)."""
+    """All registered examples, in registration order (papers 000 to 004).
+
+    Returns
+    -------
+    list of Example
+        The registered examples.
+
+    See Also
+    --------
+    get_example : one by name.
+    register : add one.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies import list_examples
+    >>> [(example.name, example.paper) for example in list_examples()][:5]
+    [('driveline', '000'), ('switched_unstable', '001'), ('triangular', '001'), ('double_scroll', '001'), ('powertrain3', '002')]
+    """
     return list(_REGISTRY.values())
 
 

@@ -51,7 +51,23 @@ from .location_design import (affine_key, certified_decay, check_observable, dis
 @dataclass(frozen=True, eq=False)
 class MismatchPair:
     """Plant in location ``plant``, observer still on ``observer`` (an edge ``observer -> plant``):
-    the input ``v = W [x; u; 1]`` of eq. (17), with ``W`` for the designed gain."""
+    the input ``v = W [x; u; 1]`` of eq. (17), with ``W`` for the designed gain.
+
+    See Also
+    --------
+    ContinuousDesign.pairs : one per edge of the location graph.
+    convergence_bound : uses their ``sigma``.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import design_continuous_observer
+    >>> pair = design_continuous_observer(plant, 10.0, gain_bound=1000.0, **box).pairs[0]
+    >>> pair.plant, pair.observer, pair.W.shape      # v = W [x; u; 1] while the observer lags
+    (1, 0, (3, 5))
+    """
 
     plant: int
     observer: int
@@ -84,6 +100,21 @@ class ContinuousDesign:
         Operating box ``X``, ``U`` of Proposition 3.3.1 used for ``V``.
     status : str
     seconds : float
+
+    See Also
+    --------
+    design_continuous_observer : computes it.
+    convergence_bound : its bound (20).
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import design_continuous_observer
+    >>> design = design_continuous_observer(plant, 10.0, gain_bound=1000.0, **box)
+    >>> design.P.shape, design.group_of, len(design.pairs)
+    ((3, 3), (0, 1, 2), 4)
     """
 
     automaton: HybridAutomaton
@@ -114,10 +145,23 @@ class ContinuousDesign:
         ----------
         q : int
             0-based location index.
+
+        Returns
+        -------
+        ndarray
+            ``G_q``.
         """
         return self.G[self.group_of[q]]
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the design.
+
+        Returns
+        -------
+        dict
+            The requested and proven decay rates, ``cond_P``, the gains' norms, spectral abscissae and
+            Jordan condition numbers, ``sigma``, ``V``, the solver's status and time.
+        """
         return {
             "requested_decay": self.requested_decay,
             "decay": self.decay,
@@ -144,6 +188,21 @@ class ContinuousObserverLMI:
     state_box, input_box : (lo, hi), optional
         Operating box ``X``, ``U`` of Proposition 3.3.1 (default: bounding boxes of the
         automaton's state and input bounds).
+
+    See Also
+    --------
+    design_continuous_observer : builds one and solves it once.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import ContinuousObserverLMI
+    >>> lmi = ContinuousObserverLMI(plant, gain_bound=1000.0, **box)
+    >>> design = lmi.solve(10.0)                       # re-solve for another decay without rebuilding
+    >>> design.status, round(design.decay, 3)
+    ('optimal', 10.0)
     """
 
     def __init__(self, automaton: HybridAutomaton, *, gain_bound: float | None = None,
@@ -244,6 +303,11 @@ class ContinuousObserverLMI:
     def solve(self, decay: float) -> ContinuousDesign:
         """Gains for the decay rate ``decay`` (1/s).
 
+        Returns
+        -------
+        ContinuousDesign
+            The gains and the common ``P`` for ``decay``.
+
         Raises
         ------
         InfeasibleError
@@ -330,6 +394,26 @@ def design_continuous_observer(automaton: HybridAutomaton, decay: float, *, gain
     state_box, input_box : (lo, hi), optional
         Operating box ``X``, ``U`` of Proposition 3.3.1 (default: bounding boxes of the automaton's
         state and input bounds).
+
+    Returns
+    -------
+    ContinuousDesign
+        The gains ``G_i``, the common ``P`` and the decay rate they were proven for.
+
+    See Also
+    --------
+    ContinuousObserverLMI : the LMI, compiled once.
+    convergence_bound : the bound (20) of the design.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import design_continuous_observer
+    >>> design = design_continuous_observer(plant, 10.0, gain_bound=1000.0, **box)
+    >>> design.status, round(design.decay, 3), len(design.G), design.G[0].shape
+    ('optimal', 10.0, 3, (3, 1))
     """
     return ContinuousObserverLMI(automaton, gain_bound=gain_bound, state_box=state_box, input_box=input_box).solve(decay)
 
@@ -371,6 +455,20 @@ class ConvergenceBound:
         ``sup ||v||`` (eq. 19, Euclidean).
     M0_paper : float
         Eq. (20) as printed: ``max_j n kappa(F_j) V_j Delta / (1 - e^{alpha(F_j) D})``.
+
+    See Also
+    --------
+    convergence_bound : computes it.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import convergence_bound, design_continuous_observer
+    >>> bound = convergence_bound(design_continuous_observer(plant, 10.0, gain_bound=1000.0, **box), 0.05, 0.15)
+    >>> bound.delta, bound.dwell_time, round(bound.decay, 3)
+    (0.05, 0.15, 10.0)
     """
 
     delta: float
@@ -395,11 +493,24 @@ class ConvergenceBound:
             ``||eps(t0)||``, the Euclidean error at ``t0``.
         t0 : float, default 0.0
             Initial time.
+
+        Returns
+        -------
+        ndarray
+            The bound on ``||eps(t)||`` at each time of ``t`` (shaped like ``t``).
         """
         t = np.asarray(t, dtype=float)
         return self.transient_factor * np.exp(-self.decay * np.maximum(t - t0, 0.0)) * e0 + self.M0
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the bound.
+
+        Returns
+        -------
+        dict
+            ``delta``, ``dwell_time``, ``decay``, ``sigma``, ``M0``, ``M0_P``, ``M0_per_state``,
+            ``transient_factor``, ``V`` and ``M0_paper_eq20``.
+        """
         return {"delta": self.delta, "dwell_time": self.dwell_time, "decay": self.decay, "sigma": self.sigma,
                 "M0": self.M0, "M0_P": self.M0_P, "M0_per_state": self.M0_per_state.tolist(),
                 "transient_factor": self.transient_factor, "V": self.V, "M0_paper_eq20": self.M0_paper}
@@ -420,10 +531,36 @@ def convergence_bound(design: ContinuousDesign, delta: float, dwell_time: float)
     dwell_time : float
         Minimum time ``D > Delta`` between plant transitions.
 
+    Returns
+    -------
+    ConvergenceBound
+        ``M0`` of eq. (20) and its parts.
+
     Raises
     ------
     ModelError
         ``Delta >= D`` or non-positive values.
+
+    See Also
+    --------
+    ConvergenceBound : what it returns.
+    design_continuous_observer : the design it bounds.
+
+    Examples
+    --------
+    The neighbourhood the estimation error enters for detection delay ``Delta = 0.05`` s and dwell
+    time ``D = 0.15`` s:
+
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> box = dict(state_box=((-0.045, -10.0, -1.0), (0.005, 10.0, 1.0)), input_box=((-10.0,), (0.0,)))
+    >>> from hybobs_opt.synthesis import convergence_bound, design_continuous_observer
+    >>> design = design_continuous_observer(plant, 10.0, gain_bound=1000.0, **box)
+    >>> bound = convergence_bound(design, 0.05, 0.15)
+    >>> bound.M0 < bound.M0_paper                      # tighter than the paper's formula
+    True
+    >>> bound.M0_per_state.shape
+    (3,)
     """
     delta = as_positive(delta, "delta", "a positive finite time")
     dwell_time = as_positive(dwell_time, "dwell_time", "a positive finite time")

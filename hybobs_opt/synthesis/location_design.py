@@ -221,6 +221,22 @@ class LuenbergerLMI:
     gain bound is given).  Time is normalised by ``s = max(||A||, alpha, 1)`` so the data are of
     order one whatever the plant's time scale; ``A``, ``C``, ``alpha`` and ``l`` are parameters, so
     the problem is canonicalised once and re-solved for every generator and every decay rate.
+
+    See Also
+    --------
+    design_residual_bank : solves it for each generator.
+
+    Examples
+    --------
+    A gain with decay rate 1 for an undamped oscillator observed through its position:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.synthesis import LuenbergerLMI
+    >>> A, C = np.array([[0.0, 1.0], [-1.0, 0.0]]), np.array([[1.0, 0.0]])
+    >>> lmi = LuenbergerLMI(2, 1)                        # compiled once, re-solved per (A, C, alpha)
+    >>> P, L, status, _ = lmi.solve(A, C, 1.0, "oscillator")
+    >>> status, bool(np.linalg.eigvals(A - L @ C).real.max() <= -1.0)
+    ('optimal', True)
     """
 
     def __init__(self, n: int, p: int, gain_bound: float | None = None):
@@ -246,6 +262,12 @@ class LuenbergerLMI:
 
         Only an ``optimal`` status gives a point (:func:`~hybobs_opt.status.is_optimal`: an
         ``optimal_inaccurate`` answer is not accepted), and only ``infeasible`` gives ``None``.
+
+        Returns
+        -------
+        (P, L, status, seconds) or None
+            The Lyapunov matrix, the gain, the solver status and the solve time; ``None`` when
+            infeasible.
 
         Raises
         ------
@@ -314,6 +336,19 @@ class ResidualGenerator:
         Solves of the decay search.
     seconds : float
         Total solver time.
+
+    See Also
+    --------
+    ResidualBank : holds one per distinct dynamics.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> from hybobs_opt.synthesis import design_residual_bank
+    >>> generator = design_residual_bank(plant, 0.05, 0.01, 2.5, invariant_rtol=1e-3).generators[0]
+    >>> generator.label, generator.locations, generator.L.shape       # gain of eqs. (6)-(7)
+    ('q1', (0,), (3, 1))
     """
 
     locations: tuple[int, ...]
@@ -346,6 +381,14 @@ class ResidualGenerator:
         return self.A - self.L @ self.C
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the generator.
+
+        Returns
+        -------
+        dict
+            Its locations, decay rate, ``cond_P``, gain norm, residual and LMI bounds, guaranteed delay,
+            the paper's delay and condition (9), and the solver's status, solves and time.
+        """
         return {
             "locations": self.label,
             "decay": self.decay,
@@ -383,6 +426,19 @@ class ResidualBank:
     gain_bound : float or None
     seconds : float
         Wall time of the design (:func:`design_residual_bank`).
+
+    See Also
+    --------
+    design_residual_bank : designs it.
+
+    Examples
+    --------
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> from hybobs_opt.synthesis import design_residual_bank
+    >>> bank = design_residual_bank(plant, 0.05, 0.01, 2.5, invariant_rtol=1e-3)
+    >>> bank.delta, bank.epsilon, bank.z0_bound, len(bank.generators)
+    (0.05, 0.01, 2.5, 3)
     """
 
     automaton: HybridAutomaton
@@ -396,6 +452,14 @@ class ResidualBank:
     seconds: float = 0.0
 
     def summary(self) -> dict[str, Any]:
+        """JSON-ready summary of the bank.
+
+        Returns
+        -------
+        dict
+            ``delta``, ``epsilon``, ``z0_bound``, ``gain_bound``, ``design_seconds`` and ``generators``
+            (one :meth:`ResidualGenerator.summary` each).
+        """
         return {
             "delta": self.delta,
             "epsilon": self.epsilon,
@@ -417,6 +481,21 @@ class DelayCertificate(Certificate):
 
     It implements the certificate protocol of :mod:`hybobs_opt.results`: :attr:`reason` states the
     verdict and the problem class it covers, :meth:`verify` re-checks it in numpy.
+
+    See Also
+    --------
+    design_residual_bank : raises it when no bounded gain meets the delay.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.synthesis import DelayCertificate
+    >>> certificate = DelayCertificate("q1", np.array([[0.0, 1.0], [-1.0, 0.0]]), np.array([[1.0, 0.0]]),
+    ...                                delta=0.1, epsilon=0.01, z0_bound=1.0, gain_bound=0.1)
+    >>> certificate.verify()
+    True
+    >>> print(certificate.reason)
+    no gain with ||L|| <= 0.1 brings the residual of location q1 below epsilon = 0.01 within Delta = 0.1 s: ...
     """
 
     location: str
@@ -428,7 +507,13 @@ class DelayCertificate(Certificate):
     gain_bound: float
 
     def lower_bound(self) -> float:
-        """Guaranteed ``||r(Delta)||`` for the worst initial mismatch of norm ``Z0``."""
+        """Guaranteed ``||r(Delta)||`` for the worst initial mismatch of norm ``Z0``.
+
+        Returns
+        -------
+        float
+            A lower bound on ``||r(Delta)||`` valid for every gain with ``||L|| <= gain_bound``.
+        """
         nC = float(np.linalg.norm(self.C, 2))
         h = float(np.linalg.norm(self.A, 2)) + self.gain_bound * nC
         return nC * self.z0_bound * (2.0 - math.exp(min(h * self.delta, 700.0)))
@@ -441,7 +526,13 @@ class DelayCertificate(Certificate):
                 f"for an initial mismatch of norm Z0 = {self.z0_bound:g} (paper 000, eq. 13)")
 
     def verify(self) -> bool:
-        """Re-check with numpy that the residual bound exceeds the threshold."""
+        """Re-check with numpy that the residual bound exceeds the threshold.
+
+        Returns
+        -------
+        bool
+            Whether :meth:`lower_bound` exceeds ``epsilon``.
+        """
         return bool(self.lower_bound() > self.epsilon)
 
 
@@ -486,6 +577,11 @@ def design_residual_bank(
         Without it the margins are whatever the residual requirement leaves, which can exceed a
         thin invariant (the driveline's shaft enters the backlash by a few mrad).
 
+    Returns
+    -------
+    ResidualBank
+        One generator per distinct dynamics, with its gain, decay and residual bound.
+
     Raises
     ------
     ModelError
@@ -496,6 +592,26 @@ def design_residual_bank(
         design within ``gain_bound`` / ``max_decay`` (``certificate`` is ``None``).
     SolverError
         Clarabel failed.
+
+    See Also
+    --------
+    ResidualBank, ResidualGenerator : what it returns.
+    DelayCertificate : the proof when no bounded gain meets the delay.
+    hybobs_opt.observers.LocationObserver : the runtime location observer.
+
+    Examples
+    --------
+    Residual generators that detect a location change of the driveline within
+    ``Delta = 0.05`` s (threshold ``epsilon = 0.01``, initial mismatch up to ``Z0 = 2.5``):
+
+    >>> from hybobs_opt.studies.paper000_driveline.systems import driveline
+    >>> plant = driveline(k=1000.0)                 # paper 000's driveline, the softer spring of Fig. 6
+    >>> from hybobs_opt.synthesis import design_residual_bank
+    >>> bank = design_residual_bank(plant, 0.05, 0.01, 2.5, invariant_rtol=1e-3)
+    >>> [generator.label for generator in bank.generators], bank.group_of
+    (['q1', 'q2', 'q3'], (0, 1, 2))
+    >>> all(generator.decay > 100 for generator in bank.generators)   # decay rates in 1/s
+    True
     """
     delta, epsilon, z0_bound = (as_positive(value, name) for name, value in
                                 (("delta", delta), ("epsilon", epsilon), ("z0_bound", z0_bound)))

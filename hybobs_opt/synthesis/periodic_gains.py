@@ -129,6 +129,20 @@ class PeriodicGains:
         ``A_j - L_j C_j`` and ``L_j C_j`` relative to ``max|A_j|`` (Remark 4.4), the deadbeat
         conditions' least-squares residual per phase (sequential design) and the numpy re-check of
         the Lyapunov inequalities (LP design).
+
+    See Also
+    --------
+    deadbeat_gains, positive_deadbeat_gains, positive_observer, analyse_gains : return it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import deadbeat_gains
+    >>> gains = deadbeat_gains(server)
+    >>> gains.deadbeat_steps, gains.status, gains.closed_loop.shape
+    (2, 'closed form', (2, 2, 2))
     """
 
     L: np.ndarray
@@ -149,7 +163,14 @@ class PeriodicGains:
         return self.deadbeat_steps is not None
 
     def to_dict(self) -> dict:
-        """JSON-ready summary."""
+        """JSON-ready summary.
+
+        Returns
+        -------
+        dict
+            ``L``, ``method``, ``deadbeat_steps``, ``monodromy_radius``, ``positive``, ``rate``,
+            ``status`` and ``seconds``.
+        """
         return {
             "L": self.L.tolist(),
             "method": self.method,
@@ -184,6 +205,23 @@ def analyse_gains(ps: PeriodicSystem, L: ArrayLike, method: str = "given", *, ra
     -------
     PeriodicGains
         The gains with the properties checked here in numpy.
+
+    See Also
+    --------
+    deadbeat_gains, positive_observer : designs that end in this analysis.
+
+    Examples
+    --------
+    Zero gains (the open-loop predictor): the monodromy radius says how fast the error still decays.
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> import numpy as np
+    >>> from hybobs_opt.synthesis import analyse_gains
+    >>> result = analyse_gains(server, np.zeros((2, 2)))
+    >>> result.monodromy_radius, result.deadbeat_steps, result.positive
+    (0.375, None, True)
     """
     ps = as_periodic_system(ps)
     L = ps.check_gains(L)
@@ -280,6 +318,26 @@ class NoDeadbeatCertificate(Certificate):
     errors reachable after a step from ``S`` contain ``A_j (S cap ker C_j)`` (``C_j e = 0`` there,
     so the gain has no effect), hence the reachable errors contain ``S`` after every period and
     never vanish.
+
+    See Also
+    --------
+    deadbeat_gains : raises it in an :class:`~hybobs_opt.InfeasibleError`.
+
+    Examples
+    --------
+    A queue that is never observed (``C = [1, 0]``, ``A = I``): no gain makes the observer deadbeat.
+
+    >>> from hybobs_opt import InfeasibleError
+    >>> from hybobs_opt.systems import PeriodicSystem
+    >>> from hybobs_opt.synthesis import deadbeat_gains
+    >>> hidden = PeriodicSystem(A=[[[1.0, 0.0], [0.0, 1.0]]], a=[[0.0, 0.0]], C=[[1.0, 0.0]], c=[0.0],
+    ...                         event_modes=(1,), segments=((1,),), visible_modes=(1,))
+    >>> try:
+    ...     deadbeat_gains(hidden)
+    ... except InfeasibleError as exc:
+    ...     certificate = exc.certificate
+    >>> type(certificate).__name__, certificate.verify(), certificate.basis.ravel()
+    ('NoDeadbeatCertificate', True, array([0., 1.]))
     """
 
     A: np.ndarray
@@ -293,7 +351,13 @@ class NoDeadbeatCertificate(Certificate):
                 "a period even by the best gains: errors in it never show in the visible event times")
 
     def verify(self) -> bool:
-        """Re-check ``S subset G(S)`` with numpy (rank of ``[G(S), S]`` equals rank of ``G(S)``)."""
+        """Re-check ``S subset G(S)`` with numpy (rank of ``[G(S), S]`` equals rank of ``G(S)``).
+
+        Returns
+        -------
+        bool
+            Whether the subspace is invariant.
+        """
         if self.basis.shape[1] == 0:
             return False
         G = _propagate_minimal(self.A, self.C, self.basis, self.start, self.A.shape[0])
@@ -313,6 +377,22 @@ class DeadbeatConflictCertificate(Certificate):
     the gain of that step's phase (see the module).  For phase ``phase`` the conditions collected
     over the periods (and starting phases ``starts``) have no common solution.  This does not
     exclude periodic deadbeat gains that take more events.
+
+    See Also
+    --------
+    deadbeat_gains : raises it when the minimal-time conditions conflict.
+    NoDeadbeatCertificate : the stronger proof that no gain at all is deadbeat.
+
+    Examples
+    --------
+    The certificate re-derives the conditions from ``A`` and ``C``; claimed for a system whose
+    conditions are consistent (``x+ = 0.5 x`` observed through ``x1``), it does not verify:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.synthesis import DeadbeatConflictCertificate
+    >>> A, C = np.array([[[0.5, 0.0], [0.0, 0.5]]]), np.array([[1.0, 0.0]])
+    >>> DeadbeatConflictCertificate(A, C, starts=(1,), phase=1, residual=0.0).verify()
+    False
     """
 
     A: np.ndarray
@@ -327,7 +407,13 @@ class DeadbeatConflictCertificate(Certificate):
                 f"{self.residual:.3g}): no periodic gain reaches deadbeat in the minimal number of events")
 
     def verify(self) -> bool:
-        """Recompute the conditions with numpy and re-check that they are inconsistent."""
+        """Recompute the conditions with numpy and re-check that they are inconsistent.
+
+        Returns
+        -------
+        bool
+            Whether the conditions are inconsistent.
+        """
         E, f = _conditions(self.A, self.C, self.starts)[self.phase - 1]
         if E is None:
             return False
@@ -393,6 +479,24 @@ def deadbeat_gains(ps: PeriodicSystem) -> PeriodicGains:
     InfeasibleError
         With a :class:`NoDeadbeatCertificate` (no gains at all are deadbeat) or a
         :class:`DeadbeatConflictCertificate` (no periodic gain is deadbeat in minimal time).
+
+    See Also
+    --------
+    positive_deadbeat_gains, positive_observer : gains that keep the estimate non-negative.
+    PeriodicGains : what it returns.
+    hybobs_opt.observers.DriftObserver : the observer (16) that uses them.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import deadbeat_gains
+    >>> gains = deadbeat_gains(server)
+    >>> gains.method, gains.deadbeat_steps, gains.monodromy_radius, gains.positive
+    ('sequential deadbeat', 2, 0.0, True)
+    >>> gains.L.shape                                 # one gain per phase (visible event)
+    (2, 2)
     """
     ps = as_periodic_system(ps)
     t0 = time.perf_counter()
@@ -449,6 +553,21 @@ def positive_gain_bounds(ps: PeriodicSystem) -> np.ndarray:
     ModelError
         If some ``A_j`` or ``C_j`` has a negative entry (then Remark 3.1 does not hold and the box
         argument does not apply).
+
+    See Also
+    --------
+    positive_deadbeat_gains : the corner of this box.
+    PerronCertificate : the box's corner proves when no positive gain converges.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import positive_gain_bounds
+    >>> positive_gain_bounds(server)              # U_j: 0 <= L_j <= U_j keeps A_j - L_j C_j >= 0
+    array([[1., 0.],
+           [0., 3.]])
     """
     ps = as_periodic_system(ps)
     for name, arr in (("A", ps.A), ("C", ps.C)):
@@ -472,6 +591,28 @@ class PerronCertificate(Certificate):
     ``z >= 0`` with ``Phi(U) z >= r z`` proves ``rho(Phi(U)) >= r`` (Collatz-Wielandt).
     ``threshold = 1``: no convergent positive observer; ``threshold = 0``: no positive deadbeat
     observer (then ``r > 0`` is required: the monodromy at ``U`` is not nilpotent).
+
+    See Also
+    --------
+    positive_gain_bounds : the largest admissible positive gains it uses.
+    positive_observer : raises it in an :class:`~hybobs_opt.InfeasibleError`.
+
+    Examples
+    --------
+    ``x+ = [[1, 1], [0, 1]] x`` observed through ``x1``: deadbeat gains exist, positive ones do not
+    converge.
+
+    >>> from hybobs_opt import InfeasibleError
+    >>> from hybobs_opt.systems import PeriodicSystem
+    >>> from hybobs_opt.synthesis import positive_observer
+    >>> shear = PeriodicSystem(A=[[[1.0, 1.0], [0.0, 1.0]]], a=[[0.0, 0.0]], C=[[1.0, 0.0]], c=[0.0],
+    ...                        event_modes=(1,), segments=((1,),), visible_modes=(1,))
+    >>> try:
+    ...     positive_observer(shear)
+    ... except InfeasibleError as exc:
+    ...     certificate = exc.certificate
+    >>> type(certificate).__name__, round(certificate.r, 6), certificate.verify()
+    ('PerronCertificate', 1.0, True)
     """
 
     A: np.ndarray
@@ -494,7 +635,13 @@ class PerronCertificate(Certificate):
                 f"larger closed loop, so {what}")
 
     def verify(self) -> bool:
-        """Recompute ``U``, ``Phi(U)`` and the ratio ``min (Phi z)_i / z_i`` in numpy."""
+        """Recompute ``U``, ``Phi(U)`` and the ratio ``min (Phi z)_i / z_i`` in numpy.
+
+        Returns
+        -------
+        bool
+            Whether the ratio is at least ``threshold``.
+        """
         A, C = self.A, self.C
         if np.any(A < 0) or np.any(C < 0):
             return False
@@ -550,6 +697,21 @@ def positive_deadbeat_gains(ps: PeriodicSystem) -> PeriodicGains:
     ------
     InfeasibleError
         With a :class:`PerronCertificate` (``threshold = 0``) when ``Phi(U)`` is not nilpotent.
+
+    See Also
+    --------
+    positive_gain_bounds : the box whose corner it tries.
+    deadbeat_gains : deadbeat without positivity.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import positive_deadbeat_gains
+    >>> gains = positive_deadbeat_gains(server)
+    >>> gains.positive, gains.deadbeat_steps
+    (True, 2)
     """
     t0 = time.perf_counter()
     U = positive_gain_bounds(ps)
@@ -570,6 +732,22 @@ class CopositiveCertificate(Certificate):
     ``V_{j+1}(e_{j+1}) <= rate V_j(e_j)``: with ``rate < 1`` the error of (16) converges to zero
     geometrically (and ``p`` is a linear copositive Lyapunov function of the lifted system:
     ``p_1^T Phi <= rate^V p_1^T``).
+
+    See Also
+    --------
+    positive_observer : returns one with its gains.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import CopositiveCertificate, positive_observer
+    >>> certificate = positive_observer(server).certificate
+    >>> isinstance(certificate, CopositiveCertificate), certificate.verify()
+    (True, True)
+    >>> certificate.rate < 1                       # V_j(e) = p_j' |e| shrinks by this factor per period
+    True
     """
 
     A: np.ndarray
@@ -584,7 +762,13 @@ class CopositiveCertificate(Certificate):
                 "positive observer (16) (p_(j+1)' M_j <= rate p_j', M_j = A_j - L_j C_j >= 0): the error converges")
 
     def check(self) -> dict:
-        """The numpy re-check: positivity margins, ``min p`` and the rate recomputed from ``p``."""
+        """The numpy re-check: positivity margins, ``min p`` and the rate recomputed from ``p``.
+
+        Returns
+        -------
+        dict
+            The margins and the recomputed rate.
+        """
         V = self.A.shape[0]
         LC = self.L[:, :, None] * self.C[:, None, :]
         M = self.A - LC
@@ -597,7 +781,13 @@ class CopositiveCertificate(Certificate):
                 "min_p": float(self.p.min()), "rate": worst}
 
     def verify(self) -> bool:
-        """``M_j >= 0``, ``L_j C_j >= 0``, ``p > 0`` and ``p_{j+1}^T M_j <= rate p_j^T`` with ``rate < 1``."""
+        """``M_j >= 0``, ``L_j C_j >= 0``, ``p > 0`` and ``p_{j+1}^T M_j <= rate p_j^T`` with ``rate < 1``.
+
+        Returns
+        -------
+        bool
+            Whether the certificate holds.
+        """
         c = self.check()
         return bool(c["min_closed_loop"] >= -POSITIVITY_RTOL and c["min_LC"] >= -POSITIVITY_RTOL and c["min_p"] > 0
                     and c["rate"] <= self.rate * (1.0 + PERRON_RTOL) + PERRON_RTOL and self.rate < 1.0)
@@ -663,6 +853,23 @@ def positive_observer(ps: PeriodicSystem, rate: float | None = None, *, kappa: f
         If Clarabel fails, or the LP is infeasible only because of ``kappa`` (the message says so).
     ModelError
         For a rate outside ``(0, 1)`` or a periodic system with negative entries.
+
+    See Also
+    --------
+    CopositiveCertificate : its convergence certificate.
+    PerronCertificate : the proof when no positive gain converges.
+
+    Examples
+    --------
+    The fastest positive observer of the switching server, with a copositive Lyapunov function:
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import periodic_system
+    >>> server = periodic_system(get_example("switching_server").build())   # system (14) of paper 003
+    >>> from hybobs_opt.synthesis import positive_observer
+    >>> gains = positive_observer(server)
+    >>> gains.positive, round(gains.monodromy_radius, 6), gains.certificate.verify()
+    (True, 0.0, True)
     """
     ps = as_periodic_system(ps)
     if rate is not None and not (isinstance(rate, (int, float)) and 0.0 < float(rate) < 1.0):

@@ -37,6 +37,20 @@ class GainRule:
         ``rho`` of the rule ``lambda_j = rho * widths[j]``.
     rule : str
         The rule in words.
+
+    See Also
+    --------
+    design_gains : computes it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(get_example("double_scroll").build())   # Example 3 of paper 001
+    >>> from hybobs_opt.synthesis import design_gains
+    >>> gains = design_gains(form, margin=2.0)
+    >>> gains.margin, bool((gains.lambdas == 2.0 * gains.widths).all())
+    (2.0, True)
     """
 
     lambdas: np.ndarray
@@ -45,6 +59,13 @@ class GainRule:
     rule: str
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the gains.
+
+        Returns
+        -------
+        dict
+            ``lambdas``, ``widths``, ``margin`` and ``rule``.
+        """
         return {"lambdas": self.lambdas.tolist(), "widths": self.widths.tolist(), "margin": self.margin, "rule": self.rule}
 
 
@@ -61,10 +82,31 @@ def design_gains(form: ObservabilityForm, margin: float = SMO_GAIN_MARGIN) -> Ga
     margin : float, default SMO_GAIN_MARGIN
         Factor ``> 1`` on each range width.
 
+    Returns
+    -------
+    GainRule
+        The gains ``lambda_j`` with the widths they come from.
+
     Raises
     ------
     ModelError
         If ``margin <= 1`` (the sliding condition needs ``lambda_j`` above the error bound).
+
+    See Also
+    --------
+    GainRule : what it returns.
+    reaching_time_bounds : when each stage reaches its layer.
+    hybobs_opt.observers.SlidingModeObserver : the observer (5).
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(get_example("double_scroll").build())   # Example 3 of paper 001
+    >>> from hybobs_opt.synthesis import design_gains
+    >>> gains = design_gains(form)                     # margin 1.5 over the range widths
+    >>> gains.lambdas.round(3), gains.widths.round(3)
+    (array([  42.857,  385.714, 1022.449]), array([ 28.571, 257.143, 681.633]))
     """
     if not (np.isfinite(margin) and margin > 1.0):
         raise ModelError("margin", "a finite gain margin above 1 (lambda_j must exceed the error bound)", repr(margin))
@@ -94,6 +136,19 @@ def discretization_band(form: ObservabilityForm, Ts: float) -> np.ndarray:
     -------
     (n,) ndarray
         The band of each canonical state ``z_j``.
+
+    See Also
+    --------
+    reaching_time_bounds : the transient before it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(get_example("double_scroll").build())   # Example 3 of paper 001
+    >>> from hybobs_opt.synthesis import discretization_band
+    >>> discretization_band(form, Ts=0.01).round(4)    # error band of z1, z2, z3 at 100 Hz
+    array([ 0.1429,  2.5714, 10.2245])
     """
     n = form.n
     D = np.empty(n)
@@ -111,6 +166,25 @@ def reaching_time_bounds(gains: GainRule, initial_error: float) -> np.ndarray:
     ``j - 1`` slides, with an error of at most ``widths[j - 1]`` (clipping), and approaches at
     rate ``(rho - 1) widths[j]``.  (Each stage also waits :data:`~hybobs_opt.defaults.SMO_SLIDING_HOLD` samples,
     not included.)
+
+    Returns
+    -------
+    (n,) ndarray
+        Upper bounds (seconds) on the time stage ``j`` reaches its layer.
+
+    See Also
+    --------
+    design_gains : the gains.
+    discretization_band : the error band after convergence.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(get_example("double_scroll").build())   # Example 3 of paper 001
+    >>> from hybobs_opt.synthesis import design_gains, reaching_time_bounds
+    >>> reaching_time_bounds(design_gains(form), initial_error=1.0).round(4)
+    array([0.07  , 0.2922, 1.0467])
     """
     rate = gains.lambdas - gains.widths
     out = np.empty(gains.lambdas.size)

@@ -70,6 +70,19 @@ class LocationTransform:
         ``C A^n T^{-1}`` (``None`` when ``T`` is singular).
     beta : float or None
         ``C A^{n-1} E - alpha . d``.
+
+    See Also
+    --------
+    location_transforms : computes them.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import location_transforms
+    >>> first = location_transforms(chua)[0]
+    >>> first.T.shape, round(first.beta, 3)
+    ((3, 3), -55.102)
     """
 
     location: int
@@ -103,6 +116,19 @@ class SwitchingFunction:
         Constant term in ``z``.
     thresholds : tuple of float
         Values of ``sigma`` at which the location changes.
+
+    See Also
+    --------
+    ObservabilityForm : holds one per switching surface.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import observability_form
+    >>> sigma = observability_form(chua).switching[0]
+    >>> sigma.x_row, sigma.thresholds                    # sigma(x) = x1, crossing -1 or 1
+    (array([1., 0., 0.]), (-1.0, 1.0))
     """
 
     x_row: np.ndarray
@@ -117,6 +143,11 @@ class SwitchingFunction:
         ----------
         x : (n,) array_like
             Original state.
+
+        Returns
+        -------
+        float
+            ``sigma(x)``.
         """
         return float(self.x_row @ np.asarray(x, dtype=float))
 
@@ -127,6 +158,11 @@ class SwitchingFunction:
         ----------
         z : (n,) array_like
             Canonical state.
+
+        Returns
+        -------
+        float
+            ``sigma(z)``.
         """
         return float(self.z_row @ np.asarray(z, dtype=float) + self.z_offset)
 
@@ -163,6 +199,23 @@ class ObservabilityForm:
         The invariants rewritten in ``z``: ``invariant_G z <= invariant_g`` (rows unit-norm in
         box-scaled ``z``, right-hand side with the membership slack), the rows of location ``q``
         being ``invariant_starts[q]:invariant_starts[q + 1]``.
+
+    See Also
+    --------
+    observability_form : computes it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(chua)
+    >>> x = np.array([0.5, 0.1, -0.2])
+    >>> np.allclose(form.to_x(form.to_z(x)), x)          # the coordinates round-trip
+    True
+    >>> form.beta.round(3)                               # last dynamics z3' = alpha_q . z + beta_q
+    array([-55.102,   0.   ,  55.102])
     """
 
     automaton: HybridAutomaton
@@ -207,6 +260,11 @@ class ObservabilityForm:
         ----------
         x : (n,) or (N, n) array_like
             Original state(s).
+
+        Returns
+        -------
+        ndarray
+            The canonical coordinates, shaped like ``x``.
         """
         return np.asarray(x, dtype=float) @ self.T.T + self.d
 
@@ -217,6 +275,11 @@ class ObservabilityForm:
         ----------
         z : (n,) or (N, n) array_like
             Canonical state(s).
+
+        Returns
+        -------
+        ndarray
+            The original coordinates, shaped like ``z``.
         """
         return (np.asarray(z, dtype=float) - self.d) @ self.T_inv.T
 
@@ -230,6 +293,11 @@ class ObservabilityForm:
             0-based location index.
         z : (n,) array_like
             Canonical state.
+
+        Returns
+        -------
+        float
+            The value of the last line of form (4).
         """
         z = np.asarray(z, dtype=float)
         if self.alpha is not None:
@@ -296,6 +364,11 @@ class ObservabilityForm:
         ----------
         z : (n,) or (N, n) array_like
             Canonical state(s).
+
+        Returns
+        -------
+        ndarray
+            The switching functions' values.
         """
         z = np.asarray(z, dtype=float)
         rows = np.array([s.z_row for s in self.switching]).reshape(-1, self.n)
@@ -303,7 +376,13 @@ class ObservabilityForm:
         return z @ rows.T + offs
 
     def describe(self) -> dict:
-        """JSON-ready summary (coordinates, ``P_q``, switching functions, ranges)."""
+        """JSON-ready summary (coordinates, ``P_q``, switching functions, ranges).
+
+        Returns
+        -------
+        dict
+            The summary.
+        """
         out = {
             "T": self.T.tolist(),
             "d": self.d.tolist(),
@@ -340,6 +419,19 @@ def observability_matrix(A, C) -> np.ndarray:
     -------
     (n p, n) ndarray
         The blocks ``C A^k``, ``k = 0 ... n-1``, stacked.
+
+    See Also
+    --------
+    observability_form : the coordinates built from it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import observability_matrix
+    >>> A, C = np.array([[0.0, 1.0], [-2.0, -3.0]]), np.array([[1.0, 0.0]])
+    >>> observability_matrix(A, C)
+    array([[1., 0.],
+           [0., 1.]])
     """
     A = np.asarray(A, dtype=float)
     C = np.atleast_2d(np.asarray(C, dtype=float))
@@ -400,6 +492,20 @@ def location_transforms(automaton: HybridAutomaton) -> tuple[LocationTransform, 
     ------
     ModelError
         If a location is not affine, has an input, or the output is not a single affine map.
+
+    See Also
+    --------
+    LocationTransform : what it returns, one per location.
+    observability_form : one set of coordinates for all locations.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import location_transforms
+    >>> transforms = location_transforms(chua)
+    >>> [(t.name, t.rank) for t in transforms]           # every location observable from y
+    [('q1', 3), ('q2', 3), ('q3', 3)]
     """
     C, c = _affine_output(automaton)
     lo, hi = _box(automaton)
@@ -550,6 +656,23 @@ def observability_form(automaton: HybridAutomaton, *, seed: int = 0) -> Observab
         observability coordinates (the per-location transformations are reported in the message,
         see :func:`location_transforms`), the flow is not triangular, or the system has inputs or
         several outputs.
+
+    See Also
+    --------
+    ObservabilityForm : what it returns.
+    location_transforms : one transform per location.
+    hybobs_opt.observers.SlidingModeObserver : the observer (5) that uses it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import observability_form
+    >>> form = observability_form(chua)
+    >>> form.n, form.n_locations, form.T.shape            # z = T x + d: y and its derivatives
+    (3, 3, (3, 3))
+    >>> form.switching[0].thresholds                     # the locations change at x1 = -1 and 1
+    (-1.0, 1.0)
     """
     if not isinstance(automaton, HybridAutomaton):
         raise ModelError("automaton", "a HybridAutomaton", type(automaton).__name__)
@@ -651,6 +774,21 @@ class Theorem1Result:
         ``{"i": bool, "ii": bool, "iii": bool}``: which item of Theorem 1 applies.
     observable : bool or None
         ``True`` when some item applies; ``None`` when none does (the theorem is only sufficient).
+
+    See Also
+    --------
+    theorem1 : computes it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import theorem1
+    >>> result = theorem1(chua, 0, 1)
+    >>> sorted(result.items)                             # the conditions, each with its verdict
+    ['i', 'ii', 'iii']
+    >>> result.observable
+    True
     """
 
     i: int
@@ -666,6 +804,13 @@ class Theorem1Result:
     observable: bool | None
 
     def to_dict(self) -> dict:
+        """JSON-ready record of the conditions and the verdict.
+
+        Returns
+        -------
+        dict
+            Every field of the result, ``L_point`` as a list (or ``None``).
+        """
         return {
             "i": self.i, "j": self.j, "M_dim": self.M_dim, "M_discrete": self.M_discrete,
             "nontransverse_dim": self.nontransverse_dim, "S_dim": self.S_dim, "L_dim": self.L_dim,
@@ -707,10 +852,30 @@ def theorem1(automaton: HybridAutomaton, i: int, j: int) -> Theorem1Result:
     i, j : int
         0-based indices of the two locations.
 
+    Returns
+    -------
+    Theorem1Result
+        Each condition of Theorem 1 with its verdict, and ``observable`` (``True`` when the
+        sufficient conditions hold, ``None`` when they do not decide).
+
     Raises
     ------
     ModelError
         If a location is not affine or not observable (Assumption 1b).
+
+    See Also
+    --------
+    theorem1_pairs : every pair joined by an edge.
+    Theorem1Result : what it returns.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import theorem1
+    >>> result = theorem1(chua, 0, 1)
+    >>> result.observable, result.M_dim, result.S_dim
+    (True, 2, 3)
     """
     trs = location_transforms(automaton)
     L = len(trs)
@@ -777,6 +942,23 @@ def theorem1_pairs(automaton: HybridAutomaton) -> list[Theorem1Result]:
     automaton : HybridAutomaton
         Model with affine locations; without edges between distinct locations every pair of
         locations is evaluated.
+
+    Returns
+    -------
+    list of Theorem1Result
+        One per pair of locations joined by an edge.
+
+    See Also
+    --------
+    theorem1 : one pair.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> chua = get_example("double_scroll").build()                # Example 3 of paper 001
+    >>> from hybobs_opt.systems import theorem1_pairs
+    >>> [(r.i, r.j, r.observable) for r in theorem1_pairs(chua)]
+    [(0, 1, True), (1, 2, True)]
     """
     pairs = sorted({tuple(sorted((e.source, e.target))) for e in automaton.edges if e.source != e.target})
     if not pairs:

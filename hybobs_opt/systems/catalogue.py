@@ -52,17 +52,50 @@ def example_catalogues() -> list[tuple[str, Any]]:
 
 
 def list_examples() -> list:
-    """Every example of every installed catalogue (this package's: papers 000 to 004, in order)."""
+    """Every example of every installed catalogue (this package's: papers 000 to 004, in order).
+
+    Returns
+    -------
+    list of Example
+        The examples of every installed catalogue.
+
+    See Also
+    --------
+    get_example : one by name.
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import list_examples
+    >>> [example.name for example in list_examples()][:4]
+    ['driveline', 'switched_unstable', 'triangular', 'double_scroll']
+    """
     return [ex for _, catalogue in example_catalogues() for ex in catalogue.list_examples()]
 
 
 def get_example(name: str):
     """The example called ``name`` (an ``Example``: ``build()``, ``simulate()``, its paper and settings).
 
+    Returns
+    -------
+    Example
+        The example; ``build()`` gives its system.
+
     Raises
     ------
     ModelError
         No installed catalogue has ``name``; the message lists the names there are.
+
+    See Also
+    --------
+    list_examples : every example.
+    hybobs_opt.studies.Example : what it returns.
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import get_example
+    >>> example = get_example("driveline")
+    >>> example.paper, example.kind, example.state_names
+    ('000', 'hybrid_automaton', ('theta_e', 'omega_c', 'omega_p'))
     """
     catalogues = example_catalogues()
     for _, catalogue in catalogues:

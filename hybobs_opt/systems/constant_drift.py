@@ -120,12 +120,26 @@ class ConstantDriftSystem(ModelDictMixin):
         ``{0, q}``, or a violated Assumption 2.1-2.6; the error's ``field`` names the assumption
         and the mode, e.g. ``"Assumption 2.3 (mode 2)"``.
 
+    See Also
+    --------
+    hybobs_opt.sim.simulate_constant_drift : its exact simulation.
+    event_maps, periodic_system : the system sampled at its events.
+
     Notes
     -----
     The data are kept exactly as the paper states them so that the event-sampled model of
     Section 3 (eqs. 11-15: ``A~_q = I + f_{sigma(q)} e_{k_sigma(q)}^T / (-e_{k_sigma(q)}^T f_{sigma(q)})``
     and so on) can be computed from ``f``, ``trigger``, ``alpha``, :meth:`successor` and
     :attr:`visible_event_modes` alone.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> server.mode_names
+    ('setup type 1', 'serve type 1', 'setup type 2', 'serve type 2')
+    >>> server.f.shape, server.trigger, server.alpha, server.h    # drifts, triggers, resets, outputs
+    ((4, 3), array([0, 1, 0, 2]), array([0., 1., 0., 2.]), array([0, 0, 0, 4]))
     """
 
     f: np.ndarray
@@ -257,6 +271,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            The next mode, ``1 ... Q``.
         """
         self._check_mode(q, "q")
         return 1 + (q % self.n_modes)
@@ -268,6 +287,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            The previous mode, ``1 ... Q``.
         """
         self._check_mode(q, "q")
         return self.n_modes if q == 1 else q - 1
@@ -279,6 +303,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        int
+            ``q`` in a visible mode, else 0.
         """
         self._check_mode(q, "q")
         return int(self.h[q - 1])
@@ -303,6 +332,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        bool
+            Whether the event leaving ``q`` is visible.
         """
         self._check_mode(q, "q")
         return q in self._v
@@ -314,6 +348,11 @@ class ConstantDriftSystem(ModelDictMixin):
         ----------
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        bool
+            Whether ``q`` is a setup (timer) mode.
         """
         self._check_mode(q, "q")
         return int(self.trigger[q - 1]) == 0
@@ -337,6 +376,11 @@ class ConstantDriftSystem(ModelDictMixin):
             Name of ``x`` in the :class:`ModelError` raised on a bad state.
         mode_field : str, default "q"
             Name of ``q`` in the :class:`ModelError` raised on a bad mode.
+
+        Returns
+        -------
+        (N+1,) ndarray
+            ``x``, read-only.
 
         Raises
         ------
@@ -370,6 +414,11 @@ class ConstantDriftSystem(ModelDictMixin):
             State in the flow set of mode ``q`` (checked by :meth:`validate_state`).
         q : int
             Mode number in ``1..Q``.
+
+        Returns
+        -------
+        float
+            Time until the event that ends mode ``q``.
         """
         arr = self.validate_state(x, q)
         return self._dwell(arr, q)
@@ -388,6 +437,11 @@ class ConstantDriftSystem(ModelDictMixin):
         tau : float
             Flow time, in ``[0, mode_duration(x, q)]``; at the upper end the trigger component is set
             to exactly 0.
+
+        Returns
+        -------
+        (N+1,) ndarray
+            The state after ``tau``.
 
         Raises
         ------

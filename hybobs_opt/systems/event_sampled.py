@@ -65,6 +65,20 @@ class EventMaps:
         ``c~_q = alpha_q C~_q e_1`` (eq. 12b).
     A_bar, a_bar, C_bar, c_bar : arrays of shapes (Q, N, N), (Q, N), (Q, N), (Q,)
         The reduced maps of eq. (13), without the timer ``x0``.
+
+    See Also
+    --------
+    event_maps : computes them.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import event_maps
+    >>> maps = event_maps(server)
+    >>> maps.A_bar[0].round(3), maps.C_bar[0].round(3)    # mode 1: queue state and time to its event
+    (array([[0. , 0. ],
+           [1.5, 1. ]]), array([0.5, 0. ]))
     """
 
     system: ConstantDriftSystem
@@ -143,6 +157,20 @@ def event_maps(system: ConstantDriftSystem) -> EventMaps:
     ------
     ModelError
         If ``system`` is not a ``ConstantDriftSystem``.
+
+    See Also
+    --------
+    EventMaps : what it returns.
+    periodic_system : the maps composed between visible events.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import event_maps
+    >>> maps = event_maps(server)
+    >>> maps.A_tilde.shape, maps.A_bar.shape      # per mode: with the timer (11), without it (13)
+    ((4, 3, 3), (4, 2, 2))
     """
     if not isinstance(system, ConstantDriftSystem):
         raise ModelError("system", "a ConstantDriftSystem (paper 003, eq. 3)", type(system).__name__)
@@ -203,6 +231,19 @@ class PeriodicSystem:
         The source system (``None`` for a periodic system given by its matrices).
     state_names : tuple of str
         Names of ``x1 ... xN``.
+
+    See Also
+    --------
+    periodic_system : computes it.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import periodic_system
+    >>> periodic = periodic_system(server)
+    >>> len(periodic.segments), periodic.segments      # the modes each phase passes through
+    (2, ((3,), (4, 1, 2)))
     """
 
     A: np.ndarray
@@ -268,6 +309,11 @@ class PeriodicSystem:
         v : int
             Mode number, one of :attr:`event_modes`.
 
+        Returns
+        -------
+        int
+            The phase, ``1 ... V``.
+
         Raises
         ------
         ModelError
@@ -285,6 +331,11 @@ class PeriodicSystem:
         ----------
         j : int
             Phase in ``1..V``.
+
+        Returns
+        -------
+        int
+            The next phase, ``1 ... V``.
         """
         return 1 + (j % self.period)
 
@@ -298,6 +349,13 @@ class PeriodicSystem:
             Phase in ``1..V``.
         x_bar : (N,) array_like
             Reduced state at the visible event that starts phase ``j``.
+
+        Returns
+        -------
+        x_next : (N,) ndarray
+            The state at the next visible event.
+        dt : float
+            The time until it.
 
         Raises
         ------
@@ -336,6 +394,11 @@ class PeriodicSystem:
             Observer gains (one row per phase); ``None`` gives the open-loop product of the ``A_j``.
         start : int, default 1
             Phase (``1..V``) whose matrix is applied first.
+
+        Returns
+        -------
+        (N, N) ndarray
+            The product over one period.
         """
         M = self.A if L is None else self.closed_loop(L)
         i0 = self._index(start)
@@ -355,6 +418,11 @@ class PeriodicSystem:
             Phase (``1..V``) whose matrix is applied first.
         steps : int
             Number of factors; phases wrap around cyclically (``steps = 0`` gives the identity).
+
+        Returns
+        -------
+        (N, N) ndarray
+            The product over ``steps`` phases.
         """
         i0 = self._index(start)
         out = np.eye(self.n)
@@ -397,6 +465,11 @@ class PeriodicSystem:
         field : str, default "L"
             Name of ``L`` in the :class:`ModelError` raised on bad gains.
 
+        Returns
+        -------
+        (V, N) ndarray
+            The gains, one row per phase.
+
         Raises
         ------
         ModelError
@@ -437,6 +510,20 @@ def visible_event_set(system: ConstantDriftSystem, visible_modes: Sequence[int] 
     ------
     ModelError
         If ``visible_modes`` is empty (Assumption 2.6) or names a mode outside ``1 ... Q``.
+
+    See Also
+    --------
+    periodic_system : the system sampled at the visible events.
+
+    Examples
+    --------
+    Only "serve type 2" has an output, so only the events leaving it are visible:
+
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import visible_event_set
+    >>> visible_event_set(server)
+    ((4,), (3, 4))
     """
     if not isinstance(system, ConstantDriftSystem):
         raise ModelError("system", "a ConstantDriftSystem (paper 003, eq. 3)", type(system).__name__)
@@ -479,6 +566,23 @@ def periodic_system(system: ConstantDriftSystem, visible_modes: Sequence[int] | 
     ModelError
         If ``system`` is not a ``ConstantDriftSystem`` or ``visible_modes`` is empty
         ("Assumption 2.6") or out of range.
+
+    See Also
+    --------
+    PeriodicSystem : what it returns.
+    phase_augmented_pwa : the same as a time-invariant PWA system.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import periodic_system
+    >>> periodic = periodic_system(server)
+    >>> periodic.visible_modes, periodic.event_modes, periodic.A.shape
+    ((4,), (3, 4), (2, 2, 2))
+    >>> periodic.A[0].round(3)
+    array([[1.  , 0.25],
+           [0.  , 0.  ]])
     """
     maps = event_maps(system)
     qv, V = visible_event_set(system, visible_modes)
@@ -540,6 +644,22 @@ def phase_augmented_pwa(ps: PeriodicSystem, upper: ArrayLike, lower: ArrayLike |
     Returns
     -------
     PWASystem
+
+    See Also
+    --------
+    periodic_system : the periodic system it encodes.
+    hybobs_opt.regions.analyse_observability : Algorithm 3.1 applies to the result.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> server = get_example("switching_server").build()           # Section 2.1 of paper 003
+    >>> from hybobs_opt.systems import periodic_system, phase_augmented_pwa
+    >>> pwa = phase_augmented_pwa(periodic_system(server), [10.0, 10.0])   # queues bounded by 10
+    >>> pwa
+    PWASystem(name='event-sampled (14) with phase', n=3, m=0, p=2, modes=2)
+    >>> pwa.state_names
+    ('x1', 'x2', 'phase')
     """
     from ..geometry.polytope import Polytope
     from .pwa import PWAMode, PWASystem

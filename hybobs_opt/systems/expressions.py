@@ -68,11 +68,36 @@ def parse_expression(text: str, variables: dict[str, ca.SX], field: str) -> ca.S
     field : str
         Name of the entry in error messages.
 
+    Returns
+    -------
+    casadi.SX
+        The expression as a CasADi scalar over ``variables``.
+
     Raises
     ------
     ModelError
         ``text`` is not a string of the expression language, uses an unknown name or function,
         or is too long or too deep; ``field`` names the entry in the message.
+
+    See Also
+    --------
+    expression_text : the inverse.
+
+    Examples
+    --------
+    Model files write nonlinear functions as text; only numbers, arithmetic and the functions of
+    ``FUNCTIONS`` are accepted (nothing is evaluated as Python):
+
+    >>> import casadi as ca
+    >>> from hybobs_opt.systems import parse_expression
+    >>> x = ca.SX.sym("x")
+    >>> expr = parse_expression("sin(x) + 2*x**2", {"x": x}, "f")
+    >>> float(ca.substitute(expr, x, 0.0))
+    0.0
+    >>> parse_expression("__import__('os')", {"x": x}, "f")
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: f: expected an expression over the variables (x) ...
     """
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise ModelError(field, "an expression (a string such as '-cos(30*x2) + 0.4') or a number", type(text).__name__)
@@ -196,10 +221,27 @@ def expression_text(expr: ca.SX, field: str) -> str:
     field : str
         Name of the entry in error messages.
 
+    Returns
+    -------
+    str
+        Text that :func:`parse_expression` reads back into the same expression.
+
     Raises
     ------
     ModelError
         ``expr`` is not a scalar or uses an operation the language cannot write.
+
+    See Also
+    --------
+    parse_expression : the inverse.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from hybobs_opt.systems import expression_text, parse_expression
+    >>> x = ca.SX.sym("x")
+    >>> expression_text(parse_expression("sin(x) + 2*x**2", {"x": x}, "f"), "f")
+    '(sin(x) + (2.0 * (x ** 2.0)))'
     """
     expr = ca.SX(expr)
     if expr.shape != (1, 1):

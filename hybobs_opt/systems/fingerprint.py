@@ -61,10 +61,28 @@ def system_fingerprint(system: Any) -> str:
     system : PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem
         The system to fingerprint.
 
+    Returns
+    -------
+    str
+        64 hexadecimal digits; equal systems (same model dictionary) have equal fingerprints.
+
     Raises
     ------
     ModelError
         If ``system`` has no model dictionary (not a system class of :mod:`hybobs_opt.systems`).
+
+    See Also
+    --------
+    hybobs_opt.regions.save_analysis : stores it with a saved result.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import system_fingerprint
+    >>> example = get_example("powertrain3")
+    >>> a, b = system_fingerprint(example.build()), system_fingerprint(example.build())
+    >>> len(a), a == b, a == system_fingerprint(example.build(gear_ratio=0.5))
+    (64, True, False)
     """
     from .model_dict import system_to_dict
 

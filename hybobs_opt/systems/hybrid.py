@@ -47,6 +47,21 @@ class Location:
         ``flow(x, u) -> dx`` for nonlinear flows (then ``A`` must be ``None``).
     output : callable, optional
         ``output(x, u) -> y`` for nonlinear outputs (then ``C`` must be ``None``).
+
+    See Also
+    --------
+    HybridAutomaton : the automaton of several locations.
+    Edge : a transition between locations.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import Location
+    >>> below = Location("below", Polytope(np.array([[1.0]]), np.array([0.0])),        # invariant x <= 0
+    ...                  A=np.array([[-1.0]]), E=np.array([1.0]), C=np.array([[1.0]]))  # x' = 1 - x, y = x
+    >>> below.name, below.invariant.contains(np.array([-1.0]))
+    ('below', True)
     """
 
     name: str
@@ -102,6 +117,11 @@ class Location:
         probe : (x, u) pair of arrays, optional
             A point inside the invariant at which the callable flow / output are evaluated once to
             check their shape; ``None`` skips that check.
+
+        Returns
+        -------
+        Location
+            The checked copy.
 
         Raises
         ------
@@ -261,6 +281,22 @@ class Edge:
         state enters the target's invariant".
     reset : (R, r), optional
         Affine reset ``x+ = R x + r`` applied at the jump (identity by default).
+
+    See Also
+    --------
+    HybridAutomaton : its ``edges``.
+    Location : the locations it joins.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import Edge
+    >>> edge = Edge(0, 1)                                       # any time the invariant is left
+    >>> edge.source, edge.target, edge.guard, edge.reset
+    (0, 1, None, None)
+    >>> jump = Edge(1, 0, reset=(np.eye(1), np.array([0.5])))   # x := x + 0.5 on the way back
+    >>> jump.reset[1]
+    array([0.5])
     """
 
     source: int
@@ -300,6 +336,32 @@ class HybridAutomaton(ModelDictMixin):
     p : int, optional
         Number of outputs; default: the rows of the first location's ``C`` (needed when no
         location has one).
+
+    See Also
+    --------
+    Location, Edge : its parts.
+    hybobs_opt.sim.simulate_hybrid : simulates it with event location.
+
+    Examples
+    --------
+    Two locations split at ``x = 0``; from ``x = -1`` the flow ``x' = 1 - x`` reaches the switching
+    surface at ``t = ln 2``:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import Edge, HybridAutomaton, Location
+    >>> below = Location("below", Polytope(np.array([[1.0]]), np.array([0.0])),        # x <= 0
+    ...                  A=np.array([[-1.0]]), E=np.array([1.0]), C=np.array([[1.0]]))  # x' = 1 - x
+    >>> above = Location("above", Polytope(np.array([[-1.0]]), np.array([0.0])),       # x >= 0
+    ...                  A=np.array([[-2.0]]), C=np.array([[1.0]]))                      # x' = -2 x
+    >>> automaton = HybridAutomaton((below, above), Polytope.from_box([-5.0], [5.0]),
+    ...                             edges=(Edge(0, 1), Edge(1, 0)), state_names=("x",))
+    >>> automaton
+    HybridAutomaton(name='automaton', n=1, m=0, p=1, locations=('below', 'above'))
+    >>> from hybobs_opt.sim import simulate_hybrid
+    >>> trace = simulate_hybrid(automaton, [-1.0], 2.0, dt=0.01)
+    >>> [(round(event["t"], 4), event["from"], event["to"]) for event in trace.events]
+    [(0.6931, 0, 1)]
     """
 
     locations: tuple[Location, ...]
@@ -431,6 +493,11 @@ class HybridAutomaton(ModelDictMixin):
         ----------
         q : int
             0-based location index.
+
+        Returns
+        -------
+        tuple of int
+            The target locations of the edges leaving ``q``.
         """
         return tuple(e.target for e in self.edges if e.source == q)
 
@@ -456,6 +523,11 @@ class HybridAutomaton(ModelDictMixin):
             Input, used when the invariant is over ``(x, u)``; ``None`` means zeros.
         rtol : float, optional
             Relative tolerance of the membership test; ``None`` uses :meth:`Polytope.contains`'s default.
+
+        Returns
+        -------
+        bool
+            Whether ``(x, u)`` is in location ``q``'s invariant.
         """
         inv = self.locations[q].invariant
         z = np.asarray(x, dtype=float) if inv.dim == self.n else np.concatenate([np.asarray(x, dtype=float), self._u(u)])
@@ -545,6 +617,11 @@ class HybridAutomaton(ModelDictMixin):
         ----------
         Ts : float
             Sampling period (positive, in the automaton's time unit).
+
+        Returns
+        -------
+        PWASystem
+            One mode per location, exact for inputs held over each sample period.
 
         Raises
         ------

@@ -61,11 +61,38 @@ def read_model_dict(path: str | Path) -> dict[str, Any]:
     path : str or Path
         Model file ending in ``.json``, ``.toml``, ``.yaml`` or ``.yml``.
 
+    Returns
+    -------
+    dict
+        The file's content as written (JSON, TOML or YAML by the suffix).
+
     Raises
     ------
     ModelError
         On an unknown suffix, an unreadable or non-UTF-8 file, a parse error, or a top level that is
         not a mapping.
+
+    See Also
+    --------
+    load_model : builds the system.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode, PWASystem
+    >>> left = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")    # x <= 0
+    >>> right = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...                 guard=Polytope(np.array([[-1.0, 0.0]]), np.array([0.0])), name="right")  # x >= 0
+    >>> system = PWASystem((left, right), Polytope.from_box([-2.0], [2.0]), Polytope.from_box([-1.0], [1.0]),
+    ...                    state_names=("x",), input_names=("u",), output_names=("y",))
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.systems import read_model_dict, save_model
+    >>> raw = read_model_dict(save_model(system, Path(tempfile.mkdtemp()) / "two_modes.json"))
+    >>> raw["format"], raw["class"], raw["states"]
+    ('hybobs-model', 'pwa', ['x'])
     """
     path = Path(path)
     kind = MODEL_SUFFIXES.get(path.suffix.lower())
@@ -111,11 +138,40 @@ def load_model(path: str | Path):
     path : str or Path
         Model file ending in ``.json``, ``.toml``, ``.yaml`` or ``.yml``.
 
+    Returns
+    -------
+    PWASystem, HybridAutomaton, ConstantDriftSystem or ScalarNonlinearSystem
+        The system the file describes (its ``class`` field), validated.
+
     Raises
     ------
     ModelError
         The file is missing, malformed, or an entry is wrong; the message starts with the path and
         names the entry (``modes[1].guard``, ``locations[0].flow[2]``, ...).
+
+    See Also
+    --------
+    save_model : writes one.
+    read_model_dict : the file's dictionary without building.
+    resolve_system : a model file, an example or a function by name.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode, PWASystem
+    >>> left = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")    # x <= 0
+    >>> right = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...                 guard=Polytope(np.array([[-1.0, 0.0]]), np.array([0.0])), name="right")  # x >= 0
+    >>> system = PWASystem((left, right), Polytope.from_box([-2.0], [2.0]), Polytope.from_box([-1.0], [1.0]),
+    ...                    state_names=("x",), input_names=("u",), output_names=("y",))
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.systems import load_model, save_model
+    >>> path = save_model(system, Path(tempfile.mkdtemp()) / "two_modes.json")
+    >>> load_model(path)
+    PWASystem(name='pwa', n=1, m=1, p=1, modes=2)
     """
     from .model_dict import system_from_dict
 
@@ -140,6 +196,29 @@ def save_model(system, path: str | Path) -> Path:
     -------
     Path
         ``path``.
+
+    See Also
+    --------
+    load_model : reads it back.
+    model_schema : the format.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode, PWASystem
+    >>> left = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")    # x <= 0
+    >>> right = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...                 guard=Polytope(np.array([[-1.0, 0.0]]), np.array([0.0])), name="right")  # x >= 0
+    >>> system = PWASystem((left, right), Polytope.from_box([-2.0], [2.0]), Polytope.from_box([-1.0], [1.0]),
+    ...                    state_names=("x",), input_names=("u",), output_names=("y",))
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt.systems import load_model, save_model, system_fingerprint
+    >>> path = save_model(system, Path(tempfile.mkdtemp()) / "two_modes.json")
+    >>> system_fingerprint(load_model(path)) == system_fingerprint(system)
+    True
     """
     path = Path(path)
     kind = MODEL_SUFFIXES.get(path.suffix.lower())
@@ -157,7 +236,24 @@ def save_model(system, path: str | Path) -> Path:
 
 
 def model_schema() -> dict[str, Any]:
-    """The JSON Schema of model files (draft 2020-12)."""
+    """The JSON Schema of model files (draft 2020-12).
+
+    Returns
+    -------
+    dict
+        The schema (``hybobs model schema`` prints it; ``docs/model_schema`` renders it).
+
+    See Also
+    --------
+    load_model : reads files of this format.
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import model_schema
+    >>> schema = model_schema()
+    >>> schema["title"], schema["$schema"]
+    ('hybobs_opt model file', 'https://json-schema.org/draft/2020-12/schema')
+    """
     return json.loads(SCHEMA_PATH.read_text())
 
 

@@ -53,6 +53,22 @@ class AugmentedSystem:
         Each parameter's interval.
     build : callable
         The factory, for the system at a known parameter value (:meth:`at`).
+
+    See Also
+    --------
+    augment_parameters : builds it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import augment_parameters
+    >>> example = get_example("powertrain3")
+    >>> augmented = augment_parameters(lambda alpha: example.build(alpha=alpha), {"alpha": (0.02, 0.08)})
+    >>> augmented.parameters, augmented.base_names, augmented.bounds
+    (('alpha',), ('theta', 'omega_m', 'omega_l'), {'alpha': (0.02, 0.08)})
+    >>> augmented.augment_state(np.array([0.06, 39.0, 3.25]), {"alpha": 0.05})
+    array([ 0.06, 39.  ,  3.25,  0.05])
     """
 
     system: PWASystem
@@ -74,6 +90,11 @@ class AugmentedSystem:
             State of the original system.
         params : mapping
             Value of every parameter.
+
+        Returns
+        -------
+        (n + k,) ndarray
+            The original state followed by the parameter values, in ``parameters`` order.
         """
         missing = [p for p in self.parameters if p not in params]
         if missing:
@@ -81,7 +102,13 @@ class AugmentedSystem:
         return np.concatenate([np.asarray(x, dtype=float).reshape(-1), [float(params[p]) for p in self.parameters]])
 
     def at(self, **params: float) -> PWASystem:
-        """The original system at the given parameter values (``build(**params)``)."""
+        """The original system at the given parameter values (``build(**params)``).
+
+        Returns
+        -------
+        PWASystem
+            The system built at those parameter values.
+        """
         return self.build(**params)
 
 
@@ -128,6 +155,23 @@ def augment_parameters(build: Callable[..., PWASystem], parameters: Mapping[str,
         If ``build`` fails or does not return a PWA system, if a parameter changes anything but the
         affine terms and the guards' right-hand sides (naming the mode and the matrix), or if it
         does not enter affinely (the check at the box's other points fails).
+
+    See Also
+    --------
+    AugmentedSystem : what it returns.
+
+    Examples
+    --------
+    The backlash gap ``alpha`` of model (16), unknown in ``[0.02, 0.08]``, as a fourth state:
+
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import augment_parameters
+    >>> example = get_example("powertrain3")
+    >>> augmented = augment_parameters(lambda alpha: example.build(alpha=alpha), {"alpha": (0.02, 0.08)})
+    >>> augmented.system
+    PWASystem(name='powertrain3 (tau=0.08333) with unknown alpha', n=4, m=1, p=1, modes=3)
+    >>> augmented.system.state_names
+    ('theta', 'omega_m', 'omega_l', 'alpha')
     """
     if not callable(build):
         raise ModelError("build", "a callable build(**params) -> PWASystem", type(build).__name__)

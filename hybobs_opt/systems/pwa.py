@@ -39,6 +39,22 @@ class PWAMode:
         ``Q_i`` over the stacked vector ``(x, u)`` of dimension ``n + m``.
     name : str
         Human-readable label (``"contact+"``, ``"backlash"``, ...).
+
+    See Also
+    --------
+    PWASystem : the system of several modes.
+
+    Examples
+    --------
+    One affine piece ``x+ = 0.5 x + u, y = x`` on the guard ``x <= 0`` (over ``(x, u)``):
+
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode
+    >>> mode = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")
+    >>> mode.name, mode.A.shape, mode.guard.dim
+    ('left', (1, 1), 2)
     """
 
     A: np.ndarray
@@ -73,6 +89,11 @@ class PWAMode:
             Position of the mode in the system (used in the field names of errors).
         n, m, p : int
             Numbers of states, inputs and outputs of the system.
+
+        Returns
+        -------
+        PWAMode
+            The checked copy.
 
         Raises
         ------
@@ -233,11 +254,44 @@ class PWASystem(ModelDictMixin):
         ``"ordered"``: they cover ``X x U``, overlaps are allowed and resolved by mode order;
         ``"none"``: no check (a point outside every guard raises in :meth:`mode_of`).
 
+    See Also
+    --------
+    PWAMode : one mode.
+    check_partition : proves the guards partition ``X x U``.
+    hybobs_opt.sim.simulate_pwa : simulates it.
+    hybobs_opt.regions.analyse_observability : Algorithm 3.1 on it.
+
     Notes
     -----
     Where guards share only a boundary (the "not necessarily closed" sets of eq. (1)), the first
     mode that contains the point wins; with ``partition="ordered"`` the same rule resolves
     overlaps.
+
+    Examples
+    --------
+    A scalar system with two modes split at ``x = 0``:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode, PWASystem
+    >>> left = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")    # x <= 0
+    >>> right = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...                 guard=Polytope(np.array([[-1.0, 0.0]]), np.array([0.0])), name="right")  # x >= 0
+    >>> system = PWASystem((left, right), Polytope.from_box([-2.0], [2.0]), Polytope.from_box([-1.0], [1.0]),
+    ...                    state_names=("x",), input_names=("u",), output_names=("y",))
+    >>> system
+    PWASystem(name='pwa', n=1, m=1, p=1, modes=2)
+    >>> system.mode_of(np.array([1.0]), np.array([0.0]))     # x = 1 is in mode 1 ("right")
+    1
+    >>> system.step(np.array([1.0]), np.array([0.5]))         # 0.9 * 1 + 0.5
+    array([1.4])
+
+    The shipped examples are built the same way (model (16) of paper 002):
+
+    >>> from hybobs_opt import get_example
+    >>> get_example("powertrain3").build()
+    PWASystem(name='powertrain3 (tau=0.08333)', n=3, m=1, p=1, modes=3)
     """
 
     modes: tuple[PWAMode, ...]
@@ -389,6 +443,11 @@ class PWASystem(ModelDictMixin):
         u : (m,) array_like, optional
             Input; ``None`` for a system without inputs.
 
+        Returns
+        -------
+        int
+            The index into ``modes``.
+
         Raises
         ------
         ModelError
@@ -408,6 +467,11 @@ class PWASystem(ModelDictMixin):
             State at sample ``k``.
         u : (m,) array_like, optional
             Input at sample ``k``; ``None`` for a system without inputs.
+
+        Returns
+        -------
+        (n,) ndarray
+            ``x(k+1)``.
         """
         i = self.mode_of(x, u)
         mode = self.modes[i]
@@ -423,6 +487,11 @@ class PWASystem(ModelDictMixin):
             State.
         u : (m,) array_like, optional
             Input; ``None`` for a system without inputs.
+
+        Returns
+        -------
+        (p,) ndarray
+            ``y(k)``.
         """
         i = self.mode_of(x, u)
         mode = self.modes[i]
@@ -433,6 +502,11 @@ class PWASystem(ModelDictMixin):
         """Half-widths and centres of the bounding box of ``X x U``: the normalisation of DESIGN.md.
 
         Computed once at construction (read-only arrays).
+
+        Returns
+        -------
+        scale, centre : (n + m,) ndarray
+            ``z = centre + scale * w`` maps ``w in [-1, 1]`` onto the box.
         """
         return self._scales
 
@@ -685,6 +759,33 @@ def check_partition(system: PWASystem, overlaps: bool = True) -> None:
     ------
     ModelError
         Naming the two modes that overlap, or the gap, with a point inside it (``x``, ``u`` by name).
+
+    See Also
+    --------
+    PWASystem : the system whose guards it checks.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.geometry import Polytope
+    >>> from hybobs_opt.systems import PWAMode, PWASystem
+    >>> left = PWAMode(A=np.array([[0.5]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[1.0]]),
+    ...                guard=Polytope(np.array([[1.0, 0.0]]), np.array([0.0])), name="left")    # x <= 0
+    >>> right = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...                 guard=Polytope(np.array([[-1.0, 0.0]]), np.array([0.0])), name="right")  # x >= 0
+    >>> system = PWASystem((left, right), Polytope.from_box([-2.0], [2.0]), Polytope.from_box([-1.0], [1.0]),
+    ...                    state_names=("x",), input_names=("u",), output_names=("y",))
+    >>> from hybobs_opt.systems import check_partition
+    >>> check_partition(system)                       # returns nothing: the guards are a partition
+
+    Guards that leave a gap are refused with the region that is not covered:
+
+    >>> gap = PWAMode(A=np.array([[0.9]]), B=np.array([[1.0]]), a=np.zeros(1), C=np.array([[2.0]]),
+    ...               guard=Polytope(np.array([[-1.0, 0.0]]), np.array([-1.0])), name="right")   # x >= 1
+    >>> check_partition(PWASystem((left, gap), system.state_bounds, system.input_bounds))
+    Traceback (most recent call last):
+    ...
+    hybobs_opt.errors.ModelError: modes[*].guard: expected guards whose union covers X x U ...
     """
     key = _partition_key(system, overlaps)
     if key in _PARTITION_OUTCOMES:

@@ -47,6 +47,22 @@ def register_resolver(label: str, resolver: Resolver) -> None:
         replaced.
     resolver : callable
         ``resolver(name, params) -> system or None``; ``None`` means the name is not one it knows.
+
+    See Also
+    --------
+    resolve_system : asks every resolver.
+
+    Examples
+    --------
+    >>> from hybobs_opt import get_example
+    >>> from hybobs_opt.systems import register_resolver, resolve_system
+    >>> def my_systems(name, params):
+    ...     if name == "my_powertrain":
+    ...         return get_example("powertrain3").build(gear_ratio=0.5, **(params or {}))
+    ...     return None                                     # not one of mine
+    >>> register_resolver("my systems", my_systems)
+    >>> resolve_system("my_powertrain").name
+    'powertrain3 (tau=0.5)'
     """
     _RESOLVERS[:] = [(k, r) for k, r in _RESOLVERS if k != label]
     _RESOLVERS.append((label, resolver))
@@ -89,11 +105,32 @@ def resolve_system(name: str, params: dict[str, Any] | None = None) -> Any:
     params : mapping of str to object, optional
         Keyword arguments of the builder (refused for a model file).
 
+    Returns
+    -------
+    object
+        The system (any system class).
+
     Raises
     ------
     ModelError
         ``name`` is none of the forms, the file or module cannot be loaded, the function raises
         or returns something that is not a system; the message names the file and entry.
+
+    See Also
+    --------
+    register_resolver : teach it more names.
+    load_model : the model-file form.
+
+    Examples
+    --------
+    The names every command line accepts: an example name, a model file, ``PATH.py:FUNCTION`` or
+    ``module:FUNCTION``:
+
+    >>> from hybobs_opt.systems import resolve_system
+    >>> resolve_system("powertrain3", {"gear_ratio": 0.5})
+    PWASystem(name='powertrain3 (tau=0.5)', n=3, m=1, p=1, modes=3)
+    >>> resolve_system("hybobs_opt.studies.paper002_powertrain.systems:powertrain3").name
+    'powertrain3 (tau=0.08333)'
     """
     from .model_file import is_model_path, load_model
 

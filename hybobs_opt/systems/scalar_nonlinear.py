@@ -79,10 +79,22 @@ class ScalarFunction:
         CasADi automatic differentiation of ``expr``.  A supplied derivative is checked against
         automatic differentiation on the operating box by :class:`ScalarNonlinearSystem`.
 
+    See Also
+    --------
+    ScalarNonlinearSystem : uses them as ``f_i`` and ``h_j``.
+
     Notes
     -----
     The CasADi functions are built once, here; :meth:`value` and :meth:`deriv` evaluate them on
     numpy arrays of any shape (CasADi maps a scalar function over a row of arguments).
+
+    Examples
+    --------
+    >>> import casadi as ca, numpy as np
+    >>> from hybobs_opt.systems import ScalarFunction
+    >>> cosine = ScalarFunction("cos", ca.cos)             # derivative by automatic differentiation
+    >>> float(cosine.value(0.0)), float(cosine.deriv(np.pi / 2))
+    (1.0, -1.0)
     """
 
     name: str
@@ -138,6 +150,11 @@ class ScalarFunction:
         ----------
         name : str, default "identity"
             Label of the function.
+
+        Returns
+        -------
+        ScalarFunction
+            The identity, with derivative 1.
         """
         return cls(name, lambda z: z, lambda z: ca.SX(1.0))
 
@@ -161,6 +178,11 @@ class ScalarFunction:
             Name of the argument in ``expr`` and ``derivative`` (an identifier).
         field : str, optional
             Name of the entry in error messages.
+
+        Returns
+        -------
+        ScalarFunction
+            The parsed function (text checked by :func:`~hybobs_opt.systems.parse_expression`).
 
         Raises
         ------
@@ -195,6 +217,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape.
+
+        Returns
+        -------
+        ndarray
+            ``f(z)``, shaped like ``z``.
         """
         return self._eval(self._value_fn, z)
 
@@ -207,6 +234,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape (same shape out).
+
+        Returns
+        -------
+        ndarray
+            ``f'(z)``, shaped like ``z``.
         """
         return self._eval(self._deriv_fn, z)
 
@@ -217,6 +249,11 @@ class ScalarFunction:
         ----------
         z : array_like
             Arguments, any shape (same shape out).
+
+        Returns
+        -------
+        ndarray
+            ``f'(z)``, shaped like ``z``.
         """
         return self._eval(self._autodiff_fn, z)
 
@@ -228,6 +265,11 @@ class ScalarFunction:
         ----------
         z : casadi.SX
             Symbolic scalar argument.
+
+        Returns
+        -------
+        casadi.SX
+            ``f(z)``.
         """
         return ca.substitute(self._value_sx, self._z, z)
 
@@ -238,6 +280,11 @@ class ScalarFunction:
         ----------
         z : casadi.SX
             Symbolic scalar argument.
+
+        Returns
+        -------
+        casadi.SX
+            ``f'(z)``.
         """
         return ca.substitute(self._deriv_sx, self._z, z)
 
@@ -285,6 +332,12 @@ class ScalarNonlinearSystem(ModelDictMixin):
     name : str
         Label of the system.
 
+    See Also
+    --------
+    ScalarFunction : its scalar nonlinearities.
+    hybobs_opt.sim.simulate_nonlinear : simulates it.
+    hybobs_opt.lmi.jacobian_bounds : the Jacobian bounds of its observer LMIs.
+
     Notes
     -----
     Validation: shapes and finiteness of every matrix; the box bounded and non-empty; every
@@ -292,6 +345,17 @@ class ScalarNonlinearSystem(ModelDictMixin):
     argument interval over the box; a supplied derivative equal to the automatic one there (to
     :data:`~hybobs_opt.tolerances.DERIVATIVE_CHECK_RTOL`); ``g`` returning a finite ``(n,)``
     vector at the centre of the box.
+
+    Examples
+    --------
+    The tracked vehicle of paper 004 (eqs. 56-59): ``X' = V cos(psi)``, ``Y' = V sin(psi)``, ...
+
+    >>> from hybobs_opt import get_example
+    >>> vehicle = get_example("vehicle_tracking").build()
+    >>> vehicle.n, vehicle.m, vehicle.p, [f.name for f in vehicle.f]
+    (4, 1, 2, ['V cos(psi)', 'V sin(psi)', 'V/(l_f+l_r) tan(delta_f)'])
+    >>> vehicle.F.shape, vehicle.E.shape                  # x' = A x + F f(E x) + B u
+    ((4, 3), (3, 4))
     """
 
     box: Polytope
@@ -462,6 +526,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(r,)`` or ``(N, r)``.
         """
         X, single = self._states(x)
         Z = X @ self.E.T
@@ -475,6 +544,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(r,)`` or ``(N, r)``.
         """
         X, single = self._states(x)
         Z = X @ self.E.T
@@ -488,6 +562,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m,)`` or ``(N, m)``.
         """
         X, single = self._states(x)
         Z = X @ self.C.T
@@ -501,6 +580,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m,)`` or ``(N, m)``.
         """
         X, single = self._states(x)
         Z = X @ self.C.T
@@ -516,6 +600,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
             State(s); the result is ``(p,)`` or ``(N, p)``.
         u : array_like, optional
             Ignored.
+
+        Returns
+        -------
+        ndarray
+            ``y``, ``(p,)`` or ``(N, p)``.
         """
         X, single = self._states(x)
         Y = np.asarray(self._out_fn(X.T), dtype=float).reshape(self.p, X.shape[0]).T
@@ -530,6 +619,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
             State(s); the result has the same shape.
         u : (k,) or (N, k) array_like, optional
             Input(s); one ``(k,)`` input is applied to every state of a batch; ``None`` means zeros.
+
+        Returns
+        -------
+        ndarray
+            ``dx/dt``, shaped like ``x``.
         """
         X, single = self._states(x)
         U = self._inputs(u, X.shape[0], single)
@@ -549,6 +643,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(n, n)`` or ``(N, n, n)``.
         """
         D = self.f_derivatives(x)
         J = self.A + np.einsum("ir,...r,rj->...ij", self.F, D, self.E)
@@ -561,6 +660,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            ``(m, n)`` or ``(N, m, n)``.
         """
         D = self.h_derivatives(x)
         return D[..., :, None] * self.C
@@ -573,6 +677,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : casadi.SX
             Symbolic state, ``(n, 1)``.
+
+        Returns
+        -------
+        casadi.SX
+            ``(n,)`` expression.
         """
         return self._dyn_fn(x)
 
@@ -583,6 +692,11 @@ class ScalarNonlinearSystem(ModelDictMixin):
         ----------
         x : casadi.SX
             Symbolic state, ``(n, 1)``.
+
+        Returns
+        -------
+        casadi.SX
+            ``(p,)`` expression.
         """
         return self._out_fn(x)
 
