@@ -49,6 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
     observers = parse_observers(args.observers)
     check_figure_path("--plot", args.plot, args.force)
     if args.horizon < 1 or args.horizon > MAX_HORIZON:
@@ -64,7 +65,6 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError("--seed", "a non-negative integer (numpy's random generator)", repr(args.seed))
         if args.data is None and not args.noise:
             raise ModelError("--seed", "--noise as well (the seed draws the output noise)", "no --noise")
-    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
     named = load_system(args)
     if "set_membership" in observers and args.data is None:
         raise ModelError("--observers", "set_membership with --data only (the bench scenarios have no noise bound)",

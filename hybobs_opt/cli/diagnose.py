@@ -44,6 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """``hybobs diagnose``: verdict, certificate and report for one range."""
+    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
     from ..lmi.diagnose import diagnose
     from ..lmi.solve import counting_solves
     from ..progress import counter_bar
@@ -52,7 +53,6 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     out_dir = None if args.out is None else Path(args.out)
     check_output_dir("--out-dir", out_dir, args.force, None)
-    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
     named, preset, settings = design_setup(args)
     check_output_dir("--out-dir", out_dir, args.force, f"diagnose_{file_slug(named.label)}.md")  # before any LMI
     system = named.system

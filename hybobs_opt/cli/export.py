@@ -45,6 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     import sys
 
     from ..limits import check_horizon_limit
@@ -59,7 +60,6 @@ def run(args: argparse.Namespace) -> int:
 
     with as_options({"out_dir": "--out-dir"}):
         export_targets(Path(args.out_dir), overwrite=args.force)  # before any work
-    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     named = load_system(args)
     if named.kind != "pwa":
         raise ModelError("SYSTEM", "a PWA system (the lookup-table observer of paper 002 is built from its "

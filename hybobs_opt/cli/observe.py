@@ -94,10 +94,10 @@ def one_observer(text: str | None) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
     args.observer = one_observer(args.observer)
     check_figure_path("--plot", args.plot, args.force)
     check_output_path("--out", args.out, args.force)
-    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
     named = load_system(args)
     with command_cache(args) as cache:
         summary = _observe(named, args)

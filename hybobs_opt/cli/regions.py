@@ -55,6 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     from ..limits import check_horizon_limit
     from ..cache import cached_analysis
     from ..progress import counter_bar, phase_bars
@@ -63,7 +64,6 @@ def run(args: argparse.Namespace) -> int:
     check_horizon_limit(args.horizon, "--horizon")
     check_figure_path("--plot", args.plot, args.force)
     check_output_path("--out", args.save, args.force)
-    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     named = load_system(args)
     if named.kind == "hybrid_automaton" and args.ts is not None:
         with as_options({"Ts": "--ts"}):

@@ -1,5 +1,5 @@
-"""``hybobs report --out DIR``: the HTML report of every result (``--section KEY`` for some);
-``hybobs report SYSTEM --out DIR``: the report of one system, with the sections of its class."""
+"""``hybobs report --out-dir DIR``: the HTML report of every result (``--section KEY`` for some);
+``hybobs report SYSTEM --out-dir DIR``: the report of one system, with the sections of its class."""
 
 from __future__ import annotations
 
@@ -48,10 +48,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the report (numpy, matplotlib, the solvers)")
     from ..progress import section_bar
 
     check_output_dir("--out-dir", args.out, args.force, "index.html")
-    announce(args, "loading the report (numpy, matplotlib, the solvers)")
     named = None
     if args.system is None:
         for option in ("param", "data", "horizon", "noise_bound"):

@@ -51,13 +51,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the simulators (numpy, scipy)")
     import numpy as np
 
     if args.t_final is not None and not (math.isfinite(args.t_final) and args.t_final > 0):
         raise ModelError("--t-final", "a positive finite time in seconds", repr(args.t_final))
     check_figure_path("--plot", args.plot, args.force)
     check_output_path("--out", args.csv, args.force)
-    announce(args, "loading the simulators (numpy, scipy)")
     named = load_system(args)
     t0 = time.perf_counter()
     if named.example is not None:

@@ -16,7 +16,6 @@ system settings read from the model (:mod:`hybobs_opt.lmi.auto_design`).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -49,6 +48,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``hybobs synth``: switched gains, dwell time and hysteresis, written to ``--out``."""
+    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
+    import dataclasses
     import warnings
 
     from ..lmi.auto_design import design_switched
@@ -63,7 +64,6 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("--periodic", "no value with --no-verify (the verification's observer wraps the periodic states)",
                          repr(args.periodic[0]))
     check_output_path("--out", args.out, args.force, create_parents=True)
-    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
     named, preset, settings = design_setup(args)
     system = named.system
     periodic = _periodic(args.periodic, system)

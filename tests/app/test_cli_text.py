@@ -93,3 +93,50 @@ def test_first_line_on_a_terminal_comes_before_the_work(capsys, monkeypatch):
     capsys.readouterr()
     assert main(["model", "check", "powertrain3"]) == 0
     assert capsys.readouterr().err == ""
+
+
+#: A command line per command that loads a system, with the options whose checks could import a
+#: heavy module (a figure path: matplotlib) before the first line.
+FIRST_LINE_ARGV = [
+    ["simulate", "powertrain3", "--plot", "x.png"],
+    ["observe", "powertrain3", "--plot", "x.png"],
+    ["regions", "powertrain3", "--plot", "x.png"],
+    ["bench", "powertrain3", "--plot", "x.png"],
+    ["export", "powertrain3", "--out-dir", "d"],
+    ["diagnose", "vehicle_tracking"],
+    ["synth", "vehicle_tracking", "--out", "g.json"],
+    ["model", "check", "powertrain3"],
+    ["report", "--out-dir", "d"],
+]
+
+_PROBE = """
+import importlib, json, sys
+from hybobs_opt.cli import COMMANDS, build_parser
+HEAVY = ("numpy", "scipy", "cvxpy", "casadi", "matplotlib", "numba")
+seen = []
+class Stop(Exception):
+    pass
+def announce(args, what):
+    seen.append([m for m in HEAVY if m in sys.modules])
+    raise Stop
+args = build_parser().parse_args(ARGV)
+importlib.import_module("hybobs_opt.cli." + COMMANDS[args.command]).announce = announce
+try:
+    args.func(args)
+except Stop:
+    pass
+print(json.dumps(seen))
+"""
+
+
+@pytest.mark.parametrize("argv", FIRST_LINE_ARGV, ids=lambda a: a[0])
+def test_the_first_line_comes_before_any_heavy_import(argv):
+    """Each command announces itself before numpy, scipy, cvxpy, CasADi or matplotlib is imported
+    (a fresh interpreter; the first line is then within the interpreter's start-up and the parser's)."""
+    import json
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", _PROBE.replace("ARGV", repr(argv))], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout) == [[]], (argv, done.stdout)
