@@ -42,6 +42,13 @@ class InputTable:
         a discrete-time system.
     source : str
         Where the table came from (for messages).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> table = InputTable(("u",), np.array([[0.0], [2.0]]), np.array([0.0, 0.1]))
+    >>> float(table(0.05)[0]), float(table(0.1)[0]), float(table(5.0)[0])
+    (0.0, 2.0, 2.0)
     """
 
     names: tuple[str, ...]
