@@ -437,11 +437,11 @@ def announce(args: argparse.Namespace, what: str) -> None:
     """The first line of a command on a terminal, before its heavy imports: ``hybobs CMD: WHAT ...`` on stderr.
 
     Loading numpy, scipy, cvxpy and CasADi takes seconds, and a first analysis more: the line says
-    the command started.  Only on a terminal (like the progress bars), so that logs, pipes and tests
-    see the output they always saw; under ``--json`` stdout stays the one JSON object.
+    the command started.  Only in text mode on a terminal, like the progress bars: logs, pipes,
+    tests and ``--json`` runs see the output they always saw.
     """
     import sys
 
-    if sys.stderr is None or not sys.stderr.isatty():
+    if getattr(args, "json", False) or sys.stderr is None or not sys.stderr.isatty():
         return
     print(f"hybobs {getattr(args, 'command', None) or 'hybobs'}: {what} ...", file=sys.stderr, flush=True)

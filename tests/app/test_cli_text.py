@@ -50,6 +50,8 @@ def test_summary_lines_round_and_give_units():
     ["observe", "driveline"],
     ["model", "check", "powertrain3"],
     ["simulate", "powertrain3", "--t-final", "0.05"],
+    ["regions", "powertrain3", "-T", "3", "--executor", "serial", "--cut", "omega_l=25", "--resolution", "5x4"],
+    ["bench", "powertrain3", "--observers", "lookup", "--steps", "50"],
 ])
 def test_text_mode_has_no_reprs_and_no_long_floats(capsys, argv):
     assert main(argv) == 0
