@@ -82,6 +82,10 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     (["simulate", "powertrain3"], "--ts", ["0.1", "abc", "0", "-1"]),
     (["simulate", "powertrain3", "--t-final", "0.01"], "--plot", [F("dir"), F("dir") + "/p.xyz", F("dir") + "/p"]),
     (["simulate", "powertrain3", "--t-final", "0.01"], "--out", [F("dir"), F("nosuch")]),
+    (["simulate", PWA_MODEL], "--inputs", [F("nosuch"), F("bin"), F("empty"), F("dir"), F("header_only.csv"),
+                                          F("text.json"), F("bad_rows.csv")]),
+    (["simulate", "powertrain3"], "--inputs", [F("header_only.csv")]),
+    (["simulate", HYBRID_MODEL], "--inputs", [F("header_only.csv")]),
     (["simulate", HYBRID_MODEL, "--t-final", "0.5"], "--ts", NUMBER + ["0", "-1", "1e-15", "1e300"]),
     (["simulate", HYBRID_MODEL, "--t-final", "0.5"], "--q0", ["7", "-1", "abc", "1.5", "1e300"]),
     (["simulate", HYBRID_MODEL, "--t-final", "0.5"], "--x0", ["x1=nan", "x1=1e300", "nosuch=1", "x1", "x1=-5", "x1=inf"]),
@@ -204,7 +208,8 @@ ROWS: list[tuple[list[str], str | None, list[str]]] = [
     # model
     (["model"], None, ["nosuch", ""]),
     (["model", "check"], None, ["nosuch", F("bin"), F("empty"), F("text.json"), F("dir")]),
-    (["model", "export", "powertrain3"], "--out", [F("dir") + "/m.txt", F("dir"), F("nosuch") + ".toml"]),
+    # a missing directory of --out is created; a file in its place is not
+    (["model", "export", "powertrain3"], "--out", [F("dir") + "/m.txt", F("dir"), F("bin") + "/m.toml"]),
     (["model", "schema"], "--out", [F("dir") + "/s.json"]),
     (["model", "check", "powertrain3"], "--param", ["nosuch=1", "gear_ratio=abc"]),
     # report
