@@ -38,8 +38,9 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("register_resolver", "resolve_system"), "hybobs_opt.systems.resolve"),
     "check_partition": "hybobs_opt.systems.pwa",
     # simulators
-    **dict.fromkeys(("Trace", "simulate_constant_drift", "simulate_hybrid", "simulate_hybrid_fixed_step",
-                     "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch", "simulate_system"), "hybobs_opt.sim"),
+    **dict.fromkeys(("InputTable", "Trace", "read_input_table", "simulate_constant_drift", "simulate_hybrid",
+                     "simulate_hybrid_fixed_step", "simulate_nonlinear", "simulate_pwa", "simulate_pwa_batch",
+                     "simulate_system"), "hybobs_opt.sim"),
     **dict.fromkeys(("SignalLog", "read_log", "write_estimates"), "hybobs_opt.sim.log"),
     # observability regions (paper 002)
     **dict.fromkeys(("ObservabilityAnalysis", "PointClass", "analyse_observability", "compute_cut", "enumerate_modes",

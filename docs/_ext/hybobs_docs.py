@@ -3,6 +3,9 @@
 * ``.. hybobs-cli::`` -- the command-line reference, generated from the argparse parser of
   :func:`hybobs_opt.cli.build_parser` (one section per command and sub-command, with its usage and
   options exactly as ``hybobs CMD --help`` prints them);
+* ``.. hybobs-cli-options::`` -- one table per command of every option with the kind of value it
+  takes (:mod:`hybobs_opt.cli._vocabulary`), its default and its help, from the same parser (the old
+  spellings kept as hidden aliases are not listed);
 * ``.. hybobs-model-schema::`` -- the model-file format, rendered from
   ``hybobs_opt/systems/model.schema.json`` (one table of fields per object of the schema);
 * at ``builder-inited``: the notebooks of ``notebooks/`` are copied to ``docs/_notebooks`` (myst-nb
@@ -16,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -85,6 +89,71 @@ class CLIDirective(SphinxDirective):
         node = nodes.section()
         node.document = self.state.document
         nested_parse_with_titles(self.state, StringList(lines, source="hybobs_opt.cli.build_parser"), node)
+        return node.children
+
+
+def _rst_text(text: str) -> str:
+    """Plain text safe inside a table cell (no markup: ``*``, backquotes, ``|`` and ``_`` escaped)."""
+    text = " ".join(str(text).replace("%%", "%").split())
+    for char in ("\\", "*", "`", "|", "_"):
+        text = text.replace(char, "\\" + char)
+    # options as literals: no smart dashes ("--out" would become an en dash)
+    return re.sub(r"(?<![\w-])(--?[A-Za-z][\w-]*)(?=[\s.,:;!?/'\")\]}]|$)", lambda m: f"``{m.group(1).replace(chr(92), '')}``", text)
+
+
+def _option_rows(sub: argparse.ArgumentParser) -> list[tuple[str, str, str, str]]:
+    """``(option, kind, default, help)`` of each option ``sub --help`` lists."""
+    from hybobs_opt.cli._vocabulary import KIND_DESCRIPTIONS, option_kind, visible_options
+
+    rows = []
+    for action in visible_options(sub):
+        kind = option_kind(action)
+        base = kind.replace(" (repeatable)", "")
+        text = KIND_DESCRIPTIONS[base]
+        if base == "choice":
+            text = "one of " + ", ".join(f"``{c}``" for c in action.choices)
+        elif base in ("assignment", "range", "grid"):
+            text = f"``{action.metavar}``"
+        elif base != "flag":
+            text += f" (``{action.metavar}``)"
+        if kind.endswith("(repeatable)"):
+            text += ", repeatable"
+        if action.required:
+            default = "required"
+        elif action.nargs == 0 or action.default in (None, argparse.SUPPRESS):
+            default = ""
+        else:
+            default = f"``{action.default}``"
+        helptext = action.help() if callable(action.help) else (action.help or "")
+        rows.append((", ".join(f"``{o}``" for o in action.option_strings), text, default, _rst_text(helptext)))
+    return rows
+
+
+def _options_rst(parser: argparse.ArgumentParser) -> list[str]:
+    lines: list[str] = []
+    for name, _, sub in _subcommands(parser):
+        rows = _option_rows(sub)
+        title = f"``hybobs {name}``"
+        lines += [f".. rubric:: {title}", "", ".. list-table::", "   :header-rows: 1", "   :widths: 18 20 10 52", "",
+                  "   * - Option", "     - Value", "     - Default", "     - What it does"]
+        for row in rows:
+            lines += [f"   * - {row[0]}"] + [f"     - {cell}" if cell else "     -" for cell in row[1:]]
+        lines.append("")
+    return lines
+
+
+class CLIOptionsDirective(SphinxDirective):
+    """One table per command: every option, the kind of value it takes, its default and its help."""
+
+    has_content = False
+
+    def run(self):
+        from hybobs_opt.cli import build_parser
+
+        node = nodes.section()
+        node.document = self.state.document
+        nested_parse_with_titles(self.state, StringList(_options_rst(build_parser()), source="hybobs_opt.cli.build_parser"),
+                                 node)
         return node.children
 
 
@@ -308,6 +377,7 @@ def draw_figures(app) -> None:
 def setup(app):
     app.add_config_value("hybobs_figures", True, "env")
     app.add_directive("hybobs-cli", CLIDirective)
+    app.add_directive("hybobs-cli-options", CLIOptionsDirective)
     app.add_directive("hybobs-model-schema", ModelSchemaDirective)
     app.connect("builder-inited", copy_notebooks)
     app.connect("builder-inited", draw_figures)

@@ -55,9 +55,13 @@ def json_default(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def parse_params(items: list[str] | None, vectors: dict[str, int] | None = None) -> dict[str, Any]:
-    """``--param NAME=VALUE`` (repeatable) -> ``{NAME: float}``; fractions like ``1/12`` allowed.
+def parse_params(items: list[str] | None, vectors: dict[str, int] | None = None,
+                 text: frozenset[str] | set[str] | None = None) -> dict[str, Any]:
+    """``--param NAME=VALUE`` (repeatable) -> ``{NAME: value}``; fractions like ``1/12`` allowed.
 
+    A value that reads as a number is a float.  ``text`` names the parameters whose value may be a
+    string (``None``: any parameter; a builder function's signature decides later, see
+    :func:`hybobs_opt.systems.resolve.resolve_system`); any other value must be a number.
     ``vectors`` names the parameters that are vectors (name -> length): their value is a
     comma-separated list of that many numbers (``lam=1,2,3``) and becomes a tuple.
     """
@@ -75,6 +79,9 @@ def parse_params(items: list[str] | None, vectors: dict[str, int] | None = None)
         try:
             params[key.strip()] = number(value)
         except ValueError:
+            if text is None or key.strip() in text:
+                params[key.strip()] = value
+                continue
             why = " (division by zero)" if "/" in value and _zero_denominator(value) else ""
             raise ModelError(f"--param {key}", "a number (fractions like 1/12 allowed, with a non-zero denominator)",
                              repr(value) + why) from None
@@ -122,7 +129,7 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """``--executor``, ``--workers``, ``--scheduler``, ``--dask-local``: where the LPs run."""
     p.add_argument("--executor", choices=("serial", "processes"), default=None,
                    help="where the LPs run: serial or processes (default processes)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=int, default=None, metavar="N",
                    help=f"number of local processes (default: all cores; at most {MAX_WORKERS_PER_CORE} per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help=f"run on a Dask distributed scheduler (address schemes: {', '.join(SCHEDULER_SCHEMES)})")
@@ -178,8 +185,17 @@ SYSTEM_HELP = ("the system: an example name ('hybobs examples'), a model file PA
 def add_system_argument(p: argparse.ArgumentParser, help: str = SYSTEM_HELP) -> None:
     """The positional ``SYSTEM`` and the repeatable ``--param NAME=VALUE`` of every command."""
     p.add_argument("system", metavar="SYSTEM", help=(lambda: help + f"; the examples: {examples_help()}"))
-    p.add_argument("--param", action="append", metavar="NAME=VALUE",
-                   help="parameter of an example or of FUNCTION (repeatable), e.g. gear_ratio=1/2")
+    add_param_argument(p)
+
+
+#: Help text of ``--param``.
+PARAM_HELP = ("parameter of an example or of FUNCTION (repeatable), e.g. gear_ratio=1/2; a number (fractions "
+              "allowed), or a string where FUNCTION's parameter is one (annotated str or with a str default)")
+
+
+def add_param_argument(p: argparse.ArgumentParser) -> None:
+    """The repeatable ``--param NAME=VALUE``."""
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help=PARAM_HELP)
 
 
 class NamedSystem:
@@ -206,7 +222,8 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
     examples = {ex.name: ex for ex in list_examples()}
     example = examples.get(args.system)
     vectors = {k: len(v) for k, v in example.params.items() if isinstance(v, (tuple, list))} if example else {}
-    params = parse_params(getattr(args, "param", None), vectors)
+    text = frozenset(k for k, v in example.params.items() if isinstance(v, str)) if example else None
+    params = parse_params(getattr(args, "param", None), vectors, text)
     if example is None and ":" not in args.system and not is_model_path(args.system):
         raise ModelError("SYSTEM", f"one of the examples {sorted(examples)}, a model file (.toml, .yaml, .json), "
                          "PATH.py:FUNCTION or module:FUNCTION", repr(args.system))
@@ -220,7 +237,9 @@ def load_system(args: argparse.Namespace) -> NamedSystem:
                 if value not in (0.0, 1.0):
                     raise ModelError(f"--param {key}", f"0 or 1 (a yes/no parameter of example {example.name!r})", repr(value))
                 params[key] = bool(value)
-    with as_options({key: f"--param {key}" for key in params} if example is not None else {}):
+    fields = {key: f"--param {key}" for key in params} if example is not None else {
+        f"{args.system}: params {key}": f"--param {key}" for key in params}
+    with as_options(fields):
         system = resolve_system(args.system, params)
     return NamedSystem(args.system, system, example, params)
 
@@ -265,22 +284,6 @@ def check_figure_path(option: str, path: Any, force: bool = False) -> None:
     check_output_path(option, path, force)
 
 
-class StoreWithRenamedAlias(argparse.Action):
-    """``store`` for an option that also answers to a deprecated spelling (``renamed``: old -> new):
-    the old one works for one release and warns (:func:`hybobs_opt._deprecation.warn_renamed`)."""
-
-    def __init__(self, option_strings, dest, renamed: Mapping[str, str], **kwargs):
-        self.renamed = dict(renamed)
-        super().__init__(option_strings, dest, **kwargs)
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        if option_string in self.renamed:
-            from .._deprecation import warn_renamed
-
-            warn_renamed(option_string, self.renamed[option_string], stacklevel=2)
-        setattr(namespace, self.dest, values)
-
-
 def add_force_argument(p: argparse.ArgumentParser) -> None:
     """``--force``: replace output files that exist (a symbolic link is refused even then)."""
     p.add_argument("--force", action="store_true",
@@ -288,10 +291,11 @@ def add_force_argument(p: argparse.ArgumentParser) -> None:
                         "symbolic link at an output path is never followed)")
 
 
-def check_output_path(option: str, path: Any, force: bool = False) -> None:
+def check_output_path(option: str, path: Any, force: bool = False, create_parents: bool = False) -> None:
     """``ModelError`` before any work if ``path`` (a file to write) is a symbolic link (never
     followed), an existing directory or other non-regular file, an existing file without
-    ``force``, or if its directory is missing or not writable."""
+    ``force``, or if its directory is missing (unless ``create_parents``: then it must be creatable,
+    its nearest existing ancestor a writable directory, and the writer creates it) or not writable."""
     if path is None:
         return
     p = Path(str(path))
@@ -305,6 +309,13 @@ def check_output_path(option: str, path: Any, force: bool = False) -> None:
     if p.exists() and not force:
         raise ModelError(option, "a new file (or --force to replace it)", f"{str(path)!r} exists")
     parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists() and create_parents:
+        ancestor = parent
+        while not ancestor.exists() and ancestor.parent != ancestor:
+            ancestor = ancestor.parent
+        if ancestor.is_symlink() or not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
+            raise ModelError(option, "a file in a directory that can be created", f"{str(path)!r} (below {str(ancestor)!r})")
+        return
     if not parent.is_dir():
         raise ModelError(option, "a file in an existing directory", f"{str(path)!r} (no directory {str(parent)!r})")
     if not os.access(parent, os.W_OK | os.X_OK):
@@ -420,3 +431,17 @@ def bound_entries(entries, names: tuple, option: str, field: str, what: str) -> 
     with as_options({field: option}):
         noise_bound_vector(bound, names, field)
     return bound
+
+
+def announce(args: argparse.Namespace, what: str) -> None:
+    """The first line of a command on a terminal, before its heavy imports: ``hybobs CMD: WHAT ...`` on stderr.
+
+    Loading numpy, scipy, cvxpy and CasADi takes seconds, and a first analysis more: the line says
+    the command started.  Only in text mode on a terminal, like the progress bars: logs, pipes,
+    tests and ``--json`` runs see the output they always saw.
+    """
+    import sys
+
+    if getattr(args, "json", False) or sys.stderr is None or not sys.stderr.isatty():
+        return
+    print(f"hybobs {getattr(args, 'command', None) or 'hybobs'}: {what} ...", file=sys.stderr, flush=True)

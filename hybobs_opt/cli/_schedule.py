@@ -81,9 +81,9 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--range", metavar="NAME=LO:HI", help="range of the scheduling state (examples: in the preset's "
                    "unit, e.g. psi=0:360 (deg) or z=0:203 (mm); other systems: model units)")
     p.add_argument("--coordinate", metavar="STATE", help="scheduling state (default: where the non-monotonic functions act)")
-    p.add_argument("--gain-bound", type=float, default=None, help="bound on ||L||_2 (default: from the model, see 'settings')")
-    p.add_argument("--min-decay", type=float, default=None, help="decay rate every grown region must admit (1/s)")
-    p.add_argument("--overlap", type=float, default=None, help="hysteresis epsilon of the regions (model units)")
+    p.add_argument("--gain-bound", type=float, default=None, metavar="X", help="bound on ||L||_2 (default: from the model, see 'settings')")
+    p.add_argument("--min-decay", type=float, default=None, metavar="RATE", help="decay rate every grown region must admit (1/s)")
+    p.add_argument("--overlap", type=float, default=None, metavar="X", help="hysteresis epsilon of the regions (model units)")
     p.add_argument("--condition", choices=("paper", "per_function", "polytopic"), default=None,
                    help="region condition of the design (default with model settings: polytopic, the least "
                         "conservative; the paper's settings use the paper's LMI)")

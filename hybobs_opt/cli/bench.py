@@ -11,8 +11,9 @@ import argparse
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
 from ..limits import MAX_HORIZON, MAX_SAMPLES
-from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, check_figure_path,
+from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument, announce, as_options, check_figure_path,
                       command_cache, load_system, print_json)
+from ._text import sig
 
 #: Observer names of ``--observers`` (:data:`hybobs_opt.observers.recorded.PWA_OBSERVERS`) and the default list.
 OBSERVER_NAMES = ("lookup", "miqp", "milp", "milp_inf", "set_membership")
@@ -25,21 +26,21 @@ HELP = "lookup observer vs MIQP/MILP moving-horizon observers on one scenario or
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
+    p.add_argument("--horizon", "-T", type=int, metavar="T", default=DEFAULT_HORIZON,
                    help=f"observation horizon T (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="compare the observers on this recorded log (any PWA system)")
     p.add_argument("--regions", metavar="FILE", help="with --data: saved analysis for the lookup observer")
-    p.add_argument("--steps", type=int, default=None,
+    p.add_argument("--steps", type=int, default=None, metavar="N",
                    help=f"number of samples of the scenario (1 ms each; default {DEFAULT_STEPS}, at most {MAX_SAMPLES:,})")
-    p.add_argument("--noise", type=float, default=0.0, help="standard deviation of output noise (rad/s)")
-    p.add_argument("--observers", default=DEFAULT_OBSERVERS,
+    p.add_argument("--noise", type=float, default=0.0, metavar="SIGMA", help="standard deviation of output noise (rad/s)")
+    p.add_argument("--observers", default=DEFAULT_OBSERVERS, metavar="NAME[,NAME...]",
                    help=f"comma-separated, among: {', '.join(OBSERVER_NAMES)} (default {DEFAULT_OBSERVERS})")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
                    help="with --data, for set_membership (required) and the other observers (radii under bounded noise) in --observers: "
                         "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output)")
-    p.add_argument("--mhe-steps", type=int, default=None,
+    p.add_argument("--mhe-steps", type=int, default=None, metavar="N",
                    help="run the MHE observers (miqp, milp, milp_inf) on the first N >= 1 steps only")
-    p.add_argument("--seed", type=int, default=None, help="seed of the output noise (with --noise; a non-negative integer, default 0)")
+    p.add_argument("--seed", type=int, default=None, metavar="N", help="seed of the output noise (with --noise; a non-negative integer, default 0)")
     add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="PNG like the paper's Figs. 7-9")
     add_cache_argument(p)
@@ -48,6 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
     observers = parse_observers(args.observers)
     check_figure_path("--plot", args.plot, args.force)
     if args.horizon < 1 or args.horizon > MAX_HORIZON:
@@ -81,18 +83,27 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
         return 0
-    print(f"{summary['example']}, T = {summary['horizon']}, {summary['steps']} steps, noise {summary['noise']:g}")
+    print(f"{summary['example']}, T = {summary['horizon']}, {summary['steps']} steps, noise {sig(summary['noise'])}")
     for name, rec in summary["observers"].items():
         err = rec.get("max_abs_error_observable_all")
         print(f"  {name:<9} median {1e6 * rec['median_step_s']:9.1f} us  p95 {1e6 * rec['p95_step_s']:9.1f} us  "
               f"flagged unobservable {rec['n_flagged_unobservable']:5d}  max rel. error where flagged observable "
               f"{'n/a' if err is None else f'{err:.2e}'}  [{rec['solver']}]")
         if "radius_max" in rec:
-            print(f"  {'':<9} certified radius: median {rec['radius_median']}, largest {rec['radius_max']}; "
-                  f"true state outside it: {rec.get('n_outside_radius', 'n/a')}")
+            print(f"  {'':<9} certified radius: median {_values(rec['radius_median'])}, largest "
+                  f"{_values(rec['radius_max'])}; true state outside it: {sig(rec.get('n_outside_radius'))}")
     if "note" in summary:
         print("note:", summary["note"])
     return 0
+
+
+def _values(value) -> str:
+    """A number, or a record or list of numbers, rounded for the text summary."""
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {sig(v)}" for k, v in value.items())
+    if isinstance(value, (list, tuple)):
+        return ", ".join(sig(v) for v in value)
+    return sig(value)
 
 
 def _bench(named, args, observers: list[str]) -> dict:

@@ -1,4 +1,4 @@
-"""``hybobs diagnose SYSTEM [--range psi=0:360] [--out DIR] [--json]``: is there a constant
+"""``hybobs diagnose SYSTEM [--range psi=0:360] [--out-dir DIR] [--json]``: is there a constant
 observer gain on the range (paper 004, LMI (8))?  Any scalar-nonlinear system: the paper's
 examples use their published settings, every other system settings read from the model
 (:mod:`hybobs_opt.lmi.auto_design`, reported under ``settings``).
@@ -18,7 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_force_argument, add_system_argument, bound_entries, check_output_dir, file_slug, print_json
+from ._common import add_force_argument, add_system_argument, announce, bound_entries, check_output_dir, file_slug, print_json
+from ._vocabulary import add_hidden_alias
 from ._schedule import add_design_arguments, design_setup, parse_range
 
 HELP = "does a constant observer gain exist? verdict, certificate, report (paper 004)"
@@ -27,8 +28,9 @@ HELP = "does a constant observer gain exist? verdict, certificate, report (paper
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     add_design_arguments(p)
-    p.add_argument("--out-dir", "--out", dest="out", metavar="DIR", default=None,
-                   help="write the Markdown and HTML reports into DIR (none without it); --out is its old name")
+    p.add_argument("--out-dir", dest="out", metavar="DIR", default=None,
+                   help="write the Markdown and HTML reports into DIR (created if missing; none without it)")
+    add_hidden_alias(p, "--out-dir", "--out")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
                    help="bound on an output's noise in its units (repeatable; a bare VALUE bounds every output): "
                         "also design the gain with the smallest certified ultimate error bound under that noise")
@@ -42,6 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """``hybobs diagnose``: verdict, certificate and report for one range."""
+    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
     from ..lmi.diagnose import diagnose
     from ..lmi.solve import counting_solves
     from ..progress import counter_bar
@@ -107,7 +110,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print(f"  {c.name}: {state}")
     nd = diag.noise_design
     if nd is not None and nd.feasible:
-        print(f"  under output noise {dict(zip(system.output_names, nd.noise.tolist()))}: ||L||_2 = {nd.gain_norm:.4g}, "
+        noise_text = ", ".join(f"{n} {v:.4g}" for n, v in zip(system.output_names, nd.noise.tolist()))
+        print(f"  under output noise {noise_text}: ||L||_2 = {nd.gain_norm:.4g}, "
               f"decay rate {nd.alpha:.4g} 1/s, certified ultimate bound "
               + ", ".join(f"|e_{n}| <= {b:.4g}" for n, b in zip(system.state_names, nd.bound)))
     elif diag.noise_error:

@@ -12,18 +12,20 @@ from pathlib import Path
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
 from ..limits import MAX_HORIZON
-from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, as_options, command_cache,
-                      load_system, print_json)
+from ._common import (add_cache_argument, add_lp_budget_argument, add_system_argument, announce, as_options,
+                      command_cache, load_system, print_json)
+from ._vocabulary import add_hidden_alias
 
 HELP = "write the lookup-table observer (paper 002, Algorithm 4.1) as self-contained C99 with a CSV replay driver"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
+    p.add_argument("--horizon", "-T", type=int, metavar="T", default=DEFAULT_HORIZON,
                    help=f"observation horizon T (default {DEFAULT_HORIZON}, 1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
-    p.add_argument("--out-dir", "--out", dest="out_dir", metavar="DIR", required=True,
+    p.add_argument("--out-dir", dest="out_dir", metavar="DIR", required=True,
                    help="directory of hybobs_lookup.h, hybobs_lookup.c and hybobs_lookup_driver.c (created if missing)")
+    add_hidden_alias(p, "--out-dir", "--out")
     p.add_argument("--float32", action="store_true",
                    help="float tables and arithmetic (tolerances raised to single precision; refused when the "
                         "pseudo-inverses amplify its rounding beyond 5 %% of a state's range)")
@@ -43,6 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     import sys
 
     from ..limits import check_horizon_limit

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_force_argument, SYSTEM_HELP, check_output_path, examples_help, load_system, print_json
+from ._common import (SYSTEM_HELP, add_force_argument, add_param_argument, announce, check_output_path, examples_help,
+                      load_system, print_json)
+from ._text import print_summary
 
 HELP = "model files: print the JSON Schema, check a model, export a system as a model file"
 
@@ -19,9 +21,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("action", choices=("schema", "check", "export"), help="what to do")
     p.add_argument("system", nargs="?", metavar="SYSTEM",
                    help=lambda: f"for check/export: {SYSTEM_HELP}; the examples: {examples_help()}")
-    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
+    add_param_argument(p)
     add_force_argument(p)
-    p.add_argument("--out", metavar="FILE", help="export: the model file to write (.toml, .yaml, .json)")
+    p.add_argument("--out", "-o", metavar="FILE",
+                   help="export: the model file to write (.toml, .yaml, .json; its directory is created if missing)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
 
@@ -42,13 +45,17 @@ def run(args: argparse.Namespace) -> int:
         raise ModelError("SYSTEM", f"a system to {args.action}", "none")
     if args.action == "check" and args.out:
         raise ModelError("--out", "no value for 'model check' (export writes a model file)", repr(args.out))
-    check_output_path("--out", args.out, args.force)
+    if args.action == "export" and not args.out:
+        raise ModelError("--out", "a file name ending in .toml, .yaml or .json", "none")
+    check_output_path("--out", args.out, args.force, create_parents=True)
+    announce(args, "loading the model (numpy, scipy)")
     named = load_system(args)
     if args.action == "export":
+        from pathlib import Path
+
         from ..systems.model_file import save_model
 
-        if not args.out:
-            raise ModelError("--out", "a file name ending in .toml, .yaml or .json", "none")
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         path = save_model(named.system, args.out)
         out = {"system": named.label, "class": named.kind, "written": str(path)}
     else:
@@ -61,7 +68,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
     else:
-        for key, value in out.items():
-            if value is not None:
-                print(f"{key}: {value}")
+        print_summary({k: v for k, v in out.items() if v is not None})
     return 0

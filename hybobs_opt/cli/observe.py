@@ -8,34 +8,47 @@ import argparse
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
 from ._common import (add_force_argument, add_cache_argument, add_lp_budget_argument, add_system_argument,
-                      as_options, bound_entries, check_figure_path, check_output_path, command_cache, load_system,
+                      announce, as_options, bound_entries, check_figure_path, check_output_path, command_cache, load_system,
                       print_json)
+from ._text import print_summary
+from ._vocabulary import add_hidden_alias
 
 HELP = "run an observer on an example's scenario, or on a CSV log (--data) of any PWA system"
+
+#: What to use instead of ``--fit-tolerance`` (a residual allowance of the moving-horizon observers'
+#: fit) with the observers that have no fit: noisy data is declared to them by a noise bound.
+FIT_TOLERANCE_INSTEAD = {
+    "lookup": "it fits no window, so it takes no residual tolerance; on noisy data declare the noise with "
+              "--noise-bound NAME=VALUE (the bounded-noise lookup observer, with certified radii), or choose a "
+              "moving-horizon observer with --observers miqp, milp or milp_inf to use --fit-tolerance",
+    "set_membership": "it takes the noise as a bound, --noise-bound NAME=VALUE (--fit-tolerance belongs to miqp, "
+                      "milp and milp_inf)",
+}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--observer", default=None, metavar="KIND", help=_observer_help)
+    p.add_argument("--observers", dest="observer", default=None, metavar="NAME[,NAME...]", help=_observer_help)
+    add_hidden_alias(p, "--observers", "--observer")
     p.add_argument("--data", metavar="LOG.csv", help="recorded inputs and outputs, columns named by the system "
                    "(optional: t or time, the true states)")
-    p.add_argument("--horizon", "-T", type=int, default=None,
+    p.add_argument("--horizon", "-T", type=int, metavar="T", default=None,
                    help=f"observation horizon T (with --data; default {DEFAULT_HORIZON}, or the --regions file's)")
-    p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --save') for the lookup observer")
+    p.add_argument("--regions", metavar="FILE", help="saved analysis ('hybobs regions --out') for the lookup observer")
     p.add_argument("--gains", metavar="FILE", help="switched gains ('hybobs synth --out') for a scalar-nonlinear "
                    "system (default: designed now with the model's settings)")
     p.add_argument("--fit-tolerance", type=float, default=None, metavar="Y",
                    help="with --data and a moving-horizon observer: the largest output residual a window may "
                         "leave (noisy logs: about 5 noise standard deviations; default 1e-3 of each output's range)")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
-                   help="with --data and --observer set_membership (required), lookup, miqp, milp or milp_inf (radii "
+                   help="with --data and --observers set_membership (required), lookup, miqp, milp or milp_inf (radii "
                         "under bounded noise; the flag is then the radius's): "
                         "the bound on an output's noise in its units (repeatable; a bare VALUE bounds every output; "
                         "outputs not named: 0)")
     p.add_argument("--input-noise-bound", action="append", metavar="NAME=VALUE", dest="input_noise_bound",
-                   help="with --observer lookup and --noise-bound: the bound on a measured input's noise in its units "
+                   help="with --observers lookup and --noise-bound: the bound on a measured input's noise in its units "
                         "(repeatable; a bare VALUE bounds every input; inputs not named: 0)")
-    p.add_argument("--out", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
+    p.add_argument("--out", "-o", metavar="ESTIMATES.csv", help="write t, estimates, mode and flag per sample "
                    "(and radius_<state> per state with the set-membership observer, and the others with --noise-bound)")
     p.add_argument("--filter", action="store_true", help="low-pass filter variant (sliding-mode observers)")
     add_force_argument(p)
@@ -46,11 +59,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _observer_help() -> str:
-    """The ``--observer`` help: the kinds of every example's scenario and of a log (shown by ``--help`` only)."""
+    """The ``--observers`` help: the kinds of every example's scenario and of a log (shown by ``--help`` only)."""
     from ..studies import list_examples
 
     per_example = "; ".join(f"{ex.name}: {', '.join(ex.observers)}" for ex in list_examples() if ex.observers)
-    return ("observer kind, the first listed is the default. On an example's scenario: " + per_example
+    return ("the observer (one name here; 'hybobs bench --observers a,b' compares several), the first listed is the "
+            "default. On an example's scenario: " + per_example
             + ". With --data: lookup, miqp, milp, milp_inf, set_membership for a PWA system (default lookup); switched for a "
             "scalar-nonlinear one")
 
@@ -61,14 +75,27 @@ def check_scenario_options(example, args: argparse.Namespace) -> None:
         raise ModelError("--param", f"no value for the observer scenario of {example.name!r} (it runs the paper's plant; "
                          "simulate another one and pass it with --data LOG.csv)", repr(args.param[0]))
     if example.observers and args.observer is not None and args.observer not in example.observers:
-        raise ModelError("--observer", f"one of {', '.join(example.observers)} (the observers of the scenario of "
+        raise ModelError("--observers", f"one of {', '.join(example.observers)} (the observers of the scenario of "
                          f"{example.name!r})", repr(args.observer))
     if example.observers and args.filter and not example.observer_filter:
         raise ModelError("--filter", f"no --filter for {example.name!r} (the filtered variant belongs to the sliding-mode "
                          "observers of paper 001: switched_unstable, triangular, double_scroll)", "--filter")
 
 
+def one_observer(text: str | None) -> str | None:
+    """``--observers NAME`` of ``observe``: exactly one name (it runs one observer)."""
+    if text is None:
+        return None
+    names = [s.strip() for s in text.split(",")]
+    if len(names) != 1 or not names[0]:
+        raise ModelError("--observers", "one observer name ('hybobs observe' runs one observer; 'hybobs bench --data "
+                         "LOG.csv --observers a,b' compares several on one log)", repr(text))
+    return names[0]
+
+
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the solvers (numpy, cvxpy, CasADi)")
+    args.observer = one_observer(args.observer)
     check_figure_path("--plot", args.plot, args.force)
     check_output_path("--out", args.out, args.force)
     named = load_system(args)
@@ -79,10 +106,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        for key, value in summary.items():
-            if isinstance(value, (list, dict)) and len(str(value)) > 200:
-                value = f"{type(value).__name__} of {len(value)} items (use --json)"
-            print(f"{key}: {value}")
+        ex = named.example
+        units = dict(zip(ex.state_names, ex.state_units)) if ex is not None and ex.state_units else None
+        print_summary(summary, units, skip=("cache",))  # the cache events were printed on stderr
     return 0
 
 
@@ -139,7 +165,7 @@ def observe_recorded_nonlinear(named, args) -> dict:
 
     kind = args.observer or "switched"
     if kind != "switched":
-        raise ModelError("--observer", "switched (the observer of a scalar-nonlinear system on a log)", repr(kind))
+        raise ModelError("--observers", "switched (the observer of a scalar-nonlinear system on a log)", repr(kind))
     for option in ("horizon", "regions", "fit_tolerance"):
         if getattr(args, option) is not None:
             raise ModelError("--" + option.replace("_", "-"), "no value for a scalar-nonlinear system (it belongs to the "
@@ -184,11 +210,10 @@ def observe_recorded(named, args) -> dict:
     kind = args.observer or "lookup"
     if args.filter:
         raise ModelError("--filter", "no --filter with --data (it belongs to the sliding-mode scenarios)", "--filter")
-    with as_options({"observer": "--observer"}):
+    with as_options({"observer": "--observers"}):
         check_observer_kinds([kind])
     if args.fit_tolerance is not None and kind in ("lookup", "set_membership"):
-        raise ModelError("--fit-tolerance", f"no value for the {kind} observer (it belongs to miqp, milp, milp_inf"
-                         + ("; the set-membership observer takes --noise-bound" if kind == "set_membership" else "") + ")",
+        raise ModelError("--fit-tolerance", f"no value for the {kind} observer: {FIT_TOLERANCE_INSTEAD[kind]}",
                          repr(args.fit_tolerance))
     noise_bound = noise_bound_option(args.noise_bound, named.system, kind)
     input_noise_bound = input_noise_bound_option(args.input_noise_bound, named.system, kind, noise_bound)
@@ -215,7 +240,7 @@ def noise_bound_option(entries, system, kinds):
     if not any(k in NOISE_BOUND_OBSERVERS for k in kinds):
         if entries:
             raise ModelError("--noise-bound", "no value for the observer " + ", ".join(map(repr, kinds))
-                             + " (it belongs to --observer set_membership, lookup, miqp, milp or milp_inf)",
+                             + " (it belongs to --observers set_membership, lookup, miqp, milp or milp_inf)",
                              repr(entries[0]))
         return None
     if not entries:
@@ -232,7 +257,7 @@ def input_noise_bound_option(entries, system, kinds, noise_bound):
         return None
     kinds = [kinds] if isinstance(kinds, str) else list(kinds)
     if "lookup" not in kinds or noise_bound is None:
-        raise ModelError("--input-noise-bound", "--observer lookup with --noise-bound (the bounded-noise lookup "
+        raise ModelError("--input-noise-bound", "--observers lookup with --noise-bound (the bounded-noise lookup "
                          "observer is the one that takes measured inputs' noise)", repr(entries[0]))
     if "set_membership" in kinds:
         raise ModelError("--input-noise-bound", "no set_membership among the observers (its MILPs take the inputs "

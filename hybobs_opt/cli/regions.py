@@ -1,7 +1,7 @@
 """``hybobs regions SYSTEM -T N``: observability regions of a PWA system (paper 002, Algorithm 3.1).
 
-Optional 2-D cut (``--cut``, ``--plot``), saved result for the lookup observer (``--save``) and
-point queries from a CSV (``--query``).
+Optional 2-D cut (``--cut``, ``--plot``), saved result for the lookup observer (``--out``) and
+point queries from a CSV (``--query``: each state observable, unobservable or infeasible).
 """
 
 from __future__ import annotations
@@ -12,9 +12,14 @@ import math
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
 from ..limits import MAX_GRID_POINTS, MAX_HORIZON
-from ._common import (StoreWithRenamedAlias, add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
+from ._common import (add_force_argument, add_cache_argument, add_executor_arguments, add_lp_budget_argument, add_system_argument,
                       as_options, check_figure_path, check_output_path, command_cache, executor_from_args, load_system,
-                      print_json)
+                      announce, print_json)
+from ._text import sig
+from ._vocabulary import add_hidden_alias
+
+#: Query rows listed one per line in text mode (the counts cover them all).
+QUERY_LISTED = 20
 
 #: Grid of a cut when --resolution is not given.
 DEFAULT_RESOLUTION = "41x31"
@@ -24,19 +29,22 @@ HELP = "observability regions of a PWA system (paper 002, Algorithm 3.1)"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
-    p.add_argument("--horizon", "-T", type=int, default=DEFAULT_HORIZON,
+    p.add_argument("--horizon", "-T", type=int, metavar="T", default=DEFAULT_HORIZON,
                    help=f"observation horizon T (default {DEFAULT_HORIZON}, 1 to {MAX_HORIZON}: hybobs_opt.limits.MAX_HORIZON)")
     p.add_argument("--ts", type=float, default=None, metavar="SECONDS",
-                   help="sampling period: discretise an affine hybrid automaton exactly (ZOH) first")
+                   help="sampling period in seconds: discretise an affine hybrid automaton exactly (ZOH) first")
     p.add_argument("--cut", action="append", metavar="STATE=VALUE", help="fix a state for a 2-D cut (repeat)")
     p.add_argument("--resolution", default=None, metavar="NXxNY",
                    help=f"grid of the cut (default {DEFAULT_RESOLUTION}, at most {MAX_GRID_POINTS:,} points; with --cut or --plot)")
     add_force_argument(p)
     p.add_argument("--plot", metavar="FILE", help="PNG of the cut")
-    p.add_argument("--out", "--save", dest="save", metavar="FILE", action=StoreWithRenamedAlias,
-                   renamed={"--save": "--out"},
-                   help="write the result (JSON) for the lookup observer ('hybobs observe --regions'); --save is its deprecated name")
-    p.add_argument("--query", metavar="FILE.csv", help="CSV of states (header = state names): adds 'observable'")
+    p.add_argument("--out", "-o", dest="save", metavar="FILE",
+                   help="write the result (JSON) for the lookup observer ('hybobs observe --regions')")
+    add_hidden_alias(p, "--out", "--save")
+    p.add_argument("--query", metavar="FILE.csv",
+                   help="CSV of states (header = state names): adds 'query' (each state observable, unobservable or "
+                        "infeasible: outside X*_T, no input keeps its trajectory in the domain) and 'observable' "
+                        "(true for the observable ones)")
     p.add_argument("--pair-by-pair", action="store_true",
                    help="classify every pair set on its own (no grouped pair tests: the full counts of thin and "
                         "same-state pairs, more LPs); computed afresh, not cached")
@@ -47,6 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the LP solvers (numpy, scipy, HiGHS)")
     from ..limits import check_horizon_limit
     from ..cache import cached_analysis
     from ..progress import counter_bar, phase_bars
@@ -109,7 +118,9 @@ def run(args: argparse.Namespace) -> int:
         save_analysis(analysis, args.save, label if named.example is not None else None, params)
         out["saved"] = str(args.save)
     if points is not None:
-        out["observable"] = [analysis.is_observable(p) for p in points]
+        classes = [str(analysis.classify(p)) for p in points]
+        out["query"] = classes
+        out["observable"] = [c == PointClass.OBSERVABLE for c in classes]
     if cut_wanted:
         update, close = counter_bar(not args.json, "cut", "point")
         try:
@@ -137,12 +148,21 @@ def run(args: argparse.Namespace) -> int:
              else ""))
     if "cut" in out:
         c = out["cut"]
-        print(f"cut {c['fixed']}: {100 * c['fraction_observable_of_feasible']:.1f} % of the feasible grid points observable")
+        example = named.example
+        units = dict(zip(example.state_names, example.state_units)) if example is not None and example.state_units else {}
+        fixed_text = ", ".join(f"{k} = {sig(v, units.get(k, ''))}" for k, v in c["fixed"].items())
+        print(f"cut{' at ' + fixed_text if fixed_text else ''}: {100 * c['fraction_observable_of_feasible']:.1f} % of the feasible grid points "
+              f"observable, {100 * c['fraction_unobservable_of_feasible']:.1f} % unobservable")
     for key in ("saved", "plot"):
         if key in out:
             print(f"{key}: {out[key]}")
-    if "observable" in out:
-        print(f"query: {sum(out['observable'])} of {len(out['observable'])} states observable")
+    if "query" in out:
+        counts = {c: out["query"].count(str(c)) for c in PointClass}
+        print(f"query: {len(out['query'])} states: " + ", ".join(f"{n} {c}" for c, n in counts.items()))
+        for k, c in enumerate(out["query"][:QUERY_LISTED]):
+            print(f"  row {k + 1}: {c}")
+        if len(out["query"]) > QUERY_LISTED:
+            print(f"  ... ({len(out['query']) - QUERY_LISTED} more: --json lists them)")
     return 0
 
 

@@ -1,5 +1,5 @@
-"""``hybobs report --out DIR``: the HTML report of every result (``--section KEY`` for some);
-``hybobs report SYSTEM --out DIR``: the report of one system, with the sections of its class."""
+"""``hybobs report --out-dir DIR``: the HTML report of every result (``--section KEY`` for some);
+``hybobs report SYSTEM --out-dir DIR``: the report of one system, with the sections of its class."""
 
 from __future__ import annotations
 
@@ -10,13 +10,16 @@ from pathlib import Path
 from ..errors import ModelError
 from ..defaults import DEFAULT_HORIZON
 from ..limits import MAX_HORIZON
-from ._common import SYSTEM_HELP, add_force_argument, as_options, check_output_dir, examples_help, load_system, print_json
+from ._common import (SYSTEM_HELP, add_force_argument, add_param_argument, announce, as_options, check_output_dir,
+                      examples_help, load_system, print_json)
+from ._vocabulary import add_hidden_alias
 
 
-def _section_help() -> str:
-    from ..report.html import section_keys
-
-    return f"build only these sections of the report of every result (repeatable), among: {', '.join(section_keys())}"
+#: The keys of the report's built-in sections, in the report's order (listed here so that ``--help``
+#: does not import the report and its studies; a test checks it against
+#: :func:`hybobs_opt.report.html.section_keys`).
+SECTION_KEYS = ("examples", "regions", "lmi", "vehicle_paper_design", "piston_comparison", "driveline_observer", "drift",
+                "sliding_mode", "observers")
 
 HELP = "build the HTML report of every result, or of one system"
 
@@ -24,11 +27,14 @@ HELP = "build the HTML report of every result, or of one system"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("system", nargs="?", default=None, metavar="SYSTEM",
                    help=lambda: f"optional: {SYSTEM_HELP}; the examples: {examples_help()}")
-    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="parameter of an example or of FUNCTION")
-    p.add_argument("--out-dir", "--out", dest="out", required=True, metavar="DIR",
-                   help="output directory (index.html and the figures); --out is its old name")
-    p.add_argument("--section", action="append", metavar="KEY", help=_section_help)
-    p.add_argument("--horizon", "-T", type=int, default=None,
+    add_param_argument(p)
+    p.add_argument("--out-dir", dest="out", required=True, metavar="DIR",
+                   help="output directory (index.html and the figures; created if missing)")
+    add_hidden_alias(p, "--out-dir", "--out")
+    p.add_argument("--section", action="append", metavar="KEY",
+                   help=f"build only these sections of the report of every result (repeatable), among: "
+                        f"{', '.join(SECTION_KEYS)}")
+    p.add_argument("--horizon", "-T", type=int, metavar="T", default=None,
                    help=f"with a PWA SYSTEM: horizon of the regions and observers (default {DEFAULT_HORIZON}, at most {MAX_HORIZON})")
     p.add_argument("--data", metavar="LOG.csv", help="with a PWA SYSTEM: compare the observers on this log")
     p.add_argument("--noise-bound", action="append", metavar="NAME=VALUE", dest="noise_bound",
@@ -42,6 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    announce(args, "loading the report (numpy, matplotlib, the solvers)")
     from ..progress import section_bar
 
     check_output_dir("--out-dir", args.out, args.force, "index.html")

@@ -16,13 +16,12 @@ system settings read from the model (:mod:`hybobs_opt.lmi.auto_design`).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import sys
 from pathlib import Path
 
 from ..errors import ModelError
-from ._common import (add_force_argument, add_system_argument, bound_entries, check_output_path, json_default,
+from ._common import (add_force_argument, add_system_argument, announce, bound_entries, check_output_path, json_default,
                       print_json)
 from ._schedule import add_design_arguments, design_setup, parse_range
 
@@ -32,9 +31,9 @@ HELP = "switched observer gains, dwell time and hysteresis (paper 004)"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_system_argument(p)
     add_force_argument(p)
-    p.add_argument("--out", required=True, metavar="FILE", help="gains JSON file")
+    p.add_argument("--out", "-o", required=True, metavar="FILE", help="gains JSON file (its directory is created if missing)")
     add_design_arguments(p)
-    p.add_argument("--max-rate", type=float, default=None, metavar="R",
+    p.add_argument("--max-rate", type=float, default=None, metavar="RATE",
                    help="maximum rate of the scheduling state (unit/s) for the hysteresis")
     p.add_argument("--json", action="store_true", help="print the gains JSON")
     p.add_argument("--accept-unenforced-dwell", action="store_true",
@@ -49,6 +48,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``hybobs synth``: switched gains, dwell time and hysteresis, written to ``--out``."""
+    announce(args, "loading the LMI solvers (numpy, cvxpy, Clarabel)")
+    import dataclasses
     import warnings
 
     from ..lmi.auto_design import design_switched
@@ -62,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     if args.periodic and args.no_verify:
         raise ModelError("--periodic", "no value with --no-verify (the verification's observer wraps the periodic states)",
                          repr(args.periodic[0]))
-    check_output_path("--out", args.out, args.force)
+    check_output_path("--out", args.out, args.force, create_parents=True)
     named, preset, settings = design_setup(args)
     system = named.system
     periodic = _periodic(args.periodic, system)

@@ -62,8 +62,9 @@ def make_pwa_observer(kind: str, system, horizon: int, analysis=None,
 
         return SetMembershipObserver(system, horizon, noise_bound)
     if kind == "lookup" and fit_tolerance is not None:
-        raise ModelError("fit_tolerance", "no value for the lookup observer (it belongs to the moving-horizon observers)",
-                         repr(fit_tolerance))
+        raise ModelError("fit_tolerance", "no value for the lookup observer (it fits no window: declare noisy data with "
+                         "noise_bound, the bounded-noise lookup observer with radii, or use a moving-horizon observer "
+                         "miqp, milp or milp_inf, which take fit_tolerance)", repr(fit_tolerance))
     if kind == "lookup":
         from .lookup import LookupObserver
 

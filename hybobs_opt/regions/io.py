@@ -33,7 +33,7 @@ sequence's guard rows in order, a row left out only where the state and input bo
 are the box's; the counts of the summary agree with the content and the statistics.  What the
 file alone cannot prove without re-solving Algorithm 3.1 is that no pair set was left out and
 the slacks (information only, no answer uses them).  Version-1 files (no model, no checksum) are
-refused: recompute them with ``hybobs regions SYSTEM --horizon T --save FILE``.
+refused: recompute them with ``hybobs regions SYSTEM --horizon T --out FILE``.
 """
 
 from __future__ import annotations
@@ -64,11 +64,11 @@ from .observability import ObservabilityAnalysis, PairSet, pair_constraints
 FORMAT = "hybobs_opt.regions"
 VERSION = 2
 
-_RECOMPUTE = "recompute it with 'hybobs regions SYSTEM --horizon T --save FILE'"
+_RECOMPUTE = "recompute it with 'hybobs regions SYSTEM --horizon T --out FILE'"
 
 #: The saved-file format of regions files (:mod:`hybobs_opt.systems.saved_file`).
 REGIONS_FILE = SavedFormat(
-    name=FORMAT, version=VERSION, label="regions file", writer="'hybobs regions --save'", recompute=_RECOMPUTE,
+    name=FORMAT, version=VERSION, label="regions file", writer="'hybobs regions --out'", recompute=_RECOMPUTE,
     old_versions={1: "a file from before saved results carried their system and a checksum, so it cannot be "
                      "checked against the system it is used for"})
 
@@ -211,7 +211,7 @@ def load_analysis(path: str | Path, system=None) -> ObservabilityAnalysis:
         raise ModelError(f"{where}: {exc.field}", exc.expected, exc.got) from None
     except (KeyError, TypeError, ValueError, IndexError, AttributeError, OverflowError) as exc:
         # A malformed entry this reader did not foresee: still a refusal naming the file.
-        raise ModelError(where, "the entries 'hybobs regions --save' writes", f"{type(exc).__name__}: {exc}") from None
+        raise ModelError(where, "the entries 'hybobs regions --out' writes", f"{type(exc).__name__}: {exc}") from None
 
 
 def _analysis_from_data(data: dict[str, Any], system, where: str) -> ObservabilityAnalysis:

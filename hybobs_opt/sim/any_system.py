@@ -13,6 +13,7 @@ from ..errors import ModelError
 from ..limits import check_samples
 from .constant_drift import simulate_constant_drift
 from .hybrid import simulate_hybrid
+from .input_table import InputTable, check_sample_times
 from .nonlinear import simulate_nonlinear
 from .pwa import simulate_pwa
 from .trace import Trace
@@ -38,9 +39,10 @@ def _centre(poly, size: int) -> np.ndarray:
 
 def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping[str, float] | None = None,
                     q0: int | None = None, steps: int | None = None, t_final: float | None = None,
-                    dt: float | None = None) -> Trace:
+                    dt: float | None = None, inputs: InputTable | None = None) -> Trace:
     """Simulate ``system`` from ``x0`` (by state name; others at the centre of the state bounds)
-    under the constant input ``u`` (by input name; others at the centre of the input bounds).
+    under the constant input ``u`` (by input name; others at the centre of the input bounds), or
+    under the time-varying ``inputs`` (:class:`~hybobs_opt.sim.input_table.InputTable`).
 
     PWA systems run ``steps`` samples (or ``t_final / Ts``; default :data:`~hybobs_opt.defaults.SIM_PWA_STEPS`) and
     stop where the trajectory leaves ``X x U``; continuous-time systems run to ``t_final``
@@ -68,6 +70,11 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     dt : float, optional
         Output sample time of a continuous-time system (default ``1e-2`` for a hybrid automaton,
         ``t_final / 1000`` for a scalar-nonlinear one, the event times only for a constant-drift one).
+    inputs : InputTable, optional
+        Time-varying inputs instead of ``u``: a PWA system takes one row per sample (the run has as
+        many samples as rows; ``steps`` and ``t_final`` are refused); a continuous-time system holds
+        each row from its time to the next one and runs to ``t_final`` (default: the last row's
+        time, at most that).  Refused for a constant-drift system (no inputs).
 
     Returns
     -------
@@ -102,6 +109,10 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
     ('mode transition', 1.0)
     """
     kind = type(system).__name__
+    if inputs is not None:
+        _check_inputs(system, kind, inputs, u, steps, t_final)
+        if kind != "PWASystem" and t_final is None:
+            t_final = float(inputs.t[-1])
     if steps is not None and (kind != "PWASystem" or isinstance(steps, bool) or int(steps) != steps or steps < 1):
         raise ModelError("steps", "a positive number of samples, for a PWA system (others take t_final)", repr(steps))
     if dt is not None and not (math.isfinite(dt) and dt > 0):
@@ -131,12 +142,43 @@ def simulate_system(system, *, x0: Mapping[str, float] | None = None, u: Mapping
                 raise ModelError("t_final", f"at least one sampling period Ts = {system.Ts:g}", repr(t_final))
         else:
             n = SIM_PWA_STEPS
+        if inputs is not None:
+            return simulate_pwa(system, xs, inputs.U, on_blocked="stop")
         return simulate_pwa(system, xs, np.tile(us, (n, 1)), on_blocked="stop")
     if kind == "HybridAutomaton":
         if t_final is not None and t_final < (dt or 1e-2):
             raise ModelError("t_final", f"at least one sample period dt = {dt or 1e-2:g}", repr(t_final))
+        if inputs is not None:
+            return simulate_hybrid(system, xs, t_final, u=inputs, q0=q0, dt=dt or 1e-2, breakpoints=inputs.breakpoints)
         return simulate_hybrid(system, xs, t_final or SIM_T_FINAL, u=us, q0=q0, dt=dt or 1e-2)
     horizon = t_final or SIM_T_FINAL
     if dt is not None and horizon < dt:
         raise ModelError("t_final", f"at least one sample period dt = {dt:g}", repr(t_final))
+    if inputs is not None:
+        return simulate_nonlinear(system, xs, inputs, horizon, dt or horizon / 1000, breakpoints=inputs.breakpoints)
     return simulate_nonlinear(system, xs, (lambda t: us) if system.m else None, horizon, dt or horizon / 1000)
+
+
+def _check_inputs(system, kind: str, inputs: InputTable, u, steps, t_final) -> None:
+    """``ModelError`` unless the input table fits the system and the run's other arguments."""
+    if tuple(inputs.names) != tuple(getattr(system, "input_names", ())):
+        raise ModelError("inputs", f"a table of the inputs {list(getattr(system, 'input_names', ()))}",
+                         f"{list(inputs.names)}")
+    if u:
+        raise ModelError("u", "no constant input with an input table (the table gives every input)", f"{dict(u)}")
+    if kind == "PWASystem":
+        check_sample_times(inputs, system.Ts)
+        for field, value in (("steps", steps), ("t_final", t_final)):
+            if value is not None:
+                raise ModelError(field, "no value with an input table (a PWA run has one sample per row)", repr(value))
+        return
+    if inputs.t is None:
+        raise ModelError(f"{inputs.source} header", "a time column t (a continuous-time system holds each row from "
+                         "its time to the next)", "no time column")
+    last = float(inputs.t[-1])
+    if t_final is not None and t_final > last:
+        raise ModelError("t_final", f"at most the last time of the input table, {last:g} s (add a row at the final "
+                         "time to hold the inputs until then)", repr(t_final))
+    if t_final is None and last <= 0:
+        raise ModelError(f"{inputs.source} column 't'", "a last time after 0 (the run ends at the last row's time)",
+                         repr(last))

@@ -4,7 +4,7 @@ A log is a CSV file with a header row.  Its columns are named by the system: eve
 every output name must be there; a time column (``t`` or ``time``) is optional; the state names
 are optional too (all of them or none): a simulated or instrumented log that holds the true state
 lets the observers' estimates be checked, and so is a column of the true mode (``q`` or ``mode``).
-The CSV that ``hybobs simulate --csv`` writes is a log.  A column may appear twice only with the
+The CSV that ``hybobs simulate --out`` writes is a log.  A column may appear twice only with the
 same values (a trace's output that is also a state).  Any other column, a missing one, a
 non-numeric cell or a NaN/Inf is a :class:`~hybobs_opt.errors.ModelError` naming the file, the
 line and the column:
@@ -32,7 +32,7 @@ from .._output_files import open_output
 
 #: Accepted names of the optional time column.
 TIME_COLUMNS = ("t", "time")
-#: Accepted names of the optional column of the true mode (``hybobs simulate --csv`` writes ``q``).
+#: Accepted names of the optional column of the true mode (``hybobs simulate --out`` writes ``q``).
 MODE_COLUMNS = ("q", "mode")
 
 

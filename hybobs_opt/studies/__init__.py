@@ -28,7 +28,7 @@ from . import paper002_powertrain  # noqa: E402,F401
 from . import paper003_switching  # noqa: E402,F401
 from . import paper004_nonmonotonic  # noqa: E402,F401
 
-# Saved results that name an example (``hybobs regions --save``) are rebuilt through this resolver.
+# Saved results that name an example (``hybobs regions --out``) are rebuilt through this resolver.
 register_resolver("examples", resolve_example)
 
 __all__ = ["PAPERS", "Example", "LazyCallable", "get_example", "list_examples", "register"]

@@ -253,6 +253,25 @@ def _attribute(module, function: str, where: str) -> Callable:
     return fn
 
 
+def _check_text_params(fn: Callable, name: str, params: dict[str, Any]) -> None:
+    """``ModelError`` for a string value of a parameter that is not a string parameter of ``fn``
+    (annotated ``str`` or with a ``str`` default): no text reaches a numeric parameter."""
+    import inspect
+
+    signature = inspect.signature(fn)
+    for key, value in params.items():
+        if not isinstance(value, str):
+            continue
+        parameter = signature.parameters.get(key)
+        if parameter is None:  # **kwargs: nothing declared
+            continue
+        annotation = parameter.annotation
+        if annotation in (str, "str", "str | None", "Optional[str]") or isinstance(parameter.default, str):
+            continue
+        raise ModelError(f"{name}: params {key}", "a number (the parameter is not a string: annotate it str or give it "
+                         "a str default to pass text)", repr(value))
+
+
 def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
     import inspect
 
@@ -262,6 +281,8 @@ def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
         raise ModelError(f"{name}: params", "parameters the function accepts", str(exc)) from None
     except ValueError:
         pass  # no signature to check (a builtin): the call says
+    else:
+        _check_text_params(fn, name, params)
     try:
         system = fn(**params)
     except HybobsError as exc:

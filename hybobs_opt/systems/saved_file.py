@@ -59,7 +59,7 @@ class SavedFormat:
     label : str
         What the file is called in messages (``"regions file"``).
     writer : str
-        What writes it (``"'hybobs regions --save'"``), for messages.
+        What writes it (``"'hybobs regions --out'"``), for messages.
     recompute : str
         How to get a valid file again (``"recompute it with 'hybobs regions ...'"``).
     version_key : str

@@ -423,12 +423,12 @@ def write_inputs() -> None:
     with tempfile.TemporaryDirectory() as tmp, _case_environment(Path(tmp), Path(tmp) / "cache"):
         # a window of the powertrain3 scenario around two changes of the dead-zone mode (t = 1.373, 1.490 s)
         full = Path(tmp) / "powertrain3.csv"
-        assert _run_cli(["simulate", "powertrain3", "--csv", str(full)])[0] == 0
+        assert _run_cli(["simulate", "powertrain3", "--out", str(full)])[0] == 0
         lines = full.read_text(encoding="utf-8").splitlines()
         (inputs / "powertrain3_window.csv").write_text("\n".join([lines[0], *lines[1360:1510]]) + "\n", encoding="utf-8")
         # the flexible-joint robot released from theta_l = 0.5 rad
-        code, _ = _run_cli(["simulate", ROBOT, "--t-final", "0.5", "--dt", "0.005", "--x0", "theta_l=0.5",
-                            "--csv", str(inputs / "flexible_joint_robot.csv"), "--force"])
+        code, _ = _run_cli(["simulate", ROBOT, "--t-final", "0.5", "--ts", "0.005", "--x0", "theta_l=0.5",
+                            "--out", str(inputs / "flexible_joint_robot.csv"), "--force"])
         assert code == 0
 
 

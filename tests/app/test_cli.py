@@ -66,7 +66,7 @@ def test_bad_input_one_line_and_exit_2(capsys, argv, fragment):
 
 def test_simulate_writes_plot_and_csv(capsys, tmp_path):
     png, csv = tmp_path / "p.png", tmp_path / "p.csv"
-    code, _, _ = run(capsys, "simulate", "powertrain3", "--t-final", "0.1", "--plot", str(png), "--csv", str(csv))
+    code, _, _ = run(capsys, "simulate", "powertrain3", "--t-final", "0.1", "--plot", str(png), "--out", str(csv))
     assert code == 0
     assert png.read_bytes()[:4] == b"\x89PNG"
     header = csv.read_text().splitlines()[0].split(",")
@@ -77,7 +77,7 @@ def test_simulate_writes_plot_and_csv(capsys, tmp_path):
 def test_report_command_builds_the_chosen_section(capsys, tmp_path):
     # the CLI path with one section; every section is built (and checked) once, through
     # build_report, by the fixture of tests/app/test_report_figures.py
-    code, out, _ = run(capsys, "report", "--out", str(tmp_path / "rep"), "--section", "examples", "--json")
+    code, out, _ = run(capsys, "report", "--out-dir", str(tmp_path / "rep"), "--section", "examples", "--json")
     data = json.loads(out)
     assert code == 0, [s["error"] for s in data["sections"] if not s["ok"]]
     assert [s["key"] for s in data["sections"]] == ["examples"]

@@ -68,10 +68,10 @@ def files(tmp_path_factory):
     paths["not_gains.json"] = d / "not_gains.json"
     (d / "a_file").write_text("x")
     paths["a_file"] = d / "a_file"
-    # logs: the PWA model (20 samples) and the piston (51 samples), written by simulate --csv
+    # logs: the PWA model (20 samples) and the piston (51 samples), written by simulate --out
     paths["pwa.csv"], paths["piston.csv"] = d / "pwa.csv", d / "piston.csv"
-    assert main(["simulate", PWA_MODEL, "--steps", "20", "--csv", str(paths["pwa.csv"])]) == 0
-    assert main(["simulate", "magnetic_piston", "--t-final", "0.05", "--csv", str(paths["piston.csv"])]) == 0
+    assert main(["simulate", PWA_MODEL, "--steps", "20", "--out", str(paths["pwa.csv"])]) == 0
+    assert main(["simulate", "magnetic_piston", "--t-final", "0.05", "--out", str(paths["piston.csv"])]) == 0
     return paths
 
 
@@ -93,7 +93,7 @@ def test_simulate_t_final_1e12_is_refused_before_allocating(capsys):
 def test_model_file_run_of_1e12_s_is_refused_too(capsys):
     """The core simulators check the grid size (was a MemoryError of 728 TiB)."""
     line = one_line_error(capsys, "simulate", HYBRID_MODEL, "--t-final", "1e12")
-    assert "--t-final / --dt" in line and "samples" in line
+    assert "--t-final / --ts" in line and "samples" in line
 
 
 def test_plot_with_unknown_extension_is_refused_before_the_run(capsys, tmp_path):
@@ -159,14 +159,14 @@ def test_huge_gain_bound(capsys):
 
 def test_report_unknown_section(capsys, tmp_path):
     """Wrote an empty report and exited 0."""
-    line = one_line_error(capsys, "report", "--out", tmp_path / "rep", "--section", "nosuch")
+    line = one_line_error(capsys, "report", "--out-dir", tmp_path / "rep", "--section", "nosuch")
     assert "--section" in line and "'nosuch'" in line and "examples" in line and "regions" in line
     assert not (tmp_path / "rep" / "index.html").exists()
 
 
 def test_observe_driveline_unknown_observer(capsys):
     """The scenario ignored --observer and exited 0."""
-    line = one_line_error(capsys, "observe", "driveline", "--observer", "nosuch")
+    line = one_line_error(capsys, "observe", "driveline", "--observers", "nosuch")
     assert "--observer" in line and "hybrid" in line
 
 
@@ -183,9 +183,9 @@ def test_bench_negative_mhe_steps(capsys):
 
 
 def test_observe_powertrain_unknown_observer_names_its_own_flag(capsys):
-    """Blamed '--observers' (a flag of bench) after running Algorithm 3.1."""
-    line = one_line_error(capsys, "observe", "powertrain3", "--observer", "nosuch")
-    assert "--observer:" in line and "--observers" not in line and "lookup, miqp, milp, milp_inf" in line
+    """Names the option of observe (--observers, a list with one name here)."""
+    line = one_line_error(capsys, "observe", "powertrain3", "--observers", "nosuch")
+    assert "--observers:" in line and "lookup, miqp, milp, milp_inf" in line
 
 
 @pytest.mark.parametrize("argv, field", [
@@ -245,7 +245,7 @@ CAMPAIGN = [
     (["model", "nosuch"], "choose from 'schema', 'check', 'export'"),
     (["model"], "action"),
     (["examples", "extra"], "unrecognized arguments"),
-    (["report"], "--out"),
+    (["report"], "--out-dir"),
     # systems and --param
     (["simulate", "no_such_example"], "magnetic_piston"),
     (["simulate", "{nosuch.toml}"], "readable model file"),
@@ -277,10 +277,10 @@ CAMPAIGN = [
     (["simulate", "traffic_junction", "--t-final", "1e9"], "MAX_SAMPLES"),
     (["simulate", "powertrain3", "--x0", "theta=1"], "--x0"),
     (["simulate", "powertrain3", "--t-final", "0.01", "--plot", "{dir}/p"], ".png"),
-    (["simulate", "powertrain3", "--t-final", "0.01", "--csv", "{dir}"], "--csv"),
-    (["simulate", HYBRID_MODEL, "--dt", "1e-12"], "MAX_SAMPLES"),
-    (["simulate", HYBRID_MODEL, "--dt", "0"], "--dt"),
-    (["simulate", HYBRID_MODEL, "--dt", "nan"], "--dt"),
+    (["simulate", "powertrain3", "--t-final", "0.01", "--out", "{dir}"], "--out"),
+    (["simulate", HYBRID_MODEL, "--ts", "1e-12"], "MAX_SAMPLES"),
+    (["simulate", HYBRID_MODEL, "--ts", "0"], "--ts"),
+    (["simulate", HYBRID_MODEL, "--ts", "nan"], "--ts"),
     (["simulate", HYBRID_MODEL, "--t-final", "1e-300"], "sample period"),
     (["simulate", HYBRID_MODEL, "--q0", "7"], "0..1"),
     (["simulate", HYBRID_MODEL, "--q0", "-1"], "0..1"),
@@ -293,10 +293,10 @@ CAMPAIGN = [
     (["simulate", PWA_MODEL, "--steps", "0"], "--steps"),
     (["simulate", PWA_MODEL, "--steps", "1000000000000"], "MAX_SAMPLES"),
     (["simulate", PWA_MODEL, "--q0", "5"], "--q0"),
-    (["simulate", PWA_MODEL, "--dt", "0.1"], "--dt"),
+    (["simulate", PWA_MODEL, "--ts", "0.1"], "--ts"),
     (["simulate", PWA_MODEL, "--t-final", "1"], "--steps"),
     (["simulate", PWA_MODEL, "--u", "u=1e300"], "--x0 / --u"),
-    (["simulate", NONLINEAR_MODEL, "--dt", "1e-15", "--t-final", "10"], "MAX_SAMPLES"),
+    (["simulate", NONLINEAR_MODEL, "--ts", "1e-15", "--t-final", "10"], "MAX_SAMPLES"),
     (["simulate", NONLINEAR_MODEL, "--q0", "1"], "--q0"),
     # regions
     (["regions", "powertrain3", "-T", "0"], "--horizon"),
@@ -332,10 +332,10 @@ CAMPAIGN = [
     (["regions", "powertrain3", "-T", "3", "--scheduler", "tcp://127.0.0.1:1", "--executor", "serial"], "--executor"),
     # observe
     (["observe", "traffic_light"], "one of"),
-    (["observe", "triangular", "--observer", "nosuch"], "sliding-mode"),
-    (["observe", "traffic_junction", "--observer", "nosuch"], "positive-deadbeat+projection"),
-    (["observe", "switching_server", "--observer", "paper"], "deadbeat"),
-    (["observe", "vehicle_tracking", "--observer", "nosuch"], "switched, single"),
+    (["observe", "triangular", "--observers", "nosuch"], "sliding-mode"),
+    (["observe", "traffic_junction", "--observers", "nosuch"], "positive-deadbeat+projection"),
+    (["observe", "switching_server", "--observers", "paper"], "deadbeat"),
+    (["observe", "vehicle_tracking", "--observers", "nosuch"], "switched, single"),
     (["observe", "driveline", "--filter"], "--filter"),
     (["observe", "powertrain3", "--filter"], "sliding-mode"),
     (["observe", "vehicle_tracking", "--filter"], "--filter"),
@@ -348,7 +348,7 @@ CAMPAIGN = [
     (["observe", PWA_MODEL, "--data", "{bin.csv}"], "UnicodeDecodeError"),
     (["observe", PWA_MODEL, "--data", "{empty.csv}"], "empty file"),
     (["observe", PWA_MODEL, "--data", "{piston.csv}"], "missing"),
-    (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--observer", "nosuch"], "milp_inf"),
+    (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--observers", "nosuch"], "milp_inf"),
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--horizon", "0"], "--horizon"),
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--horizon", "1000000"], "MAX_HORIZON"),
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--regions", "{bin.json}"], "regions file"),
@@ -357,7 +357,7 @@ CAMPAIGN = [
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--filter"], "--filter"),
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--plot", "{dir}/o.xyz"], "--plot"),
     (["observe", PWA_MODEL, "--data", "{pwa.csv}", "--out", "{dir}"], "--out"),
-    (["observe", "magnetic_piston", "--data", "{piston.csv}", "--observer", "nosuch"], "switched"),
+    (["observe", "magnetic_piston", "--data", "{piston.csv}", "--observers", "nosuch"], "switched"),
     (["observe", "magnetic_piston", "--data", "{piston.csv}", "--gains", "{bin.json}"], "--gains"),
     (["observe", "magnetic_piston", "--data", "{piston.csv}", "--gains", "{empty.json}"], "--gains"),
     (["observe", "magnetic_piston", "--data", "{piston.csv}", "--gains", "{not_gains.json}"], "gains"),
@@ -402,24 +402,24 @@ CAMPAIGN = [
     (["export", "powertrain3", "--out-dir", "{dir}/c", "--float32", "yes"], "unrecognized arguments"),
     (["export", "powertrain3", "--out-dir", "{dir}/c", "--param", "gear_ratio=abc"], "--param gear_ratio"),
     # report
-    (["report", "--out", "{dir}/rep", "--section", ""], "sliding_mode"),
-    (["report", "--out", "{dir}/rep", "--horizon", "3"], "SYSTEM"),
-    (["report", "--out", "{dir}/rep", "--data", "{pwa.csv}"], "SYSTEM"),
-    (["report", "--out", "{dir}/rep", "--param", "gear_ratio=2"], "SYSTEM"),
+    (["report", "--out-dir", "{dir}/rep", "--section", ""], "sliding_mode"),
+    (["report", "--out-dir", "{dir}/rep", "--horizon", "3"], "SYSTEM"),
+    (["report", "--out-dir", "{dir}/rep", "--data", "{pwa.csv}"], "SYSTEM"),
+    (["report", "--out-dir", "{dir}/rep", "--param", "gear_ratio=2"], "SYSTEM"),
     (["report", "--out", "{a_file}", "--section", "examples"], "--out"),
-    (["report", "powertrain3", "--out", "{dir}/rep", "--section", "examples"], "--section"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--horizon", "0"], "--horizon"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--horizon", "1000000"], "MAX_HORIZON"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--horizon", "1"], "eq. 8"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{bin.csv}"], "readable CSV"),
-    (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}"], "--data"),
-    (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--horizon", "5"], "--horizon"),
-    (["report", "--out", "{dir}/rep", "--noise-bound", "0.1"], "SYSTEM"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--noise-bound", "0.1"], "--data"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "z=0.1"], "'z'"),
-    (["report", PWA_MODEL, "--out", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "-1"], "--noise-bound"),
-    (["report", HYBRID_MODEL, "--out", "{dir}/rep", "--noise-bound", "0.1"], "--noise-bound"),
-    (["report", "nosuch", "--out", "{dir}/rep"], "SYSTEM"),
+    (["report", "powertrain3", "--out-dir", "{dir}/rep", "--section", "examples"], "--section"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--horizon", "0"], "--horizon"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--horizon", "1000000"], "MAX_HORIZON"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--horizon", "1"], "eq. 8"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--data", "{bin.csv}"], "readable CSV"),
+    (["report", HYBRID_MODEL, "--out-dir", "{dir}/rep", "--data", "{pwa.csv}"], "--data"),
+    (["report", HYBRID_MODEL, "--out-dir", "{dir}/rep", "--horizon", "5"], "--horizon"),
+    (["report", "--out-dir", "{dir}/rep", "--noise-bound", "0.1"], "SYSTEM"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--noise-bound", "0.1"], "--data"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "z=0.1"], "'z'"),
+    (["report", PWA_MODEL, "--out-dir", "{dir}/rep", "--data", "{pwa.csv}", "--noise-bound", "-1"], "--noise-bound"),
+    (["report", HYBRID_MODEL, "--out-dir", "{dir}/rep", "--noise-bound", "0.1"], "--noise-bound"),
+    (["report", "nosuch", "--out-dir", "{dir}/rep"], "SYSTEM"),
     # diagnose and synth
     (["diagnose", "powertrain3"], "scalar-nonlinear"),
     (["diagnose", HYBRID_MODEL], "scalar-nonlinear"),

@@ -21,7 +21,7 @@ def test_observe_json_scenario(capsys):
     for e in evs:
         assert set(("t", "predicted_t", "x_before", "x_after")) <= set(e) and len(e["x_after"]) == 4
     assert max(abs(v) for v in out["final_error"]) < 1e-9
-    assert main(["observe", "switching_server", "--json", "--observer", "positive+projection"]) == 0
+    assert main(["observe", "switching_server", "--json", "--observers", "positive+projection"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["observer"] == "positive+projection" and out["nonnegative"]
     from hybobs_opt.studies.scenarios import get_scenario

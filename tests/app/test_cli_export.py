@@ -59,7 +59,7 @@ def test_export_of_a_model_file_replays_a_log_like_hybobs_observe(tmp_path, caps
     exe = build(_export_of(rec))
     r = subprocess.run([str(exe), str(tmp_path / "log.csv"), str(tmp_path / "c_out.csv")], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    code, out, err = run(capsys, "observe", model, "--data", tmp_path / "log.csv", "--observer", "lookup", "-T", "4",
+    code, out, err = run(capsys, "observe", model, "--data", tmp_path / "log.csv", "--observers", "lookup", "-T", "4",
                          "--out", tmp_path / "py_out.csv", "--json")
     assert code == 0, err
     with (tmp_path / "c_out.csv").open() as fh:

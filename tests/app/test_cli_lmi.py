@@ -31,7 +31,7 @@ def test_range_parsing_errors():
 
 
 def test_diagnose_json_vehicle_full_circle(lmi_cli, tmp_path, capsys):
-    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:360", "--out", str(tmp_path), "--json"]) == 0
+    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:360", "--out-dir", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is False
     c = out["certificate"]
@@ -42,7 +42,7 @@ def test_diagnose_json_vehicle_full_circle(lmi_cli, tmp_path, capsys):
 
 
 def test_diagnose_json_vehicle_0_80_is_feasible(lmi_cli, tmp_path, capsys):
-    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:80", "--out", str(tmp_path), "--json"]) == 0
+    assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:80", "--out-dir", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is True and "certificate" not in out and np.array(out["gain"]["L"]).shape == (4, 2)
 
@@ -67,7 +67,7 @@ def test_synth_json_writes_the_gains(lmi_cli, tmp_path, capsys):
 ])
 def test_commands_reject_bad_input(lmi_cli, argv, msg, capsys, tmp_path):
     argv = [a if a != "x.json" else str(tmp_path / "x.json") for a in argv]
-    assert lmi_cli.main(argv + (["--out", str(tmp_path)] if argv[0] == "diagnose" else [])) == 2
+    assert lmi_cli.main(argv + (["--out-dir", str(tmp_path)] if argv[0] == "diagnose" else [])) == 2
     assert msg in capsys.readouterr().err
 
 

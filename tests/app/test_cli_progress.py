@@ -102,3 +102,15 @@ def test_second_observe_starts_from_the_cache_and_says_so(tmp_path):
         assert re.search(rf"{re.escape(what)}[^\n]*loaded from the cache", second), second[-2000:]
     # nothing of Algorithm 3.1 is computed again: no pair-test bar on the second run
     assert not [b for b in bars(second) if "pair tests" in b]
+
+
+@pytest.mark.parametrize("args, first", [
+    (["model", "check", "powertrain3"], "hybobs model: loading the model (numpy, scipy) ..."),
+    (["regions", "powertrain3", "-T", "3", "--executor", "serial"], "hybobs regions: loading the LP solvers (numpy, scipy, HiGHS) ..."),
+])
+def test_text_mode_on_a_terminal_starts_with_what_it_loads(args, first, tmp_path):
+    """The terminal's first line names the command before its imports; stdout is unchanged."""
+    code, out, tty = run_in_pty(args, tmp_path)
+    assert code == 0, tty[-2000:]
+    assert tty.splitlines()[0].strip() == first, tty[:300]
+    assert "loading" not in out

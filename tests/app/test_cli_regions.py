@@ -18,6 +18,22 @@ def test_cli_regions_json_and_query(capsys, tmp_path):
     assert out["observable"] == [False, True]  # inside the band / in contact
 
 
+def test_cli_regions_query_tells_unobservable_from_infeasible(capsys, tmp_path):
+    """``query`` gives each state's class: in the backlash band (unobservable), in contact
+    (observable), and beyond the shaft-torsion bound |theta| <= 0.2 rad (infeasible, outside X*_T);
+    ``observable`` stays true only for the observable one."""
+    q = tmp_path / "q.csv"
+    q.write_text("omega_l,theta,omega_m\n25,0.0,100\n25,0.15,100\n25,0.5,100\n")
+    argv = ["regions", "powertrain3", "--horizon", "3", "--executor", "serial", "--query", str(q)]
+    assert main(argv + ["--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["query"] == ["unobservable", "observable", "infeasible"]
+    assert out["observable"] == [False, True, False]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "query: 3 states: 1 observable, 1 unobservable, 1 infeasible" in text and "row 3: infeasible" in text
+
+
 def test_cli_regions_pair_by_pair_gives_every_pair_its_own_verdict(capsys):
     """``--pair-by-pair``: the same pieces, nothing ruled out by a group, the full thin / same-state
     counts (those of ``analyse_observability(..., group_tests=False)``) and more LPs."""

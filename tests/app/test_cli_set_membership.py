@@ -35,7 +35,7 @@ def _log(path: Path, bound: float, N: int = 40) -> np.ndarray:
 def test_radii_reach_the_csv_and_json_and_hold_the_true_states(tmp_path, capsys):
     X = _log(tmp_path / "log.csv", 0.02)
     out = tmp_path / "est.csv"
-    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "set_membership",
+    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "set_membership",
                  "--noise-bound", "y=0.02", "-T", "3", "--out", str(out), "--json"])
     assert code == 0
     rec = json.loads(capsys.readouterr().out)
@@ -62,15 +62,15 @@ def test_radii_reach_the_csv_and_json_and_hold_the_true_states(tmp_path, capsys)
 def test_noise_bound_is_required_by_set_membership_and_refused_elsewhere(tmp_path, capsys):
     _log(tmp_path / "log.csv", 0.0, N=6)
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
-    assert main(base + ["--observer", "set_membership"]) == 2
+    assert main(base + ["--observers", "set_membership"]) == 2
     assert "--noise-bound" in capsys.readouterr().err
-    assert main(base + ["--observer", "miqp", "--noise-bound", "z=0.1"]) == 2
+    assert main(base + ["--observers", "miqp", "--noise-bound", "z=0.1"]) == 2
     assert "'z'" in capsys.readouterr().err
-    assert main(base + ["--observer", "set_membership", "--noise-bound", "z=0.1"]) == 2
+    assert main(base + ["--observers", "set_membership", "--noise-bound", "z=0.1"]) == 2
     assert "'z'" in capsys.readouterr().err
-    assert main(base + ["--observer", "set_membership", "--noise-bound", "0.1", "--fit-tolerance", "0.1"]) == 2
+    assert main(base + ["--observers", "set_membership", "--noise-bound", "0.1", "--fit-tolerance", "0.1"]) == 2
     assert "--noise-bound" in capsys.readouterr().err
-    assert main(base + ["--observer", "set_membership", "--noise-bound", "0"]) == 0
+    assert main(base + ["--observers", "set_membership", "--noise-bound", "0"]) == 0
 
 
 def test_bench_compares_radius_and_error_on_a_log(tmp_path, capsys):
@@ -96,7 +96,7 @@ def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true
     lies within the tolerance, and the true state is inside every radius."""
     X = _log(tmp_path / "log.csv", 0.02)
     out = tmp_path / "est.csv"
-    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "lookup",
+    code = main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "lookup",
                  "--noise-bound", "y=0.02", "-T", "3", "--out", str(out), "--json"])
     assert code == 0
     rec = json.loads(capsys.readouterr().out)
@@ -116,7 +116,7 @@ def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true
     assert checked == len(rows) - 2
     # the table's box holds the exact one of the set-membership MILPs (another formulation and solver)
     exact = tmp_path / "exact.csv"
-    assert main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observer", "set_membership",
+    assert main(["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "--observers", "set_membership",
                  "--noise-bound", "y=0.02", "-T", "3", "--out", str(exact)]) == 0
     capsys.readouterr()
     for row, ref in zip(rows, csv.DictReader(exact.open())):
@@ -128,7 +128,7 @@ def test_the_lookup_observer_with_a_noise_bound_reports_radii_that_hold_the_true
             assert lo <= lo_x + 1e-6 and hi >= hi_x - 1e-6, (row, ref)
     # without a bound the lookup observer is the exact one (no radius)
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3"]
-    assert main(base + ["--observer", "lookup", "--json"]) == 0
+    assert main(base + ["--observers", "lookup", "--json"]) == 0
     assert "radius_max" not in json.loads(capsys.readouterr().out)
 
 
@@ -141,10 +141,10 @@ def test_a_moving_horizon_observer_with_a_noise_bound_reports_radii_around_its_e
     X = _log(tmp_path / "log.csv", 0.02)
     out, exact = tmp_path / "est.csv", tmp_path / "exact.csv"
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--noise-bound", "y=0.02"]
-    assert main(base + ["--observer", observer, "--out", str(out), "--json"]) == 0
+    assert main(base + ["--observers", observer, "--out", str(out), "--json"]) == 0
     rec = json.loads(capsys.readouterr().out)
     assert rec["n_outside_radius"] == 0 and len(rec["radius_max"]) == 2
-    assert main(base + ["--observer", "set_membership", "--out", str(exact)]) == 0
+    assert main(base + ["--observers", "set_membership", "--out", str(exact)]) == 0
     capsys.readouterr()
     rows = list(csv.DictReader(out.open()))
     assert list(rows[0]) == ["t", "x1", "x2", "mode", "flag", "radius_x1", "radius_x2"]
@@ -168,17 +168,17 @@ def test_a_moving_horizon_observer_with_a_noise_bound_reports_radii_around_its_e
 def test_input_noise_bound_reaches_the_lookup_observer_and_nothing_else(tmp_path, capsys):
     _log(tmp_path / "log.csv", 0.01, N=20)
     base = ["observe", str(MODEL), "--data", str(tmp_path / "log.csv"), "-T", "3", "--json"]
-    assert main(base + ["--observer", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "u=0.05"]) == 0
+    assert main(base + ["--observers", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "u=0.05"]) == 0
     with_inputs = json.loads(capsys.readouterr().out)
-    assert main(base + ["--observer", "lookup", "--noise-bound", "0.01"]) == 0
+    assert main(base + ["--observers", "lookup", "--noise-bound", "0.01"]) == 0
     without = json.loads(capsys.readouterr().out)
     # the inputs' noise widens the radii (x2 = y is pinned by the output alone, x1 is not)
     assert with_inputs["radius_max"][0] >= without["radius_max"][0] and with_inputs["radius_median"] != without["radius_median"]
     assert with_inputs["n_outside_radius"] == 0
-    for extra, needle in ((["--observer", "lookup", "--input-noise-bound", "0.05"], "--noise-bound"),
-                          (["--observer", "set_membership", "--noise-bound", "0.01", "--input-noise-bound", "0.05"],
+    for extra, needle in ((["--observers", "lookup", "--input-noise-bound", "0.05"], "--noise-bound"),
+                          (["--observers", "set_membership", "--noise-bound", "0.01", "--input-noise-bound", "0.05"],
                            "lookup"),
-                          (["--observer", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "v=0.05"], "'v'")):
+                          (["--observers", "lookup", "--noise-bound", "0.01", "--input-noise-bound", "v=0.05"], "'v'")):
         assert main(base + extra) == 2
         captured = capsys.readouterr()  # with --json the error is a JSON line on stdout
         assert needle in captured.out + captured.err

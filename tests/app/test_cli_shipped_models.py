@@ -72,7 +72,7 @@ def test_every_applicable_command(path, capsys, tmp_path):
     x = np.asarray(sim["x"])
     assert sim["kind"] == kind and x.shape[1] == len(check["states"]) and np.all(np.isfinite(x))
 
-    rep = run_json(capsys, "report", path, "--out", tmp_path / "report")
+    rep = run_json(capsys, "report", path, "--out-dir", tmp_path / "report")
     keys = [r["key"] for r in rep["sections"]]
     assert all(r["ok"] for r in rep["sections"]), rep["sections"]
     assert keys[:2] == ["model", "simulation"]
@@ -101,7 +101,7 @@ def test_every_applicable_command(path, capsys, tmp_path):
             assert rec["n_flagged_observable_wrong"] == 0
     elif kind == "scalar_nonlinear":
         assert keys == ["model", "simulation", "diagnosis", "synthesis"]
-        diag = run_json(capsys, "diagnose", path, "--out", tmp_path / "diag")
+        diag = run_json(capsys, "diagnose", path, "--out-dir", tmp_path / "diag")
         assert isinstance(diag["feasible"], bool) and diag["settings"]["source"] == "model"
         assert diag["settings"]["coordinate"] in check["states"]
         if not diag["feasible"]:
@@ -121,8 +121,8 @@ def test_switched_gain_observer_on_a_log_of_the_robot(capsys, tmp_path):
 
     model = ROOT / "examples" / "models" / "flexible_joint_robot.toml"
     log, gains, est = tmp_path / "log.csv", tmp_path / "gains.json", tmp_path / "est.csv"
-    assert run(capsys, "simulate", model, "--x0", "theta_l=1", "--x0", "theta_m=0.5", "--t-final", "2", "--dt", "0.001",
-               "--csv", log)[0] == 0
+    assert run(capsys, "simulate", model, "--x0", "theta_l=1", "--x0", "theta_m=0.5", "--t-final", "2", "--ts", "0.001",
+               "--out", log)[0] == 0
     assert run(capsys, "synth", model, "--out", gains)[0] == 0
     s = run_json(capsys, "observe", model, "--data", log, "--gains", gains, "--out", est)
     assert s["n_samples"] == 2001 and s["has_true_states"]

@@ -137,7 +137,7 @@ def test_regions_json_and_two_state_plot(files, capsys):
 
 def test_observe_csv_reproduces_run_and_is_right_where_flagged(files, capsys):
     est = files["dir"] / "est.csv"
-    code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--observer", "lookup",
+    code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--observers", "lookup",
                          "--horizon", "2", "--out", est, "--json")
     assert code == 0, err
     summary = json.loads(out)
@@ -156,7 +156,7 @@ def test_observe_csv_reproduces_run_and_is_right_where_flagged(files, capsys):
 
 @pytest.mark.parametrize("observer", ["miqp", "milp"])
 def test_mhe_on_the_log_is_exact_where_flagged(files, capsys, observer):
-    code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--observer", observer,
+    code, out, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--observers", observer,
                          "--horizon", "3", "--json")
     assert code == 0, err
     s = json.loads(out)
@@ -177,7 +177,7 @@ def test_bench_compares_observers_on_the_same_log(files, capsys):
 
 def test_report_of_the_system(files, capsys):
     out_dir = files["dir"] / "report"
-    code, out, err = run(capsys, "report", files["toml"], "--out", out_dir, "--data", files["log"], "--json")
+    code, out, err = run(capsys, "report", files["toml"], "--out-dir", out_dir, "--data", files["log"], "--json")
     assert code == 0, err
     keys = [r["key"] for r in json.loads(out)["sections"]]
     assert keys == ["model", "simulation", "regions", "observers"]
@@ -191,7 +191,7 @@ def test_report_with_a_noise_bound_states_radii_that_hold(files, capsys):
     """``report SYSTEM --data LOG --noise-bound``: every observer states radii, the set-membership
     observer joins them, the true states of the log lie within every radius, and the page says so."""
     out_dir = files["dir"] / "report_bounded"
-    code, out, err = run(capsys, "report", files["toml"], "--out", out_dir, "--data", files["log"], "-T", "3",
+    code, out, err = run(capsys, "report", files["toml"], "--out-dir", out_dir, "--data", files["log"], "-T", "3",
                          "--noise-bound", "y=0.001", "--json")
     assert code == 0, err
     sections = {r["key"]: r for r in json.loads(out)["sections"]}
@@ -257,7 +257,7 @@ def test_bad_input_exit_2_one_line_naming_file_and_entry(files, capsys, case):
 def test_a_simulate_csv_is_a_log_and_a_conflicting_duplicate_column_is_refused(capsys, tmp_path):
     """powertrain3's output is also a state (omega_m): the trace CSV holds that column twice, with the same values."""
     run_csv = tmp_path / "run.csv"
-    assert run(capsys, "simulate", "powertrain3", "--t-final", "0.05", "--csv", run_csv)[0] == 0
+    assert run(capsys, "simulate", "powertrain3", "--t-final", "0.05", "--out", run_csv)[0] == 0
     code, out, err = run(capsys, "observe", "powertrain3", "--data", run_csv, "--json")
     assert code == 0, err
     s = json.loads(out)
@@ -287,3 +287,46 @@ def test_saved_regions_feed_the_observer_and_refuse_another_plant(files, capsys)
     saved.write_text(json.dumps(data))
     code, _, err = run(capsys, "observe", files["toml"], "--data", files["log"], "--regions", saved)
     assert code == 2 and "checksum" in err
+
+
+NAMED_BUILDER = textwrap.dedent("""
+    import math
+    import numpy as np
+    from hybobs_opt import PWAMode, PWASystem, Polytope
+
+    def build(name: str = "rotation", angle=math.pi / 3):
+        def rot(a):
+            return 0.8 * np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        B, C = np.array([[0.0], [1.0]]), np.array([[0.0, 1.0]])
+        modes = (PWAMode(rot(angle), B, np.zeros(2), C, Polytope(np.array([[-1.0, 0.0, 0.0]]), np.zeros(1)), name="right"),
+                 PWAMode(rot(-angle), B, np.zeros(2), C, Polytope(np.array([[1.0, 0.0, 0.0]]), np.zeros(1)), name="left"))
+        return PWASystem(modes, Polytope.from_box([-10, -10], [10, 10]), Polytope.from_box([-1], [1]),
+                         ("x1", "x2"), ("u",), ("y",), name=name)
+""")
+
+
+def test_param_passes_text_to_a_string_parameter_and_numbers_stay_numbers(capsys, tmp_path):
+    (tmp_path / "named.py").write_text(NAMED_BUILDER)
+    target = f"{tmp_path / 'named.py'}:build"
+    code, out, err = run(capsys, "model", "check", target, "--param", "name=left arm", "--param", "angle=1/3", "--json")
+    assert code == 0, err
+    assert json.loads(out)["name"] == "left arm"
+    # text for a parameter that is not a string is refused, naming the option and the value
+    code, out, err = run(capsys, "model", "check", target, "--param", "angle=wide")
+    assert code == 2 and "--param angle" in err and "'wide'" in err and "not a string" in err, err
+    # an example's parameters are numbers
+    code, out, err = run(capsys, "model", "check", "powertrain3", "--param", "gear_ratio=abc")
+    assert code == 2 and "--param gear_ratio" in err and "a number" in err, err
+
+
+def test_model_export_creates_missing_directories(capsys, tmp_path):
+    path = tmp_path / "new" / "deeper" / "rotation.toml"
+    code, out, err = run(capsys, "model", "export", "powertrain3", "-o", path, "--json")
+    assert code == 0, err
+    assert json.loads(out)["written"] == str(path) and path.is_file()
+    code, out, err = run(capsys, "model", "check", path, "--json")
+    assert code == 0 and json.loads(out)["n_modes"] == 3, err
+    # a parent that is a file cannot become a directory: refused before any work
+    (tmp_path / "plain").write_text("x")
+    code, out, err = run(capsys, "model", "export", "powertrain3", "--out", tmp_path / "plain" / "m.toml")
+    assert code == 2 and "--out" in err, err

@@ -1,6 +1,7 @@
-"""One CLI vocabulary (issue 17): ``--version``; ``--horizon/-T`` with one default; ``--out`` a file
-and ``--out-dir`` a directory everywhere (old spellings kept as aliases); ``--param`` wherever a
-system is built."""
+"""One CLI vocabulary: ``--version``; ``--horizon/-T`` with one default; ``--out`` a file and
+``--out-dir`` a directory everywhere, ``--observers`` a list, ``--ts`` the sampling period (old
+spellings kept as hidden aliases that warn); one kind of value per option name across commands
+(the kinds declared in :mod:`hybobs_opt.cli._vocabulary`); ``--param`` wherever a system is built."""
 
 from __future__ import annotations
 
@@ -52,7 +53,104 @@ def test_out_is_a_file_and_out_dir_a_directory():
             assert opts["--out"].metavar != "DIR", name
     subs = _subparsers()
     assert "--out-dir" in _options(subs["report"]) and "--out-dir" in _options(subs["diagnose"])
-    assert _options(subs["regions"])["--out"] is _options(subs["regions"])["--save"]  # deprecated name, one release
+    # the old spelling parses as the new option, and is not one of its listed option strings
+    assert subs["regions"]._option_string_actions["--save"] is _options(subs["regions"])["--out"]
+    assert "--save" not in _options(subs["regions"])
+
+
+def test_one_kind_of_value_per_option_name_across_commands():
+    """An option name means one kind of value (file, directory, number, list, flag ...) in every command."""
+    from hybobs_opt.cli._vocabulary import option_kind, visible_options
+
+    kinds: dict[str, dict[str, list[str]]] = {}
+    for name, p in _subparsers().items():
+        for action in visible_options(p):
+            for option in action.option_strings:
+                kinds.setdefault(option, {}).setdefault(option_kind(action), []).append(name)
+    mixed = {o: k for o, k in kinds.items() if len(k) > 1}
+    assert not mixed, f"option names with several kinds of value: {mixed}"
+    # the conventions the issue fixed, spelled out
+    assert list(kinds["--out"]) == ["file"] and list(kinds["-o"]) == ["file"]
+    assert list(kinds["--out-dir"]) == ["directory"]
+    assert list(kinds["--observers"]) == ["list"] and sorted(kinds["--observers"]["list"]) == ["bench", "observe"]
+    assert list(kinds["--ts"]) == ["seconds"] and sorted(kinds["--ts"]["seconds"]) == ["regions", "simulate"]
+    assert "--observer" not in kinds and "--dt" not in kinds and "--csv" not in kinds and "--save" not in kinds
+
+
+def test_every_option_value_has_a_declared_kind_and_the_matching_type():
+    """Each value-taking option uses a metavar of the declared table, and a numeric kind converts
+    its value with the declared type (a number option without ``type=float`` would hand on text)."""
+    from hybobs_opt.cli._vocabulary import KIND_TYPES, option_kind, visible_options
+
+    for name, p in _subparsers().items():
+        for action in visible_options(p):
+            kind = option_kind(action).replace(" (repeatable)", "")  # KeyError: an undeclared metavar
+            assert action.type is KIND_TYPES.get(kind), (name, action.option_strings, kind, action.type)
+
+
+#: The old spellings that still parse (hidden, with a FutureWarning): command -> old -> new.
+OLD_SPELLINGS = {
+    "simulate": {"--dt": "--ts", "--csv": "--out"},
+    "observe": {"--observer": "--observers"},
+    "regions": {"--save": "--out"},
+    "report": {"--out": "--out-dir"},
+    "export": {"--out": "--out-dir"},
+    "diagnose": {"--out": "--out-dir"},
+}
+
+
+def test_old_spellings_parse_warn_and_are_hidden_from_help():
+    import re
+    import warnings
+
+    from hybobs_opt.cli._vocabulary import hidden_aliases
+
+    subs = _subparsers()
+    assert {name: hidden_aliases(p) for name, p in subs.items() if hidden_aliases(p)} == OLD_SPELLINGS
+    for name, renamed in OLD_SPELLINGS.items():
+        p = subs[name]
+        text = p.format_help()
+        for old, new in renamed.items():
+            assert not re.search(re.escape(old) + r"(?![-\w])", text), (name, old)  # --out-dir is not --out
+            assert re.search(re.escape(new) + r"(?![-\w])", text), (name, new)
+            action = p._option_string_actions[new]
+            value = ["0.5"] if action.type is float else ["x.csv"]
+            system = [] if name == "report" else ["powertrain3"]
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                ns = p.parse_args([*system, old, *value] + (["--out-dir", "d"] if name == "report" and old != "--out" else []))
+            assert getattr(ns, action.dest) == (0.5 if action.type is float else "x.csv"), (name, old)
+            assert [str(w.message) for w in caught if issubclass(w.category, FutureWarning)] == [
+                f"{old} is deprecated and goes in hybobs_opt 0.2.0: use {new}"]
+
+
+def test_short_options_are_the_conventional_ones():
+    """``-o`` is ``--out`` (a file) wherever there is one, ``-T`` the horizon; ``-v`` stays free for ``--verbose``."""
+    for name, p in _subparsers().items():
+        opts = _options(p)
+        short = sorted(s for s in opts if not s.startswith("--") and s != "-h")
+        assert set(short) <= {"-o", "-T"}, (name, short)
+        if "--out" in opts:
+            assert opts["--out"] is opts["-o"], name
+        if "-T" in opts:
+            assert opts["-T"] is opts["--horizon"], name
+
+
+def test_report_help_lists_the_sections_without_importing_the_report():
+    """``report --help`` lists the section keys from a static list (importing the report's sections took
+    seconds); the list is the report's own."""
+    import subprocess
+    import sys
+
+    from hybobs_opt.cli.report import SECTION_KEYS
+    from hybobs_opt.report.html import section_keys
+
+    assert list(SECTION_KEYS) == section_keys()
+    probe = ("import sys, contextlib, io\nfrom hybobs_opt.cli import main\n"
+             "with contextlib.redirect_stdout(io.StringIO()) as buf:\n    main(['report', '--help'])\n"
+             "print('observers' in buf.getvalue(), 'hybobs_opt.report' in sys.modules, 'numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True", "False", "False"]
 
 
 def test_param_wherever_a_system_is_built():

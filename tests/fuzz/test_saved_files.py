@@ -78,7 +78,7 @@ def gains_file() -> tuple[Path, bytes, Path]:
     from .test_cli import run_cli
 
     log, path = workdir() / "vehicle_log.csv", workdir() / "gains.json"
-    for argv in (["simulate", "vehicle_tracking", "--t-final", "0.04", "--csv", str(log)],
+    for argv in (["simulate", "vehicle_tracking", "--t-final", "0.04", "--out", str(log)],
                  ["synth", "vehicle_tracking", "--out", str(path), "--no-verify"]):
         code, out, err = run_cli(argv)
         assert code == 0, (argv, code, err[-500:])

@@ -34,7 +34,7 @@ COMMANDS = {
                       "regions", "load_system"),
     "regions --plot": (["regions", "powertrain3", "-T", "3", "--no-cache", "--cut", "theta=0", "--plot", "{out}.png"],
                        "--plot", "regions", "load_system"),
-    "simulate --csv": (["simulate", "powertrain3", "--t-final", "0.01", "--csv", "{out}"], "--csv",
+    "simulate --out": (["simulate", "powertrain3", "--t-final", "0.01", "--out", "{out}"], "--out",
                        "simulate", "load_system"),
     "synth --out": (["synth", "vehicle_tracking", "--out", "{out}"], "--out", "synth", "design_setup"),
     "model export --out": (["model", "export", "powertrain3", "--out", "{out}.toml"], "--out", "model", "load_system"),
@@ -77,10 +77,10 @@ def test_a_symbolic_link_is_never_followed_even_with_force(name, tmp_path, capsy
 
 def test_force_replaces_an_existing_file(tmp_path, capsys):
     out = _plant(tmp_path / "trace.csv")
-    assert main(["simulate", "powertrain3", "--t-final", "0.01", "--csv", str(out), "--force"]) == 0
+    assert main(["simulate", "powertrain3", "--t-final", "0.01", "--out", str(out), "--force"]) == 0
     assert out.read_text().startswith("t,")
     log = tmp_path / "log.csv"
-    assert main(["simulate", "powertrain3", "--t-final", "0.02", "--csv", str(log)]) == 0
+    assert main(["simulate", "powertrain3", "--t-final", "0.02", "--out", str(log)]) == 0
     out = _plant(tmp_path / "estimates.csv")
     assert main(["observe", "powertrain3", "--data", str(log), "--out", str(out), "--force", "--json"]) == 0
     assert out.read_text().startswith("t,")
@@ -89,7 +89,7 @@ def test_force_replaces_an_existing_file(tmp_path, capsys):
 
 def test_observe_refuses_an_existing_estimates_file_before_the_run(tmp_path, monkeypatch, capsys):
     log = tmp_path / "log.csv"
-    assert main(["simulate", "powertrain3", "--t-final", "0.02", "--csv", str(log)]) == 0
+    assert main(["simulate", "powertrain3", "--t-final", "0.02", "--out", str(log)]) == 0
     out = _plant(tmp_path / "estimates.csv")
     monkeypatch.setattr("hybobs_opt.cli.observe.load_system", _boom)
     assert main(["observe", "powertrain3", "--data", str(log), "--out", str(out), "--no-cache"]) == 2

@@ -409,7 +409,7 @@ def _cli_scenario(name: str):
     def scenario(args) -> dict[str, Any]:
         kind = getattr(args, "observer", None)
         if kind not in (None, "sliding-mode", "sliding_mode", "smo"):
-            raise ModelError("--observer", "sliding-mode (the observer of paper 001 for this example)", repr(kind))
+            raise ModelError("--observers", "sliding-mode (the observer of paper 001 for this example)", repr(kind))
         res = run_scenario(name)
         out = summarize(res)
         filt = None

@@ -204,6 +204,6 @@ run_scenario = run_bench
 
 
 def register_scenarios(register) -> None:
-    """``hybobs observe powertrain3`` / ``powertrain5``: the lookup observer (or ``--observer``) on the scenario."""
+    """``hybobs observe powertrain3`` / ``powertrain5``: the lookup observer (or ``--observers``) on the scenario."""
     register("powertrain3", _observe_scenario("powertrain3", 3))
     register("powertrain5", _observe_scenario("powertrain5", 5))

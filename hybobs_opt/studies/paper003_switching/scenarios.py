@@ -44,7 +44,7 @@ def junction_paper_gains(lam: Sequence[float], mu: Sequence[float]) -> np.ndarra
 
 
 # ---------------------------------------------------------------------------- CLI scenarios
-#: Observer kinds of ``hybobs observe traffic_junction|switching_server --observer KIND``;
+#: Observer kinds of ``hybobs observe traffic_junction|switching_server --observers KIND``;
 #: append ``+projection`` for Remark 4.4's projected estimate.
 OBSERVER_KINDS = ("paper", "deadbeat", "positive", "positive-deadbeat")
 
@@ -58,7 +58,7 @@ def scenario_gains(kind: str, ps: PeriodicSystem, example: str, params: dict | N
     """The gains of an observer kind for the scenario of ``example`` (see :data:`OBSERVER_KINDS`)."""
     if kind == "paper":
         if example != "traffic_junction":
-            raise ModelError("--observer", "deadbeat, positive or positive-deadbeat (paper 003 prints gains "
+            raise ModelError("--observers", "deadbeat, positive or positive-deadbeat (paper 003 prints gains "
                                            "only for the T-junction)", repr(kind))
         p = params or {}
         return analyse_gains(ps, junction_paper_gains(p.get("lam", (1.0, 2.0, 3.0)), p.get("mu", (8.0, 10.0, 12.0))),
@@ -69,7 +69,7 @@ def scenario_gains(kind: str, ps: PeriodicSystem, example: str, params: dict | N
         return positive_observer(ps)
     if kind == "positive-deadbeat":
         return positive_deadbeat_gains(ps)
-    raise ModelError("--observer", f"one of {OBSERVER_KINDS} (optionally with +projection)", repr(kind))
+    raise ModelError("--observers", f"one of {OBSERVER_KINDS} (optionally with +projection)", repr(kind))
 
 
 def run_drift_scenario(example: str, kind: str | None = None, *, project: bool = False) -> dict[str, Any]:

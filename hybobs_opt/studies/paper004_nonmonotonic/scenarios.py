@@ -73,7 +73,7 @@ def run_example(example: str, kind: str = "switched", *, design=None, x_hat0: Se
         The true trace, the estimates and the JSON summary.
     """
     if kind not in ("switched", "single"):
-        raise ModelError("--observer", "'switched' or 'single'", repr(kind))
+        raise ModelError("--observers", "'switched' or 'single'", repr(kind))
     ex = get_example(example)
     if ex.name not in CONVERGENCE_TOL:
         raise ModelError("example", f"one of {sorted(CONVERGENCE_TOL)}", repr(example))

@@ -178,7 +178,7 @@ def test_version_1_file_is_refused_with_the_command_to_recompute(saved):
     _rewrite(saved, to_v1)
     with pytest.raises(ModelError, match="version") as err:
         load_analysis(saved)
-    assert "hybobs regions" in str(err.value) and "--save" in str(err.value)
+    assert "hybobs regions" in str(err.value) and "--out" in str(err.value)
 
 
 # ------------------------------------------------------------------ no stored model
