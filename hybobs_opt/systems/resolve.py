@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import math
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -272,6 +273,32 @@ def _check_text_params(fn: Callable, name: str, params: dict[str, Any]) -> None:
                          "a str default to pass text)", repr(value))
 
 
+def _vector_params(fn: Callable, name: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Text values (``"1,0"``) of parameters whose default is a tuple of numbers, read as a tuple of
+    that many numbers: the default declares the parameter a vector of that length."""
+    import inspect
+
+    signature = inspect.signature(fn)
+    out = dict(params)
+    for key, value in params.items():
+        parameter = signature.parameters.get(key)
+        default = None if parameter is None else parameter.default
+        if not (isinstance(value, str) and isinstance(default, tuple) and default
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in default)):
+            continue
+        parts = value.split(",")
+        try:
+            numbers = tuple(float(p) for p in parts)
+        except ValueError:
+            numbers = ()
+        if len(numbers) != len(default) or not all(math.isfinite(v) for v in numbers):
+            example = ",".join(str(v) for v in default)
+            raise ModelError(f"{name}: params {key}", f"{len(default)} comma-separated finite numbers (a vector "
+                             f"parameter, e.g. {key}={example})", repr(value))
+        out[key] = numbers
+    return out
+
+
 def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
     import inspect
 
@@ -282,6 +309,7 @@ def _call_builder(fn: Callable, name: str, params: dict[str, Any]) -> Any:
     except ValueError:
         pass  # no signature to check (a builtin): the call says
     else:
+        params = _vector_params(fn, name, params)
         _check_text_params(fn, name, params)
     try:
         system = fn(**params)

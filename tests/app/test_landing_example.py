@@ -71,3 +71,18 @@ def test_the_example_prints_what_the_pages_show():
     for row_shown, row_got in zip(shown, got):
         assert row_got[1] > 0 and row_got[2] > 0  # the run crosses the backlash gap
         assert row_got[4] < 1e-8 and row_shown[4] < 1e-8
+
+
+def test_the_own_system_page_example_prints_what_it_shows(tmp_path, monkeypatch):
+    """docs/own_system.rst, "From Python": measuring x1 the observers claim the samples after the
+    first window, measuring x2 (mirror symmetry) the lookup observer claims none."""
+    text = (ROOT / "docs" / "own_system.rst").read_text(encoding="utf-8")
+    section = text.split("From Python\n-----------", 1)[1]
+    code, output = _rst_block(section, "python"), _rst_block(section, "text")
+    code = code.replace('"examples/builders/', f'"{ROOT.as_posix()}/examples/builders/')
+    monkeypatch.chdir(tmp_path)  # the example writes log.csv
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        exec(compile(code, "own_system.rst", "exec"), {"__name__": "own_system_example"})
+    assert printed.getvalue().split() == output.split()
+    assert "y = (1.0, 0.0): lookup 46 of 48" in output and "y = (0.0, 1.0): lookup  0 of 48" in output

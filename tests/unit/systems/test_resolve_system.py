@@ -6,6 +6,7 @@ The systems built from files are checked against numbers computed by hand.
 
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -207,3 +208,21 @@ def test_a_name_of_no_form(name):
     with pytest.raises(ModelError) as info:
         resolve_system(name)
     assert info.value.field == "system name" and repr(name) in str(info.value)
+
+
+ROTATION_BUILDER = str(Path(__file__).resolve().parents[3] / "examples" / "builders" / "bemporad_morari_rotation.py") + ":build"
+
+
+def test_text_of_a_vector_parameter_is_read_as_that_many_numbers():
+    """``output_row=(0.0, 1.0)`` declares a 2-vector: ``"1,0"`` (what ``--param output_row=1,0`` passes) measures x1."""
+    system = resolve_system(ROTATION_BUILDER, {"output_row": "1,0"})
+    assert [mode.C.tolist() for mode in system.modes] == [[[1.0, 0.0]], [[1.0, 0.0]]]
+    assert resolve_system(ROTATION_BUILDER, {"output_row": (1.0, 0.0)}).to_dict() == system.to_dict()
+
+
+@pytest.mark.parametrize("text", ["1,0,3", "1", "a,b", "1,nan", ""])
+def test_a_vector_parameter_of_the_wrong_length_or_not_numbers_is_refused(text):
+    with pytest.raises(ModelError) as info:
+        resolve_system(ROTATION_BUILDER, {"output_row": text})
+    assert info.value.field.endswith("params output_row")
+    assert "2 comma-separated finite numbers" in info.value.expected and repr(text) in str(info.value)
