@@ -91,6 +91,26 @@ class DualCertificate(Certificate):
     per_function : bool
         The LMI has one multiplier per function: condition 3 must hold for each multiplier
         (``g_k = <Z, B(0, 0, e_k)> >= 0``), not only for their sum.
+
+    See Also
+    --------
+    InfeasibilityCertificate : Carries one as ``dual``.
+    certify_infeasible : Builds it from a solve's Farkas duals.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> dual = certify_infeasible(lmi, sol).dual
+    >>> dual.Z.shape, dual.sigma
+    ((7, 7), 0.0)
+    >>> dual.verify()
+    True
     """
 
     data: LMIData
@@ -399,6 +419,29 @@ class InfeasibilityCertificate(Certificate):
         The primal status that triggered the certification.
     region : dict or None
         The region (``SchedulingRegion.to_dict()``), ``None`` for the whole box.
+
+    See Also
+    --------
+    certify_infeasible : Builds and checks one.
+    DualCertificate : The dual multiplier it carries.
+    diagnose : Attaches one to its diagnosis.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = certify_infeasible(lmi, sol)
+    >>> cert.theorem, cert.form, cert.nonmonotonic
+    ('Theorem 4', '(23)', ('V sin(psi)',))
+    >>> cert.verify(), cert.dual.verify()
+    (True, True)
+    >>> print(cert.reason)  # doctest: +ELLIPSIS
+    Over psi in [0, 2.44346], V sin(psi) is non-monotonic (V sin(psi)' in [-7.66, ...
     """
 
     reason: str
@@ -551,6 +594,25 @@ def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str 
     SolverError
         When the solver's status was not a clear ``infeasible`` and neither the solver's
         multiplier nor the structural one could be verified: the answer is unknown.
+
+    See Also
+    --------
+    InfeasibilityCertificate : What it returns.
+    DualCertificate : The dual multiplier inside it.
+    diagnose : Runs the LMI and this certificate on a range.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = certify_infeasible(lmi, sol)
+    >>> cert.theorem, cert.verify()
+    ('Theorem 4', True)
     """
     sdata = lmi.sdata
     sector = sdata.sector(sol.bounds, lmi.shifted)
