@@ -75,6 +75,27 @@ class ConditionDecay:
     method : str
         ``"bisection"`` (the condition's LMI with its sufficient gain bound) or ``"exact-bound search"``
         (the polytopic condition with ``||L||_2 <= gain_bound`` exactly, :mod:`.gain_search`).
+
+    See Also
+    --------
+    decay_optimal_design : Returns one per condition in a DecayDesign.
+
+    Examples
+    --------
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0)
+    >>> [(c.condition, c.feasible, round(c.sigma_verified, 2)) for c in design.by_condition]
+    [('paper', True, 3.56), ('per_function', True, 4.23), ('polytopic', True, 3.56)]
     """
 
     condition: str
@@ -120,6 +141,31 @@ class DecayDesign:
         Wall time of the searches.
     exact_search : GainSearchResult or None
         The exact-bound search of the polytopic condition (with a gain bound only).
+
+    See Also
+    --------
+    decay_optimal_design : Returns one.
+    ConditionDecay : One condition's rate.
+
+    Examples
+    --------
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0)
+    >>> best = design.best
+    >>> best.condition, round(best.sigma_verified, 2), bool(np.linalg.norm(best.L, 2) <= 10.0)
+    ('per_function', 4.23, True)
+    >>> print(design.headline("theta in [-1, 1]"))  # doctest: +ELLIPSIS
+    FEASIBLE: a constant gain with ||L||_2 <= 10 and decay rate 4.232 1/s of V = ...
     """
 
     gain_bound: float | None
@@ -252,6 +298,29 @@ def decay_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     ------
     SolverError
         A solve failed in a way no fallback solver could decide (the message names the problem).
+
+    See Also
+    --------
+    DecayDesign : What it returns.
+    decay_gain_search : The search under the exact gain bound.
+    noise_optimal_design : The gain that minimises the error bound under noise instead.
+
+    Examples
+    --------
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0, min_decay=1.0)
+    >>> design.met, design.best.condition, design.best.L.shape
+    (True, 'per_function', (2, 1))
     """
     from ..defaults import SIGMA_CAP
     from .farkas import verified_farkas

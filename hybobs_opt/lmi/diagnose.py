@@ -100,6 +100,27 @@ class Diagnosis:
         (:mod:`.noise_gain`) within the gain bound and at the required rate.
     noise_error : str
         Why no noise design was found (empty otherwise).
+
+    See Also
+    --------
+    diagnose : Returns one.
+    plot_jacobian_bounds : Draws the derivatives, pieces and suggested regions.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import diagnose
+    >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
+    ...                 suggest=False)
+    >>> diag.feasible, diag.certificate.verify()
+    (False, True)
+    >>> [diag.interval_text(p) for p in diag.pieces]
+    ['[0, 90] deg', '[90, 140] deg']
+    >>> print(diag.verdict)  # doctest: +ELLIPSIS
+    No constant gain satisfies LMI (23) of Corollary 1.2 (one S-procedure ...
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -286,12 +307,45 @@ def diagnose(
         With a gain bound, also search the polytopic condition under the exact bound
         (:func:`.gain_search.decay_gain_search`); see :func:`.decay_design.decay_optimal_design`.
 
+    Returns
+    -------
+    Diagnosis
+        The verdict on the range: the gain (or the re-checked infeasibility certificate), the
+        condition hierarchy, the Theorem 5 check, the monotonic pieces, the suggested switching
+        regions and the next steps.
+
     Raises
     ------
     ModelError
         Bad range (empty, reversed, outside the box) or bounds that are not finite.
     SolverError
         The solver could not decide and no certificate was verified.
+
+    See Also
+    --------
+    Diagnosis : What it returns.
+    condition_hierarchy : The three conditions it runs.
+    grow_regions : How the suggested regions are grown.
+    design_switched : The switched design the diagnosis points to.
+
+    Examples
+    --------
+    No constant gain for the vehicle on 0-140 deg (paper 004, Theorem 4); the diagnosis says why
+    (a re-checked certificate, Theorem 5's shifted LMI) and where the functions change direction:
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import diagnose
+    >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
+    ...                 suggest=False)
+    >>> diag.feasible, diag.certificate.theorem, diag.theorem5.shifted_feasible
+    (False, 'Theorem 4', False)
+    >>> [diag.interval_text(p) for p in diag.pieces]
+    ['[0, 90] deg', '[90, 140] deg']
+
+    With ``suggest=True`` (the default) it also grows switching regions (``diag.suggested``).
     """
     t0 = time.perf_counter()
     k = coordinate_index(system, coordinate)

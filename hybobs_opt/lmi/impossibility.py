@@ -63,6 +63,28 @@ class UndetectablePoint(Certificate):
         ``sigma_min([J - lambda I; C])`` relative to ``1 + ||J|| + ||C||``.
     system : ScalarNonlinearSystem
         The system.
+
+    See Also
+    --------
+    undetectable_points : Finds them.
+    OutputSymmetry : A global obstruction of the same kind.
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import undetectable_points
+    >>> point = undetectable_points(system, "x1")[0]
+    >>> np.round(point.x, 6), point.s
+    (array([0., 0.]), 0.0)
+    >>> point.verify()
+    True
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -145,10 +167,39 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     samples : int, default DETECTABILITY_SAMPLES
         Number of grid points (:data:`~hybobs_opt.defaults.DETECTABILITY_SAMPLES`).
 
+    Returns
+    -------
+    list of UndetectablePoint
+        The points found, each with the non-decaying eigenvalue, its mode and the PBH residual that
+        shows the outputs do not see it (empty when the linearisation is detectable everywhere).
+
     Raises
     ------
     ModelError
         If the range is empty, reversed or outside the box.
+
+    See Also
+    --------
+    UndetectablePoint : One point and its re-check.
+    output_symmetries : Global mirror maps the outputs cannot detect.
+    diagnose : Reports these points with the LMI's verdict.
+
+    Examples
+    --------
+    ``cos(x1)`` is flat at ``x1 = 0``: there the output does not see the rotation.
+
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import undetectable_points
+    >>> points = undetectable_points(system, "x1")
+    >>> [round(p.s, 6) for p in points], points[0].verify()
+    ([0.0], True)
     """
     k = coordinate_index(system, coordinate)
     lo = float(system.box_lower[k]) if lo is None else float(lo)
@@ -217,6 +268,31 @@ class OutputSymmetry(Certificate):
         The system.
     lower, upper : (n,) arrays
         Box ``box ∩ T(box)`` in which :meth:`verify` draws its points.
+
+    See Also
+    --------
+    output_symmetries : Finds them.
+    UndetectablePoint : The local counterpart (a non-detectable linearisation).
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import output_symmetries
+    >>> sym = output_symmetries(system)[0]
+    >>> np.diag(sym.S), sym.flipped
+    (array([-1., -1.]), ['x1', 'x2'])
+    >>> x = np.array([0.5, 0.2])
+    >>> sym.map(x), bool(np.isclose(np.cos(x[0]), np.cos(sym.map(x)[0])))
+    (array([-0.5, -0.2]), True)
+    >>> sym.verify()
+    True
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -335,6 +411,35 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
         Random points at which each candidate is checked.
     seed : int, default 0
         Seed of the random points.
+
+    Returns
+    -------
+    list of OutputSymmetry
+        The mirror maps found (empty when there is none); each proves that no observer can recover
+        the flipped coordinates' sign from the outputs.
+
+    See Also
+    --------
+    OutputSymmetry : One mirror map and its re-check.
+    undetectable_points : States where the linearisation is not detectable.
+    diagnose : Reports both with the LMI's verdict.
+
+    Examples
+    --------
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import output_symmetries
+    >>> found = output_symmetries(system)
+    >>> len(found), found[0].verify()
+    (1, True)
+    >>> print(found[0].claim)  # doctest: +ELLIPSIS
+    Globally unobservable: the mirror map (x1 -> -x1, x2 -> -x2) leaves the outputs ...
     """
     n = system.n
     lo_box, hi_box = system.box_lower, system.box_upper

@@ -117,6 +117,24 @@ class PolytopicCertificate(Certificate):
         One PSD multiplier per vertex, as found.
     source : str
         ``"Clarabel Farkas ray"`` or ``"alternative SDP"``.
+
+    See Also
+    --------
+    PolytopicLMI.certify : Builds one from an infeasible solve.
+    DualCertificate : The certificate of the paper's LMI.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import PolytopicLMI, jacobian_bounds
+    >>> lmi = PolytopicLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = lmi.certify(sol)
+    >>> sol.feasible, len(cert.Z) == len(cert.As), cert.verify()
+    (False, True, True)
     """
 
     As: list[np.ndarray] = field(repr=False)
@@ -266,6 +284,27 @@ class PolytopicLMI:
     ------
     ModelError
         More than :data:`~hybobs_opt.defaults.POLYTOPIC_MAX_VERTICES` vertices.
+
+    See Also
+    --------
+    ObserverLMI : The paper's LMI (one S-procedure multiplier).
+    PolytopicCertificate : Its infeasibility certificate.
+    condition_hierarchy : Runs both.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import PolytopicLMI, jacobian_bounds
+    >>> lmi = PolytopicLMI(vehicle)
+    >>> bounds = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> As, Cs = lmi.vertices(bounds)
+    >>> len(As), As[0].shape
+    (8, (4, 4))
+    >>> lmi.solve(bounds, 0.0).feasible
+    True
     """
 
     form = "polytopic"
