@@ -287,6 +287,28 @@ def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.nd
         The model's output names.
     field : str
         Name of the argument in error messages.
+
+    Returns
+    -------
+    (p,) ndarray
+        The bound of each output, in output order.
+
+    See Also
+    --------
+    radius_tolerance_vector : The same for the radius per state.
+    SetMembershipObserver : Takes a noise bound.
+
+    Examples
+    --------
+    >>> from hybobs_opt.observers import noise_bound_vector
+    >>> noise_bound_vector(0.1, ("y1", "y2"))
+    array([0.1, 0.1])
+    >>> noise_bound_vector({"y2": 0.5}, ("y1", "y2"))
+    array([0. , 0.5])
+    >>> noise_bound_vector(-1.0, ("y1",))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    hybobs_opt.errors.ModelError: noise_bound: expected 1 finite bounds >= 0 (outputs ['y1']), in the outputs' units, got -1.0
     """
     names = tuple(output_names)
     p = len(names)

@@ -81,6 +81,11 @@ class MHEExtension:
     w : list of T - 1 SX (n, 1)
         The disturbances, original units (empty without ``disturbance_weight``).
 
+    See Also
+    --------
+    MHEObserver : Takes the ``extend`` callable.
+    MHEFormulation : Holds the extension's terms.
+
     Notes
     -----
     * :meth:`add_cost` -- norm 2: a convex quadratic in the decision variables whose linear part
@@ -303,6 +308,30 @@ class MHEFormulation:
     js : float
         Norms 1 / inf: the residual scale ``j_s`` of the epigraph rows (largest ``|R|``).
     extension : ExtensionData or None
+
+    See Also
+    --------
+    encode_mld : The MLD constraints it writes.
+    MHEObserver : Builds one (``obs.formulation``).
+    MHEExtension : Terms added by the user.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import MHEFormulation
+    >>> form = MHEFormulation(plant, 3, "2", np.eye(1), None, None)
+    >>> form.enc.n_vars, form.enc.n_constraints
+    (30, 99)
+    >>> MHEObserver(plant, 3).formulation.T
+    3
     """
 
     def __init__(self, system: PWASystem, T: int, norm: str, Wy: np.ndarray, Ww: np.ndarray | None,

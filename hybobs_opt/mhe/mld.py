@@ -107,6 +107,26 @@ def big_m_constants(system: PWASystem) -> BigMConstants:
     Returns
     -------
     BigMConstants
+
+    See Also
+    --------
+    encode_mld : Uses the constants.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import big_m_constants
+    >>> bm = big_m_constants(plant)
+    >>> type(bm).__name__
+    'BigMConstants'
     """
     n, p, s = system.n, system.p, system.n_modes
     D = system.domain
@@ -196,6 +216,29 @@ class MLDEncoding:
         The state scale ``hx`` (``None``: the half-widths of the state box).
     BP : (nr, n_params) array, optional
         Dependence of the rows on the extension's parameters (``None``: no extension).
+
+    See Also
+    --------
+    encode_mld : Builds one.
+    big_m_constants : Its big-M constants.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import encode_mld
+    >>> enc = encode_mld(plant, 3)
+    >>> enc.n_vars, enc.n_constraints, int(enc.discrete.sum())
+    (30, 99, 9)
+    >>> enc.A.shape
+    (99, 30)
     """
 
     system: PWASystem
@@ -708,6 +751,31 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
     ------
     ModelError
         If ``system`` is not a PWASystem or ``T < 1``.
+
+    See Also
+    --------
+    MLDEncoding : What it returns.
+    big_m_constants : The constants it uses.
+    MHEFormulation : The full program of eq. (10).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import encode_mld
+    >>> enc = encode_mld(plant, 3)
+
+    ``T * s`` mode binaries (3 samples, 3 modes):
+
+    >>> int(enc.discrete.sum()), enc.T
+    (9, 3)
     """
     sym = mld_expressions(system, T, disturbances=disturbances, big_m=big_m, state_scale=state_scale)
     return mld_encoding(sym, system, int(T))

@@ -94,6 +94,11 @@ class MHESettings:
     ModelError
         A value of the wrong type or out of range, naming its field.
 
+    See Also
+    --------
+    MHEObserver : Takes them as ``settings``.
+    SOLVERS : The solvers by norm.
+
     Examples
     --------
     >>> from hybobs_opt.mhe import MHESettings

@@ -47,6 +47,19 @@ class UniquenessOutcome(enum.StrEnum):
     The members are string-valued (:class:`enum.StrEnum`): ``UniquenessOutcome.UNIQUE ==
     "unique"``, and ``json.dumps`` writes the plain string, so saved ``info`` and ``--json``
     output keep the text they always had.
+
+    See Also
+    --------
+    WindowResult.uniqueness : Where the outcome is reported.
+    MHEObserver : Flags ``observable`` only on ``UNIQUE``.
+
+    Examples
+    --------
+    >>> from hybobs_opt.mhe import UniquenessOutcome
+    >>> [str(o) for o in UniquenessOutcome]  # doctest: +ELLIPSIS
+    ['unique', 'alternative', 'not certified', 'not unique for every input']
+    >>> UniquenessOutcome.UNIQUE == "unique"
+    True
     """
 
     #: No admissible window trajectory with a state ``delta`` away from the optimum's costs at
@@ -102,6 +115,32 @@ class SeparatedProgram:
         Proximal weight of the MIQP (the smallest DAQP factorises).
     miqp, milp : Backend or None
         The norm-2 MIQP (DAQP) and, for norms 1 / inf, the MILP.
+
+    See Also
+    --------
+    MHEObserver : Builds one per observer and runs it on every optimal window.
+    UniquenessOutcome : Its outcomes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> obs = MHEObserver(plant, 3)
+    >>> res = obs.solve_window(U[:3], truth.y[:3], uniqueness=True)
+    >>> res.uniqueness["status"]
+    <UniquenessOutcome.UNIQUE: 'unique'>
+
+    The flag ``observable`` is this program's ``"unique"``:
+
+    >>> obs.run(U, truth.y).flag_counts()["observable"]
+    8
     """
 
     def __init__(self, model: WindowModel, res: StackedResidual, *, solver: str, delta: float, Js: float,
