@@ -54,6 +54,29 @@ class KalmanTrace(ObserverTrace):
     covariance : (N, n, n) array
         ``covariance[k]`` is the covariance of ``x_hat[k]``: ``P(k|k)`` after a measurement
         update, ``P(k|k-1)`` at a ``fallback`` step (the same as ``info[k]["covariance"]``).
+
+    See Also
+    --------
+    ModeSequenceKalmanFilter.run : Returns one.
+    ObserverTrace : The common fields.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import ModeSequenceKalmanFilter
+    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=truth.q)
+    >>> trace = kf.run(U, truth.y + 0.01 * np.random.default_rng(0).standard_normal(truth.y.shape))
+    >>> trace.covariance.shape, trace.std().shape
+    ((40, 3, 3), (40, 3))
+    >>> bool(np.isfinite(trace.nees(truth.x)).all())
+    True
     """
 
     covariance: np.ndarray | None = None
@@ -150,6 +173,11 @@ class ModeSequenceKalmanFilter(Observer):
     ModelError
         Naming the field: ``system``, ``noise_std``, ``process_std``, ``x0``, ``P0``, ``modes``,
         ``observable_std``.
+
+    See Also
+    --------
+    KalmanTrace : What ``run`` returns.
+    hybobs_opt.mhe.MHEObserver : Estimates the modes too.
 
     Examples
     --------

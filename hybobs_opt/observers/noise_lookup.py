@@ -139,6 +139,11 @@ class NoiseAwareLookupObserver(Observer):
     table_seconds : float
         Time to build the tables.
 
+    See Also
+    --------
+    LookupObserver : The noise-free observer.
+    hybobs_opt.mhe.SetMembershipObserver : Exact radii under bounded noise.
+
     Examples
     --------
     >>> from hybobs_opt.regions import analyse_observability
