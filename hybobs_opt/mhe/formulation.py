@@ -108,13 +108,17 @@ class MHEExtension:
     --------
     A quadratic pull of the window-start state towards a reference given each step:
 
-    >>> def pull(ext):                                            # doctest: +SKIP
+    >>> import casadi
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver, MHESettings
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> def pull(ext):
     ...     x_ref = ext.add_parameter("x_ref", ext.n)
     ...     ext.add_cost(1e3 * casadi.sumsqr(ext.x[0] - x_ref))
     ...     ext.add_constraint(ext.x[0][0], lo=-0.05, hi=0.05)    # |theta(t-T+1)| <= 0.05
     >>> obs = MHEObserver(plant, 3, extend=pull,
-    ...                   settings=MHESettings(check_uniqueness=False))  # doctest: +SKIP
-    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])                  # doctest: +SKIP
+    ...                   settings=MHESettings(check_uniqueness=False))
+    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])
     """
 
     def __init__(self, sym: MLDSymbols, norm: str, U, Y, xbar, dims: tuple[int, int, int, int, int]):

@@ -181,9 +181,15 @@ class ModeSequenceKalmanFilter(Observer):
 
     Examples
     --------
-    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=trace.q)   # doctest: +SKIP
-    >>> out = kf.run(trace.u, y_noisy)                              # doctest: +SKIP
-    >>> out.covariance[-1]                                          # doctest: +SKIP
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> trace = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((40, 1), 40.0))
+    >>> y_noisy = trace.y + 0.01 * np.random.default_rng(0).standard_normal(trace.y.shape)
+    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=trace.q)
+    >>> out = kf.run(trace.u, y_noisy)
+    >>> out.covariance[-1].shape, out.flag_counts()["observable"] > 0
+    ((3, 3), True)
     """
 
     name = "kalman (true modes)"
