@@ -21,6 +21,7 @@ extensions = [
     "sphinx.ext.viewcode",
     "numpydoc",
     "myst_nb",
+    "matplotlib.sphinxext.plot_directive",
     "hybobs_docs",
 ]
 
@@ -35,6 +36,13 @@ autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
+
+# Observer gallery: the figures of docs/gallery are drawn by their ``.. plot::`` code at build time.
+plot_include_source = True
+plot_html_show_source_link = False
+plot_html_show_formats = False
+plot_formats = [("png", 100)]
+plot_rcparams = {"figure.max_open_warning": 0}
 
 # Notebooks: rendered with their stored outputs (tests/app/test_notebooks.py executes them).
 nb_execution_mode = "off"
