@@ -176,6 +176,11 @@ class ObserverTrace:
         x_true : (N, n) array_like
             The true states, one row per step.
 
+        Returns
+        -------
+        (N, n) ndarray
+            ``x_hat - x_true``.
+
         Raises
         ------
         ModelError
@@ -187,11 +192,26 @@ class ObserverTrace:
         return self.x_hat - x_true
 
     def flag_counts(self) -> dict[str, int]:
+        """How many steps have each flag.
+
+        Returns
+        -------
+        dict of str to int
+            The number of steps with each flag (``observable``, ``unobservable``, ``fallback``,
+            ``warming_up``).
+        """
         return {f: int(np.count_nonzero(self.flags == f)) for f in FLAGS}
 
     def radii(self) -> np.ndarray | None:
         """The certified radius each step states (``info["radius"]``), ``(N, n)`` with ``nan`` rows
-        where a step states none; ``None`` when no step states one."""
+        where a step states none; ``None`` when no step states one.
+
+        Returns
+        -------
+        ndarray or None
+            The certified radius each step states (``info["radius"]``), ``(N, n)`` with ``nan``
+            rows where a step states none; ``None`` when no step states one.
+        """
         n = self.x_hat.shape[1]
         if not any(isinstance(inf, dict) and "radius" in inf for inf in self.info):
             return None
@@ -200,7 +220,13 @@ class ObserverTrace:
 
     def n_outside_radius(self, x_true: np.ndarray) -> int:
         """Steps stating a radius whose true state lies outside it (to the rounding allowance
-        :data:`~hybobs_opt.tolerances.RADIUS_CHECK_RTOL` / ``RADIUS_CHECK_ATOL``); 0 without radii."""
+        :data:`~hybobs_opt.tolerances.RADIUS_CHECK_RTOL` / ``RADIUS_CHECK_ATOL``); 0 without radii.
+
+        Returns
+        -------
+        int
+            Steps stating a radius whose true state lies outside it (0 when none states one).
+        """
         from .tolerances import RADIUS_CHECK_ATOL, RADIUS_CHECK_RTOL
 
         R = self.radii()
@@ -211,7 +237,13 @@ class ObserverTrace:
         return int(np.count_nonzero(np.any(err[has] > R[has] * (1 + RADIUS_CHECK_RTOL) + RADIUS_CHECK_ATOL, axis=1)))
 
     def timing(self) -> dict[str, float]:
-        """Median, 95th percentile and maximum per-step compute time (seconds)."""
+        """Median, 95th percentile and maximum per-step compute time (seconds).
+
+        Returns
+        -------
+        dict
+            Median, 95th percentile and maximum per-step compute time (seconds).
+        """
         s = self.seconds[np.isfinite(self.seconds)]
         if s.size == 0:
             return {"median_step_s": float("nan"), "p95_step_s": float("nan"), "max_step_s": float("nan")}

@@ -115,7 +115,13 @@ class DesignSettings:
     condition: str = "polytopic"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``)."""
+        """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"coordinate": self.coordinate, "range": [self.lo, self.hi], "scaling": self.scaling.tolist(),
                 "natural_rate": self.natural_rate, "gain_bound": self.gain_bound, "min_decay": self.min_decay,
                 "overlap": self.overlap, "max_rate": self.max_rate, "decay_fraction": self.decay_fraction,

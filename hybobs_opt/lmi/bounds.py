@@ -158,6 +158,13 @@ class DerivativeBound:
         return self.lower * self.upper
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"name": self.name, "kind": self.kind, "index": self.index, "interval": list(self.interval),
                 "lower": self.lower, "upper": self.upper, "argmin": self.argmin, "argmax": self.argmax,
                 "monotonicity": self.monotonicity, "method": self.method, "samples": self.samples,
@@ -365,6 +372,13 @@ class JacobianBounds:
         return [b for b in (*self.f, *self.h) if not b.monotonic]
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"region": None if self.region is None else self.region.to_dict(),
                 "f": [b.to_dict() for b in self.f], "h": [b.to_dict() for b in self.h]}
 

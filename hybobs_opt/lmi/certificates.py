@@ -170,6 +170,11 @@ class DualCertificate(Certificate):
         ----------
         Z : (k, k) ndarray
             A symmetric multiplier of the LMI's size.
+
+        Returns
+        -------
+        ndarray
+            ``g_k = <Z, B(0, 0, e_k)>`` for each multiplier (one entry for the paper's single one).
         """
         n, k = self.data.n, self.data.r + self.data.p_nl
         zeros = (np.zeros((n, n)), np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl)))
@@ -178,7 +183,13 @@ class DualCertificate(Certificate):
         return np.array([_inner(Z, self._B(*zeros, np.eye(k)[i])) for i in range(k)])
 
     def projected(self) -> np.ndarray:
-        """``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``."""
+        """``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``.
+
+        Returns
+        -------
+        ndarray
+            ``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``.
+        """
         Z = 0.5 * (self.Z + self.Z.T)
         basis = self._y_basis()
         if not basis:
@@ -190,7 +201,14 @@ class DualCertificate(Certificate):
 
     def check(self) -> CertificateCheck:
         """The numpy re-check (computed once per certificate; a modified copy made with
-        ``dataclasses.replace`` is re-checked from scratch)."""
+        ``dataclasses.replace`` is re-checked from scratch).
+
+        Returns
+        -------
+        CertificateCheck
+            The numpy re-check (computed once per certificate; a modified copy made with
+            ``dataclasses.replace`` is re-checked from scratch).
+        """
         return self._checked
 
     @cached_property
@@ -240,7 +258,13 @@ class DualCertificate(Certificate):
                 "<Z, B(P, PL, eps)> >= 0 for every P > 0, eps > 0 and every gain L, so B < 0 has no solution")
 
     def verify(self) -> bool:
-        """True when the numpy re-check confirms the certificate (no solver involved)."""
+        """True when the numpy re-check confirms the certificate (no solver involved).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.check().ok
 
     @property
@@ -252,6 +276,13 @@ class DualCertificate(Certificate):
                 f"(to the re-check tolerance {CERTIFICATE_RTOL:g}).")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         c = self.check()
         return {"source": self.source, "verified": c.ok, "check": c.to_dict(), "inequality": self.inequality}
 
@@ -456,7 +487,13 @@ class InfeasibilityCertificate(Certificate):
     region: dict | None = None
 
     def verify(self) -> bool:
-        """Re-check the solver's dual certificate in numpy (``False`` when there is none)."""
+        """Re-check the solver's dual certificate in numpy (``False`` when there is none).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.dual is not None and self.dual.verify()
 
     @property
@@ -468,6 +505,13 @@ class InfeasibilityCertificate(Certificate):
         return self.structural is not None and self.structural.verify()
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         ob = self.obstruction
         return {
             "verified": self.verify(),

@@ -111,6 +111,13 @@ class ConditionDecay:
     method: str = "bisection"
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {"condition": self.condition, "feasible": self.feasible, "sigma_lmi": self.sigma_lmi,
                "sigma_verified": self.sigma_verified, "reason": self.reason or None,
                "internal_gain_bound": self.internal_gain_bound, "method": self.method}
@@ -217,7 +224,13 @@ class DecayDesign:
         return "" if self.gain_bound is None else f" with ||L||_2 <= {self.gain_bound:g}"
 
     def headline(self, where: str) -> str:
-        """The first line of a verdict: what this search proved on ``where``."""
+        """The first line of a verdict: what this search proved on ``where``.
+
+        Returns
+        -------
+        str
+            The first line of a verdict: what this search proved on ``where``.
+        """
         best = self.best
         if not self.within_bound:
             last = self.by_condition[-1] if self.by_condition else None
@@ -249,6 +262,13 @@ class DecayDesign:
                 f"proven on every vertex of the Jacobian box on {where} ({how}).")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         best = self.best
         return {"gain_bound": self.gain_bound, "min_decay": self.min_decay, "within_bound": self.within_bound,
                 "met": self.met, "best_condition": None if best is None else best.condition,

@@ -197,6 +197,11 @@ class Diagnosis:
         ----------
         value : float
             Value in model units.
+
+        Returns
+        -------
+        float
+            A value in model units converted to the display unit (``value / factor``).
         """
         return value / self.factor
 
@@ -207,10 +212,22 @@ class Diagnosis:
         ----------
         r : SchedulingRegion
             The region.
+
+        Returns
+        -------
+        str
+            ``"[lo, hi] unit"`` of a region, in the display unit.
         """
         return f"[{self.show(r.lo):.4g}, {self.show(r.hi):.4g}] {self.unit}".strip()
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {
             "system": self.system.name,
             "coordinate": self.region.name,

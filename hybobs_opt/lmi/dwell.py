@@ -454,6 +454,13 @@ class DwellTimeLMI:
         tau_fixed : float, optional
             The fixed-``P`` dwell time, stored in the result (default ``tau_hi``).
 
+        Returns
+        -------
+        DwellResult
+            The smallest dwell time the bisection proved feasible, with its Lyapunov matrices
+            and the
+            solves made.
+
         Raises
         ------
         ModelError

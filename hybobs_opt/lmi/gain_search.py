@@ -114,6 +114,13 @@ class SearchStart:
     steps: int
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def num(v):
             return float(v) if np.isfinite(v) else None
         return {"source": self.source, "eig_bound": num(self.eig_bound), "certified": num(self.certified),
@@ -185,6 +192,13 @@ class GainSearchResult:
     gain_bound: float = field(default=float("nan"))
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"found": self.found, "sigma_verified": self.sigma if self.found else None,
                 "gain_bound": self.gain_bound, "gain_norm": self.gain_norm, "eig_bound": self.eig_bound,
                 "source": self.source, "L": None if self.L is None else self.L.tolist(),

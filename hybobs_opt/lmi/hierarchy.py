@@ -118,6 +118,13 @@ class ConditionResult:
         return bool(getattr(cert, "structural_verified", False) or cert.verify())
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {"condition": self.key, "name": self.name, "feasible": self.feasible, "status": str(self.status),
                "implied_by": self.implied_by, "seconds": self.seconds}
         if self.skipped:
@@ -183,6 +190,11 @@ class HierarchyResult:
         key : {"paper", "per_function", "polytopic"}
             The condition (:data:`CONDITIONS`).
 
+        Returns
+        -------
+        ConditionResult
+            The result of condition ``key``.
+
         Raises
         ------
         KeyError
@@ -232,6 +244,11 @@ class HierarchyResult:
         with_gain : bool, default True
             Quote the feasible condition's gain and rate (its first feasible point, at decay rate 0
             without a gain bound); ``False`` when a designed gain is stated elsewhere.
+
+        Returns
+        -------
+        str
+            What the hierarchy proves on the region named by ``where``.
         """
         strongest = self.strongest_infeasible
         feas = self.gain
@@ -264,6 +281,13 @@ class HierarchyResult:
         return " ".join(parts)
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"lmi": self.form, "conditions": [c.to_dict() for c in self.conditions],
                 "feasible_condition": self.feasible_condition, "strongest_infeasible": self.strongest_infeasible,
                 "seconds": self.seconds}

@@ -97,7 +97,13 @@ class UndetectablePoint(Certificate):
     pbh_residual: float
 
     def verify(self) -> bool:
-        """Re-evaluate ``J v = lambda v``, ``C v = 0``, ``Re lambda >= 0`` at ``x`` (numpy)."""
+        """Re-evaluate ``J v = lambda v``, ``C v = 0``, ``Re lambda >= 0`` at ``x`` (numpy).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         J = self.system.dynamics_jacobian(self.x)
         C = self.system.output_jacobian(self.x)
         v = np.asarray(self.mode, dtype=complex)
@@ -125,6 +131,13 @@ class UndetectablePoint(Certificate):
         return text + "."
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"coordinate": self.system.state_names[self.coordinate], "s": self.s, "x": self.x.tolist(),
                 "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag], "mode": np.real(self.mode).tolist(),
                 "equilibrium": self.equilibrium, "pbh_residual": self.pbh_residual, "verified": self.verify(),
@@ -311,6 +324,11 @@ class OutputSymmetry(Certificate):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            The mirror map ``x -> c + S (x - c)``.
         """
         x = np.asarray(x, dtype=float)
         return self.c + (x - self.c) * np.diag(self.S)
@@ -324,6 +342,11 @@ class OutputSymmetry(Certificate):
             Number of random points drawn in ``[lower, upper]`` (:data:`~hybobs_opt.defaults.SYMMETRY_POINTS`).
         seed : int, default 1
             Seed of the random points (the search itself uses 0, so these are fresh).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
         """
         res = _symmetry_residual(self.system, np.diag(self.S), self.c, self.lower, self.upper, points, seed)
         return res is not None and res <= SYMMETRY_RTOL
@@ -349,6 +372,13 @@ class OutputSymmetry(Certificate):
                 f"no observer can tell them apart, and an estimate can converge to the mirror branch.")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"flipped": self.flipped, "S": np.diag(self.S).tolist(), "c": self.c.tolist(), "points": self.points,
                 "residual": self.residual, "example_pair": [self.example_pair[0].tolist(), self.example_pair[1].tolist()],
                 "verified": self.verify(), "claim": self.claim}

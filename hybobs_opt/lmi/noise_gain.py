@@ -389,7 +389,13 @@ class NoiseBoundDesign(Certificate):
         return out
 
     def lyapunov(self, e: np.ndarray) -> np.ndarray:
-        """``V = e' P e`` for errors ``e`` of shape ``(n,)`` or ``(N, n)`` (model units)."""
+        """``V = e' P e`` for errors ``e`` of shape ``(n,)`` or ``(N, n)`` (model units).
+
+        Returns
+        -------
+        ndarray
+            ``V = e' P e`` for errors ``e`` of shape ``(n,)`` or ``(N, n)`` (model units).
+        """
         E = np.atleast_2d(np.asarray(e, dtype=float))
         out = np.einsum("ij,jk,ik->i", E, self.P, E)
         return out[0] if np.ndim(e) == 1 else out
@@ -398,6 +404,11 @@ class NoiseBoundDesign(Certificate):
         """Certified per-state bound at times ``t`` from the initial error ``e0``: ``(len(t), n)``.
 
         ``|e_k(t)| <= sqrt((P^-1)_kk (level + e^{-alpha t} max(V(e0) - level, 0)))`` (module docstring).
+
+        Returns
+        -------
+        ndarray
+            Certified per-state bound at times ``t`` from the initial error ``e0``: ``(len(t), n)``.
         """
         t = np.asarray(t, dtype=float).reshape(-1)
         excess = max(float(self.lyapunov(np.asarray(e0, dtype=float))) - self.level, 0.0)
@@ -417,13 +428,25 @@ class NoiseBoundDesign(Certificate):
             Initial error, model units.
         fraction : float, default 0.01
             The share of the bound that counts as decayed.
+
+        Returns
+        -------
+        float
+            Time after which the initial error's share of :meth:`envelope` is below ``fraction``
+            of the bound.
         """
         v0 = float(self.lyapunov(np.asarray(e0, dtype=float)))
         target = fraction ** 2 * self.level
         return 0.0 if v0 <= target else math.log(v0 / target) / self.alpha
 
     def check(self) -> NoiseBoundCheck:
-        """Re-check the design in numpy against the vertices of its Jacobian box (no solver)."""
+        """Re-check the design in numpy against the vertices of its Jacobian box (no solver).
+
+        Returns
+        -------
+        NoiseBoundCheck
+            Re-check the design in numpy against the vertices of its Jacobian box (no solver).
+        """
         msgs: list[str] = []
         nan = float("nan")
         if self.L is None or self.P is None or self.mu is None or self.bound is None:
@@ -463,10 +486,23 @@ class NoiseBoundDesign(Certificate):
         return NoiseBoundCheck(not msgs, eigs, p_min, bound_res, level_res, gain, tuple(msgs))
 
     def verify(self) -> bool:
-        """True when :meth:`check` confirms the design in numpy."""
+        """True when :meth:`check` confirms the design in numpy.
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.check().ok
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def arr(a):
             return None if a is None else np.asarray(a).tolist()
 
@@ -540,6 +576,13 @@ class NoiseTradeoff:
     designs: tuple = field(repr=False, default=())
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def clean(a):
             return [None if not np.isfinite(v) else float(v) for v in np.asarray(a, dtype=float).reshape(-1)]
 

@@ -168,6 +168,13 @@ class LMISolution:
         return out
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"feasible": self.feasible, "status": self.status, "form": self.form, "sigma": self.sigma,
                 "region": None if self.region is None else self.region.to_dict(),
                 "L": None if self.L is None else self.L.tolist(), "P": None if self.P is None else self.P.tolist(),
@@ -444,6 +451,11 @@ class ObserverLMI:
             Restrict one coordinate of the operating box (default: the whole box).
         **kwargs
             ``given`` and ``samples`` of :func:`.bounds.jacobian_bounds`.
+
+        Returns
+        -------
+        JacobianBounds
+            Jacobian bounds of the system over ``region`` (see :func:`.bounds.jacobian_bounds`).
         """
         return jacobian_bounds(self.system, region, **kwargs)
 
@@ -556,7 +568,13 @@ class ObserverLMI:
 
     # -- certificates
     def alternative(self):
-        """The theorem-of-alternatives SDP for this LMI, built on first use (see certificates)."""
+        """The theorem-of-alternatives SDP for this LMI, built on first use (see certificates).
+
+        Returns
+        -------
+        object
+            The theorem-of-alternatives SDP of this LMI (built on first use).
+        """
         if self._alternative is None:
             from .certificates import AlternativeSDP
 

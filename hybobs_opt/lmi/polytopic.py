@@ -147,7 +147,13 @@ class PolytopicCertificate(Certificate):
         return sum(Z @ C.T for Z, C in zip(Zs, self.Cs))
 
     def projected(self) -> list[np.ndarray]:
-        """The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``."""
+        """The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``.
+
+        Returns
+        -------
+        list of ndarray
+            The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``.
+        """
         Zs = [0.5 * (Z + Z.T) for Z in self.Z]
         n = Zs[0].shape[0]
         p = self.Cs[0].shape[0]
@@ -177,13 +183,26 @@ class PolytopicCertificate(Certificate):
         ----------
         Zs : list of (n, n) arrays
             One multiplier per vertex (e.g. :attr:`Z` or :meth:`projected`).
+
+        Returns
+        -------
+        ndarray
+            ``W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v)``, symmetrised (the re-check needs
+            ``W >= 0``).
         """
         W = sum(A @ Z + Z @ A.T + self.sigma * Z for Z, A in zip(Zs, self.As))
         return 0.5 * (W + W.T)
 
     def check(self) -> PolytopicCheck:
         """The numpy re-check (computed once per certificate; a modified copy made with
-        ``dataclasses.replace`` is re-checked from scratch)."""
+        ``dataclasses.replace`` is re-checked from scratch).
+
+        Returns
+        -------
+        PolytopicCheck
+            The numpy re-check (computed once per certificate; a modified copy made with
+            ``dataclasses.replace`` is re-checked from scratch).
+        """
         return self._checked
 
     @cached_property
@@ -216,7 +235,13 @@ class PolytopicCertificate(Certificate):
         return res
 
     def verify(self) -> bool:
-        """True when the numpy re-check confirms the certificate (no solver involved)."""
+        """True when the numpy re-check confirms the certificate (no solver involved).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.check().ok
 
     #: Which result the certificate stands for (the attribute of every certificate of the package).
@@ -229,6 +254,13 @@ class PolytopicCertificate(Certificate):
                 f"for every P > 0 and every gain L, so the strict vertex LMIs B_v < 0 have no common solution")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"source": self.source, "verified": self.verify(), "check": self.check().to_dict(),
                 "vertices": len(self.Z), "sigma": self.sigma, "reason": self.reason}
 
@@ -400,6 +432,12 @@ class PolytopicLMI:
             The Jacobian box of the region.
         sigma : float, default 0.0
             Decay rate ``sigma >= 0``.
+
+        Returns
+        -------
+        PolytopicSolution
+            ``feasible`` only for ``optimal`` plus the numpy re-check at every vertex; ``L``, ``P``
+            when feasible.
         """
         if not (np.isfinite(sigma) and sigma >= 0):
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
@@ -457,6 +495,11 @@ class PolytopicLMI:
         sol : PolytopicSolution
             An infeasible solve of this condition (its ``farkas`` duals are tried first, then the
             alternative SDP).
+
+        Returns
+        -------
+        PolytopicCertificate or None
+            A verified certificate for an infeasible solve, or ``None`` (none found or none checks).
         """
         As, Cs = self.vertices(sol.bounds)
         if sol.farkas is not None:

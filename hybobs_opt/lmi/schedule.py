@@ -81,10 +81,22 @@ class SchedulingRegion:
         ----------
         value : float
             Value of the scheduling state, in model units.
+
+        Returns
+        -------
+        bool
+            Whether ``lo <= value <= hi``.
         """
         return self.lo <= value <= self.hi
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"index": self.index, "coordinate": self.name, "lo": self.lo, "hi": self.hi}
 
 

@@ -78,6 +78,13 @@ class SubtractionCheck:
         return self.original_feasible == self.shifted_feasible
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"original_feasible": self.original_feasible, "shifted_feasible": self.shifted_feasible,
                 "original_status": self.original_status, "shifted_status": self.shifted_status,
                 "identity_residual": self.identity_residual, "sigma": self.sigma, "equivalent": self.equivalent,

@@ -210,6 +210,11 @@ class SwitchedDesign:
             Display unit of the scheduling coordinate (for the texts).
         factor : float, default 1.0
             Model units per display unit.
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
         """
         regs = []
         for g in self.regions:

@@ -110,6 +110,13 @@ class StateCertificate:
     bound: np.ndarray
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"state": self.state, "alpha": self.alpha, "jump": self.jump, "dwell_needed": self.dwell_needed,
                 "level": self.level, "bound": self.bound.tolist()}
 
@@ -257,7 +264,13 @@ class SwitchedNoiseBound:
                        state_certificates=states)
 
     def claim(self) -> str:
-        """What is proven, in one sentence."""
+        """What is proven, in one sentence.
+
+        Returns
+        -------
+        str
+            What is proven, in one sentence.
+        """
         names = self.design.system.state_names
         noise = np.round(self.noise, 6).tolist()
         if not self.holds:
@@ -277,7 +290,13 @@ class SwitchedNoiseBound:
                    "state in the active region by itself." if self.wider_than_regions else ""))
 
     def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
-        """JSON-ready fields; region intervals in the display unit (model value / ``factor``)."""
+        """JSON-ready fields; region intervals in the display unit (model value / ``factor``).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def arr(a):
             return None if a is None else np.asarray(a).tolist()
 

@@ -412,6 +412,13 @@ class SwitchedNoiseSimulationCheck:
     seconds: float = 0.0
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def arr(a):
             return np.asarray(a, dtype=float).tolist()
 

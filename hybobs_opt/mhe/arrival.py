@@ -120,12 +120,24 @@ class KalmanArrival:
         self.P = 0.5 * (Pn + Pn.T)
 
     def weight(self) -> np.ndarray:
-        """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root)."""
+        """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root).
+
+        Returns
+        -------
+        ndarray
+            ``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root).
+        """
         w, V = np.linalg.eigh(self.P + self._floor)
         return (V / np.sqrt(w)) @ V.T
 
     def std(self) -> np.ndarray:
-        """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
+        """Standard deviations of the prior (the diagonal of ``P``, square-rooted).
+
+        Returns
+        -------
+        ndarray
+            Standard deviations of the prior (the diagonal of ``P``, square-rooted).
+        """
         return np.sqrt(np.diag(self.P))
 
 

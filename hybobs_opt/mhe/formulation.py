@@ -550,6 +550,11 @@ class MHEFormulation:
         xbar : (n,) array
         P : (n_P,) array, optional
             The extension's parameters (none without an extension).
+
+        Returns
+        -------
+        ndarray
+            ``p = [U; Y; x_bar; P]`` of one window.
         """
         parts = [np.asarray(U, dtype=float).reshape(-1), np.asarray(Y, dtype=float).reshape(-1),
                  np.asarray(xbar, dtype=float).reshape(-1)]
@@ -558,11 +563,25 @@ class MHEFormulation:
         return np.concatenate(parts)
 
     def linear_term(self, p: np.ndarray) -> np.ndarray:
-        """Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p`` (``grad_params @ p + grad0``)."""
+        """Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p`` (``grad_params @ p + grad0``).
+
+        Returns
+        -------
+        ndarray
+            Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p``
+            (``grad_params @ p + grad0``).
+        """
         return self.grad_params @ p + self.grad0
 
     def epigraph_upper(self, p: np.ndarray) -> np.ndarray:
-        """Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower: ``-inf``)."""
+        """Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower: ``-inf``).
+
+        Returns
+        -------
+        ndarray
+            Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower:
+            ``-inf``).
+        """
         return -(self.epi_params @ p + self.epi0)
 
 

@@ -114,7 +114,13 @@ class SequenceMixture:
     reason: str = ""
 
     def to_dict(self) -> dict:
-        """JSON-ready summary (``Estimate.info["mixture"]``)."""
+        """JSON-ready summary (``Estimate.info["mixture"]``).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {"complete": self.complete, "n_sequences": int(len(self.costs)), "threshold": float(self.threshold),
                "sequences": [[int(q) for q in s] for s in self.modes], "costs": self.costs.tolist(),
                "weights": self.weights.tolist(), "nodes": int(self.nodes), "seconds": float(self.seconds)}

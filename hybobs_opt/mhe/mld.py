@@ -300,6 +300,11 @@ class MLDEncoding:
         ----------
         U : (T m,) ndarray
             Stacked window input ``[u(0); ...; u(T-1)]``.
+
+        Returns
+        -------
+        tuple of two ndarray
+            Row bounds ``lo - BU U``, ``hi - BU U`` for the stacked window input ``U``.
         """
         shift = self.BU @ U
         if self.n_params:
@@ -317,6 +322,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T, n)`` window states of the decision vector ``v``.
         """
         return np.einsum("kij,j->ki", self.Xmap, v) + self.Xoff
 
@@ -329,6 +339,11 @@ class MLDEncoding:
             Scaled decision vector.
         U : (T m,) ndarray
             Stacked window input.
+
+        Returns
+        -------
+        ndarray
+            ``(T, p)`` window outputs.
         """
         return (self.Ymap @ v + self.YU @ U + self.Yoff).reshape(self.T, self.system.p)
 
@@ -339,6 +354,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T,)`` mode index of each step (largest ``delta``).
         """
         return np.argmax(v[self.slices["delta"]].reshape(self.T, self.system.n_modes), axis=1)
 
@@ -349,6 +369,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T - 1, n)`` disturbances ``w(k)`` (zeros when disabled).
         """
         n = self.system.n
         if not self.disturbances:
@@ -448,6 +473,11 @@ class MLDEncoding:
             Stacked window input.
         bounds : (lo, hi) pair of ndarray, optional
             Row bounds from :meth:`bounds` of ``U``, to skip recomputing them.
+
+        Returns
+        -------
+        float
+            Largest violation of the (row-normalised) constraints, bounds and integrality at ``v``.
         """
         lo, hi = self.bounds(U) if bounds is None else bounds
         Av = self.A @ v

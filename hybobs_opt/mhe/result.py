@@ -153,6 +153,11 @@ class WindowResult(Mapping):
         **changes
             New values by field name.
 
+        Returns
+        -------
+        WindowResult
+            A copy with some fields changed (the record is frozen).
+
         Raises
         ------
         TypeError
@@ -170,7 +175,13 @@ class WindowResult(Mapping):
         return new
 
     def to_dict(self) -> dict[str, Any]:
-        """The dict the window used to return: the same keys, in the same order, the same values."""
+        """The dict the window used to return: the same keys, in the same order, the same values.
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out: dict[str, Any] = {}
         for key in _KEYS:
             value = getattr(self, key)

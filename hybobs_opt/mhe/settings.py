@@ -145,7 +145,13 @@ class MHESettings:
             object.__setattr__(self, name, value)
 
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a JSON-ready dict, field by field (``solver_options`` copied)."""
+        """The settings as a JSON-ready dict, field by field (``solver_options`` copied).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return asdict(self)
 
 

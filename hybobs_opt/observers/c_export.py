@@ -164,7 +164,13 @@ class CExport:
         return f"cc -std=c99 -O2 {self.source.name} {self.driver.name} -lm -o {self.name}_driver"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (paths as strings)."""
+        """JSON-ready summary (paths as strings).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"name": self.name, "directory": str(self.directory),
                 "files": {"header": str(self.header), "source": str(self.source), "driver": str(self.driver)},
                 "float32": self.float32, "table_bytes": self.table_bytes, "state_bytes": self.state_bytes,

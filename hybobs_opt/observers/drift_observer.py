@@ -443,6 +443,11 @@ class DriftObserver(Observer):
             A simulated trace of the constant-drift system (its times and first output column are used).
         t_start : float, optional
             First time used; ``None`` uses every row.
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates on the rows with ``t >= t_start``.
         """
         keep = np.ones(trace.t.size, dtype=bool) if t_start is None else trace.t >= t_start
         return Observer.run(self, trace.t[keep], trace.y[keep, 0])

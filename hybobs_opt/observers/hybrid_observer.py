@@ -198,7 +198,17 @@ class ContinuousObserver(Observer):
         """Certified bound on ``|x_hat_k - x_k|`` per state (:mod:`~hybobs_opt.observers.error_bound`):
         from the reset, the sampled error map of each step's location contracts the design's
         ``P``-norm.  It assumes the location used is the plant's (for the hybrid observer, add the
-        neighbourhood ``M0`` of Proposition 3.3.1 of paper 000)."""
+        neighbourhood ``M0`` of Proposition 3.3.1 of paper 000).
+
+        Returns
+        -------
+        ndarray
+            Certified bound on ``|x_hat_k - x_k|`` per state
+            (:mod:`~hybobs_opt.observers.error_bound`): from the reset, the sampled error map of
+            each step's location contracts the design's ``P``-norm.  It assumes the location
+            used is the plant's (for the hybrid observer, add the neighbourhood ``M0`` of
+            Proposition 3.3.1 of paper 000).
+        """
         return self._bound.per_state(self._P_inv_diag)
 
     def _flag(self) -> str:
@@ -227,6 +237,11 @@ class ContinuousObserver(Observer):
             Outputs.
         Q : (N,) int array_like
             Location used for the gains after each sample (``Q[0]`` also at the start).
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates of the run.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         Q = np.asarray(Q, dtype=int).reshape(-1)
@@ -462,6 +477,11 @@ class HybridObserver(Observer):
             Inputs.
         Y : (N, p) array_like
             Outputs.
+
+        Returns
+        -------
+        HybridRun
+            The continuous estimates with the location observer's signals.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:

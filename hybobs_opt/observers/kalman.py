@@ -82,7 +82,14 @@ class KalmanTrace(ObserverTrace):
     covariance: np.ndarray | None = None
 
     def std(self) -> np.ndarray:
-        """``(N, n)`` standard deviations of the estimates (square roots of the covariances' diagonals)."""
+        """``(N, n)`` standard deviations of the estimates (square roots of the covariances' diagonals).
+
+        Returns
+        -------
+        ndarray
+            ``(N, n)`` standard deviations of the estimates (square roots of the covariances'
+            diagonals).
+        """
         return np.sqrt(np.maximum(np.diagonal(self.covariance, axis1=1, axis2=2), 0.0))
 
     def nees(self, x_true: ArrayLike) -> np.ndarray:
@@ -90,6 +97,11 @@ class KalmanTrace(ObserverTrace):
 
         For a consistent filter its mean over runs is ``n`` (Bar-Shalom, Li & Kirubarajan,
         *Estimation with Applications to Tracking and Navigation*, 2001, Sec. 5.4).
+
+        Returns
+        -------
+        ndarray
+            ``(N,)`` normalised estimation error squared ``e' P^-1 e`` with ``e = x_hat - x_true``.
         """
         e = self.errors(x_true)
         return np.einsum("ki,ki->k", e, np.linalg.solve(self.covariance, e[:, :, None])[:, :, 0])

@@ -321,6 +321,11 @@ class LocationObserver(Observer):
             Inputs.
         Y : (N, p) array_like
             Outputs.
+
+        Returns
+        -------
+        LocationRun
+            The residuals, decisions and the logic's output per sample.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:

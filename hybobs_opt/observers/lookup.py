@@ -146,12 +146,24 @@ class LookupTrace(ObserverTrace):
     reason_codes: np.ndarray | None = None
 
     def reasons(self) -> np.ndarray:
-        """Per step the reason text (``""`` where there is none)."""
+        """Per step the reason text (``""`` where there is none).
+
+        Returns
+        -------
+        ndarray
+            Per step the reason text (``""`` where there is none).
+        """
         codes = np.zeros(self.n_steps, dtype=int) if self.reason_codes is None else self.reason_codes
         return np.array([REASONS[int(c)] for c in codes], dtype=object)
 
     def fallback_reasons(self) -> dict[str, int]:
-        """How many ``fallback`` steps have each reason."""
+        """How many ``fallback`` steps have each reason.
+
+        Returns
+        -------
+        dict
+            How many ``fallback`` steps have each reason.
+        """
         sel = self.flags == FALLBACK
         out: dict[str, int] = {}
         for text in self.reasons()[sel]:
@@ -498,6 +510,11 @@ class LookupObserver(Observer):
             Input sample.
         y : (p,) array_like
             Output sample.
+
+        Returns
+        -------
+        Estimate
+            The estimate, its flag and, in ``info``, the reason of a non-observable step.
         """
         t0 = _perf_counter()
         if type(u) is _ndarray and type(y) is _ndarray:
@@ -590,7 +607,14 @@ class LookupObserver(Observer):
         return LookupTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name, reason_codes=reasons)
 
     def stats(self) -> dict:
-        """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests."""
+        """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests.
+
+        Returns
+        -------
+        dict
+            Offline time and, for the pair test, the LP/screen counters of the online ``B~_T``
+            tests.
+        """
         out = {"table_seconds": self.table_seconds, "btilde_test": self.btilde_test, "n_regions_I": int(self._K)}
         if self._pairs is not None:
             out.update(self._pairs.stats())

@@ -314,6 +314,13 @@ class SlidingModeObserver(Observer):
             Output samples, one every ``Ts``.
         x0 : (n,) array, optional
             Initial estimate (original coordinates).
+
+        Returns
+        -------
+        SlidingModeRun
+            The estimates (canonical and model coordinates), the sliding indicators and the
+            estimated
+            mode per sample, with the common trace.
         """
         Y = sample_rows(Y, 1, "Y")
         if U is not None and len(U) != Y.shape[0]:
@@ -358,6 +365,11 @@ class SlidingModeObserver(Observer):
             Output samples, one every ``Ts``.
         x0 : (n,) array, optional
             Initial estimate (original coordinates).
+
+        Returns
+        -------
+        ObserverTrace
+            The common trace of :meth:`run_detailed`.
         """
         return self.run_detailed(U, Y, x0).trace
 

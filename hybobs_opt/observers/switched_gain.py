@@ -215,7 +215,14 @@ class SwitchedGainObserver(Observer):
         ``P``-norm; each closed-loop sample contracts it by ``exp(-sigma dt / 2)`` (``V' <= -sigma V``,
         paper 004 eqs. 7-10), each region switch multiplies it by ``sqrt(lambda_max(P_i^-1 P_j))``
         and an open-loop sample restarts it from the box.  It holds under the design's hypotheses
-        (the plant and the estimate in the box of the region whose gain is used)."""
+        (the plant and the estimate in the box of the region whose gain is used).
+
+        Returns
+        -------
+        ndarray or None
+            Certified bound on ``|x_hat_k - x_k|`` per state, or ``None`` when the gains carry
+            no Lyapunov matrices (:mod:`~hybobs_opt.observers.error_bound`).
+        """
         if self._lyap is None or self.q is None:
             return None
         return self._bound.per_state(self._lyap[1][self.q])
@@ -434,6 +441,12 @@ class SwitchedGainObserver(Observer):
             Estimates.
         x_true : array_like
             True states, same shape.
+
+        Returns
+        -------
+        ndarray
+            ``x_hat - x_true`` with every periodic coordinate's difference wrapped into
+            ``[-period/2, period/2)`` (the error along the circle); rows are samples.
         """
         err = np.asarray(x_hat, dtype=float) - np.asarray(x_true, dtype=float)
         if self._wrap_idx.size == 0:

@@ -97,6 +97,13 @@ class BackendOutcome:
         return {}
 
     def to_dict(self) -> dict[str, Any]:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"status": self.status, "solver_status": self.solver_status, "seconds": self.seconds,
                 "detail": dict(self.detail)}
 
@@ -149,7 +156,15 @@ class Backend(Protocol):
 
     def solve(self, f: np.ndarray | None, lo: np.ndarray, hi: np.ndarray, centre: np.ndarray | None = None, *,
               cutoff: float | None = None, target: float | None = None, start: np.ndarray | None = None,
-              col_bounds: tuple | None = None) -> BackendOutcome: ...
+              col_bounds: tuple | None = None) -> BackendOutcome:
+        """Solve the program with linear term ``f`` (MIQP) and row bounds ``lo, hi``.
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
+        """
+        ...
 
 
 class _Null:

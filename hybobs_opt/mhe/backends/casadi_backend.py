@@ -132,6 +132,11 @@ class CasadiDaqpBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Not supported: must be ``None`` (``NotImplementedError``).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
@@ -231,6 +236,11 @@ class BonminBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
@@ -319,6 +329,11 @@ class CasadiMilpBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         lb, ub = with_col_bounds(self._lb, self._ub, col_bounds)

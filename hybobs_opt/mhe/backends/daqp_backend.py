@@ -156,7 +156,13 @@ class DaqpBackend:
 
     def probe(self) -> bool:
         """Set the workspace up now (zero linear term, the variable bounds); ``False`` if DAQP
-        refuses the Hessian (exit -5: its factorisation does not find it positive definite)."""
+        refuses the Hessian (exit -5: its factorisation does not find it positive definite).
+
+        Returns
+        -------
+        bool
+            ``False`` if DAQP refuses the Hessian (exit -5), else ``True``.
+        """
         import daqp
 
         nr = self._A.shape[0]
@@ -200,6 +206,11 @@ class DaqpBackend:
             Not used by DAQP (``centre`` is its warm start).
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._nv) if centre is None else centre

@@ -122,7 +122,14 @@ class HighspyBackend:
 
     def row_duals(self) -> np.ndarray:
         """HiGHS's row duals of the last solve (an LP: no integer columns, or all of them fixed),
-        model rows first."""
+        model rows first.
+
+        Returns
+        -------
+        ndarray
+            HiGHS's row duals of the last solve (an LP: no integer columns, or all of them
+            fixed), model rows first.
+        """
         return np.asarray(self._h.getSolution().row_dual, dtype=float)[: self._rows.size]
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
@@ -151,6 +158,11 @@ class HighspyBackend:
             MIP start passed to HiGHS.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
 
         Raises
         ------
