@@ -393,7 +393,7 @@ def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.nd
     >>> noise_bound_vector(-1.0, ("y1",))  # doctest: +ELLIPSIS
     Traceback (most recent call last):
         ...
-    hybobs_opt.errors.ModelError: noise_bound: expected 1 finite bounds >= 0 (outputs ['y1']), in the outputs' units, got -1.0
+    hybobs_opt.errors.ModelError: noise_bound: expected 1 finite bounds >= 0 ...
     """
     names = tuple(output_names)
     p = len(names)
@@ -446,6 +446,7 @@ def radius_tolerance_vector(value, state_names, default: np.ndarray, field: str 
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.observers import radius_tolerance_vector
     >>> default = np.array([0.1, 1.0])
     >>> radius_tolerance_vector(None, ("x1", "x2"), default)

@@ -214,6 +214,7 @@ def derivative_bound(
 
     Examples
     --------
+    >>> import numpy as np
     >>> import math
     >>> from hybobs_opt.lmi import derivative_bound
     >>> from hybobs_opt.systems import ScalarFunction
@@ -331,6 +332,7 @@ class JacobianBounds:
 
     Examples
     --------
+    >>> import numpy as np
     >>> import math
     >>> import hybobs_opt as hy
     >>> from hybobs_opt.lmi import make_region
@@ -416,8 +418,10 @@ def jacobian_bounds(
 
     Examples
     --------
-    ``V cos(psi)`` is decreasing on 0-80 deg, ``V sin(psi)`` increasing: the box has one sign per function.
+    ``V cos(psi)`` is decreasing on 0-80 deg, ``V sin(psi)`` increasing: the box has one sign per
+    function.
 
+    >>> import numpy as np
     >>> import math
     >>> import hybobs_opt as hy
     >>> from hybobs_opt.lmi import make_region
@@ -429,9 +433,8 @@ def jacobian_bounds(
 
     Over 0-140 deg ``V sin(psi)`` is no longer monotonic (its peak is at 90 deg):
 
-    >>> jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))).nonmonotonic
-    [DerivativeBound(name='V sin(psi)', kind='f', index=1, interval=(0.0, 2.443460952792061), lower=-7.660445431189779, upper=10.000001, raw_lower=-7.660444431189779, raw_upper=10.0, argmin=2.443460952792061, argmax=0.0, method='sampled+refined', samples=1025, margin=1e-06)]
-    >>> [b.name for b in _]
+    >>> wide = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> [b.name for b in wide.nonmonotonic]
     ['V sin(psi)']
     """
     given = dict(given or {})
@@ -481,6 +484,7 @@ def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int =
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import slope_change_points
     >>> from hybobs_opt.systems import ScalarFunction
     >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
@@ -539,6 +543,7 @@ def monotonic_pieces(
 
     Examples
     --------
+    >>> import numpy as np
     >>> import math
     >>> import hybobs_opt as hy
     >>> from hybobs_opt.lmi import make_region

@@ -82,6 +82,7 @@ class ConditionDecay:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -156,6 +157,7 @@ class DecayDesign:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -327,6 +329,7 @@ def decay_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 

@@ -62,6 +62,7 @@ def dwell_time_fixed(P: Sequence[np.ndarray], sigmas: Sequence[float], pairs: Se
     --------
     Two Lyapunov matrices a factor ``e`` apart need ``tau = 1 / sigma``:
 
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import dwell_time_fixed
     >>> P = [np.eye(2), np.e * np.eye(2)]
     >>> round(dwell_time_fixed(P, [2.0, 2.0], [(0, 1), (1, 0)]), 6)

@@ -88,6 +88,7 @@ class SearchStart:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -160,6 +161,7 @@ class GainSearchResult:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -587,6 +589,7 @@ def gain_decay_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, L: np
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -657,6 +660,7 @@ def decay_gain_search(system: ScalarNonlinearSystem, bounds: JacobianBounds, gai
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 

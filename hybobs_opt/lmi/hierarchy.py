@@ -168,8 +168,9 @@ class HierarchyResult:
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import condition_hierarchy
     >>> result = condition_hierarchy(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
-    >>> [(c.key, c.feasible, c.status) for c in result.conditions]
-    [('paper', False, 'infeasible'), ('per_function', False, 'infeasible'), ('polytopic', False, 'infeasible')]
+    >>> [(c.key, c.feasible, c.status) for c in result.conditions]  # doctest: +NORMALIZE_WHITESPACE
+    [('paper', False, 'infeasible'), ('per_function', False, 'infeasible'),
+     ('polytopic', False, 'infeasible')]
     >>> result.feasible, result.strongest_infeasible
     (False, 'polytopic')
     >>> print(result.claim("psi in [0, 140] deg"))  # doctest: +ELLIPSIS

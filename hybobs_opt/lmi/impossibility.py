@@ -71,6 +71,7 @@ class UndetectablePoint(Certificate):
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
@@ -201,6 +202,7 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     --------
     ``cos(x1)`` is flat at ``x1 = 0``: there the output does not see the rotation.
 
+    >>> import numpy as np
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
@@ -289,6 +291,7 @@ class OutputSymmetry(Certificate):
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
@@ -456,6 +459,7 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.

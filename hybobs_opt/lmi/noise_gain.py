@@ -292,6 +292,7 @@ class NoiseBoundDesign(Certificate):
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -547,6 +548,7 @@ class NoiseTradeoff:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -1005,6 +1007,7 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     The pendulum's angle is measured to 0.01 rad; the gain below keeps the error within the printed
     bounds (rad, rad/s) once the transient is over:
 
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -1211,6 +1214,7 @@ def noise_tradeoff(system: ScalarNonlinearSystem, bounds: JacobianBounds, noise,
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import jacobian_bounds
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 

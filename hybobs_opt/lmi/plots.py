@@ -130,6 +130,7 @@ def plot_noise_tradeoff(curve, path: str | Path, design=None, state_names=None) 
 
     Examples
     --------
+    >>> import numpy as np
     >>> import tempfile
     >>> from pathlib import Path
     >>> import matplotlib

@@ -82,6 +82,7 @@ class StateCertificate:
     --------
     One state's certificate exists only where it beats the common one; a one-state plant has none:
 
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -169,6 +170,7 @@ class SwitchedNoiseBound:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -449,6 +451,7 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 

@@ -361,6 +361,7 @@ class SwitchedNoiseSimulationCheck:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 
@@ -505,6 +506,7 @@ def check_switched_noise_bound(snb: SwitchedNoiseBound, drive: Drive, x0, *, e0=
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
     >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
 

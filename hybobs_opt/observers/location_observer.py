@@ -386,6 +386,7 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.observers import detection_delays
     >>> t = np.arange(6) * 0.1
     >>> events = [{"t": 0.15, "to": 1}]

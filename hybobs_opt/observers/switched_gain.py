@@ -665,6 +665,7 @@ def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float |
 
     Examples
     --------
+    >>> import numpy as np
     >>> from hybobs_opt.observers import convergence_time
     >>> t = np.arange(5) * 0.5
     >>> err = np.array([[1.0], [0.4], [0.05], [0.2], [0.01]])
