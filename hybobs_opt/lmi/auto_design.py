@@ -88,7 +88,6 @@ class DesignSettings:
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import design_settings
     >>> settings = design_settings(vehicle)
@@ -189,7 +188,6 @@ def scheduling_candidates(system: ScalarNonlinearSystem) -> dict[str, list[str]]
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import scheduling_candidates
     >>> scheduling_candidates(vehicle)
@@ -256,7 +254,6 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import design_settings
     >>> settings = design_settings(vehicle, lo=0.0, hi=math.radians(140), overlap=math.radians(10))
@@ -366,7 +363,6 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import design_settings, design_switched
 

@@ -546,7 +546,6 @@ def monotonic_pieces(
     >>> import numpy as np
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import monotonic_pieces
     >>> breakpoints, pieces = monotonic_pieces(vehicle, "psi", 0.0, math.radians(140))

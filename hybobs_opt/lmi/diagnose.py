@@ -110,7 +110,6 @@ class Diagnosis:
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import diagnose
     >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
@@ -352,7 +351,6 @@ def diagnose(
 
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import diagnose
     >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,

@@ -221,7 +221,6 @@ class DwellTimeLMI:
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),

@@ -49,7 +49,6 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
     >>> matplotlib.use("Agg")
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import diagnose, plot_jacobian_bounds
     >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,

@@ -257,7 +257,6 @@ def regions_from_switch_points(
 
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
@@ -307,7 +306,6 @@ def adjacent_pairs(regions: Sequence[SchedulingRegion]) -> list[tuple[int, int]]
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import adjacent_pairs, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),

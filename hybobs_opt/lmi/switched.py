@@ -70,7 +70,6 @@ class RegionGain:
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
@@ -150,7 +149,6 @@ class SwitchedDesign:
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
@@ -264,7 +262,6 @@ class DwellTimeWarning(UserWarning):
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
@@ -301,7 +298,6 @@ class DwellTimeError(HybobsError):
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
@@ -395,7 +391,6 @@ def grow_regions(
     --------
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import grow_regions
     >>> regions = grow_regions(vehicle, "psi", 0.0, math.radians(140), overlap=math.radians(5),
@@ -562,7 +557,6 @@ def synthesize_switched(
 
     >>> import math
     >>> import hybobs_opt as hy
-    >>> from hybobs_opt.lmi import make_region
     >>> vehicle = hy.get_example("vehicle_tracking").build()
     >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
     >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
