@@ -23,6 +23,7 @@ extensions = [
     "sphinx.ext.viewcode",
     "numpydoc",
     "myst_nb",
+    "matplotlib.sphinxext.plot_directive",
     "hybobs_docs",
 ]
 
@@ -81,6 +82,13 @@ intersphinx_mapping = {
     "matplotlib": ("https://matplotlib.org/stable/", _INV + "matplotlib.inv"),
 }
 intersphinx_timeout = 1
+
+# Observer gallery: the figures of docs/gallery are drawn by their ``.. plot::`` code at build time.
+plot_include_source = True
+plot_html_show_source_link = False
+plot_html_show_formats = False
+plot_formats = [("png", 100)]
+plot_rcparams = {"figure.max_open_warning": 0}
 
 # Notebooks: rendered with their stored outputs (tests/app/test_notebooks.py executes them).
 nb_execution_mode = "off"

@@ -49,6 +49,32 @@ class Estimate:
         Compute time of the step.
     info : dict
         Observer-specific details (e.g. the number of candidates, the solver status).
+
+    See Also
+    --------
+    Observer.step : Returns one.
+    ObserverTrace : The estimates of a run.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> obs = LookupObserver(hy.analyse_observability(plant, 3))
+    >>> obs.reset()
+    >>> for u, y in zip(U[:3], truth.y[:3]):
+    ...     est = obs.step(u, y)
+    ...
+    >>> est.flag, est.mode, est.x.shape
+    ('observable', 2, (3,))
+    >>> bool(np.allclose(est.x, truth.x[2], atol=1e-6))
+    True
     """
 
     x: np.ndarray
@@ -101,6 +127,33 @@ class ObserverTrace:
         Name of the observer.
     info : tuple of dict
         ``Estimate.info`` per step (or empty).
+
+    See Also
+    --------
+    Observer.run : Returns one.
+    plot_observer_run : Draws runs against the truth.
+    summarise : The record of one run in a comparison.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> trace = LookupObserver(hy.analyse_observability(plant, 3)).run(U, truth.y)
+    >>> trace.n_steps, trace.state_names
+    (40, ('theta', 'omega_m', 'omega_l'))
+    >>> trace.flag_counts()
+    {'observable': 38, 'unobservable': 0, 'fallback': 0, 'warming_up': 2}
+    >>> float(np.abs(trace.errors(truth.x)[2:]).max()) < 1e-6
+    True
+    >>> sorted(trace.timing())  # doctest: +ELLIPSIS
+    ['max_step_s', 'median_step_s', 'p95_step_s']
     """
 
     x_hat: np.ndarray
@@ -122,6 +175,11 @@ class ObserverTrace:
         ----------
         x_true : (N, n) array_like
             The true states, one row per step.
+
+        Returns
+        -------
+        (N, n) ndarray
+            ``x_hat - x_true``.
 
         Raises
         ------
@@ -189,11 +247,26 @@ class ObserverTrace:
         return frame(columns, "ObserverTrace")
 
     def flag_counts(self) -> dict[str, int]:
+        """How many steps have each flag.
+
+        Returns
+        -------
+        dict of str to int
+            The number of steps with each flag (``observable``, ``unobservable``, ``fallback``,
+            ``warming_up``).
+        """
         return {f: int(np.count_nonzero(self.flags == f)) for f in FLAGS}
 
     def radii(self) -> np.ndarray | None:
         """The certified radius each step states (``info["radius"]``), ``(N, n)`` with ``nan`` rows
-        where a step states none; ``None`` when no step states one."""
+        where a step states none; ``None`` when no step states one.
+
+        Returns
+        -------
+        ndarray or None
+            The certified radius each step states (``info["radius"]``), ``(N, n)`` with ``nan``
+            rows where a step states none; ``None`` when no step states one.
+        """
         n = self.x_hat.shape[1]
         if not any(isinstance(inf, dict) and "radius" in inf for inf in self.info):
             return None
@@ -202,7 +275,13 @@ class ObserverTrace:
 
     def n_outside_radius(self, x_true: np.ndarray) -> int:
         """Steps stating a radius whose true state lies outside it (to the rounding allowance
-        :data:`~hybobs_opt.tolerances.RADIUS_CHECK_RTOL` / ``RADIUS_CHECK_ATOL``); 0 without radii."""
+        :data:`~hybobs_opt.tolerances.RADIUS_CHECK_RTOL` / ``RADIUS_CHECK_ATOL``); 0 without radii.
+
+        Returns
+        -------
+        int
+            Steps stating a radius whose true state lies outside it (0 when none states one).
+        """
         from .tolerances import RADIUS_CHECK_ATOL, RADIUS_CHECK_RTOL
 
         R = self.radii()
@@ -213,7 +292,13 @@ class ObserverTrace:
         return int(np.count_nonzero(np.any(err[has] > R[has] * (1 + RADIUS_CHECK_RTOL) + RADIUS_CHECK_ATOL, axis=1)))
 
     def timing(self) -> dict[str, float]:
-        """Median, 95th percentile and maximum per-step compute time (seconds)."""
+        """Median, 95th percentile and maximum per-step compute time (seconds).
+
+        Returns
+        -------
+        dict
+            Median, 95th percentile and maximum per-step compute time (seconds).
+        """
         s = self.seconds[np.isfinite(self.seconds)]
         if s.size == 0:
             return {"median_step_s": float("nan"), "p95_step_s": float("nan"), "max_step_s": float("nan")}
@@ -342,6 +427,28 @@ def noise_bound_vector(value, output_names, field: str = "noise_bound") -> np.nd
         The model's output names.
     field : str
         Name of the argument in error messages.
+
+    Returns
+    -------
+    (p,) ndarray
+        The bound of each output, in output order.
+
+    See Also
+    --------
+    radius_tolerance_vector : The same for the radius per state.
+    SetMembershipObserver : Takes a noise bound.
+
+    Examples
+    --------
+    >>> from hybobs_opt.observers import noise_bound_vector
+    >>> noise_bound_vector(0.1, ("y1", "y2"))
+    array([0.1, 0.1])
+    >>> noise_bound_vector({"y2": 0.5}, ("y1", "y2"))
+    array([0. , 0.5])
+    >>> noise_bound_vector(-1.0, ("y1",))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    hybobs_opt.errors.ModelError: noise_bound: expected 1 finite bounds >= 0 ...
     """
     names = tuple(output_names)
     p = len(names)
@@ -382,6 +489,29 @@ def radius_tolerance_vector(value, state_names, default: np.ndarray, field: str 
         The radii used where ``value`` names none.
     field : str
         Name of the argument in error messages.
+
+    Returns
+    -------
+    (n,) ndarray
+        The largest radius of each state, in state order.
+
+    See Also
+    --------
+    noise_bound_vector : The same for the output noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.observers import radius_tolerance_vector
+    >>> default = np.array([0.1, 1.0])
+    >>> radius_tolerance_vector(None, ("x1", "x2"), default)
+    array([0.1, 1. ])
+    >>> radius_tolerance_vector({"x2": 0.5}, ("x1", "x2"), default)
+    array([0.1, 0.5])
+    >>> radius_tolerance_vector(0.0, ("x1", "x2"), default)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    hybobs_opt.errors.ModelError: tolerance: expected 2 finite radii > 0 (states ['x1', 'x2']), got 0.0
     """
     names = tuple(state_names)
     n = len(names)
@@ -479,7 +609,36 @@ class Observer(ABC):
     model can produce) has samples outside them by more than :data:`~hybobs_opt.defaults.RANGE_MARGIN` refused like NaN
     samples, and one that sets ``state_range`` never flags ``observable`` an estimate outside the
     state set by more than :data:`~hybobs_opt.defaults.STATE_SET_MARGIN` (the step is flagged ``fallback`` with the
-    reason in ``info``)."""
+    reason in ``info``).
+
+    See Also
+    --------
+    Estimate : What ``step`` returns.
+    ObserverTrace : What ``run`` returns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver, Observer
+    >>> obs = LookupObserver(hy.analyse_observability(plant, 3))
+    >>> isinstance(obs, Observer)
+    True
+    >>> obs.reset()
+    >>> [obs.step(u, y).flag for u, y in zip(U[:4], truth.y[:4])]
+    ['warming_up', 'warming_up', 'observable', 'observable']
+
+    A bad sample is flagged, never raised:
+
+    >>> obs.step(U[4], np.array([np.nan])).flag
+    'fallback'
+    """
 
     name = "observer"
     n: int

@@ -80,6 +80,25 @@ class DesignSettings:
         Per setting, ``"given"`` or the rule that produced it.
     condition : {"paper", "per_function", "polytopic"}
         The region condition of :mod:`.hierarchy` the regions are grown with.
+
+    See Also
+    --------
+    design_settings : Derives them from a model.
+    design_switched : Designs the switched observer with them.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import design_settings
+    >>> settings = design_settings(vehicle)
+    >>> settings.coordinate, settings.condition
+    ('psi', 'polytopic')
+    >>> round(settings.gain_bound, 3), round(settings.min_decay, 4), round(settings.overlap, 4)
+    (10.206, 0.1021, 0.0314)
+    >>> settings.sources["overlap"]
+    '0.005 x range'
     """
 
     coordinate: str
@@ -97,7 +116,13 @@ class DesignSettings:
     condition: str = "polytopic"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``)."""
+        """JSON-ready (``settings`` of ``hybobs synth/diagnose --json``).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"coordinate": self.coordinate, "range": [self.lo, self.hi], "scaling": self.scaling.tolist(),
                 "natural_rate": self.natural_rate, "gain_bound": self.gain_bound, "min_decay": self.min_decay,
                 "overlap": self.overlap, "max_rate": self.max_rate, "decay_fraction": self.decay_fraction,
@@ -149,6 +174,26 @@ def scheduling_candidates(system: ScalarNonlinearSystem) -> dict[str, list[str]]
     ----------
     system : ScalarNonlinearSystem
         The system; monotonicity is judged from its Jacobian bounds on the whole box.
+
+    Returns
+    -------
+    dict of str to list of str
+        ``{state name: [names of the non-monotonic functions acting on it]}``; empty when every
+        function is monotonic on the box.
+
+    See Also
+    --------
+    design_settings : Picks the scheduling state from these candidates.
+    monotonic_pieces : Where the functions change direction along a state.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import scheduling_candidates
+    >>> scheduling_candidates(vehicle)
+    {'psi': ['f[0] (V cos(psi))', 'f[1] (V sin(psi))']}
     """
     bounds = jacobian_bounds(system, None)
     out: dict[str, list[str]] = {}
@@ -189,11 +234,35 @@ def design_settings(system: ScalarNonlinearSystem, coordinate: int | str | None 
     condition : {"paper", "per_function", "polytopic"}, optional
         The region condition (default: the least conservative one that can be built).
 
+    Returns
+    -------
+    DesignSettings
+        The coordinate, range, scaling, gain bound, decay rate, overlap and rate bound, with
+        ``sources`` saying where each value came from (given, or which rule).
+
     Raises
     ------
     ModelError
         Not a scalar-nonlinear system; the coordinate cannot be chosen (several candidates, a
         combination of states) and was not given; a given value out of range.
+
+    See Also
+    --------
+    DesignSettings : What it returns.
+    design_switched : Uses the settings.
+    scheduling_candidates : The states a design can be scheduled on.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import design_settings
+    >>> settings = design_settings(vehicle, lo=0.0, hi=math.radians(140), overlap=math.radians(10))
+    >>> settings.coordinate, round(math.degrees(settings.hi))
+    ('psi', 140)
+    >>> settings.sources["coordinate"]
+    'the state the non-monotonic f[0] (V cos(psi)), f[1] (V sin(psi)) act on'
     """
     if not isinstance(system, ScalarNonlinearSystem):
         raise ModelError("system", "a ScalarNonlinearSystem (the observer LMIs of paper 004)", type(system).__name__)
@@ -293,6 +362,27 @@ def design_switched(system: ScalarNonlinearSystem, settings: DesignSettings, *, 
     -------
     SwitchedDesign
         The regions, gains, dwell time and the attempts made.
+
+    See Also
+    --------
+    design_settings : The settings it takes.
+    grow_regions : The regions it grows.
+    synthesize_switched : The gains it computes on them.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import design_settings, design_switched
+
+    With the yaw rate bounded by 0.02 rad/s a 5 deg hysteresis enforces the dwell time:
+
+    >>> settings = design_settings(vehicle, lo=0.0, hi=math.radians(140), rate=0.02,
+    ...                            overlap=math.radians(5))
+    >>> design = design_switched(vehicle, settings)
+    >>> len(design.regions), design.dwell_enforced, bool(design.dwell_guaranteed >= design.tau)
+    (2, True, True)
     """
     import warnings
 

@@ -95,6 +95,25 @@ class DerivativeBound:
         Grid size (0 for user and linear bounds).
     margin : float
         Outward widening applied on each side.
+
+    See Also
+    --------
+    derivative_bound : Computes one.
+    JacobianBounds : All the bounds of a system over a region.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> bounds = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> b = bounds.f[0]
+    >>> b.name, b.kind, b.monotonic
+    ('V cos(psi)', 'f', True)
+    >>> round(b.lower, 3), round(b.upper, 3)
+    (-9.848, 0.0)
     """
 
     name: str
@@ -139,6 +158,13 @@ class DerivativeBound:
         return self.lower * self.upper
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"name": self.name, "kind": self.kind, "index": self.index, "interval": list(self.interval),
                 "lower": self.lower, "upper": self.upper, "argmin": self.argmin, "argmax": self.argmax,
                 "monotonicity": self.monotonicity, "method": self.method, "samples": self.samples,
@@ -169,11 +195,33 @@ def derivative_bound(
     samples : int
         Grid size.
 
+    Returns
+    -------
+    DerivativeBound
+        The bounds ``lower <= fn' <= upper`` on the interval, with the raw sampled extremes, where
+        they are reached and the method used.
+
     Raises
     ------
     ModelError
         A derivative that is NaN or infinite on the interval, a ``given`` range with its lower
         bound above its upper bound or not finite, or a ``given`` range the derivative leaves.
+
+    See Also
+    --------
+    jacobian_bounds : The bounds of every function of a system.
+    slope_change_points : Where ``fn'`` changes sign.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import math
+    >>> from hybobs_opt.lmi import derivative_bound
+    >>> from hybobs_opt.systems import ScalarFunction
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> b = derivative_bound(sine, 0.0, math.pi / 2)
+    >>> round(b.lower, 3), round(b.upper, 3), b.monotonic
+    (0.0, 1.0, True)
     """
     if given is None:
         # The sampled bounds depend only on the function and the interval: a bisection over regions
@@ -275,6 +323,28 @@ class JacobianBounds:
         ``M_j, N_j`` of each ``h_j`` (``method == "linear"`` for identity outputs).
     linear_outputs : tuple of bool
         Per output, whether ``h_j`` is the identity (its bounds are not used in the sector).
+
+    See Also
+    --------
+    jacobian_bounds : Computes them.
+    ObserverLMI.solve : Solves the observer LMI for them.
+    plot_jacobian_bounds : Draws the derivatives with their bounds.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> bounds = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> [b.name for b in bounds.f]
+    ['V cos(psi)', 'V sin(psi)', 'V/(l_f+l_r) tan(delta_f)']
+    >>> np.round(bounds.U, 3), np.round(bounds.V, 3)
+    (array([-9.848,  1.736,  3.731]), array([ 0.   , 10.   ,  3.847]))
+    >>> bounds.nonmonotonic
+    []
     """
 
     region: SchedulingRegion | None
@@ -304,6 +374,13 @@ class JacobianBounds:
         return [b for b in (*self.f, *self.h) if not b.monotonic]
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"region": None if self.region is None else self.region.to_dict(),
                 "f": [b.to_dict() for b in self.f], "h": [b.to_dict() for b in self.h]}
 
@@ -326,6 +403,39 @@ def jacobian_bounds(
         User derivative ranges keyed by ``("f", i)`` or ``("h", j)``.
     samples : int
         Grid size of the sampled method.
+
+    Returns
+    -------
+    JacobianBounds
+        One :class:`DerivativeBound` per process function ``f_i`` (``U_i, V_i``, eq. 5) and per output
+        function ``h_j`` (``M_j, N_j``, eq. 4).
+
+    See Also
+    --------
+    derivative_bound : The bound of one function.
+    monotonic_pieces : Where the functions change direction.
+    ObserverLMI : The observer LMI built on these bounds.
+
+    Examples
+    --------
+    ``V cos(psi)`` is decreasing on 0-80 deg, ``V sin(psi)`` increasing: the box has one sign per
+    function.
+
+    >>> import numpy as np
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> bounds = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> np.round(bounds.U, 2), np.round(bounds.V, 2)
+    (array([-9.85,  1.74,  3.73]), array([ 0.  , 10.  ,  3.85]))
+
+    Over 0-140 deg ``V sin(psi)`` is no longer monotonic (its peak is at 90 deg):
+
+    >>> wide = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> [b.name for b in wide.nonmonotonic]
+    ['V sin(psi)']
     """
     given = dict(given or {})
     for key in given:
@@ -357,10 +467,29 @@ def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int =
     samples : int, default JACOBIAN_BOUND_SAMPLES
         Grid size on which sign changes of ``fn'`` are looked for (at least 3).
 
+    Returns
+    -------
+    (k,) array
+        The arguments where ``fn'`` changes sign, sorted (empty when ``fn`` is monotonic).
+
     Raises
     ------
     ModelError
         If ``fn'`` is not finite on the grid.
+
+    See Also
+    --------
+    monotonic_pieces : Splits a system's scheduling range at these points.
+    derivative_bound : Bounds of ``fn'`` on an interval.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import slope_change_points
+    >>> from hybobs_opt.systems import ScalarFunction
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> np.round(slope_change_points(cosine, -1.0, 7.0), 4)
+    array([3.1416, 6.2832])
     """
     z = np.linspace(lo, hi, max(int(samples), 3))
     d = fn.deriv(z)
@@ -405,6 +534,25 @@ def monotonic_pieces(
         The slope-change points, sorted.
     pieces : list of SchedulingRegion
         The intervals between consecutive breakpoints (and the range ends).
+
+    See Also
+    --------
+    slope_change_points : The breakpoints of one function.
+    regions_from_switch_points : Overlapping regions around chosen switching points.
+    diagnose : Reports the pieces with the LMI's verdict.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import monotonic_pieces
+    >>> breakpoints, pieces = monotonic_pieces(vehicle, "psi", 0.0, math.radians(140))
+    >>> np.round(np.degrees(breakpoints), 3)
+    array([90.])
+    >>> [(round(math.degrees(p.lo)), round(math.degrees(p.hi))) for p in pieces]
+    [(0, 90), (90, 140)]
     """
     k = coordinate_index(system, coordinate)
     lo = float(system.box_lower[k]) if lo is None else float(lo)

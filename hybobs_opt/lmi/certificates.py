@@ -91,6 +91,26 @@ class DualCertificate(Certificate):
     per_function : bool
         The LMI has one multiplier per function: condition 3 must hold for each multiplier
         (``g_k = <Z, B(0, 0, e_k)> >= 0``), not only for their sum.
+
+    See Also
+    --------
+    InfeasibilityCertificate : Carries one as ``dual``.
+    certify_infeasible : Builds it from a solve's Farkas duals.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> dual = certify_infeasible(lmi, sol).dual
+    >>> dual.Z.shape, dual.sigma
+    ((7, 7), 0.0)
+    >>> dual.verify()
+    True
     """
 
     data: LMIData
@@ -150,6 +170,11 @@ class DualCertificate(Certificate):
         ----------
         Z : (k, k) ndarray
             A symmetric multiplier of the LMI's size.
+
+        Returns
+        -------
+        ndarray
+            ``g_k = <Z, B(0, 0, e_k)>`` for each multiplier (one entry for the paper's single one).
         """
         n, k = self.data.n, self.data.r + self.data.p_nl
         zeros = (np.zeros((n, n)), np.zeros((n, self.data.p_lin)), np.zeros((n, self.data.p_nl)))
@@ -158,7 +183,13 @@ class DualCertificate(Certificate):
         return np.array([_inner(Z, self._B(*zeros, np.eye(k)[i])) for i in range(k)])
 
     def projected(self) -> np.ndarray:
-        """``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``."""
+        """``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``.
+
+        Returns
+        -------
+        ndarray
+            ``Z`` projected (least squares) onto ``{<Z, B(0, Y, 0)> = 0 for all Y}``.
+        """
         Z = 0.5 * (self.Z + self.Z.T)
         basis = self._y_basis()
         if not basis:
@@ -170,7 +201,14 @@ class DualCertificate(Certificate):
 
     def check(self) -> CertificateCheck:
         """The numpy re-check (computed once per certificate; a modified copy made with
-        ``dataclasses.replace`` is re-checked from scratch)."""
+        ``dataclasses.replace`` is re-checked from scratch).
+
+        Returns
+        -------
+        CertificateCheck
+            The numpy re-check (computed once per certificate; a modified copy made with
+            ``dataclasses.replace`` is re-checked from scratch).
+        """
         return self._checked
 
     @cached_property
@@ -220,7 +258,13 @@ class DualCertificate(Certificate):
                 "<Z, B(P, PL, eps)> >= 0 for every P > 0, eps > 0 and every gain L, so B < 0 has no solution")
 
     def verify(self) -> bool:
-        """True when the numpy re-check confirms the certificate (no solver involved)."""
+        """True when the numpy re-check confirms the certificate (no solver involved).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.check().ok
 
     @property
@@ -232,6 +276,13 @@ class DualCertificate(Certificate):
                 f"(to the re-check tolerance {CERTIFICATE_RTOL:g}).")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         c = self.check()
         return {"source": self.source, "verified": c.ok, "check": c.to_dict(), "inequality": self.inequality}
 
@@ -399,6 +450,29 @@ class InfeasibilityCertificate(Certificate):
         The primal status that triggered the certification.
     region : dict or None
         The region (``SchedulingRegion.to_dict()``), ``None`` for the whole box.
+
+    See Also
+    --------
+    certify_infeasible : Builds and checks one.
+    DualCertificate : The dual multiplier it carries.
+    diagnose : Attaches one to its diagnosis.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = certify_infeasible(lmi, sol)
+    >>> cert.theorem, cert.form, cert.nonmonotonic
+    ('Theorem 4', '(23)', ('V sin(psi)',))
+    >>> cert.verify(), cert.dual.verify()
+    (True, True)
+    >>> print(cert.reason)  # doctest: +ELLIPSIS
+    Over psi in [0, 2.44346], V sin(psi) is non-monotonic (V sin(psi)' in [-7.66, ...
     """
 
     reason: str
@@ -413,7 +487,13 @@ class InfeasibilityCertificate(Certificate):
     region: dict | None = None
 
     def verify(self) -> bool:
-        """Re-check the solver's dual certificate in numpy (``False`` when there is none)."""
+        """Re-check the solver's dual certificate in numpy (``False`` when there is none).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.dual is not None and self.dual.verify()
 
     @property
@@ -425,6 +505,13 @@ class InfeasibilityCertificate(Certificate):
         return self.structural is not None and self.structural.verify()
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         ob = self.obstruction
         return {
             "verified": self.verify(),
@@ -551,6 +638,25 @@ def certify_infeasible(lmi, sol, *, raise_error: bool = False, region_text: str 
     SolverError
         When the solver's status was not a clear ``infeasible`` and neither the solver's
         multiplier nor the structural one could be verified: the answer is unknown.
+
+    See Also
+    --------
+    InfeasibilityCertificate : What it returns.
+    DualCertificate : The dual multiplier inside it.
+    diagnose : Runs the LMI and this certificate on a range.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, certify_infeasible, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = certify_infeasible(lmi, sol)
+    >>> cert.theorem, cert.verify()
+    ('Theorem 4', True)
     """
     sdata = lmi.sdata
     sector = sdata.sector(sol.bounds, lmi.shifted)

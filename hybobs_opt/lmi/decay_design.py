@@ -75,6 +75,28 @@ class ConditionDecay:
     method : str
         ``"bisection"`` (the condition's LMI with its sufficient gain bound) or ``"exact-bound search"``
         (the polytopic condition with ``||L||_2 <= gain_bound`` exactly, :mod:`.gain_search`).
+
+    See Also
+    --------
+    decay_optimal_design : Returns one per condition in a DecayDesign.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0)
+    >>> [(c.condition, c.feasible, round(c.sigma_verified, 2)) for c in design.by_condition]
+    [('paper', True, 3.56), ('per_function', True, 4.23), ('polytopic', True, 3.56)]
     """
 
     condition: str
@@ -90,6 +112,13 @@ class ConditionDecay:
     method: str = "bisection"
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {"condition": self.condition, "feasible": self.feasible, "sigma_lmi": self.sigma_lmi,
                "sigma_verified": self.sigma_verified, "reason": self.reason or None,
                "internal_gain_bound": self.internal_gain_bound, "method": self.method}
@@ -120,6 +149,32 @@ class DecayDesign:
         Wall time of the searches.
     exact_search : GainSearchResult or None
         The exact-bound search of the polytopic condition (with a gain bound only).
+
+    See Also
+    --------
+    decay_optimal_design : Returns one.
+    ConditionDecay : One condition's rate.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0)
+    >>> best = design.best
+    >>> best.condition, round(best.sigma_verified, 2), bool(np.linalg.norm(best.L, 2) <= 10.0)
+    ('per_function', 4.23, True)
+    >>> print(design.headline("theta in [-1, 1]"))  # doctest: +ELLIPSIS
+    FEASIBLE: a constant gain with ||L||_2 <= 10 and decay rate 4.232 1/s of V = ...
     """
 
     gain_bound: float | None
@@ -171,7 +226,13 @@ class DecayDesign:
         return "" if self.gain_bound is None else f" with ||L||_2 <= {self.gain_bound:g}"
 
     def headline(self, where: str) -> str:
-        """The first line of a verdict: what this search proved on ``where``."""
+        """The first line of a verdict: what this search proved on ``where``.
+
+        Returns
+        -------
+        str
+            The first line of a verdict: what this search proved on ``where``.
+        """
         best = self.best
         if not self.within_bound:
             last = self.by_condition[-1] if self.by_condition else None
@@ -203,6 +264,13 @@ class DecayDesign:
                 f"proven on every vertex of the Jacobian box on {where} ({how}).")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         best = self.best
         return {"gain_bound": self.gain_bound, "min_decay": self.min_decay, "within_bound": self.within_bound,
                 "met": self.met, "best_condition": None if best is None else best.condition,
@@ -252,6 +320,30 @@ def decay_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     ------
     SolverError
         A solve failed in a way no fallback solver could decide (the message names the problem).
+
+    See Also
+    --------
+    DecayDesign : What it returns.
+    decay_gain_search : The search under the exact gain bound.
+    noise_optimal_design : The gain that minimises the error bound under noise instead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_optimal_design
+    >>> design = decay_optimal_design(pendulum, bounds, gain_bound=10.0, min_decay=1.0)
+    >>> design.met, design.best.condition, design.best.L.shape
+    (True, 'per_function', (2, 1))
     """
     from ..defaults import SIGMA_CAP
     from .farkas import verified_farkas

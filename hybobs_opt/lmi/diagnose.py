@@ -102,6 +102,26 @@ class Diagnosis:
         (:mod:`.noise_gain`) within the gain bound and at the required rate.
     noise_error : str
         Why no noise design was found (empty otherwise).
+
+    See Also
+    --------
+    diagnose : Returns one.
+    plot_jacobian_bounds : Draws the derivatives, pieces and suggested regions.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import diagnose
+    >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
+    ...                 suggest=False)
+    >>> diag.feasible, diag.certificate.verify()
+    (False, True)
+    >>> [diag.interval_text(p) for p in diag.pieces]
+    ['[0, 90] deg', '[90, 140] deg']
+    >>> print(diag.verdict)  # doctest: +ELLIPSIS
+    No constant gain satisfies LMI (23) of Corollary 1.2 (one S-procedure ...
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -178,6 +198,11 @@ class Diagnosis:
         ----------
         value : float
             Value in model units.
+
+        Returns
+        -------
+        float
+            A value in model units converted to the display unit (``value / factor``).
         """
         return value / self.factor
 
@@ -188,10 +213,22 @@ class Diagnosis:
         ----------
         r : SchedulingRegion
             The region.
+
+        Returns
+        -------
+        str
+            ``"[lo, hi] unit"`` of a region, in the display unit.
         """
         return f"[{self.show(r.lo):.4g}, {self.show(r.hi):.4g}] {self.unit}".strip()
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {
             "system": self.system.name,
             "coordinate": self.region.name,
@@ -296,12 +333,44 @@ def diagnose(
         Log the progress (and every LMI solve at DEBUG) to standard error: ``True`` at INFO, or a
         logging level (:func:`hybobs_opt._logging.verbose_logging`).
 
+    Returns
+    -------
+    Diagnosis
+        The verdict on the range: the gain (or the re-checked infeasibility certificate), the
+        condition hierarchy, the Theorem 5 check, the monotonic pieces, the suggested switching
+        regions and the next steps.
+
     Raises
     ------
     ModelError
         Bad range (empty, reversed, outside the box) or bounds that are not finite.
     SolverError
         The solver could not decide and no certificate was verified.
+
+    See Also
+    --------
+    Diagnosis : What it returns.
+    condition_hierarchy : The three conditions it runs.
+    grow_regions : How the suggested regions are grown.
+    design_switched : The switched design the diagnosis points to.
+
+    Examples
+    --------
+    No constant gain for the vehicle on 0-140 deg (paper 004, Theorem 4); the diagnosis says why
+    (a re-checked certificate, Theorem 5's shifted LMI) and where the functions change direction:
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import diagnose
+    >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
+    ...                 suggest=False)
+    >>> diag.feasible, diag.certificate.theorem, diag.theorem5.shifted_feasible
+    (False, 'Theorem 4', False)
+    >>> [diag.interval_text(p) for p in diag.pieces]
+    ['[0, 90] deg', '[90, 140] deg']
+
+    With ``suggest=True`` (the default) it also grows switching regions (``diag.suggested``).
     """
     t0 = time.perf_counter()
     k = coordinate_index(system, coordinate)

@@ -52,6 +52,21 @@ def dwell_time_fixed(P: Sequence[np.ndarray], sigmas: Sequence[float], pairs: Se
     -------
     float
         The dwell time; ``inf`` when a needed ``sigma_j`` is not positive.
+
+    See Also
+    --------
+    DwellTimeLMI : The joint LMI that also chooses the ``P_i``.
+    synthesize_switched : Uses both for its dwell time.
+
+    Examples
+    --------
+    Two Lyapunov matrices a factor ``e`` apart need ``tau = 1 / sigma``:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import dwell_time_fixed
+    >>> P = [np.eye(2), np.e * np.eye(2)]
+    >>> round(dwell_time_fixed(P, [2.0, 2.0], [(0, 1), (1, 0)]), 6)
+    0.5
     """
     tau = 0.0
     for i, j in pairs:
@@ -77,6 +92,25 @@ def hysteresis_for_dwell(tau: float, max_rate: float) -> float:
         Dwell time to enforce (``>= 0``, time units of the system).
     max_rate : float
         Largest ``|ds/dt|`` of the scheduling variable (positive).
+
+    Returns
+    -------
+    float
+        ``epsilon = tau * max_rate / 2``, in units of the scheduling variable.
+
+    See Also
+    --------
+    dwell_for_hysteresis : The inverse.
+    regions_from_switch_points : Builds regions with that overlap.
+
+    Examples
+    --------
+    A dwell time of 0.1 s for a yaw that turns at most 0.5 rad/s needs regions that overlap by
+    ``2 epsilon`` = 0.05 rad:
+
+    >>> from hybobs_opt.lmi import hysteresis_for_dwell
+    >>> hysteresis_for_dwell(0.1, 0.5)
+    0.025
     """
     max_rate = as_positive(max_rate, "max_rate", "a positive maximum rate of the scheduling variable")
     if not (tau >= 0):
@@ -98,6 +132,23 @@ def dwell_for_hysteresis(epsilon: float, max_rate: float, regions: Sequence[Sche
         Largest ``|ds/dt|`` of the scheduling variable (positive).
     regions : sequence of SchedulingRegion, optional
         The regions in order; with more than two, the interior regions' widths also limit the travel.
+
+    Returns
+    -------
+    float
+        The guaranteed dwell time ``2 epsilon / max_rate`` (shorter when an interior region leaves
+        less travel between its two switching points).
+
+    See Also
+    --------
+    hysteresis_for_dwell : The inverse.
+    dwell_time_fixed : The dwell time the Lyapunov matrices need.
+
+    Examples
+    --------
+    >>> from hybobs_opt.lmi import dwell_for_hysteresis
+    >>> dwell_for_hysteresis(0.025, 0.5)
+    0.1
     """
     max_rate = as_positive(max_rate, "max_rate", "a positive maximum rate of the scheduling variable")
     travel = 2.0 * epsilon
@@ -160,6 +211,26 @@ class DwellTimeLMI:
     condition : {"paper", "per_function", "polytopic"}
         The region condition of :mod:`.hierarchy`: the paper's LMI with one S-procedure multiplier,
         one multiplier per function, or the vertex LMIs of the Jacobian box.
+
+    See Also
+    --------
+    dwell_time_fixed : The dwell time with the ``P_i`` held fixed.
+    synthesize_switched : Builds and searches this LMI.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> design = synthesize_switched(vehicle, regions)
+
+    The joint search of ``DwellTimeLMI`` gives a dwell time no longer than the fixed-``P`` one:
+
+    >>> design.dwell_solves > 0, bool(design.tau <= design.tau_fixed)
+    (True, True)
     """
 
     def __init__(self, system: ScalarNonlinearSystem, n_regions: int, pairs: Sequence[tuple[int, int]], *,
@@ -382,6 +453,13 @@ class DwellTimeLMI:
             Relative tolerance of the bisection (:data:`~hybobs_opt.defaults.BISECTION_RTOL`).
         tau_fixed : float, optional
             The fixed-``P`` dwell time, stored in the result (default ``tau_hi``).
+
+        Returns
+        -------
+        DwellResult
+            The smallest dwell time the bisection proved feasible, with its Lyapunov matrices
+            and the
+            solves made.
 
         Raises
         ------

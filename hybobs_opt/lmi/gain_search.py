@@ -81,6 +81,31 @@ class SearchStart:
         The rate proven after each step (``-inf`` when none).
     steps : int
         Convex-concave steps taken.
+
+    See Also
+    --------
+    decay_gain_search : Records one per start.
+    GainSearchResult : Holds them in ``starts``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_gain_search
+    >>> start = decay_gain_search(pendulum, bounds, 10.0).starts[0]
+    >>> start.source
+    'eigenvalue screen 1'
+    >>> bool(start.polished >= start.convex_concave >= start.certified)
+    True
     """
 
     source: str
@@ -91,6 +116,13 @@ class SearchStart:
     steps: int
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def num(v):
             return float(v) if np.isfinite(v) else None
         return {"source": self.source, "eig_bound": num(self.eig_bound), "certified": num(self.certified),
@@ -122,6 +154,31 @@ class GainSearchResult:
     seconds : float
     gain_bound : float
         The bound on ``||L||_2`` searched under (model units).
+
+    See Also
+    --------
+    decay_gain_search : Returns one.
+    SearchStart : One start of the search.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_gain_search
+    >>> result = decay_gain_search(pendulum, bounds, 10.0)
+    >>> result.found, result.L.shape, bool(result.gain_norm <= 10.0)
+    (True, (2, 1), True)
+    >>> bool(result.sigma > 0), len(result.starts) > 0
+    (True, True)
     """
 
     found: bool
@@ -138,6 +195,13 @@ class GainSearchResult:
     gain_bound: float = field(default=float("nan"))
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"found": self.found, "sigma_verified": self.sigma if self.found else None,
                 "gain_bound": self.gain_bound, "gain_norm": self.gain_norm, "eig_bound": self.eig_bound,
                 "source": self.source, "L": None if self.L is None else self.L.tolist(),
@@ -519,6 +583,34 @@ def gain_decay_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, L: np
     -------
     rate, P
         The proven rate (``-inf`` when no ``P`` was found) and ``P`` in model coordinates (or ``None``).
+
+    See Also
+    --------
+    decay_gain_search : Searches the gain too.
+    PolytopicLMI : The vertex condition.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import gain_decay_rate
+    >>> sigma, P = gain_decay_rate(pendulum, bounds, np.array([[2.0], [2.0]]))
+    >>> round(sigma, 2), P.shape
+    (1.83, (2, 2))
+
+    A zero gain leaves the pendulum's error undamped: no positive rate.
+
+    >>> gain_decay_rate(pendulum, bounds, np.zeros((2, 1)))[0] <= 0
+    True
     """
     L = np.asarray(L, dtype=float)
     if L.shape != (system.n, system.p) or not np.all(np.isfinite(L)):
@@ -561,6 +653,35 @@ def decay_gain_search(system: ScalarNonlinearSystem, bounds: JacobianBounds, gai
     -------
     GainSearchResult
         The best pair, proven in numpy, and every start's progress.
+
+    See Also
+    --------
+    GainSearchResult : What it returns.
+    gain_decay_rate : The rate of one given gain.
+    decay_optimal_design : Runs this search with ``search_exact_bound=True``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import decay_gain_search, gain_decay_rate
+    >>> result = decay_gain_search(pendulum, bounds, 10.0)
+    >>> result.found, bool(np.linalg.norm(result.L, 2) <= 10.0 * (1 + 1e-9))
+    (True, True)
+
+    The rate is re-proved for the returned gain:
+
+    >>> bool(gain_decay_rate(pendulum, bounds, result.L)[0] >= 0.99 * result.sigma)
+    True
     """
     from ..defaults import GAIN_SEARCH_CERTIFY, GAIN_SEARCH_POLISH_ROUNDS
 

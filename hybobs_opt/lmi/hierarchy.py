@@ -75,6 +75,25 @@ class ConditionResult:
         Why the condition was not solved or not decided (empty otherwise).
     solution : LMISolution, PolytopicSolution or None
         The solve behind the verdict.
+
+    See Also
+    --------
+    condition_hierarchy : Returns one per condition in a HierarchyResult.
+    HierarchyResult.get : One condition's result by key.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import condition_hierarchy
+    >>> result = condition_hierarchy(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> paper = result.get("paper")
+    >>> paper.name  # doctest: +ELLIPSIS
+    'LMI (23) of Corollary 1.2 (one S-procedure multiplier, as in the paper)'
+    >>> paper.feasible, paper.status, paper.L.shape
+    (True, 'optimal', (4, 2))
     """
 
     key: str
@@ -99,6 +118,13 @@ class ConditionResult:
         return bool(getattr(cert, "structural_verified", False) or cert.verify())
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out = {"condition": self.key, "name": self.name, "feasible": self.feasible, "status": str(self.status),
                "implied_by": self.implied_by, "seconds": self.seconds}
         if self.skipped:
@@ -128,6 +154,27 @@ class HierarchyResult:
         One per condition of :data:`CONDITIONS`, in that order.
     seconds : float
         Wall time of the hierarchy.
+
+    See Also
+    --------
+    condition_hierarchy : Returns one.
+    ConditionResult : One condition's verdict.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import condition_hierarchy
+    >>> result = condition_hierarchy(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> [(c.key, c.feasible, c.status) for c in result.conditions]  # doctest: +NORMALIZE_WHITESPACE
+    [('paper', False, 'infeasible'), ('per_function', False, 'infeasible'),
+     ('polytopic', False, 'infeasible')]
+    >>> result.feasible, result.strongest_infeasible
+    (False, 'polytopic')
+    >>> print(result.claim("psi in [0, 140] deg"))  # doctest: +ELLIPSIS
+    No constant gain satisfies LMI (23) of Corollary 1.2 (one S-procedure ...
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -143,6 +190,11 @@ class HierarchyResult:
         ----------
         key : {"paper", "per_function", "polytopic"}
             The condition (:data:`CONDITIONS`).
+
+        Returns
+        -------
+        ConditionResult
+            The result of condition ``key``.
 
         Raises
         ------
@@ -193,6 +245,11 @@ class HierarchyResult:
         with_gain : bool, default True
             Quote the feasible condition's gain and rate (its first feasible point, at decay rate 0
             without a gain bound); ``False`` when a designed gain is stated elsewhere.
+
+        Returns
+        -------
+        str
+            What the hierarchy proves on the region named by ``where``.
         """
         strongest = self.strongest_infeasible
         feas = self.gain
@@ -225,6 +282,13 @@ class HierarchyResult:
         return " ".join(parts)
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"lmi": self.form, "conditions": [c.to_dict() for c in self.conditions],
                 "feasible_condition": self.feasible_condition, "strongest_infeasible": self.strongest_infeasible,
                 "seconds": self.seconds}
@@ -278,6 +342,31 @@ def condition_hierarchy(system: ScalarNonlinearSystem, region: SchedulingRegion 
         Decay rate at which every condition is solved.
     region_text : str, optional
         How the region is named in the certificates' messages.
+
+    Returns
+    -------
+    HierarchyResult
+        One :class:`ConditionResult` per condition (``"paper"``, ``"per_function"``,
+        ``"polytopic"``), each with its gain or its re-checked certificate.
+
+    See Also
+    --------
+    ObserverLMI : The paper's LMI, the first condition.
+    PolytopicLMI : The vertex condition, the last one.
+    diagnose : Runs the hierarchy with the rest of the diagnosis.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import condition_hierarchy
+    >>> result = condition_hierarchy(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> [(c.key, c.feasible) for c in result.conditions]
+    [('paper', False), ('per_function', False), ('polytopic', False)]
+    >>> result.feasible
+    False
     """
     if not isinstance(system, ScalarNonlinearSystem):
         raise ModelError("system", "a ScalarNonlinearSystem", type(system).__name__)

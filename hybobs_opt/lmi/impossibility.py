@@ -63,6 +63,29 @@ class UndetectablePoint(Certificate):
         ``sigma_min([J - lambda I; C])`` relative to ``1 + ||J|| + ||C||``.
     system : ScalarNonlinearSystem
         The system.
+
+    See Also
+    --------
+    undetectable_points : Finds them.
+    OutputSymmetry : A global obstruction of the same kind.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import undetectable_points
+    >>> point = undetectable_points(system, "x1")[0]
+    >>> np.round(point.x, 6), point.s
+    (array([0., 0.]), 0.0)
+    >>> point.verify()
+    True
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -75,7 +98,13 @@ class UndetectablePoint(Certificate):
     pbh_residual: float
 
     def verify(self) -> bool:
-        """Re-evaluate ``J v = lambda v``, ``C v = 0``, ``Re lambda >= 0`` at ``x`` (numpy)."""
+        """Re-evaluate ``J v = lambda v``, ``C v = 0``, ``Re lambda >= 0`` at ``x`` (numpy).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         J = self.system.dynamics_jacobian(self.x)
         C = self.system.output_jacobian(self.x)
         v = np.asarray(self.mode, dtype=complex)
@@ -103,6 +132,13 @@ class UndetectablePoint(Certificate):
         return text + "."
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"coordinate": self.system.state_names[self.coordinate], "s": self.s, "x": self.x.tolist(),
                 "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag], "mode": np.real(self.mode).tolist(),
                 "equilibrium": self.equilibrium, "pbh_residual": self.pbh_residual, "verified": self.verify(),
@@ -145,10 +181,40 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     samples : int, default DETECTABILITY_SAMPLES
         Number of grid points (:data:`~hybobs_opt.defaults.DETECTABILITY_SAMPLES`).
 
+    Returns
+    -------
+    list of UndetectablePoint
+        The points found, each with the non-decaying eigenvalue, its mode and the PBH residual that
+        shows the outputs do not see it (empty when the linearisation is detectable everywhere).
+
     Raises
     ------
     ModelError
         If the range is empty, reversed or outside the box.
+
+    See Also
+    --------
+    UndetectablePoint : One point and its re-check.
+    output_symmetries : Global mirror maps the outputs cannot detect.
+    diagnose : Reports these points with the LMI's verdict.
+
+    Examples
+    --------
+    ``cos(x1)`` is flat at ``x1 = 0``: there the output does not see the rotation.
+
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import undetectable_points
+    >>> points = undetectable_points(system, "x1")
+    >>> [round(p.s, 6) for p in points], points[0].verify()
+    ([0.0], True)
     """
     k = coordinate_index(system, coordinate)
     lo = float(system.box_lower[k]) if lo is None else float(lo)
@@ -217,6 +283,32 @@ class OutputSymmetry(Certificate):
         The system.
     lower, upper : (n,) arrays
         Box ``box ∩ T(box)`` in which :meth:`verify` draws its points.
+
+    See Also
+    --------
+    output_symmetries : Finds them.
+    UndetectablePoint : The local counterpart (a non-detectable linearisation).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import output_symmetries
+    >>> sym = output_symmetries(system)[0]
+    >>> np.diag(sym.S), sym.flipped
+    (array([-1., -1.]), ['x1', 'x2'])
+    >>> x = np.array([0.5, 0.2])
+    >>> sym.map(x), bool(np.isclose(np.cos(x[0]), np.cos(sym.map(x)[0])))
+    (array([-0.5, -0.2]), True)
+    >>> sym.verify()
+    True
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -235,6 +327,11 @@ class OutputSymmetry(Certificate):
         ----------
         x : (n,) or (N, n) array_like
             State(s).
+
+        Returns
+        -------
+        ndarray
+            The mirror map ``x -> c + S (x - c)``.
         """
         x = np.asarray(x, dtype=float)
         return self.c + (x - self.c) * np.diag(self.S)
@@ -248,6 +345,11 @@ class OutputSymmetry(Certificate):
             Number of random points drawn in ``[lower, upper]`` (:data:`~hybobs_opt.defaults.SYMMETRY_POINTS`).
         seed : int, default 1
             Seed of the random points (the search itself uses 0, so these are fresh).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
         """
         res = _symmetry_residual(self.system, np.diag(self.S), self.c, self.lower, self.upper, points, seed)
         return res is not None and res <= SYMMETRY_RTOL
@@ -273,6 +375,13 @@ class OutputSymmetry(Certificate):
                 f"no observer can tell them apart, and an estimate can converge to the mirror branch.")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"flipped": self.flipped, "S": np.diag(self.S).tolist(), "c": self.c.tolist(), "points": self.points,
                 "residual": self.residual, "example_pair": [self.example_pair[0].tolist(), self.example_pair[1].tolist()],
                 "verified": self.verify(), "claim": self.claim}
@@ -335,6 +444,36 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
         Random points at which each candidate is checked.
     seed : int, default 0
         Seed of the random points.
+
+    Returns
+    -------
+    list of OutputSymmetry
+        The mirror maps found (empty when there is none); each proves that no observer can recover
+        the flipped coordinates' sign from the outputs.
+
+    See Also
+    --------
+    OutputSymmetry : One mirror map and its re-check.
+    undetectable_points : States where the linearisation is not detectable.
+    diagnose : Reports both with the LMI's verdict.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
+    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
+    ...                                name="mirror")
+    >>> from hybobs_opt.lmi import output_symmetries
+    >>> found = output_symmetries(system)
+    >>> len(found), found[0].verify()
+    (1, True)
+    >>> print(found[0].claim)  # doctest: +ELLIPSIS
+    Globally unobservable: the mirror map (x1 -> -x1, x2 -> -x2) leaves the outputs ...
     """
     n = system.n
     lo_box, hi_box = system.box_lower, system.box_upper

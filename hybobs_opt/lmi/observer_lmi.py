@@ -109,6 +109,25 @@ class LMISolution:
     P_scaled, Y_scaled : arrays or None
         ``P`` and ``Y = P L`` at the solver's point in the scaled coordinates (the columns of ``Y``
         in the order linear outputs, then nonlinear ones).
+
+    See Also
+    --------
+    ObserverLMI.solve : Returns one.
+    certify_infeasible : Explains a solve that is not feasible.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80))), 0.0)
+    >>> sol.feasible, sol.status, sol.form
+    (True, 'optimal', '(23)')
+    >>> sol.L.shape, bool(sol.lmi_max_eig <= 0), bool(sol.p_min_eig > 0)
+    ((4, 2), True, True)
     """
 
     feasible: bool
@@ -149,6 +168,13 @@ class LMISolution:
         return out
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"feasible": self.feasible, "status": self.status, "form": self.form, "sigma": self.sigma,
                 "region": None if self.region is None else self.region.to_dict(),
                 "L": None if self.L is None else self.L.tolist(), "P": None if self.P is None else self.P.tolist(),
@@ -284,6 +310,33 @@ class ObserverLMI:
         ``"single"``: the paper's one S-procedure multiplier ``eps`` for all functions (eq. 21);
         ``"per_function"``: one multiplier per ``f_i`` and per nonlinear ``h_j`` (each sector
         condition weighed on its own, a weaker requirement; see :mod:`.hierarchy`).
+
+    See Also
+    --------
+    jacobian_bounds : The bounds a solve takes.
+    LMISolution : What a solve returns.
+    certify_infeasible : The certificate of an infeasible solve.
+    PolytopicLMI : The less conservative vertex condition.
+
+    Examples
+    --------
+    A constant gain exists for the vehicle on 0-80 deg, where ``V cos`` and ``V sin`` are monotonic;
+    none exists on 0-140 deg (paper 004, Theorem 4).
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import ObserverLMI, jacobian_bounds
+    >>> lmi = ObserverLMI(vehicle)
+    >>> lmi.form
+    '(23)'
+    >>> ok = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80))), 0.0)
+    >>> ok.feasible, ok.L.shape
+    (True, (4, 2))
+    >>> bad = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> bad.feasible, bad.status
+    (False, 'infeasible')
     """
 
     def __init__(self, system: ScalarNonlinearSystem, *, gain_bound: float | None = None, shifted: bool = False,
@@ -398,6 +451,11 @@ class ObserverLMI:
             Restrict one coordinate of the operating box (default: the whole box).
         **kwargs
             ``given`` and ``samples`` of :func:`.bounds.jacobian_bounds`.
+
+        Returns
+        -------
+        JacobianBounds
+            Jacobian bounds of the system over ``region`` (see :func:`.bounds.jacobian_bounds`).
         """
         return jacobian_bounds(self.system, region, **kwargs)
 
@@ -510,7 +568,13 @@ class ObserverLMI:
 
     # -- certificates
     def alternative(self):
-        """The theorem-of-alternatives SDP for this LMI, built on first use (see certificates)."""
+        """The theorem-of-alternatives SDP for this LMI, built on first use (see certificates).
+
+        Returns
+        -------
+        object
+            The theorem-of-alternatives SDP of this LMI (built on first use).
+        """
         if self._alternative is None:
             from .certificates import AlternativeSDP
 

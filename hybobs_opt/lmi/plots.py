@@ -35,6 +35,29 @@ def plot_jacobian_bounds(diag, path: str | Path, samples: int = 721,
     -------
     Path
         The file written.
+
+    See Also
+    --------
+    diagnose : The diagnosis it draws.
+    jacobian_bounds : The bounds drawn.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import diagnose, plot_jacobian_bounds
+    >>> diag = diagnose(vehicle, "psi", 0.0, math.radians(140), unit="deg", factor=math.pi / 180,
+    ...                 suggest=False)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = plot_jacobian_bounds(diag, Path(tmp) / "bounds.png", samples=91)
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    bounds.png True
     """
     path = Path(path)
     system = diag.system
@@ -98,6 +121,36 @@ def plot_noise_tradeoff(curve, path: str | Path, design=None, state_names=None) 
     -------
     Path
         The file written.
+
+    See Also
+    --------
+    noise_tradeoff : The curve it draws.
+    noise_optimal_design : One point of the curve.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from hybobs_opt.lmi import jacobian_bounds
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
+
+    >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
+    ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
+    >>> bounds = jacobian_bounds(pendulum)
+    >>> from hybobs_opt.lmi import noise_tradeoff, plot_noise_tradeoff
+    >>> curve = noise_tradeoff(pendulum, bounds, [0.01], [0.1, 0.5, 1.0], gain_bound=10.0)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = plot_noise_tradeoff(curve, Path(tmp) / "tradeoff.png", state_names=("theta", "omega"))
+    ...     print(path.suffix, path.stat().st_size > 0)
+    ...
+    .png True
     """
     path = Path(path)
     ok = np.asarray(curve.feasible, dtype=bool)

@@ -117,6 +117,24 @@ class PolytopicCertificate(Certificate):
         One PSD multiplier per vertex, as found.
     source : str
         ``"Clarabel Farkas ray"`` or ``"alternative SDP"``.
+
+    See Also
+    --------
+    PolytopicLMI.certify : Builds one from an infeasible solve.
+    DualCertificate : The certificate of the paper's LMI.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import PolytopicLMI, jacobian_bounds
+    >>> lmi = PolytopicLMI(vehicle)
+    >>> sol = lmi.solve(jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140))), 0.0)
+    >>> cert = lmi.certify(sol)
+    >>> sol.feasible, len(cert.Z) == len(cert.As), cert.verify()
+    (False, True, True)
     """
 
     As: list[np.ndarray] = field(repr=False)
@@ -129,7 +147,13 @@ class PolytopicCertificate(Certificate):
         return sum(Z @ C.T for Z, C in zip(Zs, self.Cs))
 
     def projected(self) -> list[np.ndarray]:
-        """The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``."""
+        """The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``.
+
+        Returns
+        -------
+        list of ndarray
+            The ``Z_v`` projected (least squares) onto ``sum_v Z_v C_v^T = 0``.
+        """
         Zs = [0.5 * (Z + Z.T) for Z in self.Z]
         n = Zs[0].shape[0]
         p = self.Cs[0].shape[0]
@@ -159,13 +183,26 @@ class PolytopicCertificate(Certificate):
         ----------
         Zs : list of (n, n) arrays
             One multiplier per vertex (e.g. :attr:`Z` or :meth:`projected`).
+
+        Returns
+        -------
+        ndarray
+            ``W = sum_v (A_v Z_v + Z_v A_v^T + sigma Z_v)``, symmetrised (the re-check needs
+            ``W >= 0``).
         """
         W = sum(A @ Z + Z @ A.T + self.sigma * Z for Z, A in zip(Zs, self.As))
         return 0.5 * (W + W.T)
 
     def check(self) -> PolytopicCheck:
         """The numpy re-check (computed once per certificate; a modified copy made with
-        ``dataclasses.replace`` is re-checked from scratch)."""
+        ``dataclasses.replace`` is re-checked from scratch).
+
+        Returns
+        -------
+        PolytopicCheck
+            The numpy re-check (computed once per certificate; a modified copy made with
+            ``dataclasses.replace`` is re-checked from scratch).
+        """
         return self._checked
 
     @cached_property
@@ -198,7 +235,13 @@ class PolytopicCertificate(Certificate):
         return res
 
     def verify(self) -> bool:
-        """True when the numpy re-check confirms the certificate (no solver involved)."""
+        """True when the numpy re-check confirms the certificate (no solver involved).
+
+        Returns
+        -------
+        bool
+            True when the re-check in plain numpy passes (no solver involved).
+        """
         return self.check().ok
 
     #: Which result the certificate stands for (the attribute of every certificate of the package).
@@ -211,6 +254,13 @@ class PolytopicCertificate(Certificate):
                 f"for every P > 0 and every gain L, so the strict vertex LMIs B_v < 0 have no common solution")
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"source": self.source, "verified": self.verify(), "check": self.check().to_dict(),
                 "vertices": len(self.Z), "sigma": self.sigma, "reason": self.reason}
 
@@ -266,6 +316,27 @@ class PolytopicLMI:
     ------
     ModelError
         More than :data:`~hybobs_opt.defaults.POLYTOPIC_MAX_VERTICES` vertices.
+
+    See Also
+    --------
+    ObserverLMI : The paper's LMI (one S-procedure multiplier).
+    PolytopicCertificate : Its infeasibility certificate.
+    condition_hierarchy : Runs both.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import PolytopicLMI, jacobian_bounds
+    >>> lmi = PolytopicLMI(vehicle)
+    >>> bounds = jacobian_bounds(vehicle, make_region(vehicle, "psi", 0.0, math.radians(80)))
+    >>> As, Cs = lmi.vertices(bounds)
+    >>> len(As), As[0].shape
+    (8, (4, 4))
+    >>> lmi.solve(bounds, 0.0).feasible
+    True
     """
 
     form = "polytopic"
@@ -361,6 +432,12 @@ class PolytopicLMI:
             The Jacobian box of the region.
         sigma : float, default 0.0
             Decay rate ``sigma >= 0``.
+
+        Returns
+        -------
+        PolytopicSolution
+            ``feasible`` only for ``optimal`` plus the numpy re-check at every vertex; ``L``, ``P``
+            when feasible.
         """
         if not (np.isfinite(sigma) and sigma >= 0):
             raise ModelError("sigma", "a non-negative decay rate", repr(sigma))
@@ -418,6 +495,11 @@ class PolytopicLMI:
         sol : PolytopicSolution
             An infeasible solve of this condition (its ``farkas`` duals are tried first, then the
             alternative SDP).
+
+        Returns
+        -------
+        PolytopicCertificate or None
+            A verified certificate for an infeasible solve, or ``None`` (none found or none checks).
         """
         As, Cs = self.vertices(sol.bounds)
         if sol.farkas is not None:

@@ -34,6 +34,26 @@ class SchedulingRegion:
         The interval, ``lo < hi``, in the model's units (radians for ``psi``).
     index : int
         Position of the region in its partition (0-based).
+
+    See Also
+    --------
+    make_region : Build a region checked against a system's operating box.
+    regions_from_switch_points : Overlapping regions around switching points (Fig. 1).
+    grow_regions : Regions grown where a gain of a given decay rate exists.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> region = make_region(vehicle, "psi", 0.0, math.radians(80))
+    >>> region.name, region.coordinate
+    ('psi', 2)
+    >>> round(region.width, 4)
+    1.3963
+    >>> region.contains(math.radians(45)), region.contains(math.radians(100))
+    (True, False)
     """
 
     coordinate: int
@@ -61,10 +81,22 @@ class SchedulingRegion:
         ----------
         value : float
             Value of the scheduling state, in model units.
+
+        Returns
+        -------
+        bool
+            Whether ``lo <= value <= hi``.
         """
         return self.lo <= value <= self.hi
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"index": self.index, "coordinate": self.name, "lo": self.lo, "hi": self.hi}
 
 
@@ -95,11 +127,39 @@ def make_region(system: ScalarNonlinearSystem, coordinate: int | str, lo: float,
     index : int, default 0
         Position of the region in its partition.
 
+    Returns
+    -------
+    SchedulingRegion
+        The region, with the coordinate's index and name resolved.
+
     Raises
     ------
     ModelError
         ``lo >= hi`` (an empty region), non-finite ends, or an interval that does not meet the
         box's range of the coordinate.
+
+    See Also
+    --------
+    SchedulingRegion : The region it returns.
+    regions_from_switch_points : Several overlapping regions at once.
+    jacobian_bounds : The Jacobian bounds (4)-(5) over a region.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> region = make_region(vehicle, "psi", 0.0, math.radians(80))
+    >>> region.coordinate, region.name, region.lo, round(region.hi, 4)
+    (2, 'psi', 0.0, 1.3963)
+
+    A reversed range is refused:
+
+    >>> make_region(vehicle, "psi", 1.0, 0.0)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    hybobs_opt.errors.ModelError: region of psi: expected a non-empty interval lo < hi, got [1, 0]
     """
     k = coordinate_index(system, coordinate)
     region = SchedulingRegion(k, system.state_names[k], float(lo), float(hi), index)
@@ -184,6 +244,25 @@ def regions_from_switch_points(
     ModelError
         Unsorted switching points, points outside ``(lo, hi)``, a negative overlap, or an
         overlap so wide that a region would reach past its neighbour's switching point.
+
+    See Also
+    --------
+    make_region : One region.
+    adjacent_pairs : The switches between the regions.
+    grow_regions : Regions grown from the LMI instead of given switching points.
+
+    Examples
+    --------
+    The vehicle split of paper 004, eqs. (61)-(62): 0-80 deg and 60-140 deg.
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> [(r.index, round(math.degrees(r.lo)), round(math.degrees(r.hi))) for r in regions]
+    [(0, 0, 80), (1, 60, 140)]
     """
     k = coordinate_index(system, coordinate)
     pts = [float(s) for s in switch_points]
@@ -217,6 +296,22 @@ def adjacent_pairs(regions: Sequence[SchedulingRegion]) -> list[tuple[int, int]]
     -------
     list of (int, int)
         Indices into ``regions``; both orders of each overlapping pair are listed.
+
+    See Also
+    --------
+    regions_from_switch_points : Overlapping regions whose pairs this lists.
+    synthesize_switched : Uses the pairs for the dwell-time LMIs (47)-(48).
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import adjacent_pairs, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> adjacent_pairs(regions)
+    [(0, 1), (1, 0)]
     """
     pairs = []
     for i, a in enumerate(regions):

@@ -46,6 +46,23 @@ class SubtractionCheck:
         When the transformed LMI is infeasible: whether its dual certificate passed the numpy check.
     sigma : float
         Decay rate of both LMIs.
+
+    See Also
+    --------
+    theorem5_check : Returns one.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import theorem5_check
+    >>> check = theorem5_check(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> check.original_feasible, check.shifted_feasible, check.equivalent
+    (False, False, True)
+    >>> bool(check.identity_residual < 1e-6)
+    True
     """
 
     original_feasible: bool
@@ -61,6 +78,13 @@ class SubtractionCheck:
         return self.original_feasible == self.shifted_feasible
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"original_feasible": self.original_feasible, "shifted_feasible": self.shifted_feasible,
                 "original_status": self.original_status, "shifted_status": self.shifted_status,
                 "identity_residual": self.identity_residual, "sigma": self.sigma, "equivalent": self.equivalent,
@@ -90,6 +114,30 @@ def theorem5_check(system: ScalarNonlinearSystem, region: SchedulingRegion | Non
         Seed of those random trials.
     original : ObserverLMI, optional
         The compiled original LMI to reuse (default: :meth:`ObserverLMI.compiled`).
+
+    Returns
+    -------
+    SubtractionCheck
+        Both verdicts, their statuses, the largest difference of the two Schur forms at random
+        ``(P, L)`` and whether the shifted LMI's certificate was re-checked.
+
+    See Also
+    --------
+    diagnose : Runs this check with the rest of the diagnosis.
+    ObserverLMI : The original LMI.
+
+    Examples
+    --------
+    Subtracting a linear part does not make the vehicle's LMI feasible on 0-140 deg (Theorem 5):
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import make_region
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import theorem5_check
+    >>> check = theorem5_check(vehicle, make_region(vehicle, "psi", 0.0, math.radians(140)))
+    >>> check.original_feasible, check.shifted_feasible
+    (False, False)
     """
     from .certificates import certify_infeasible
 

@@ -62,6 +62,25 @@ class RegionGain:
         Every rate the decay search tried.
     capped : bool
         ``sigma_max`` is the cap of the decay search.
+
+    See Also
+    --------
+    SwitchedDesign : Holds one per region.
+    SwitchedGainObserver : Runs the gains.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> gain = synthesize_switched(vehicle, regions).regions[0]
+    >>> gain.L.shape, gain.P.shape
+    ((4, 2), (4, 4))
+    >>> bool(gain.sigma > 0), bool(gain.lmi_max_eig <= 0), round(gain.gain_norm, 1) > 0
+    (True, True, True)
     """
 
     region: SchedulingRegion
@@ -121,6 +140,26 @@ class SwitchedDesign:
         The check of :func:`~hybobs_opt.observers.switched_verification.verify_switched_design`, when run.
     dwell_attempts : list of dict
         The attempts of :func:`.auto_design.design_switched` (overlap, design-rate fraction, result).
+
+    See Also
+    --------
+    synthesize_switched : Builds one.
+    SwitchedGainObserver : Runs it.
+    switched_noise_bound : Its certified error bound under bounded noise.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> design = synthesize_switched(vehicle, regions)
+    >>> design.coordinate_name, len(design.regions), design.pairs
+    ('psi', 2, [(0, 1), (1, 0)])
+    >>> bool(design.tau > 0)
+    True
     """
 
     system: ScalarNonlinearSystem = field(repr=False)
@@ -171,6 +210,11 @@ class SwitchedDesign:
             Display unit of the scheduling coordinate (for the texts).
         factor : float, default 1.0
             Model units per display unit.
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
         """
         regs = []
         for g in self.regions:
@@ -210,6 +254,29 @@ class DwellTimeWarning(UserWarning):
         The message (one of :attr:`SwitchedDesign.warnings`), as for :class:`UserWarning`.
     **kwargs
         None accepted (:class:`Warning` takes no keyword arguments).
+
+    See Also
+    --------
+    DwellTimeError : Raised instead unless the caller accepts the design.
+    SwitchedDesign.warnings : The texts of the warnings.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> import warnings
+    >>> from hybobs_opt.lmi import DwellTimeWarning
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     design = synthesize_switched(vehicle, regions, overlap=math.radians(10), max_rate=100.0,
+    ...                                  accept_unenforced_dwell=True)
+    ...
+    >>> any(issubclass(w.category, DwellTimeWarning) for w in caught), design.dwell_enforced
+    (True, False)
     """
 
 
@@ -222,6 +289,28 @@ class DwellTimeError(HybobsError):
     ----------
     design : SwitchedDesign
         The rejected design; the message says which overlap would enforce its dwell time.
+
+    See Also
+    --------
+    DwellTimeWarning : The warning given instead when the caller accepts such a design.
+    synthesize_switched : Raises it.
+    hysteresis_for_dwell : The overlap a dwell time needs.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> from hybobs_opt.lmi import DwellTimeError
+    >>> try:
+    ...     synthesize_switched(vehicle, regions, overlap=math.radians(10), max_rate=100.0)
+    ... except DwellTimeError as err:
+    ...     print(type(err.design).__name__, err.design.dwell_enforced)
+    ...
+    SwitchedDesign False
     """
 
     def __init__(self, design: "SwitchedDesign"):
@@ -281,12 +370,35 @@ def grow_regions(
     condition : {"paper", "per_function", "polytopic"}, default "paper"
         The region condition.
 
+    Returns
+    -------
+    list of SchedulingRegion
+        Regions covering ``[lo, hi]`` in order, neighbours overlapping by ``2 * overlap``, each with a
+        gain of decay rate ``min_decay``.
+
     Raises
     ------
     InfeasibleError
         Even the narrowest region at some point admits no such gain (carries the certificate).
     ModelError
         Bad range, overlap or rate.
+
+    See Also
+    --------
+    regions_from_switch_points : Regions around given switching points instead.
+    synthesize_switched : The gains on the regions.
+    design_switched : Settings, regions and gains in one call.
+
+    Examples
+    --------
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import grow_regions
+    >>> regions = grow_regions(vehicle, "psi", 0.0, math.radians(140), overlap=math.radians(5),
+    ...                        min_decay=0.5, resolution=math.radians(2))
+    >>> len(regions) >= 2, round(regions[0].lo, 6), round(regions[-1].hi, 6) == round(math.radians(140), 6)
+    (True, 0.0, True)
     """
     k = coordinate_index(system, coordinate)
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
@@ -429,12 +541,41 @@ def synthesize_switched(
         Log the progress (and every LMI solve at DEBUG) to standard error: ``True`` at INFO, or a
         logging level (:func:`hybobs_opt._logging.verbose_logging`).
 
+    Returns
+    -------
+    SwitchedDesign
+        The gain and Lyapunov matrix of each region, the switching pairs, the dwell time ``tau``
+        and whether the hysteresis enforces it.
+
     Raises
     ------
     InfeasibleError
         A region admits no constant gain (carries the certificate).
     DwellTimeError
         The overlap does not enforce the dwell time at ``max_rate`` and the caller did not accept it.
+
+    See Also
+    --------
+    regions_from_switch_points : Regions around given switching points.
+    grow_regions : Regions grown from the LMI.
+    design_switched : Settings, regions and gains in one call.
+    SwitchedGainObserver : Runs the design.
+
+    Examples
+    --------
+    The vehicle of paper 004 with the two regions of eqs. (61)-(62):
+
+    >>> import math
+    >>> import hybobs_opt as hy
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> from hybobs_opt.lmi import synthesize_switched, regions_from_switch_points
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> design = synthesize_switched(vehicle, regions)
+    >>> [g.L.shape for g in design.regions]
+    [(4, 2), (4, 2)]
+    >>> design.pairs, bool(design.tau > 0)
+    ([(0, 1), (1, 0)], True)
     """
     from .hierarchy import design_lmi, verified_rate
 

@@ -72,6 +72,33 @@ class StateCertificate:
         The regions' re-checked ellipsoids.
     jumps, alpha, jump, dwell_needed, level, bound
         As for :class:`SwitchedNoiseBound`, of this certificate (``bound`` covers every state).
+
+    See Also
+    --------
+    switched_noise_bound : Adds one per state it tightens.
+    SwitchedNoiseBound : Holds them in ``state_certificates``.
+
+    Examples
+    --------
+    One state's certificate exists only where it beats the common one; a one-state plant has none:
+
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
+
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
+    ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
+    >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
+    >>> design = synthesize_switched(plant, regions, gain_bound=10.0, max_rate=2.0, overlap=0.1)
+    >>> from hybobs_opt.lmi import switched_noise_bound
+    >>> snb = switched_noise_bound(design, [0.01])
+    >>> snb.state_certificates
+    ()
+    >>> [(c.state, c.bound[c.state] <= snb.bound[c.state]) for c in snb.state_certificates]
+    []
     """
 
     state: int
@@ -84,6 +111,13 @@ class StateCertificate:
     bound: np.ndarray
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"state": self.state, "alpha": self.alpha, "jump": self.jump, "dwell_needed": self.dwell_needed,
                 "level": self.level, "bound": self.bound.tolist()}
 
@@ -127,6 +161,34 @@ class SwitchedNoiseBound:
     state_certificates : tuple of StateCertificate
         Certificates that each bound one state tighter than ``by_region`` does (same gains, same
         rate, ``P_i`` chosen for that state); ``bound[k]`` is the smallest bound any certificate gives.
+
+    See Also
+    --------
+    switched_noise_bound : Returns one.
+    check_switched_noise_bound : Compares it with simulations.
+    NoiseBoundDesign : The bound of one region.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
+
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
+    ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
+    >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
+    >>> design = synthesize_switched(plant, regions, gain_bound=10.0, max_rate=2.0, overlap=0.1)
+    >>> from hybobs_opt.lmi import switched_noise_bound
+    >>> snb = switched_noise_bound(design, [0.01])
+    >>> snb.holds, np.round(snb.bound, 4)
+    (True, array([0.009]))
+    >>> bool(snb.dwell > snb.dwell_needed), len(snb.by_region)
+    (True, 2)
+    >>> print(snb.claim())  # doctest: +ELLIPSIS
+    Under output noise |v| <= [0.01] the switched observer's error ends in |e_x| <= ...
     """
 
     design: SwitchedDesign = field(repr=False)
@@ -204,7 +266,13 @@ class SwitchedNoiseBound:
                        state_certificates=states)
 
     def claim(self) -> str:
-        """What is proven, in one sentence."""
+        """What is proven, in one sentence.
+
+        Returns
+        -------
+        str
+            What is proven, in one sentence.
+        """
         names = self.design.system.state_names
         noise = np.round(self.noise, 6).tolist()
         if not self.holds:
@@ -224,7 +292,13 @@ class SwitchedNoiseBound:
                    "state in the active region by itself." if self.wider_than_regions else ""))
 
     def to_dict(self, unit: str = "", factor: float = 1.0) -> dict:
-        """JSON-ready fields; region intervals in the display unit (model value / ``factor``)."""
+        """JSON-ready fields; region intervals in the display unit (model value / ``factor``).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def arr(a):
             return None if a is None else np.asarray(a).tolist()
 
@@ -368,6 +442,30 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
     SwitchedNoiseBound
         The best candidate (module docstring); ``bound`` is ``None`` when no candidate's dwell time
         needed is below the one assumed.
+
+    See Also
+    --------
+    SwitchedNoiseBound : What it returns.
+    synthesize_switched : The design it bounds.
+    check_switched_noise_bound : Compares the bound with simulations.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
+
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
+    ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
+    >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
+    >>> design = synthesize_switched(plant, regions, gain_bound=10.0, max_rate=2.0, overlap=0.1)
+    >>> from hybobs_opt.lmi import switched_noise_bound
+    >>> snb = switched_noise_bound(design, [0.01])
+    >>> snb.holds, np.round(snb.bound, 4), np.round(snb.scaled(2.0).bound, 4)
+    (True, array([0.009]), array([0.0179]))
     """
     from ..defaults import SWITCHED_NOISE_ALPHAS, SWITCHED_NOISE_COUPLINGS
     from ..lmi.lmi_model import box_scaling

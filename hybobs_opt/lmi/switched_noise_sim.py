@@ -353,6 +353,35 @@ class SwitchedNoiseSimulationCheck:
         The region and the worst sinusoid each sinusoid family was aimed from.
     run_details : tuple of SwitchedNoiseRun
     seconds : float
+
+    See Also
+    --------
+    check_switched_noise_bound : Returns one.
+    SwitchedNoiseBound : The bound it checks.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
+
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
+    ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
+    >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
+    >>> design = synthesize_switched(plant, regions, gain_bound=10.0, max_rate=2.0, overlap=0.1)
+    >>> from hybobs_opt.lmi import check_switched_noise_bound, switched_noise_bound
+    >>> snb = switched_noise_bound(design, [0.01])
+    >>> def drive(t, X):
+    ...     return np.full((X.shape[0], 1), 0.9 * np.cos(2 * t))
+    ...
+    >>> check = check_switched_noise_bound(snb, drive, np.array([0.0]), t_final=4.0, random_runs=4)
+    >>> check.runs, check.valid_runs, check.exceeded, check.switches > 0
+    (6, 3, 0, True)
+    >>> bool(np.all(check.max_error <= check.bound))
+    True
     """
 
     bound: np.ndarray
@@ -384,6 +413,13 @@ class SwitchedNoiseSimulationCheck:
     seconds: float = 0.0
 
     def to_dict(self) -> dict:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         def arr(a):
             return np.asarray(a, dtype=float).tolist()
 
@@ -462,6 +498,33 @@ def check_switched_noise_bound(snb: SwitchedNoiseBound, drive: Drive, x0, *, e0=
     Returns
     -------
     SwitchedNoiseSimulationCheck
+
+    See Also
+    --------
+    SwitchedNoiseSimulationCheck : What it returns.
+    switched_noise_bound : The bound it checks.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.systems import Polytope, ScalarFunction, ScalarNonlinearSystem
+
+    A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
+
+    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
+    ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
+    >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
+    >>> design = synthesize_switched(plant, regions, gain_bound=10.0, max_rate=2.0, overlap=0.1)
+    >>> from hybobs_opt.lmi import check_switched_noise_bound, switched_noise_bound
+    >>> snb = switched_noise_bound(design, [0.01])
+    >>> def drive(t, X):
+    ...     return np.full((X.shape[0], 1), 0.9 * np.cos(2 * t))
+    ...
+    >>> check = check_switched_noise_bound(snb, drive, np.array([0.0]), t_final=4.0, random_runs=4)
+    >>> check.exceeded, bool(np.all(check.ratio >= 1.0))
+    (0, True)
     """
     from .noise_sim import _model_vertices
 

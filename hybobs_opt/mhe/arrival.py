@@ -48,6 +48,32 @@ class KalmanArrival:
     min_std : (n,) array
         Floor of the prior's standard deviations (keeps the weight's conditioning, and the
         observer's Hessian factorisable, after long observable stretches).
+
+    See Also
+    --------
+    MHEObserver : Uses it with ``arrival_weight="kalman"``.
+    hybobs_opt.observers.ModeSequenceKalmanFilter : The same filter told the true modes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import KalmanArrival
+    >>> arrival = KalmanArrival(plant, np.array([0.01]), None, np.array([0.1, 10.0, 1.0]),
+    ...                         np.full(3, 1e-6))
+    >>> arrival.reset(truth.x[0])
+    >>> np.round(arrival.std(), 3)
+    array([ 0.1, 10. ,  1. ])
+    >>> arrival.advance(U[0], truth.y[0], int(truth.q[0]))
+    >>> arrival.weight().shape, np.round(arrival.std(), 3)
+    ((3, 3), array([0.1  , 0.278, 1.   ]))
     """
 
     def __init__(self, system: PWASystem, noise_std: np.ndarray, disturbance_cov: np.ndarray | None,
@@ -94,12 +120,24 @@ class KalmanArrival:
         self.P = 0.5 * (Pn + Pn.T)
 
     def weight(self) -> np.ndarray:
-        """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root)."""
+        """``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root).
+
+        Returns
+        -------
+        ndarray
+            ``W_a`` with ``W_a' W_a = (P + floor)^-1`` (symmetric square root).
+        """
         w, V = np.linalg.eigh(self.P + self._floor)
         return (V / np.sqrt(w)) @ V.T
 
     def std(self) -> np.ndarray:
-        """Standard deviations of the prior (the diagonal of ``P``, square-rooted)."""
+        """Standard deviations of the prior (the diagonal of ``P``, square-rooted).
+
+        Returns
+        -------
+        ndarray
+            Standard deviations of the prior (the diagonal of ``P``, square-rooted).
+        """
         return np.sqrt(np.diag(self.P))
 
 

@@ -81,6 +81,11 @@ class MHEExtension:
     w : list of T - 1 SX (n, 1)
         The disturbances, original units (empty without ``disturbance_weight``).
 
+    See Also
+    --------
+    MHEObserver : Takes the ``extend`` callable.
+    MHEFormulation : Holds the extension's terms.
+
     Notes
     -----
     * :meth:`add_cost` -- norm 2: a convex quadratic in the decision variables whose linear part
@@ -103,13 +108,17 @@ class MHEExtension:
     --------
     A quadratic pull of the window-start state towards a reference given each step:
 
-    >>> def pull(ext):                                            # doctest: +SKIP
+    >>> import casadi
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver, MHESettings
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> def pull(ext):
     ...     x_ref = ext.add_parameter("x_ref", ext.n)
     ...     ext.add_cost(1e3 * casadi.sumsqr(ext.x[0] - x_ref))
     ...     ext.add_constraint(ext.x[0][0], lo=-0.05, hi=0.05)    # |theta(t-T+1)| <= 0.05
     >>> obs = MHEObserver(plant, 3, extend=pull,
-    ...                   settings=MHESettings(check_uniqueness=False))  # doctest: +SKIP
-    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])                  # doctest: +SKIP
+    ...                   settings=MHESettings(check_uniqueness=False))
+    >>> obs.set_parameter("x_ref", [0.0, 10.0, 10.0])
     """
 
     def __init__(self, sym: MLDSymbols, norm: str, U, Y, xbar, dims: tuple[int, int, int, int, int]):
@@ -303,6 +312,30 @@ class MHEFormulation:
     js : float
         Norms 1 / inf: the residual scale ``j_s`` of the epigraph rows (largest ``|R|``).
     extension : ExtensionData or None
+
+    See Also
+    --------
+    encode_mld : The MLD constraints it writes.
+    MHEObserver : Builds one (``obs.formulation``).
+    MHEExtension : Terms added by the user.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import MHEFormulation
+    >>> form = MHEFormulation(plant, 3, "2", np.eye(1), None, None)
+    >>> form.enc.n_vars, form.enc.n_constraints
+    (30, 99)
+    >>> MHEObserver(plant, 3).formulation.T
+    3
     """
 
     def __init__(self, system: PWASystem, T: int, norm: str, Wy: np.ndarray, Ww: np.ndarray | None,
@@ -517,6 +550,11 @@ class MHEFormulation:
         xbar : (n,) array
         P : (n_P,) array, optional
             The extension's parameters (none without an extension).
+
+        Returns
+        -------
+        ndarray
+            ``p = [U; Y; x_bar; P]`` of one window.
         """
         parts = [np.asarray(U, dtype=float).reshape(-1), np.asarray(Y, dtype=float).reshape(-1),
                  np.asarray(xbar, dtype=float).reshape(-1)]
@@ -525,11 +563,25 @@ class MHEFormulation:
         return np.concatenate(parts)
 
     def linear_term(self, p: np.ndarray) -> np.ndarray:
-        """Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p`` (``grad_params @ p + grad0``)."""
+        """Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p`` (``grad_params @ p + grad0``).
+
+        Returns
+        -------
+        ndarray
+            Norm 2: ``gradient(cost, v)`` at ``v = 0`` for the parameters ``p``
+            (``grad_params @ p + grad0``).
+        """
         return self.grad_params @ p + self.grad0
 
     def epigraph_upper(self, p: np.ndarray) -> np.ndarray:
-        """Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower: ``-inf``)."""
+        """Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower: ``-inf``).
+
+        Returns
+        -------
+        ndarray
+            Norms 1 / inf: the epigraph rows' upper bounds ``-(epi_params @ p + epi0)`` (lower:
+            ``-inf``).
+        """
         return -(self.epi_params @ p + self.epi0)
 
 

@@ -107,6 +107,26 @@ def big_m_constants(system: PWASystem) -> BigMConstants:
     Returns
     -------
     BigMConstants
+
+    See Also
+    --------
+    encode_mld : Uses the constants.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import big_m_constants
+    >>> bm = big_m_constants(plant)
+    >>> type(bm).__name__
+    'BigMConstants'
     """
     n, p, s = system.n, system.p, system.n_modes
     D = system.domain
@@ -196,6 +216,29 @@ class MLDEncoding:
         The state scale ``hx`` (``None``: the half-widths of the state box).
     BP : (nr, n_params) array, optional
         Dependence of the rows on the extension's parameters (``None``: no extension).
+
+    See Also
+    --------
+    encode_mld : Builds one.
+    big_m_constants : Its big-M constants.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import encode_mld
+    >>> enc = encode_mld(plant, 3)
+    >>> enc.n_vars, enc.n_constraints, int(enc.discrete.sum())
+    (30, 99, 9)
+    >>> enc.A.shape
+    (99, 30)
     """
 
     system: PWASystem
@@ -257,6 +300,11 @@ class MLDEncoding:
         ----------
         U : (T m,) ndarray
             Stacked window input ``[u(0); ...; u(T-1)]``.
+
+        Returns
+        -------
+        tuple of two ndarray
+            Row bounds ``lo - BU U``, ``hi - BU U`` for the stacked window input ``U``.
         """
         shift = self.BU @ U
         if self.n_params:
@@ -274,6 +322,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T, n)`` window states of the decision vector ``v``.
         """
         return np.einsum("kij,j->ki", self.Xmap, v) + self.Xoff
 
@@ -286,6 +339,11 @@ class MLDEncoding:
             Scaled decision vector.
         U : (T m,) ndarray
             Stacked window input.
+
+        Returns
+        -------
+        ndarray
+            ``(T, p)`` window outputs.
         """
         return (self.Ymap @ v + self.YU @ U + self.Yoff).reshape(self.T, self.system.p)
 
@@ -296,6 +354,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T,)`` mode index of each step (largest ``delta``).
         """
         return np.argmax(v[self.slices["delta"]].reshape(self.T, self.system.n_modes), axis=1)
 
@@ -306,6 +369,11 @@ class MLDEncoding:
         ----------
         v : (n_vars,) ndarray
             Scaled decision vector.
+
+        Returns
+        -------
+        ndarray
+            ``(T - 1, n)`` disturbances ``w(k)`` (zeros when disabled).
         """
         n = self.system.n
         if not self.disturbances:
@@ -405,6 +473,11 @@ class MLDEncoding:
             Stacked window input.
         bounds : (lo, hi) pair of ndarray, optional
             Row bounds from :meth:`bounds` of ``U``, to skip recomputing them.
+
+        Returns
+        -------
+        float
+            Largest violation of the (row-normalised) constraints, bounds and integrality at ``v``.
         """
         lo, hi = self.bounds(U) if bounds is None else bounds
         Av = self.A @ v
@@ -708,6 +781,31 @@ def encode_mld(system: PWASystem, T: int, *, disturbances: bool = False,
     ------
     ModelError
         If ``system`` is not a PWASystem or ``T < 1``.
+
+    See Also
+    --------
+    MLDEncoding : What it returns.
+    big_m_constants : The constants it uses.
+    MHEFormulation : The full program of eq. (10).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.mhe import encode_mld
+    >>> enc = encode_mld(plant, 3)
+
+    ``T * s`` mode binaries (3 samples, 3 modes):
+
+    >>> int(enc.discrete.sum()), enc.T
+    (9, 3)
     """
     sym = mld_expressions(system, T, disturbances=disturbances, big_m=big_m, state_scale=state_scale)
     return mld_encoding(sym, system, int(T))

@@ -81,6 +81,30 @@ class WindowResult(Mapping):
         (row-normalised) MLD rows, bounds and integrality of the window at the trajectory (empty
         when no point is returned).  Computed in numpy on first access (the observer's loop never
         reads them: every accepted point was verified before it was accepted).
+
+    See Also
+    --------
+    MHEObserver.solve_window : Returns one.
+    UniquenessOutcome : The outcome of its uniqueness test.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> res = MHEObserver(plant, 3).solve_window(U[:3], truth.y[:3], uniqueness=True)
+    >>> res.status, res.optimal, res.solver
+    ('optimal', True, 'daqp')
+    >>> res.states.shape, res.modes
+    ((3, 3), array([2, 2, 2]))
+    >>> bool(np.allclose(res.states, truth.x[:3], atol=1e-6)), res.uniqueness["status"]
+    (True, <UniquenessOutcome.UNIQUE: 'unique'>)
     """
 
     status: Status
@@ -129,6 +153,11 @@ class WindowResult(Mapping):
         **changes
             New values by field name.
 
+        Returns
+        -------
+        WindowResult
+            A copy with some fields changed (the record is frozen).
+
         Raises
         ------
         TypeError
@@ -146,7 +175,13 @@ class WindowResult(Mapping):
         return new
 
     def to_dict(self) -> dict[str, Any]:
-        """The dict the window used to return: the same keys, in the same order, the same values."""
+        """The dict the window used to return: the same keys, in the same order, the same values.
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         out: dict[str, Any] = {}
         for key in _KEYS:
             value = getattr(self, key)

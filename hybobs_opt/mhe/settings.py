@@ -94,6 +94,11 @@ class MHESettings:
     ModelError
         A value of the wrong type or out of range, naming its field.
 
+    See Also
+    --------
+    MHEObserver : Takes them as ``settings``.
+    SOLVERS : The solvers by norm.
+
     Examples
     --------
     >>> from hybobs_opt.mhe import MHESettings
@@ -140,7 +145,13 @@ class MHESettings:
             object.__setattr__(self, name, value)
 
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a JSON-ready dict, field by field (``solver_options`` copied)."""
+        """The settings as a JSON-ready dict, field by field (``solver_options`` copied).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return asdict(self)
 
 

@@ -47,6 +47,19 @@ class UniquenessOutcome(enum.StrEnum):
     The members are string-valued (:class:`enum.StrEnum`): ``UniquenessOutcome.UNIQUE ==
     "unique"``, and ``json.dumps`` writes the plain string, so saved ``info`` and ``--json``
     output keep the text they always had.
+
+    See Also
+    --------
+    WindowResult.uniqueness : Where the outcome is reported.
+    MHEObserver : Flags ``observable`` only on ``UNIQUE``.
+
+    Examples
+    --------
+    >>> from hybobs_opt.mhe import UniquenessOutcome
+    >>> [str(o) for o in UniquenessOutcome]  # doctest: +ELLIPSIS
+    ['unique', 'alternative', 'not certified', 'not unique for every input']
+    >>> UniquenessOutcome.UNIQUE == "unique"
+    True
     """
 
     #: No admissible window trajectory with a state ``delta`` away from the optimum's costs at
@@ -102,6 +115,32 @@ class SeparatedProgram:
         Proximal weight of the MIQP (the smallest DAQP factorises).
     miqp, milp : Backend or None
         The norm-2 MIQP (DAQP) and, for norms 1 / inf, the MILP.
+
+    See Also
+    --------
+    MHEObserver : Builds one per observer and runs it on every optimal window.
+    UniquenessOutcome : Its outcomes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+
+    The powertrain of paper 002 (model (16)), 10 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((10, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> obs = MHEObserver(plant, 3)
+    >>> res = obs.solve_window(U[:3], truth.y[:3], uniqueness=True)
+    >>> res.uniqueness["status"]
+    <UniquenessOutcome.UNIQUE: 'unique'>
+
+    The flag ``observable`` is this program's ``"unique"``:
+
+    >>> obs.run(U, truth.y).flag_counts()["observable"]
+    8
     """
 
     def __init__(self, model: WindowModel, res: StackedResidual, *, solver: str, delta: float, Js: float,
@@ -249,6 +288,13 @@ class SeparatedProgram:
             The certified optimum of the window problem.
         steps : iterable of int, optional
             Window steps whose states are separated (default every one, ``0 .. T-1``).
+
+        Returns
+        -------
+        dict
+            ``status`` (a :class:`UniquenessOutcome`) and what supports it (the alternative
+            found, the
+            solver's answer).
         """
         t0 = time.perf_counter()
         try:
@@ -291,22 +337,47 @@ class SeparatedProgram:
         return (-float(sign) * (a @ Pv))[None, :], np.array([float(sign) * (a @ pv + self._soff[k, j] - xs[k, j]) - self.delta])
 
     def direction(self, d: int) -> tuple[int, int, int]:
-        """``(k, j, sign)`` of direction ``d``: window step, state coordinate, side."""
+        """``(k, j, sign)`` of direction ``d``: window step, state coordinate, side.
+
+        Returns
+        -------
+        tuple of three int
+            ``(k, j, sign)`` of direction ``d``: window step, state coordinate, side.
+        """
         kj, side = divmod(int(d), 2)
         k, j = divmod(kj, self.n)
         return k, j, (1 if side == 0 else -1)
 
     def scaled_states(self, states: np.ndarray) -> np.ndarray:
-        """``(T, n)`` window states scaled by the box of ``X`` (``(x - c) / h``)."""
+        """``(T, n)`` window states scaled by the box of ``X`` (``(x - c) / h``).
+
+        Returns
+        -------
+        ndarray
+            ``(T, n)`` window states scaled by the box of ``X`` (``(x - c) / h``).
+        """
         return (np.asarray(states, dtype=float) - self.model.cx) / self.model.hx
 
     def optimum_states(self, opt: WindowResult) -> np.ndarray:
-        """The optimum's scaled window states, clipped to the box of ``X`` (the centres of the separation)."""
+        """The optimum's scaled window states, clipped to the box of ``X`` (the centres of the separation).
+
+        Returns
+        -------
+        ndarray
+            The optimum's scaled window states, clipped to the box of ``X`` (the centres of the
+            separation).
+        """
         return np.clip(self.scaled_states(opt.states), self._lbx, self._ubx)
 
     def allowed(self, xs: np.ndarray, steps=None) -> np.ndarray:
         """Directions that leave room in the box of ``X`` (``xs_k,j +- delta`` inside), on the
-        window ``steps`` (default all)."""
+        window ``steps`` (default all).
+
+        Returns
+        -------
+        ndarray
+            The directions that leave room in the box of ``X`` on the window ``steps``.
+        """
         ok = np.zeros((self.T, self.n, 2), dtype=bool)
         ok[:, :, 0] = xs + self.delta <= self._ubx
         ok[:, :, 1] = xs - self.delta >= self._lbx
@@ -564,6 +635,11 @@ class SeparatedProgram:
             Row bounds of the MLD encoding for ``U`` (:meth:`MLDEncoding.bounds`).
         polish : bool
             Also solve the exact QP of the point's mode sequence and direction.
+
+        Returns
+        -------
+        tuple
+            ``(alternative or None, reason or None, (modes, direction index) or None, bound)``.
         """
         enc, T, nv = self.enc, self.T, self.enc.n_vars
         v, b = w[:nv], w[nv:]

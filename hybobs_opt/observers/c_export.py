@@ -114,6 +114,33 @@ class CExport:
     float32_rounding : float or None
         With ``float32``: a bound on the single-precision rounding of the candidates of eq. (13),
         as a fraction of each state's half-range (largest over regions, Euclidean over states).
+
+    See Also
+    --------
+    export_lookup_c : Returns one.
+    check_build : Compiles it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import export_lookup_c
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     export = export_lookup_c(LookupObserver(analysis), tmp, name="pt3")
+    ...     print(export.name, export.float32, export.max_ops > 0)
+    ...     print("-std=c99" in export.compile_command)
+    ...
+    pt3 False True
+    True
     """
 
     name: str
@@ -137,7 +164,13 @@ class CExport:
         return f"cc -std=c99 -O2 {self.source.name} {self.driver.name} -lm -o {self.name}_driver"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (paths as strings)."""
+        """JSON-ready summary (paths as strings).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"name": self.name, "directory": str(self.directory),
                 "files": {"header": str(self.header), "source": str(self.source), "driver": str(self.driver)},
                 "float32": self.float32, "table_bytes": self.table_bytes, "state_bytes": self.state_bytes,
@@ -150,10 +183,28 @@ def export_targets(out_dir, name: str = "hybobs_lookup", *, overwrite: bool = Fa
     """The three files :func:`export_lookup_c` writes, checked before any work: ``out_dir`` is a
     directory or missing, no target is a symbolic link, and none exists unless ``overwrite``.
 
+    Returns
+    -------
+    header, source, driver : Path
+        ``NAME.h``, ``NAME.c`` and ``NAME_driver.c`` in ``out_dir``.
+
     Raises
     ------
     ModelError
         Naming ``out_dir`` and the offending file.
+
+    See Also
+    --------
+    export_lookup_c : Writes the three files.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hybobs_opt.observers import export_targets
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     print([p.name for p in export_targets(tmp, "obs")])
+    ...
+    ['obs.h', 'obs.c', 'obs_driver.c']
     """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -225,6 +276,32 @@ def export_lookup_c(observer, out_dir, *, name: str = "hybobs_lookup", float32: 
         exported); ``name`` is no C identifier; ``out_dir`` is an existing file; a table holds a
         number that is not finite (in ``float`` for ``float32``); or the tables exceed
         :data:`~hybobs_opt.limits.MAX_EXPORT_TABLE_BYTES` (field ``tables``).
+
+    See Also
+    --------
+    CExport : What it returns.
+    check_build : Compiles and replays the export.
+    LookupObserver : The observer exported.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import export_lookup_c
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     export = export_lookup_c(LookupObserver(analysis), tmp, name="pt3")
+    ...     print(export.header.name, export.source.name, export.table_bytes > 0)
+    ...
+    pt3.h pt3.c True
     """
     from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
     from .lookup import LookupObserver
@@ -296,6 +373,32 @@ def check_build(export: CExport, system, *, compiler: str | None = None, timeout
     ------
     BuildError
         When the code does not compile, or the driver fails on the log.
+
+    See Also
+    --------
+    export_lookup_c : The export it builds.
+    BUILD_FLAGS : The compiler flags.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import check_build, export_lookup_c
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     export = export_lookup_c(LookupObserver(analysis), tmp, name="pt3")
+    ...     report = check_build(export, plant)       # needs a C compiler (cc)
+    ...
+    >>> report["built"], report["ran"], report["flags"]
+    (True, True, ['-std=c99', '-Wall', '-Werror', '-pedantic', '-O2'])
     """
     import shutil
     import subprocess

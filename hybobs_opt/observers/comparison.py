@@ -35,6 +35,28 @@ def true_window_observable(analysis, q: np.ndarray) -> np.ndarray:
     -------
     (N,) bool ndarray
         ``False`` for the first ``T - 1`` samples (no full window).
+
+    See Also
+    --------
+    exact_window_labels : The exact labels of the windows.
+    summarise : Splits errors by this mask.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import true_window_observable
+    >>> mask = true_window_observable(analysis, truth.q)
+    >>> mask.shape, bool(mask[2:].all())
+    ((40,), True)
     """
     seqs = {r.sequence: k for k, r in enumerate(analysis.regions)}
     T = analysis.T
@@ -62,6 +84,35 @@ def exact_window_labels(analysis, x: np.ndarray, samples: int = EXACT_LABEL_SAMP
         Largest number of windows classified.
     progress : callable, optional
         ``progress(done, total)`` per classified window.
+
+    Returns
+    -------
+    times : (k,) int array
+        The window end times classified.
+    labels : (k,) array
+        Their labels (:class:`~hybobs_opt.regions.PointClass`).
+
+    See Also
+    --------
+    true_window_observable : The necessary condition from the mode sequence.
+    hybobs_opt.ObservabilityAnalysis.classify : Labels one state.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import exact_window_labels
+    >>> times, labels = exact_window_labels(analysis, truth.x, samples=5)
+    >>> times.shape == labels.shape, [str(l) for l in labels[:2]]
+    (True, ['observable', 'observable'])
     """
     T = analysis.T
     ends = np.arange(T - 1, x.shape[0])
@@ -111,6 +162,33 @@ def timed_steps(observer, U: np.ndarray, Y: np.ndarray, progress: Callable[[int,
         ``progress(done, total)`` after each chunk.
     chunk : int, default 500
         Samples per chunk when ``progress`` is given.
+
+    Returns
+    -------
+    ObserverTrace
+        The run, with each step's own wall time in ``seconds``.
+
+    See Also
+    --------
+    Observer.run : The same loop (some observers batch their ``run``).
+    summarise : Summarises the run.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import timed_steps
+    >>> trace = timed_steps(LookupObserver(analysis), U, truth.y)
+    >>> trace.n_steps, trace.flag_counts()["observable"]
+    (40, 38)
     """
     observer.reset()
     if progress is None:
@@ -152,6 +230,38 @@ def summarise(out: ObserverTrace, x_true: np.ndarray, truly_observable: np.ndarr
         Samples left out of the interval errors.
     interval_states : sequence of str, optional
         States whose RMS errors on the observable and unobservable intervals are reported.
+
+    Returns
+    -------
+    dict
+        JSON-ready: timing, the largest errors over the steps flagged ``observable``, the flag
+        counts and the interval errors.
+
+    See Also
+    --------
+    timed_steps : The run it summarises.
+    true_window_observable : The mask ``truly_observable``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import summarise, true_window_observable
+    >>> trace = LookupObserver(analysis).run(U, truth.y)
+    >>> record = summarise(trace, truth.x, true_window_observable(analysis, truth.q), plant.state_names,
+    ...                    "lookup", warmup=2)
+    >>> sorted(record)  # doctest: +ELLIPSIS
+    ['max_abs_error_observable', 'max_abs_error_observable_all', 'max_step_s', ...
+    >>> max(record["max_abs_error_observable"]) < 1e-6
+    True
     """
     err = np.abs(out.x_hat - x_true)
     flagged = out.flags == OBSERVABLE
@@ -193,6 +303,19 @@ def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float
     -------
     (float, float) or None
         Lower and upper end, clipped to ``[0, 1]``.
+
+    See Also
+    --------
+    summarise : Reports rates with it.
+
+    Examples
+    --------
+    >>> from hybobs_opt.observers import wilson_interval
+    >>> lo, hi = wilson_interval(45, 50)
+    >>> round(lo, 3), round(hi, 3)
+    (0.786, 0.957)
+    >>> wilson_interval(0, 0) is None
+    True
     """
     if n == 0:
         return None

@@ -118,6 +118,28 @@ class DriftRun:
         What the observer did at each visible event.
     state_names : tuple of str
         Names of ``x0 ... xN``.
+
+    See Also
+    --------
+    DriftObserver.observe_events : Returns one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.observers import DriftObserver
+
+    The switching server of paper 003 over 30 s; only "serving type 2" is visible:
+
+    >>> example = hy.get_example("switching_server")
+    >>> server = example.build()
+    >>> truth = example.simulate(t_final=30.0)
+    >>> gains = hy.deadbeat_gains(hy.periodic_system(server))
+    >>> obs = DriftObserver(server, gains)
+    >>> obs.reset(np.array([server.alpha[-1], 0.0, 0.0]), t0=0.0, q0=1)
+    >>> run = obs.observe_events(truth.events, t_final=30.0)
+    >>> run.x_hat.shape[1], len(run.events) > 0, run.state_names
+    (3, True, ('x0', 'x1', 'x2'))
     """
 
     t: np.ndarray
@@ -154,6 +176,11 @@ class DriftObserver(Observer):
         Largest time between samples accepted as consistent; default ``TIME_JUMP_FACTOR`` times
         the timer cycle ``sum(alpha)`` (a later time stamp is a jump: ``fallback``).
 
+    See Also
+    --------
+    PeriodicObserver : The discrete-time observer (16) at the visible events.
+    DriftRun : What ``observe_events`` returns.
+
     Notes
     -----
     ``step(u, y)``: ``u = [t]`` is the sample's time stamp (see the module), ``y = [h_q]``.  The
@@ -165,6 +192,27 @@ class DriftObserver(Observer):
     always for non-deadbeat gains, whose estimate converges but is never exact), ``fallback`` for
     a bad sample (non-numeric, NaN, a time stamp going back, an output that no mode has) which is
     answered by open-loop prediction, or for an unexpected visible event (phase resynchronised).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.observers import DriftObserver
+
+    The switching server of paper 003 over 30 s; only "serving type 2" is visible:
+
+    >>> example = hy.get_example("switching_server")
+    >>> server = example.build()
+    >>> truth = example.simulate(t_final=30.0)
+    >>> gains = hy.deadbeat_gains(hy.periodic_system(server))
+    >>> obs = DriftObserver(server, gains)
+    >>> obs.reset(np.array([server.alpha[-1], 0.0, 0.0]), t0=0.0, q0=1)
+    >>> trace = obs.run_trace(truth)
+
+    Deadbeat gains: the queue estimates are exact after the first visible events:
+
+    >>> bool(np.abs(trace.x_hat[-1] - truth.x[-1]).max() < 1e-9)
+    True
     """
 
     name = "constant-drift (18)"
@@ -395,6 +443,11 @@ class DriftObserver(Observer):
             A simulated trace of the constant-drift system (its times and first output column are used).
         t_start : float, optional
             First time used; ``None`` uses every row.
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates on the rows with ``t >= t_start``.
         """
         keep = np.ones(trace.t.size, dtype=bool) if t_start is None else trace.t >= t_start
         return Observer.run(self, trace.t[keep], trace.y[keep, 0])

@@ -44,6 +44,37 @@ class ContinuousObserver(Observer):
     x0 : array, optional
     location : int
         Initial location used for the gains.
+
+    See Also
+    --------
+    HybridObserver : Sets its location from a location observer.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.studies.paper000_driveline import scenario as paper
+
+    The driveline of paper 000 with its low elasticity, 0.2 s of the Fig. 6 scenario, and the
+    paper's designs (residual generators, continuous observer):
+
+    >>> example = hy.get_example("driveline")
+    >>> aut = example.build(k=paper.DRIVELINE_K_LOW)
+    >>> truth = example.simulate(t_final=0.2, k=paper.DRIVELINE_K_LOW)
+    >>> bank = hy.design_residual_bank(aut, paper.DRIVELINE_DELTA, paper.DRIVELINE_EPSILON,
+    ...                                paper.DRIVELINE_Z0, invariant_rtol=paper.DRIVELINE_INVARIANT_RTOL)
+    >>> design = hy.design_continuous_observer(aut, paper.DRIVELINE_DECAY,
+    ...                                        gain_bound=paper.DRIVELINE_GAIN_BOUND,
+    ...                                        state_box=paper.DRIVELINE_X, input_box=paper.DRIVELINE_U)
+    >>> from hybobs_opt.observers import ContinuousObserver
+    >>> obs = ContinuousObserver(design, float(truth.t[1] - truth.t[0]),
+    ...                          x0=np.array(paper.DRIVELINE_X0_GUESS))
+
+    Told the true locations, its error decays at the designed rate:
+
+    >>> trace = obs.run_with_locations(truth.u, truth.y, truth.q)
+    >>> bool(np.linalg.norm(trace.x_hat[-1] - truth.x[-1]) < np.linalg.norm(trace.x_hat[0] - truth.x[0]))
+    True
     """
 
     name = "continuous"
@@ -167,7 +198,17 @@ class ContinuousObserver(Observer):
         """Certified bound on ``|x_hat_k - x_k|`` per state (:mod:`~hybobs_opt.observers.error_bound`):
         from the reset, the sampled error map of each step's location contracts the design's
         ``P``-norm.  It assumes the location used is the plant's (for the hybrid observer, add the
-        neighbourhood ``M0`` of Proposition 3.3.1 of paper 000)."""
+        neighbourhood ``M0`` of Proposition 3.3.1 of paper 000).
+
+        Returns
+        -------
+        ndarray
+            Certified bound on ``|x_hat_k - x_k|`` per state
+            (:mod:`~hybobs_opt.observers.error_bound`): from the reset, the sampled error map of
+            each step's location contracts the design's ``P``-norm.  It assumes the location
+            used is the plant's (for the hybrid observer, add the neighbourhood ``M0`` of
+            Proposition 3.3.1 of paper 000).
+        """
         return self._bound.per_state(self._P_inv_diag)
 
     def _flag(self) -> str:
@@ -196,6 +237,11 @@ class ContinuousObserver(Observer):
             Outputs.
         Q : (N,) int array_like
             Location used for the gains after each sample (``Q[0]`` also at the start).
+
+        Returns
+        -------
+        ObserverTrace
+            The estimates of the run.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         Q = np.asarray(Q, dtype=int).reshape(-1)
@@ -237,6 +283,37 @@ class HybridRun:
         Compute time per step.
     trace : ObserverTrace
         The run on the common contract.
+
+    See Also
+    --------
+    HybridObserver.run_detailed : Returns one.
+    summarise_run : Measures it against the design's bound.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.studies.paper000_driveline import scenario as paper
+
+    The driveline of paper 000 with its low elasticity, 0.2 s of the Fig. 6 scenario, and the
+    paper's designs (residual generators, continuous observer):
+
+    >>> example = hy.get_example("driveline")
+    >>> aut = example.build(k=paper.DRIVELINE_K_LOW)
+    >>> truth = example.simulate(t_final=0.2, k=paper.DRIVELINE_K_LOW)
+    >>> bank = hy.design_residual_bank(aut, paper.DRIVELINE_DELTA, paper.DRIVELINE_EPSILON,
+    ...                                paper.DRIVELINE_Z0, invariant_rtol=paper.DRIVELINE_INVARIANT_RTOL)
+    >>> design = hy.design_continuous_observer(aut, paper.DRIVELINE_DECAY,
+    ...                                        gain_bound=paper.DRIVELINE_GAIN_BOUND,
+    ...                                        state_box=paper.DRIVELINE_X, input_box=paper.DRIVELINE_U)
+    >>> from hybobs_opt.observers import HybridObserver
+    >>> obs = HybridObserver(bank, design, float(truth.t[1] - truth.t[0]),
+    ...                      x0=np.array(paper.DRIVELINE_X0_GUESS))
+    >>> run = obs.run_detailed(truth.u, truth.y)
+    >>> run.location.shape, run.residuals.shape[0] == run.x_hat.shape[0]
+    ((201,), True)
+    >>> run.trace.n_steps
+    201
     """
 
     x_hat: np.ndarray
@@ -270,6 +347,12 @@ class HybridObserver(Observer):
         Known initial location; otherwise the location observer identifies it and the continuous
         observer starts on the location whose invariant contains ``x0`` (location 0 if none).
 
+    See Also
+    --------
+    LocationObserver : Its discrete part.
+    ContinuousObserver : Its continuous part.
+    HybridRun : What ``run_detailed`` returns.
+
     Notes
     -----
     ``info["error_bound"]`` is the continuous observer's contraction since the location in use was
@@ -279,6 +362,32 @@ class HybridObserver(Observer):
     20), 0.55 rad on the driveline's theta.  The flag is ``observable`` once that bound is below
     the convergence fraction.  Its hypothesis is that the identified location is the plant's: in
     the ``Delta`` before a switch is detected the error can exceed it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.studies.paper000_driveline import scenario as paper
+
+    The driveline of paper 000 with its low elasticity, 0.2 s of the Fig. 6 scenario, and the
+    paper's designs (residual generators, continuous observer):
+
+    >>> example = hy.get_example("driveline")
+    >>> aut = example.build(k=paper.DRIVELINE_K_LOW)
+    >>> truth = example.simulate(t_final=0.2, k=paper.DRIVELINE_K_LOW)
+    >>> bank = hy.design_residual_bank(aut, paper.DRIVELINE_DELTA, paper.DRIVELINE_EPSILON,
+    ...                                paper.DRIVELINE_Z0, invariant_rtol=paper.DRIVELINE_INVARIANT_RTOL)
+    >>> design = hy.design_continuous_observer(aut, paper.DRIVELINE_DECAY,
+    ...                                        gain_bound=paper.DRIVELINE_GAIN_BOUND,
+    ...                                        state_box=paper.DRIVELINE_X, input_box=paper.DRIVELINE_U)
+    >>> from hybobs_opt.observers import HybridObserver
+    >>> obs = HybridObserver(bank, design, float(truth.t[1] - truth.t[0]),
+    ...                      x0=np.array(paper.DRIVELINE_X0_GUESS))
+    >>> run = obs.run_detailed(truth.u, truth.y)
+    >>> run.x_hat.shape, int(run.location[-1]) == int(truth.q[-1])
+    ((201, 3), True)
+    >>> bool(np.linalg.norm(run.x_hat[-1] - truth.x[-1]) < np.linalg.norm(run.x_hat[0] - truth.x[0]))
+    True
     """
 
     name = "location+continuous"
@@ -368,6 +477,11 @@ class HybridObserver(Observer):
             Inputs.
         Y : (N, p) array_like
             Outputs.
+
+        Returns
+        -------
+        HybridRun
+            The continuous estimates with the location observer's signals.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
@@ -412,6 +526,43 @@ def summarise_run(aut: HybridAutomaton, trace, bank: ResidualBank, design: Conti
         The guarantee the run is compared with.
     run : HybridRun
         The observer's run on ``trace`` (:meth:`HybridObserver.run_detailed`).
+
+    Returns
+    -------
+    dict
+        JSON-ready: detection delays, convergence times, errors after convergence against the
+        bound ``M0`` and the design's figures.
+
+    See Also
+    --------
+    HybridObserver.run_detailed : The run.
+    hybobs_opt.synthesis.convergence_bound : The bound ``M0`` (Prop. 3.3.1 of paper 000).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.studies.paper000_driveline import scenario as paper
+
+    The driveline of paper 000 with its low elasticity, 0.2 s of the Fig. 6 scenario, and the
+    paper's designs (residual generators, continuous observer):
+
+    >>> example = hy.get_example("driveline")
+    >>> aut = example.build(k=paper.DRIVELINE_K_LOW)
+    >>> truth = example.simulate(t_final=0.2, k=paper.DRIVELINE_K_LOW)
+    >>> bank = hy.design_residual_bank(aut, paper.DRIVELINE_DELTA, paper.DRIVELINE_EPSILON,
+    ...                                paper.DRIVELINE_Z0, invariant_rtol=paper.DRIVELINE_INVARIANT_RTOL)
+    >>> design = hy.design_continuous_observer(aut, paper.DRIVELINE_DECAY,
+    ...                                        gain_bound=paper.DRIVELINE_GAIN_BOUND,
+    ...                                        state_box=paper.DRIVELINE_X, input_box=paper.DRIVELINE_U)
+    >>> from hybobs_opt.observers import HybridObserver, summarise_run
+    >>> from hybobs_opt.synthesis import convergence_bound
+    >>> bound = convergence_bound(design, paper.DRIVELINE_DELTA, paper.DRIVELINE_DWELL)
+    >>> run = HybridObserver(bank, design, float(truth.t[1] - truth.t[0]),
+    ...                      x0=np.array(paper.DRIVELINE_X0_GUESS)).run_detailed(truth.u, truth.y)
+    >>> summary = summarise_run(aut, truth, bank, design, bound, run)
+    >>> "detection_delays" in summary, "M0" in summary
+    (True, True)
     """
     t = trace.t
     err = np.linalg.norm(run.x_hat - trace.x, axis=1)

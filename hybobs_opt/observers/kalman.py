@@ -54,12 +54,42 @@ class KalmanTrace(ObserverTrace):
     covariance : (N, n, n) array
         ``covariance[k]`` is the covariance of ``x_hat[k]``: ``P(k|k)`` after a measurement
         update, ``P(k|k-1)`` at a ``fallback`` step (the same as ``info[k]["covariance"]``).
+
+    See Also
+    --------
+    ModeSequenceKalmanFilter.run : Returns one.
+    ObserverTrace : The common fields.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import ModeSequenceKalmanFilter
+    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=truth.q)
+    >>> trace = kf.run(U, truth.y + 0.01 * np.random.default_rng(0).standard_normal(truth.y.shape))
+    >>> trace.covariance.shape, trace.std().shape
+    ((40, 3, 3), (40, 3))
+    >>> bool(np.isfinite(trace.nees(truth.x)).all())
+    True
     """
 
     covariance: np.ndarray | None = None
 
     def std(self) -> np.ndarray:
-        """``(N, n)`` standard deviations of the estimates (square roots of the covariances' diagonals)."""
+        """``(N, n)`` standard deviations of the estimates (square roots of the covariances' diagonals).
+
+        Returns
+        -------
+        ndarray
+            ``(N, n)`` standard deviations of the estimates (square roots of the covariances'
+            diagonals).
+        """
         return np.sqrt(np.maximum(np.diagonal(self.covariance, axis1=1, axis2=2), 0.0))
 
     def nees(self, x_true: ArrayLike) -> np.ndarray:
@@ -67,6 +97,11 @@ class KalmanTrace(ObserverTrace):
 
         For a consistent filter its mean over runs is ``n`` (Bar-Shalom, Li & Kirubarajan,
         *Estimation with Applications to Tracking and Navigation*, 2001, Sec. 5.4).
+
+        Returns
+        -------
+        ndarray
+            ``(N,)`` normalised estimation error squared ``e' P^-1 e`` with ``e = x_hat - x_true``.
         """
         e = self.errors(x_true)
         return np.einsum("ki,ki->k", e, np.linalg.solve(self.covariance, e[:, :, None])[:, :, 0])
@@ -151,11 +186,22 @@ class ModeSequenceKalmanFilter(Observer):
         Naming the field: ``system``, ``noise_std``, ``process_std``, ``x0``, ``P0``, ``modes``,
         ``observable_std``.
 
+    See Also
+    --------
+    KalmanTrace : What ``run`` returns.
+    hybobs_opt.mhe.MHEObserver : Estimates the modes too.
+
     Examples
     --------
-    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=trace.q)   # doctest: +SKIP
-    >>> out = kf.run(trace.u, y_noisy)                              # doctest: +SKIP
-    >>> out.covariance[-1]                                          # doctest: +SKIP
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> trace = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), np.full((40, 1), 40.0))
+    >>> y_noisy = trace.y + 0.01 * np.random.default_rng(0).standard_normal(trace.y.shape)
+    >>> kf = ModeSequenceKalmanFilter(plant, 0.01, modes=trace.q)
+    >>> out = kf.run(trace.u, y_noisy)
+    >>> out.covariance[-1].shape, out.flag_counts()["observable"] > 0
+    ((3, 3), True)
     """
 
     name = "kalman (true modes)"

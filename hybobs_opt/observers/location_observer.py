@@ -84,6 +84,35 @@ class LocationObserver(Observer):
         Initial state of every generator (default: centre of the state bounds).
     q0 : int, optional
         Known initial location.
+
+    See Also
+    --------
+    HybridObserver : Adds the continuous observer.
+    detection_delays : How fast it identifies each change.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.studies.paper000_driveline import scenario as paper
+
+    The driveline of paper 000 with its low elasticity, 0.2 s of the Fig. 6 scenario, and the
+    paper's designs (residual generators, continuous observer):
+
+    >>> example = hy.get_example("driveline")
+    >>> aut = example.build(k=paper.DRIVELINE_K_LOW)
+    >>> truth = example.simulate(t_final=0.2, k=paper.DRIVELINE_K_LOW)
+    >>> bank = hy.design_residual_bank(aut, paper.DRIVELINE_DELTA, paper.DRIVELINE_EPSILON,
+    ...                                paper.DRIVELINE_Z0, invariant_rtol=paper.DRIVELINE_INVARIANT_RTOL)
+    >>> from hybobs_opt.observers import LocationObserver
+    >>> Ts = float(truth.t[1] - truth.t[0])
+    >>> obs = LocationObserver(bank, Ts, x0=np.array(paper.DRIVELINE_X0_GUESS))
+    >>> trace = obs.run(truth.u, truth.y)
+
+    The location is identified after a few samples (``mode`` is -1 while ambiguous):
+
+    >>> int(trace.mode[0]), int(trace.mode[-1]) == int(truth.q[-1])
+    (-1, True)
     """
 
     name = "location"
@@ -292,6 +321,11 @@ class LocationObserver(Observer):
             Inputs.
         Y : (N, p) array_like
             Outputs.
+
+        Returns
+        -------
+        LocationRun
+            The residuals, decisions and the logic's output per sample.
         """
         U, Y = sample_rows(U, self.m, "U"), sample_rows(Y, self.p, "Y")
         if U.shape[0] != Y.shape[0]:
@@ -339,6 +373,25 @@ def detection_delays(t: np.ndarray, events: Sequence[dict], location: np.ndarray
         (:attr:`Trace.events`).
     location : (N,) int array_like
         The estimated location at each sample (``-1`` when unknown).
+
+    Returns
+    -------
+    list of float or None
+        One delay per true location change, ``None`` where the estimate never reached the new
+        location before the next change.
+
+    See Also
+    --------
+    LocationObserver : The estimates it measures.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.observers import detection_delays
+    >>> t = np.arange(6) * 0.1
+    >>> events = [{"t": 0.15, "to": 1}]
+    >>> detection_delays(t, events, np.array([0, 0, 0, 0, 1, 1]))
+    [0.25]
     """
     t = np.asarray(t, dtype=float)
     location = np.asarray(location)

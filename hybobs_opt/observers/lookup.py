@@ -116,17 +116,54 @@ class LookupTrace(ObserverTrace):
         As for :class:`ObserverTrace`.
     reason_codes : (N,) int array or None
         The codes above.
+
+    See Also
+    --------
+    LookupObserver.run : Returns one.
+    REASONS : The reason codes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> trace = LookupObserver(analysis).run(U, truth.y)
+    >>> type(trace).__name__, trace.x_hat.shape
+    ('LookupTrace', (40, 3))
+    >>> trace.flags[:3]
+    array(['warming_up', 'warming_up', 'observable'], dtype=object)
+    >>> trace.reasons()[:3]
+    array(['', '', ''], dtype=object)
     """
 
     reason_codes: np.ndarray | None = None
 
     def reasons(self) -> np.ndarray:
-        """Per step the reason text (``""`` where there is none)."""
+        """Per step the reason text (``""`` where there is none).
+
+        Returns
+        -------
+        ndarray
+            Per step the reason text (``""`` where there is none).
+        """
         codes = np.zeros(self.n_steps, dtype=int) if self.reason_codes is None else self.reason_codes
         return np.array([REASONS[int(c)] for c in codes], dtype=object)
 
     def fallback_reasons(self) -> dict[str, int]:
-        """How many ``fallback`` steps have each reason."""
+        """How many ``fallback`` steps have each reason.
+
+        Returns
+        -------
+        dict
+            How many ``fallback`` steps have each reason.
+        """
         sel = self.flags == FALLBACK
         out: dict[str, int] = {}
         for text in self.reasons()[sel]:
@@ -152,6 +189,35 @@ class LookupObserver(Observer):
         Relative tolerance of the output equality of eq. (12) (raise it for noisy data).
     progress : callable, optional
         ``progress(done, total)`` while the pieces of ``B~_T`` are prepared.
+
+    See Also
+    --------
+    hybobs_opt.analyse_observability : The analysis it reads (Algorithm 3.1).
+    NoiseAwareLookupObserver : The same tables for noisy outputs.
+    export_lookup_c : The observer as C99.
+    hybobs_opt.mhe.MHEObserver : The moving-horizon observer of the same paper.
+
+    Examples
+    --------
+    The deadbeat lookup-table observer of paper 002 recovers the state exactly once a window of
+    ``T`` samples is in:
+
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> obs = LookupObserver(analysis)
+    >>> trace = obs.run(U, truth.y)
+    >>> trace.flag_counts()
+    {'observable': 38, 'unobservable': 0, 'fallback': 0, 'warming_up': 2}
+    >>> float(np.abs(trace.x_hat[2:] - truth.x[2:]).max()) < 1e-6
+    True
     """
 
     name = "lookup"
@@ -444,6 +510,11 @@ class LookupObserver(Observer):
             Input sample.
         y : (p,) array_like
             Output sample.
+
+        Returns
+        -------
+        Estimate
+            The estimate, its flag and, in ``info``, the reason of a non-observable step.
         """
         t0 = _perf_counter()
         if type(u) is _ndarray and type(y) is _ndarray:
@@ -536,7 +607,14 @@ class LookupObserver(Observer):
         return LookupTrace(xs, modes, flags, np.full(N, per_step), self.state_names, self.name, reason_codes=reasons)
 
     def stats(self) -> dict:
-        """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests."""
+        """Offline time and, for the pair test, the LP/screen counters of the online ``B~_T`` tests.
+
+        Returns
+        -------
+        dict
+            Offline time and, for the pair test, the LP/screen counters of the online ``B~_T``
+            tests.
+        """
         out = {"table_seconds": self.table_seconds, "btilde_test": self.btilde_test, "n_regions_I": int(self._K)}
         if self._pairs is not None:
             out.update(self._pairs.stats())
@@ -604,6 +682,30 @@ def input_bound_rows(H: np.ndarray, h: np.ndarray, system, T: int, scale: np.nda
     -------
     (k,) bool ndarray
         ``True`` for the rows that only bound an input.
+
+    See Also
+    --------
+    LookupObserver : Uses it to accept inputs on the boundary of ``U``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import input_bound_rows
+    >>> region = analysis.regions[0]
+    >>> lo, hi = plant.state_bounds.bounding_box()
+    >>> rows = input_bound_rows(region.H, region.h, plant, 3, np.r_[(hi - lo) / 2, np.ones(3)],
+    ...                         np.r_[(hi + lo) / 2, np.zeros(3)])
+    >>> rows.dtype, rows.shape == region.h.shape
+    (dtype('bool'), True)
     """
     n, m = system.n, system.m
     out = np.zeros(H.shape[0], dtype=bool)

@@ -139,6 +139,11 @@ class NoiseAwareLookupObserver(Observer):
     table_seconds : float
         Time to build the tables.
 
+    See Also
+    --------
+    LookupObserver : The noise-free observer.
+    hybobs_opt.mhe.SetMembershipObserver : Exact radii under bounded noise.
+
     Examples
     --------
     >>> from hybobs_opt.regions import analyse_observability
@@ -468,7 +473,13 @@ class NoiseAwareLookupObserver(Observer):
         return Estimate(self._x.copy(), self._mode, FALLBACK, 0.0, {"reason": reason if ok else f"{reason}; {why}"})
 
     def stats(self) -> dict:
-        """Offline time, sequences tested per window and the LPs solved so far."""
+        """Offline time, sequences tested per window and the LPs solved so far.
+
+        Returns
+        -------
+        dict
+            Offline time, sequences tested per window and the LPs solved so far.
+        """
         return {"table_seconds": self.table_seconds, "n_sequences": self.n_sequences,
                 "n_full_rank": int(sum(s.null is None for s in self._seqs)), "n_lps": self.n_lps,
                 "false_alarm": None if self.bounded else self.false_alarm,

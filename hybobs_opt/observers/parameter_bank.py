@@ -57,6 +57,28 @@ class ParameterBankTrace(ObserverTrace):
         Each member's running score.
     grid : (K,) array
         The grid of parameter values.
+
+    See Also
+    --------
+    ParameterBank.run : Returns one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import ParameterBank
+    >>> example = hy.get_example("powertrain3")
+    >>> bank = ParameterBank(lambda gear_ratio: example.build(gear_ratio=gear_ratio), "gear_ratio",
+    ...                      [1 / 14, 1 / 12, 1 / 10], 3)
+    >>> out = bank.run(U, truth.y)
+    >>> out.scores.shape, np.round(out.grid, 4)
+    ((40, 3), array([0.0714, 0.0833, 0.1   ]))
     """
 
     parameter: np.ndarray | None = None
@@ -89,6 +111,29 @@ class ParameterBank:
         Time to build them (analyses from the active cache when there is one).
     refined_value : float or None
         The parameter value of the refining observer of the last :meth:`run` (``None`` without one).
+
+    See Also
+    --------
+    ParameterBankTrace : What ``run`` returns.
+    LookupObserver : One member.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import ParameterBank
+    >>> example = hy.get_example("powertrain3")
+    >>> bank = ParameterBank(lambda gear_ratio: example.build(gear_ratio=gear_ratio), "gear_ratio",
+    ...                      [1 / 14, 1 / 12, 1 / 10], 3)
+    >>> out = bank.run(U, truth.y)
+    >>> bool(out.determined[-1]), round(float(out.parameter[-1]), 4)
+    (True, 0.0845)
     """
 
     name = "lookup-bank"

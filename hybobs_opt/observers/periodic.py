@@ -42,11 +42,39 @@ class PeriodicObserver(Observer):
         Largest time between events accepted as consistent; default ``TIME_JUMP_FACTOR`` times
         the cycle's total constant time ``sum(|c_j|)`` (a later time stamp is a jump: ``fallback``).
 
+    See Also
+    --------
+    DriftObserver : The continuous-time observer between the events.
+    hybobs_opt.deadbeat_gains : Deadbeat gains for it.
+
     Notes
     -----
     Bad samples (non-numeric, NaN, a time before the previous event, a ``v`` outside ``V``) give
     a ``fallback`` step without update.  An event of an unexpected phase (a missed event) resets
     the phase and time reference to it without a correction, flagged ``fallback``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.observers import DriftObserver
+
+    The switching server of paper 003 over 30 s; only "serving type 2" is visible:
+
+    >>> example = hy.get_example("switching_server")
+    >>> server = example.build()
+    >>> truth = example.simulate(t_final=30.0)
+    >>> gains = hy.deadbeat_gains(hy.periodic_system(server))
+    >>> from hybobs_opt.observers import PeriodicObserver
+    >>> periodic = hy.periodic_system(server)
+    >>> obs = PeriodicObserver(periodic, gains)
+    >>> visible = [e for e in truth.events if e["from_mode"] in periodic.event_modes]
+    >>> obs.reset(np.zeros(periodic.n), t0=visible[0]["t"], q0=int(visible[0]["from_mode"]))
+    >>> for e in visible[1:]:
+    ...     est = obs.step([e["t"]], [e["from_mode"]])
+    ...
+    >>> np.round(est.x - np.asarray(visible[-1]["x"])[1:], 9)
+    array([0., 0.])
     """
 
     name = "periodic (16)"

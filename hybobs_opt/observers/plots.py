@@ -36,6 +36,34 @@ def plot_observer_run(trace, runs: Sequence, path: str | Path, title: str = "", 
     -------
     Path
         The file written.
+
+    See Also
+    --------
+    ObserverTrace : The runs it draws.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+
+    The powertrain of paper 002 (model (16)), 40 samples of 40 N m engine torque:
+
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((40, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> from hybobs_opt.observers import LookupObserver
+    >>> analysis = hy.analyse_observability(plant, 3)      # Algorithm 3.1, T = 3
+    >>> from hybobs_opt.observers import plot_observer_run
+    >>> run = LookupObserver(analysis).run(U, truth.y)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = plot_observer_run(truth, [run], Path(tmp) / "run.png", labels=["lookup"])
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    run.png True
     """
     path = Path(path)
     n = min(trace.x.shape[1], max_states)

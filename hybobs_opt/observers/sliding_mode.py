@@ -107,6 +107,11 @@ class SlidingModeObserver(Observer):
     hold : int
         Samples in the boundary layer before a stage's ``E_j`` closes.
 
+    See Also
+    --------
+    hybobs_opt.observability_form : The canonical form (4) it needs.
+    ObserverTrace : What ``run`` returns.
+
     Notes
     -----
     The estimate returned for sample ``k`` is the observer state ``x_hat(t_k)`` of eq. (5) (the
@@ -115,6 +120,24 @@ class SlidingModeObserver(Observer):
     ``step(u, y)`` takes ``u`` of length 0 (the system is autonomous).  A bad sample (NaN, wrong
     length) or a failing model evaluation gives an open-loop step flagged ``fallback``; all
     anti-peaking switches then reopen and the stages slide again one by one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.observers import SlidingModeObserver
+
+    Example 1 of paper 001 (two centres switched into an unstable system), 2 s, y = x1:
+
+    >>> example = hy.get_example("switched_unstable")
+    >>> truth = example.simulate(t_final=2.0)
+    >>> form = hy.observability_form(example.build())
+    >>> obs = SlidingModeObserver(form, 0.01)
+    >>> trace = obs.run(None, truth.y)
+    >>> trace.flag_counts()
+    {'observable': 199, 'unobservable': 0, 'fallback': 0, 'warming_up': 2}
+    >>> bool(np.abs(trace.x_hat[-1] - truth.x[-1]).max() < 0.05)
+    True
     """
 
     name = "sliding-mode"
@@ -291,6 +314,13 @@ class SlidingModeObserver(Observer):
             Output samples, one every ``Ts``.
         x0 : (n,) array, optional
             Initial estimate (original coordinates).
+
+        Returns
+        -------
+        SlidingModeRun
+            The estimates (canonical and model coordinates), the sliding indicators and the
+            estimated
+            mode per sample, with the common trace.
         """
         Y = sample_rows(Y, 1, "Y")
         if U is not None and len(U) != Y.shape[0]:
@@ -335,6 +365,11 @@ class SlidingModeObserver(Observer):
             Output samples, one every ``Ts``.
         x0 : (n,) array, optional
             Initial estimate (original coordinates).
+
+        Returns
+        -------
+        ObserverTrace
+            The common trace of :meth:`run_detailed`.
         """
         return self.run_detailed(U, Y, x0).trace
 

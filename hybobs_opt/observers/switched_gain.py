@@ -81,6 +81,11 @@ class SwitchedGainObserver(Observer):
         :data:`~hybobs_opt.defaults.RANGE_MARGIN` of its width is refused (``fallback``).
         Outputs are always judged against what the model produces on the box.
 
+    See Also
+    --------
+    hybobs_opt.lmi.synthesize_switched : The design it runs.
+    convergence_time : When its error settles.
+
     Notes
     -----
     Flags: ``warming_up`` while the initial region is selected and until the certified error
@@ -90,6 +95,28 @@ class SwitchedGainObserver(Observer):
     grows at the region's open-loop rate, or restarts from the box when the input is unknown).
     Gains without Lyapunov matrices (``P``, ``sigma``) certify nothing: their flag stays
     ``warming_up``.
+
+    Examples
+    --------
+    >>> import math
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.lmi import regions_from_switch_points, synthesize_switched
+    >>> from hybobs_opt.observers import SwitchedGainObserver
+
+    The vehicle of paper 004 with the gains of regions 0-80 deg and 60-140 deg:
+
+    >>> vehicle = hy.get_example("vehicle_tracking").build()
+    >>> regions = regions_from_switch_points(vehicle, "psi", 0.0, math.radians(140),
+    ...                                      [math.radians(70)], math.radians(10))
+    >>> design = synthesize_switched(vehicle, regions)
+    >>> truth = hy.get_example("vehicle_tracking").simulate(t_final=2.0)
+    >>> obs = SwitchedGainObserver(vehicle, design, 0.01)
+    >>> trace = obs.run(truth.u, truth.y)
+    >>> trace.x_hat.shape, sorted(set(trace.mode.tolist()))
+    ((201, 4), [-1, 0])
+    >>> bool(np.abs(trace.x_hat[-1, :2] - truth.x[-1, :2]).max() < 1.0)
+    True
     """
 
     name = "switched-gain"
@@ -188,7 +215,14 @@ class SwitchedGainObserver(Observer):
         ``P``-norm; each closed-loop sample contracts it by ``exp(-sigma dt / 2)`` (``V' <= -sigma V``,
         paper 004 eqs. 7-10), each region switch multiplies it by ``sqrt(lambda_max(P_i^-1 P_j))``
         and an open-loop sample restarts it from the box.  It holds under the design's hypotheses
-        (the plant and the estimate in the box of the region whose gain is used)."""
+        (the plant and the estimate in the box of the region whose gain is used).
+
+        Returns
+        -------
+        ndarray or None
+            Certified bound on ``|x_hat_k - x_k|`` per state, or ``None`` when the gains carry
+            no Lyapunov matrices (:mod:`~hybobs_opt.observers.error_bound`).
+        """
         if self._lyap is None or self.q is None:
             return None
         return self._bound.per_state(self._lyap[1][self.q])
@@ -407,6 +441,12 @@ class SwitchedGainObserver(Observer):
             Estimates.
         x_true : array_like
             True states, same shape.
+
+        Returns
+        -------
+        ndarray
+            ``x_hat - x_true`` with every periodic coordinate's difference wrapped into
+            ``[-period/2, period/2)`` (the error along the circle); rows are samples.
         """
         err = np.asarray(x_hat, dtype=float) - np.asarray(x_true, dtype=float)
         if self._wrap_idx.size == 0:
@@ -612,6 +652,27 @@ def convergence_time(t: np.ndarray, err: np.ndarray, tol: np.ndarray) -> float |
         Errors, one row per sample.
     tol : (n,) ndarray
         Tolerance per column.
+
+    Returns
+    -------
+    float or None
+        The first time from which every state's error stays within its tolerance; ``None`` when
+        that never happens.
+
+    See Also
+    --------
+    SwitchedGainObserver : Whose runs it measures.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybobs_opt.observers import convergence_time
+    >>> t = np.arange(5) * 0.5
+    >>> err = np.array([[1.0], [0.4], [0.05], [0.2], [0.01]])
+    >>> convergence_time(t, err, np.array([0.25]))
+    1.0
+    >>> convergence_time(t, err, np.array([0.001])) is None
+    True
     """
     bad = np.any(np.abs(err) > tol[None, :], axis=1)
     if not bad.any():

@@ -59,10 +59,43 @@ def miqp_backend(solver: str, H: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: 
     options : dict
         The solver's options.
 
+    Returns
+    -------
+    Backend
+        The program built on the solver, ready to ``solve(f, lo, hi)`` per window.
+
     Raises
     ------
     ModelError
         If ``solver`` is not one of :data:`MIQP_SOLVERS`.
+
+    See Also
+    --------
+    milp_backend : The same for the MILPs.
+    MIQP_SOLVERS : The solver names.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MIQP: ``v = [x, b]`` with ``b`` binary, ``min 0.5 |v|^2 - 1.3 x - 0.4 b``
+    subject to ``x - b <= 0.5``; the optimum is ``b = 1, x = 1.3``.
+
+    >>> H = np.eye(2)
+    >>> A = np.array([[1.0, -1.0]])
+    >>> lb, ub = np.array([-2.0, 0.0]), np.array([2.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> f = np.array([-1.3, -0.4])
+    >>> lo, hi = np.array([-1e30]), np.array([0.5])
+    >>> from hybobs_opt.mhe.backends import miqp_backend
+    >>> backend = miqp_backend("daqp", H, A, lb, ub, discrete, np.array([False]), None, {})
+    >>> out = backend.solve(f, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([1.3, 1. ]))
+    >>> miqp_backend("gurobi", H, A, lb, ub, discrete, np.array([False]), None, {})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    hybobs_opt.errors.ModelError: solver: expected one of ('daqp', 'casadi-daqp', 'bonmin'), got 'gurobi'
     """
     if solver == "daqp":
         return DaqpBackend(H, A, lb, ub, discrete, eq_rows, options)
@@ -94,11 +127,38 @@ def milp_backend(solver: str, c: np.ndarray, A: np.ndarray, lb: np.ndarray, ub: 
     problem : str, default "MILP of eq. (10)"
         Name of the problem in a :class:`SolverError`.
 
+    Returns
+    -------
+    Backend
+        The program built on the solver, ready to ``solve(None, lo, hi)`` per window.
+
     Raises
     ------
     SolverError
         ``"casadi-highs"`` in a process that has loaded ``highspy`` (see
         :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`).
+
+    See Also
+    --------
+    miqp_backend : The same for the MIQP.
+    MILP_SOLVERS : The solver names.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MILP: ``min -x - b`` over ``x + b <= 1.5``, ``0 <= x <= 1``, ``b`` binary:
+    the optimum is ``b = 1, x = 0.5``.
+
+    >>> c = np.array([-1.0, -1.0])
+    >>> A = np.array([[1.0, 1.0]])
+    >>> lb, ub = np.array([0.0, 0.0]), np.array([1.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> lo, hi = np.array([-1e30]), np.array([1.5])
+    >>> from hybobs_opt.mhe.backends import milp_backend
+    >>> out = milp_backend("highs", c, A, lb, ub, discrete, {}).solve(None, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([0.5, 1. ]))
     """
     if solver == "highs":
         return HighspyBackend(c, A, lb, ub, discrete, options)

@@ -56,6 +56,30 @@ class BackendOutcome:
         The raw status through the solver's table of :mod:`hybobs_opt.status` (e.g. ``LIMIT``).
     seconds : float
         Wall time of the solve.
+
+    See Also
+    --------
+    Backend : Its ``solve`` returns one.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MIQP: ``v = [x, b]`` with ``b`` binary, ``min 0.5 |v|^2 - 1.3 x - 0.4 b``
+    subject to ``x - b <= 0.5``; the optimum is ``b = 1, x = 1.3``.
+
+    >>> H = np.eye(2)
+    >>> A = np.array([[1.0, -1.0]])
+    >>> lb, ub = np.array([-2.0, 0.0]), np.array([2.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> f = np.array([-1.3, -0.4])
+    >>> lo, hi = np.array([-1e30]), np.array([0.5])
+    >>> from hybobs_opt.mhe.backends import miqp_backend
+    >>> out = miqp_backend("daqp", H, A, lb, ub, discrete, np.array([False]), None, {}).solve(f, lo, hi)
+    >>> out.status, out.solver_status, np.round(out.v, 6)
+    ('optimal', 'optimal', array([1.3, 1. ]))
+    >>> sorted(out.to_dict())  # doctest: +ELLIPSIS
+    ['detail', 'seconds', 'solver_status', 'status']
     """
 
     status: Status
@@ -73,6 +97,13 @@ class BackendOutcome:
         return {}
 
     def to_dict(self) -> dict[str, Any]:
+        """The record in plain JSON types (the ``--json`` output and saved files).
+
+        Returns
+        -------
+        dict
+            The record in plain JSON types (numbers, strings, lists, dicts).
+        """
         return {"status": self.status, "solver_status": self.solver_status, "seconds": self.seconds,
                 "detail": dict(self.detail)}
 
@@ -90,6 +121,33 @@ class Backend(Protocol):
         that nothing beats it).
     abs_subopt : float
         Absolute suboptimality the solver allows on its objective (DAQP's ``abs_subopt``).
+
+    See Also
+    --------
+    miqp_backend : A backend for the MIQP of norm 2.
+    milp_backend : A backend for the MILPs of norms 1 and inf.
+    BackendOutcome : What ``solve`` returns.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MIQP: ``v = [x, b]`` with ``b`` binary, ``min 0.5 |v|^2 - 1.3 x - 0.4 b``
+    subject to ``x - b <= 0.5``; the optimum is ``b = 1, x = 1.3``.
+
+    >>> H = np.eye(2)
+    >>> A = np.array([[1.0, -1.0]])
+    >>> lb, ub = np.array([-2.0, 0.0]), np.array([2.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> f = np.array([-1.3, -0.4])
+    >>> lo, hi = np.array([-1e30]), np.array([0.5])
+    >>> from hybobs_opt.mhe.backends import Backend, miqp_backend
+    >>> backend = miqp_backend("daqp", H, A, lb, ub, discrete, np.array([False]), None, {})
+    >>> isinstance(backend, Backend), backend.name
+    (True, 'daqp')
+    >>> out = backend.solve(f, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([1.3, 1. ]))
     """
 
     name: str
@@ -98,7 +156,15 @@ class Backend(Protocol):
 
     def solve(self, f: np.ndarray | None, lo: np.ndarray, hi: np.ndarray, centre: np.ndarray | None = None, *,
               cutoff: float | None = None, target: float | None = None, start: np.ndarray | None = None,
-              col_bounds: tuple | None = None) -> BackendOutcome: ...
+              col_bounds: tuple | None = None) -> BackendOutcome:
+        """Solve the program with linear term ``f`` (MIQP) and row bounds ``lo, hi``.
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
+        """
+        ...
 
 
 class _Null:
@@ -116,7 +182,26 @@ _NULL = _Null()
 
 @contextmanager
 def quiet_stdout():
-    """Silence CasADi plugins that print through ``sys.stdout``."""
+    """Silence CasADi plugins that print through ``sys.stdout``.
+
+    Returns
+    -------
+    context manager
+        ``sys.stdout`` is a sink inside the ``with`` block and restored on exit.
+
+    See Also
+    --------
+    BonminBackend : Solves under it.
+
+    Examples
+    --------
+    >>> from hybobs_opt.mhe.backends import quiet_stdout
+    >>> with quiet_stdout():
+    ...     print("not shown")
+    ...
+    >>> print("shown")
+    shown
+    """
     old = sys.stdout
     sys.stdout = _NULL
     try:

@@ -54,6 +54,23 @@ class CasadiDaqpBackend:
         Equality rows (the one-hot rows, eliminated as above).
     options : dict
         DAQP settings passed to CasADi's plugin.
+
+    See Also
+    --------
+    miqp_backend : Returns one for ``"casadi-daqp"``.
+    DaqpBackend : DAQP through its own package (the default).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import hybobs_opt as hy
+    >>> from hybobs_opt.mhe import MHEObserver
+    >>> plant = hy.get_example("powertrain3").build(gear_ratio=1 / 12)
+    >>> U = np.full((3, 1), 40.0)
+    >>> truth = hy.simulate_pwa(plant, np.array([0.06, 39.0, 3.25]), U)
+    >>> res = MHEObserver(plant, 3, solver="casadi-daqp").solve_window(U, truth.y)
+    >>> res.status, res.solver, bool(np.allclose(res.states, truth.x, atol=1e-6))
+    ('optimal', 'casadi-daqp', True)
     """
 
     name = "casadi-daqp"
@@ -117,6 +134,11 @@ class CasadiDaqpBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Not supported: must be ``None`` (``NotImplementedError``).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
@@ -152,6 +174,29 @@ class BonminBackend:
         Binary variables.
     options : dict
         Bonmin options; they override the quiet log levels.
+
+    See Also
+    --------
+    miqp_backend : Returns one for ``"bonmin"``.
+    DaqpBackend : The default MIQP solver.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MIQP: ``v = [x, b]`` with ``b`` binary, ``min 0.5 |v|^2 - 1.3 x - 0.4 b``
+    subject to ``x - b <= 0.5``; the optimum is ``b = 1, x = 1.3``.
+
+    >>> H = np.eye(2)
+    >>> A = np.array([[1.0, -1.0]])
+    >>> lb, ub = np.array([-2.0, 0.0]), np.array([2.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> f = np.array([-1.3, -0.4])
+    >>> lo, hi = np.array([-1e30]), np.array([0.5])
+    >>> from hybobs_opt.mhe.backends import BonminBackend
+    >>> out = BonminBackend(H, A, lb, ub, discrete, {}).solve(f, lo, hi)
+    >>> out.status, np.round(out.v, 4)
+    ('optimal', array([1.3, 1. ]))
     """
 
     name = "bonmin"
@@ -194,6 +239,11 @@ class BonminBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._H.shape[0]) if centre is None else centre
@@ -219,6 +269,28 @@ class CasadiMilpBackend:
         CasADi's plugin name.
     c, A, lb, ub, discrete, options
         As for :class:`~hybobs_opt.mhe.backends.highs_backend.HighspyBackend`.
+
+    See Also
+    --------
+    milp_backend : Returns one for ``"cbc"`` and ``"casadi-highs"``.
+    HighspyBackend : HiGHS through highspy (the default).
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MILP: ``min -x - b`` over ``x + b <= 1.5``, ``0 <= x <= 1``, ``b`` binary:
+    the optimum is ``b = 1, x = 0.5``.
+
+    >>> c = np.array([-1.0, -1.0])
+    >>> A = np.array([[1.0, 1.0]])
+    >>> lb, ub = np.array([0.0, 0.0]), np.array([1.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> lo, hi = np.array([-1e30]), np.array([1.5])
+    >>> from hybobs_opt.mhe.backends import CasadiMilpBackend
+    >>> out = CasadiMilpBackend("cbc", c, A, lb, ub, discrete, {}).solve(None, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([0.5, 1. ]))
     """
 
     cutoff_applied = False
@@ -261,6 +333,11 @@ class CasadiMilpBackend:
             Ignored.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         lb, ub = with_col_bounds(self._lb, self._ub, col_bounds)

@@ -33,6 +33,23 @@ def daqp_flag(raw) -> Status:
     ----------
     raw : int or tuple
         DAQP's exit flag, or a tuple whose first item is it.
+
+    Returns
+    -------
+    Status
+        ``OPTIMAL``, ``INFEASIBLE``, ``LIMIT`` ... of :mod:`hybobs_opt.status`.
+
+    See Also
+    --------
+    DaqpBackend : Maps every answer with it.
+
+    Examples
+    --------
+    >>> from hybobs_opt.mhe.backends import daqp_flag
+    >>> daqp_flag(1), daqp_flag(-1)
+    ('optimal', 'infeasible')
+    >>> daqp_flag((1, "solution"))
+    'optimal'
     """
     return map_status(DAQP_STATUS, int(raw[0] if isinstance(raw, tuple) else raw), solver="daqp")
 
@@ -55,6 +72,35 @@ class DaqpBackend:
     options : dict
         DAQP settings; they override ``abs_subopt = MHE_ABS_SUBOPT``, ``eps_prox = 0`` and
         ``cycle_tol = MHE_DAQP_CYCLE_TOL``.
+
+    See Also
+    --------
+    miqp_backend : Returns one for ``"daqp"``.
+    daqp_flag : Its exit flags.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MIQP: ``v = [x, b]`` with ``b`` binary, ``min 0.5 |v|^2 - 1.3 x - 0.4 b``
+    subject to ``x - b <= 0.5``; the optimum is ``b = 1, x = 1.3``.
+
+    >>> H = np.eye(2)
+    >>> A = np.array([[1.0, -1.0]])
+    >>> lb, ub = np.array([-2.0, 0.0]), np.array([2.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> f = np.array([-1.3, -0.4])
+    >>> lo, hi = np.array([-1e30]), np.array([0.5])
+    >>> from hybobs_opt.mhe.backends import DaqpBackend
+    >>> backend = DaqpBackend(H, A, lb, ub, discrete, np.array([False]), {})
+    >>> out = backend.solve(f, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([1.3, 1. ]))
+
+    Re-solved with another linear term, no new setup:
+
+    >>> np.round(backend.solve(np.array([-0.2, 0.0]), lo, hi).v, 6)
+    array([0.2, 0. ])
     """
 
     name = "daqp"
@@ -110,7 +156,13 @@ class DaqpBackend:
 
     def probe(self) -> bool:
         """Set the workspace up now (zero linear term, the variable bounds); ``False`` if DAQP
-        refuses the Hessian (exit -5: its factorisation does not find it positive definite)."""
+        refuses the Hessian (exit -5: its factorisation does not find it positive definite).
+
+        Returns
+        -------
+        bool
+            ``False`` if DAQP refuses the Hessian (exit -5), else ``True``.
+        """
         import daqp
 
         nr = self._A.shape[0]
@@ -154,6 +206,11 @@ class DaqpBackend:
             Not used by DAQP (``centre`` is its warm start).
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
         """
         t0 = time.perf_counter()
         centre = np.zeros(self._nv) if centre is None else centre

@@ -48,6 +48,28 @@ class HighspyBackend:
         Integer columns.
     options : dict
         HiGHS options overriding :data:`HIGHS_BASE_OPTIONS`.
+
+    See Also
+    --------
+    milp_backend : Returns one for ``"highs"``.
+    CasadiMilpBackend : CBC through CasADi.
+
+    Examples
+    --------
+    >>> import numpy as np
+
+    A two-variable MILP: ``min -x - b`` over ``x + b <= 1.5``, ``0 <= x <= 1``, ``b`` binary:
+    the optimum is ``b = 1, x = 0.5``.
+
+    >>> c = np.array([-1.0, -1.0])
+    >>> A = np.array([[1.0, 1.0]])
+    >>> lb, ub = np.array([0.0, 0.0]), np.array([1.0, 1.0])
+    >>> discrete = np.array([False, True])
+    >>> lo, hi = np.array([-1e30]), np.array([1.5])
+    >>> from hybobs_opt.mhe.backends import HighspyBackend
+    >>> out = HighspyBackend(c, A, lb, ub, discrete, {}).solve(None, lo, hi)
+    >>> out.status, np.round(out.v, 6)
+    ('optimal', array([0.5, 1. ]))
     """
 
     name = "highs"
@@ -102,7 +124,14 @@ class HighspyBackend:
 
     def row_duals(self) -> np.ndarray:
         """HiGHS's row duals of the last solve (an LP: no integer columns, or all of them fixed),
-        model rows first."""
+        model rows first.
+
+        Returns
+        -------
+        ndarray
+            HiGHS's row duals of the last solve (an LP: no integer columns, or all of them
+            fixed), model rows first.
+        """
         return np.asarray(self._h.getSolution().row_dual, dtype=float)[: self._rows.size]
 
     def solve(self, f, lo, hi, centre=None, *, cutoff: float | None = None, target: float | None = None,
@@ -131,6 +160,11 @@ class HighspyBackend:
             MIP start passed to HiGHS.
         col_bounds : (index, lower, upper), optional
             Column bounds for this solve only (the backend's own bounds are kept).
+
+        Returns
+        -------
+        BackendOutcome
+            The status, the solver's point (when optimal or feasible) and its raw answer.
 
         Raises
         ------
