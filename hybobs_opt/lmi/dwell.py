@@ -325,6 +325,11 @@ class DwellTimeLMI:
             State scaling (default: the box half-widths).
         condition : {"paper", "per_function", "polytopic"}, default "paper"
             The region condition (see :class:`DwellTimeLMI`).
+
+        Returns
+        -------
+        DwellTimeLMI
+            The cached joint LMI (the same object on every call with the same key).
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (int(n_regions), tuple(tuple(p) for p in pairs), gain_bound is None, d.tobytes(), condition)

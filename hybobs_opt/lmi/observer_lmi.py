@@ -384,6 +384,12 @@ class ObserverLMI:
             State scaling (default: the box half-widths).
         multipliers : {"single", "per_function"}, default "single"
             As for :class:`ObserverLMI`.
+
+        Returns
+        -------
+        ObserverLMI
+            The cached problem (the same object on every call with the same key), its gain bound
+            set to ``gain_bound``.
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (bool(shifted), gain_bound is None, d.tobytes(), multipliers)

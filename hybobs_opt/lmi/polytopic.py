@@ -373,6 +373,12 @@ class PolytopicLMI:
             Bound on ``||L||_2`` (model units); set on every call when given.
         scaling : (n,) array, optional
             State scaling (default: the box half-widths).
+
+        Returns
+        -------
+        PolytopicLMI
+            The cached condition (the same object on every call with the same key), its gain
+            bound set on every call.
         """
         d = box_scaling(system) if scaling is None else np.asarray(scaling, dtype=float)
         key = (gain_bound is None, d.tobytes())

@@ -49,6 +49,11 @@ class InputTable:
     >>> table = InputTable(("u",), np.array([[0.0], [2.0]]), np.array([0.0, 0.1]))
     >>> float(table(0.05)[0]), float(table(0.1)[0]), float(table(5.0)[0])
     (0.0, 2.0, 2.0)
+
+    See Also
+    --------
+    read_input_table : reads one from a CSV file.
+    hybobs_opt.sim.any_system.simulate_system : runs a system on it (``inputs=``).
     """
 
     names: tuple[str, ...]
@@ -97,6 +102,24 @@ def read_input_table(path: str | Path, system) -> InputTable:
         or too many cells, a cell is not a finite number, the times do not start at 0 or do not
         increase, or there are more than :data:`~hybobs_opt.limits.MAX_SAMPLES` rows; the message
         names the file, the line and the column.
+
+    See Also
+    --------
+    InputTable : what it returns.
+    hybobs_opt.sim.any_system.simulate_system : runs a system on the table (``inputs=``).
+    hybobs_opt.read_log : reads a whole log (inputs and outputs) instead.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hybobs_opt import get_example
+    >>> plant = get_example("powertrain3").build()                 # one input, T_m
+    >>> path = Path(tempfile.mkdtemp()) / "torque.csv"
+    >>> _ = path.write_text("t,T_m\\n0,40\\n0.01,-20\\n")
+    >>> table = read_input_table(path, plant)
+    >>> table.n_rows, table.U[:, 0].tolist(), table.t.tolist()
+    (2, [40.0, -20.0], [0.0, 0.01])
     """
     path = Path(path)
     names = tuple(getattr(system, "input_names", ()))
