@@ -42,7 +42,7 @@ docs: $(STAMP)
 
 # The Examples sections of the docstrings, run as doctests (make test does not run them).
 doctest: $(STAMP)
-	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest --doctest-modules --doctest-glob='*.rst' -q -n 2 hybobs_opt docs/interop.rst
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest --doctest-modules --doctest-glob='*.rst' -W error::FutureWarning -q -n 2 hybobs_opt docs/interop.rst
 
 clean:
 	rm -rf out .pytest_cache docs/_build docs/api/generated

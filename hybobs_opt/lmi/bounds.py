@@ -218,7 +218,8 @@ def derivative_bound(
     >>> import math
     >>> from hybobs_opt.lmi import derivative_bound
     >>> from hybobs_opt.systems import ScalarFunction
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> b = derivative_bound(sine, 0.0, math.pi / 2)
     >>> round(b.lower, 3), round(b.upper, 3), b.monotonic
     (0.0, 1.0, True)
@@ -487,7 +488,8 @@ def slope_change_points(fn: ScalarFunction, lo: float, hi: float, samples: int =
     >>> import numpy as np
     >>> from hybobs_opt.lmi import slope_change_points
     >>> from hybobs_opt.systems import ScalarFunction
-    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> import casadi as ca
+    >>> cosine = ScalarFunction("cos", ca.cos, lambda z: -ca.sin(z))   # CasADi expressions
     >>> np.round(slope_change_points(cosine, -1.0, 7.0), 4)
     array([3.1416, 6.2832])
     """

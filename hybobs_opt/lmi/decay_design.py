@@ -89,7 +89,8 @@ class ConditionDecay:
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -164,7 +165,8 @@ class DecayDesign:
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -336,7 +338,8 @@ def decay_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)

@@ -96,7 +96,8 @@ class SearchStart:
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -169,7 +170,8 @@ class GainSearchResult:
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -598,7 +600,8 @@ def gain_decay_rate(system: ScalarNonlinearSystem, bounds: JacobianBounds, L: np
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -669,7 +672,8 @@ def decay_gain_search(system: ScalarNonlinearSystem, bounds: JacobianBounds, gai
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)

@@ -77,7 +77,8 @@ class UndetectablePoint(Certificate):
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
-    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> import casadi as ca
+    >>> cosine = ScalarFunction("cos", ca.cos, lambda z: -ca.sin(z))   # CasADi expressions
     >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
     ...                                name="mirror")
     >>> from hybobs_opt.lmi import undetectable_points
@@ -208,7 +209,8 @@ def undetectable_points(system: ScalarNonlinearSystem, coordinate: int | str, lo
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
-    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> import casadi as ca
+    >>> cosine = ScalarFunction("cos", ca.cos, lambda z: -ca.sin(z))   # CasADi expressions
     >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
     ...                                name="mirror")
     >>> from hybobs_opt.lmi import undetectable_points
@@ -297,7 +299,8 @@ class OutputSymmetry(Certificate):
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
-    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> import casadi as ca
+    >>> cosine = ScalarFunction("cos", ca.cos, lambda z: -ca.sin(z))   # CasADi expressions
     >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
     ...                                name="mirror")
     >>> from hybobs_opt.lmi import output_symmetries
@@ -465,7 +468,8 @@ def output_symmetries(system: ScalarNonlinearSystem, *, points: int = SYMMETRY_P
     A rotation measured through ``cos(x1)``: the output cannot tell ``x`` from ``-x``.
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("x1", "x2"))
-    >>> cosine = ScalarFunction("cos", lambda z: np.cos(z), lambda z: -np.sin(z))
+    >>> import casadi as ca
+    >>> cosine = ScalarFunction("cos", ca.cos, lambda z: -ca.sin(z))   # CasADi expressions
     >>> system = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [-1.0, 0.0]], C=[[1.0, 0.0]], h=(cosine,),
     ...                                name="mirror")
     >>> from hybobs_opt.lmi import output_symmetries

@@ -299,7 +299,8 @@ class NoiseBoundDesign(Certificate):
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -555,7 +556,8 @@ class NoiseTradeoff:
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -1014,7 +1016,8 @@ def noise_optimal_design(system: ScalarNonlinearSystem, bounds: JacobianBounds, 
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)
@@ -1221,7 +1224,8 @@ def noise_tradeoff(system: ScalarNonlinearSystem, bounds: JacobianBounds, noise,
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)

@@ -140,7 +140,8 @@ def plot_noise_tradeoff(curve, path: str | Path, design=None, state_names=None) 
     A pendulum ``theta' = omega, omega' = -sin(theta)`` with ``theta`` measured:
 
     >>> box = Polytope.from_box([-1.0, -1.0], [1.0, 1.0], ("theta", "omega"))
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> pendulum = ScalarNonlinearSystem(box=box, A=[[0.0, 1.0], [0.0, 0.0]], C=[[1.0, 0.0]],
     ...                                  F=[[0.0], [-1.0]], E=[[1.0, 0.0]], f=(sine,), name="pendulum")
     >>> bounds = jacobian_bounds(pendulum)

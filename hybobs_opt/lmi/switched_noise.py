@@ -88,7 +88,9 @@ class StateCertificate:
 
     A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
 
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
     ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
     >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
@@ -176,7 +178,9 @@ class SwitchedNoiseBound:
 
     A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
 
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
     ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
     >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
@@ -457,7 +461,9 @@ def switched_noise_bound(design: SwitchedDesign, noise, *, dwell: float | None =
 
     A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
 
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
     ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
     >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)

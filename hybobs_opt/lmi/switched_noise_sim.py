@@ -367,7 +367,9 @@ class SwitchedNoiseSimulationCheck:
 
     A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
 
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
     ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
     >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
@@ -512,7 +514,9 @@ def check_switched_noise_bound(snb: SwitchedNoiseBound, drive: Drive, x0, *, e0=
 
     A scalar plant ``x' = -sin(x) + u``, ``y = x``, with one gain for ``x < 0`` and one for ``x > 0``:
 
-    >>> sine = ScalarFunction("sin", lambda z: np.sin(z), lambda z: np.cos(z))
+    >>> import casadi as ca
+
+    >>> sine = ScalarFunction("sin", ca.sin, ca.cos)       # CasADi expressions
     >>> plant = ScalarNonlinearSystem(box=Polytope.from_box([-1.0], [1.0], ("x",)), A=[[0.0]], C=[[1.0]],
     ...                               F=[[-1.0]], E=[[1.0]], f=(sine,), B=[[1.0]], name="scalar")
     >>> regions = regions_from_switch_points(plant, "x", -1.0, 1.0, [0.0], 0.1)
