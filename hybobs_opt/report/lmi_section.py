@@ -210,7 +210,8 @@ def _design_table(design, coordinate: str, unit: str, factor: float) -> str:
         f"<td>{num(g.sigma)}</td><td>{num(g.sigma_max)}</td><td>{num(g.gain_norm)}</td>"
         f"<td>{matrix_table(g.L, digits=3)}</td></tr>"
         for g in design.regions)
-    return (f"<table><tr><th>region</th><th>{html.escape(coordinate)} interval [{html.escape(unit)}]</th>"
+    unit = html.escape(unit) if unit else "model units"
+    return (f"<table><tr><th>region</th><th>{html.escape(coordinate)} interval [{unit}]</th>"
             "<th>design decay rate sigma [1/s]</th><th>largest decay rate [1/s]</th><th>||L||_2 [model units]</th>"
             "<th>gain L</th></tr>" + rows + "</table>")
 
