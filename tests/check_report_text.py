@@ -43,10 +43,10 @@ DIMENSIONLESS_HEADERS = frozenset({
 #: A unit (or what a count counts) in brackets at the end of a header: ``t [s]``, ``T [samples]``.
 _UNIT = re.compile(r"\[[^\]]+\]\s*$")
 
-#: A cell of a numeric column: numbers (possibly several, comma-separated), with signs, exponents,
+#: A cell of a numeric column: numbers (possibly several, separated by commas or slashes), with signs, exponents,
 #: ``inf`` and the words used for a missing value.
 _NUMBER = r"[-+]?(?:\d+(?:[.,]\d+)*(?:\.\d*)?(?:e[-+]?\d+)?|inf)"
-_NUMERIC_CELL = re.compile(rf"^\s*{_NUMBER}(?:\s*,\s*{_NUMBER})*\s*$", re.IGNORECASE)
+_NUMERIC_CELL = re.compile(rf"^\s*{_NUMBER}(?:\s*[,/]\s*{_NUMBER})*\s*$", re.IGNORECASE)
 _MISSING = {"", "-", "n/a", "never", "none", "not reached"}
 
 

@@ -168,7 +168,7 @@ _PAGE = """<!doctype html>
 * {{ box-sizing: border-box; }}
 html {{ scroll-behavior: auto; }}
 body {{ font-family: system-ui, sans-serif; margin: 0; color: #222; line-height: 1.45; }}
-.layout {{ display: grid; grid-template-columns: 17rem minmax(0, 1fr); gap: 2rem; max-width: 1500px;
+.layout {{ display: grid; grid-template-columns: 15rem minmax(0, 1fr); gap: 1.5rem; max-width: 1500px;
           margin: 0 auto; padding: 0 1.5rem; }}
 nav.toc {{ position: sticky; top: 0; align-self: start; max-height: 100vh; overflow-y: auto;
            padding: 1rem 0.5rem 1rem 0; font-size: 0.85em; border-right: 1px solid #ddd; }}
@@ -188,8 +188,8 @@ table.matrix td {{ border: none; padding: 0 0.5em; text-align: right; font-varia
 table.matrix {{ border-left: 1px solid #666; border-right: 1px solid #666; }}
 figure {{ margin: 1em 0; }}
 figcaption {{ font-size: 0.9em; color: #444; }}
-td, th {{ border: 1px solid #ccc; padding: 0.3em 0.5em; font-size: 0.85em; vertical-align: top; }}
-th {{ background: #f2f2f2; text-align: left; font-weight: 600; min-width: 4em; }}
+td, th {{ border: 1px solid #ccc; padding: 0.3em 0.45em; font-size: 0.85em; vertical-align: top; }}
+th {{ background: #f2f2f2; text-align: left; font-weight: 600; font-size: 0.8em; }}
 td {{ font-variant-numeric: tabular-nums; }}
 img {{ max-width: 100%; }}
 .error {{ color: #a00; }}

@@ -44,7 +44,7 @@ def _noise_table(table: dict) -> str:
             worst = r["max_abs_error_flagged_observable"] or {}
             rows.append(
                 f"<tr><td>{num(level['noise'])}</td><td>{html.escape(name)}</td><td>{r.get('horizon', 3)}</td>"
-                f"<td>{f['observable']}</td><td>{f['unobservable']}</td><td>{f['fallback']}</td>"
+                + _flags(f['observable'], f['unobservable'], f['fallback'])
                 + "".join(f"<td>{_fmt(rms.get(nm))}</td>" for nm in names)
                 + f"<td>{_fmt(worst.get('omega_l'))}</td><td>{_fmt(r.get('max_mahalanobis_flagged'))}</td>"
                 f"<td>{r.get('n_flagged_beyond_5_sigma', 'n/a')}</td><td>{_ms(r['median_step_s'])}</td></tr>")
@@ -58,8 +58,13 @@ def _noise_table(table: dict) -> str:
 #: Units of model (16)'s states (paper 002, Section 5.1), for the column headers.
 _UNITS = {"theta": "rad", "omega_m": "rad/s", "omega_l": "rad/s"}
 
-#: Headers of the flag counts: each counts the samples an observer flagged so.
-_FLAG_HEADS = "<th>flagged observable [samples]</th><th>flagged unobservable [samples]</th><th>fallback [samples]</th>"
+#: Header of the flag counts: the samples an observer flagged observable, unobservable, or fell back on.
+_FLAG_HEADS = "<th>flagged observable / unobservable / fallback [samples]</th>"
+
+
+def _flags(observable, unobservable, fallback) -> str:
+    """The cell under :data:`_FLAG_HEADS`."""
+    return f"<td>{observable} / {unobservable} / {fallback}</td>"
 
 
 def _ms(v) -> str:
@@ -76,14 +81,14 @@ def _table(summary: dict) -> str:
     for name, r in summary["observers"].items():
         rows.append(
             f"<tr><td>{name}</td><td>{html.escape(str(r['solver']))}</td><td>{r['n_steps']}</td>"
-            f"<td>{_ms(r['median_step_s'])}</td><td>{_ms(r['p95_step_s'])}</td><td>{_ms(r['max_step_s'])}</td>"
+            f"<td>{_ms(r['median_step_s'])} / {_ms(r['p95_step_s'])} / {_ms(r['max_step_s'])}</td>"
             f"<td>{_fmt(r.get('ratio_to_lookup'))}</td><td>{_fmt(r['max_abs_error_observable_all'])}</td>"
-            f"<td>{r['n_flagged_observable']}</td><td>{r['n_flagged_unobservable']}</td><td>{r['n_fallback']}</td>"
-            f"<td>{_fmt(r.get('rms_error_theta_unobservable_intervals'))}</td>"
+            + _flags(r['n_flagged_observable'], r['n_flagged_unobservable'], r['n_fallback'])
+            + f"<td>{_fmt(r.get('rms_error_theta_unobservable_intervals'))}</td>"
             f"<td>{_fmt(r.get('rms_error_omega_l_unobservable_intervals'))}</td></tr>"
         )
-    return ("<table><tr><th>observer</th><th>solver</th><th>steps [samples]</th><th>median step [ms]</th>"
-            "<th>p95 step [ms]</th><th>max step [ms]</th><th>median step / lookup's</th>"
+    return ("<table><tr><th>observer</th><th>solver</th><th>steps [samples]</th><th>step median / p95 / max [ms]</th>"
+            "<th>median step / lookup's</th>"
             "<th>max relative error where flagged observable</th>" + _FLAG_HEADS
             + "<th>RMS theta error, unobservable windows [rad]</th>"
             "<th>RMS omega_l error, unobservable windows [rad/s]</th></tr>" + "".join(rows) + "</table>")
@@ -241,8 +246,8 @@ def _radius_table(radii: dict) -> str:
         f = r["flags"]
         med = r["radius_median"] or {}
         worst = r["max_abs_error_flagged"] or {}
-        rows.append(f"<tr><td>{html.escape(name)}</td><td>{f['observable']}</td><td>{f['unobservable']}</td>"
-                    f"<td>{f['fallback']}</td><td>{r['n_outside_radius']}</td>"
+        rows.append(f"<tr><td>{html.escape(name)}</td>" + _flags(f['observable'], f['unobservable'], f['fallback'])
+                    + f"<td>{r['n_outside_radius']}</td>"
                     + "".join(f"<td>{_fmt(med.get(nm))}</td>" for nm in names)
                     + "".join(f"<td>{_fmt(worst.get(nm))}</td>" for nm in names)
                     + f"<td>{_ms(r['median_step_s'])}</td></tr>")

@@ -225,7 +225,8 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         f"{vector(form.switching[0].z_row)} . z</code> (the paper's "
         "<code>(z3 + z2)/c1 - z1</code>). The computed P_q agree with the paper's formulas; the printed "
         "P1 (sign of beta) and P2 do not (the study's canonical form of the double scroll says where).</p>"
-        + _table(["location", "computed (alpha1, alpha2, alpha3, beta)", "paper's formulas", "as printed"], P_rows)
+        + _table(["location", "computed alpha1, alpha2, alpha3, beta (dimensionless)", "paper's formulas (dimensionless)",
+                  "as printed (dimensionless)"], P_rows)
         + "<p>Theorem 1 for adjacent locations (dimensions: -1 empty; M: where g_i = g_j; non-transverse part of M; "
         "S: where the switching functions agree; L: common equilibria):</p>"
         + _table(["pair", "dim M", "dim non-transverse", "dim S", "dim L", "items that apply", "distinguishable"], th_rows)
