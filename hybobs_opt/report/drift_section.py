@@ -33,6 +33,7 @@ from ..studies.paper003_switching.comparison import (
     unserved_buffer_server,
 )
 from .section import ReportSection, register_section
+from .text import num, vector, yes_no
 
 #: Paper 003, Section 5: printed numbers of the junction run (observer from t = 50).
 PAPER_003_JUNCTION = {
@@ -49,7 +50,7 @@ PAPER_003_JUNCTION = {
 # ---------------------------------------------------------------------------- html helpers
 def _mat(M) -> str:
     M = np.atleast_2d(np.asarray(M, dtype=float))
-    rows = "; ".join(" ".join(f"{v:.4g}" for v in r) for r in M)
+    rows = "; ".join(" ".join(num(v) for v in r) for r in M)
     return f"<code>[{html.escape(rows)}]</code>"
 
 
@@ -62,8 +63,8 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
 def _fmt(v) -> str:
     if v is None:
         return "never"
-    if isinstance(v, float):
-        return f"{v:.4g}"
+    if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)):
+        return num(v)
     return html.escape(str(v))
 
 
@@ -97,27 +98,27 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
         ps = periodic_system(system)
         for j in range(1, ps.period + 1):
             rows_model.append([html.escape(name), str(j), str(ps.event_modes[j - 1]), _mat(ps.A[j - 1]), _mat(ps.a[j - 1]),
-                               _mat(ps.C[j - 1]), f"{ps.c[j - 1]:.4g}"])
+                               _mat(ps.C[j - 1]), num(ps.c[j - 1])])
         designs: dict[str, Any] = {}
         for label, fn in (("sequential deadbeat", deadbeat_gains), ("positive deadbeat", positive_deadbeat_gains),
                           ("positive LP", positive_observer)):
             try:
                 g = fn(ps)
                 designs[label] = g
-                rows_gain.append([html.escape(name), label, _mat(g.L), _fmt(g.deadbeat_steps), f"{g.monodromy_radius:.3g}",
-                                  "yes" if g.positive else "no", _fmt(g.rate), f"{g.seconds * 1e3:.0f} ms"])
+                rows_gain.append([html.escape(name), label, _mat(g.L), _fmt(g.deadbeat_steps), num(g.monodromy_radius),
+                                  yes_no(bool(g.positive)), _fmt(g.rate), num(g.seconds * 1e3)])
             except InfeasibleError as exc:
                 ok = exc.certificate.verify() if exc.certificate is not None else False
                 rows_gain.append([html.escape(name), label, "<em>infeasible</em>", "", "", "", "",
-                                  f"{html.escape(exc.certificate.reason)} (certificate re-checked in numpy: {ok})"])
+                                  f"{html.escape(exc.certificate.reason)} (certificate re-checked in numpy: {yes_no(bool(ok))})"])
                 summary.setdefault("infeasible", []).append({"system": name, "design": label, "verified": bool(ok)})
         designs_by_system[name] = designs
     parts.append("<h3>Event-sampled periodic systems (eqs. 14-15)</h3>")
-    parts.append(_table(["system", "phase j", "leaves mode v_j", "A_j", "a_j", "C_j", "c_j"], rows_model))
+    parts.append(_table(["system", "phase j", "leaves mode v_j", "A_j", "a_j", "C_j", "c_j [s]"], rows_model))
     parts.append("<h3>Observer gains</h3><p>deadbeat = visible events until the error of (16) is zero from any "
                  "phase; rate = certified contraction of the copositive Lyapunov function per visible event.</p>")
-    parts.append(_table(["system", "design", "L_j (rows)", "deadbeat in", "monodromy radius", "positive", "rate",
-                         "time / reason"], rows_gain))
+    parts.append(_table(["system", "design", "L_j (rows)", "deadbeat in [visible events]", "monodromy radius", "positive",
+                         "rate [per visible event]", "design time [ms] / reason"], rows_gain))
 
     # ---------------------------------------------------------------- the paper's junction run
     progress("drift/junction scenario")
@@ -128,15 +129,15 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     ev = res["observer"].events
     paper = PAPER_003_JUNCTION
     rows = [
-        ["first visible event", f"{paper['first_event_t']}", f"{ev[0].t:.2f}"],
-        ["its predicted time", f"{paper['first_event_predicted_t']}", f"{ev[0].predicted_t:.2f}"],
-        ["predicted x~ there", str(paper["x_tilde_predicted"]), str(np.round(ev[0].x_predicted, 2).tolist())],
-        ["x^ after the jump (18d)", str(paper["x_after_first_event"]), str(np.round(ev[0].x_after[1:], 2).tolist())],
-        ["second visible event", f"{paper['second_event_t']}", f"{ev[1].t:.2f}"],
-        ["x1^ after it (18e)", "0", f"{ev[1].x_after[1]:.3g}"],
-        ["next predicted event", f"{paper['third_event_predicted_t']:.0f}", f"{ev[2].predicted_t:.2f}"],
-        ["actual (waiting mode used)", f"{paper['third_event_t']}", f"{ev[2].t:.2f} (waited: {ev[2].waited})"],
-        ["first exact reconstruction", f"{paper['third_event_t']}", _fmt(res["summary"]["first_exact_visible_event"])],
+        ["first visible event [s]", f"{paper['first_event_t']}", f"{ev[0].t:.2f}"],
+        ["its predicted time [s]", f"{paper['first_event_predicted_t']}", f"{ev[0].predicted_t:.2f}"],
+        ["predicted x~ there [vehicles]", vector(paper["x_tilde_predicted"]), vector(np.round(ev[0].x_predicted, 2))],
+        ["x^ after the jump (18d) [vehicles]", vector(paper["x_after_first_event"]), vector(np.round(ev[0].x_after[1:], 2))],
+        ["second visible event [s]", f"{paper['second_event_t']}", f"{ev[1].t:.2f}"],
+        ["x1^ after it (18e) [vehicles]", "0", f"{ev[1].x_after[1]:.3g}"],
+        ["next predicted event [s]", f"{paper['third_event_predicted_t']:.0f}", f"{ev[2].predicted_t:.2f}"],
+        ["actual (waiting mode used) [s]", f"{paper['third_event_t']}", f"{ev[2].t:.2f} (waited: {yes_no(bool(ev[2].waited))})"],
+        ["first exact reconstruction [s]", f"{paper['third_event_t']}", _fmt(res["summary"]["first_exact_visible_event"])],
     ]
     parts.append("<h3>The T-junction of Section 5 (Figure 3)</h3><p>True system from x(0) = [5, 40, 60, 0] in mode 1 "
                  "(chosen so that its visible events fall at the printed times); observer from t = 50 with "
@@ -178,8 +179,7 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
                 continue
             extra = f" (T = {rec['horizon_T']}, phase-augmented PWA)" if "horizon_T" in rec else ""
             rows_cmp.append([html.escape(name), html.escape(label) + extra, _fmt(rec["events_to_converge"]),
-                             f"{rec['min_estimate']:.3g}", f"{rec['median_step_s'] * 1e6:.0f} us",
-                             f"{rec['design_seconds'] * 1e3:.0f} ms"])
+                             num(rec["min_estimate"]), num(rec["median_step_s"] * 1e3), num(rec["design_seconds"] * 1e3)])
     parts.append(
         "<h3>Deadbeat vs positive vs lookup table on the same event-sampled data</h3>"
         f"<p>{COMPARISON_TRIALS} random non-negative initial estimates per system, started at a visible event of random "
@@ -189,8 +189,8 @@ def drift_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
         "reconstructs the state from T event-time increments when they determine it (rank condition) and gives "
         "estimates only at the visible events, whereas (16) reaches exactness through the emptied queues "
         "(reconstructibility) and feeds the continuous-time observer (18) between events.</p>")
-    parts.append(_table(["system", "observer", "events until relative error < 1e-6 (worst trial)", "smallest estimate",
-                         "median step", "design time"], rows_cmp))
+    parts.append(_table(["system", "observer", "visible events until relative error < 1e-6, worst trial [events]",
+                         "smallest estimate [jobs or vehicles]", "median step [ms]", "design time [ms]"], rows_cmp))
     return ReportSection("Constant-drift observers (paper 003)", "\n".join(parts), summary, figs)
 
 

@@ -20,15 +20,27 @@ import numpy as np
 
 from ..studies.paper000_driveline.comparison import COMPARE_FROM, compare
 from .section import ReportSection, register_section
+from .text import num, yes_no
 
 def _fmt(v: Any, digits: int = 3) -> str:
     if v is None:
         return "-"
-    if isinstance(v, (list, tuple)):
+    if isinstance(v, (bool, np.bool_)):
+        return yes_no(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
         return ", ".join(_fmt(x, digits) for x in v)
     if isinstance(v, (float, np.floating)):
-        return "inf" if not np.isfinite(v) else f"{v:.{digits}g}"
+        return num(v, digits)
     return html.escape(str(v))
+
+
+#: Units of the driveline's states (theta_e [rad], then two speeds [rad/s]), for the column headers.
+_STATE_UNITS = ("rad", "rad/s", "rad/s")
+
+
+def _ms(v: Any) -> str:
+    """A time in seconds written in ms (``-`` when missing)."""
+    return "-" if v is None else num(1e3 * float(v))
 
 
 def driveline_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
@@ -56,9 +68,10 @@ def driveline_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         for g in res.bank.generators
     )
     gen_table = (
-        "<table><tr><th>generator</th><th>decay alpha (1/s)</th><th>cond P</th><th>||L||</th>"
-        "<th>||C P^-1/2|| ||P^1/2||</th><th>||C|| sqrt(cond P)</th><th>guaranteed delay (s)</th>"
-        "<th>alpha(H)</th><th>kappa(H)</th><th>delay certified by eq. (9) (s)</th></tr>" + gen_rows + "</table>"
+        "<table><tr><th>generator</th><th>decay alpha [1/s]</th><th>cond P</th><th>||L|| [model units]</th>"
+        "<th>||C P^-1/2|| ||P^1/2||</th><th>||C|| sqrt(cond P)</th><th>guaranteed delay [s]</th>"
+        "<th>spectral abscissa alpha(H) [1/s]</th><th>kappa(H)</th><th>delay certified by eq. (9) [s]</th></tr>"
+        + gen_rows + "</table>"
     )
     b = res.bound
     cont = (
@@ -70,13 +83,14 @@ def driveline_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         f"{_fmt(s['t_convergence'])} s): {_fmt(s['max_error_after_convergence'])}; per state "
         f"{_fmt(s['max_abs_error_after_convergence_per_state'])}.</p>"
     )
-    head = "".join(f"<th>{h}</th>" for h in (
-        "observer", "location right", "unknown / ambiguous", "wrong", "detection delays (s)",
-        f"max |error| after {COMPARE_FROM:g} s ({', '.join(names)})", "RMS error", "median step (s)", "p95 step (s)"))
+    units = ", ".join(f"{nm} [{u}]" for nm, u in zip(names, _STATE_UNITS))
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in (
+        "observer", "location right [samples]", "unknown / ambiguous [samples]", "wrong [samples]", "detection delays [s]",
+        f"max |error| after {COMPARE_FROM:g} s: {units}", f"RMS error: {units}", "median step [ms]", "p95 step [ms]"))
     body = "".join(
         f"<tr><td>{html.escape(k)}</td><td>{_fmt(r['location_right'])}</td><td>{_fmt(r['location_unknown_or_ambiguous'])}</td>"
         f"<td>{_fmt(r['location_wrong'])}</td><td>{_fmt(r['detection_delays'])}</td><td>{_fmt(r['max_abs_error'])}</td>"
-        f"<td>{_fmt(r['rms_error'])}</td><td>{_fmt(r['median_step_s'])}</td><td>{_fmt(r['p95_step_s'])}</td></tr>"
+        f"<td>{_fmt(r['rms_error'])}</td><td>{_ms(r['median_step_s'])}</td><td>{_ms(r['p95_step_s'])}</td></tr>"
         for k, r in rows.items()
     )
     comparison = f"<table><tr>{head}</tr>{body}</table>"

@@ -28,6 +28,7 @@ import numpy as np  # noqa: E402
 from ..lmi.plots import plot_jacobian_bounds
 from ..observers.plots import plot_observer_run
 from .section import ReportSection, register_section  # noqa: E402
+from .text import matrix_table, num, yes_no  # noqa: E402
 from .._output_files import write_output_text
 
 
@@ -203,14 +204,16 @@ def _tradeoff_figure(diag, out: Path, example: str) -> str | None:
 
 
 # ---------------------------------------------------------------------------- the section
-def _design_table(design, unit: str, factor: float) -> str:
+def _design_table(design, coordinate: str, unit: str, factor: float) -> str:
     rows = "".join(
-        f"<tr><td>{g.region.index}</td><td>[{g.region.lo / factor:.4g}, {g.region.hi / factor:.4g}] {unit}</td>"
-        f"<td>{g.sigma:.4g}</td><td>{g.sigma_max:.4g}</td><td>{g.gain_norm:.4g}</td>"
-        f"<td><code>{html.escape(np.array2string(g.L, precision=3, suppress_small=True))}</code></td></tr>"
+        f"<tr><td>{g.region.index}</td><td>{num(g.region.lo / factor)} to {num(g.region.hi / factor)}</td>"
+        f"<td>{num(g.sigma)}</td><td>{num(g.sigma_max)}</td><td>{num(g.gain_norm)}</td>"
+        f"<td>{matrix_table(g.L, digits=3)}</td></tr>"
         for g in design.regions)
-    return ("<table><tr><th>region</th><th>interval</th><th>sigma [1/s]</th><th>sigma max</th><th>||L||</th><th>L</th></tr>"
-            + rows + "</table>")
+    unit = html.escape(unit) if unit else "model units"
+    return (f"<table><tr><th>region</th><th>{html.escape(coordinate)} interval [{unit}]</th>"
+            "<th>design decay rate sigma [1/s]</th><th>largest decay rate [1/s]</th><th>||L||_2 [model units]</th>"
+            "<th>gain L</th></tr>" + rows + "</table>")
 
 
 def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
@@ -270,19 +273,21 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
             f"<p>Constant gain over {preset.coordinate} in [{lo:g}, {hi:g}] {u}: {html.escape(diag.verdict)}</p>"
             f"<p>The paper's LMI {diag.solution.form} alone is "
             f"<b>{'feasible' if diag.paper_lmi_feasible else 'infeasible'}</b>"
-            + ("" if c is None else f"; certificate ({html.escape(c.theorem)}) verified in numpy: <b>{c.verify()}</b>")
+            + ("" if c is None else f"; certificate ({html.escape(c.theorem)}) verified in numpy: <b>{yes_no(c.verify())}</b>")
             + f". Theorem 5: the linearly shifted LMI is {'feasible' if diag.theorem5.shifted_feasible else 'infeasible'} too.</p>"
             + ("" if c is None else f"<p>{html.escape(c.reason)}</p>")
             + f"<img src='{fb}' alt='{html.escape(alt_bounds, quote=True)}'>"
             f"<p>Switched gains on {len(design.regions)} regions (gain bound {preset.gain_bound:g}, design rate = "
-            f"{preset.decay_fraction:g} x largest rate):</p>" + _design_table(design, u, preset.factor)
-            + f"<p>Dwell time of eqs. (47)-(48) searched jointly over the P_i: tau = {design.tau:.4g} s "
-            f"(with the per-region P_i fixed: {design.tau_fixed:.4g} s). At a maximum rate of {d['max_rate']:.4g} {u}/s "
-            f"the hysteresis must be at least {d['epsilon_required']:.4g} {u}; the regions use {d['epsilon']:.4g} {u} "
-            f"(dwell time enforced: {d['dwell_enforced']}).</p>"
-            f"<p>Scenario: switched observer converged = {s_sw['converged']} (at t = {s_sw['convergence_time']} s), "
-            f"regions visited {s_sw['regions_visited']}; the first region's gain alone converged = {s_1['converged']}. "
-            f"Median compute time per step {1e3 * s_sw['timing']['median_step_s']:.3f} ms.</p>"
+            f"{preset.decay_fraction:g} x largest rate):</p>" + _design_table(design, preset.coordinate, u, preset.factor)
+            + f"<p>Dwell time of eqs. (47)-(48) searched jointly over the P_i: tau = {num(design.tau)} s "
+            f"(with the per-region P_i fixed: {num(design.tau_fixed)} s). At a maximum rate of {num(d['max_rate'])} {u}/s "
+            f"the hysteresis must be at least {num(d['epsilon_required'])} {u}; the regions use {num(d['epsilon'])} {u} "
+            f"(dwell time {'enforced' if d['dwell_enforced'] else 'not enforced'}).</p>"
+            f"<p>Scenario: the switched observer "
+            + (f"converged (at t = {num(s_sw['convergence_time'])} s)" if s_sw["converged"] else "did not converge")
+            + f", regions visited {html.escape(_visited(s_sw['regions_visited']))}; the first region's gain alone "
+            + ("converged" if s_1["converged"] else "did not converge")
+            + f". Median compute time per step {num(1e3 * s_sw['timing']['median_step_s'])} ms.</p>"
             f"<img src='{fr}' alt='{html.escape(alt_run, quote=True)}'>" + noise_html)
     intro = ("<p>Paper 004 (Rajamani et al.): no constant-gain observer LMI is feasible when the nonlinear functions "
              "are non-monotonic over the operating range; the certificates below prove it for each system and for each "
@@ -292,6 +297,12 @@ def lmi_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
              "regions of the scheduling variable, with a dwell time and hysteresis, restore convergence.  The comparison "
              "with the lookup-table observer on a PWA-fitted piston is not part of this section.</p>")
     return ReportSection("Switched-gain observers (paper 004)", intro + "".join(parts), summary, figs)
+
+
+def _visited(regions) -> str:
+    """The regions a run visited, as words (``0, 1 and 2``)."""
+    items = [str(r) for r in (regions if isinstance(regions, (list, tuple, np.ndarray)) else [regions])]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
 register_section("lmi", lmi_section)
@@ -338,6 +349,13 @@ def _vehicle_noise_part(system, design, preset, out: Path) -> tuple[str, dict, l
 
 
 # ---------------------------------------------------------------------------- vehicle: the paper's gains as published
+def _bracket_unit(header: str) -> str:
+    """``"conv. time (s)"`` -> ``"conv. time [s]"``: the report's headers give units in brackets."""
+    import re
+
+    return re.sub(r"\s\(([^()]*)\)$", r" [\1]", header)
+
+
 def vehicle_paper_design_section(out: Path, progress: Callable[[str], None]) -> ReportSection:
     """Paper 004's vehicle gains (eqs. 61-62, switched at 60 deg) against the synthesised design.
 
@@ -350,11 +368,12 @@ def vehicle_paper_design_section(out: Path, progress: Callable[[str], None]) -> 
     progress("vehicle_paper_design")
     res = run_paper_comparison()
     rows = res.rows()
-    table = ("<table><tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in rows[0]) + "</tr>"
+    table = ("<table><tr>" + "".join(f"<th>{html.escape(_bracket_unit(c))}</th>" for c in rows[0]) + "</tr>"
              + "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows[1:])
              + "</table>")
     tol = res.tolerance
-    gains = "".join(f"<p>{name} = <code>{html.escape(np.array2string(np.array(L), precision=4))}</code></p>"
+    # the gains as printed in the paper (four decimals), not rounded further
+    gains = "".join(f"<p>{name}, as printed:</p>{matrix_table(L, digits=6)}"
                     for name, L in (("L_1 (eq. 61, 0-80 deg)", PAPER_L1), ("L_2 (eq. 62, 60-140 deg)", PAPER_L2)))
     body = (
         "<p>The vehicle tracker of paper 004 (Sec. 6) with the gains printed in the paper, switched 'at 60 degrees "
@@ -405,7 +424,7 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
            f"on a log scale over {s['scenario']['t_final']:g} s, with the convergence band")
 
     def conv(rec: dict) -> str:
-        return "never" if rec["convergence_time"] is None else f"{rec['convergence_time']:.3f} s"
+        return "never" if rec["convergence_time"] is None else num(rec["convergence_time"])
 
     rows = []
     for label, rec, model in (("lookup-table deadbeat (paper 002)", lk, f"the PWA plant (T = {lk['T']}, "
@@ -413,15 +432,17 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
                               ("switched-gain (paper 004)", sg, f"the smooth piston ({sg['n_regions']} regions, "
                                f"tau = {sg['tau']:.3g} s)")):
         rows.append(
-            f"<tr><td>{label}</td><td>{html.escape(model)}</td><td>{rec['offline_s']:.2f} s</td><td>{conv(rec)}</td>"
+            f"<tr><td>{label}</td><td>{html.escape(model)}</td><td>{num(rec['offline_s'])}</td><td>{conv(rec)}</td>"
             f"<td>{html.escape(_fmt_states(rec['rms_error_after_convergence']))}</td>"
             f"<td>{html.escape(_fmt_states(rec['max_abs_error_after_convergence']))}</td>"
             f"<td>{html.escape(_fmt_states(rec['max_abs_error']))}</td>"
-            f"<td>{1e6 * rec['median_step_s']:.1f} us</td><td>{1e6 * rec['p95_step_s']:.1f} us</td>"
+            f"<td>{num(1e3 * rec['median_step_s'])}</td><td>{num(1e3 * rec['p95_step_s'])}</td>"
             f"<td>{html.escape(', '.join(f'{k} {v}' for k, v in rec['flags'].items() if v))}</td></tr>")
-    table = ("<table><tr><th>observer</th><th>designed on</th><th>offline</th><th>convergence time</th>"
-             "<th>RMS error after convergence (mm, mm/s, mm/s^2)</th><th>max |error| after convergence</th>"
-             "<th>max |error| whole run</th><th>median step</th><th>p95 step</th><th>flags</th></tr>"
+    table = ("<table><tr><th>observer</th><th>designed on</th><th>offline [s]</th><th>convergence time [s]</th>"
+             "<th>RMS error after convergence [mm, mm/s, mm/s^2]</th>"
+             "<th>max |error| after convergence [mm, mm/s, mm/s^2]</th>"
+             "<th>max |error| whole run [mm, mm/s, mm/s^2]</th><th>median step [ms]</th><th>p95 step [ms]</th>"
+             "<th>flags [samples]</th></tr>"
              + "".join(rows) + "</table>")
     tried = "; ".join(f"T = {h['T']}: {h['n_regions']} regions, {h['n_full_rank']} with rank C_i = n" for h in lk["horizons_tried"])
     body = (
@@ -445,8 +466,8 @@ def piston_comparison_section(out: Path, progress: Callable[[str], None]) -> Rep
         + table
         + f"<p>Lookup: largest error at the {lk['flags']['observable']} steps flagged observable "
         f"{lk['max_scaled_error_observable']:.2g} of the state box's half-widths (exact up to rounding). "
-        f"Switched-gain: initial region {sg['initial_selection'].get('region')} selected from the first samples "
-        f"(identified z = {sg['initial_selection'].get('s', float('nan')):.4g} mm). "
+        f"Switched-gain: initial region {num(sg['initial_selection'].get('region'))} selected from the first samples "
+        f"(identified z = {num(sg['initial_selection'].get('s'))} mm). "
         f"The switched-gain observer costs {sg['median_step_s'] / lk['median_step_s']:.0f} times the lookup's median "
         "step (RK4 through a CasADi function versus one table product in a compiled kernel).</p>"
         f"<img src='{fig}' alt='{html.escape(alt, quote=True)}'>"

@@ -10,6 +10,7 @@ from pathlib import Path
 from ..studies.paper002_powertrain.bench import run_bench
 from ..defaults import MHE_UNIQUENESS_DELTA
 from .section import ReportSection, register_section, samples
+from .text import num, yes_no
 
 #: Steps of the scenario (1 ms each) and of the MHE runs (they cost milliseconds per step).
 STEPS, MHE_STEPS = 3000, 3000
@@ -42,26 +43,37 @@ def _noise_table(table: dict) -> str:
             rms = r["rms_error_flagged_observable"] or {}
             worst = r["max_abs_error_flagged_observable"] or {}
             rows.append(
-                f"<tr><td>{level['noise']:g}</td><td>{html.escape(name)}</td><td>{r.get('horizon', 3)}</td>"
-                f"<td>{f['observable']}</td><td>{f['unobservable']}</td><td>{f['fallback']}</td>"
+                f"<tr><td>{num(level['noise'])}</td><td>{html.escape(name)}</td><td>{r.get('horizon', 3)}</td>"
+                + _flags(f['observable'], f['unobservable'], f['fallback'])
                 + "".join(f"<td>{_fmt(rms.get(nm))}</td>" for nm in names)
-                + f"<td>{_fmt(worst.get('omega_l'))}</td><td>{_fmt(r.get('max_mahalanobis_flagged'), '.2f')}</td>"
-                f"<td>{r.get('n_flagged_beyond_5_sigma', 'n/a')}</td><td>{_fmt_s(r['median_step_s'])}</td></tr>")
-    head = ("<tr><th>sigma [rad/s]</th><th>observer</th><th>T</th><th>observable</th><th>unobservable</th><th>fallback</th>"
-            + "".join(f"<th>RMS {html.escape(nm)} error where flagged</th>" for nm in names)
-            + "<th>max |omega_l error| where flagged [rad/s]</th><th>max Mahalanobis where flagged</th>"
-            "<th>flagged beyond 5 sigma</th><th>median/step</th></tr>")
+                + f"<td>{_fmt(worst.get('omega_l'))}</td><td>{_fmt(r.get('max_mahalanobis_flagged'))}</td>"
+                f"<td>{r.get('n_flagged_beyond_5_sigma', 'n/a')}</td><td>{_ms(r['median_step_s'])}</td></tr>")
+    head = ("<tr><th>noise sigma [rad/s]</th><th>observer</th><th>T [samples]</th>" + _FLAG_HEADS
+            + "".join(f"<th>RMS {html.escape(nm)} error where flagged [{_UNITS[nm]}]</th>" for nm in names)
+            + "<th>max |omega_l error| where flagged [rad/s]</th><th>max Mahalanobis distance where flagged</th>"
+            "<th>flagged beyond 5 sigma [samples]</th><th>median step [ms]</th></tr>")
     return "<table>" + head + "".join(rows) + "</table>"
 
 
-def _fmt_s(v) -> str:
-    if v is None:
-        return "n/a"
-    return f"{1e6 * v:.1f} us" if v < 1e-3 else f"{1e3 * v:.2f} ms"
+#: Units of model (16)'s states (paper 002, Section 5.1), for the column headers.
+_UNITS = {"theta": "rad", "omega_m": "rad/s", "omega_l": "rad/s"}
+
+#: Header of the flag counts: the samples an observer flagged observable, unobservable, or fell back on.
+_FLAG_HEADS = "<th>flagged observable / unobservable / fallback [samples]</th>"
 
 
-def _fmt(v, spec=".2e") -> str:
-    return "n/a" if v is None else format(v, spec)
+def _flags(observable, unobservable, fallback) -> str:
+    """The cell under :data:`_FLAG_HEADS`."""
+    return f"<td>{observable} / {unobservable} / {fallback}</td>"
+
+
+def _ms(v) -> str:
+    """A time in seconds written in ms, 4 significant digits."""
+    return "n/a" if v is None else num(1e3 * v)
+
+
+def _fmt(v) -> str:
+    return num(v)
 
 
 def _table(summary: dict) -> str:
@@ -69,16 +81,30 @@ def _table(summary: dict) -> str:
     for name, r in summary["observers"].items():
         rows.append(
             f"<tr><td>{name}</td><td>{html.escape(str(r['solver']))}</td><td>{r['n_steps']}</td>"
-            f"<td>{_fmt_s(r['median_step_s'])}</td><td>{_fmt_s(r['p95_step_s'])}</td><td>{_fmt_s(r['max_step_s'])}</td>"
-            f"<td>{_fmt(r.get('ratio_to_lookup'), '.1f')}</td><td>{_fmt(r['max_abs_error_observable_all'])}</td>"
-            f"<td>{r['n_flagged_observable']}</td><td>{r['n_flagged_unobservable']}</td><td>{r['n_fallback']}</td>"
-            f"<td>{_fmt(r.get('rms_error_theta_unobservable_intervals'))}</td>"
+            f"<td>{_ms(r['median_step_s'])} / {_ms(r['p95_step_s'])} / {_ms(r['max_step_s'])}</td>"
+            f"<td>{_fmt(r.get('ratio_to_lookup'))}</td><td>{_fmt(r['max_abs_error_observable_all'])}</td>"
+            + _flags(r['n_flagged_observable'], r['n_flagged_unobservable'], r['n_fallback'])
+            + f"<td>{_fmt(r.get('rms_error_theta_unobservable_intervals'))}</td>"
             f"<td>{_fmt(r.get('rms_error_omega_l_unobservable_intervals'))}</td></tr>"
         )
-    return ("<table><tr><th>observer</th><th>solver</th><th>steps</th><th>median/step</th><th>p95</th><th>max</th>"
-            "<th>x lookup</th><th>max rel. error where flagged observable</th><th>observable</th><th>unobservable</th>"
-            "<th>fallback</th><th>RMS theta error, unobservable windows</th><th>RMS omega_l error, unobservable windows</th>"
-            "</tr>" + "".join(rows) + "</table>")
+    return ("<table><tr><th>observer</th><th>solver</th><th>steps [samples]</th><th>step median / p95 / max [ms]</th>"
+            "<th>median step / lookup's</th>"
+            "<th>max relative error where flagged observable</th>" + _FLAG_HEADS
+            + "<th>RMS theta error, unobservable windows [rad]</th>"
+            "<th>RMS omega_l error, unobservable windows [rad/s]</th></tr>" + "".join(rows) + "</table>")
+
+
+def _noisy_note(square: bool) -> str:
+    """What the noisy run shows (the bench's own note, in words for the report); ``square``: T p = n."""
+    return ("<p>With output noise the lookup observer's consistency test (eq. 12) can reject a noisy window only "
+            "when T p &gt; n; "
+            + ("here T p = n, so every window fits some region exactly and the noise reaches the estimate through "
+               "the inverse of C_i (the column of relative errors). " if square else "")
+            + "Windows pushed out of every region leave no candidate and the observer predicts open loop (flagged "
+            "unobservable or fallback); the moving-horizon observers return a least-error estimate instead. The MIQP "
+            "is told the noise level: it flags a window observable only when the 99.9 % confidence region of its "
+            "start state lies within delta; the MILPs' uniqueness test keeps its noise-free epsilon. The noise-aware "
+            "lookup observer is compared in the noise study below.</p>")
 
 
 def _alt(summary: dict, steps: int, noise: float) -> str:
@@ -111,25 +137,26 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "program). The paper reports 3 s per MIQP step and 31 ms per lookup step (Matlab, Pentium 4).</p>",
         _table(clean),
         f"<p>Lookup batch throughput: {lk.get('batch_steps_per_s', 0):,.0f} steps/s "
-        f"(the step-by-step and batch paths give identical flags: {lk.get('batch_equals_steps')}). "
+        f"(the step-by-step and batch paths give identical flags: {yes_no(lk.get('batch_equals_steps'))}). "
         f"Share of windows whose window-start state is observable (exact point queries of Definition 2.2 on "
-        f"{clean['truly_observable_windows_classified']} evenly spaced windows): {clean['truly_observable_fraction']:.3f} "
-        f"(95 % interval {clean['truly_observable_fraction_ci95'][0]:.3f}-{clean['truly_observable_fraction_ci95'][1]:.3f}); "
+        f"{clean['truly_observable_windows_classified']} evenly spaced windows): {num(clean['truly_observable_fraction'])} "
+        f"(95 % interval {num(clean['truly_observable_fraction_ci95'][0])}-{num(clean['truly_observable_fraction_ci95'][1])}); "
         f"windows whose true mode sequence has a full-rank output map (necessary only): "
-        f"{clean['full_rank_sequence_fraction']:.3f}. "
+        f"{num(clean['full_rank_sequence_fraction'])}. "
         "In unobservable windows the lookup observer predicts open loop from its last reconstruction and says so "
         "(exact here: no model error). The MIQP/MILP observers are warm-started with the previous trajectory shifted "
         "by one sample; on noise-free data that continuation is one of the zero-cost minimisers. A minimiser alone "
         "cannot tell whether it is unique (the paper's Fig. 8: a cold-started solve may return any other state with "
         "the same outputs), so after each optimum a second mixed-integer program searches for a window-start state "
-        "at least MHE_UNIQUENESS_DELTA away (scaled) within epsilon of the optimal cost: 'observable' means it "
-        "proved there is none; 'unobservable' means it found one (info['alternative']).</p>",
+        f"at least {num(MHE_UNIQUENESS_DELTA)} away (in the states scaled by their bounds) within epsilon of the optimal "
+        "cost: 'observable' means it proved there is none; 'unobservable' means it found one (and returns it with the "
+        "estimate).</p>",
         "<p>The figure: errors on a log scale (an exact estimate is drawn at the floor 1e-16); below each observer's "
         "errors, its flag on a separate axis, the observable steps shaded green.</p>",
         f"<img src='observers_fig7_9.png' alt='{html.escape(_alt(clean, steps, 0.0), quote=True)}'>",
         f"<h3>With output noise (sigma = {NOISE} rad/s)</h3>",
         _table(noisy),
-        f"<p>{html.escape(noisy.get('note', ''))}</p>",
+        _noisy_note("here T p = n" in noisy.get("note", "")),
         f"<img src='observers_noisy.png' alt='{html.escape(_alt(noisy, noisy_steps, NOISE), quote=True)}'>",
     ]
     progress("observers/noise study")
@@ -201,7 +228,7 @@ def observers_section(out: Path, progress: Callable[[str], None]) -> ReportSecti
         "its centre; <code>miqp_bounded</code> is the MIQP moving-horizon observer with the same box around its "
         "optimum; <code>lookup_bounded</code> widens each lookup piece by the noise amplified through its inverse map "
         "(an outer box, one table product per step). A step is flagged observable when every radius is within "
-        f"{MHE_UNIQUENESS_DELTA:g} of the half-width of its state bound. The speed of the load is seen only through "
+        f"{num(MHE_UNIQUENESS_DELTA)} of the half-width of its state bound. The speed of the load is seen only through "
         "differences of 1 ms samples: its radius is the noise amplified about a thousand times.</p>",
         _radius_table(radii),
         f"<img src='observers_radii.png' alt='{html.escape(_radius_alt(radii), quote=True)}'>",
@@ -219,16 +246,15 @@ def _radius_table(radii: dict) -> str:
         f = r["flags"]
         med = r["radius_median"] or {}
         worst = r["max_abs_error_flagged"] or {}
-        rows.append(f"<tr><td>{html.escape(name)}</td><td>{f['observable']}</td><td>{f['unobservable']}</td>"
-                    f"<td>{f['fallback']}</td><td>{r['n_outside_radius']}</td>"
-                    + "".join(f"<td>{_fmt(med.get(nm), '.3g')}</td>" for nm in names)
-                    + "".join(f"<td>{_fmt(worst.get(nm), '.3g')}</td>" for nm in names)
-                    + f"<td>{_fmt_s(r['median_step_s'])}</td></tr>")
-    head = ("<tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
-            "<th>true state outside the radius</th>"
-            + "".join(f"<th>median radius of {html.escape(nm)}</th>" for nm in names)
-            + "".join(f"<th>max |{html.escape(nm)} error| where flagged</th>" for nm in names)
-            + "<th>median/step</th></tr>")
+        rows.append(f"<tr><td>{html.escape(name)}</td>" + _flags(f['observable'], f['unobservable'], f['fallback'])
+                    + f"<td>{r['n_outside_radius']}</td>"
+                    + "".join(f"<td>{_fmt(med.get(nm))}</td>" for nm in names)
+                    + "".join(f"<td>{_fmt(worst.get(nm))}</td>" for nm in names)
+                    + f"<td>{_ms(r['median_step_s'])}</td></tr>")
+    head = ("<tr><th>observer</th>" + _FLAG_HEADS + "<th>true state outside the radius [samples]</th>"
+            + "".join(f"<th>median radius of {html.escape(nm)} [{_UNITS[nm]}]</th>" for nm in names)
+            + "".join(f"<th>max |{html.escape(nm)} error| where flagged [{_UNITS[nm]}]</th>" for nm in names)
+            + "<th>median step [ms]</th></tr>")
     return "<table>" + head + "".join(rows) + "</table>"
 
 
@@ -243,20 +269,20 @@ def _gap_table(gap: dict) -> str:
     rows = []
     for d in gap["draws"]:
         err = d["bank_max_abs_error_flagged"] or {}
-        rows.append(f"<tr><td>{d['alpha']:.5f}</td><td>{d['first_crossing_sample']}</td><td>{d['determined_from_sample']}</td>"
-                    f"<td>{_fmt(d['estimate_after_first_crossing'], '.5f')}</td>"
+        rows.append(f"<tr><td>{num(d['alpha'])}</td><td>{num(d['first_crossing_sample'])}</td>"
+                    f"<td>{num(d['determined_from_sample'])}</td><td>{_fmt(d['estimate_after_first_crossing'])}</td>"
                     f"<td>{_fmt(d['max_relative_error_after_first_crossing'])}</td>"
                     f"<td>{d['bank_flags']['observable']}</td><td>{d['known_gap_flags']['observable']}</td>"
                     f"<td>{_fmt(err.get('theta'))}</td><td>{_fmt(err.get('omega_l'))}</td></tr>")
     return ("<table><tr><th>hidden alpha [rad]</th><th>first crossing [sample]</th><th>determined from [sample]</th>"
-            "<th>estimate after it [rad]</th><th>largest relative error after it</th><th>observable (bank)</th>"
-            "<th>observable (alpha known)</th><th>max |theta error| where flagged [rad]</th>"
+            "<th>estimate after it [rad]</th><th>largest relative error after it</th>"
+            "<th>flagged observable, bank [samples]</th><th>flagged observable, alpha known [samples]</th><th>max |theta error| where flagged [rad]</th>"
             "<th>max |omega_l error| where flagged [rad/s]</th></tr>" + "".join(rows) + "</table>")
 
 
 def _gap_alt(gap: dict) -> str:
     parts = [f"hidden {d['alpha']:.4f} rad, largest relative error after the first crossing "
-             f"{_fmt(d['max_relative_error_after_first_crossing'], '.1e')}" for d in gap["draws"]]
+             f"{num(d['max_relative_error_after_first_crossing'], 2)}" for d in gap["draws"]]
     return ("The bank's gap estimate [rad] over t [s] beside each hidden gap (dashed), and its relative error on a log "
             "scale against the 5 % line: " + "; ".join(parts))
 

@@ -194,7 +194,9 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         figs.append(name)
         fig6_html += f"<figure><img src='{name}' alt='{html.escape(_describe_cut(paper_cut, caption), quote=True)}'></figure>"
     fig6_html += (
-        f"<p>Model (17), T = 5, at the paper's plane {html.escape(str(planes['paper']))}: "
+        "<p>Model (17), T = 5, at the paper's plane "
+        + html.escape(", ".join(f"{k} = {_fmt(float(v))} {UNITS.get(k, '')}".rstrip() for k, v in planes["paper"].items()))
+        + ": "
         + ("the plane does not meet X*_5 (LP over every region: no feasible omega_c; all "
            f"{paper_cut.labels.size} points of its cut lie outside X*_5, so it is not drawn)"
            if planes["paper_omega_c_range"] is None
@@ -232,11 +234,11 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         table_summary.append(row)
         table_rows.append("<tr>" + "".join(f"<td>{_fmt(v)}</td>" for v in (
             f"({model})", row["T"], f"{row['gear_ratio']:.4g}", row["n_regions"], row["I"], row["pieces_B"],
-            row["pieces_B_reduced"], row["lps"], f"{row['seconds']:.3f}")) + "</tr>")
-    table = ("<table><tr><th>model</th><th>T</th><th>gear ratio</th><th>n_regions</th><th>|I|</th>"
-             "<th>pieces of B_T</th><th>pieces of B~_T</th><th>LPs</th><th>seconds</th></tr>"
+            row["pieces_B_reduced"], row["lps"], _fmt(row["seconds"], 4))) + "</tr>")
+    table = ("<table><tr><th>model</th><th>T [samples]</th><th>gear ratio</th><th>regions</th>"
+             "<th>|I| (full-rank regions)</th><th>pieces of B_T</th><th>pieces of B~_T</th><th>LPs</th><th>time [s]</th></tr>"
              + "".join(table_rows) + "</table>"
-             + "<p>seconds: enumeration + Algorithm 3.1 (serial) inside this section's two worker processes, "
+             + "<p>time: enumeration + Algorithm 3.1 (serial) inside this section's two worker processes, "
                "which run two analyses at a time; see the timings below for medians.</p>")
 
     band_T = {by_fig[k]["spec"]["T"]: by_fig[k]["band_unobservable"] for k in ("3b", "4a", "4b")}
@@ -270,8 +272,10 @@ def regions_section(out: Path, progress: Callable[[str], None]) -> ReportSection
     # Only timings measured in this run are tabulated: the paper's 33 s for all of B_7 of model (17)
     # is measured by benchmarks/bench_regions.py (about 15 s serial), too long for the report, and a
     # figure read from a results file of the repository would not be "recomputed" (nor exist in a wheel).
-    timing = ("<table><tr><th>task</th><th>paper (published, Pentium 4 / Matlab)</th><th>here (median, s)</th><th>ratio here/paper</th></tr>"
-              + "".join(f"<tr><td>{html.escape(t)}</td><td>{p:g} s</td><td>{o:.4f}</td><td>{o / p:.2g}</td></tr>" for t, p, o in timing_rows)
+    timing = ("<table><tr><th>task</th><th>paper, published (Pentium 4, Matlab) [s]</th><th>here, median [s]</th>"
+              "<th>ratio here/paper</th></tr>"
+              + "".join(f"<tr><td>{html.escape(t)}</td><td>{p:g}</td><td>{_fmt(o, 4)}</td><td>{_fmt(o / p, 2)}</td></tr>"
+                        for t, p, o in timing_rows)
               + "</table>"
               + f"<p>The paper did not obtain O_7 of model (17) after 4 h of set differences (paper's figure); here O_T is "
                 f"never formed: each cut point is an exact point query (LPs), so a {grid[0]}x{grid[1]} cut costs seconds. "

@@ -37,6 +37,7 @@ from ..studies.paper001_sliding_mode.comparison import COMPARISON_RTOL, lookup_c
 from ..systems.canonical_form import theorem1_pairs  # noqa: E402
 from ..defaults import SMO_FILTER_STEPS  # noqa: E402
 from .section import ReportSection, register_section  # noqa: E402
+from .text import matrix_table, num, vector, yes_no  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------- figures
@@ -182,12 +183,14 @@ def _fig_phase(out: Path, ds: ScenarioResult, figs: list[str]) -> None:
 def _fmt(v, digits: int = 3) -> str:
     if v is None:
         return "-"
-    if isinstance(v, (list, tuple)):
+    if isinstance(v, (bool, np.bool_)):
+        return yes_no(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
         return ", ".join(_fmt(x, digits) for x in v)
-    if isinstance(v, float):
+    if isinstance(v, (float, np.floating)):
         if not np.isfinite(v):
             return "not reached"
-        return f"{v:.{digits}g}"
+        return num(v, digits)
     return html.escape(str(v))
 
 
@@ -217,15 +220,16 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
     parts.append(
         "<p>Observer (5) of paper 001 runs on the canonical form (4). For the double scroll (Example 3) the "
         "coordinates <code>z = T x</code> (output and its derivatives) and <code>z3' = P_q(z)</code> are computed "
-        f"from (A_q, B_q, C): <code>T = {html.escape(str(np.round(form.T, 4).tolist()))}</code> (the paper's "
-        "diffeomorphism), <code>sigma(z) = "
-        f"{html.escape(str(np.round(form.switching[0].z_row, 4).tolist()))} . z</code> (the paper's "
-        "<code>(z3 + z2)/c1 - z1</code>). The computed P_q agree with the paper's formulas (P_DERIVED); the printed "
-        "P1 (sign of beta) and P2 do not (see <code>double_scroll_canonical_form</code>).</p>"
-        + _table(["location", "computed (alpha1, alpha2, alpha3, beta)", "paper's formulas", "as printed"], P_rows)
+        "from (A_q, B_q, C): T (the paper's diffeomorphism) is</p>" + matrix_table(form.T)
+        + "<p>and <code>sigma(z) = "
+        f"{vector(form.switching[0].z_row)} . z</code> (the paper's "
+        "<code>(z3 + z2)/c1 - z1</code>). The computed P_q agree with the paper's formulas; the printed "
+        "P1 (sign of beta) and P2 do not (the study's canonical form of the double scroll says where).</p>"
+        + _table(["location", "computed alpha1, alpha2, alpha3, beta (dimensionless)", "paper's formulas (dimensionless)",
+                  "as printed (dimensionless)"], P_rows)
         + "<p>Theorem 1 for adjacent locations (dimensions: -1 empty; M: where g_i = g_j; non-transverse part of M; "
         "S: where the switching functions agree; L: common equilibria):</p>"
-        + _table(["pair", "dim M", "dim non-transverse", "dim S", "dim L", "items that apply", "observable"], th_rows)
+        + _table(["pair", "dim M", "dim non-transverse", "dim S", "dim L", "items that apply", "distinguishable"], th_rows)
     )
     summary["theorem1_double_scroll"] = [r.to_dict() for r in th]
 
@@ -246,16 +250,17 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         s = summarize(r)
         summary[r.spec.name] = s
         rows.append([label, r.observer.Ts, list(r.observer.gains.lambdas), list(r.band),
-                     [c["state"] + "@" + _fmt(c["t"]) for c in s["convergence_times"]], list(r.final_error),
+                     [c["state"] + " at " + _fmt(c["t"]) + " s" for c in s["convergence_times"]], list(r.final_error),
                      list(r.error_last_half), s["indicator"]["mismatch_fraction"], s["indicator"]["window"],
-                     s["compute_time_per_step_s"]])
+                     1e3 * s["compute_time_per_step_s"]])
     parts.append(
         "<p>Gains by the explicit rule <code>lambda_j = 1.5 x range width of z_(j+1)</code>, <code>lambda_n = 1.5 x range "
         "width of f</code> (operating box, all locations). Stated band: <code>j h D_j</code> (D_j: bound of z_j'). "
         "The observer starts 10 % of the operating range away from the plant. Errors are in the canonical "
         "coordinates, measured from the first sample at which all stages slide.</p>"
-        + _table(["system", "h [s]", "lambda", "stated band", "converged (in order)", "max error after", "max error, 2nd half",
-                  "S_o != S fraction", "mismatch window [s]", "s / step"], rows)
+        + _table(["system", "h [s]", "lambda_j [units of z_(j+1)]", "stated band [units of z_j]", "converged (in order)",
+                  "max error after [units of z_j]", "max error, 2nd half [units of z_j]", "S_o != S fraction",
+                  "mismatch window [s]", "compute time per step [ms]"], rows)
     )
 
     progress("sliding/filter trade-off")
@@ -269,7 +274,7 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         f"<h3>Filter trade-off (Figs. 5-6, 9)</h3><p>Noise: {rel:g} x output range (white, Gaussian). "
         "A spurious switch leaves S_o different from S; the delay runs from a true switch until S_o agrees.</p>"
         + _table(["example", "noise / range", "filter [samples]", "spurious switches", "true switches", "delay median [s]",
-                  "delay max [s]", "S_o != S fraction", "window [s]", "max error of z_n"],
+                  "delay max [s]", "S_o != S fraction", "window [s]", "max error of z_n [units of z_n]"],
                  [[r["example"], r["noise_rel"], r["filter_steps"] or "none", r["spurious_switches"], r["true_switches"],
                    r["delay_median_s"], r["delay_max_s"], r["mismatch_fraction"], r["window_s"], r["last_state_error"]]
                   for r in trade])
@@ -292,12 +297,12 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
         "on. The lookup observer is exact for its ZOH model (the double-scroll flow is continuous across x1 = +-1, so "
         "freezing the location over a crossing sample costs little); the sliding-mode observer needs no offline work "
         "and no model discretisation, but differentiates y (band ~ j h D_j) and is a Python loop.</p>"
-        + _table(["observer", "Ts [s]", "offline [s]", "converged at [s]", "max |error| after (x1, x2, x3)",
-                  "RMS error after", "s / step", "note"],
+        + _table(["observer", "Ts [s]", "offline [s]", "converged at [s]", "max |error| after, x1, x2, x3 (dimensionless)",
+                  "RMS error after (dimensionless)", "compute time per step [ms]", "note"],
                  [[r["observer"], r["Ts"], r["offline_s"], r["convergence_time_s"], r["max_error_after"], r["rms_error_after"],
-                   r["step_s"], r["note"]] for r in comp])
+                   None if r["step_s"] is None else 1e3 * r["step_s"], r["note"]] for r in comp])
     )
-    images = "".join(f"<h3>{html.escape(f[4:-4])}</h3><img src='{f}' alt='{html.escape(_ALTS[f], quote=True)}'>" for f in figs)
+    images = "".join(f"<h3>{html.escape(f[4:-4].replace('_', ' '))}</h3><img src='{f}' alt='{html.escape(_ALTS[f], quote=True)}'>" for f in figs)
     scen = "<ul>" + "".join(f"<li><b>{k}</b>: {html.escape(v.note)}</li>" for k, v in SCENARIOS.items()) + "</ul>"
     return ReportSection("Sliding-mode observer (paper 001)", "".join(parts) + scen + images, summary, figs)
 

@@ -24,6 +24,7 @@ from ..errors import ModelError
 from .html import assemble_report
 from .plots import plot_estimates, plot_trace
 from .section import ReportSection
+from .text import num, yes_no
 from .._output_files import write_output_text
 
 #: Sections per system class, in page order.
@@ -42,8 +43,17 @@ def _state_values(names: list[str], values) -> str:
     return ", ".join(f"{html.escape(nm)} {v:.3g}" for nm, v in zip(names, values))
 
 
+def _value(v: Any) -> str:
+    """A table value in words: a flag yes/no, a number to 4 significant digits, anything else as text."""
+    if v is None or isinstance(v, (bool, np.bool_)):
+        return yes_no(v)
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        return num(v)
+    return str(v)
+
+
 def _table(rows: list[tuple[str, Any]]) -> str:
-    return "<table>" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>" for k, v in rows) + "</table>"
+    return "<table>" + "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(_value(v))}</td></tr>" for k, v in rows) + "</table>"
 
 
 def system_report_keys(system, data: str | None = None) -> list[str]:
@@ -109,7 +119,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         s = analysis.summary()
         body = _table([("horizon T", horizon), ("regions of I", s["n_regions"]), ("with rank C_i = n", s["n_full_rank"]),
                        ("pieces of B_T", s["n_unobservable_pieces"]), ("pieces of B~_T", s["n_reduced_pieces"]),
-                       ("LPs", s["n_lps"]), ("seconds", f"{s['seconds']:.2f}")])
+                       ("LPs", s["n_lps"]), ("time [s]", s["seconds"])])
         figs = []
         if system.n == 2:
             fig = f"regions_{slug}.png"
@@ -145,8 +155,8 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
                 radius = (f"<td>{_state_values(names, rec.get('radius_median'))}</td><td>{_state_values(names, rec.get('radius_max'))}</td>"
                           f"<td>{rec.get('n_outside_radius', 'n/a (no true states in the log)')}</td>")
             rows.append(f"<tr><td>{kind_}</td><td>{rec['flag_counts']['observable']}</td><td>{rec['flag_counts']['unobservable']}</td>"
-                        f"<td>{rec['flag_counts']['fallback']}</td><td>{1e6 * rec['median_step_s']:.1f}</td>"
-                        f"<td>{'n/a' if err is None else f'{err:.2e}'}</td>{radius}</tr>")
+                        f"<td>{rec['flag_counts']['fallback']}</td><td>{num(1e6 * rec['median_step_s'])}</td>"
+                        f"<td>{num(err)}</td>{radius}</tr>")
             fig = f"observer_{kind_}_{slug}.png"
             plot_estimates(trace, log, out / fig, title=f"{label}: {kind_} on {Path(data).name}")
             figs.append(fig)
@@ -155,9 +165,10 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
                          + ("against the logged one " if log.X is not None else "")
                          + f"with the {rec['flag_counts']['observable']} samples flagged observable marked, and its flag "
                          "(observable, unobservable, warming up, fallback) on a separate axis")
-        head = ("<tr><th>observer</th><th>observable</th><th>unobservable</th><th>fallback</th>"
-                "<th>median step [us]</th><th>max rel. error where observable</th>"
-                + ("<th>median radius</th><th>largest radius</th><th>steps with the true state outside the radius</th>"
+        head = ("<tr><th>observer</th><th>flagged observable [samples]</th><th>flagged unobservable [samples]</th>"
+                "<th>fallback [samples]</th><th>median step [µs]</th><th>max relative error where flagged observable</th>"
+                + ("<th>median radius [state units]</th><th>largest radius [state units]</th>"
+                   "<th>true state outside the radius [samples]</th>"
                    if noise_bound is not None else "") + "</tr>")
         intro = ""
         if noise_bound is not None:
@@ -199,7 +210,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         rows += [("undetectable point", p.claim) for p in diag.undetectable]
         rows += [("indistinguishable states", q.claim) for q in diag.symmetries]
         if diag.certificate is not None:
-            rows.append(("certificate", f"{diag.certificate.theorem}: verified {diag.certificate.verify()}"))
+            rows.append(("certificate", f"{diag.certificate.theorem}: verified in numpy: {yes_no(diag.certificate.verify())}"))
         rows += [(f"setting {k}", v) for k, v in st.sources.items()]
         return ReportSection("Constant-gain diagnosis (paper 004)",
                              f"<p>{html.escape(diag.verdict)}</p>" + _table(rows)
@@ -226,9 +237,9 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         warn += (f"<p>Checked on the system: frozen error dynamics max Re(lambda) = {verification.max_real_eig:.4g}; "
                  f"{html.escape(sim.scenario)}: converged from {sum(t is not None for t in sim.convergence_times)}/"
                  f"{len(sim.convergence_times)} initial errors.</p>")
-        body = (_table([("regions", len(design.regions)), ("dwell time tau [s]", f"{design.tau:.4g}"),
-                        ("dwell enforced by the hysteresis", design.dwell_enforced)])
-                + _design_table(design, "", 1.0) + warn)
+        body = (_table([("regions", len(design.regions)), ("dwell time tau [s]", design.tau),
+                        ("dwell enforced by the hysteresis", bool(design.dwell_enforced))])
+                + _design_table(design, st.coordinate, "", 1.0) + warn)
         return ReportSection("Switched-gain synthesis (paper 004, Section 5)", body,
                              {"n_regions": len(design.regions), "tau": design.tau, "warnings": design.warnings,
                               "verification_ok": verification.ok,

@@ -183,8 +183,11 @@ def test_report_of_the_system(files, capsys):
     assert keys == ["model", "simulation", "regions", "observers"]
     assert (out_dir / "index.html").exists()
     from tests.check_links import check_html_tree  # every link and image resolves, every alt says what it shows
+    from tests.check_report_text import literal_problems, table_problems, visible_text
 
     assert check_html_tree(out_dir) == []
+    page = (out_dir / "index.html").read_text()
+    assert literal_problems(visible_text(page)) == [] and table_problems(page) == []
 
 
 def test_report_with_a_noise_bound_states_radii_that_hold(files, capsys):
@@ -197,7 +200,7 @@ def test_report_with_a_noise_bound_states_radii_that_hold(files, capsys):
     sections = {r["key"]: r for r in json.loads(out)["sections"]}
     assert sections["observers"]["ok"], sections["observers"]
     page = (out_dir / "index.html").read_text()
-    assert "steps with the true state outside the radius" in page and "|noise of y| &lt;= 0.001" in page
+    assert "true state outside the radius [samples]" in page and "|noise of y| &lt;= 0.001" in page
     summary = sections["observers"]["summary"]
     assert set(summary) == {"lookup", "miqp", "milp", "set_membership"}
     for kind, rec in summary.items():

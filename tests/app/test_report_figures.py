@@ -245,6 +245,35 @@ def test_report_tables_scroll_inside_the_page(built_report):
 
 
 @pytest.mark.slow
+def test_report_text_has_no_python_literals(built_report):
+    """The page as read shows no True/False/None, numpy reprs, constant names of the code or
+    floats at full precision (tests/check_report_text.py)."""
+    from tests.check_report_text import literal_problems, visible_text
+
+    problems = literal_problems(visible_text(built_report.html))
+    assert problems == [], "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_report_tables_are_wrapped_and_numeric_columns_name_a_unit(built_report):
+    from tests.check_report_text import table_problems, tables_of
+
+    problems = table_problems(built_report.html)
+    assert problems == [], "\n".join(problems)
+    assert len(tables_of(built_report.html)) >= 20
+
+
+@pytest.mark.slow
+def test_report_contents_sidebar_links_every_section(built_report):
+    nav = re.search(r"<nav class=\"toc\"[^>]*>(.*?)</nav>", built_report.html, re.DOTALL).group(1)
+    keys = [s["key"] for s in built_report.result["sections"]]
+    linked = re.findall(r"href='#([^']+)'", nav)
+    assert [k for k in linked if k in keys] == keys
+    # the observers' subsections (noise study, unknown gap, radii) are listed under their section
+    assert sum(1 for k in linked if k.startswith("observers-")) >= 4
+
+
+@pytest.mark.slow
 def test_report_numbers_come_from_the_run(built_report):
     # the timing table had a row read from the repository's benchmarks/results/regions.json
     assert "regions.json" not in built_report.html

@@ -88,6 +88,6 @@ def lookup_comparison(smo: ScenarioResult | None = None, sample_periods: tuple[f
             "convergence_time_s": tcl,
             "max_error_after": np.abs(e[aft]).max(axis=0).tolist() if aft.any() else None,
             "rms_error_after": np.sqrt(np.mean(e[aft] ** 2, axis=0)).tolist() if aft.any() else None,
-            "step_s": float(ot.seconds[0]), "note": f"compiled loop; flags {ot.flag_counts()}",
+            "step_s": float(ot.seconds[0]), "note": "compiled loop; flags: " + ", ".join(f"{k} {v}" for k, v in ot.flag_counts().items()),
         })
     return rows

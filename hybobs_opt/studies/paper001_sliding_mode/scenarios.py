@@ -117,12 +117,12 @@ def _build(name: str):
 SCENARIOS: dict[str, ScenarioSpec] = {
     "triangular": ScenarioSpec(
         "triangular", _build("triangular"), _x0_triangular, 1e-4, 3.0,
-        "Example 2 from TRIANGULAR_X0; h = 0.1 ms because F2's slope in x3 (12 000 1/s) needs h * 12 000 < 2 "
+        "Example 2 from x(0) = (0, 0.01, -0.005); h = 0.1 ms because F2's slope in x3 (12 000 1/s) needs h * 12 000 < 2 "
         "for the Euler step of the model part",
     ),
     "double_scroll": ScenarioSpec(
         "double_scroll", _build("double_scroll"), _x0_double_scroll, 1e-3, 30.0,
-        "Example 3 on the attractor (20 s burn-in from DOUBLE_SCROLL_X0), observer in z = T x, h = 1 ms",
+        "Example 3 on the attractor (20 s burn-in from x(0) = (0.1, 0, 0)), observer in z = T x, h = 1 ms",
     ),
     "switched_unstable": ScenarioSpec(
         "switched_unstable", _build("switched_unstable"), lambda a: np.array([1.0, 0.0]), 1e-3, 10.0,

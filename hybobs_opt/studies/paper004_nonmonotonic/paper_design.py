@@ -395,7 +395,7 @@ def _differences(res: PaperComparison) -> list[str]:
         out.append(
             f"(b) {label}: {what}; the paper: 'The error grows significantly after the first 15 seconds when the "
             f"orientation exceeds the observer's stable operating regime'. Cause: the turn's yaw rate is not in the "
-            f"paper; the scenario assumes {VEHICLE_TURN_RATE_DEG_S:g} deg/s (VEHICLE_TURN_RATE_DEG_S, systems.py), "
+            f"paper; the scenario assumes {VEHICLE_TURN_RATE_DEG_S:g} deg/s (the turn rate of the study's vehicle scenario), "
             f"chosen so the true yaw leaves 0-80 deg at t = {lv['80']:.2f} s, i.e. at the paper's 15 s. But leaving "
             f"the gain's design range is not where the error grows: {lim_txt}"
             + ("; after that an unstable mode has to grow from the converged error to the tolerance."
