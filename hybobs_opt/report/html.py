@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import HybobsError, ModelError
-from .section import _QUICK, _SECTIONS, ReportSection, SectionBuilder
+from .section import _QUICK, ReportSection, SectionBuilder, ordered_sections
 from .._output_files import write_output_text
 
 def wrap_tables(body: str) -> str:
@@ -39,7 +39,7 @@ def wrap_tables(body: str) -> str:
 
 def section_keys() -> list[str]:
     _load_builtin_sections()
-    return [k for k, _ in _SECTIONS]
+    return [k for k, _ in ordered_sections()]
 
 
 def _load_builtin_sections() -> None:
@@ -93,7 +93,7 @@ def build_report(out_dir: str | Path, progress: Callable[[str], None] | None = N
     token = _QUICK.set(quick)
     try:
         title = "hybobs_opt report (quick preview: fewer samples)" if quick else "hybobs_opt report"
-        out = assemble_report(out_dir, [(k, b) for k, b in _SECTIONS if not only or k in only], progress, title=title)
+        out = assemble_report(out_dir, [(k, b) for k, b in ordered_sections() if not only or k in only], progress, title=title)
     finally:
         _QUICK.reset(token)
     return {**out, "quick": quick}

@@ -40,6 +40,31 @@ class ReportSection:
 
 _SECTIONS: list[tuple[str, SectionBuilder]] = []
 
+#: The order of the built-in sections in the report.  Each registers when its module is imported,
+#: and which module a process imports first depends on what it did before, so the report orders
+#: them by this tuple, not by registration; sections registered by users follow, in their order.
+BUILTIN_SECTION_ORDER: tuple[str, ...] = ("examples", "regions", "lmi", "vehicle_paper_design", "piston_comparison",
+                                          "driveline_observer", "drift", "sliding_mode", "observers")
+
+
+def ordered_sections() -> list[tuple[str, SectionBuilder]]:
+    """The registered sections in report order: the built-in ones by :data:`BUILTIN_SECTION_ORDER`,
+    then the others in the order they were registered.
+
+    Returns
+    -------
+    list of (str, callable)
+        ``(key, builder)`` pairs.
+
+    Examples
+    --------
+    >>> from hybobs_opt.report.section import ordered_sections
+    >>> isinstance(ordered_sections(), list)
+    True
+    """
+    rank = {key: i for i, key in enumerate(BUILTIN_SECTION_ORDER)}
+    return sorted(_SECTIONS, key=lambda item: (0, rank[item[0]]) if item[0] in rank else (1, 0))
+
 #: Whether the report being built is the quick preview (``build_report(quick=True)``).
 _QUICK: ContextVar[bool] = ContextVar("hybobs_report_quick", default=False)
 

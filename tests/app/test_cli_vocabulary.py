@@ -153,6 +153,19 @@ def test_report_help_lists_the_sections_without_importing_the_report():
     assert out == ["True", "False", "False"]
 
 
+def test_report_order_does_not_depend_on_which_section_was_imported_first():
+    """A section registers when its module is imported; the report's order must not follow that."""
+    import subprocess
+    import sys
+
+    from hybobs_opt.cli.report import SECTION_KEYS
+
+    probe = ("import hybobs_opt.report.drift_section, hybobs_opt.report.observers_section\n"
+             "from hybobs_opt.report.html import section_keys\nprint(','.join(section_keys()))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.strip()
+    assert out.split(",") == list(SECTION_KEYS)
+
+
 def test_param_wherever_a_system_is_built():
     for name, p in _subparsers().items():
         positional = [a.metavar for a in p._actions if not a.option_strings]
