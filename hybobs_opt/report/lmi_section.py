@@ -50,7 +50,7 @@ def _decay_and_noise_markdown(diag, tradeoff_fig: str | None) -> list[str]:
     if nd is not None and nd.feasible:
         names = diag.system.state_names
         lines += ["## Error bound under bounded output noise", "",
-                  f"Noise |v| <= {np.round(nd.noise, 6).tolist()} (output units).  Gain with ||L||_2 = {nd.gain_norm:.4g}, "
+                  f"Noise |v| <= {', '.join(num(v) for v in np.ravel(nd.noise))} (output units).  Gain with ||L||_2 = {nd.gain_norm:.4g}, "
                   f"decay rate {nd.alpha:.4g} 1/s of V without noise; certified ultimate bound (invariant ellipsoid, "
                   "re-checked in numpy, while the state and the estimate stay on the range):", "",
                   "| state | bound |", "|---|---|"] + [f"| {n} | {b:.4g} |" for n, b in zip(names, nd.bound)] + [""]
@@ -88,16 +88,22 @@ def _diagnosis_markdown(diag, example: str, fig_name: str, tradeoff_fig: str | N
     if diag.certificate is not None:
         c = diag.certificate
         lines += ["## Certificate of the paper's LMI", "", f"- Theorem: {c.theorem} (LMI {c.form}, sigma = {c.sigma:g})",
-                  f"- Dual certificate re-checked in numpy: **{c.verify()}**"
+                  f"- Dual certificate re-checked in numpy: **{yes_no(c.verify())}**"
                   + (f" (source: {c.dual.source})" if c.dual is not None else ""),
-                  f"- Structural certificate re-checked in numpy: {c.structural_verified}", "", c.reason, ""]
+                  f"- Structural certificate re-checked in numpy: {yes_no(c.structural_verified)}", "", c.reason, ""]
         if c.dual is not None:
             lines += ["Scalar inequality: " + c.dual.inequality, ""]
     if diag.feasible and "gain" in d:
         g = d["gain"]
+        gain = np.atleast_2d(np.array(g["L"], dtype=float))
+        outputs = list(getattr(diag.system, "output_names", ())) or [f"y{j + 1}" for j in range(gain.shape[1])]
+        states = list(diag.system.state_names)
         lines += ["## Gain", "", f"sigma = {g['sigma']:.4g} 1/s"
-                  + (f" (largest {g['sigma_max']:.4g} 1/s)" if g["sigma_max"] is not None else ""), "", "```",
-                  np.array2string(np.array(g["L"]), precision=4), "```", ""]
+                  + (f" (largest {g['sigma_max']:.4g} 1/s)" if g["sigma_max"] is not None else ""), "",
+                  "| L | " + " | ".join(outputs) + " |", "|---|" + "---|" * gain.shape[1]]
+        lines += [f"| {states[i] if i < len(states) else i} | " + " | ".join(num(v) for v in row) + " |"
+                  for i, row in enumerate(gain)]
+        lines.append("")
     lines += ["## Jacobian bounds (eqs. 4-5)", "", "| function | argument interval | lower | upper | monotonicity | method |",
               "|---|---|---|---|---|---|"]
     for b in (*diag.bounds.f, *diag.bounds.h):
@@ -105,7 +111,8 @@ def _diagnosis_markdown(diag, example: str, fig_name: str, tradeoff_fig: str | N
                      f"{b.upper:.5g} | {b.monotonicity} | {b.method} (margin {b.margin:.2g}) |")
     t5 = diag.theorem5
     lines += ["", f"![Jacobian bounds]({fig_name})", "", "## Theorem 5 (subtracting a linear term)", "",
-              f"Original LMI feasible: {t5.original_feasible}; transformed LMI (45) feasible: {t5.shifted_feasible}; "
+              f"Original LMI feasible: {yes_no(t5.original_feasible)}; transformed LMI (45) feasible: "
+              f"{yes_no(t5.shifted_feasible)}; "
               f"the Schur forms (43) and (44) agree to {t5.identity_residual:.2g} (relative).", "",
               "## What to do next", ""]
     lines += [f"- {s}" for s in diag.next_steps]

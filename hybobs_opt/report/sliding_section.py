@@ -45,6 +45,19 @@ from .text import matrix_table, num, vector, yes_no  # noqa: E402
 _ALTS: dict[str, str] = {}
 
 
+#: The heading of each figure in the section.
+_HEADINGS = {
+    "smo_fig2_subsystems.png": "Example 1: the two subsystems alone (Fig. 2)",
+    "smo_fig3_switched.png": "Example 1: the unstable switched system and the observer (Fig. 3)",
+    "smo_fig7_phase.png": "Example 3: the double scroll's phase portrait (Fig. 7)",
+    "smo_fig4_triangular.png": "Example 2: the triangular system and its estimates (Fig. 4)",
+    "smo_fig8_double_scroll.png": "Example 3: the double scroll and its estimates (Fig. 8)",
+    "smo_relay.png": "A relay oscillator (not from the paper)",
+    "smo_indicator_triangular.png": "Example 2: switching-function estimates (Figs. 5-6)",
+    "smo_indicator_double_scroll.png": "Example 3: switching-function estimate near a switch (Fig. 9)",
+}
+
+
 def _save(fig, out: Path, name: str, figs: list[str], alt: str) -> None:
     fig.tight_layout()
     fig.savefig(out / name, dpi=100)
@@ -302,7 +315,8 @@ def sliding_section(out: Path, progress: Callable[[str], None]) -> ReportSection
                  [[r["observer"], r["Ts"], r["offline_s"], r["convergence_time_s"], r["max_error_after"], r["rms_error_after"],
                    None if r["step_s"] is None else 1e3 * r["step_s"], r["note"]] for r in comp])
     )
-    images = "".join(f"<h3>{html.escape(f[4:-4].replace('_', ' '))}</h3><img src='{f}' alt='{html.escape(_ALTS[f], quote=True)}'>" for f in figs)
+    images = "".join(f"<h3>{html.escape(_HEADINGS.get(f, f[4:-4].replace('_', ' ')))}</h3>"
+                     f"<img src='{f}' alt='{html.escape(_ALTS[f], quote=True)}'>" for f in figs)
     scen = "<ul>" + "".join(f"<li><b>{k}</b>: {html.escape(v.note)}</li>" for k, v in SCENARIOS.items()) + "</ul>"
     return ReportSection("Sliding-mode observer (paper 001)", "".join(parts) + scen + images, summary, figs)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -39,12 +40,29 @@ def test_diagnose_json_vehicle_full_circle(lmi_cli, tmp_path, capsys):
     assert (tmp_path / "diagnose_vehicle_tracking.md").exists() and (tmp_path / "diagnose_vehicle_tracking.html").exists()
     assert (tmp_path / "bounds_vehicle_tracking.png").stat().st_size > 1000
     assert out["suggested_regions"] and out["suggested_regions"][0][0] == 0.0
+    _assert_page_has_no_python_values(tmp_path / "diagnose_vehicle_tracking.html")
+    assert "Dual certificate re-checked in numpy: <b>yes</b>" in (tmp_path / "diagnose_vehicle_tracking.html").read_text()
+
+
+def _assert_page_has_no_python_values(path):
+    from tests.check_report_text import literal_problems, visible_text
+
+    problems = literal_problems(visible_text(path.read_text(encoding="utf-8")))
+    # the verdict's first word is upper case on purpose (FEASIBLE / INFEASIBLE / NO GAIN FOUND ...)
+    problems = [p for p in problems if not re.search(r"constant name of the code '(IN)?FEASIBLE'", p)]
+    assert not problems, problems
 
 
 def test_diagnose_json_vehicle_0_80_is_feasible(lmi_cli, tmp_path, capsys):
     assert lmi_cli.main(["diagnose", "vehicle_tracking", "--range", "psi=0:80", "--out-dir", str(tmp_path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is True and "certificate" not in out and np.array(out["gain"]["L"]).shape == (4, 2)
+    page = tmp_path / "diagnose_vehicle_tracking.html"
+    _assert_page_has_no_python_values(page)
+    L = np.array(out["gain"]["L"])
+    for name in ("X", "Y", "psi", "delta_f"):  # the gain as a table, one row per state, 4 significant digits
+        assert f"<td>{name}</td>" in page.read_text()
+    assert f"{L[0, 0]:.4g}" in page.read_text()
 
 
 def test_synth_json_writes_the_gains(lmi_cli, tmp_path, capsys):

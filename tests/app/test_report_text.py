@@ -156,3 +156,17 @@ def test_section_reads_as_words_with_units(tmp_path, key):
     assert literal_problems(visible_text(page)) == []
     assert table_problems(page) == []
     assert page.count("<table") >= 1
+
+
+def test_every_sliding_mode_figure_has_a_heading_in_words():
+    """The sliding-mode section heads each figure with a sentence, not its file name."""
+    import re
+    from pathlib import Path
+
+    from hybobs_opt.report import sliding_section
+
+    source = Path(sliding_section.__file__).read_text(encoding="utf-8")
+    saved = set(re.findall(r'"(smo_[a-z0-9_]+\.png)"', source))
+    assert len(saved) >= 8
+    assert saved == set(sliding_section._HEADINGS)
+    assert all(" " in h and not h.startswith("smo") for h in sliding_section._HEADINGS.values())
