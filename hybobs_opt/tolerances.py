@@ -788,3 +788,9 @@ HYBRID_ENTRY_PROBE: float = 1e-9
 #: frozen error dynamics) stays below this: well inside RK4's stability interval (2.78 on the
 #: negative real axis).
 RK4_STEP_RADIUS: float = 0.5
+
+#: Relative slack with which a time of an input table (``simulate --inputs``) is taken as the
+#: sample time ``k Ts`` of a discrete-time run: times written to ~9 digits in a CSV file still
+#: match, a row off by a fraction of a sample does not.  The absolute slack is this times ``1e-3 Ts``
+#: (the row at ``t = 0``).
+INPUT_TABLE_TIME_RTOL: float = 1e-9

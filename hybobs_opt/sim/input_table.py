@@ -20,8 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._numbers import is_decimal
 from ..errors import ModelError
 from ..limits import MAX_SAMPLES
+from ..tolerances import INPUT_TABLE_TIME_RTOL
 
 #: Names of the time column.
 TIME_COLUMNS = ("t", "time")
@@ -158,12 +160,11 @@ def read_input_table(path: str | Path, system) -> InputTable:
             raise ModelError(f"{path} line {line}", f"{len(header)} cells (one per column of the header)",
                              f"{len(row)} cells")
         for c, cell in enumerate(row):
-            try:
-                value = float(cell)
-            except ValueError:
-                value = math.nan
+            text = cell.strip(" \t")
+            value = float(text) if is_decimal(text) else math.nan  # the number grammar of every file read
             if not math.isfinite(value):
-                raise ModelError(f"{path} line {line} column {header[c]!r}", "a finite number", repr(cell.strip()))
+                raise ModelError(f"{path} line {line} column {header[c]!r}",
+                                 "a finite number in ASCII decimal digits (such as -1.5e-3)", repr(cell.strip()))
             values[r, c] = value
     U = values[:, [header.index(nm) for nm in names]]
     t = None
@@ -187,7 +188,7 @@ def check_sample_times(table: InputTable, Ts: float | None) -> None:
         raise ModelError(f"{table.source} column 't'", "no time column for a PWA system without a sampling period Ts "
                          "(one row per sample)", "a time column")
     expected = Ts * np.arange(table.n_rows)
-    bad = np.flatnonzero(~np.isclose(table.t, expected, rtol=1e-9, atol=1e-12 * Ts))
+    bad = np.flatnonzero(~np.isclose(table.t, expected, rtol=INPUT_TABLE_TIME_RTOL, atol=INPUT_TABLE_TIME_RTOL * 1e-3 * Ts))
     if bad.size:
         k = int(bad[0])
         raise ModelError(f"{table.source} row {k + 1} column 't'", f"the time of sample {k}, {k} x Ts = {expected[k]:g} s "

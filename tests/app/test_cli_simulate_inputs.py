@@ -71,6 +71,8 @@ def test_a_constant_table_is_the_constant_input(capsys, tmp_path):
     (ROTATION, "t\n0\n", [], ["header", "missing ['u']"]),
     (ROTATION, "u\n1\nabc\n", [], ["line 3 column 'u'", "finite number", "'abc'"]),
     (ROTATION, "u\n1\nnan\n", [], ["line 3 column 'u'", "finite number"]),
+    # the number grammar of every file the toolbox reads: Python's float() would take 1_0 as 10
+    (ROTATION, "u\n1\n1_0\n", [], ["line 3 column 'u'", "ASCII decimal digits", "'1_0'"]),
     (ROTATION, "u\n1\n2,3\n", [], ["line 3", "1 cells"]),
     (ROTATION, "u\n", [], ["at least one row"]),
     (ROTATION, "u\n1\n", ["--steps", "5"], ["--steps", "one sample per row"]),
