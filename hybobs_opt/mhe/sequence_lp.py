@@ -16,8 +16,8 @@ is made when the search first visits it and its offsets are its parent's plus it
 memory grows with the nodes visited, not with the ``s^T`` mode sequences.  Every node is charged
 against a memory budget *before* it is made (:data:`~hybobs_opt.limits.MAX_SEQUENCE_TREE_BYTES`,
 ``MHESettings(solver_options={"memory_budget": bytes})``); a search that would exceed it is refused
-with the predicted figure.  Prefixes whose rows no input of ``U`` can meet are dropped when made
-(proven by a certified LP).
+with the predicted figure.  Prefixes whose rows no input of ``U`` can meet are dropped from an eager
+tree (proven by a certified LP each); in a lazy tree the window's LPs prove them infeasible.
 
 Lower bounds are proven in numpy by weak LP duality with *any* multipliers: for ``|mu|_inf <= 1``
 (norm 1; the inf-norm: ``||mu_b||_1 <= 1`` per block of the cost, the dual norm) and ``lam >= 0``,
@@ -156,7 +156,7 @@ class SequenceLPSolver:
     ----------
     nodes : list
         The mode prefixes made so far (every one with eager tables); ``pruned_offline`` counts
-        those dropped because no input of ``U`` meets their rows (a certified LP of
+        those an eager tree dropped because no input of ``U`` meets their rows (a certified LP of
         :func:`~hybobs_opt.geometry.lp.solve_lp` each).
     lazy : bool
         Whether the tree is made on demand.
@@ -271,7 +271,7 @@ class SequenceLPSolver:
         own = p + guard + XA.shape[0]
         kr = k * p + self._Rt.shape[0]
         gr = (k - 1) * (gmax + XA.shape[0]) + guard + XA.shape[0]
-        floats = (kr * nt + gr * nt + kr + own * (np_ + 1) + n * (nt + np_ + 1) + 2 * kr * kr + 2 * kr + gr
+        floats = (kr * nt + gr * nt + kr + own * (np_ + 1) + n * (nt + np_ + 1) + 3 * kr * kr + 2 * kr + gr
                   + (2 * nt * nt + gr * nt + 2 * gr if kr == nt else 0))
         return 8 * floats + NODE_BYTES["node"]
 
@@ -335,7 +335,9 @@ class SequenceLPSolver:
         R = np.vstack([Rs, self._Rt])
         blocks = np.r_[np.zeros(Rs.shape[0], dtype=int), self._bt]
         nd = _Node(parent.modes + (q,) if parent is not None else (q,), parent, R, G, blocks, Rs.shape[0], own)
-        if not self._possible(nd):
+        if not self.lazy and not self._possible(nd):
+            # the lazy tree leaves such prefixes to the window's LPs (a certified LP per node made
+            # costs more than the windows' LPs that prove the prefix infeasible, measured at T = 10)
             self.pruned_offline += 1
             return None
         if k < T - 1:
@@ -408,7 +410,10 @@ class SequenceLPSolver:
             Nl = u[:, rank:].T
             nd.null = shrink * Nl / np.array([max(self._dual_norm(nd, row), 1e-300) for row in Nl])[:, None]
             C = nd.null @ R  # c = R'mu for each null vector (rows; ~0)
-            nd.nbox = (np.minimum(C * self.lo, C * self.hi).sum(axis=1), np.minimum(-C * self.lo, -C * self.hi).sum(axis=1))
+            plus, minus = np.minimum(C * self.lo, C * self.hi).sum(axis=1), np.minimum(-C * self.lo, -C * self.hi).sum(axis=1)
+            # the box terms with their rounding allowance folded in (r enters through |null| |r|)
+            nd.nbox = (plus - SEQUENCE_LP_BOUND_RTOL * np.abs(plus), minus - SEQUENCE_LP_BOUND_RTOL * np.abs(minus),
+                       np.abs(nd.null))
         if nd.leaf and R.shape[0] == R.shape[1] and np.linalg.matrix_rank(R) == R.shape[1]:
             nd.Rinv = np.linalg.inv(R)
             nd.K = G @ nd.Rinv
@@ -754,10 +759,10 @@ class SequenceLPSolver:
         best = -np.inf
         ar = np.abs(r)
         if nd.null is not None:
+            nb_plus, nb_minus, anull = nd.nbox
             v = nd.null @ r
-            size = np.abs(nd.null) @ ar
-            best = max(best, float(np.max(np.r_[v + nd.nbox[0] - SEQUENCE_LP_BOUND_RTOL * (size + np.abs(nd.nbox[0])),
-                                                 -v + nd.nbox[1] - SEQUENCE_LP_BOUND_RTOL * (size + np.abs(nd.nbox[1]))])))
+            size = SEQUENCE_LP_BOUND_RTOL * (anull @ ar)
+            best = max(best, float((v + nb_plus - size).max()), float((nb_minus - v - size).max()))
         if nd.K is not None:
             Kr = nd.K @ r
             val = -nd.t * (Kr + g) + nd.kbox
