@@ -907,6 +907,9 @@ class SequenceLPSolver:
                 if stopped is not None:
                     lowest = min(lowest, max(stack.pop()[1], 0.0))  # an open node: its parent's bound
                     continue
+                if best[0] <= self._allowed(best[0]):
+                    lowest = 0.0  # every cost is >= 0: the open nodes close on that bound
+                    break
                 nd, up = stack.pop()
                 b = self._node_bound(nd, ctx, lo, hi, cutoff=best[0] - self._allowed(best[0]))
                 if b is None:
