@@ -25,7 +25,7 @@ from the plant data by :mod:`benchmarks.mhe_peers`: Gurobi, one thread, ``MIPGap
 * ``T10_noisy_highs``: solver ``"highs"`` (the MILP of eq. (10) on HiGHS) on the first steps of
   the same data, for the ratio of the old default.
 * ``T10_memory``: the noisy ``"sequences"`` run again in a fresh process; its peak resident set
-  (``ru_maxrss``) against a fresh process that imports the same modules and builds the T = 3
+  (``VmHWM``) against a fresh process that imports the same modules and builds the T = 3
   observer only (``baseline``), and the bytes the tree charged against its budget.  Target:
   peak under 1 GB.
 * ``refusal``: the T = 10 observer with ``solver_options={"memory_budget": 20_000}`` (the
@@ -205,22 +205,30 @@ def _child_memory(code: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+#: The peak resident set of this process (``VmHWM``: ``ru_maxrss`` survives ``execve`` on Linux and
+#: would report the parent's peak), in bytes.
+PEAK = ("int(next(l for l in open('/proc/self/status') if l.startswith('VmHWM')).split()[1]) * 1024 "
+        "if __import__('os').path.exists('/proc/self/status') else None")
+
+
 def part_memory(steps: int) -> dict:
     common = ("import json, resource, numpy as np\n"
               "from benchmarks.bench_mhe_sequences import scenario, observer, run_ours\n"
               "plant, U, Y = scenario(True)\n")
     run = common + (f"obs = observer(plant, 10, 'sequences', True, check_uniqueness=False)\n"
                     f"ours = run_ours(obs, U, Y, {steps})\n"
-                    "print(json.dumps({'maxrss_bytes': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, "
+                    f"print(json.dumps({{'peak_rss_bytes': {PEAK}, "
                     "'tree_bytes': obs._sequences.tree_bytes, 'nodes': len(obs._sequences.nodes), "
                     "'steps': len(ours)}))")
     base = common + ("obs = observer(plant, 3, 'sequences', True, check_uniqueness=False)\n"
                      "ours = run_ours(obs, U, Y, 5)\n"
-                     "print(json.dumps({'maxrss_bytes': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}))")
+                     f"print(json.dumps({{'peak_rss_bytes': {PEAK}}}))")
     res = {"sequences_T10": _child_memory(run), "baseline_T3": _child_memory(base), "target_bytes": 1 << 30}
-    peak = res["sequences_T10"].get("maxrss_bytes")
+    peak, base = res["sequences_T10"].get("peak_rss_bytes"), res["baseline_T3"].get("peak_rss_bytes")
     if peak is not None:
         res["meets_target_1GB"] = bool(peak < res["target_bytes"])
+        if base is not None:
+            res["peak_over_baseline_bytes"] = peak - base
     return res
 
 
@@ -261,6 +269,7 @@ def part_T3(steps: int) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_mhe_sequences", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny versions (smoke test); results in results/quick/")
+    parser.add_argument("--only", help="run this part alone and update its key in the existing JSON")
     args = parser.parse_args(argv)
     quick = args.quick
     out_dir = RESULTS / "quick" if quick else RESULTS
@@ -279,6 +288,15 @@ def main(argv: list[str] | None = None) -> int:
              ("T10_memory", lambda: part_memory(steps10)), ("refusal", part_refusal),
              ("T3_noisy", lambda: part_T3(60 if quick else 400)),
              ("T10_noisy_highs", lambda: part_highs(12 if quick else 60))]
+    path = out_dir / "mhe_sequences.json"
+    if args.only:
+        known = dict(parts)
+        if args.only not in known:
+            parser.error(f"--only: one of {', '.join(known)}")
+        parts = [(args.only, known[args.only])]
+        record = json.loads(path.read_text())
+        record.setdefault("rerun", {})[args.only] = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                                                     "machine": machine(), "git": git_state("hybobs_opt/mhe")}
     for key, fn in parts:
         log(f"{key} ...")
         t0 = time.perf_counter()
@@ -290,11 +308,14 @@ def main(argv: list[str] | None = None) -> int:
         record["parts"][key] = res
         log(f"{key}: " + json.dumps({k: res.get(k) for k in ("ratio_median", "agreement", "not_certified", "error")},
                                     default=json_default))
-    record["machine"]["load_average_at_end"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
-    record["seconds_total"] = time.perf_counter() - t_start
-    path = out_dir / "mhe_sequences.json"
+    load_end = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
+    if args.only:
+        record["rerun"][args.only]["machine"]["load_average_at_end"] = load_end
+    else:
+        record["machine"]["load_average_at_end"] = load_end
+        record["seconds_total"] = time.perf_counter() - t_start
     path.write_text(json.dumps(record, indent=2, default=json_default) + "\n")
-    log(f"wrote {path} ({record['seconds_total']:.0f} s)")
+    log(f"wrote {path} ({time.perf_counter() - t_start:.0f} s)")
     return 0
 
 

@@ -13,10 +13,12 @@ appended, so a prefix costs the rows it adds, not the whole prefix again.  A sma
 :data:`EAGER_MAX_NODES` nodes) is built whole at construction and every node's offsets and cheap
 bounds are computed per step in a few vectorised products; a larger one is built lazily: a node
 is made when the search first visits it and its offsets are its parent's plus its own rows, so
-memory grows with the nodes visited, not with the ``s^T`` mode sequences.  Every node is charged
-against a memory budget *before* it is made (:data:`~hybobs_opt.limits.MAX_SEQUENCE_TREE_BYTES`,
-``MHESettings(solver_options={"memory_budget": bytes})``); a search that would exceed it is refused
-with the predicted figure.  Prefixes whose rows no input of ``U`` can meet are dropped from an eager
+memory grows with the nodes visited, not with the ``s^T`` mode sequences.  Every node and solver
+model is charged against a memory budget *before* it is made
+(:data:`~hybobs_opt.limits.MAX_SEQUENCE_TREE_BYTES`, ``MHESettings(solver_options={"memory_budget":
+bytes})``); at the budget the solver models not used in the current window are freed, least
+recently used first (they hold nearly all the memory), and a window whose own search would still
+exceed it is refused with the predicted figure.  Prefixes whose rows no input of ``U`` can meet are dropped from an eager
 tree (proven by a certified LP each); in a lazy tree the window's LPs prove them infeasible.
 
 Lower bounds are proven in numpy by weak LP duality with *any* multipliers: for ``|mu|_inf <= 1``
@@ -90,11 +92,14 @@ INCUMBENT_TRIES = 3
 #: stacked candidate multipliers: 1.7 GB at T = 8), so larger trees are built lazily.
 EAGER_MAX_NODES = 400
 
-#: Bytes charged for a node beyond its numpy arrays (the Python object, its slots, the array
-#: headers; measured about 2.5 kB on CPython 3.12) and for each solver model beyond its matrix
-#: (a ``daqp.Model`` about 9 kB, a ``highspy.Highs`` about 60 kB plus 40 bytes per entry): the
-#: figures the memory budget adds before making them, rounded up.
-NODE_BYTES = {"node": 4096, "daqp": 16384, "highs": 98304, "per_entry": 64}
+#: Bytes charged before making a node, beyond its numpy arrays (the Python object and the array
+#: headers), and before making each solver model, plus ``per_entry`` per entry of its matrix.
+#: Calibrated on model (16) at T = 10 (a leaf's LP has 1183 entries): a fresh ``daqp.Model`` of
+#: a leaf takes 44 kB, a fresh ``highspy.Highs`` 68 kB, and over 191 noisy windows the resident
+#: set grew by 238 MB for 939 nodes (4.4 MB of arrays), 937 DAQP and 870 HiGHS models: a HiGHS
+#: model that has solved keeps its simplex workspace, about 200 kB.  These figures charge 255 MB
+#: for that run: the budget errs on the safe side.
+NODE_BYTES = {"node": 4096, "daqp": 16384, "highs": 163840, "per_entry": 64}
 
 
 class _Node:
@@ -162,6 +167,8 @@ class SequenceLPSolver:
         Whether the tree is made on demand.
     tree_bytes : int
         Bytes charged against the memory budget so far.
+    models_freed : int
+        Solver models freed at the budget (made again when needed).
     build_seconds : float
         Time of the construction.
 
@@ -210,6 +217,9 @@ class SequenceLPSolver:
         self._tail()
         self.nodes: list[_Node] = []
         self.tree_bytes = 0
+        self._models: dict = {}  # (node index, kind) -> (node, kind, bytes, window last used), oldest first
+        self._window = 0
+        self.models_freed = 0
         self.pruned_offline = 0
         self._prev_modes = None  # the last window's optimal sequence (the lazy tree's incumbent)
         self._last_alternative = None  # (leaf, direction) of the last alternative found
@@ -276,7 +286,19 @@ class SequenceLPSolver:
         return 8 * floats + NODE_BYTES["node"]
 
     def _charge(self, nbytes: int, what: str) -> None:
-        """Count ``nbytes`` against the memory budget, or refuse (before they are allocated)."""
+        """Count ``nbytes`` against the memory budget before they are allocated: when they would
+        exceed it, the solver models not used in this window are freed (least recently used
+        first; a freed model is made again when its node needs it), and only then is the work
+        refused with the bytes it needs."""
+        models = self._models
+        while self.tree_bytes + nbytes > self.memory_budget and models:
+            key, (nd, kind, size, window) = next(iter(models.items()))
+            if window == self._window:
+                break  # every model left is used by this window's search
+            del models[key]
+            setattr(nd, kind, None)
+            self.tree_bytes -= size
+            self.models_freed += 1
         if self.tree_bytes + nbytes > self.memory_budget:
             raise ModelError("solver_options['memory_budget']",
                              f"at least {self.tree_bytes + nbytes:,} bytes to make {what} (the prefix tree holds "
@@ -284,6 +306,13 @@ class SequenceLPSolver:
                              "MHESettings(solver_options={'memory_budget': bytes}) or use solver='highs'",
                              f"{self.memory_budget:,} bytes")
         self.tree_bytes += nbytes
+
+    def _used(self, nd, kind: str) -> None:
+        """Mark the node's solver model as used in this window (the most recently used)."""
+        key = (nd.index, kind)
+        entry = self._models.pop(key, None)
+        if entry is not None:
+            self._models[key] = (entry[0], entry[1], entry[2], self._window)
 
     def _kids(self, parent) -> list[_Node]:
         """The children of ``parent`` (the roots for ``None``), made on first use."""
@@ -578,7 +607,9 @@ class SequenceLPSolver:
         ``R theta + E e >= -r``, ``G theta <= g``, ``lo <= theta <= hi``, ``e >= 0``."""
         hs = self._hs
         entries = (2 * nd.R.shape[0] + nd.G.shape[0]) * (nd.R.shape[0] + nd.R.shape[1])
-        self._charge(NODE_BYTES["highs"] + NODE_BYTES["per_entry"] * entries, f"the HiGHS LP of mode prefix {nd.modes}")
+        size = NODE_BYTES["highs"] + NODE_BYTES["per_entry"] * entries
+        self._charge(size, f"the HiGHS LP of mode prefix {nd.modes}")
+        self._models[(nd.index, "lp")] = (nd, "lp", size, self._window)
         with captured_native_output("highspy.Highs"):
             h = hs.Highs()
         for key, val in (("output_flag", False), ("presolve", "off"),
@@ -620,7 +651,9 @@ class SequenceLPSolver:
 
         R, G = nd.R, nd.G
         entries = (2 * R.shape[0] + G.shape[0]) * (R.shape[0] + R.shape[1])
-        self._charge(NODE_BYTES["daqp"] + NODE_BYTES["per_entry"] * entries, f"the DAQP LP of mode prefix {nd.modes}")
+        size = NODE_BYTES["daqp"] + NODE_BYTES["per_entry"] * entries
+        self._charge(size, f"the DAQP LP of mode prefix {nd.modes}")
+        self._models[(nd.index, "daqp")] = (nd, "daqp", size, self._window)
         k, nt = R.shape
         E = np.eye(k) if self.norm == "1" else np.eye(int(nd.blocks.max()) + 1)[nd.blocks]
         ne = E.shape[1]
@@ -657,6 +690,7 @@ class SequenceLPSolver:
         from .backends.daqp_backend import daqp_flag
 
         mdl, bu, bl, k, nt, nc = nd.daqp if nd.daqp is not None else self._daqp_model(nd)
+        self._used(nd, "daqp")
         bu[:nt], bl[:nt] = hi, lo
         bu[nc:nc + k] = -r
         bl[nc + k:nc + 2 * k] = -r
@@ -688,6 +722,7 @@ class SequenceLPSolver:
     def _solve_highs(self, nd, r, g, lo, hi):
         hs = self._hs
         h, rows, k, cols = nd.lp if nd.lp is not None else self._lp_model(nd)
+        self._used(nd, "lp")
         inf = hs.kHighsInf
         ng = g.size
         h.changeRowsBounds(rows.size, rows, np.r_[np.full(k, -inf), -r, np.full(ng, -inf)],
@@ -838,6 +873,7 @@ class SequenceLPSolver:
         """
         t_start = time.perf_counter()
         self.lp_solves = self.lp_fallbacks = 0
+        self._window += 1
         nodes0 = len(self.nodes)
         pv = np.concatenate([U.reshape(-1), Y.reshape(-1), xbar])
         lo, hi = self.lo, self.hi
@@ -932,6 +968,7 @@ class SequenceLPSolver:
         rel = 0.0 if gap == 0 else (gap / cost if cost > 0 else np.inf)
         detail = {"sequence_lps": self.lp_solves, "lp_fallbacks": self.lp_fallbacks, "nodes": len(self.nodes),
                   "nodes_made": len(self.nodes) - nodes0, "tree_bytes": self.tree_bytes,
+                  "models_freed": self.models_freed,
                   "lower_bound": float(lower), "relative_gap": float(rel)}
         if nd is None:
             if not failed and stopped is None:

@@ -379,3 +379,27 @@ def test_search_stopped_early_reports_its_gap_not_a_certified_optimum():
             assert out.gap_bound == pytest.approx(out.cost - lower, rel=1e-9, abs=1e-15)
             assert out.solver_detail["relative_gap"] == pytest.approx(out.gap_bound / out.cost, rel=1e-9)
     assert stopped >= 3
+
+
+def test_at_the_memory_budget_unused_solver_models_are_freed_and_the_optima_unchanged():
+    """A budget below what the run's tree grows to: the solver models not used in the current
+    window are freed (least recently used first) and made again when needed; the windows keep the
+    optima of an unbounded tree, the charged bytes never exceed the budget, and a window whose own
+    search needs more is refused naming the setting."""
+    plant, U, Y = _bench_data(1200)
+    make = lambda extra: MHEObserver(plant, 5, norm="1", solver="sequences",  # noqa: E731
+                                     settings=MHESettings(check_uniqueness=False,
+                                                          solver_options={"tables": "lazy", **extra}))
+    free, bounded = make({}), make({"memory_budget": 12_000_000})
+    certified = 0
+    for k0 in range(880, 900):
+        a, b = free.solve_window(U[k0:k0 + 5], Y[k0:k0 + 5]), bounded.solve_window(U[k0:k0 + 5], Y[k0:k0 + 5])
+        assert a.optimal, a.reason
+        assert bounded._sequences.tree_bytes <= 12_000_000
+        if b.optimal:
+            certified += 1
+            assert abs(a.cost - b.cost) <= _certified_gap(free, a.cost), (k0, a.cost, b.cost)
+        else:
+            assert "memory_budget" in b.reason, b.reason
+    assert free._sequences.tree_bytes > 12_000_000
+    assert bounded._sequences.models_freed > 0 and certified >= 17
