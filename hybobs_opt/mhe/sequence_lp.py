@@ -82,8 +82,10 @@ __all__ = ["EAGER_MAX_NODES", "INCUMBENT_TRIES", "NODE_BYTES", "PREFIX_LP_RETRY"
 #: only which nodes are visited.
 PREFIX_LP_RETRY = 16
 
-#: Leaves whose LPs are tried (lowest cheap bound first) for an incumbent before the depth-first
-#: search; the search itself closes every node whatever the incumbent, so this only orders work.
+#: Leaves of an eager tree whose LPs are tried (lowest cheap bound first) for an incumbent before
+#: the depth-first search (a lazy tree tries the last window's sequence shifted by one sample, with
+#: each last mode); the search itself closes every node whatever the incumbent, so this only
+#: orders work.
 INCUMBENT_TRIES = 3
 
 #: Prefix trees of at most this many nodes (``s + s^2 + ... + s^T``) are built whole at
@@ -334,7 +336,7 @@ class SequenceLPSolver:
         """The prefix ``parent.modes + (q,)``: its sample's rows appended to the parent's, or
         ``None`` when a certified LP proves that no input of ``U`` meets its rows."""
         self._charge(self._node_bytes(k + 1, q), f"mode prefix {(parent.modes if parent else ()) + (q,)}")
-        mdl, n, np_, T = self.model, self.n, self.np_, self.T
+        mdl, n, T = self.model, self.n, self.T
         m, p = mdl.m, mdl.p
         iU, iY = 0, T * m
         Px, px0, Bpx = self._prop0 if parent is None else parent.prop
