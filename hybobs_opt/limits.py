@@ -45,6 +45,13 @@ MAX_GAIN_BOUND: float = 1e12
 #: needs several times that in memory, so beyond 256 MiB nothing useful compiles.
 MAX_EXPORT_TABLE_BYTES: int = 256 * 1024 * 1024
 
+#: Bytes the prefix tree of the moving-horizon solver ``"sequences"`` (:mod:`hybobs_opt.mhe.sequence_lp`)
+#: may hold: its nodes' matrices and their LP models, charged before each is made.  Model (16) at
+#: T = 10 on noisy data holds well under 100 MB over a run; a whole tree of 3^10 sequences built
+#: eagerly took 21 GB.  1 GiB leaves room for a second observer on a workstation.
+#: ``MHESettings(solver_options={"memory_budget": bytes})`` sets another budget per observer.
+MAX_SEQUENCE_TREE_BYTES: int = 1 << 30
+
 #: Local worker processes per core: each forked worker holds a copy of the package and the
 #: problem; more than a few per core only adds start-up time and memory.
 MAX_WORKERS_PER_CORE: int = 4

@@ -517,7 +517,10 @@ class MHEObserver(Observer):
             from .sequence_lp import SequenceLPSolver
 
             self._sequences = SequenceLPSolver(self.model, self._zero_cost, self._separated,
-                                               lp=options.get("lp", "daqp"))
+                                               lp=options.get("lp", "daqp"), tables=options.get("tables", "auto"),
+                                               memory_budget=options.get("memory_budget"),
+                                               max_lps=self.settings.certify_max_nodes,
+                                               time_budget=self.settings.certify_time_budget)
         self.uniqueness_epsilon = self._separated.epsilon
         if self._separated.prox_weight is not None:
             self.uniqueness_prox_weight = self._separated.prox_weight

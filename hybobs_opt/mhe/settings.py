@@ -43,7 +43,10 @@ class MHESettings:
         without progress before DAQP gives up with exit -2, "cycling"; DAQP's own default of 10
         ends the branch-and-bound on degenerate big-M vertices of 4-mode systems at T = 4-5 with
         noisy data).  With the DAQP solver they apply to the uniqueness MIQP too.  Solver
-        ``"sequences"`` reads ``{"lp": "highs"}`` (its LPs by HiGHS alone instead of DAQP first).
+        ``"sequences"`` reads ``{"lp": "highs"}`` (its LPs by HiGHS alone instead of DAQP first),
+        ``{"memory_budget": bytes}`` (its prefix tree's budget, default
+        :data:`~hybobs_opt.limits.MAX_SEQUENCE_TREE_BYTES`) and ``{"tables": "eager" | "lazy"}``
+        (how it builds the tree; default by its size).
         ``None`` (default) is no options; the dict is copied.
     polish : bool
         Norm 2: re-solve the continuous QP of the optimal mode sequence exactly (removes the
@@ -66,7 +69,8 @@ class MHESettings:
         Norm 2: node QPs the exact prefix search (:mod:`hybobs_opt.mhe.certify`) may solve per
         window when the branch and bound's own certificate does not prove the relative gap
         :data:`~hybobs_opt.tolerances.MHE_CERTIFIED_RTOL`; a window it cannot close is not
-        certified (``fallback``).  It also bounds the search for the mode sequences of a
+        certified (``fallback``).  Solver ``"sequences"``: the LPs its search may solve per
+        window (stopped, the window is not certified and its gap is reported).  It also bounds the search for the mode sequences of a
         flagged window's covariance (``arrival_weight="kalman"``).  Default
         :data:`~hybobs_opt.tolerances.MHE_CERTIFY_MAX_NODES`.
     certify_time_budget : float, optional

@@ -23,7 +23,7 @@ from hybobs_opt.defaults import NOISE_FIT_SIGMAS
 from hybobs_opt.errors import ModelError
 from hybobs_opt.mhe import MHEObserver, MHESettings
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario
-from hybobs_opt.tolerances import MHE_CERTIFIED_RTOL
+from hybobs_opt.tolerances import MHE_CERTIFIED_RTOL, SEQUENCE_LP_GAP_FLOOR
 
 from canonical import deadzone_drive, deadzone_spring
 
@@ -98,6 +98,12 @@ def _reference(system, U, Y, norm, x_star, delta, eps, half):
     return J, bool(lowest > thr)
 
 
+def _certified_gap(obs, J):
+    """The gap solver "sequences" certifies (the relative tolerance, its floor a fraction of the
+    zero-cost threshold), plus the reference's own resolution (linprog's tolerances, 1e-9 here)."""
+    return max(MHE_CERTIFIED_RTOL * J, SEQUENCE_LP_GAP_FLOOR * obs._zero_cost) + 1e-9
+
+
 def _bench_data(steps=1500):
     plant = get_example("powertrain3").build()
     trace = backlash_scenario(plant, SCENARIO_TORQUES["powertrain3"], t_final=steps * plant.Ts)
@@ -129,7 +135,7 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
         assert out.optimal, (k0, out.reason)
         J, unique = _reference(plant, Uw, Yw, norm, out.x_start, obs.settings.uniqueness_delta, obs.uniqueness_epsilon,
                                half)
-        gap = max(MHE_CERTIFIED_RTOL * J, obs._zero_cost)
+        gap = _certified_gap(obs, J)
         assert abs(out.cost - J) <= gap, (k0, out.cost, J)
         status = out.uniqueness["status"]
         assert status in ("unique", "alternative"), (k0, out.uniqueness)
@@ -187,7 +193,7 @@ def test_deadzone_spring_exact_against_brute_force():
         assert out.optimal, (k0, out.reason)
         J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.x_start, obs.settings.uniqueness_delta,
                                obs.uniqueness_epsilon, half)
-        assert abs(out.cost - J) <= max(MHE_CERTIFIED_RTOL * J, obs._zero_cost), (k0, out.cost, J)
+        assert abs(out.cost - J) <= _certified_gap(obs, J), (k0, out.cost, J)
         if unique is not None:
             assert (out.uniqueness["status"] == "unique") == unique, (k0, out.uniqueness)
         seen.add(out.uniqueness["status"])
@@ -282,3 +288,118 @@ def test_a_refused_lp_is_a_fallback_that_names_the_problem(bench):
     assert all(e.flag in ("warming_up", "fallback") for e in flags), [e.flag for e in flags]
     reasons = " ".join(str(e.info.get("reason", "")) for e in flags[2:])
     assert "SolverError" in reasons and "TypeError" not in reasons, reasons
+
+
+def _brute_force_optimum(system, U, Y, norm="1"):
+    return min(_sequence_lp(system, modes, U, Y, norm)[0]
+               for modes in itertools.product(range(system.n_modes), repeat=len(U)))
+
+
+def _noisy_windows(T, count):
+    plant, U, Y = _bench_data(1200)
+    return plant, [(U[k0:k0 + T], Y[k0:k0 + T]) for k0 in np.linspace(880, 1200 - T, count).astype(int)]
+
+
+def test_lazy_tables_agree_with_eager_ones_and_brute_force():
+    """The lazy prefix tree (nodes made on first visit, a child's rows appended to its parent's)
+    holds the same matrices and affine maps as the eager one, and both give the brute-force
+    optimum of the same windows."""
+    plant, windows = _noisy_windows(3, 8)
+    make = lambda tables: MHEObserver(plant, 3, norm="1", solver="sequences",  # noqa: E731
+                                      settings=MHESettings(check_uniqueness=False,
+                                                           solver_options={"tables": tables}))
+    eager, lazy = make("eager"), make("lazy")
+    assert not eager._sequences.lazy and lazy._sequences.lazy
+    assert len(lazy._sequences.nodes) == len(lazy._sequences.roots) < len(eager._sequences.nodes)
+    for Uw, Yw in windows:
+        J = _brute_force_optimum(plant, Uw, Yw)
+        a, b = eager.solve_window(Uw, Yw), lazy.solve_window(Uw, Yw)
+        assert a.optimal and b.optimal, (a.reason, b.reason)
+        for out, obs in ((a, eager), (b, lazy)):
+            assert abs(out.cost - J) <= _certified_gap(obs, J), (out.cost, J)
+            assert out.gap_bound <= _certified_gap(obs, out.cost)
+    seq_e, seq_l = eager._sequences, lazy._sequences
+    compared = 0
+    for nd in seq_e.nodes:
+        other = seq_l._path(nd.modes) if nd.leaf else None
+        if other is None:
+            continue
+        compared += 1
+        for x, y in zip(seq_e._maps(nd), seq_l._maps(other)):
+            np.testing.assert_allclose(x, y, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(nd.R, other.R, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(nd.G, other.G, rtol=0, atol=1e-12)
+    assert compared == len(seq_e.leaves)
+
+
+def test_memory_budget_refused_before_the_work_with_the_predicted_figure():
+    plant = get_example("powertrain3").build()
+    with pytest.raises(ModelError, match=r"memory_budget.*at least [\d,]+ bytes") as exc:
+        MHEObserver(plant, 10, norm="1", solver="sequences",
+                    settings=MHESettings(check_uniqueness=False, solver_options={"memory_budget": 20_000}))
+    assert "20,000 bytes" in str(exc.value)
+    with pytest.raises(ModelError, match="memory_budget"):
+        MHEObserver(plant, 3, norm="1", solver="sequences", settings=MHESettings(solver_options={"memory_budget": 0}))
+    # a budget that holds one path to a leaf but not a window's search: the step is refused with
+    # the bytes it would need (a fallback naming the setting), and the tree never exceeds it
+    _, windows = _noisy_windows(8, 1)
+    from hybobs_opt.mhe.sequence_lp import SequenceLPSolver
+
+    probe = MHEObserver(plant, 8, norm="1", solver="sequences", settings=MHESettings(check_uniqueness=False))
+    path = sum(3 * probe._sequences._node_bytes(k) for k in range(1, 9))
+    budget = path + 20_000
+    obs = MHEObserver(plant, 8, norm="1", solver="sequences",
+                      settings=MHESettings(check_uniqueness=False, solver_options={"memory_budget": budget}))
+    assert isinstance(obs._sequences, SequenceLPSolver) and obs._sequences.lazy
+    out = obs.solve_window(*windows[0])
+    assert not out.optimal and "memory_budget" in out.reason and "at least" in out.reason, out.reason
+    assert obs._sequences.tree_bytes <= budget
+
+
+def test_search_stopped_early_reports_its_gap_not_a_certified_optimum():
+    """``certify_max_nodes`` LPs stop the search: the window is not certified, and its incumbent's
+    cost and proven lower bound bracket the brute-force optimum."""
+    plant, windows = _noisy_windows(4, 4)
+    stopped = 0
+    for Uw, Yw in windows:
+        J = _brute_force_optimum(plant, Uw, Yw)
+        obs = MHEObserver(plant, 4, norm="1", solver="sequences",
+                          settings=MHESettings(check_uniqueness=False, certify_max_nodes=1,
+                                               solver_options={"tables": "lazy"}))
+        out = obs.solve_window(Uw, Yw)
+        if out.optimal:  # closed within one LP: then it is the optimum
+            assert abs(out.cost - J) <= _certified_gap(obs, J)
+            continue
+        stopped += 1
+        assert "certify_max_nodes" in out.reason and "relative gap" in out.reason, out.reason
+        lower = out.solver_detail["lower_bound"]
+        assert lower <= J + 1e-9
+        if out.cost is not None:
+            assert out.cost >= J - 1e-9
+            assert out.gap_bound == pytest.approx(out.cost - lower, rel=1e-9, abs=1e-15)
+            assert out.solver_detail["relative_gap"] == pytest.approx(out.gap_bound / out.cost, rel=1e-9)
+    assert stopped >= 3
+
+
+def test_at_the_memory_budget_unused_solver_models_are_freed_and_the_optima_unchanged():
+    """A budget below what the run's tree grows to: the solver models not used in the current
+    window are freed (least recently used first) and made again when needed; the windows keep the
+    optima of an unbounded tree, the charged bytes never exceed the budget, and a window whose own
+    search needs more is refused naming the setting."""
+    plant, U, Y = _bench_data(1200)
+    make = lambda extra: MHEObserver(plant, 5, norm="1", solver="sequences",  # noqa: E731
+                                     settings=MHESettings(check_uniqueness=False,
+                                                          solver_options={"tables": "lazy", **extra}))
+    free, bounded = make({}), make({"memory_budget": 12_000_000})
+    certified = 0
+    for k0 in range(880, 900):
+        a, b = free.solve_window(U[k0:k0 + 5], Y[k0:k0 + 5]), bounded.solve_window(U[k0:k0 + 5], Y[k0:k0 + 5])
+        assert a.optimal, a.reason
+        assert bounded._sequences.tree_bytes <= 12_000_000
+        if b.optimal:
+            certified += 1
+            assert abs(a.cost - b.cost) <= _certified_gap(free, a.cost), (k0, a.cost, b.cost)
+        else:
+            assert "memory_budget" in b.reason, b.reason
+    assert free._sequences.tree_bytes > 12_000_000
+    assert bounded._sequences.models_freed > 0 and certified >= 17
