@@ -311,7 +311,11 @@ class MHEObserver(Observer):
        least-squares map has a direction whose cost over ``delta`` is below ``epsilon`` (the
        backlash of model (16)), the QP of that sequence with the separation row, one per
        admissible direction; it can never prove uniqueness, which needs every mode sequence;
-    2. the norm-2 MIQP (DAQP, its own workspace, proximal weight
+    2. norm 2: the branch and bound over mode prefixes of :mod:`hybobs_opt.mhe.unique_search`
+       (the optimum's node QPs re-used, a closed-form bound per separation direction, the exact
+       QP with the separation row at full sequences), which decides "unique" or a verified
+       alternative, and otherwise leaves the decision to
+    3. the norm-2 MIQP (DAQP, its own workspace, proximal weight
        :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`) with the objective cutoff
        ``J* + epsilon`` widened by the proximal term's largest value over the box (and
        ``abs_subopt``): "infeasible" (every node pruned) proves that each separated state costs
@@ -324,7 +328,7 @@ class MHEObserver(Observer):
        ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
        as singular and silently switches to proximal iterations, whose answers were measured
        to be wrong by 1e-11 of the output scale, ten times epsilon;
-    3. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
+    4. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
        ``J_inf >= ||r||_2 / sqrt(N)`` (``N`` residual entries): if no separated state has
        ``||r||_2^2 <= thr^2`` (``N thr^2``) the state is unique without the MILP.  Otherwise the
        separated MILP (HiGHS with ``objective_bound`` and ``objective_target`` at
@@ -356,7 +360,11 @@ class MHEObserver(Observer):
     3. Otherwise the MIQP/MILP is solved with the incumbent as warm start (DAQP: proximal centre
        and objective cutoff; HiGHS: MIP start).  ``solved_by`` is ``"branch-and-bound"`` when the
        solver's point is returned and ``"branch-and-bound (incumbent)"`` when the solver proves
-       that nothing beats the incumbent.
+       that nothing beats the incumbent.  Norm 2: when the MIQP's certificate (``gap_bound``
+       below, at least its value at the centre of the variable bounds) exceeds the gap the
+       incumbent must prove, the MIQP is not solved and the exact prefix search of
+       :mod:`hybobs_opt.mhe.certify` certifies the window (``"warm start, certified by prefix
+       search"``, or ``"prefix search"`` when it finds a better sequence).
 
     DAQP needs a positive-definite Hessian; eq. (10) has none in the binaries and the big-M
     copies.  The MIQP therefore minimises ``J / J_s + eps ||v - v_bar||^2`` with ``v_bar`` the
