@@ -1050,6 +1050,8 @@ class MHEObserver(Observer):
             # cannot prove the gap of this incumbent or of anything cheaper, so the prefix search
             # certifies the window without the MIQP
             passes = 0
+            info = WindowResult(Status.NOT_CERTIFIED, solver=self.solver, solver_detail={
+                "status": "not solved (its proximal certificate cannot prove the gap: prefix search)"})
         for k in range(passes):
             info, moved = self._solve_once(U, Y, x_start, Xg, mg, Wg, lo, hi, rp, incumbent=best)
             if info.status == Status.INCUMBENT_OPTIMAL:
