@@ -251,6 +251,13 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
                 x0, W, _, cost = leaf_trajectory(model, seq, theta, problem, U, Y, xbar)
                 if cost < best_cost:
                     best_modes, best_cost, best_theta, improved = np.array(seq, dtype=int), cost, (x0, W), True
+                if lower < best_cost - allowed(best_cost):
+                    # a leaf's bound below the gap to prove would leave the window uncertified:
+                    # proven again from more multipliers (Clarabel's, exact KKT solutions of more
+                    # active sets), any of which gives a valid bound
+                    again = model.sequence_qp(problem, theta, bound=True, robust=True)
+                    if again is not None and again[0] is not None:
+                        lower = max(lower, again[1])
                 closed = min(closed, lower)
             elif lower >= best_cost - allowed(best_cost):
                 closed = min(closed, lower)

@@ -18,7 +18,7 @@ set of open separation directions per node:
   closed form when ``R'R`` is positive definite:
   ``l(theta^) - rho' Q^-1 rho / 4 + max(mu, 0)^2 c' Q^-1 c / 4`` with ``Q = R'R`` and
   ``mu = (2 (beta - c' theta^) + c' Q^-1 rho) / c' Q^-1 c``; it is lowered by a rounding allowance
-  (:data:`DIRECTION_BOUND_RTOL` of its terms);
+  (:data:`~hybobs_opt.tolerances.MHE_DIRECTION_BOUND_RTOL` of its terms);
 * at a full mode sequence, a direction still open gets the exact QP of that sequence with the
   separation row (its lower bound proven by weak duality,
   :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_qp` with ``robust``): above the threshold it
@@ -39,17 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..tolerances import MHE_DIRECTION_BOUND_RTOL, MHE_DIRECTION_COND_MAX
 from .certify import node_qp
 
-__all__ = ["DIRECTION_BOUND_RTOL", "UniquenessSearch", "direction_bounds", "search_uniqueness"]
-
-#: Rounding allowance of a direction bound, relative to the sum of the magnitudes of its terms
-#: (a 3-20 variable Cholesky solve loses ~1e-15 of them times the condition number, capped by
-#: :data:`DIRECTION_COND_MAX`).
-DIRECTION_BOUND_RTOL = 1e-9
-#: Largest condition number of ``R'R`` for which the closed-form direction bound is used (above
-#: it the direction stays open at that node).
-DIRECTION_COND_MAX = 1e6
+__all__ = ["UniquenessSearch", "direction_bounds", "search_uniqueness"]
 
 
 @dataclass(frozen=True)
@@ -80,7 +73,8 @@ class UniquenessSearch:
 def direction_bounds(problem: tuple, theta: np.ndarray, lam: np.ndarray, C: np.ndarray, beta: np.ndarray):
     """Proven lower bounds of ``||R theta + r||^2`` over ``G theta <= g`` and ``c_i' theta >= beta_i``,
     one per row ``c_i`` of ``C``, from any ``theta^`` and ``lam >= 0`` (module docstring); ``None``
-    when ``R'R`` is singular or ill-conditioned (above :data:`DIRECTION_COND_MAX`).
+    when ``R'R`` is singular or ill-conditioned (above
+    :data:`~hybobs_opt.tolerances.MHE_DIRECTION_COND_MAX`).
 
     Parameters
     ----------
@@ -96,7 +90,7 @@ def direction_bounds(problem: tuple, theta: np.ndarray, lam: np.ndarray, C: np.n
     R, r, G, g = problem[:4]
     Q = R.T @ R
     ev = np.linalg.eigvalsh(Q)
-    if not (ev[0] > 0 and ev[-1] <= DIRECTION_COND_MAX * ev[0]):
+    if not (ev[0] > 0 and ev[-1] <= MHE_DIRECTION_COND_MAX * ev[0]):
         return None
     lam = np.maximum(np.asarray(lam, dtype=float), 0.0)
     L = np.linalg.cholesky(Q)
@@ -113,7 +107,7 @@ def direction_bounds(problem: tuple, theta: np.ndarray, lam: np.ndarray, C: np.n
     mu = np.maximum((2.0 * s + cq) / gam, 0.0)
     extra = mu * mu * gam / 4.0
     bound = J + comp - quad / 4.0 + extra
-    allowance = DIRECTION_BOUND_RTOL * (abs(J) + abs(comp) + quad / 4.0 + extra)
+    allowance = MHE_DIRECTION_BOUND_RTOL * (abs(J) + abs(comp) + quad / 4.0 + extra)
     return bound - allowance
 
 
