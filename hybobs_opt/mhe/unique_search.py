@@ -66,6 +66,7 @@ class UniquenessSearch:
     seconds: float
 
     def summary(self) -> dict:
+        """The counts, time and reason as a JSON-ready dict (``info["uniqueness"]["prefix_search"]``)."""
         return {"unique": self.unique, "nodes": self.nodes, "separated_qps": self.separated_qps,
                 "closed_by_bound": self.closed_by_bound, "seconds": self.seconds, "reason": self.reason}
 
@@ -159,6 +160,15 @@ def search_uniqueness(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, xs:
         Prefix QPs allowed (undecided beyond).
     deadline : float, optional
         ``time.perf_counter()`` after which the search stops undecided.
+
+    Returns
+    -------
+    UniquenessSearch
+        ``unique``, or a verified ``alternative``, or neither with the ``reason``.
+
+    See Also
+    --------
+    hybobs_opt.mhe.uniqueness.SeparatedProgram.decide : Calls it for norm 2 before the separated MIQP.
     """
     t0 = time.perf_counter()
     T, n = model.T, model.n
