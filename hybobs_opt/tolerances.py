@@ -596,6 +596,17 @@ def mhe_decision_band(threshold: float, epsilon: float) -> float:
 #: DAQP's own factorisation losing ~nv * 1e-16 on the pivots; 1e-14 never passes).
 MHE_UNIQUENESS_PROX_WEIGHT: float = 1e-13
 
+#: Rounding allowance of a closed-form direction bound of the uniqueness search over mode
+#: prefixes (:mod:`hybobs_opt.mhe.unique_search`), relative to the sum of the magnitudes of its
+#: terms: a Cholesky solve of a few variables loses ~1e-15 of them times the condition number,
+#: at most MHE_DIRECTION_COND_MAX; the margin stays far below epsilon (1e-12 S_y) at the costs of
+#: model (16) (1e-9 of a cost ~1e-3 is 1e-12, against an epsilon of 9e-8).
+MHE_DIRECTION_BOUND_RTOL: float = 1e-9
+
+#: Largest condition number of a prefix's ``R'R`` for which that closed-form bound is used (above
+#: it the direction stays open at that node and is decided deeper or by the exact QP).
+MHE_DIRECTION_COND_MAX: float = 1e6
+
 # ====================================================================== set-membership observers and stated radii
 
 #: The set-membership observer's box is widened on each side by this fraction of the state box's

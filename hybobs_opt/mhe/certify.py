@@ -35,7 +35,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SequenceSearch", "leaf_trajectory", "search_sequences"]
+__all__ = ["SequenceSearch", "leaf_trajectory", "node_qp", "search_sequences"]
+
+#: Node QPs kept per window by :func:`node_qp` (the optimum's search and the uniqueness search
+#: of the same window ask for the same prefixes; a few hundred per window at T = 10).
+NODE_CACHE_SIZE = 20000
+
+
+def node_qp(model, seq: tuple, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray):
+    """The QP of the mode prefix ``seq`` of one window with its proven lower bound:
+    ``(problem, solved)``, ``problem`` of :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_problem`
+    and ``solved`` of :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_qp` with ``bound`` and
+    ``multipliers`` (``(theta, lower, lam)``, ``(None, inf, None)`` or ``None``).
+
+    Kept on ``model`` for the window's data (inputs, outputs, prior, arrival weight and extension
+    parameters, compared byte for byte): the certified optimum's search and the uniqueness search of the same
+    window solve each prefix once.
+    """
+    key = (U.tobytes(), Y.tobytes(), np.asarray(xbar, dtype=float).tobytes(),
+           None if model.params is None else model.params.tobytes(), None if model.Wa is None else model.Wa.tobytes())
+    held = model.__dict__.get("_node_cache")
+    if held is None or held[0] != key or len(held[1]) >= NODE_CACHE_SIZE:
+        held = (key, {})
+        model.__dict__["_node_cache"] = held
+    cache = held[1]
+    hit = cache.get(seq)
+    if hit is None:
+        problem = model.sequence_problem(seq, U, Y, xbar)
+        hit = (problem, model.sequence_qp(problem, None, bound=True, multipliers=True))
+        cache[seq] = hit
+    return hit
 
 
 @dataclass(frozen=True)
@@ -212,17 +241,23 @@ def search_sequences(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, incu
                 nodes -= 1
                 budget = "" if time_budget is None else f" of {time_budget:g} s"
                 return stop(f"time budget{budget} (certify_time_budget) exhausted after {nodes} node QPs")
-            problem = model.sequence_problem(seq, U, Y, xbar)
-            solved = model.sequence_qp(problem, None, bound=True)
+            problem, solved = node_qp(model, seq, U, Y, xbar)
             if solved is None:
                 return stop(f"the QP of the mode prefix {seq} has no certified answer")
-            theta, lower = solved
+            theta, lower = solved[:2]
             if theta is None:
                 continue  # proven infeasible: no sequence begins with it
             if len(seq) == T:
                 x0, W, _, cost = leaf_trajectory(model, seq, theta, problem, U, Y, xbar)
                 if cost < best_cost:
                     best_modes, best_cost, best_theta, improved = np.array(seq, dtype=int), cost, (x0, W), True
+                if lower < best_cost - allowed(best_cost):
+                    # a leaf's bound below the gap to prove would leave the window uncertified:
+                    # proven again from more multipliers (Clarabel's, exact KKT solutions of more
+                    # active sets), any of which gives a valid bound
+                    again = model.sequence_qp(problem, theta, bound=True, robust=True)
+                    if again is not None and again[0] is not None:
+                        lower = max(lower, again[1])
                 closed = min(closed, lower)
             elif lower >= best_cost - allowed(best_cost):
                 closed = min(closed, lower)

@@ -311,7 +311,11 @@ class MHEObserver(Observer):
        least-squares map has a direction whose cost over ``delta`` is below ``epsilon`` (the
        backlash of model (16)), the QP of that sequence with the separation row, one per
        admissible direction; it can never prove uniqueness, which needs every mode sequence;
-    2. the norm-2 MIQP (DAQP, its own workspace, proximal weight
+    2. norm 2: the branch and bound over mode prefixes of :mod:`hybobs_opt.mhe.unique_search`
+       (the optimum's node QPs re-used, a closed-form bound per separation direction, the exact
+       QP with the separation row at full sequences), which decides "unique" or a verified
+       alternative, and otherwise leaves the decision to
+    3. the norm-2 MIQP (DAQP, its own workspace, proximal weight
        :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`) with the objective cutoff
        ``J* + epsilon`` widened by the proximal term's largest value over the box (and
        ``abs_subopt``): "infeasible" (every node pruned) proves that each separated state costs
@@ -324,7 +328,7 @@ class MHEObserver(Observer):
        ``zero_tol`` below the proximal weight: otherwise DAQP treats the nearly singular Hessian
        as singular and silently switches to proximal iterations, whose answers were measured
        to be wrong by 1e-11 of the output scale, ten times epsilon;
-    3. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
+    4. norms 1 / inf: the same MIQP is a sufficient bound, since ``J_1 >= ||r||_2`` and
        ``J_inf >= ||r||_2 / sqrt(N)`` (``N`` residual entries): if no separated state has
        ``||r||_2^2 <= thr^2`` (``N thr^2``) the state is unique without the MILP.  Otherwise the
        separated MILP (HiGHS with ``objective_bound`` and ``objective_target`` at
@@ -356,7 +360,11 @@ class MHEObserver(Observer):
     3. Otherwise the MIQP/MILP is solved with the incumbent as warm start (DAQP: proximal centre
        and objective cutoff; HiGHS: MIP start).  ``solved_by`` is ``"branch-and-bound"`` when the
        solver's point is returned and ``"branch-and-bound (incumbent)"`` when the solver proves
-       that nothing beats the incumbent.
+       that nothing beats the incumbent.  Norm 2: when the MIQP's certificate (``gap_bound``
+       below, at least its value at the centre of the variable bounds) exceeds the gap the
+       incumbent must prove, the MIQP is not solved and the exact prefix search of
+       :mod:`hybobs_opt.mhe.certify` certifies the window (``"warm start, certified by prefix
+       search"``, or ``"prefix search"`` when it finds a better sequence).
 
     DAQP needs a positive-definite Hessian; eq. (10) has none in the binaries and the big-M
     copies.  The MIQP therefore minimises ``J / J_s + eps ||v - v_bar||^2`` with ``v_bar`` the
@@ -1040,6 +1048,13 @@ class MHEObserver(Observer):
                 return best.replace(gap_bound=best.cost)  # the optimum is >= 0
         passes = self.settings.prox_passes if self.norm == "2" else 1
         info = None
+        if self.norm == "2" and best is not None and self._least_gap_bound() > self._allowed_gap(best.cost):
+            # the proximal certificate of any pass is at least its value at the box's centre: it
+            # cannot prove the gap of this incumbent or of anything cheaper, so the prefix search
+            # certifies the window without the MIQP
+            passes = 0
+            info = WindowResult(Status.NOT_CERTIFIED, solver=self.solver, solver_detail={
+                "status": "not solved (its proximal certificate cannot prove the gap: prefix search)"})
         for k in range(passes):
             info, moved = self._solve_once(U, Y, x_start, Xg, mg, Wg, lo, hi, rp, incumbent=best)
             if info.status == Status.INCUMBENT_OPTIMAL:
@@ -1068,6 +1083,11 @@ class MHEObserver(Observer):
                 return info
             return WindowResult(Status.NOT_CERTIFIED, solver=self.solver, reason="no certified solve")
         return best
+
+    def _least_gap_bound(self) -> float:
+        """The least :meth:`_gap_bound` over every centre in the variable bounds (norm 2)."""
+        enc = self.enc
+        return float(self._Js * (self._backend.abs_subopt + float(self._eps @ (0.5 * (enc.ub - enc.lb)) ** 2)))
 
     def _allowed_gap(self, cost: float | None) -> float:
         """The optimality gap a certified window must prove (norm 2): relative, with the zero-cost floor."""

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from ..defaults import MHE_UNIQUENESS_MAX_SOLVES
+from ..defaults import MHE_CERTIFY_MAX_NODES, MHE_UNIQUENESS_MAX_SOLVES
 from ..errors import SolverError
 from ..tolerances import (
     MHE_FEASIBILITY_TOL,
@@ -475,7 +475,29 @@ class SeparatedProgram:
                     if alt["cost"] <= thr_lo:
                         return {**base, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "optimal mode sequence",
                                 "separated_cost": alt["cost"], "alternative": alt}
-        # 2. the separated mixed-integer programs over every mode sequence
+        # 2. norm 2: the branch and bound over mode prefixes with per-direction bounds
+        #    (:mod:`hybobs_opt.mhe.unique_search`); undecided, the separated MIQP below decides
+        prefix = None
+        if self.norm == "2" and self.model.extension is None:
+            from .unique_search import search_uniqueness
+
+            prefix = search_uniqueness(self.model, U, Y, xbar, xs, allowed, delta, thr_lo, thr_hi,
+                                       alternative=lambda x0, modes, W: self.alternative(x0, modes, U, Y, xbar, W, xs),
+                                       max_nodes=MHE_CERTIFY_MAX_NODES)
+            found = {"prefix_search": prefix.summary()}
+            if prefix.unique:
+                return {**base, **found, "status": UniquenessOutcome.UNIQUE, "decided_by": "prefix search",
+                        "separated_cost_bound": thr_hi,
+                        "separated_cost": min((c["cost"] for c in cands), default=None)}
+            if prefix.alternative is not None and prefix.alternative["cost"] <= thr_lo:
+                J_gap = J - max((opt.gap_bound or 0.0), 0.0) - eps
+                if prefix.alternative["cost"] < J_gap:
+                    return {**base, **found, "status": UniquenessOutcome.NOT_CERTIFIED, "separated_cost":
+                            prefix.alternative["cost"], "reason": "a separated state beats the certified optimum "
+                                                                  "(optimum not global)"}
+                return {**base, **found, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "prefix search",
+                        "separated_cost": prefix.alternative["cost"], "alternative": prefix.alternative}
+        # 3. the separated mixed-integer programs over every mode sequence
         Uf, Yf = U.reshape(-1), Y.reshape(-1)
         lo, hi = enc.bounds(Uf)
         rp = res.offset(Yf, Uf, xbar, self.model.params)
@@ -556,6 +578,8 @@ class SeparatedProgram:
                 child[dstart + k * s_modes + int(modes[k])] = 0.0
                 stack.append(child)
         detail["solver_solves"] = solves
+        if prefix is not None:
+            detail["prefix_search"] = prefix.summary()
         if decided:
             by = "branch-and-bound" if self.norm == "2" else "norm-2 bound (MIQP)"
             return {**base, **detail, "status": UniquenessOutcome.UNIQUE, "decided_by": by,

@@ -390,7 +390,8 @@ class WindowModel:
             return x0p, Wp, states
         return x0p, Wp, states, lower
 
-    def sequence_qp(self, problem: tuple, theta0: np.ndarray | None = None, bound: bool = False, robust: bool = False):
+    def sequence_qp(self, problem: tuple, theta0: np.ndarray | None = None, bound: bool = False, robust: bool = False,
+                    multipliers: bool = False):
         """The QP of :meth:`sequence_problem`'s ``problem``: ``(theta, lower)``, ``(None, inf)`` or ``None``.
 
         Parameters
@@ -416,6 +417,9 @@ class WindowModel:
             ``(None, inf)``: infeasible, proven by a Farkas vector that re-checks in numpy
             (:meth:`_infeasibility_proven`); ``None``: no certified answer (DAQP and, with
             ``bound``, Clarabel failed, or a point or a verdict did not pass the checks).
+            With ``bound`` and ``multipliers`` a third element: multipliers ``lam >= 0`` of the
+            rows (cost units) paired with ``theta``, for bounds of the caller's own by weak
+            duality (``None`` when infeasible).
         """
         import daqp
 
@@ -431,7 +435,7 @@ class WindowModel:
         lam = np.asarray(info.get("lam", ()), dtype=float)
         status = daqp_flag(flag)
         if status == Status.INFEASIBLE and self._infeasibility_proven(G, gg, lam, lp=False):
-            return None, np.inf
+            return (None, np.inf, None) if multipliers and bound else (None, np.inf)
         ok = status == Status.OPTIMAL and np.all(np.isfinite(theta)) and np.isfinite(fval) and np.all(np.isfinite(lam))
         if ok:
             theta = np.asarray(theta, dtype=float)
@@ -447,7 +451,7 @@ class WindowModel:
                     continue
                 if fallback == "infeasible":
                     if self._infeasibility_proven(G, gg, np.zeros(gg.size)):
-                        return None, np.inf
+                        return (None, np.inf, None) if multipliers else (None, np.inf)
                     continue
                 theta, lam = fallback[0], fallback[1] / scale  # multipliers of ||R theta + r||^2 / scale
                 ok = np.max(G @ theta - gg, initial=0.0) <= MHE_FEASIBILITY_TOL
@@ -477,7 +481,7 @@ class WindowModel:
             if theta_p is not theta:
                 cost_p, lower_p = proven(theta_p, lam_p)
                 if lower_p > lower:
-                    theta, lower = theta_p, lower_p
+                    theta, lower, lam = theta_p, lower_p, lam_p
         if robust and cost - lower > 0.1 * MHE_CERTIFIED_RTOL * cost:
             # still weak: DAQP's multipliers carry the rounding of its last pivots (the bound of one
             # QP of model (16) was 5.2e-7 with one BLAS and -3.4e-4 with another).  Clarabel's
@@ -501,6 +505,8 @@ class WindowModel:
                     solved = _kkt_solve(H, f, G, gg, act)
                     if solved is not None:
                         lower = max(lower, proven(*solved)[1])
+        if multipliers:
+            return theta, lower, scale * lam
         return theta, lower
 
     @staticmethod

@@ -26,6 +26,7 @@ from hybobs_opt.mhe.backends.base import BackendOutcome
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe import MHESettings
 from hybobs_opt.mhe.observer import MHEObserver
+from hybobs_opt.mhe import unique_search
 from hybobs_opt.regions import analyse_observability
 from hybobs_opt.studies.paper002_powertrain.systems import SCENARIO_TORQUES, backlash_scenario, powertrain3
 from hybobs_opt.defaults import MHE_UNIQUENESS_DELTA
@@ -111,7 +112,7 @@ def cycling_steps(obs, U, Y) -> tuple[int, int, int]:
 
 
 @pytest.mark.parametrize("T", [4, 5])
-def test_daqp_defaults_do_not_cycle_on_a_4_mode_system(T):
+def test_daqp_defaults_do_not_cycle_on_a_4_mode_system(T, monkeypatch):
     """36 noisy windows of a 4-mode system: DAQP's own cycle_tol (10) stops the branch-and-bound
     with exit -2 on some of them; the observer's default (MHE_DAQP_CYCLE_TOL) on none."""
     system = slab_pwa(1, 2, 4, blind_probability=None, output_after_dynamics=True)
@@ -121,7 +122,9 @@ def test_daqp_defaults_do_not_cycle_on_a_4_mode_system(T):
     cycled, fallbacks, active = cycling_steps(MHEObserver(system, T, big_m=bm, fit_tolerance=5 * 0.02), U, Y)
     assert active == 36 and cycled == 0 and fallbacks == 0
     # the same data with DAQP's default do cycle: the system exercises the defect (with the exact
-    # prefix search of issue 18 limited to one node QP, which would otherwise certify those windows)
+    # prefix search of issue 18 limited to one node QP, which would otherwise certify those windows;
+    # the MIQP is forced: the observer skips it when its proximal certificate cannot prove the gap)
+    monkeypatch.setattr(MHEObserver, "_least_gap_bound", lambda self: 0.0)
     old, _, _ = cycling_steps(MHEObserver(system, T, big_m=bm, settings=MHESettings(
         check_uniqueness=False, certify_max_nodes=1, solver_options={"cycle_tol": 10})), U, Y)
     assert old >= 1
@@ -141,7 +144,10 @@ class _NaNModel:
         return np.zeros(self.nv), 0.0, 1, {"nodes": 1, "iterations": 1, "lam": np.array([np.nan])}
 
 
-def test_nan_points_and_multipliers_are_rejected():
+def test_nan_points_and_multipliers_are_rejected(monkeypatch):
+    # the prefix search of norm 2 would decide these windows before the MIQP: left undecided here
+    monkeypatch.setattr(unique_search, "search_uniqueness",
+                        lambda *a, **k: unique_search.UniquenessSearch(False, None, "skipped", 0, 0, 0, 0.0))
     system = mirror_system()
     U, _, Y, _ = mirror_data(system, N=6)
     # (a) the uniqueness MIQP returns a NaN point
