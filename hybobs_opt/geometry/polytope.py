@@ -21,7 +21,7 @@ import numpy as np
 
 from .._validate import as_int, as_items, as_matrix, as_names, as_vector
 from ..defaults import EXACT_VOLUME_MAX_DIM
-from ..errors import ModelError
+from ..errors import ModelError, SolverError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
@@ -41,11 +41,12 @@ from ._common import (
     _row_normalised,
     _unit_rows,
 )
-from .lp import row_range, solve_lp
+from .lp import chebyshev_lp, row_range, solve_lp
 from .projection import _iterative_hull, image_of
 from .redundancy import facet_verdict, facets_from_vertices, irredundant
 from .vertices import COUNTERS as LIBRARY_COUNTERS
 from .vertices import enumerate_vertices, hull_rows
+from ._hull_cycle import volume_by_facets
 from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 
 
@@ -53,6 +54,12 @@ from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 #: checked vertex set (measured in 2-6 D, benchmarks/bench_polytope.py); above it the LPs decide,
 #: since the number of vertices can grow exponentially with the dimension, one LP per row cannot.
 LIBRARY_REDUNDANCY_MAX_DIM: int = 6
+
+#: From this dimension the exact volume is summed over the facets, one checked (d-1)-dimensional
+#: hull each (:func:`~hybobs_opt.geometry._hull_cycle.volume_by_facets`), instead of one hull of all
+#: the vertices: qhull's d-dimensional triangulation of a polytope's vertices does not close up in
+#: 5-6 D, and costs more than the facets' hulls from 4-D (benchmarks/bench_polytope.py).
+FACET_VOLUME_MIN_DIM: int = 4
 
 
 def _check_polytope(value, field: str) -> None:
@@ -322,7 +329,10 @@ class Polytope:
     def chebyshev_ball(self, scale: np.ndarray | None = None) -> tuple[np.ndarray | None, float]:
         """Centre and radius of the largest inscribed ball, optionally in coordinates ``z / scale``.
 
-        Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.
+        Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.  One LP
+        (:func:`~hybobs_opt.geometry.lp.chebyshev_lp`: DAQP, its optimum accepted with its
+        multipliers as a dual certificate checked in numpy); any other answer goes to the
+        certified HiGHS path (:func:`~hybobs_opt.geometry.lp.solve_lp`).
 
         Parameters
         ----------
@@ -338,11 +348,17 @@ class Polytope:
             Radius in the scaled coordinates (``-inf`` empty, ``inf`` unbounded).
         """
         A = self.A if scale is None else self.A * np.asarray(scale, dtype=float)[None, :]
-        norms = np.linalg.norm(A, axis=1)
+        norms = np.sqrt(np.einsum("ij,ij->i", A, A))
         d = self.dim
+        A_ub = np.empty((A.shape[0], d + 1))
+        A_ub[:, :d] = A
+        A_ub[:, d] = norms
+        fast = chebyshev_lp(A_ub, self.b)
+        if fast is not None:
+            centre = fast[:d] if scale is None else fast[:d] * np.asarray(scale, dtype=float)
+            return centre, float(fast[d])
         c = np.zeros(d + 1)
         c[-1] = -1.0
-        A_ub = np.hstack([A, norms[:, None]])
         res = solve_lp(c, A_ub, self.b, bounds=[(None, None)] * d + [(None, None)], problem="Chebyshev ball")
         if res.status == "infeasible":
             return None, -np.inf
@@ -827,8 +843,11 @@ class Polytope:
         Parameters
         ----------
         method : {"auto", "exact", "monte-carlo"}
-            ``"exact"``: qhull volume of the checked vertices (any dimension; qhull's cost
-            grows steeply from 5-D);
+            ``"exact"``: the checked vertices, then qhull's hull of them checked as a closed
+            triangulation covering the boundary once (the sum of its simplices' pyramids), or,
+            from FACET_VOLUME_MIN_DIM (4-D) up, the sum over the facets of ``depth * area / d``
+            with each facet's area from its own checked hull (any dimension; the cost grows
+            steeply from 5-D);
             ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
             ``"auto"``: exact when ``d <= EXACT_VOLUME_MAX_DIM`` (4).
         n_samples : int
@@ -853,18 +872,7 @@ class Polytope:
         if method == "auto":
             method = "exact" if d <= EXACT_VOLUME_MAX_DIM else "monte-carlo"
         if method == "exact":
-            V = self.vertices()
-            if len(V) <= d:
-                return VolumeEstimate(0.0, 0.0, "exact")
-            lo, hi = V.min(axis=0), V.max(axis=0)
-            half = np.where(hi > lo, (hi - lo) / 2, 1.0)
-            Y = (V - (lo + hi) / 2) / half
-            if d == 1:
-                return VolumeEstimate(float(hi[0] - lo[0]), 0.0, "exact")
-            sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
-            if np.sum(sv > AFFINE_HULL_RTOL) < d:
-                return VolumeEstimate(0.0, 0.0, "exact")
-            return VolumeEstimate(float(checked_hull_volume(Y) * np.prod(half)), 0.0, "exact")
+            return VolumeEstimate(self._exact_volume(), 0.0, "exact")
         box = _box(self.A, self.b)
         if box is None:
             return VolumeEstimate(0.0, 0.0, "monte-carlo", int(n_samples))
@@ -873,6 +881,43 @@ class Polytope:
             raise ModelError("polytope", "a bounded set for the volume", "an unbounded set")
         value, stderr = monte_carlo_volume(self.contains, lo, hi, n_samples, rng)
         return VolumeEstimate(value, stderr, "monte-carlo", int(n_samples))
+
+    def _exact_volume(self) -> float:
+        """The exact volume of :meth:`volume` (its docstring): checked vertices, then checked hulls."""
+        d = self.dim
+        enum = enumerate_vertices(self.A, self.b, op="volume")
+        if enum is not None and enum.status == "unbounded":
+            raise ModelError("polytope", "a bounded set for the volume", "an unbounded set")
+        V = enum.points if enum is not None else self.vertices()
+        if len(V) <= d:
+            return 0.0
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        if d == 1:
+            return float(hi[0] - lo[0])
+        half = np.where(hi > lo, (hi - lo) / 2, 1.0)
+        Y = (V - (lo + hi) / 2) / half
+        sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
+        if np.sum(sv > AFFINE_HULL_RTOL) < d:
+            return 0.0
+        by_facets = enum is not None and enum.status == "bounded"
+
+        def facets() -> float | str:
+            v = volume_by_facets(enum.checked.Y, enum.scaled.A, enum.scaled.b, enum.checked.tight)
+            return v if isinstance(v, str) else float(v * np.prod(enum.scaled.half))
+
+        if by_facets and d >= FACET_VOLUME_MIN_DIM:
+            v = facets()
+            if not isinstance(v, str):
+                return v
+        try:
+            return float(checked_hull_volume(Y) * np.prod(half))
+        except SolverError:
+            if not by_facets or d >= FACET_VOLUME_MIN_DIM:
+                raise
+            v = facets()
+            if isinstance(v, str):
+                raise
+            return v
 
     def chebyshev_ball_in_subspace(
         self, E: np.ndarray, e: np.ndarray, scale: np.ndarray | None = None

@@ -20,6 +20,7 @@ from scipy.optimize import linprog
 from scipy.spatial import ConvexHull
 
 from hybobs_opt.errors import ModelError
+from hybobs_opt.geometry import _hull_cycle as hcmod
 from hybobs_opt.geometry import vertices as vmod
 from hybobs_opt.geometry.polytope import Polytope
 
@@ -296,11 +297,12 @@ def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
     np.testing.assert_array_equal(got.contains(X), ref.contains(X))
     import scipy.spatial
 
-    class Merged:  # qhull's answer with its first facet dropped: the next path must answer
-        def __init__(self, Y):
-            self.equations = scipy.spatial.ConvexHull(Y).equations[1:]
+    class Merged:  # qhull's answer with its first simplex dropped: the next path must answer
+        def __init__(self, Y, qhull_options=None):
+            hull = scipy.spatial.ConvexHull(Y, qhull_options=qhull_options)
+            self.equations, self.simplices = hull.equations[1:], hull.simplices[1:]
 
-    monkeypatch.setattr(vmod, "ConvexHull", Merged)
+    monkeypatch.setattr(hcmod, "ConvexHull", Merged)
     counters.reset()
     got = Polytope.from_vertices(pts)
     assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
@@ -329,18 +331,40 @@ def test_exact_volume_equals_qhull_of_brute_force_vertices_and_monte_carlo(d, co
     assert abs(vol.value - mc) < 5 * se
 
 
-def test_volume_check_catches_a_wrong_qhull_volume(monkeypatch):
-    import hybobs_opt.geometry.volume as volmod
-
+@pytest.mark.parametrize("corrupt", ["drop", "double", "flip", "facet"])
+def test_hull_check_catches_a_wrong_qhull_triangulation(monkeypatch, corrupt):
+    """qhull's triangulation of a box corrupted: the cycle check refuses it; the facets answer."""
     class Liar:
         def __init__(self, Y, qhull_options=None):
-            self._h = ConvexHull(Y, qhull_options=qhull_options)
-            self.simplices = self._h.simplices
-            self.volume = self._h.volume * (1.1 if qhull_options is None else 1.0)
+            hull = ConvexHull(Y, qhull_options=qhull_options)
+            eq, S = hull.equations, hull.simplices.copy()
+            if Y.shape[1] == 3:  # only the box's own hull; its facets' 2-D hulls are left alone
+                if corrupt == "drop":  # one triangle of a face missing
+                    eq, S = eq[1:], S[1:]
+                elif corrupt == "double":  # every triangle twice: the boundary covered twice
+                    eq, S = np.vstack([eq, eq]), np.vstack([S, S[:, ::-1]])
+                elif corrupt == "flip":  # one triangle's vertex replaced by a point off its face
+                    S[0, 0] = next(k for k in range(8) if abs(eq[0, :3] @ Y[k] + eq[0, 3]) > 0.1)
+                else:  # a whole face missing
+                    keep = np.any(np.abs(eq[:, :3] - eq[0, :3]) > 1e-9, axis=1)
+                    eq, S = eq[keep], S[keep]
+            self.equations, self.simplices = eq, S
 
-    monkeypatch.setattr(volmod, "ConvexHull", Liar)
-    # the plain hull's volume is refused; the joggled (QJ) hull's passes, within its joggle
-    assert Polytope.from_box([0, 0, 0], [1, 2, 3]).volume().value == pytest.approx(6.0, rel=1e-9)
+    box = Polytope.from_box([0, 0, 0], [1, 2, 3])
+    Y = box.vertices() - box.vertices().mean(axis=0)
+    monkeypatch.setattr(hcmod, "ConvexHull", Liar)
+    hull = Liar(Y)
+    eq = hull.equations
+    assert isinstance(hcmod.check_triangulation(Y, Y.mean(axis=0), hull.simplices, eq[:, :-1], -eq[:, -1]), str)
+    got = hcmod.checked_hull(Y)
+    if corrupt in ("drop", "double"):  # every face's plane still there: the ridge closure proves them
+        assert got.how == "facets" and got.volume == pytest.approx(6.0, rel=1e-12) and got.G.shape == (6, 3)
+    else:  # a face's plane missing (or a triangle off its plane): refused
+        assert isinstance(got, str)
+    assert box.volume().value == pytest.approx(6.0, rel=1e-12)  # by the facets' 2-D hulls if need be
+    pts = np.vstack([box.vertices(), [[0.5, 1.0, 1.5]]])
+    H = Polytope.from_vertices(pts)  # cdd (3-D) answers: the box's 6 rows
+    assert H.n_constraints == 6 and H.contains(np.array([[0.5, 1.9, 2.9], [0.5, 2.1, 1.0]])).tolist() == [True, False]
 
 
 def test_remove_redundant_with_a_caller_scale_decides_as_the_lp_path(monkeypatch, counters):
