@@ -157,6 +157,8 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
         return CheckedHull(G, g, tight, hi - lo, "simplices")
     if n <= d:
         return "fewer than d + 1 points: not full-dimensional"
+    if d == 2:
+        return _polygon(Y)
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -174,6 +176,46 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     if not isinstance(cycle, str):
         return CheckedHull(G[reps], g[reps], tight, cycle, "simplices")
     return _ridge_closure(Y, G[reps], g[reps], tight, depth)
+
+
+def _polygon(Y: np.ndarray) -> CheckedHull | str:
+    """The 2-D case of :func:`checked_hull`: qhull's counter-clockwise hull vertices, checked.
+
+    Every point on the inner side of every edge (VERTEX_CHECK_RTOL), every turn strictly to the
+    left (the sine of the angle between consecutive edges above FULL_SIMPLEX_RTOL, so the
+    vertices are distinct and no two edges collinear) and the turns summing to one full turn
+    (winding number 1): the polygon is then convex, its vertices are points of ``Y`` and every
+    point lies in it, so it is ``conv(Y)``, one row per edge.
+    """
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            hull = ConvexHull(Y)
+    except (QhullError, ValueError) as exc:
+        return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+    V = Y[hull.vertices]
+    k = V.shape[0]
+    if k < 3:
+        return "fewer than 3 hull vertices"
+    nxt = np.arange(1, k + 1)
+    nxt[-1] = 0
+    E = V[nxt] - V  # edge j from vertex j to vertex j + 1
+    L = np.sqrt(E[:, 0] * E[:, 0] + E[:, 1] * E[:, 1])
+    F = E[nxt]
+    cross = E[:, 0] * F[:, 1] - E[:, 1] * F[:, 0]
+    if not (L.min() > FULL_DIMENSION_RTOL and np.all(cross > FULL_SIMPLEX_RTOL * L * L[nxt])):
+        return "two hull vertices coincide, or a turn of the hull is not strictly to the left"
+    if abs(float(np.arctan2(cross, E[:, 0] * F[:, 0] + E[:, 1] * F[:, 1]).sum()) - 2.0 * np.pi) > 1.0:
+        return "the hull winds more than once"
+    G = np.empty((k, 2))  # outward normals of a counter-clockwise polygon
+    G[:, 0] = E[:, 1] / L
+    G[:, 1] = -E[:, 0] / L
+    g = G[:, 0] * V[:, 0] + G[:, 1] * V[:, 1]
+    slack = g[:, None] - G @ Y.T
+    if slack.min() < -VERTEX_CHECK_RTOL:
+        return "a point violates an edge"
+    area = 0.5 * float(np.sum(V[:, 0] * V[nxt, 1] - V[nxt, 0] * V[:, 1]))
+    return CheckedHull(G, g, slack <= VERTEX_TIGHT_RTOL, area, "simplices")
 
 
 def _ridge_closure(Y, G, g, tight, depth) -> CheckedHull | str:

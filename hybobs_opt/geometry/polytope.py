@@ -42,6 +42,7 @@ from ._common import (
     _unit_rows,
 )
 from .lp import chebyshev_lp, row_range, solve_lp
+from . import projection as _projection
 from .projection import _iterative_hull, image_of
 from .redundancy import facet_verdict, facets_from_vertices, irredundant
 from .vertices import COUNTERS as LIBRARY_COUNTERS
@@ -54,6 +55,13 @@ from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 #: checked vertex set (measured in 2-6 D, benchmarks/bench_polytope.py); above it the LPs decide,
 #: since the number of vertices can grow exponentially with the dimension, one LP per row cannot.
 LIBRARY_REDUNDANCY_MAX_DIM: int = 6
+
+#: Largest source dimension in which ``project(..., method="auto")`` onto 2 coordinates takes the
+#: checked vertices, projected, and their checked 2-D hull (no LPs: 1-3 x the cost of cddlib's or
+#: qhull's vertices plus a 2-D hull at d = 3-6, against 30-180 x for the LP hull,
+#: benchmarks/bench_polytope.py); above it the vertex count can grow too fast and the LP hull
+#: (about one LP per facet and vertex of the image) answers.
+VERTEX_PROJECTION_MAX_DIM: int = 6
 
 #: From this dimension the exact volume is summed over the facets, one checked (d-1)-dimensional
 #: hull each (:func:`~hybobs_opt.geometry._hull_cycle.volume_by_facets`), instead of one hull of all
@@ -719,12 +727,13 @@ class Polytope:
         method : {"auto", "hull", "fm", "vertices"}
             ``"hull"``: iterative convex hull of support points (bounded images only);
             ``"fm"``: Fourier-Motzkin elimination with LP redundancy removal after each step;
-            ``"auto"``: ``"hull"`` when the target dimension is ``<= hull_max_dim`` and the image
-            is bounded, ``"fm"`` otherwise;
-            ``"vertices"`` (opt-in, bounded sets of small dimension): the checked vertices of
+            ``"auto"``: for a 2-D target (with ``hull_max_dim >= 2``) of a bounded set of dimension
+            at most :data:`VERTEX_PROJECTION_MAX_DIM` (6), ``"vertices"`` (when the library vertex
+            enumeration passes its check); otherwise ``"hull"`` when the target dimension is
+            ``<= hull_max_dim`` and the image is bounded, ``"fm"`` otherwise;
+            ``"vertices"`` (bounded sets of small dimension): the checked vertices of
             :meth:`vertices`, projected, and the checked hull of :meth:`from_vertices` -- exact,
-            no LPs, but the vertex count grows quickly with the source dimension.  ``"auto"``
-            does not choose it: the analyses keep the path their results were validated on.
+            no LPs, but the vertex count grows quickly with the source dimension.
         hull_max_dim : int, optional
             Threshold of ``"auto"`` (default: :data:`hybobs_opt.geometry.projection.HULL_PROJECTION_MAX_DIM`).
 
@@ -795,6 +804,13 @@ class Polytope:
             if V.shape[0] == 0:
                 return Polytope.empty(len(idx), names)
             return Polytope.from_vertices(V[:, idx], names)
+        hull_dim = _projection.HULL_PROJECTION_MAX_DIM if hull_max_dim is None else hull_max_dim
+        if method == "auto" and E.shape[0] == 0 and len(idx) == 2 <= hull_dim and d <= VERTEX_PROJECTION_MAX_DIM:
+            enum = enumerate_vertices(self.A, self.b, op="projection")
+            if enum is not None and enum.status == "empty":
+                return Polytope.empty(len(idx), names)
+            if enum is not None and enum.status == "bounded":
+                return Polytope.from_vertices(enum.points[:, idx], names)
         img = image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
         if img is None:
             return Polytope.empty(len(idx), names)

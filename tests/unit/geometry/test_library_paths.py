@@ -277,7 +277,7 @@ def test_from_vertices_equals_the_hull_oracle(d, counters):
     margin = np.min((H.b[None, :] - X @ H.A.T), axis=1)
     X = X[np.abs(margin) > 1e-6 * np.max(hi - lo)]
     np.testing.assert_array_equal(H.contains(X), [in_hull(pts, x) for x in X])
-    source = "cdd" if d <= vmod.CDD_FIRST_MAX_DIM else "qhull"  # qhull first from 4-D up
+    source = "cdd" if 3 <= d <= vmod.CDD_FIRST_MAX_DIM else "qhull"  # qhull first in 2-D and from 4-D up
     assert counters.accepted[f"from_vertices:{source}"] == 1 and not counters.fallbacks
 
 
@@ -300,7 +300,7 @@ def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
     class Merged:  # qhull's answer with its first simplex dropped: the next path must answer
         def __init__(self, Y, qhull_options=None):
             hull = scipy.spatial.ConvexHull(Y, qhull_options=qhull_options)
-            self.equations, self.simplices = hull.equations[1:], hull.simplices[1:]
+            self.equations, self.simplices, self.vertices = hull.equations[1:], hull.simplices[1:], hull.vertices
 
     monkeypatch.setattr(hcmod, "ConvexHull", Merged)
     counters.reset()
@@ -348,7 +348,7 @@ def test_hull_check_catches_a_wrong_qhull_triangulation(monkeypatch, corrupt):
                 else:  # a whole face missing
                     keep = np.any(np.abs(eq[:, :3] - eq[0, :3]) > 1e-9, axis=1)
                     eq, S = eq[keep], S[keep]
-            self.equations, self.simplices = eq, S
+            self.equations, self.simplices, self.vertices = eq, S, hull.vertices
 
     box = Polytope.from_box([0, 0, 0], [1, 2, 3])
     Y = box.vertices() - box.vertices().mean(axis=0)
