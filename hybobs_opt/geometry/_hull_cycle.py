@@ -31,7 +31,6 @@ as fast as general ones.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,17 +50,17 @@ from ..tolerances import (
 #: centroid): rounding changes ``det`` by ~1e-16 d of that bound, far below.
 FULL_SIMPLEX_RTOL: float = 1e-9
 
-_GENERIC = 1.0 + np.modf(0.6180339887498949 * np.arange(1, 18))[0]
+def _generic(n: int) -> np.ndarray:
+    """``n`` fixed weights in [1, 2), the same on every machine (PCG64 with a fixed seed is
+    specified bit for bit, and a longer draw keeps the prefix): a key ``r @ w`` of integer rows
+    collides for distinct rows only by accident, and every use refuses, never accepts, on one."""
+    w = _WEIGHTS[0]
+    if n > w.size:
+        w = _WEIGHTS[0] = 1.0 + np.random.Generator(np.random.PCG64(39)).random(2 * n)
+    return w[:n]
 
 
-def _permutation_parity(S: np.ndarray) -> np.ndarray:
-    """+1 / -1: the parity of the permutation sorting each row of ``S`` (distinct entries)."""
-    d = S.shape[1]
-    inversions = np.zeros(S.shape[0], dtype=np.int64)
-    for i in range(d):
-        for j in range(i + 1, d):
-            inversions += S[:, i] > S[:, j]
-    return np.where(inversions % 2 == 0, 1.0, -1.0)
+_WEIGHTS = [1.0 + np.random.Generator(np.random.PCG64(39)).random(1024)]
 
 
 def _propagate(orient, oa, ob, pa, pb):
@@ -160,8 +159,7 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     if d == 2:
         return _polygon(Y)
     try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore", RuntimeWarning)
+        with np.errstate(all="ignore"):
             hull = ConvexHull(Y, qhull_options=options)
     except (QhullError, ValueError) as exc:
         return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
@@ -188,8 +186,7 @@ def _polygon(Y: np.ndarray) -> CheckedHull | str:
     point lies in it, so it is ``conv(Y)``, one row per edge.
     """
     try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore", RuntimeWarning)
+        with np.errstate(all="ignore"):
             hull = ConvexHull(Y)
     except (QhullError, ValueError) as exc:
         return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
@@ -282,7 +279,7 @@ def _facets(Y: np.ndarray, c: np.ndarray, S: np.ndarray, G: np.ndarray, g: np.nd
         return "a plane is not finite"
     # the simplices of one facet: equal planes on the grid of VERTEX_SAME_RTOL (a generic linear key of
     # the grid rows, a 1-D sort); each simplex's vertices must lie on its group's first plane
-    key = np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL) @ _GENERIC[: d + 1]
+    key = np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL) @ _generic(d + 1)
     _, reps, group = np.unique(key, return_index=True, return_inverse=True)
     rep = reps[group.ravel()]
     Gr, gr = G[reps], g[reps]
@@ -294,7 +291,9 @@ def _facets(Y: np.ndarray, c: np.ndarray, S: np.ndarray, G: np.ndarray, g: np.nd
     if np.any(gr - Gr @ c <= FULL_DIMENSION_RTOL):
         return "the centroid lies on a facet's plane"
     tight = slack <= VERTEX_TIGHT_RTOL
-    if np.unique(np.packbits(tight, axis=1), axis=0).shape[0] != reps.size:
+    # two facets with the same tight points are one: a generic key of each tight set (equal sets, equal
+    # keys; distinct sets colliding would only refuse the answer)
+    if np.unique(tight @ _generic(n)).size != reps.size:
         return "duplicate facets"
     return reps, tight, gr - Gr @ c
 
@@ -303,45 +302,59 @@ def _cycle(Y: np.ndarray, c: np.ndarray, S: np.ndarray) -> str | float:
     """Points 2-4: the simplices close up and cover the boundary once; their volume, or why not."""
     n, d = Y.shape
     m = S.shape[0]
-    W = Y[S] - c  # (m, d, d): the simplices' vertices about the centroid
+    Ss = np.sort(S, axis=1)  # orientations are taken relative to the sorted vertex order
+    W = Y[Ss] - c  # (m, d, d): the simplices' vertices about the centroid
     det = np.linalg.det(W)
     # a full simplex: |det| (d! times its pyramid's volume, >= depth (d-1)! area) above FULL_SIMPLEX_RTOL
     # times Hadamard's bound, so that rounding cannot flip its sign, the orientation
-    hadamard = np.prod(np.sqrt(np.einsum("mkd,mkd->mk", W, W)), axis=1)
-    full = np.abs(det) > FULL_SIMPLEX_RTOL * hadamard
+    full = det * det > FULL_SIMPLEX_RTOL**2 * np.prod(np.einsum("mkd,mkd->mk", W, W), axis=1)
     if not full.any():
         return "every simplex is degenerate"
-    orient = np.where(full, np.sign(det), 0.0) * _permutation_parity(S)
-    Ss = np.sort(S, axis=1)
-    base = np.int64(n)
-    if float(n) ** d < 2.0**62:  # one integer per sorted simplex / ridge: a 1-D sort, not a sort of rows
-        weights = base ** np.arange(d - 1, -1, -1, dtype=np.int64)
-        if np.unique(Ss @ weights).size != m:
+    orient = np.where(full, np.sign(det), 0.0)
+    keep, pos = _ridge_layout(d)
+    R = Ss[:, keep].reshape(m * d, d - 1)  # ridge k of simplex i (vertex k left out) is row i d + k
+    if float(n) ** d < 2.0**62:  # one integer per sorted simplex / ridge: 1-D sorts, not sorts of rows
+        weights = np.int64(n) ** np.arange(d - 1, -1, -1, dtype=np.int64)
+        sk = np.sort(Ss @ weights)
+        if np.any(sk[1:] == sk[:-1]):
             return "a simplex listed twice"
-    elif np.unique(Ss, axis=0).shape[0] != m:
-        return "a simplex listed twice"
-    keep = np.array([[j for j in range(d) if j != k] for k in range(d)])  # (d, d-1)
-    R = Ss[:, keep].reshape(m * d, d - 1)
-    pos = np.tile(np.where(np.arange(d) % 2 == 0, 1.0, -1.0), m)
-    owner = np.repeat(np.arange(m), d)
-    if float(n) ** d < 2.0**62:
-        _, inv, counts = np.unique(R @ weights[1:], return_inverse=True, return_counts=True)
+        rk = R @ weights[1:]
+        order = np.argsort(rk, kind="stable")
+        rs = rk[order]
+        same = lambda i, j: rs[i] == rs[j]  # noqa: E731
     else:
-        _, inv, counts = np.unique(R, axis=0, return_inverse=True, return_counts=True)
-    if np.any(counts != 2):
+        if np.unique(Ss, axis=0).shape[0] != m:
+            return "a simplex listed twice"
+        order = np.lexsort(R.T[::-1])
+        rs = R[order]
+        same = lambda i, j: np.all(rs[i] == rs[j], axis=1)  # noqa: E731
+    t = m * d
+    ev, od = np.arange(0, t, 2), np.arange(1, t, 2)
+    # every ridge exactly twice: sorted, the incidences pair up (2k, 2k + 1) and no pair equals the next
+    if t % 2 or not np.all(same(ev, od)) or np.any(same(od[:-1], ev[1:])):
         return "a ridge not shared by exactly two simplices"
-    order = np.argsort(inv.ravel(), kind="stable")
     a_, b_ = order[0::2], order[1::2]  # the two incidences of each ridge
-    oa, ob, pa, pb = owner[a_], owner[b_], pos[a_], pos[b_]
-    orient = _propagate(orient, oa, ob, pa, pb)
+    oa, ob, pa, pb = a_ // d, b_ // d, pos[a_ % d], pos[b_ % d]
+    if not full.all():
+        orient = _propagate(orient, oa, ob, pa, pb)
     if np.any(orient[oa] * pa + orient[ob] * pb != 0):
         return "the simplices do not close up (two simplices on a ridge with the same orientation)"
     covers = _cover_count(W, full)
     if covers != 1:
         return ("the simplices cover the boundary more than once" if covers else
                 "no point of the boundary is decided to be covered once")
-    volume = float(np.abs(det[full]).sum()) / math.factorial(d)
-    return volume
+    return float(np.abs(det[full]).sum()) / math.factorial(d)
+
+
+_LAYOUTS: dict = {}
+
+
+def _ridge_layout(d: int) -> tuple[np.ndarray, np.ndarray]:
+    """The columns of each ridge of a sorted simplex (vertex ``k`` left out) and its sign ``(-1)^k``."""
+    if d not in _LAYOUTS:
+        keep = np.array([[j for j in range(d) if j != k] for k in range(d)], dtype=np.int64)
+        _LAYOUTS[d] = (keep, np.where(np.arange(d) % 2 == 0, 1.0, -1.0))
+    return _LAYOUTS[d]
 
 
 def volume_by_facets(Y: np.ndarray, A: np.ndarray, b: np.ndarray, tight: np.ndarray) -> float | str:

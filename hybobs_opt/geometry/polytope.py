@@ -66,8 +66,8 @@ VERTEX_PROJECTION_MAX_DIM: int = 6
 #: From this dimension the exact volume is summed over the facets, one checked (d-1)-dimensional
 #: hull each (:func:`~hybobs_opt.geometry._hull_cycle.volume_by_facets`), instead of one hull of all
 #: the vertices: qhull's d-dimensional triangulation of a polytope's vertices does not close up in
-#: 5-6 D, and costs more than the facets' hulls from 4-D (benchmarks/bench_polytope.py).
-FACET_VOLUME_MIN_DIM: int = 4
+#: 6-D (3 of 12 random instances), and costs less below (benchmarks/bench_polytope.py).
+FACET_VOLUME_MIN_DIM: int = 6
 
 
 def _check_polytope(value, field: str) -> None:
@@ -861,7 +861,7 @@ class Polytope:
         method : {"auto", "exact", "monte-carlo"}
             ``"exact"``: the checked vertices, then qhull's hull of them checked as a closed
             triangulation covering the boundary once (the sum of its simplices' pyramids), or,
-            from FACET_VOLUME_MIN_DIM (4-D) up, the sum over the facets of ``depth * area / d``
+            from FACET_VOLUME_MIN_DIM (6-D) up, the sum over the facets of ``depth * area / d``
             with each facet's area from its own checked hull (any dimension; the cost grows
             steeply from 5-D);
             ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
