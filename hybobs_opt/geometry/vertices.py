@@ -71,11 +71,6 @@ log = logging.getLogger(__name__)
 #: below qhull's 0.08-0.1 ms plus the interior point; at d = 6 qhull is 3-6 x faster than cddlib.
 CDD_FIRST_MAX_DIM: int = 3
 
-#: Most points for which cddlib's V -> H answers first (in up to CDD_FIRST_MAX_DIM dimensions):
-#: its double description grows with the points (25 ms for ~300 points in 2-D, where qhull's
-#: hull and its check take ~1 ms).
-CDD_HULL_MAX_POINTS: int = 40
-
 _cdd_state: list = []  # [module or None], filled on first use
 
 
@@ -586,9 +581,9 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
     :func:`~hybobs_opt.geometry._hull_cycle.checked_hull` (its simplices close up into the
     boundary, covering it once, or its facets are closed under adjacency), whose cost grows with
     the simplices and facets, not with subsets of the points on a facet as the polar check's
-    does at a degenerate polar vertex.  cddlib answers first up to :data:`CDD_FIRST_MAX_DIM`,
-    qhull first above it, where cddlib's V -> H is 5-10 x slower, and for more than
-    :data:`CDD_HULL_MAX_POINTS` points (benchmarks/bench_polytope.py).
+    does at a degenerate polar vertex.  qhull answers first in every dimension (cddlib's V -> H
+    is 5-10 x slower from 4-D, grows with the points, and on degenerate sets in 3-D its polar
+    check walks thousands of subsets or fails: benchmarks/bench_polytope.py), cddlib second.
     A hull that is not full-dimensional is left to the caller.
 
     Parameters
@@ -605,11 +600,7 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
         return None
     # the box, the scaled points, their centroid and the points about it: one compiled call
     mid, half, Y, c, P = points_to_box(np.ascontiguousarray(X), FULL_DIMENSION_RTOL)
-    if cdd_module() is None:
-        order = ("qhull",)
-    else:
-        cdd_first = 3 <= d <= CDD_FIRST_MAX_DIM and n <= CDD_HULL_MAX_POINTS  # in 2-D qhull's polygon is checked in O(n)
-        order = ("cdd", "qhull") if cdd_first else ("qhull", "cdd")
+    order = ("qhull",) if cdd_module() is None else ("qhull", "cdd")
     for source in order:
         volume = None
         if source == "cdd":

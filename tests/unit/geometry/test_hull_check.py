@@ -69,14 +69,15 @@ def degenerate_sets(d, rng):
     points 1e-9 inside facets; vertices of a cross-polytope with its edge midpoints."""
     Q = rotation(rng, d)
     C = cube(d)
-    F = rng.uniform(-1, 1, (2 * d, d))
-    F[np.arange(2 * d), np.arange(2 * d) % d] = np.where(np.arange(2 * d) < d, 1.0, -1.0)
+    k = d + 1  # extra points (the brute force grows as C(n, d))
+    F = rng.uniform(-1, 1, (k, d))
+    F[np.arange(k), np.arange(k) % d] = np.where(np.arange(k) % 2 == 0, 1.0, -1.0)
     near = F.copy()
-    near[np.arange(2 * d), np.arange(2 * d) % d] *= 1.0 - 1e-9
+    near[np.arange(k), np.arange(k) % d] *= 1.0 - 1e-9
     ridge = F.copy()
-    ridge[np.arange(2 * d), (np.arange(2 * d) + 1) % d] = 1.0
+    ridge[np.arange(k), (np.arange(k) + 1) % d] = 1.0
     E = np.vstack([np.eye(d), -np.eye(d)])
-    mids = np.array([(p + q) / 2 for p, q in itertools.combinations(E, 2) if np.any(p + q)])
+    mids = np.array([(p + q) / 2 for p, q in itertools.combinations(E, 2) if np.any(p + q)])[:2 * d]
     return [np.vstack([C, C[:3], 0.5 * C[:2], F]) @ Q.T,
             np.vstack([C, near, ridge]) @ Q.T,
             np.vstack([E, mids, np.zeros((1, d))]) @ Q.T]

@@ -277,7 +277,7 @@ def test_from_vertices_equals_the_hull_oracle(d, counters):
     margin = np.min((H.b[None, :] - X @ H.A.T), axis=1)
     X = X[np.abs(margin) > 1e-6 * np.max(hi - lo)]
     np.testing.assert_array_equal(H.contains(X), [in_hull(pts, x) for x in X])
-    source = "cdd" if 3 <= d <= vmod.CDD_FIRST_MAX_DIM else "qhull"  # qhull first in 2-D and from 4-D up
+    source = "qhull"  # qhull first in every dimension
     assert counters.accepted[f"from_vertices:{source}"] == 1 and not counters.fallbacks
 
 
@@ -290,23 +290,24 @@ def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
         def __init__(self, m):
             self.array, self.lin_set = m.array[1:], m.lin_set
 
-    monkeypatch.setattr(cdd, "copy_inequalities", lambda poly: Dropped(real(poly)))
-    got = Polytope.from_vertices(pts)  # a facet dropped by "cdd": the polar check must see it
-    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.accepted["from_vertices:qhull"] == 1
     X = np.random.default_rng(2).uniform(-0.5, 1.5, size=(4000, 3))
-    np.testing.assert_array_equal(got.contains(X), ref.contains(X))
     import scipy.spatial
 
-    class Merged:  # qhull's answer with its first simplex dropped: the next path must answer
+    class Merged:  # qhull's answer with its first simplex dropped: its check must see it
         def __init__(self, Y, qhull_options=None):
             hull = scipy.spatial.ConvexHull(Y, qhull_options=qhull_options)
             self.equations, self.simplices, self.vertices = hull.equations[1:], hull.simplices[1:], hull.vertices
 
-    monkeypatch.setattr(hcmod, "ConvexHull", Merged)
-    counters.reset()
-    got = Polytope.from_vertices(pts)
-    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
-    np.testing.assert_array_equal(got.contains(X), ref.contains(X))  # the hand-written hull
+    with monkeypatch.context() as mp:
+        mp.setattr(hcmod, "ConvexHull", Merged)
+        got = Polytope.from_vertices(pts)  # qhull (first) refused: cddlib answers
+        assert counters.fallbacks["from_vertices:qhull"] == 1 and counters.accepted["from_vertices:cdd"] == 1
+        np.testing.assert_array_equal(got.contains(X), ref.contains(X))
+        mp.setattr(cdd, "copy_inequalities", lambda poly: Dropped(real(poly)))
+        counters.reset()
+        got = Polytope.from_vertices(pts)  # a facet dropped by "cdd" too: the polar check must see it
+        assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
+        np.testing.assert_array_equal(got.contains(X), ref.contains(X))  # the hand-written hull
     monkeypatch.undo()
     seg = Polytope.from_vertices([[0, 0, 0], [1, 2, 3], [0.5, 1, 1.5]])  # flat: hand-written hull
     assert seg.contains(np.array([[0.25, 0.5, 0.75], [0.25, 0.5, 0.8], [1.1, 2.2, 3.3]])).tolist() == [True, False, False]
