@@ -1,4 +1,4 @@
-"""Polytope operations of ``hybobs_opt.geometry`` against the field's libraries (issue 19).
+"""Polytope operations of ``hybobs_opt.geometry`` against the field's libraries (issues 19, 39).
 
 Run ``python -m benchmarks.bench_polytope`` (full, a few minutes) or ``--quick`` (smoke test).
 Writes ``benchmarks/results/polytope.json`` (quick runs go to ``benchmarks/results/quick/``).
@@ -20,10 +20,19 @@ faster than numpy arrays, so its times are its best.
 * ``volume``: ``Polytope.volume("exact")``; pycddlib's vertices + qhull's volume; the
   ``polytope`` package (``volume``: Monte Carlo with its default sample size, so never exact);
   scipy (HalfspaceIntersection, then ``ConvexHull(...).volume``).
-* ``projection_2d``: ``Polytope.project([0, 1])`` (the hand-written iterative hull, kept: cdd's
-  floating-point projection was wrong on a region of model (17)) and ``method="vertices"``;
+* ``v_to_h_degenerate`` (issue 39): ``from_vertices`` on degenerate point sets with known facets
+  (the rotated cube's vertices with duplicates, interior points and points on facets; with points
+  1e-9 inside facets and on ridges; the vertices of a random polytope, whose facets are not
+  simplices), the same peers as ``v_to_h`` (the polytope package up to 4-D: minutes above).
+* ``chebyshev`` (issue 39): ``Polytope.chebyshev_ball()`` against the same LP posed to
+  ``scipy.optimize.linprog`` (HiGHS, unchecked; target: within 1.5 x) and ``polytope.cheby_ball``.
+* ``projection_2d``: ``Polytope.project([0, 1])`` (``auto``: checked vertices and their checked
+  2-D hull up to 6-D) and ``method="hull"`` (the LP iterative hull ``auto`` used before issue 39);
   pycddlib (``block_elimination`` of the other coordinates, unchecked); ``polytope.projection``;
-  scipy (HalfspaceIntersection, the vertices projected, ``ConvexHull`` in 2-D).
+  the limit (target: within 3 x): cddlib's vertices (``limit_cdd``) or qhull's halfspace
+  intersection on a ``linprog`` centre (``limit_qhull``), projected, ``ConvexHull`` in 2-D.
+* ``volume`` at 6-D also runs the instance whose exact volume raised ``SolverError`` when issue 39
+  was filed.
 
 Also ``hybobs_lp_path``: the hand-written path the library path replaced (every library answer
 disabled), where it finishes in reasonable time.

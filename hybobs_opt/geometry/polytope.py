@@ -202,11 +202,16 @@ class Polytope:
     def from_vertices(cls, points: np.ndarray, names: Sequence[str] | None = None) -> "Polytope":
         """The convex hull of a finite point set, as its facets (V -> H).
 
-        pycddlib answers first; its rows are used only when every point satisfies them and they
-        pass the vertex check of the polar set (each row a facet, none missing:
-        :func:`hybobs_opt.geometry.vertices.hull_rows`).  Otherwise (or without pycddlib, or for
-        a flat point set) the hull is built by the iterative-hull method of
-        :meth:`project`, whose support function over points is exact (no LPs).
+        qhull answers first; its triangulated hull is used only when it passes its check (every
+        point inside every facet, the simplices closing up into the boundary and covering it once,
+        or else each facet's own hull one dimension down with every ridge on a second facet: each
+        row a facet, none missing; :func:`hybobs_opt.geometry._hull_cycle.checked_hull`), at a
+        cost that grows with the simplices, not with the points on a facet, so duplicated points,
+        points on facets and non-simplicial facets are as fast as general points.  pycddlib
+        answers second, its rows checked as vertices of the polar set
+        (:func:`hybobs_opt.geometry.vertices.hull_rows`).  Otherwise (or for a flat point set)
+        the hull is built by the iterative-hull method of :meth:`project`, whose support
+        function over points is exact (no LPs).
 
         Parameters
         ----------
