@@ -81,7 +81,11 @@ SKIP_SECONDS = 20.0
 #: fastest correct peer) and sweeps arrays of a few MB; interleaved, it slowed every call after
 #: it on this machine (d = 4: scipy 2.4 -> 7.2 ms, hybobs 1.5 -> 3.5 ms, pycddlib+qhull 1.0 ->
 #: 1.2-2.8 ms per call, medians of 9), which made the d = 4 ratio 4.1 instead of 1.4.
-TIMED_APART = {"volume": ("polytope",)}
+#: The same for the polytope package and the hand-written paths in every operation (issue 39): each
+#: slowed the call after it (scipy's qhull after the polytope package: 15-25 ms instead of 0.2-2 ms
+#: per call; the projection limit after the LP hull: 14 ms instead of 0.3 ms, on a loaded machine).
+TIMED_APART = {op: ("polytope", "hybobs_lp_path", "hybobs_lp_hull")
+               for op in ("vertices", "redundancy", "v_to_h", "v_to_h_degenerate", "volume", "chebyshev", "projection_2d")}
 
 
 #: Targets other than TARGET_RATIO x the fastest correct peer (issue 39): the Chebyshev ball within
@@ -431,6 +435,7 @@ def run_op(op: str, dims, n_instances: int, repeats: int, have_cdd: bool, have_p
                 eq = ConvexHull(X).equations
                 ref = np.unique(np.round(unit_rows(eq[:, :-1], -eq[:, -1]), 12), axis=0)
                 instances.append(((X,), ref, 2.0))
+                kinds.append("random")
                 continue
             A, b = random_polytope(rng, d)
             V = brute_force_vertices(A, b)

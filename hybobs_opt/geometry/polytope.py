@@ -915,6 +915,12 @@ class Polytope:
         lo, hi = V.min(axis=0), V.max(axis=0)
         if d == 1:
             return float(hi[0] - lo[0])
+        if d == 2 and enum is not None and enum.status == "bounded":
+            # the checked vertices of a polygon in angular order about their mean: the shoelace area
+            P = V - V.mean(axis=0)
+            P = P[np.argsort(np.arctan2(P[:, 1], P[:, 0]))]
+            Q = np.roll(P, -1, axis=0)
+            return float(0.5 * np.sum(P[:, 0] * Q[:, 1] - Q[:, 0] * P[:, 1]))
         half = np.where(hi > lo, (hi - lo) / 2, 1.0)
         Y = (V - (lo + hi) / 2) / half
         sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
