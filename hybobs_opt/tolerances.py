@@ -190,6 +190,12 @@ VERTEX_RANK_RTOL: float = 1e-7
 #: than the redundancy test itself can see; walked edges land within about 1e-12 of true vertices.
 VERTEX_SAME_RTOL: float = 1e-7
 
+#: A simplex of a convex hull (:mod:`hybobs_opt.geometry._hull_cycle`) is full (its orientation
+#: decided by the sign of its determinant) when ``|det|``
+#: exceeds this fraction of Hadamard's bound (the product of its vertices' distances to the
+#: centroid): rounding changes ``det`` by ~1e-16 d of that bound, far below.
+FULL_SIMPLEX_RTOL: float = 1e-9
+
 
 #: Iterative-hull projection: a support point found beyond a facet of the current hull by more
 #: than this (target coordinates scaled to the image's bounding box) is added and the hull is

@@ -8,7 +8,7 @@ of simplices with vertices among the points ``Y`` is accepted as the boundary of
    centroid ``c`` strictly inside (by FULL_DIMENSION_RTOL), no two facets with the same tight
    points; so each simplex lies in a face of ``conv(Y)``;
 2. a simplex is *full* when its determinant about ``c`` is far from rounding
-   (:data:`FULL_SIMPLEX_RTOL` of Hadamard's bound); its sign is its orientation as seen from
+   (:data:`~hybobs_opt.tolerances.FULL_SIMPLEX_RTOL` of Hadamard's bound); its sign is its orientation as seen from
    ``c``.  Qhull's triangulation of a non-simplicial facet also holds flat simplices (zero
    volume); they are given the orientations their neighbours require;
 3. no simplex is listed twice, every ridge (``d - 1`` of the vertices of a simplex) is a ridge of
@@ -39,16 +39,12 @@ from scipy.spatial import ConvexHull, QhullError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
+    FULL_SIMPLEX_RTOL,
     VERTEX_CHECK_RTOL,
     VERTEX_SAME_RTOL,
     VERTEX_TIGHT_RTOL,
 )
 
-
-#: A simplex is full (its orientation decided by the sign of its determinant) when ``|det|``
-#: exceeds this fraction of Hadamard's bound (the product of its vertices' distances to the
-#: centroid): rounding changes ``det`` by ~1e-16 d of that bound, far below.
-FULL_SIMPLEX_RTOL: float = 1e-9
 
 def _generic(n: int) -> np.ndarray:
     """``n`` fixed weights in [1, 2), the same on every machine (PCG64 with a fixed seed is
