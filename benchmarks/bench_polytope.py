@@ -82,8 +82,8 @@ SKIP_SECONDS = 20.0
 #: it on this machine (d = 4: scipy 2.4 -> 7.2 ms, hybobs 1.5 -> 3.5 ms, pycddlib+qhull 1.0 ->
 #: 1.2-2.8 ms per call, medians of 9), which made the d = 4 ratio 4.1 instead of 1.4.
 #: The same for the polytope package and the hand-written paths in every operation (issue 39): each
-#: slowed the call after it (scipy's qhull after the polytope package: 15-25 ms instead of 0.2-2 ms
-#: per call; the projection limit after the LP hull: 14 ms instead of 0.3 ms, on a loaded machine).
+#: slowed the call after it (V -> H at d = 2, scipy's ConvexHull right after the polytope package:
+#: 15.7 ms instead of 0.16 ms per call, medians of 9 on a loaded machine).
 TIMED_APART = {op: ("polytope", "hybobs_lp_path", "hybobs_lp_hull")
                for op in ("vertices", "redundancy", "v_to_h", "v_to_h_degenerate", "volume", "chebyshev", "projection_2d")}
 

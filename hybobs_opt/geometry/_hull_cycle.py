@@ -93,7 +93,10 @@ def _cover_count(W: np.ndarray, full: np.ndarray) -> int:
     vol = np.abs(np.linalg.det(W[idx]))
     for t in idx[np.argsort(-vol, kind="stable")][:5]:
         u = W[t].mean(axis=0)
-        lam = np.linalg.solve(np.transpose(W[idx], (0, 2, 1)), np.broadcast_to(u, (idx.size, d))[..., None])[..., 0]
+        try:
+            lam = np.linalg.solve(np.transpose(W[idx], (0, 2, 1)), np.broadcast_to(u, (idx.size, d))[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            return 0
         lo = lam.min(axis=1)
         if np.any((lo > -margin) & (lo <= margin)):
             continue
