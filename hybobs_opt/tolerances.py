@@ -81,6 +81,13 @@ LP_POINT_RTOL: float = 1e-6
 #: along a feasible direction leaves a gap of ~1e-3: far outside.
 LP_DUAL_RTOL: float = 1e-6
 
+#: A vertex solved from a basis of an LP's rows (:func:`hybobs_opt.geometry.lp.chebyshev_lp`) is
+#: accepted when every row holds to this fraction of its terms and its basis multipliers are
+#: non-negative to this fraction of their size; the basis's condition number must be below
+#: LP_VERTEX_MAX_COND, so that rounding in the solve (~1e-16 cond <= 1e-10) stays below it.
+LP_VERTEX_RTOL: float = 1e-9
+LP_VERTEX_MAX_COND: float = 1e6
+
 #: An "infeasible" / "unbounded" verdict of HiGHS is trusted only with a certificate checked in
 #: numpy: Farkas multipliers ``y >= 0`` with ``A'y + E'w = 0`` to this times ``|A|'y + |E|'|w|``
 #: and ``b'y + e'w < -this * (|b|'y + |e|'|w|)``, or a ray with ``A d <= 0`` to this relative.
@@ -183,11 +190,12 @@ VERTEX_RANK_RTOL: float = 1e-7
 #: than the redundancy test itself can see; walked edges land within about 1e-12 of true vertices.
 VERTEX_SAME_RTOL: float = 1e-7
 
-#: qhull's volume of a hull is accepted when the sum of the volumes of its triangulated facets'
-#: simplices about the centroid, recomputed in numpy, agrees with it to this relative accuracy:
-#: both sum the same positive terms in different orders (rounding ~1e-15 per term), while a wrong
-#: or missing facet changes the sum by its simplex, a fraction of the whole far above this.
-HULL_VOLUME_RTOL: float = 1e-9
+#: A simplex of a convex hull (:mod:`hybobs_opt.geometry._hull_cycle`) is full (its orientation
+#: decided by the sign of its determinant) when ``|det|``
+#: exceeds this fraction of Hadamard's bound (the product of its vertices' distances to the
+#: centroid): rounding changes ``det`` by ~1e-16 d of that bound, far below.
+FULL_SIMPLEX_RTOL: float = 1e-9
+
 
 #: Iterative-hull projection: a support point found beyond a facet of the current hull by more
 #: than this (target coordinates scaled to the image's bounding box) is added and the hull is

@@ -583,38 +583,6 @@ def hull_check(G, g, P, c, full_dimension_rtol, zero_row_tol, check_rtol, tight_
 
 
 @kernel(cache=True)
-def first_of_equal_rows(R):
-    """Mask of the rows of ``R`` that are the first (lowest index) of their group of identical rows.
-
-    What ``np.unique(R, axis=0, return_index=True)`` picks, without its sort of the whole rows:
-    rows are sorted (stably) by a generic key ``w'r``, identical rows have identical keys, and each
-    row is compared with the earlier rows of its run of equal keys only.
-    """
-    n, k = R.shape
-    keys = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for c in range(k):
-            s += (1.0 + 0.6180339887498949 * (c + 1) - np.floor(0.6180339887498949 * (c + 1))) * R[i, c]
-        keys[i] = s
-    order = np.argsort(keys, kind="mergesort")
-    first = np.ones(n, dtype=np.bool_)
-    start = 0
-    for a in range(n):
-        i = order[a]
-        if a > 0 and keys[i] != keys[order[a - 1]]:
-            start = a
-        for a2 in range(start, a):
-            i2 = order[a2]
-            if not first[i2]:
-                continue
-            if _same_row(R, i2, i):
-                first[i] = False
-                break
-    return first
-
-
-@kernel(cache=True)
 def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, tight_rtol, rank_rtol, same_rtol,
                       parallel_tol, redundancy_rtol, want_facets):
     """:func:`scale_and_check` of a library's vertices, and what ``vertices._try_library`` builds from

@@ -22,7 +22,8 @@ from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
 from ..defaults import LP_EQUILIBRATION_SWEEPS
-from ..tolerances import LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL
+from ..tolerances import (LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
+                          LP_VERTEX_RTOL)
 from ..results import Certificate
 
 
@@ -854,6 +855,56 @@ def verified_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, ep
         if status == Status.INFEASIBLE and lam is not None and daqp_infeasibility_ok(A, b, lam):
             return LPResult(Status.INFEASIBLE, None, None, "daqp", time.perf_counter() - t0)
     return highs_lp(c, A, b, problem=problem, replaces_fast=True)
+
+
+def chebyshev_lp(A_ub: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The optimum ``(z, r)`` of ``max r s.t. A z + |a| r <= b`` (rows ``A_ub = [A, |a|]``), or ``None``.
+
+    DAQP (microseconds) points at the optimal vertex; the answer is that vertex, certified as
+    a basis in numpy: the ``n = d + 1`` rows tightest at DAQP's point (larger multiplier first
+    among equal slacks), condition number at most LP_VERTEX_MAX_COND, solved as equations for ``(z, r)``; the vertex
+    satisfies every row to LP_VERTEX_RTOL of the row's terms, and the multipliers of the basis,
+    ``B' lambda = (0, ..., 0, 1)``, are non-negative to LP_VERTEX_RTOL (weak duality: every
+    feasible radius is at most ``b_B' lambda = r``).  An exact vertex, so a flat set gets radius
+    0 to rounding, not DAQP's ~1e-9.  ``None`` (DAQP failed, an empty or unbounded set, a
+    singular or failed basis) sends the caller to :func:`solve_lp`.
+    """
+    m, n = A_ub.shape
+    if m < n:
+        return None
+    c = np.zeros(n)
+    c[-1] = -1.0
+    # DAQP's bindings want writeable buffers (a Polytope's arrays are read-only)
+    b = np.array(b, dtype=float)
+    out = _daqp_call(np.zeros((n, n)), c, A_ub, b, np.full(m, -1e30), np.zeros(m, dtype=np.int32), eps_prox=DAQP_EPS_PROX)
+    if out is None:
+        return None
+    x, _, flag, info = out
+    lam = info.get("lam") if isinstance(info, dict) else None
+    if lam is None or not is_optimal(map_status(DAQP_STATUS, int(flag), solver="daqp")):
+        return None
+    x = np.asarray(x, dtype=float)
+    lam = np.asarray(lam, dtype=float)
+    if x.shape != (n,) or lam.shape != (m,) or not (np.all(np.isfinite(x)) and np.all(np.isfinite(lam))):
+        return None
+    absA = np.abs(A_ub)
+    size = 1.0 + np.abs(b) + absA @ np.abs(x)  # the terms of each row
+    basis = np.lexsort((np.arange(m), -lam, (b - A_ub @ x) / size))[:n]
+    B = A_ub[basis]
+    try:
+        if np.linalg.cond(B) > LP_VERTEX_MAX_COND:
+            return None
+        v = np.linalg.solve(B, b[basis])
+        mult = np.linalg.solve(B.T, -c)
+    except np.linalg.LinAlgError:
+        return None
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(mult))):
+        return None
+    if np.any(A_ub @ v - b > LP_VERTEX_RTOL * (1.0 + np.abs(b) + absA @ np.abs(v))):
+        return None
+    if np.any(mult < -LP_VERTEX_RTOL * max(1.0, float(np.max(np.abs(mult))))):
+        return None
+    return v
 
 
 @dataclass(frozen=True)

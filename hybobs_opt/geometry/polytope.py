@@ -21,7 +21,7 @@ import numpy as np
 
 from .._validate import as_int, as_items, as_matrix, as_names, as_vector
 from ..defaults import EXACT_VOLUME_MAX_DIM
-from ..errors import ModelError
+from ..errors import ModelError, SolverError
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
@@ -41,11 +41,13 @@ from ._common import (
     _row_normalised,
     _unit_rows,
 )
-from .lp import row_range, solve_lp
+from .lp import chebyshev_lp, row_range, solve_lp
+from . import projection as _projection
 from .projection import _iterative_hull, image_of
 from .redundancy import facet_verdict, facets_from_vertices, irredundant
 from .vertices import COUNTERS as LIBRARY_COUNTERS
 from .vertices import enumerate_vertices, hull_rows
+from ._hull_cycle import volume_by_facets
 from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 
 
@@ -53,6 +55,19 @@ from .volume import VolumeEstimate, checked_hull_volume, monte_carlo_volume
 #: checked vertex set (measured in 2-6 D, benchmarks/bench_polytope.py); above it the LPs decide,
 #: since the number of vertices can grow exponentially with the dimension, one LP per row cannot.
 LIBRARY_REDUNDANCY_MAX_DIM: int = 6
+
+#: Largest source dimension in which ``project(..., method="auto")`` onto 2 coordinates takes the
+#: checked vertices, projected, and their checked 2-D hull (no LPs: 1-3 x the cost of cddlib's or
+#: qhull's vertices plus a 2-D hull at d = 3-6, against 30-180 x for the LP hull,
+#: benchmarks/bench_polytope.py); above it the vertex count can grow too fast and the LP hull
+#: (about one LP per facet and vertex of the image) answers.
+VERTEX_PROJECTION_MAX_DIM: int = 6
+
+#: From this dimension the exact volume is summed over the facets, one checked (d-1)-dimensional
+#: hull each (:func:`~hybobs_opt.geometry._hull_cycle.volume_by_facets`), instead of one hull of all
+#: the vertices: qhull's d-dimensional triangulation of a polytope's vertices does not close up in
+#: 6-D (3 of 12 random instances), and costs less below (benchmarks/bench_polytope.py).
+FACET_VOLUME_MIN_DIM: int = 6
 
 
 def _check_polytope(value, field: str) -> None:
@@ -187,11 +202,16 @@ class Polytope:
     def from_vertices(cls, points: np.ndarray, names: Sequence[str] | None = None) -> "Polytope":
         """The convex hull of a finite point set, as its facets (V -> H).
 
-        pycddlib answers first; its rows are used only when every point satisfies them and they
-        pass the vertex check of the polar set (each row a facet, none missing:
-        :func:`hybobs_opt.geometry.vertices.hull_rows`).  Otherwise (or without pycddlib, or for
-        a flat point set) the hull is built by the iterative-hull method of
-        :meth:`project`, whose support function over points is exact (no LPs).
+        qhull answers first; its triangulated hull is used only when it passes its check (every
+        point inside every facet, the simplices closing up into the boundary and covering it once,
+        or else each facet's own hull one dimension down with every ridge on a second facet: each
+        row a facet, none missing; :func:`hybobs_opt.geometry._hull_cycle.checked_hull`), at a
+        cost that grows with the simplices, not with the points on a facet, so duplicated points,
+        points on facets and non-simplicial facets are as fast as general points.  pycddlib
+        answers second, its rows checked as vertices of the polar set
+        (:func:`hybobs_opt.geometry.vertices.hull_rows`).  Otherwise (or for a flat point set)
+        the hull is built by the iterative-hull method of :meth:`project`, whose support
+        function over points is exact (no LPs).
 
         Parameters
         ----------
@@ -322,7 +342,10 @@ class Polytope:
     def chebyshev_ball(self, scale: np.ndarray | None = None) -> tuple[np.ndarray | None, float]:
         """Centre and radius of the largest inscribed ball, optionally in coordinates ``z / scale``.
 
-        Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.
+        Returns ``(None, -inf)`` for an empty polytope and ``radius = inf`` when unbounded.  One LP
+        (:func:`~hybobs_opt.geometry.lp.chebyshev_lp`: DAQP, its optimum accepted with its
+        multipliers as a dual certificate checked in numpy); any other answer goes to the
+        certified HiGHS path (:func:`~hybobs_opt.geometry.lp.solve_lp`).
 
         Parameters
         ----------
@@ -338,11 +361,17 @@ class Polytope:
             Radius in the scaled coordinates (``-inf`` empty, ``inf`` unbounded).
         """
         A = self.A if scale is None else self.A * np.asarray(scale, dtype=float)[None, :]
-        norms = np.linalg.norm(A, axis=1)
+        norms = np.sqrt(np.einsum("ij,ij->i", A, A))
         d = self.dim
+        A_ub = np.empty((A.shape[0], d + 1))
+        A_ub[:, :d] = A
+        A_ub[:, d] = norms
+        fast = chebyshev_lp(A_ub, self.b)
+        if fast is not None:
+            centre = fast[:d] if scale is None else fast[:d] * np.asarray(scale, dtype=float)
+            return centre, float(fast[d])
         c = np.zeros(d + 1)
         c[-1] = -1.0
-        A_ub = np.hstack([A, norms[:, None]])
         res = solve_lp(c, A_ub, self.b, bounds=[(None, None)] * d + [(None, None)], problem="Chebyshev ball")
         if res.status == "infeasible":
             return None, -np.inf
@@ -703,12 +732,13 @@ class Polytope:
         method : {"auto", "hull", "fm", "vertices"}
             ``"hull"``: iterative convex hull of support points (bounded images only);
             ``"fm"``: Fourier-Motzkin elimination with LP redundancy removal after each step;
-            ``"auto"``: ``"hull"`` when the target dimension is ``<= hull_max_dim`` and the image
-            is bounded, ``"fm"`` otherwise;
-            ``"vertices"`` (opt-in, bounded sets of small dimension): the checked vertices of
+            ``"auto"``: for a 2-D target (with ``hull_max_dim >= 2``) of a bounded set of dimension
+            at most :data:`VERTEX_PROJECTION_MAX_DIM` (6), ``"vertices"`` (when the library vertex
+            enumeration passes its check); otherwise ``"hull"`` when the target dimension is
+            ``<= hull_max_dim`` and the image is bounded, ``"fm"`` otherwise;
+            ``"vertices"`` (bounded sets of small dimension): the checked vertices of
             :meth:`vertices`, projected, and the checked hull of :meth:`from_vertices` -- exact,
-            no LPs, but the vertex count grows quickly with the source dimension.  ``"auto"``
-            does not choose it: the analyses keep the path their results were validated on.
+            no LPs, but the vertex count grows quickly with the source dimension.
         hull_max_dim : int, optional
             Threshold of ``"auto"`` (default: :data:`hybobs_opt.geometry.projection.HULL_PROJECTION_MAX_DIM`).
 
@@ -779,6 +809,13 @@ class Polytope:
             if V.shape[0] == 0:
                 return Polytope.empty(len(idx), names)
             return Polytope.from_vertices(V[:, idx], names)
+        hull_dim = _projection.HULL_PROJECTION_MAX_DIM if hull_max_dim is None else hull_max_dim
+        if method == "auto" and E.shape[0] == 0 and len(idx) == 2 <= hull_dim and d <= VERTEX_PROJECTION_MAX_DIM:
+            enum = enumerate_vertices(self.A, self.b, op="projection")
+            if enum is not None and enum.status == "empty":
+                return Polytope.empty(len(idx), names)
+            if enum is not None and enum.status == "bounded":
+                return Polytope.from_vertices(enum.points[:, idx], names)
         img = image_of(self.A, self.b, E, e, S, np.zeros(len(idx)), method, hull_max_dim)
         if img is None:
             return Polytope.empty(len(idx), names)
@@ -827,8 +864,11 @@ class Polytope:
         Parameters
         ----------
         method : {"auto", "exact", "monte-carlo"}
-            ``"exact"``: qhull volume of the checked vertices (any dimension; qhull's cost
-            grows steeply from 5-D);
+            ``"exact"``: the checked vertices, then qhull's hull of them checked as a closed
+            triangulation covering the boundary once (the sum of its simplices' pyramids), or,
+            from FACET_VOLUME_MIN_DIM (6-D) up, the sum over the facets of ``depth * area / d``
+            with each facet's area from its own checked hull (any dimension; the cost grows
+            steeply from 5-D);
             ``"monte-carlo"``: hit-and-miss with ``n_samples`` uniform points in the bounding box;
             ``"auto"``: exact when ``d <= EXACT_VOLUME_MAX_DIM`` (4).
         n_samples : int
@@ -853,18 +893,7 @@ class Polytope:
         if method == "auto":
             method = "exact" if d <= EXACT_VOLUME_MAX_DIM else "monte-carlo"
         if method == "exact":
-            V = self.vertices()
-            if len(V) <= d:
-                return VolumeEstimate(0.0, 0.0, "exact")
-            lo, hi = V.min(axis=0), V.max(axis=0)
-            half = np.where(hi > lo, (hi - lo) / 2, 1.0)
-            Y = (V - (lo + hi) / 2) / half
-            if d == 1:
-                return VolumeEstimate(float(hi[0] - lo[0]), 0.0, "exact")
-            sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
-            if np.sum(sv > AFFINE_HULL_RTOL) < d:
-                return VolumeEstimate(0.0, 0.0, "exact")
-            return VolumeEstimate(float(checked_hull_volume(Y) * np.prod(half)), 0.0, "exact")
+            return VolumeEstimate(self._exact_volume(), 0.0, "exact")
         box = _box(self.A, self.b)
         if box is None:
             return VolumeEstimate(0.0, 0.0, "monte-carlo", int(n_samples))
@@ -873,6 +902,49 @@ class Polytope:
             raise ModelError("polytope", "a bounded set for the volume", "an unbounded set")
         value, stderr = monte_carlo_volume(self.contains, lo, hi, n_samples, rng)
         return VolumeEstimate(value, stderr, "monte-carlo", int(n_samples))
+
+    def _exact_volume(self) -> float:
+        """The exact volume of :meth:`volume` (its docstring): checked vertices, then checked hulls."""
+        d = self.dim
+        enum = enumerate_vertices(self.A, self.b, op="volume")
+        if enum is not None and enum.status == "unbounded":
+            raise ModelError("polytope", "a bounded set for the volume", "an unbounded set")
+        V = enum.points if enum is not None else self.vertices()
+        if len(V) <= d:
+            return 0.0
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        if d == 1:
+            return float(hi[0] - lo[0])
+        if d == 2 and enum is not None and enum.status == "bounded":
+            # the checked vertices of a polygon in angular order about their mean: the shoelace area
+            P = V - V.mean(axis=0)
+            P = P[np.argsort(np.arctan2(P[:, 1], P[:, 0]))]
+            Q = np.roll(P, -1, axis=0)
+            return float(0.5 * np.sum(P[:, 0] * Q[:, 1] - Q[:, 0] * P[:, 1]))
+        half = np.where(hi > lo, (hi - lo) / 2, 1.0)
+        Y = (V - (lo + hi) / 2) / half
+        sv = np.linalg.svd(Y - Y.mean(axis=0), compute_uv=False)
+        if np.sum(sv > AFFINE_HULL_RTOL) < d:
+            return 0.0
+        by_facets = enum is not None and enum.status == "bounded"
+
+        def facets() -> float | str:
+            v = volume_by_facets(enum.checked.Y, enum.scaled.A, enum.scaled.b, enum.checked.tight)
+            return v if isinstance(v, str) else float(v * np.prod(enum.scaled.half))
+
+        if by_facets and d >= FACET_VOLUME_MIN_DIM:
+            v = facets()
+            if not isinstance(v, str):
+                return v
+        try:
+            return float(checked_hull_volume(Y) * np.prod(half))
+        except SolverError:
+            if not by_facets or d >= FACET_VOLUME_MIN_DIM:
+                raise
+            v = facets()
+            if isinstance(v, str):
+                raise
+            return v
 
     def chebyshev_ball_in_subspace(
         self, E: np.ndarray, e: np.ndarray, scale: np.ndarray | None = None

@@ -55,11 +55,11 @@ from ..tolerances import (
 )
 from . import _vertex_kernels as _K
 from ._common import _unit_box_map
+from ._hull_cycle import checked_hull
 from ._vertex_kernels import (
     cdd_hull_rows,
     check_enumeration,
     check_kernel,
-    first_of_equal_rows,
     hull_check,
     points_to_box,
 )
@@ -567,18 +567,24 @@ class HullRows:
     H: np.ndarray
     h: np.ndarray
     source: str
+    volume: float | None = None
 
 
 def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
     """Facets of ``conv(points)`` from pycddlib or qhull, checked; ``None`` if no answer passed.
 
-    The points are scaled to their box.  A library's inequalities are accepted when every point
+    The points are scaled to their box.  cddlib's inequalities are accepted when every point
     satisfies every row (to VERTEX_CHECK_RTOL) and the rows pass the vertex check in the polar
     set about the points' centroid ``c``, ``{y : (p - c)' y <= 1 for all points p}``, whose
     vertices are the facets ``a / (h - a'c)`` of the hull: each row is then a facet, and none is
-    missing.  cddlib answers first up to :data:`CDD_FIRST_MAX_DIM`, qhull (``ConvexHull``, its
-    triangulated facets merged) first above it, where cddlib's V -> H is 5-10 x slower
-    (benchmarks/bench_polytope.py).  A hull that is not full-dimensional is left to the caller.
+    missing.  qhull's triangulated hull is checked by
+    :func:`~hybobs_opt.geometry._hull_cycle.checked_hull` (its simplices close up into the
+    boundary, covering it once, or its facets are closed under adjacency), whose cost grows with
+    the simplices and facets, not with subsets of the points on a facet as the polar check's
+    does at a degenerate polar vertex.  qhull answers first in every dimension (cddlib's V -> H
+    is 5-10 x slower from 4-D, grows with the points, and on degenerate sets in 3-D its polar
+    check walks thousands of subsets or fails: benchmarks/bench_polytope.py), cddlib second.
+    A hull that is not full-dimensional is left to the caller.
 
     Parameters
     ----------
@@ -594,17 +600,21 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
         return None
     # the box, the scaled points, their centroid and the points about it: one compiled call
     mid, half, Y, c, P = points_to_box(np.ascontiguousarray(X), FULL_DIMENSION_RTOL)
-    if cdd_module() is None:
-        order = ("qhull",)
-    else:
-        order = ("cdd", "qhull") if d <= CDD_FIRST_MAX_DIM else ("qhull", "cdd")
+    order = ("qhull",) if cdd_module() is None else ("qhull", "cdd")
     for source in order:
-        rows = _cdd_hull(Y) if source == "cdd" else _qhull_hull(Y)
-        if isinstance(rows, str):
-            COUNTERS.fallback(op, source, rows)
-            continue
-        G, g = rows
-        reason = _check_hull(G, g, P, c)
+        volume = None
+        if source == "cdd":
+            rows = _cdd_hull(Y)
+            if isinstance(rows, str):
+                COUNTERS.fallback(op, source, rows)
+                continue
+            G, g = rows
+            reason = _check_hull(G, g, P, c)
+        else:
+            checked = checked_hull(Y)
+            reason = checked if isinstance(checked, str) else None
+            if reason is None:
+                G, g, volume = checked.G, checked.g, checked.volume * float(np.prod(half))
         if reason is not None:
             COUNTERS.fallback(op, source, reason)
             continue
@@ -612,7 +622,7 @@ def hull_rows(points: np.ndarray, op: str = "hull") -> HullRows | None:
         h = g + H @ mid
         hn = np.sqrt(np.einsum("ij,ij->i", H, H))
         COUNTERS.accept(op, source)
-        return HullRows(H / hn[:, None], h / hn, source)
+        return HullRows(H / hn[:, None], h / hn, source, volume)
     return None
 
 
@@ -632,22 +642,6 @@ def _cdd_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
     if violated:
         return "a constant row is violated"
     return G, g
-
-
-def _qhull_hull(Y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | str:
-    """qhull's facets ``G y <= g`` of the points ``Y`` (coplanar simplices merged), unchecked, or why none."""
-    try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore", RuntimeWarning)
-            eq = ConvexHull(Y).equations
-    except (QhullError, ValueError) as exc:
-        return f"qhull: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
-    G, g = eq[:, :-1], -eq[:, -1]
-    # the simplices of one facet give the same plane up to rounding; keep one of each
-    # (the first of each group of rows equal on the grid, as np.unique(..., axis=0, return_index=True)
-    # picked them: compiled, 190 us -> ~10 us on 300 rows at d = 5)
-    first = np.nonzero(first_of_equal_rows(np.round(np.hstack([G, g[:, None]]) / VERTEX_SAME_RTOL)))[0]
-    return G[first], g[first]
 
 
 def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> str | None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -10,7 +9,6 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import ModelError, SolverError
-from ..tolerances import HULL_VOLUME_RTOL
 
 
 @dataclass(frozen=True)
@@ -108,10 +106,11 @@ def monte_carlo_volume(
 def checked_hull_volume(Y: np.ndarray) -> float:
     """Volume of the convex hull of full-dimensional points (scaled to about the unit box), by qhull.
 
-    qhull's volume is accepted when the sum over its triangulated facets of the simplex volumes
-    ``|det(p_1 - c, ..., p_d - c)| / d!`` about the points' centroid ``c``, recomputed in numpy,
-    agrees with it to HULL_VOLUME_RTOL; otherwise the hull is rebuilt with joggled input (``QJ``)
-    and checked the same way.
+    qhull's hull, checked by :func:`~hybobs_opt.geometry._hull_cycle.checked_hull`: its
+    triangulation closes up into the boundary and covers it once (the volume is then the sum of the
+    simplices' pyramids ``|det(p_1 - c, ..., p_d - c)| / d!`` about the points' centroid ``c``),
+    or else its facets are closed under adjacency, each with its own checked hull one dimension
+    down (the volume is then the sum of the pyramids over the facets).
 
     Parameters
     ----------
@@ -121,21 +120,15 @@ def checked_hull_volume(Y: np.ndarray) -> float:
     Raises
     ------
     SolverError
-        When neither hull passes the check.
+        When qhull's hull fails the check.
     """
-    d = Y.shape[1]
-    c = Y.mean(axis=0)
-    for options in (None, "QJ"):
-        try:
-            hull = ConvexHull(Y, qhull_options=options)
-        except QhullError:
-            continue
-        simplices = Y[hull.simplices] - c  # (facets, d, d)
-        total = float(np.abs(np.linalg.det(simplices)).sum()) / math.factorial(d)
-        if abs(total - hull.volume) <= HULL_VOLUME_RTOL * max(hull.volume, total):
-            return float(hull.volume)
-    raise SolverError("volume of a convex hull", "qhull", "its volume disagrees with the sum of its simplices",
-                      hint="the vertices may be nearly flat; use method='monte-carlo'")
+    from ._hull_cycle import checked_hull  # noqa: PLC0415
+
+    checked = checked_hull(Y)
+    if isinstance(checked, str):
+        raise SolverError("volume of a convex hull", "qhull", f"its hull failed the check: {checked}",
+                          hint="the vertices may be nearly flat; use method='monte-carlo'")
+    return checked.volume
 
 
 _MC_BATCH = 65536  # samples per vectorised membership call: bounded memory, negligible overhead

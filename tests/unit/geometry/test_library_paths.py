@@ -20,6 +20,7 @@ from scipy.optimize import linprog
 from scipy.spatial import ConvexHull
 
 from hybobs_opt.errors import ModelError
+from hybobs_opt.geometry import _hull_cycle as hcmod
 from hybobs_opt.geometry import vertices as vmod
 from hybobs_opt.geometry.polytope import Polytope
 
@@ -276,7 +277,7 @@ def test_from_vertices_equals_the_hull_oracle(d, counters):
     margin = np.min((H.b[None, :] - X @ H.A.T), axis=1)
     X = X[np.abs(margin) > 1e-6 * np.max(hi - lo)]
     np.testing.assert_array_equal(H.contains(X), [in_hull(pts, x) for x in X])
-    source = "cdd" if d <= vmod.CDD_FIRST_MAX_DIM else "qhull"  # qhull first from 4-D up
+    source = "qhull"  # qhull first in every dimension
     assert counters.accepted[f"from_vertices:{source}"] == 1 and not counters.fallbacks
 
 
@@ -289,22 +290,24 @@ def test_from_vertices_corrupted_flat_and_single_point(monkeypatch, counters):
         def __init__(self, m):
             self.array, self.lin_set = m.array[1:], m.lin_set
 
-    monkeypatch.setattr(cdd, "copy_inequalities", lambda poly: Dropped(real(poly)))
-    got = Polytope.from_vertices(pts)  # a facet dropped by "cdd": the polar check must see it
-    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.accepted["from_vertices:qhull"] == 1
     X = np.random.default_rng(2).uniform(-0.5, 1.5, size=(4000, 3))
-    np.testing.assert_array_equal(got.contains(X), ref.contains(X))
     import scipy.spatial
 
-    class Merged:  # qhull's answer with its first facet dropped: the next path must answer
-        def __init__(self, Y):
-            self.equations = scipy.spatial.ConvexHull(Y).equations[1:]
+    class Merged:  # qhull's answer with its first simplex dropped: its check must see it
+        def __init__(self, Y, qhull_options=None):
+            hull = scipy.spatial.ConvexHull(Y, qhull_options=qhull_options)
+            self.equations, self.simplices, self.vertices = hull.equations[1:], hull.simplices[1:], hull.vertices
 
-    monkeypatch.setattr(vmod, "ConvexHull", Merged)
-    counters.reset()
-    got = Polytope.from_vertices(pts)
-    assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
-    np.testing.assert_array_equal(got.contains(X), ref.contains(X))  # the hand-written hull
+    with monkeypatch.context() as mp:
+        mp.setattr(hcmod, "ConvexHull", Merged)
+        got = Polytope.from_vertices(pts)  # qhull (first) refused: cddlib answers
+        assert counters.fallbacks["from_vertices:qhull"] == 1 and counters.accepted["from_vertices:cdd"] == 1
+        np.testing.assert_array_equal(got.contains(X), ref.contains(X))
+        mp.setattr(cdd, "copy_inequalities", lambda poly: Dropped(real(poly)))
+        counters.reset()
+        got = Polytope.from_vertices(pts)  # a facet dropped by "cdd" too: the polar check must see it
+        assert counters.fallbacks["from_vertices:cdd"] == 1 and counters.fallbacks["from_vertices:qhull"] == 1
+        np.testing.assert_array_equal(got.contains(X), ref.contains(X))  # the hand-written hull
     monkeypatch.undo()
     seg = Polytope.from_vertices([[0, 0, 0], [1, 2, 3], [0.5, 1, 1.5]])  # flat: hand-written hull
     assert seg.contains(np.array([[0.25, 0.5, 0.75], [0.25, 0.5, 0.8], [1.1, 2.2, 3.3]])).tolist() == [True, False, False]
@@ -329,18 +332,40 @@ def test_exact_volume_equals_qhull_of_brute_force_vertices_and_monte_carlo(d, co
     assert abs(vol.value - mc) < 5 * se
 
 
-def test_volume_check_catches_a_wrong_qhull_volume(monkeypatch):
-    import hybobs_opt.geometry.volume as volmod
-
+@pytest.mark.parametrize("corrupt", ["drop", "double", "flip", "facet"])
+def test_hull_check_catches_a_wrong_qhull_triangulation(monkeypatch, corrupt):
+    """qhull's triangulation of a box corrupted: the cycle check refuses it; the facets answer."""
     class Liar:
         def __init__(self, Y, qhull_options=None):
-            self._h = ConvexHull(Y, qhull_options=qhull_options)
-            self.simplices = self._h.simplices
-            self.volume = self._h.volume * (1.1 if qhull_options is None else 1.0)
+            hull = ConvexHull(Y, qhull_options=qhull_options)
+            eq, S = hull.equations, hull.simplices.copy()
+            if Y.shape[1] == 3:  # only the box's own hull; its facets' 2-D hulls are left alone
+                if corrupt == "drop":  # one triangle of a face missing
+                    eq, S = eq[1:], S[1:]
+                elif corrupt == "double":  # every triangle twice: the boundary covered twice
+                    eq, S = np.vstack([eq, eq]), np.vstack([S, S[:, ::-1]])
+                elif corrupt == "flip":  # one triangle's vertex replaced by a point off its face
+                    S[0, 0] = next(k for k in range(8) if abs(eq[0, :3] @ Y[k] + eq[0, 3]) > 0.1)
+                else:  # a whole face missing
+                    keep = np.any(np.abs(eq[:, :3] - eq[0, :3]) > 1e-9, axis=1)
+                    eq, S = eq[keep], S[keep]
+            self.equations, self.simplices, self.vertices = eq, S, hull.vertices
 
-    monkeypatch.setattr(volmod, "ConvexHull", Liar)
-    # the plain hull's volume is refused; the joggled (QJ) hull's passes, within its joggle
-    assert Polytope.from_box([0, 0, 0], [1, 2, 3]).volume().value == pytest.approx(6.0, rel=1e-9)
+    box = Polytope.from_box([0, 0, 0], [1, 2, 3])
+    Y = box.vertices() - box.vertices().mean(axis=0)
+    monkeypatch.setattr(hcmod, "ConvexHull", Liar)
+    hull = Liar(Y)
+    eq = hull.equations
+    assert isinstance(hcmod.check_triangulation(Y, Y.mean(axis=0), hull.simplices, eq[:, :-1], -eq[:, -1]), str)
+    got = hcmod.checked_hull(Y)
+    if corrupt in ("drop", "double"):  # every face's plane still there: the ridge closure proves them
+        assert got.how == "facets" and got.volume == pytest.approx(6.0, rel=1e-12) and got.G.shape == (6, 3)
+    else:  # a face's plane missing (or a triangle off its plane): refused
+        assert isinstance(got, str)
+    assert box.volume().value == pytest.approx(6.0, rel=1e-12)  # by the facets' 2-D hulls if need be
+    pts = np.vstack([box.vertices(), [[0.5, 1.0, 1.5]]])
+    H = Polytope.from_vertices(pts)  # cdd (3-D) answers: the box's 6 rows
+    assert H.n_constraints == 6 and H.contains(np.array([[0.5, 1.9, 2.9], [0.5, 2.1, 1.0]])).tolist() == [True, False]
 
 
 def test_remove_redundant_with_a_caller_scale_decides_as_the_lp_path(monkeypatch, counters):
