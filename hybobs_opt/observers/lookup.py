@@ -373,8 +373,9 @@ class LookupObserver(Observer):
                         self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts,
                         self._in_A, self._in_b, self._x_lo, self._x_hi)
         pp = self._pairs if self._pairs is not None else _PairPieces.empty(self.n)
+        self._m_last = self._mstarts[:-1].copy()
         self._tables += (pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, np.ascontiguousarray(pp.cx),
-                         pp.survivors)
+                         pp.survivors, pp.ex_last, self._m_last)
         self._nan_u = np.full(self.m, np.nan)
         self._nan_y = np.full(self.p, np.nan)
         self._pack(pp)
@@ -399,7 +400,8 @@ class LookupObserver(Observer):
                   "z": np.zeros(T * (p + m)), "xs0": np.zeros(n), "xnew": np.zeros(n)}
         ints = {"ints": self._ints, "meta": np.zeros(7, dtype=np.int64), "mstarts": self._mstarts,
                 "bt_starts": self._bt_starts, "last_mode": self._last_mode, "guard_starts": self._guard_starts,
-                "ex_starts": pp.ex_starts, "cut_count": pp.cut_count, "survivors": pp.survivors}
+                "ex_starts": pp.ex_starts, "cut_count": pp.cut_count, "survivors": pp.survivors,
+                "ex_last": pp.ex_last, "m_last": self._m_last}
         header = np.zeros(K.HEADER, dtype=np.int64)
         f_size = 0
         for k, name in enumerate(K.FLOAT_SEGMENTS):
@@ -433,6 +435,7 @@ class LookupObserver(Observer):
             views["ints"], views["mstarts"], views["bt_starts"], views["last_mode"], views["guard_starts"])
         pp.ex_A, pp.ex_b, pp.cut_A, pp.cut_b = views["ex_A"], views["ex_b"], views["cut_A"], views["cut_b"]
         pp.ex_starts, pp.cut_count, pp.survivors = views["ex_starts"], views["cut_count"], views["survivors"]
+        pp.ex_last, self._m_last = views["ex_last"], views["m_last"]
         self._Ybuf, self._Ubuf, self._xcur, self._uprev, self._z, self._xs0, self._xnew = (
             views[k] for k in ("Ybuf", "Ubuf", "xcur", "uprev", "z", "xs0", "xnew"))
         self._meta = views["meta"]
@@ -440,7 +443,8 @@ class LookupObserver(Observer):
                         self._bt_starts, self._Pl, self._Gl, self._pl, self._last_mode,
                         self._modeA, self._modeB, self._modea, self._guard, self._guard_rhs, self._guard_starts,
                         self._in_A, self._in_b, self._x_lo, self._x_hi,
-                        pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, views["x_c"], pp.survivors)
+                        pp.ex_A, pp.ex_b, pp.ex_starts, pp.cut_A, pp.cut_b, pp.cut_count, views["x_c"], pp.survivors,
+                        pp.ex_last, self._m_last)
         # One call of each compiled entry point now, with nothing to do (a too long u; no rows), so the
         # first step of a process does not pay numba's first dispatch (~0.1 ms): the tables are
         # built here anyway.  The state is untouched.
@@ -822,6 +826,7 @@ class _PairPieces:
         self.cut_count = np.zeros(P, dtype=np.int64)
         self._cut_next = np.zeros(P, dtype=np.int64)
         self.survivors = np.zeros(max(P, 1), dtype=np.int64)
+        self.ex_last = self.ex_starts[:-1].copy()  # the row that last excluded each piece (screen order only)
         self._last_hit = -1
         self.n_tests = self.n_lps = self.n_hits = self.n_cuts = 0
         self.n_pairs = P
@@ -882,13 +887,14 @@ class _PairPieces:
         self.ex_A, self.ex_b, self.ex_starts = np.zeros((0, n)), np.zeros(0), np.zeros(1, dtype=np.int64)
         self.cut_A, self.cut_b = np.zeros((0, PAIR_CUTS_PER_PIECE, n)), np.zeros((0, PAIR_CUTS_PER_PIECE))
         self.cut_count, self.survivors = np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        self.ex_last = np.zeros(0, dtype=np.int64)
         return self
 
     def contains(self, x: np.ndarray) -> bool:
         """Is ``x`` (original coordinates) in ``B~_T`` (closed, ``LOOKUP_MEMBERSHIP_TOL``)?"""
         xs = np.ascontiguousarray((x - self.cx) / self.sx)
         cnt = K.pair_screen(xs, self.ex_A, self.ex_b, self.ex_starts, self.cut_A, self.cut_b, self.cut_count,
-                            LOOKUP_MEMBERSHIP_TOL, self.survivors)
+                            LOOKUP_MEMBERSHIP_TOL, self.survivors, self.ex_last)
         return self.decide(x, cnt)
 
     def decide(self, x: np.ndarray, cnt: int) -> bool:
