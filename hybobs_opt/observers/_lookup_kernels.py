@@ -425,19 +425,19 @@ HEADER = 4 * (len(FLOAT_SEGMENTS) + len(INT_SEGMENTS))
 BAD_LENGTH = -1
 
 
-@kernel(cache=True, inline="always", _nrt=False)
+@kernel(cache=True, inline="always")
 def _v1(A, I, k):
     o = I[4 * k]
     return A[o:o + I[4 * k + 1]]
 
 
-@kernel(cache=True, inline="always", _nrt=False)
+@kernel(cache=True, inline="always")
 def _v2(A, I, k):
     o, r, c = I[4 * k], I[4 * k + 1], I[4 * k + 2]
     return A[o:o + r * c].reshape((r, c))
 
 
-@kernel(cache=True, inline="always", _nrt=False)
+@kernel(cache=True, inline="always")
 def _v3(A, I, k):
     o, a, b, c = I[4 * k], I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]
     return A[o:o + a * b * c].reshape((a, b, c))
@@ -446,9 +446,12 @@ def _v3(A, I, k):
 _NF = len(FLOAT_SEGMENTS)
 
 
-@kernel(cache=True, inline="always", _nrt=False)
+@kernel(cache=True, inline="always")
 def _packed_views(F, I):
-    """The views of the packed arrays: ``(state, tables)`` as :func:`_advance` takes them."""
+    """The views of the packed arrays: ``(state, tables)`` as :func:`_advance` takes them.
+
+    Inlined into the kernels below, which run without reference counting; compiled alone (a call
+    from Python) with it, so that the views it returns keep ``F`` and ``I`` alive."""
     state = (_v1(I, I, _NF + 0), _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26), _v1(I, I, _NF + 1),
              _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30))
     tables = (_v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
