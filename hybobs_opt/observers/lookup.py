@@ -641,8 +641,9 @@ class _StepEstimate(Estimate):
     The same fields, read-only, in one slot (a tuple ``(x, mode, flag, seconds, info)``): built
     with one slot store instead of the frozen dataclass's five ``object.__setattr__`` or an
     instance dictionary, a few hundred nanoseconds of a step that otherwise takes about one
-    microsecond.  Equality, ``repr``, ``dataclasses.fields`` / ``asdict`` / ``replace``, copying
-    and pickling behave as for :class:`Estimate` (``repr`` names it ``Estimate``).
+    microsecond.  ``repr`` (which names it ``Estimate``), equality between two of them,
+    ``dataclasses.fields`` / ``asdict`` / ``replace``, copying, pickling and the refusal of any
+    assignment behave as for :class:`Estimate`.
     """
 
     __slots__ = ("_fields",)
