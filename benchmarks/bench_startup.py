@@ -153,11 +153,11 @@ def first_analysis(repeats: int) -> dict:
 
     load_start = list(os.getloadavg())
     base = {k: v for k, v in os.environ.items() if k not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX")}
-    subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=base, check=True, capture_output=True)
     out: dict = {"target_s": 1.0, "target_first_over_second_at_most": 2.0, "repeats": repeats,
                  "load_average_at_start": load_start}
     with tempfile.TemporaryDirectory(prefix="hybobs-pycache-") as pycache:
         warm = {**base, "PYTHONPYCACHEPREFIX": pycache}
+        subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=warm, check=True, capture_output=True)
         no_pyc = {k: v for k, v in base.items() if k != "PYTHONPYCACHEPREFIX"}
         no_pyc["PYTHONDONTWRITEBYTECODE"] = "1"  # the installed packages' own bytecode is still read
         _child(_ANALYSIS_PROBE, warm)  # writes the bytecode cache
