@@ -88,14 +88,23 @@ def prepare_target() -> None:
 
     Loading a cached kernel does it anyway on the first call; the kernel modules call this at
     import so that the first call of an analysis or an observer costs what the second does.
+    Then ``gc.freeze()``: the objects of the process so far (numba's tables above all) move to the
+    collector's permanent generation (see the comment in the body).
     """
     global _prepared
     if _prepared:
         return
+    import gc
+
     from numba.core.registry import cpu_target
 
     cpu_target.typing_context.refresh()
     cpu_target.target_context.refresh()
+    # numba's tables are a few hundred thousand objects that live as long as the process: out of
+    # the cyclic collector's sight, they no longer cost every full collection and the collection at
+    # exit a traversal (0.3 s of CPU at exit, measured).  Only objects that exist now are frozen;
+    # reference counting still frees any of them that is dropped.
+    gc.freeze()
     _prepared = True
 
 
