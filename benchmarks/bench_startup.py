@@ -1,6 +1,18 @@
-"""Start-up time of the ``hybobs`` command (issue 13) and first calls of the library (issue 19).
+"""Start-up time of the ``hybobs`` command (issue 13) and first calls of the library (issues 19, 39).
 
 Writes ``benchmarks/results/startup.json``.
+
+``first_analysis`` (issue 39) is the issue's two figures.  (1) A fresh process that runs
+``from hybobs_opt import analyse_observability, get_example`` and one
+``analyse_observability(get_example("powertrain3").build(), 3)``, timed from outside as a whole
+process (wall clock, and the CPU time of the child from ``getrusage``), against the target of
+1 s and against ``python -c pass`` timed alike, interleaved, ``repeats`` times; the medians.
+(2) In fresh processes, the first such analysis against the second (wall and CPU; the median
+ratio), target at most 2.  Both with the caches warm, as after an install: numba's kernel cache
+(``python -m hybobs_opt._warm_up`` first, a no-op when warm) and Python's bytecode cache (a
+temporary ``PYTHONPYCACHEPREFIX``, written by one unmeasured run; the environment may set
+``PYTHONDONTWRITEBYTECODE``, under which every process compiles the package's sources again:
+that variant is recorded too, ``no_bytecode_cache``).
 
 ``first_calls`` (issue 19): in fresh processes, with numba's cache directory empty (``cold``: the
 kernels run as plain Python in that process while a background process compiles them into the
@@ -105,6 +117,80 @@ print(json.dumps(rec))
 """
 
 
+_ANALYSIS_PROBE = ("from hybobs_opt import analyse_observability, get_example\n"
+                   "analyse_observability(get_example('powertrain3').build(), 3)\n")
+
+_RATIO_PROBE = r"""
+import json, time
+wall, cpu = time.perf_counter, time.process_time
+from hybobs_opt import analyse_observability, get_example
+rec = {}
+for k in ("first", "second"):
+    w0, c0 = wall(), cpu()
+    analyse_observability(get_example("powertrain3").build(), 3)
+    rec[f"analysis_{k}_s"], rec[f"analysis_{k}_cpu_s"] = wall() - w0, cpu() - c0
+print(json.dumps(rec))
+"""
+
+
+def _child(code: str, env: dict) -> tuple[float, float, str]:
+    """Wall time, CPU time (user + system, from ``getrusage``) and stdout of ``python -c code``."""
+    import resource
+
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+    wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (r1.ru_utime + r1.ru_stime) - (r0.ru_utime + r0.ru_stime), out
+
+
+def first_analysis(repeats: int) -> dict:
+    """Issue 39's figures (module docstring): import + one analysis as a whole process, and the
+    first analysis of a process against its second, with numba's and Python's caches warm."""
+    import os
+    import tempfile
+
+    load_start = list(os.getloadavg())
+    base = {k: v for k, v in os.environ.items() if k not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX")}
+    out: dict = {"target_s": 1.0, "target_first_over_second_at_most": 2.0, "repeats": repeats,
+                 "load_average_at_start": load_start}
+    with tempfile.TemporaryDirectory(prefix="hybobs-pycache-") as pycache:
+        warm = {**base, "PYTHONPYCACHEPREFIX": pycache}
+        subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=warm, check=True, capture_output=True)
+        no_pyc = {k: v for k, v in base.items() if k != "PYTHONPYCACHEPREFIX"}
+        no_pyc["PYTHONDONTWRITEBYTECODE"] = "1"  # the installed packages' own bytecode is still read
+        _child(_ANALYSIS_PROBE, warm)  # writes the bytecode cache
+        rows: dict[str, list] = {k: [] for k in ("pass_s", "pass_cpu_s", "process_s", "process_cpu_s",
+                                                 "no_bytecode_cache_process_s", "no_bytecode_cache_process_cpu_s")}
+        ratios = []
+        for _ in range(repeats):  # interleaved, so that the load falls on all alike
+            w, c, _out = _child("pass", warm)
+            rows["pass_s"].append(w)
+            rows["pass_cpu_s"].append(c)
+            w, c, _out = _child(_ANALYSIS_PROBE, warm)
+            rows["process_s"].append(w)
+            rows["process_cpu_s"].append(c)
+            w, c, _out = _child(_ANALYSIS_PROBE, no_pyc)
+            rows["no_bytecode_cache_process_s"].append(w)
+            rows["no_bytecode_cache_process_cpu_s"].append(c)
+            ratios.append(json.loads(_child(_RATIO_PROBE, warm)[2].strip().splitlines()[-1]))
+    med = {k: statistics.median(v) for k, v in rows.items()}
+    for k in ("analysis_first_s", "analysis_second_s", "analysis_first_cpu_s", "analysis_second_cpu_s"):
+        med[k] = statistics.median(r[k] for r in ratios)
+    first_over_second = statistics.median(r["analysis_first_s"] / r["analysis_second_s"] for r in ratios)
+    first_over_second_cpu = statistics.median(r["analysis_first_cpu_s"] / r["analysis_second_cpu_s"] for r in ratios)
+    out.update({
+        "medians": med, "per_run": rows, "ratio_runs": ratios,
+        "process_over_pass": med["process_s"] / med["pass_s"],
+        "first_over_second": first_over_second, "first_over_second_cpu": first_over_second_cpu,
+        "process_target_met": med["process_s"] <= 1.0, "process_cpu_within_target": med["process_cpu_s"] <= 1.0,
+        "first_over_second_target_met": first_over_second <= 2.0,
+        "load_average_at_end": list(os.getloadavg()),
+    })
+    return out
+
+
 def first_call_times(cache_dir: str) -> dict:
     """The probe above in a fresh process whose numba cache is ``cache_dir`` (and the total wall time)."""
     import os
@@ -150,7 +236,20 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_startup")
     parser.add_argument("--quick", action="store_true", help="3 repeats instead of 5")
     parser.add_argument("--no-first-calls", action="store_true", help="skip the first-call measurement (minutes cold)")
+    parser.add_argument("--only-first-analysis", action="store_true",
+                        help="only issue 39's two figures (first_analysis), kept with the rest of the last record")
     args = parser.parse_args(argv)
+    out_dir = RESULTS / "quick" if args.quick else RESULTS
+    if args.only_first_analysis:
+        path = out_dir / "startup.json"
+        record = json.loads(path.read_text()) if path.exists() else {}
+        record["first_analysis"] = fa = first_analysis(3 if args.quick else 7)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(record, indent=2))
+        print(json.dumps({k: fa[k] for k in ("medians", "process_over_pass", "first_over_second", "first_over_second_cpu",
+                                             "process_target_met", "first_over_second_target_met",
+                                             "load_average_at_start", "load_average_at_end")}, indent=2))
+        return 0
     repeats = 3 if args.quick else 5
     record: dict = {"benchmark": "hybobs start-up, cold processes", "command": " ".join(_hybobs()),
                     "repeats": repeats, "target_s": TARGET_S,
@@ -164,13 +263,13 @@ def main(argv: list[str] | None = None) -> int:
     floor = record["commands"]["python -c pass"]["median_s"]
     for label, rec in record["commands"].items():
         rec["above_interpreter_s"] = rec["median_s"] - floor
+    record["first_analysis"] = first_analysis(3 if args.quick else 7)
     if not args.no_first_calls:
         record["first_calls"] = first_calls(repeats)
         record["load_average_at_end"] = list(__import__("os").getloadavg())
         fc = record["first_calls"]
         print(json.dumps({k: {q: v for q, v in fc[k].items() if q != "numba_cache_dir"} for k in ("cold", "warm")},
                          indent=2))
-    out_dir = RESULTS / "quick" if args.quick else RESULTS
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "startup.json").write_text(json.dumps(record, indent=2))
     print(json.dumps({k: {"median_s": v["median_s"], "heavy": v["heavy_modules_imported"]} for k, v in record["commands"].items()}, indent=2))

@@ -40,8 +40,8 @@ NOTE_CLIPPED = 6  # unobservable step whose open-loop prediction was clipped to 
 # meta (int64) = [count, mode, has_previous_input, previous_input_good, region, reason, n_survivors]
 
 
-@kernel(cache=True, _nrt=False)
-def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, x_out):
+@kernel(cache=True, inline="always", _nrt=False)
+def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, x_out, m_last):
     """Index of the unique consistent candidate (eqs. 12-14), or -1 (chi empty or card(chi) > 1).
 
     A membership row ``r`` of region ``k`` passes when its value (unit row in scaled
@@ -49,6 +49,10 @@ def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_r
     rows that involve the state (strict: the guards' boundaries belong to the neighbouring mode
     sequence), ``+LOOKUP_INPUT_BOUND_TOL`` for the rows that only bound the inputs (closed: the
     input set ``U`` has no neighbour).  Writes the candidate's window-start state into ``x_out``.
+
+    ``m_last[k]`` is the membership row that last excluded region ``k``; it is tried first (the
+    windows of consecutive samples are close, so it usually excludes again).  Whether a region
+    passes does not depend on the order of its rows, so neither does the answer.
     """
     R, d = table.shape
     K = mstarts.shape[0] - 1
@@ -70,13 +74,24 @@ def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_r
         if not ok:
             continue
         # membership [x_k; U] in P_k (eq. 14): strict on state rows, closed on input bounds
+        r0 = m_last[k]
+        if r0 < mstarts[k + 1]:
+            rr = nx + nr + r0
+            acc = offset[rr]
+            for c in range(d):
+                acc += table[rr, c] * z[c]
+            if acc >= mthr[r0]:
+                continue
         for r in range(mstarts[k], mstarts[k + 1]):
+            if r == r0:
+                continue
             rr = nx + nr + r
             acc = offset[rr]
             for c in range(d):
                 acc += table[rr, c] * z[c]
             if acc >= mthr[r]:
                 ok = False
+                m_last[k] = r
                 break
         if not ok:
             continue
@@ -98,7 +113,7 @@ def classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_r
     return found
 
 
-@kernel(cache=True, _nrt=False)
+@kernel(cache=True, inline="always", _nrt=False)
 def in_union(x, A, b, starts, tol):
     """Is ``x`` in one of the polytopes ``A[starts[k]:starts[k+1]] x <= b + tol``?"""
     P = starts.shape[0] - 1
@@ -116,27 +131,39 @@ def in_union(x, A, b, starts, tol):
     return False
 
 
-@kernel(cache=True, _nrt=False)
-def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
+@kernel(cache=True, inline="always", _nrt=False)
+def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out, ex_last):
     """Pieces ``Proj_x(R_ij)`` of ``B~_T`` that the scaled state ``xs`` is not excluded from cheaply.
 
     Per pair ``q``: the rows ``ex_A[ex_starts[q]:ex_starts[q+1]] xs <= ex_b + tol`` (the rows of
     ``R_ij`` that only involve ``x`` once ``x`` is fixed, and the output equalities' consistency
     rows as two inequalities), then the cached cuts ``cut_A[q, c] xs <= cut_b[q, c]`` (valid for
     every point of the piece, from earlier LPs).  Writes the indices of the pairs that pass both
-    into ``out`` and returns their number; only those need an LP.
+    into ``out`` and returns their number; only those need an LP.  ``ex_last[q]`` is the row that
+    last excluded pair ``q``, tried first (as ``m_last`` in :func:`classify_window`; the answer
+    does not depend on it).
     """
     P = ex_starts.shape[0] - 1
     n = xs.shape[0]
     cnt = 0
     for q in range(P):
         inside = True
+        r0 = ex_last[q]
+        if r0 < ex_starts[q + 1]:
+            acc = -ex_b[r0]
+            for c in range(n):
+                acc += ex_A[r0, c] * xs[c]
+            if acc > tol:
+                continue
         for r in range(ex_starts[q], ex_starts[q + 1]):
+            if r == r0:
+                continue
             acc = -ex_b[r]
             for c in range(n):
                 acc += ex_A[r, c] * xs[c]
             if acc > tol:
                 inside = False
+                ex_last[q] = r
                 break
         if not inside:
             continue
@@ -153,7 +180,7 @@ def pair_screen(xs, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, tol, out):
     return cnt
 
 
-@kernel(cache=True, _nrt=False)
+@kernel(cache=True, inline="always", _nrt=False)
 def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out):
     """``x_out = f_pwa(x, u)`` (eq. 1 of paper 002); returns the mode, or -1 outside ``X x U``."""
     n = x.shape[0]
@@ -184,7 +211,7 @@ def pwa_step(x, u, mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, x_out
     return -1
 
 
-@kernel(cache=True, _nrt=False)
+@kernel(cache=True, inline="always", _nrt=False)
 def clip_box(x, lo, hi):
     """Clip ``x`` into ``[lo, hi]`` in place; True if a coordinate moved."""
     moved = False
@@ -198,7 +225,7 @@ def clip_box(x, lo, hi):
     return moved
 
 
-@kernel(cache=True, _nrt=False)
+@kernel(cache=True, inline="always", _nrt=False)
 def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
     """State at the window's last sample from the window-start state (region ``k``'s affine map)."""
     n = x0.shape[0]
@@ -211,12 +238,15 @@ def propagate_last(k, x0, z, pT, Pl, Gl, pl, x_out):
         x_out[i] = acc
 
 
-@kernel(cache=True, _nrt=False)
-def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
-            table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
-            mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
-            ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors):
+@kernel(cache=True, inline="always", _nrt=False)
+def _advance(u, y, state, tables):
     """One step of Algorithm 4.1 on the observer state (buffers, estimate, meta) in place.
+
+    ``state = (ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew)`` and ``tables`` the
+    other arrays of :func:`advance`, in its order: two tuples, so that the callers pass four
+    arguments (CPython calls a function of more than 30 arguments through a tuple, which numba
+    cannot inline) and numba inlines this body into each of them (:func:`step_packed`,
+    :func:`run_packed`): one compiled function per call from Python, no call passing 42 arrays.
 
     Returns a flag code and sets ``meta[5]`` to a reason code (``REASON_*``, ``NOTE_CLIPPED``).
 
@@ -235,6 +265,10 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
       ``CANDIDATE_CODE`` the state is in ``xs0`` and its region in ``meta[4]``; the caller
       decides and calls :func:`propagate_last`.
     """
+    ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew = state
+    (table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode, mode_A, mode_B, mode_a, guard,
+     guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c,
+     survivors, ex_last, m_last) = tables
     T, nx, nr, pT, btilde_mode = ints[0], ints[1], ints[2], ints[3], ints[4]
     output_rtol, same_tol, member_tol, input_tol = reals[0], reals[1], reals[2], reals[3]
     n = xcur.shape[0]
@@ -308,7 +342,7 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
             z[j * p + c] = Ybuf[j, c]
         for c in range(m):
             z[pT + j * m + c] = Ubuf[j, c]
-    k = classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, xs0)
+    k = classify_window(z, table, offset, mthr, nx, nr, n, pT, mstarts, sx, output_rtol, same_tol, xs0, m_last)
     if k >= 0:
         meta[4] = k
         if btilde_mode == 0:
@@ -316,7 +350,7 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
         if btilde_mode == 2:
             for i in range(n):
                 xnew[i] = (xs0[i] - x_c[i]) / sx[i]
-            cnt = pair_screen(xnew, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, member_tol, survivors)
+            cnt = pair_screen(xnew, ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, member_tol, survivors, ex_last)
             meta[6] = cnt
             if cnt > 0:
                 return CANDIDATE_CODE
@@ -332,10 +366,22 @@ def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
 
 
 @kernel(cache=True, _nrt=False)
+def advance(u, y, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
+            table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
+            mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
+            ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, ex_last, m_last):
+    """:func:`_advance` on separate arrays (the observer's state, then its tables): the flag code."""
+    return _advance(u, y, (ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew),
+                    (table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
+                     mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
+                     ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, ex_last, m_last))
+
+
+@kernel(cache=True, _nrt=False)
 def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
               table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
               mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
-              ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, xs, modes, flags, reasons):
+              ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, ex_last, m_last, xs, modes, flags, reasons):
     """:func:`advance` over ``U[start:], Y[start:]``; fills ``xs``, ``modes``, ``flags``, ``reasons``.
 
     Returns the number of rows done: ``U.shape[0]``, or the index of the first step whose code
@@ -347,7 +393,7 @@ def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, x
         code = advance(U[t], Y[t], ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, xnew,
                        table, offset, mthr, mstarts, sx, bt_A, bt_b, bt_starts, Pl, Gl, pl, last_mode,
                        mode_A, mode_B, mode_a, guard, guard_rhs, guard_starts, in_A, in_b, x_lo, x_hi,
-                       ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors)
+                       ex_A, ex_b, ex_starts, cut_A, cut_b, cut_count, x_c, survivors, ex_last, m_last)
         flags[t] = code
         reasons[t] = meta[5]
         if code == CANDIDATE_CODE:
@@ -363,33 +409,35 @@ def run_table(U, Y, start, ints, reals, Ybuf, Ubuf, xcur, meta, uprev, z, xs0, x
 # ``F`` (float64) and ``I`` (int64).  ``I`` starts with a header of 4 ints per segment,
 # ``(offset, d0, d1, d2)``: the float segments (offsets into ``F``), then the int segments
 # (offsets into ``I``).  A call passes these two arrays instead of ~40 (numba unboxes every
-# array argument, a few tens of nanoseconds each); the kernels below cut the views and call the
-# kernels above, so every flag, mode and estimate is computed by the same operations in the same
-# order as with the separate arrays.
+# array argument, a few tens of nanoseconds each); the kernels below cut the views and run
+# :func:`_advance` on them, so every flag, mode and estimate is computed by the same operations in
+# the same order as with the separate arrays.  The views and every kernel of a step are inlined
+# (``inline="always"``) and compiled without reference counting: one compiled function per call
+# from Python, no incref/decref per view, no call that passes 42 arrays.
 FLOAT_SEGMENTS = ("reals", "table", "offset", "mthr", "sx", "bt_A", "bt_b", "Pl", "Gl", "pl",
                   "mode_A", "mode_B", "mode_a", "guard", "guard_rhs", "in_A", "in_b", "x_lo", "x_hi",
                   "ex_A", "ex_b", "cut_A", "cut_b", "x_c",
                   "Ybuf", "Ubuf", "xcur", "uprev", "z", "xs0", "xnew")
 INT_SEGMENTS = ("ints", "meta", "mstarts", "bt_starts", "last_mode", "guard_starts", "ex_starts", "cut_count",
-                "survivors")
+                "survivors", "ex_last", "m_last")
 HEADER = 4 * (len(FLOAT_SEGMENTS) + len(INT_SEGMENTS))
 #: ``step_packed``'s answer when ``u`` or ``y`` has the wrong length (nothing is changed).
 BAD_LENGTH = -1
 
 
-@kernel(cache=True)
+@kernel(cache=True, inline="always")
 def _v1(A, I, k):
     o = I[4 * k]
     return A[o:o + I[4 * k + 1]]
 
 
-@kernel(cache=True)
+@kernel(cache=True, inline="always")
 def _v2(A, I, k):
     o, r, c = I[4 * k], I[4 * k + 1], I[4 * k + 2]
     return A[o:o + r * c].reshape((r, c))
 
 
-@kernel(cache=True)
+@kernel(cache=True, inline="always")
 def _v3(A, I, k):
     o, a, b, c = I[4 * k], I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]
     return A[o:o + a * b * c].reshape((a, b, c))
@@ -398,50 +446,60 @@ def _v3(A, I, k):
 _NF = len(FLOAT_SEGMENTS)
 
 
-@kernel(cache=True)
-def _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons):
-    return run_table(U, Y, start, _v1(I, I, _NF + 0), _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26),
-                     _v1(I, I, _NF + 1), _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30),
-                     _v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
-                     _v2(F, I, 5), _v1(F, I, 6), _v1(I, I, _NF + 3), _v3(F, I, 7), _v3(F, I, 8), _v2(F, I, 9),
-                     _v1(I, I, _NF + 4), _v3(F, I, 10), _v3(F, I, 11), _v2(F, I, 12), _v2(F, I, 13),
-                     _v1(F, I, 14), _v1(I, I, _NF + 5), _v2(F, I, 15), _v1(F, I, 16), _v1(F, I, 17),
-                     _v1(F, I, 18), _v2(F, I, 19), _v1(F, I, 20), _v1(I, I, _NF + 6), _v3(F, I, 21),
-                     _v2(F, I, 22), _v1(I, I, _NF + 7), _v1(F, I, 23), _v1(I, I, _NF + 8),
-                     xs, modes, flags, reasons)
+@kernel(cache=True, inline="always")
+def _packed_views(F, I):
+    """The views of the packed arrays: ``(state, tables)`` as :func:`_advance` takes them.
+
+    Inlined into the kernels below, which run without reference counting; compiled alone (a call
+    from Python) with it, so that the views it returns keep ``F`` and ``I`` alive."""
+    state = (_v1(I, I, _NF + 0), _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26), _v1(I, I, _NF + 1),
+             _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30))
+    tables = (_v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
+              _v2(F, I, 5), _v1(F, I, 6), _v1(I, I, _NF + 3), _v3(F, I, 7), _v3(F, I, 8), _v2(F, I, 9),
+              _v1(I, I, _NF + 4), _v3(F, I, 10), _v3(F, I, 11), _v2(F, I, 12), _v2(F, I, 13),
+              _v1(F, I, 14), _v1(I, I, _NF + 5), _v2(F, I, 15), _v1(F, I, 16), _v1(F, I, 17),
+              _v1(F, I, 18), _v2(F, I, 19), _v1(F, I, 20), _v1(I, I, _NF + 6), _v3(F, I, 21),
+              _v2(F, I, 22), _v1(I, I, _NF + 7), _v1(F, I, 23), _v1(I, I, _NF + 8), _v1(I, I, _NF + 9),
+              _v1(I, I, _NF + 10))
+    return state, tables
 
 
-@kernel("int64(float64[::1], float64[::1], int64, float64[::1], int64[::1])", cache=True)
+@kernel("int64(float64[::1], float64[::1], int64, float64[::1], int64[::1])", cache=True, _nrt=False)
 def step_packed(u, y, good, F, I):
-    """:func:`advance` on the packed tables and state; returns ``code | (mode + 1) << 3``.
+    """:func:`_advance` on the packed tables and state; returns ``code | (mode + 1) << 3``.
 
     ``good = 0`` marks a sample the caller found malformed (``REASON_BAD_SHAPE``); ``u`` and ``y``
     are then NaN vectors of the right lengths.  A ``u`` or ``y`` of the wrong length returns
     :data:`BAD_LENGTH` and leaves the state untouched (the caller builds the reason).  The mode
     part is meaningless with ``CANDIDATE_CODE``, which the caller decides.
     """
-    ints = _v1(I, I, _NF + 0)
-    if u.shape[0] != _v2(F, I, 25).shape[1] or y.shape[0] != _v2(F, I, 24).shape[1]:
+    state, tables = _packed_views(F, I)
+    ints, Ybuf, Ubuf, meta = state[0], state[2], state[3], state[5]
+    if u.shape[0] != Ubuf.shape[1] or y.shape[0] != Ybuf.shape[1]:
         return BAD_LENGTH
-    meta = _v1(I, I, _NF + 1)
     ints[5] = good
-    code = advance(u, y, ints, _v1(F, I, 0), _v2(F, I, 24), _v2(F, I, 25), _v1(F, I, 26),
-                   meta, _v1(F, I, 27), _v1(F, I, 28), _v1(F, I, 29), _v1(F, I, 30),
-                   _v2(F, I, 1), _v1(F, I, 2), _v1(F, I, 3), _v1(I, I, _NF + 2), _v1(F, I, 4),
-                   _v2(F, I, 5), _v1(F, I, 6), _v1(I, I, _NF + 3), _v3(F, I, 7), _v3(F, I, 8), _v2(F, I, 9),
-                   _v1(I, I, _NF + 4), _v3(F, I, 10), _v3(F, I, 11), _v2(F, I, 12), _v2(F, I, 13),
-                   _v1(F, I, 14), _v1(I, I, _NF + 5), _v2(F, I, 15), _v1(F, I, 16), _v1(F, I, 17),
-                   _v1(F, I, 18), _v2(F, I, 19), _v1(F, I, 20), _v1(I, I, _NF + 6), _v3(F, I, 21),
-                   _v2(F, I, 22), _v1(I, I, _NF + 7), _v1(F, I, 23), _v1(I, I, _NF + 8))
+    code = _advance(u, y, state, tables)
     ints[5] = 1
     return code | ((meta[1] + 1) << 3)
 
 
 @kernel("int64(float64[:, ::1], float64[:, ::1], int64, float64[::1], int64[::1], float64[:, ::1], int64[::1], "
-      "int64[::1], int64[::1])", cache=True)
+      "int64[::1], int64[::1])", cache=True, _nrt=False)
 def run_packed(U, Y, start, F, I, xs, modes, flags, reasons):
-    """:func:`run_table` on the packed tables and state (same return value)."""
-    return _run_packed_impl(U, Y, start, F, I, xs, modes, flags, reasons)
+    """:func:`run_table` on the packed tables and state (same return value), with :func:`_advance` inlined."""
+    state, tables = _packed_views(F, I)
+    xcur, meta = state[4], state[5]
+    N = U.shape[0]
+    for t in range(start, N):
+        code = _advance(U[t], Y[t], state, tables)
+        flags[t] = code
+        reasons[t] = meta[5]
+        if code == CANDIDATE_CODE:
+            return t
+        for i in range(xcur.shape[0]):
+            xs[t, i] = xcur[i]
+        modes[t] = meta[1]
+    return N
 
 
 # numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)

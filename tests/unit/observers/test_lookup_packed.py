@@ -165,3 +165,39 @@ def test_constructor_warm_up_step_leaves_no_trace(which):
     for k in range(U.shape[0]):
         a, b = fresh.step(U[k], Y[k]), used.step(U[k], Y[k])
         assert np.array_equal(a.x, b.x) and a.mode == b.mode and a.flag == b.flag, k
+
+
+def test_screen_memory_changes_no_answer(case):
+    """The kernel tries first the row that last excluded each ``B~_T`` piece and each region; an
+    observer whose memory is reset to the plain row order before every step gives the same
+    estimates, modes, flags and reasons, bit for bit."""
+    analysis, U, Y = case
+    memo, plain = LookupObserver(analysis), LookupObserver(analysis)
+    first_rows = plain._pairs.ex_starts[:-1].copy(), plain._mstarts[:-1].copy()
+    for k in range(U.shape[0]):
+        plain._pairs.ex_last[:], plain._m_last[:] = first_rows
+        a, b = memo.step(U[k], Y[k]), plain.step(U[k], Y[k])
+        assert (a.x.tobytes(), a.mode, a.flag, a.info) == (b.x.tobytes(), b.mode, b.flag, b.info), k
+    moved = int(np.sum(memo._pairs.ex_last != first_rows[0]) + np.sum(memo._m_last != first_rows[1]))
+    assert moved > 0  # the memory was used
+
+
+def test_step_estimate_behaves_as_the_dataclass(case):
+    import copy
+    import dataclasses
+    import pickle
+
+    analysis, U, Y = case
+    obs = LookupObserver(analysis)
+    for k in range(4):
+        est = obs.step(U[k], Y[k])
+    ref = Estimate(est.x, est.mode, est.flag, est.seconds, est.info)
+    assert isinstance(est, Estimate) and repr(est) == repr(ref)
+    assert [f.name for f in dataclasses.fields(est)] == [f.name for f in dataclasses.fields(ref)]
+    assert repr(dataclasses.replace(est, flag="fallback")) == repr(dataclasses.replace(ref, flag="fallback"))
+    for other in (pickle.loads(pickle.dumps(est)), copy.deepcopy(est), copy.copy(est)):
+        assert repr(other) == repr(ref) and other.x is not obs._xcur
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        est.flag = "fallback"
+    with pytest.raises(AttributeError):
+        est.other = 1
