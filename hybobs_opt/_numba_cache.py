@@ -88,25 +88,14 @@ def prepare_target() -> None:
 
     Loading a cached kernel does it anyway on the first call; the kernel modules call this at
     import so that the first call of an analysis or an observer costs what the second does.
-    It also registers ``gc.freeze`` to run at exit, which spares the interpreter's last collection
-    a traversal of numba's tables (see the comment in the body).
     """
     global _prepared
     if _prepared:
         return
-    import atexit
-    import gc
-
     from numba.core.registry import cpu_target
 
     cpu_target.typing_context.refresh()
     cpu_target.target_context.refresh()
-    # numba's tables are a few hundred thousand objects that live as long as the process; the
-    # interpreter's last cyclic collection at exit traverses them all (about 0.3 s of CPU,
-    # measured).  Frozen at exit, after the atexit handlers registered later have run, they are
-    # left to the operating system, as Python's own documentation allows (``__del__`` is not
-    # guaranteed at exit); during the run the collector is untouched.
-    atexit.register(gc.freeze)
     _prepared = True
 
 
