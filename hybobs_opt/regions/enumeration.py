@@ -469,14 +469,15 @@ class PrefixSuperset:
     f: np.ndarray
 
 
-def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSuperset], np.ndarray] | None:
+def prefix_supersets(enum: ModeEnumeration, depth: int, nodes: dict | None = None) -> tuple[list[PrefixSuperset], np.ndarray] | None:
     """The :class:`PrefixSuperset` of every distinct prefix of length ``depth`` of the regions' sequences.
 
     Returns ``(supersets, index)`` with ``index[k]`` the superset of region ``k``, or ``None``
     when the regions below one prefix do not share their first ``depth`` output rows (they
     always do when built by :func:`enumerate_modes`).  The output rows kept are ``depth + 1``
     when every region shares row ``depth`` with the others below its prefix (the modes' output
-    maps agree, as in the powertrains), else ``depth``.
+    maps agree, as in the powertrains), else ``depth``.  ``nodes``: a dict kept between the
+    calls for one enumeration at several depths, where the prefixes' rows are built once.
     """
     system, T = enum.system, enum.T
     if not 1 <= depth < T:
@@ -500,7 +501,9 @@ def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSupe
         if q > depth and not (np.array_equal(reg.C[depth], ref.C[depth]) and np.array_equal(reg.D[depth], ref.D[depth])
                               and reg.f[depth] == ref.f[depth]):
             q = depth
-    nodes: dict[tuple[int, ...], _Node] = {(): _root(system, T)}
+    if nodes is None:
+        nodes = {}
+    nodes.setdefault((), _root(system, T))
 
     def node_of(prefix):
         if prefix not in nodes:

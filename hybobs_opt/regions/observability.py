@@ -578,13 +578,17 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     Returns the ``js`` that pass a screen with what is wanted of each; with ``allowed`` (a mask
     over the regions) only those ``j`` are candidates.
     """
-    js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)
-                   and (allowed is None or allowed[j])], dtype=int)
+    rank_ok = np.asarray(full_rank, dtype=bool)
+    take = ~rank_ok | (np.arange(rank_ok.size) > i)
+    take[i] = False
+    if allowed is not None:
+        take &= np.asarray(allowed, dtype=bool)
+    js = np.nonzero(take)[0]
     if js.size == 0:
         return _Candidates(js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0)
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
-    sym = np.array([bool(full_rank[j]) for j in js])
+    sym = rank_ok[js]
     ok_ji = np.zeros(js.size, dtype=bool)
     ok_ji[sym] = algebra.screen_reversed(cj[sym], ci)
     ok = ok_ij | ok_ji
