@@ -10,6 +10,7 @@ from .cuts import Cut, compute_cut, parse_assignments, plot_cut
 from .enumeration import ModeEnumeration, ModeRegion, enumerate_modes
 from .io import load_analysis, save_analysis
 from .observability import ObservabilityAnalysis, PairSet, analyse_observability
+from .pair_sets import PairList, PairSets
 from .verdicts import PairVerdict, PointClass
 
 __all__ = [
@@ -17,7 +18,9 @@ __all__ = [
     "ModeEnumeration",
     "ModeRegion",
     "ObservabilityAnalysis",
+    "PairList",
     "PairSet",
+    "PairSets",
     "PairVerdict",
     "PointClass",
     "analyse_observability",

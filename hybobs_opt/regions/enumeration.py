@@ -469,6 +469,34 @@ class PrefixSuperset:
     f: np.ndarray
 
 
+def _shared_output_rows(regions, index: np.ndarray, first: dict, depth: int) -> int | None:
+    """``depth + 1`` when every region shares its output rows ``0 .. depth`` bit for bit with the
+    first region below its prefix (``index``, ``first``), ``depth`` when only the rows before
+    ``depth``, ``None`` when not even those (compared all at once when the regions' output maps
+    have one shape, as an enumeration's always do)."""
+    ref = np.array([first[int(a)] for a in index], dtype=int)
+    shapes = {(r.C.shape, r.D.shape, r.f.shape) for r in regions}
+    if len(shapes) == 1:
+        maps = [np.stack([getattr(r, name) for r in regions]) for name in ("C", "D", "f")]
+
+        def same(rows) -> bool:
+            return all(bool(np.all(M[:, rows] == M[ref][:, rows])) for M in maps)
+
+        if not same(slice(0, depth)):
+            return None
+        return depth + 1 if same(depth) else depth
+    q = depth + 1
+    for k, reg in enumerate(regions):
+        r = regions[ref[k]]
+        if not (np.array_equal(reg.C[:depth], r.C[:depth]) and np.array_equal(reg.D[:depth], r.D[:depth])
+                and np.array_equal(reg.f[:depth], r.f[:depth])):
+            return None
+        if q > depth and not (np.array_equal(reg.C[depth], r.C[depth]) and np.array_equal(reg.D[depth], r.D[depth])
+                              and reg.f[depth] == r.f[depth]):
+            q = depth
+    return q
+
+
 def prefix_supersets(enum: ModeEnumeration, depth: int, nodes: dict | None = None) -> tuple[list[PrefixSuperset], np.ndarray] | None:
     """The :class:`PrefixSuperset` of every distinct prefix of length ``depth`` of the regions' sequences.
 
@@ -492,15 +520,9 @@ def prefix_supersets(enum: ModeEnumeration, depth: int, nodes: dict | None = Non
     first = {}
     for k in range(len(enum.regions)):
         first.setdefault(int(index[k]), k)
-    q = depth + 1
-    for k, reg in enumerate(enum.regions):
-        ref = enum.regions[first[int(index[k])]]
-        if not (np.array_equal(reg.C[:depth], ref.C[:depth]) and np.array_equal(reg.D[:depth], ref.D[:depth])
-                and np.array_equal(reg.f[:depth], ref.f[:depth])):
-            return None
-        if q > depth and not (np.array_equal(reg.C[depth], ref.C[depth]) and np.array_equal(reg.D[depth], ref.D[depth])
-                              and reg.f[depth] == ref.f[depth]):
-            q = depth
+    q = _shared_output_rows(enum.regions, index, first, depth)
+    if q is None:
+        return None
     if nodes is None:
         nodes = {}
     nodes.setdefault((), _root(system, T))

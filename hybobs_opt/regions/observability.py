@@ -118,7 +118,7 @@ class ObservabilityAnalysis:
         threshold and were re-decided in rational arithmetic
         (:mod:`~hybobs_opt.geometry.exact_lp`), ``n_decisions_exact_undecided``: those the exact
         solve could not settle, decided on the safe side.  The three lists of pairs are
-        :class:`~hybobs_opt.regions.pair_sets.PairList` (sorted ``(i, j)`` tuples held as one
+        :class:`~hybobs_opt.regions.PairList` (sorted ``(i, j)`` tuples held as one
         integer array).
     _pair_cache : dict
         Internal cache of the pair lookups; leave it at its default.
@@ -612,7 +612,7 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
     """Decide the pair sets ``R_ij``, ``j`` in ``js``, with :func:`~hybobs_opt.regions.pair_geometry.classify_pair`.
 
     Reports ``(i, j, radius)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
-    (the same LPs decide both); :class:`~hybobs_opt.regions.pair_sets.PairSets` keeps the triples.  A pair
+    (the same LPs decide both); :class:`~hybobs_opt.regions.PairSets` keeps the triples.  A pair
     is reported when its closure is non-empty, its projection on the state is full-dimensional
     (with the thin test when ``thin_filter``) and it holds two different states.
 
@@ -788,11 +788,12 @@ def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, i
     """
     with counting_lps() as lps:
         algebra, levels = _task_state(shared)
+        rank_ok = np.asarray(shared.full_rank, dtype=bool)
         if task.blocks is None:
-            per_i = [_candidates(algebra, shared.full_rank, i) for i in task.i_list]
+            per_i = [_candidates(algebra, rank_ok, i) for i in task.i_list]
         else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
             top = shared.levels[0].index
-            per_i = [_candidates(algebra, shared.full_rank, i, task.blocks[top[i]][top]) for i in task.i_list]
+            per_i = [_candidates(algebra, rank_ok, i, task.blocks[top[i]][top]) for i in task.i_list]
         n_tested = sum(c.n_tested for c in per_i)
         n_skipped = sum(c.n_skipped_rank for c in per_i)
         ruled: list = []

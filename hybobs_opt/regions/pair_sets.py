@@ -1,6 +1,6 @@
 """The pieces of ``B_T`` found by Algorithm 3.1 of paper 002, stored compactly.
 
-A piece is a pair set ``R_ij`` (eq. 14 of paper 002: ``(x, U)`` in ``P_i``, ``(x^, U)`` in
+A piece is a pair set ``R_ij`` (Algorithm 3.1, step 3, of paper 002: ``(x, U)`` in ``P_i``, ``(x^, U)`` in
 ``P_j``, equal outputs), fully determined by the two regions of eq. (4).  Its constraints
 (:func:`pair_constraints`, a few tens of kB at ``T = 10``) are therefore not stored: a
 :class:`PairSets` keeps ``(i, j)`` as 32-bit integers and the Chebyshev radius of each piece
@@ -106,7 +106,7 @@ class PairList(Sequence):
 
     Examples
     --------
-    >>> from hybobs_opt.regions.pair_sets import PairList
+    >>> from hybobs_opt.regions import PairList
     >>> pairs = PairList.sorted([[3, 1], [0, 2]])
     >>> list(pairs), pairs[0], len(pairs), pairs == ((0, 2), (3, 1))
     ([(0, 2), (3, 1)], (0, 2), 2, True)
