@@ -16,7 +16,12 @@ Measured (medians over the stated number of repeats, with the ratio to the paper
     LocalCluster in the same run (load average recorded around every run): pair LPs, times,
     speed-ups, and the pair lists compared (sha256) with the ones recorded before the LP savings
     (``results/regions_before_issue19.json``).  ``--only long_horizons`` runs this part alone and
-    updates its key of ``regions.json``.
+    updates its key of ``regions.json``;
+(f) issue 39, scaling: model (17), the pair tests at T = 7, 8, 9 alternating serial, 2 processes and
+    a Dask cluster of 2 worker processes joined by its scheduler address (best of 3 rounds, load
+    average and CPU seconds of the caller and of every worker recorded, lists compared), then fresh
+    processes running one analysis each: serial at T = 8, 9, 10 and 2 processes at T = 10, 11, with
+    peak RSS.  ``--only scaling`` runs this part alone (key ``model17_scaling``).
 """
 
 from __future__ import annotations
@@ -625,14 +630,62 @@ def _worker_cpu(kind: str, ex) -> dict:
     return {}
 
 
+def _start_dask_cluster(n_workers: int, timeout: float = 120.0):
+    """A Dask scheduler and ``n_workers`` single-threaded worker processes started with the ``dask``
+    command line, as a user would on a cluster; returns ``(address, [Popen, ...], folder)`` once
+    every worker has joined."""
+    import subprocess
+    import tempfile
+
+    from distributed import Client
+
+    folder = tempfile.mkdtemp(prefix="hybobs-bench-dask-")
+    sched_file = os.path.join(folder, "scheduler.json")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    procs = [subprocess.Popen(dask + ["--host", "127.0.0.1", "--port", "0", "--dashboard-address", ":0",
+                                      "--scheduler-file", sched_file], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        t0 = time.perf_counter()
+        while not os.path.exists(sched_file):
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError(f"the Dask scheduler did not start within {timeout} s")
+            time.sleep(0.2)
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", sched_file,
+                                       "--nworkers", str(n_workers), "--nthreads", "1", "--no-dashboard"], env=env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        with Client(scheduler_file=sched_file, timeout=timeout) as client:
+            client.wait_for_workers(n_workers, timeout=timeout)
+            address = client.scheduler.address
+    except Exception:
+        _stop_dask_cluster((None, procs, folder))
+        raise
+    return address, procs, folder
+
+
+def _stop_dask_cluster(cluster) -> None:
+    import shutil
+
+    _, procs, folder = cluster
+    for proc in reversed(procs):
+        proc.terminate()
+    for proc in reversed(procs):
+        try:
+            proc.wait(timeout=30)
+        except Exception:
+            proc.kill()
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool = True,
                   executors: tuple[str, ...] = ("serial", "processes", "dask"), path: Path | None = None) -> dict:
     """Issue 39's measurements of model (17): the parallel split and the memory at long horizons.
 
     (1) At each ``T`` of ``Ts``, one enumeration, then ``rounds`` rounds of the pair tests
     (Algorithm 3.1) alternating serial, ``ProcessExecutor(2)`` and a Dask cluster of 2 worker
-    processes joined by its scheduler address (a LocalCluster started apart, as a user's cluster;
-    start-up excluded): wall times (best of the rounds), load average before and after every run,
+    processes joined by its scheduler address (``dask scheduler`` / ``dask worker`` started as
+    processes of their own, as on a user's cluster; start-up excluded): wall times (best of the rounds), load average before and after every run,
     the speed-up over serial, the pair lists' sha256 compared across executors and rounds, and a
     CPU account that a shared machine cannot distort: the calling process's CPU seconds (its
     serial part) plus the busiest worker's CPU seconds, against the serial run's CPU seconds
@@ -656,12 +709,11 @@ def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool 
             elif kind == "processes":
                 exes[kind] = ProcessExecutor(2)
             else:
-                from distributed import LocalCluster
-
-                cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                       dashboard_address=None)
-                exes[kind] = DaskExecutor(scheduler=cluster.scheduler_address)
-                out["dask_scheduler_address"] = "tcp://127.0.0.1:<port> (LocalCluster, 2 worker processes)"
+                cluster = _start_dask_cluster(2)
+                exes[kind] = DaskExecutor(scheduler=cluster[0])
+                out["dask_cluster"] = ("`dask scheduler` and `dask worker --nworkers 2 --nthreads 1` started as processes of "
+                                       "their own (the scheduler out of the caller, whose CPU seconds are measured), "
+                                       "joined by DaskExecutor(scheduler=ADDRESS)")
         except Exception as exc:  # a missing extra is reported, not fatal
             out[f"{kind}_error"] = f"{type(exc).__name__}: {exc}"
             continue
@@ -723,7 +775,7 @@ def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool 
         for ex in exes.values():
             ex.close()
         if cluster is not None:
-            cluster.close()
+            _stop_dask_cluster(cluster)
     if fresh:
         runs = [(8, "serial"), (9, "serial"), (10, "serial"), (10, "processes"), (11, "processes")]
         out["fresh_process"] = {}
