@@ -9,8 +9,8 @@ and ``PointClass`` are the string-valued vocabularies of the pair tests and the 
 from .cuts import Cut, compute_cut, parse_assignments, plot_cut
 from .enumeration import ModeEnumeration, ModeRegion, enumerate_modes
 from .io import load_analysis, save_analysis
-from .observability import ObservabilityAnalysis, PairSet, analyse_observability
-from .pair_sets import PairList, PairSets
+from .observability import ObservabilityAnalysis, analyse_observability
+from .pair_sets import PairList, PairSet, PairSets
 from .verdicts import PairVerdict, PointClass
 
 __all__ = [
