@@ -576,6 +576,8 @@ import hashlib
 print(json.dumps({"seconds_import": t_import, "seconds_enumeration": t2 - t1, "seconds_pair_tests": t3 - t2,
                   "seconds_analysis": t3 - t1, "n_regions": len(enum.regions), "n_pieces": len(a.pairs),
                   "n_pair_lps": a.n_pair_lps, "executor_used": a.stats["executor"],
+                  "cpu_seconds": sum(resource.getrusage(resource.RUSAGE_SELF)[:2]),
+                  "cpu_seconds_workers": sum(resource.getrusage(resource.RUSAGE_CHILDREN)[:2]),
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                   "peak_rss_workers_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
                   **{"sha256_" + k: hashlib.sha256(json.dumps(v, separators=(",", ":")).encode()).hexdigest()
