@@ -8,7 +8,7 @@ checked, and why:
   ``==`` with tuples), and ``sorted`` is the lexicographic order of Python's ``sorted`` on tuples,
   including adversarial inputs (empty, one pair, repeated first indices, large indices; a negative
   index is refused by name).
-* Each piece read from ``PairSets`` holds the constraints of eq. (14) written out independently
+* Each piece read from ``PairSets`` holds the constraints of ``R_ij`` (Algorithm 3.1, step 3) written out independently
   here from the two regions (block matrices over ``(x, x^, U)``), bit for bit.
 * The lists are the ones recorded with the former tuple-of-``PairSet`` store
   (``tests/reproducibility_reference.json``, model (17) at T = 5, grouped: sha256 of the pieces,
@@ -59,7 +59,7 @@ def test_pair_list_refuses_negative_indices():
 
 
 def _independent_constraints(ri, rj, n):
-    """R_ij over (x, x^, U), eq. (14): [Hx_i 0 HU_i; 0 Hx_j HU_j] z <= [h_i; h_j], [C_i -C_j D_i-D_j] z = f_j - f_i."""
+    """R_ij over (x, x^, U): [Hx_i 0 HU_i; 0 Hx_j HU_j] z <= [h_i; h_j], [C_i -C_j D_i-D_j] z = f_j - f_i."""
     kI, kJ = ri.H.shape[0], rj.H.shape[0]
     G = np.block([[ri.H[:, :n], np.zeros((kI, n)), ri.H[:, n:]], [np.zeros((kJ, n)), rj.H[:, :n], rj.H[:, n:]]])
     E = np.hstack([ri.C, -rj.C, ri.D - rj.D])
