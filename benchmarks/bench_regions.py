@@ -16,7 +16,12 @@ Measured (medians over the stated number of repeats, with the ratio to the paper
     LocalCluster in the same run (load average recorded around every run): pair LPs, times,
     speed-ups, and the pair lists compared (sha256) with the ones recorded before the LP savings
     (``results/regions_before_issue19.json``).  ``--only long_horizons`` runs this part alone and
-    updates its key of ``regions.json``.
+    updates its key of ``regions.json``;
+(f) issue 39, scaling: model (17), the pair tests at T = 7, 8, 9 alternating serial, 2 processes and
+    a Dask cluster of 2 worker processes joined by its scheduler address (best of 3 rounds, load
+    average and CPU seconds of the caller and of every worker recorded, lists compared), then fresh
+    processes running one analysis each: serial at T = 8, 9, 10 and 2 processes at T = 10, 11, with
+    peak RSS.  ``--only scaling`` runs this part alone (key ``model17_scaling``).
 """
 
 from __future__ import annotations
@@ -383,7 +388,8 @@ TARGET_T9_SERIAL = 120.0
 def _pair_list_hashes(analysis) -> dict:
     import hashlib
 
-    lists = {"pairs": [[p.i, p.j] for p in analysis.pairs],
+    ij = analysis.pairs.ij if hasattr(analysis.pairs, "ij") else [(p.i, p.j) for p in analysis.pairs]
+    lists = {"pairs": [list(p) for p in ij],
              "thin": [list(p) for p in analysis.stats["pairs_dropped_thin"]],
              "same": [list(p) for p in analysis.stats["pairs_dropped_same_state"]],
              "ruled_out_by_group": [list(p) for p in analysis.stats.get("pairs_ruled_out_by_group", ())]}
@@ -538,6 +544,293 @@ def bench_long_horizons(Ts: tuple[int, ...], executors: tuple[str, ...], path: P
     return out
 
 
+# ---------------------------------------------------------------------------- (f)
+#: Issue 39's figures for model (17) when it was filed (serial, idle 2-core machine): seconds of
+#: one analysis (enumeration + Algorithm 3.1) and peak RSS, and its targets.
+ISSUE39_FILED = {"serial_seconds": {8: 3.8, 9: 11.5, 10: 35.8}, "peak_rss_mb": {9: 1100, 10: 3100},
+                 "T10_pair_lps": 240569, "T10_pieces": 64249, "speedup_2_processes": {8: 1.41, 9: 1.43}}
+ISSUE39_TARGETS = {"T10_serial_seconds": 20.0, "T10_peak_rss_mb": 1500.0, "T11_2_workers_seconds": 120.0,
+                   "speedup_2_workers_T7_to_9": 1.8}
+
+_FRESH_CHILD = r"""
+import json, resource, sys, time
+args = json.loads(sys.argv[1])
+t0 = time.perf_counter()
+from hybobs_opt.executor import ProcessExecutor, SerialExecutor
+from hybobs_opt.regions import analyse_observability, enumerate_modes
+from hybobs_opt.studies.paper002_powertrain.systems import powertrain5
+t_import = time.perf_counter() - t0
+ex = SerialExecutor() if args["executor"] == "serial" else ProcessExecutor(args["workers"])
+try:
+    t1 = time.perf_counter()
+    enum = enumerate_modes(powertrain5(), args["T"], executor=ex)
+    t2 = time.perf_counter()
+    a = analyse_observability(enum, executor=ex)
+    t3 = time.perf_counter()
+finally:
+    ex.close()
+lists = {"pairs": [list(p) for p in a.pairs.ij], "thin": [list(p) for p in a.stats["pairs_dropped_thin"]],
+         "same": [list(p) for p in a.stats["pairs_dropped_same_state"]],
+         "ruled_out_by_group": [list(p) for p in a.stats["pairs_ruled_out_by_group"]]}
+import hashlib
+print(json.dumps({"seconds_import": t_import, "seconds_enumeration": t2 - t1, "seconds_pair_tests": t3 - t2,
+                  "seconds_analysis": t3 - t1, "n_regions": len(enum.regions), "n_pieces": len(a.pairs),
+                  "n_pair_lps": a.n_pair_lps, "executor_used": a.stats["executor"],
+                  "cpu_seconds": sum(resource.getrusage(resource.RUSAGE_SELF)[:2]),
+                  "cpu_seconds_workers": sum(resource.getrusage(resource.RUSAGE_CHILDREN)[:2]),
+                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "peak_rss_workers_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+                  **{"sha256_" + k: hashlib.sha256(json.dumps(v, separators=(",", ":")).encode()).hexdigest()
+                     for k, v in lists.items()}}))
+"""
+
+
+def _fresh_analysis(T: int, executor: str, workers: int = 2, timeout: float = 1800.0) -> dict:
+    """Model (17) at ``T`` in a fresh Python process running only that analysis: its wall times, its
+    peak RSS (``getrusage`` of that process; ``peak_rss_workers_mb``: the largest of its worker
+    processes), counts and the sha256 of its lists."""
+    import subprocess
+
+    rec: dict = {"executor": executor if executor == "serial" else f"processes({workers})", "load_average_before": _load()}
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", _FRESH_CHILD, json.dumps({"T": T, "executor": executor, "workers": workers})],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    rec["wall_seconds_process"] = time.perf_counter() - t0
+    rec["load_average_after"] = _load()
+    if proc.returncode != 0:
+        rec["error"] = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit status {proc.returncode}"
+        return rec
+    rec.update(json.loads(proc.stdout.strip().splitlines()[-1]))
+    return rec
+
+
+def _pool_pids(ex) -> list[int]:
+    """The worker pids of a ProcessExecutor (its pool is started on first use)."""
+    pool = getattr(ex, "_pool", None)
+    return sorted(getattr(pool, "_processes", {}) or {}) if pool is not None else []
+
+
+def _cpu_of(pids) -> dict[int, float]:
+    """CPU seconds (user + system) of live processes, from /proc (Linux; empty elsewhere)."""
+    out = {}
+    tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            out[pid] = (int(fields[11]) + int(fields[12])) / tick
+        except (OSError, IndexError, ValueError):
+            pass
+    return out
+
+
+def _worker_cpu(kind: str, ex) -> dict:
+    """CPU seconds of each worker of ``ex`` (pool processes, or Dask workers asked directly)."""
+    if kind == "processes":
+        return _cpu_of(_pool_pids(ex))
+    if kind == "dask":
+        return {k: float(v) for k, v in ex._client.run(time.process_time).items()}
+    return {}
+
+
+def _start_dask_cluster(n_workers: int, timeout: float = 120.0):
+    """A Dask scheduler and ``n_workers`` single-threaded worker processes started with the ``dask``
+    command line, as a user would on a cluster; returns ``(address, [Popen, ...], folder)`` once
+    every worker has joined."""
+    import subprocess
+    import tempfile
+
+    from distributed import Client
+
+    folder = tempfile.mkdtemp(prefix="hybobs-bench-dask-")
+    sched_file = os.path.join(folder, "scheduler.json")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    procs = [subprocess.Popen(dask + ["--host", "127.0.0.1", "--port", "0", "--dashboard-address", ":0",
+                                      "--scheduler-file", sched_file], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        t0 = time.perf_counter()
+        while not os.path.exists(sched_file):
+            if time.perf_counter() - t0 > timeout:
+                raise TimeoutError(f"the Dask scheduler did not start within {timeout} s")
+            time.sleep(0.2)
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", sched_file,
+                                       "--nworkers", str(n_workers), "--nthreads", "1", "--no-dashboard"], env=env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        with Client(scheduler_file=sched_file, timeout=timeout) as client:
+            client.wait_for_workers(n_workers, timeout=timeout)
+            address = client.scheduler.address
+    except Exception:
+        _stop_dask_cluster((None, procs, folder))
+        raise
+    return address, procs, folder
+
+
+def _stop_dask_cluster(cluster) -> None:
+    import shutil
+
+    _, procs, folder = cluster
+    for proc in reversed(procs):
+        proc.terminate()
+    for proc in reversed(procs):
+        try:
+            proc.wait(timeout=30)
+        except Exception:
+            proc.kill()
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool = True,
+                  executors: tuple[str, ...] = ("serial", "processes", "dask"), path: Path | None = None) -> dict:
+    """Issue 39's measurements of model (17): the parallel split and the memory at long horizons.
+
+    (1) At each ``T`` of ``Ts``, one enumeration, then ``rounds`` rounds of the pair tests
+    (Algorithm 3.1) alternating serial, ``ProcessExecutor(2)`` and a Dask cluster of 2 worker
+    processes joined by its scheduler address (``dask scheduler`` / ``dask worker`` started as
+    processes of their own, as on a user's cluster; start-up excluded): wall times (best of the rounds), load average before and after every run,
+    the speed-up over serial, the pair lists' sha256 compared across executors and rounds, and a
+    CPU account that a shared machine cannot distort: the calling process's CPU seconds (its
+    serial part) plus the busiest worker's CPU seconds, against the serial run's CPU seconds
+    (``cpu_speedup_estimate``: the speed-up on an idle machine if the workers never waited).
+    (2) ``fresh``: model (17) in fresh processes running only that analysis (enumeration + pair
+    tests): serial at T = 8, 9, 10 and 2 processes at T = 10 and 11, with peak RSS; lists at
+    T = 10 compared between serial and 2 processes.
+    """
+    from hybobs_opt.regions import enumerate_modes
+
+    out: dict = {"what": bench_scaling.__doc__.split("\n\n", 1)[1].strip().replace("\n    ", " "),
+                 "issue39_filed": ISSUE39_FILED, "targets": ISSUE39_TARGETS, "machine_load_at_start": _load(),
+                 "horizons": {}}
+    exes: dict = {}
+    cluster = None
+    for kind in executors:
+        t0 = time.perf_counter()
+        try:
+            if kind == "serial":
+                exes[kind] = SerialExecutor()
+            elif kind == "processes":
+                exes[kind] = ProcessExecutor(2)
+            else:
+                cluster = _start_dask_cluster(2)
+                exes[kind] = DaskExecutor(scheduler=cluster[0])
+                out["dask_cluster"] = ("`dask scheduler` and `dask worker --nworkers 2 --nthreads 1` started as processes of "
+                                       "their own (the scheduler out of the caller, whose CPU seconds are measured), "
+                                       "joined by DaskExecutor(scheduler=ADDRESS)")
+        except Exception as exc:  # a missing extra is reported, not fatal
+            out[f"{kind}_error"] = f"{type(exc).__name__}: {exc}"
+            continue
+        out[f"{kind}_startup_seconds"] = time.perf_counter() - t0
+    try:
+        for kind, ex in exes.items():  # warm the workers (imports, numba caches), not timed
+            if kind != "serial":
+                analyse_observability(enumerate_modes(powertrain5(), 6), executor=ex)
+        for T in Ts:
+            enum = enumerate_modes(powertrain5(), T)
+            rec: dict = {"n_regions": len(enum.regions), "seconds_enumeration_serial": enum.seconds, "runs": {k: [] for k in exes}}
+            for rnd in range(rounds):
+                for kind, ex in exes.items():
+                    log(f"(f) model (17), T = {T}, {kind}, round {rnd + 1} of {rounds}")
+                    r: dict = {"load_average_before": _load()}
+                    w0 = _worker_cpu(kind, ex)
+                    c0, t0 = time.process_time(), time.perf_counter()
+                    try:
+                        a = analyse_observability(enum, executor=ex)
+                    except Exception as exc:
+                        r["error"] = f"{type(exc).__name__}: {exc}"
+                        rec["runs"][kind].append(r)
+                        continue
+                    r["wall_seconds"] = time.perf_counter() - t0
+                    r["cpu_seconds_caller"] = time.process_time() - c0
+                    w1 = _worker_cpu(kind, ex)
+                    r["cpu_seconds_workers"] = [round(w1[k] - w0.get(k, 0.0), 3) for k in sorted(w1)]
+                    r["load_average_after"] = _load()
+                    r["n_pair_lps"], r["n_pieces"], r["executor_used"] = a.n_pair_lps, len(a.pairs), a.stats["executor"]
+                    r.update(_pair_list_hashes(a))
+                    del a
+                    rec["runs"][kind].append(r)
+                    if path is not None:
+                        _merge_part(path, "model17_scaling", T, {**rec, "partial": True})
+            summary = {}
+            for kind, runs in rec["runs"].items():
+                ok = [r for r in runs if "wall_seconds" in r]
+                if not ok:
+                    continue
+                best = min(ok, key=lambda r: r["wall_seconds"])
+                summary[kind] = {"best_wall_seconds": best["wall_seconds"],
+                                 "median_wall_seconds": _median([r["wall_seconds"] for r in ok]),
+                                 "cpu_critical_path_seconds": min(r["cpu_seconds_caller"] + max(r["cpu_seconds_workers"] or [0.0])
+                                                                  for r in ok)}
+            ser = summary.get("serial")
+            for kind, s in summary.items():
+                if kind != "serial" and ser:
+                    s["speedup_vs_serial_best_of_rounds"] = ser["best_wall_seconds"] / s["best_wall_seconds"]
+                    s["speedup_vs_serial_median"] = ser["median_wall_seconds"] / s["median_wall_seconds"]
+                    s["cpu_speedup_estimate"] = ser["cpu_critical_path_seconds"] / s["cpu_critical_path_seconds"]
+            rec["summary"] = summary
+            hashes = {tuple(r.get(f"sha256_{k}") for k in ("pairs", "thin", "same", "ruled_out_by_group"))
+                      for runs in rec["runs"].values() for r in runs if "sha256_pairs" in r}
+            rec["identical_across_executors_and_rounds"] = len(hashes) == 1
+            out["horizons"][str(T)] = rec
+            if path is not None:
+                _merge_part(path, "model17_scaling", T, rec)
+    finally:
+        for ex in exes.values():
+            ex.close()
+        if cluster is not None:
+            _stop_dask_cluster(cluster)
+    if fresh:
+        runs = [(8, "serial"), (9, "serial"), (10, "serial"), (10, "processes"), (11, "processes")]
+        out["fresh_process"] = {}
+        for T, kind in runs:
+            log(f"(f) model (17), T = {T}, {kind}, fresh process")
+            r = _fresh_analysis(T, kind)
+            out["fresh_process"][f"T{T}_{kind}"] = r
+            if path is not None:
+                _merge_part(path, "model17_scaling", None, {"fresh_process": out["fresh_process"]})
+        fp = out["fresh_process"]
+        s10, p10, p11 = fp.get("T10_serial", {}), fp.get("T10_processes", {}), fp.get("T11_processes", {})
+        verdict = {}
+        if "seconds_analysis" in s10:
+            verdict["T10_serial_seconds"] = s10["seconds_analysis"]
+            verdict["T10_serial_under_20_s"] = s10["seconds_analysis"] < ISSUE39_TARGETS["T10_serial_seconds"]
+            verdict["T10_peak_rss_mb"] = s10["peak_rss_mb"]
+            verdict["T10_peak_rss_under_1_5_GB"] = s10["peak_rss_mb"] < ISSUE39_TARGETS["T10_peak_rss_mb"]
+            verdict["T10_pieces_and_lps_as_filed"] = [s10["n_pieces"], s10["n_pair_lps"]] == [ISSUE39_FILED["T10_pieces"],
+                                                                                          ISSUE39_FILED["T10_pair_lps"]]
+        if "sha256_pairs" in s10 and "sha256_pairs" in p10:
+            verdict["T10_lists_identical_serial_and_2_processes"] = all(
+                s10[f"sha256_{k}"] == p10[f"sha256_{k}"] for k in ("pairs", "thin", "same", "ruled_out_by_group"))
+            verdict["T10_speedup_2_processes"] = s10["seconds_pair_tests"] / p10["seconds_pair_tests"]
+        if "seconds_analysis" in p11:
+            verdict["T11_2_workers_seconds"] = p11["seconds_analysis"]
+            verdict["T11_2_workers_under_2_min"] = p11["seconds_analysis"] < ISSUE39_TARGETS["T11_2_workers_seconds"]
+        sp = [out["horizons"][str(T)]["summary"].get("processes", {}).get("speedup_vs_serial_best_of_rounds")
+              for T in Ts if str(T) in out["horizons"]]
+        if sp and all(x is not None for x in sp):
+            verdict["speedup_2_processes_best_of_rounds"] = sp
+            verdict["speedup_at_least_1_8"] = all(x >= ISSUE39_TARGETS["speedup_2_workers_T7_to_9"] for x in sp)
+        out["targets_met"] = verdict
+    out["machine_load_at_end"] = _load()
+    return out
+
+
+def _merge_part(path: Path, key: str, T: int | None, rec: dict | None, header: dict | None = None) -> None:
+    """Read-modify-write of one key of ``regions.json`` under a file lock (see :func:`_merge_long_horizons`)."""
+    import fcntl
+    import tempfile
+
+    with open(Path(tempfile.gettempdir()) / "hybobs_bench_regions.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        record = json.loads(path.read_text()) if path.exists() else {"benchmark": "regions"}
+        part = record.setdefault(key, {})
+        part.update(header or {})
+        if T is not None:
+            part.setdefault("horizons", {})[str(T)] = rec
+        elif rec:
+            part.update(rec)
+        path.write_text(json.dumps(record, indent=2, default=_json_default) + "\n")
+
+
 RESULTS_DIR = RESULTS  # reassigned for --quick
 
 
@@ -546,7 +839,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_regions", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny versions (smoke test); results in results/quick/")
     parser.add_argument("--no-dask", action="store_true", help="skip the Dask executor")
-    parser.add_argument("--only", choices=["long_horizons"], help="run one part and update its key of regions.json")
+    parser.add_argument("--only", choices=["long_horizons", "scaling"],
+                        help="run one part and update its key of regions.json (scaling: issue 39's measurements, "
+                             "a few minutes on an idle 2-core machine)")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds of --only scaling (best of them)")
+    parser.add_argument("--no-fresh", action="store_true", help="--only scaling without the fresh-process runs (T = 8..11)")
     parser.add_argument("--horizons", type=int, nargs="+", help="horizons of --only long_horizons (default 7 8 9)")
     parser.add_argument("--executors", nargs="+", choices=["serial", "processes", "dask"], help="executors of --only long_horizons")
     args = parser.parse_args(argv)
@@ -555,6 +852,16 @@ def main(argv: list[str] | None = None) -> int:
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     executors = ("serial", "processes") if args.no_dask else ("serial", "processes", "dask")
+    if args.only == "scaling":
+        path = RESULTS_DIR / "regions.json"
+        Ts = tuple(args.horizons) if args.horizons else ((5, 6) if quick else (7, 8, 9))
+        exs = tuple(args.executors) if args.executors else executors
+        _merge_part(path, "model17_scaling", None, None, {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "machine": _machine(),
+                                                          "versions": _versions(), "horizons": {}})
+        out = bench_scaling(Ts, 1 if quick else args.rounds, fresh=not (quick or args.no_fresh), executors=exs, path=path)
+        _merge_part(path, "model17_scaling", None, {k: v for k, v in out.items() if k != "horizons"})
+        log(f"wrote {path} ({time.perf_counter() - t_start:.0f} s)")
+        return 0
     if args.only == "long_horizons":
         path = RESULTS_DIR / "regions.json"
         Ts = tuple(args.horizons) if args.horizons else ((5, 6) if quick else (7, 8, 9))

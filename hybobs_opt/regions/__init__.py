@@ -9,7 +9,8 @@ and ``PointClass`` are the string-valued vocabularies of the pair tests and the 
 from .cuts import Cut, compute_cut, parse_assignments, plot_cut
 from .enumeration import ModeEnumeration, ModeRegion, enumerate_modes
 from .io import load_analysis, save_analysis
-from .observability import ObservabilityAnalysis, PairSet, analyse_observability
+from .observability import ObservabilityAnalysis, analyse_observability
+from .pair_sets import PairList, PairSet, PairSets
 from .verdicts import PairVerdict, PointClass
 
 __all__ = [
@@ -17,7 +18,9 @@ __all__ = [
     "ModeEnumeration",
     "ModeRegion",
     "ObservabilityAnalysis",
+    "PairList",
     "PairSet",
+    "PairSets",
     "PairVerdict",
     "PointClass",
     "analyse_observability",

@@ -469,14 +469,43 @@ class PrefixSuperset:
     f: np.ndarray
 
 
-def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSuperset], np.ndarray] | None:
+def _shared_output_rows(regions, index: np.ndarray, first: dict, depth: int) -> int | None:
+    """``depth + 1`` when every region shares its output rows ``0 .. depth`` bit for bit with the
+    first region below its prefix (``index``, ``first``), ``depth`` when only the rows before
+    ``depth``, ``None`` when not even those (compared all at once when the regions' output maps
+    have one shape, as an enumeration's always do)."""
+    ref = np.array([first[int(a)] for a in index], dtype=int)
+    shapes = {(r.C.shape, r.D.shape, r.f.shape) for r in regions}
+    if len(shapes) == 1:
+        maps = [np.stack([getattr(r, name) for r in regions]) for name in ("C", "D", "f")]
+
+        def same(rows) -> bool:
+            return all(bool(np.all(M[:, rows] == M[ref][:, rows])) for M in maps)
+
+        if not same(slice(0, depth)):
+            return None
+        return depth + 1 if same(depth) else depth
+    q = depth + 1
+    for k, reg in enumerate(regions):
+        r = regions[ref[k]]
+        if not (np.array_equal(reg.C[:depth], r.C[:depth]) and np.array_equal(reg.D[:depth], r.D[:depth])
+                and np.array_equal(reg.f[:depth], r.f[:depth])):
+            return None
+        if q > depth and not (np.array_equal(reg.C[depth], r.C[depth]) and np.array_equal(reg.D[depth], r.D[depth])
+                              and reg.f[depth] == r.f[depth]):
+            q = depth
+    return q
+
+
+def prefix_supersets(enum: ModeEnumeration, depth: int, nodes: dict | None = None) -> tuple[list[PrefixSuperset], np.ndarray] | None:
     """The :class:`PrefixSuperset` of every distinct prefix of length ``depth`` of the regions' sequences.
 
     Returns ``(supersets, index)`` with ``index[k]`` the superset of region ``k``, or ``None``
     when the regions below one prefix do not share their first ``depth`` output rows (they
     always do when built by :func:`enumerate_modes`).  The output rows kept are ``depth + 1``
     when every region shares row ``depth`` with the others below its prefix (the modes' output
-    maps agree, as in the powertrains), else ``depth``.
+    maps agree, as in the powertrains), else ``depth``.  ``nodes``: a dict kept between the
+    calls for one enumeration at several depths, where the prefixes' rows are built once.
     """
     system, T = enum.system, enum.T
     if not 1 <= depth < T:
@@ -491,16 +520,12 @@ def prefix_supersets(enum: ModeEnumeration, depth: int) -> tuple[list[PrefixSupe
     first = {}
     for k in range(len(enum.regions)):
         first.setdefault(int(index[k]), k)
-    q = depth + 1
-    for k, reg in enumerate(enum.regions):
-        ref = enum.regions[first[int(index[k])]]
-        if not (np.array_equal(reg.C[:depth], ref.C[:depth]) and np.array_equal(reg.D[:depth], ref.D[:depth])
-                and np.array_equal(reg.f[:depth], ref.f[:depth])):
-            return None
-        if q > depth and not (np.array_equal(reg.C[depth], ref.C[depth]) and np.array_equal(reg.D[depth], ref.D[depth])
-                              and reg.f[depth] == ref.f[depth]):
-            q = depth
-    nodes: dict[tuple[int, ...], _Node] = {(): _root(system, T)}
+    q = _shared_output_rows(enum.regions, index, first, depth)
+    if q is None:
+        return None
+    if nodes is None:
+        nodes = {}
+    nodes.setdefault((), _root(system, T))
 
     def node_of(prefix):
         if prefix not in nodes:

@@ -59,7 +59,8 @@ from ..systems.saved_file import (
 )
 from ..tolerances import BOX_IMPLIED_RTOL, MATRIX_EQUAL_RTOL, REGION_SLACK_TOL
 from .enumeration import ModeEnumeration, ModeRegion, _child, _root, check_horizon, horizon_scaling
-from .observability import ObservabilityAnalysis, PairSet, pair_constraints
+from .observability import ObservabilityAnalysis
+from .pair_sets import PairSets
 
 FORMAT = "hybobs_opt.regions"
 VERSION = 2
@@ -76,6 +77,13 @@ REGIONS_FILE = SavedFormat(
 _MAPS = ("C", "D", "f", "Phi", "Gamma", "phi", "Phi_last", "Gamma_last", "phi_last")
 
 __all__ = ["CHECKSUM_KEY", "FORMAT", "REGIONS_FILE", "VERSION", "content_checksum", "load_analysis", "save_analysis"]
+
+
+def _pair_items(pairs):
+    """``((i, j), slack)`` of every piece, read from the indices when compact (no constraints built)."""
+    if isinstance(pairs, PairSets):
+        return zip(pairs.ij, pairs.slacks.tolist())
+    return (((int(p.i), int(p.j)), p.slack) for p in pairs)
 
 
 def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: str | None = None, params: dict | None = None) -> Path:
@@ -137,7 +145,7 @@ def save_analysis(analysis: ObservabilityAnalysis, path: str | Path, example: st
             for r in enum.regions
         ],
         "full_rank": list(analysis.full_rank),
-        "pairs": [{"i": p.i, "j": p.j, "slack": p.slack} for p in analysis.pairs],
+        "pairs": [{"i": i, "j": j, "slack": float(slack)} for (i, j), slack in _pair_items(analysis.pairs)],
         "enumeration_stats": {"n_lps": enum.n_lps, "n_prefixes_tested": enum.n_prefixes_tested,
                               "n_prefixes_total": enum.n_prefixes_total, "seconds": enum.seconds},
         "analysis_stats": {"n_pair_lps": analysis.n_pair_lps, "n_pairs_tested": analysis.n_pairs_tested,
@@ -382,7 +390,7 @@ def _checked_analysis(data: dict[str, Any], system: PWASystem, where: str) -> Ob
             raise ModelError(f, "a pair of two different regions, listed once", f"({i}, {j})")
         seen_pairs.add((i, j))
         slack = _slack(item.get("slack"), f"{f}.slack")
-        pairs.append(PairSet(i, j, *pair_constraints(regions[i], regions[j], n), slack))
+        pairs.append((i, j, slack))
     es = _entry(data, "enumeration_stats", dict, where, "an object of counts")
     ew = f"{where}: enumeration_stats"
     n_lps, tested, total = (_count(es, key, ew) for key in ("n_lps", "n_prefixes_tested", "n_prefixes_total"))
@@ -392,7 +400,7 @@ def _checked_analysis(data: dict[str, Any], system: PWASystem, where: str) -> Ob
     enum = ModeEnumeration(system, T, tuple(regions), scale, centre, n_lps, tested, total, _seconds(es, "seconds", ew))
     st = _entry(data, "analysis_stats", dict, where, "an object of counts")
     aw = f"{where}: analysis_stats"
-    analysis = ObservabilityAnalysis(enum, tuple(full_rank), tuple(pairs), _count(st, "n_pair_lps", aw),
+    analysis = ObservabilityAnalysis(enum, tuple(full_rank), PairSets(enum.regions, n, [t[:2] for t in pairs], [t[2] for t in pairs]), _count(st, "n_pair_lps", aw),
                                      _count(st, "n_pairs_tested", aw), _count(st, "n_pairs_skipped_rank", aw),
                                      _seconds(st, "seconds", aw),
                                      {"n_pairs_dropped_thin": _count(st, "n_pairs_dropped_thin", aw, allow_none=True),

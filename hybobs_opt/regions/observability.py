@@ -58,6 +58,7 @@ from .enumeration import (ModeEnumeration, check_analysis_budget, counted_exactl
                           resolve_pair_lp_budget)
 from .pair_groups import GroupLevel, GroupLevelRows, group_depths, group_level_data, rule_out_by_groups
 from .pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions, pack_scaled as _pack_scaled, unpack_scaled as _unpack_scaled
+from .pair_sets import PairList, PairSet, PairSets, pair_constraints
 from .verdicts import PairVerdict, PointClass
 
 
@@ -84,52 +85,6 @@ def _nullspace(M: np.ndarray) -> tuple[np.ndarray, int]:
     return Vt[r:].T, r
 
 
-@dataclass(frozen=True, eq=False)
-class PairSet:
-    """A non-empty ``R_ij`` with full-dimensional projection, as constraints in original coordinates.
-
-    ``G [x; x^; U] <= g`` and ``E [x; x^; U] = e``; ``slack`` is its Chebyshev radius inside the
-    equality subspace, in scaled coordinates.
-
-    Parameters
-    ----------
-    i, j : int
-        Indices of the two regions (``i`` in ``I``, ``j != i``).
-    G, g : arrays
-        Inequalities over ``[x; x^; U]``.
-    E, e : arrays
-        Equalities over ``[x; x^; U]`` (equal outputs).
-    slack : float
-        The Chebyshev radius above.
-
-    See Also
-    --------
-    ObservabilityAnalysis.pairs : the pair sets of an analysis.
-    PairVerdict : what the test of one pair decides.
-
-    Examples
-    --------
-    At ``T = 4`` the rank test leaves pairs of regions whose outputs can agree; each kept pair set
-    ``R_ij`` is a piece of ``B_T``:
-
-    >>> from hybobs_opt import get_example
-    >>> from hybobs_opt.regions import analyse_observability
-    >>> analysis = analyse_observability(get_example("powertrain3").build(gear_ratio=1 / 2), 4)
-    >>> len(analysis.pairs)
-    32
-    >>> pair = analysis.pairs[0]
-    >>> (pair.i, pair.j), pair.G.shape, pair.E.shape     # G [x; x^; U] <= g, E [x; x^; U] = e
-    ((6, 8), (69, 10), (4, 10))
-    """
-
-    i: int
-    j: int
-    G: np.ndarray
-    g: np.ndarray
-    E: np.ndarray
-    e: np.ndarray
-    slack: float
-
 
 @dataclass(eq=False)
 class ObservabilityAnalysis:
@@ -141,8 +96,10 @@ class ObservabilityAnalysis:
         The regions ``P_i`` of eq. (4).
     full_rank : tuple of bool
         Membership of each region in ``I`` (step 1).
-    pairs : tuple of PairSet
-        Every non-empty ``R_ij`` (``i`` in ``I``, ``j != i``) found in step 3.
+    pairs : PairSets or tuple of PairSet
+        Every non-empty ``R_ij`` (``i`` in ``I``, ``j != i``) found in step 3, in order of
+        ``(i, j)``; :func:`analyse_observability` gives the compact :class:`PairSets` (indices and
+        radii, each :class:`PairSet` built when read).
     n_pair_lps, n_pairs_tested, n_pairs_skipped_rank : int
         LPs solved for the pair tests, pairs tested, pairs discarded before any LP because the
         projection of their equality subspace onto ``x`` is not full-dimensional.
@@ -160,7 +117,9 @@ class ObservabilityAnalysis:
         ``n_decisions_exact``: pair decisions whose floating-point bound lay too close to its
         threshold and were re-decided in rational arithmetic
         (:mod:`~hybobs_opt.geometry.exact_lp`), ``n_decisions_exact_undecided``: those the exact
-        solve could not settle, decided on the safe side.
+        solve could not settle, decided on the safe side.  The three lists of pairs are
+        :class:`~hybobs_opt.regions.PairList` (sorted ``(i, j)`` tuples held as one
+        integer array).
     _pair_cache : dict
         Internal cache of the pair lookups; leave it at its default.
     _xboxes : array or None
@@ -190,7 +149,7 @@ class ObservabilityAnalysis:
 
     enumeration: ModeEnumeration
     full_rank: tuple[bool, ...]
-    pairs: tuple[PairSet, ...]
+    pairs: PairSets | tuple[PairSet, ...]
     n_pair_lps: int
     n_pairs_tested: int
     n_pairs_skipped_rank: int
@@ -222,12 +181,20 @@ class ObservabilityAnalysis:
         """``M \\ I``."""
         return tuple(k for k, ok in enumerate(self.full_rank) if not ok)
 
+    def _pair_indices(self) -> np.ndarray:
+        """``(k, 2)`` array of the pieces' ``(i, j)``, without building their constraints."""
+        if isinstance(self.pairs, PairSets):
+            return self.pairs.ij.array
+        return np.array([(p.i, p.j) for p in self.pairs], dtype=np.int64).reshape(-1, 2)
+
     @property
-    def reduced_pairs(self) -> tuple[PairSet, ...]:
+    def reduced_pairs(self) -> PairSets | tuple[PairSet, ...]:
         """The ``R_ij`` of ``B~_T`` (eq. 15): ``i`` in ``I``, ``j`` not in ``I``."""
+        if isinstance(self.pairs, PairSets):
+            return self.pairs.subset(~np.asarray(self.full_rank, dtype=bool)[self._pair_indices()[:, 1]])
         return tuple(p for p in self.pairs if not self.full_rank[p.j])
 
-    def reduced_pairs_all_dimensions(self) -> tuple[PairSet, ...]:
+    def reduced_pairs_all_dimensions(self) -> PairSets:
         """Every non-empty closed ``R_ij`` with ``i`` in ``I``, ``j`` not in ``I``, whatever its dimension.
 
         Algorithm 3.1 drops pairs whose projection on ``x`` is lower-dimensional (measure zero in
@@ -241,7 +208,7 @@ class ObservabilityAnalysis:
 
         Returns
         -------
-        tuple of PairSet
+        PairSets
             The pair sets, lower-dimensional ones included.
         """
         if "_reduced_all" not in self._pair_cache:
@@ -252,7 +219,7 @@ class ObservabilityAnalysis:
                                        np.ones(len(self.rank_deficient), dtype=bool), np.zeros(len(self.rank_deficient), dtype=bool),
                                        thin_filter=False, min_margin=-REGION_SLACK_TOL).found)
             found.sort()
-            self._pair_cache["_reduced_all"] = tuple(_pair_set(self.enumeration, *t) for t in found)
+            self._pair_cache["_reduced_all"] = PairSets(self.regions, self.system.n, [t[:2] for t in found], [t[2] for t in found])
         return self._pair_cache["_reduced_all"]
 
     @property
@@ -392,8 +359,8 @@ class ObservabilityAnalysis:
     def _pairs_by_i(self) -> dict[int, list[int]]:
         if "_by_i" not in self._pair_cache:
             by_i: dict[int, list[int]] = {}
-            for p in self.pairs:
-                by_i.setdefault(p.i, []).append(p.j)
+            for i, j in self._pair_indices().tolist():
+                by_i.setdefault(i, []).append(j)
             self._pair_cache["_by_i"] = by_i
         return self._pair_cache["_by_i"]
 
@@ -583,28 +550,6 @@ def _certified_box(G: np.ndarray, g: np.ndarray, n: int) -> np.ndarray | None:
     return box
 
 
-# ---------------------------------------------------------------------- pair sets
-def pair_constraints(ri, rj, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Constraints of ``R_ij`` over ``(x, x^, U)``: ``G z <= g`` (P_i, P_j) and ``E z = e`` (equal outputs)."""
-    kI, kJ = ri.H.shape[0], rj.H.shape[0]
-    G = np.zeros((kI + kJ, n + ri.H.shape[1]))
-    G[:kI, :n] = ri.H[:, :n]
-    G[:kI, 2 * n :] = ri.H[:, n:]
-    G[kI:, n:] = rj.H
-    g = np.concatenate([ri.h, rj.h])
-    E = np.empty((ri.C.shape[0], G.shape[1]))
-    E[:, :n] = ri.C
-    E[:, n : 2 * n] = -rj.C
-    E[:, 2 * n :] = ri.D - rj.D
-    e = rj.f - ri.f
-    return G, g, E, e
-
-
-def _pair_set(enum: ModeEnumeration, i: int, j: int, slack: float) -> PairSet:
-    G, g, E, e = pair_constraints(enum.regions[i], enum.regions[j], enum.system.n)
-    return PairSet(i, j, G, g, E, e, slack)
-
-
 @dataclass(frozen=True, slots=True)
 class _Candidates:
     """The pairs of Algorithm 3.1, step 3.1, for one ``i`` in ``I`` that pass the rank screen (:func:`_candidates`).
@@ -633,13 +578,17 @@ def _candidates(algebra: _PairAlgebra, full_rank, i: int, allowed: np.ndarray | 
     Returns the ``js`` that pass a screen with what is wanted of each; with ``allowed`` (a mask
     over the regions) only those ``j`` are candidates.
     """
-    js = np.array([j for j in range(len(algebra.scaled)) if j != i and (not full_rank[j] or j > i)
-                   and (allowed is None or allowed[j])], dtype=int)
+    rank_ok = np.asarray(full_rank, dtype=bool)
+    take = ~rank_ok | (np.arange(rank_ok.size) > i)
+    take[i] = False
+    if allowed is not None:
+        take &= np.asarray(allowed, dtype=bool)
+    js = np.nonzero(take)[0]
     if js.size == 0:
         return _Candidates(js, np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), 0, 0)
     ci, cj = algebra.cls[i], algebra.cls[js]
     ok_ij = algebra.screen(ci, cj)
-    sym = np.array([bool(full_rank[j]) for j in js])
+    sym = rank_ok[js]
     ok_ji = np.zeros(js.size, dtype=bool)
     ok_ji[sym] = algebra.screen_reversed(cj[sym], ci)
     ok = ok_ij | ok_ji
@@ -663,7 +612,7 @@ def _pair_lps(algebra: _PairAlgebra, i: int, js: np.ndarray, report_ij: np.ndarr
     """Decide the pair sets ``R_ij``, ``j`` in ``js``, with :func:`~hybobs_opt.regions.pair_geometry.classify_pair`.
 
     Reports ``(i, j, radius)`` for ``R_ij`` where ``report_ij`` and for ``R_ji`` where ``report_ji``
-    (the same LPs decide both); :func:`_pair_set` turns a triple into a :class:`PairSet`.  A pair
+    (the same LPs decide both); :class:`~hybobs_opt.regions.PairSets` keeps the triples.  A pair
     is reported when its closure is non-empty, its projection on the state is full-dimensional
     (with the thin test when ``thin_filter``) and it holds two different states.
 
@@ -745,22 +694,29 @@ class PairTask:
     size: int
 
 
+def _pair_array(pairs) -> np.ndarray:
+    """Ordered pairs ``(i, j)`` as a ``(k, 2)`` int32 array."""
+    return np.array(pairs, dtype=np.int32).reshape(-1, 2)
+
+
 @dataclass(frozen=True, slots=True)
 class PairOutcome:
     """What one pair-test task found (:func:`_pairs_task`), or all of them (:meth:`total`).
 
-    ``found``: the pieces ``(i, j, radius)``; ``dropped_thin``, ``dropped_same_state``,
-    ``ruled_out_by_group``: ordered pairs ``(i, j)`` (see :class:`ObservabilityAnalysis`
-    ``stats``); ``n_lps``: LPs solved (group tests included); ``n_tested``, ``n_skipped_rank``:
+    ``found``: the pieces' ``(i, j)`` and ``radius`` their radii; ``dropped_thin``,
+    ``dropped_same_state``, ``ruled_out_by_group``: ordered pairs ``(i, j)`` (see
+    :class:`ObservabilityAnalysis` ``stats``), all as ``(k, 2)`` int32 arrays (a task's
+    pickled answer and the merged lists grow by 8 bytes a pair); ``n_lps``: LPs solved (group tests included); ``n_tested``, ``n_skipped_rank``:
     pairs screened and discarded by the rank screen; ``n_group_tests``, ``n_group_lps``: the
     group tests and their LPs; ``n_decisions_exact``, ``n_decisions_exact_undecided``: decisions
     re-made in rational arithmetic, and those it could not settle.
     """
 
-    found: list[tuple[int, int, float]]
-    dropped_thin: list[tuple[int, int]]
-    dropped_same_state: list[tuple[int, int]]
-    ruled_out_by_group: list[tuple[int, int]]
+    found: np.ndarray
+    radius: np.ndarray
+    dropped_thin: np.ndarray
+    dropped_same_state: np.ndarray
+    ruled_out_by_group: np.ndarray
     n_lps: int
     n_tested: int
     n_skipped_rank: int
@@ -771,16 +727,18 @@ class PairOutcome:
 
     @staticmethod
     def total(outcomes) -> "PairOutcome":
-        """The outcomes of all tasks as one: lists concatenated in task order, counts summed."""
+        """The outcomes of all tasks as one: arrays concatenated in task order, counts summed."""
         outcomes = list(outcomes)
 
-        def cat(name: str) -> list:
-            return [item for o in outcomes for item in getattr(o, name)]
+        def cat(name: str) -> np.ndarray:
+            parts = [getattr(o, name) for o in outcomes]
+            return np.concatenate(parts) if parts else _pair_array(())
 
         def add(name: str) -> int:
             return sum(getattr(o, name) for o in outcomes)
 
-        return PairOutcome(cat("found"), cat("dropped_thin"), cat("dropped_same_state"), cat("ruled_out_by_group"),
+        radius = np.concatenate([o.radius for o in outcomes]) if outcomes else np.zeros(0)
+        return PairOutcome(cat("found"), radius, cat("dropped_thin"), cat("dropped_same_state"), cat("ruled_out_by_group"),
                            add("n_lps"), add("n_tested"), add("n_skipped_rank"), add("n_group_tests"),
                            add("n_group_lps"), add("n_decisions_exact"), add("n_decisions_exact_undecided"))
 
@@ -830,11 +788,12 @@ def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, i
     """
     with counting_lps() as lps:
         algebra, levels = _task_state(shared)
+        rank_ok = np.asarray(shared.full_rank, dtype=bool)
         if task.blocks is None:
-            per_i = [_candidates(algebra, shared.full_rank, i) for i in task.i_list]
+            per_i = [_candidates(algebra, rank_ok, i) for i in task.i_list]
         else:  # only the pairs whose two shortest prefixes form a block of this task (see _chunks)
             top = shared.levels[0].index
-            per_i = [_candidates(algebra, shared.full_rank, i, task.blocks[top[i]][top]) for i in task.i_list]
+            per_i = [_candidates(algebra, rank_ok, i, task.blocks[top[i]][top]) for i in task.i_list]
         n_tested = sum(c.n_tested for c in per_i)
         n_skipped = sum(c.n_skipped_rank for c in per_i)
         ruled: list = []
@@ -851,7 +810,8 @@ def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, i
             findings.dropped_same_state.extend(f.dropped_same_state)
             if progress:
                 progress(k + 1, len(task.i_list))
-    return PairOutcome(findings.found, findings.dropped_thin, findings.dropped_same_state, ruled,
+    return PairOutcome(_pair_array([t[:2] for t in findings.found]), np.array([t[2] for t in findings.found], dtype=float),
+                       _pair_array(findings.dropped_thin), _pair_array(findings.dropped_same_state), _pair_array(ruled),
                        n_lps=lps.total, n_tested=n_tested, n_skipped_rank=n_skipped,
                        n_group_tests=n_group_tests, n_group_lps=group_lps,
                        n_decisions_exact=EXACT.decided - exact0[0], n_decisions_exact_undecided=EXACT.undecided - exact0[1])
@@ -958,12 +918,12 @@ def _run_tasks(executor, parallel: bool, tasks: list[PairTask], data: PairTaskDa
 def _stats(executor_name: str, data: PairTaskData, total: PairOutcome) -> dict:
     """The ``stats`` of :class:`ObservabilityAnalysis` from the tasks' total outcome."""
     return {"executor": executor_name, "n_pairs_dropped_thin": len(total.dropped_thin),
-            "pairs_dropped_thin": tuple(sorted(total.dropped_thin)), "n_pairs_dropped_same_state": len(total.dropped_same_state),
-            "pairs_dropped_same_state": tuple(sorted(total.dropped_same_state)),
+            "pairs_dropped_thin": PairList.sorted(total.dropped_thin), "n_pairs_dropped_same_state": len(total.dropped_same_state),
+            "pairs_dropped_same_state": PairList.sorted(total.dropped_same_state),
             "group_depths": tuple(int(level.depth) for level in data.levels),
             "n_group_tests": total.n_group_tests, "n_group_lps": total.n_group_lps,
             "n_pairs_ruled_out_by_group": len(total.ruled_out_by_group),
-            "pairs_ruled_out_by_group": tuple(sorted(total.ruled_out_by_group)),
+            "pairs_ruled_out_by_group": PairList.sorted(total.ruled_out_by_group),
             "n_decisions_exact": total.n_decisions_exact, "n_decisions_exact_undecided": total.n_decisions_exact_undecided}
 
 
@@ -1062,7 +1022,8 @@ def analyse_observability(
     data = _task_data(enum, full_rank, levels, parallel)
     n_candidates = len(I) * len(enum.regions)  # the pairs (i, j), i in I, the tests go through
     total = PairOutcome.total(_run_tasks(executor, parallel, tasks, data, progress, len(enum.regions), n_candidates))
-    pairs = tuple(_pair_set(enum, *t) for t in sorted(total.found))  # same order on every executor
+    order = np.lexsort((total.found[:, 1], total.found[:, 0]))  # same order on every executor
+    pairs = PairSets(enum.regions, n, total.found[order], total.radius[order])
     _log.info("pair tests: %d of %d candidate pairs tested with %d LPs (%s), %d pair sets R_ij found (%.3g s)",
               total.n_tested, n_candidates, total.n_lps, executor.name if parallel else "serial", len(pairs),
               time.perf_counter() - t0)

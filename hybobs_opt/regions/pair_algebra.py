@@ -93,8 +93,9 @@ class PairAlgebra:
         Only if ``range(C_i) \subseteq range([C_j, D_j - D_i])`` (the output equalities must be
         solvable for every ``x``), i.e. ``rank [C_i, C_j, D_j - D_i] = rank [C_j, D_j - D_i]``.
         """
-        new = np.unique(bs[~self._screened[a, bs]])
-        if new.size:
+        fresh = ~self._screened[a, bs]
+        if fresh.any():
+            new = np.unique(bs[fresh])
             Ca, Da = self.C[a], self.D[a]
             Mj = np.concatenate([self.C[new], self.D[new] - Da], axis=2)
             with_ci = np.concatenate([np.broadcast_to(Ca, (new.size,) + Ca.shape), Mj], axis=2)
@@ -111,8 +112,10 @@ class PairAlgebra:
 
     def screen_reversed(self, as_: np.ndarray, b: int) -> np.ndarray:
         """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
-        for a in np.unique(as_[~self._screened[as_, b]]):
-            self.screen(int(a), np.array([b]))
+        fresh = ~self._screened[as_, b]
+        if fresh.any():
+            for a in np.unique(as_[fresh]):
+                self.screen(int(a), np.array([b]))
         return self._screen[as_, b]
 
     def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:

@@ -76,8 +76,9 @@ def group_level_data(enum, depths) -> list[GroupLevelRows]:
 
     n = enum.system.n
     out = []
+    nodes: dict = {}  # the prefix tree's nodes, shared by the depths
     for depth in depths:
-        built = prefix_supersets(enum, depth)
+        built = prefix_supersets(enum, depth, nodes)
         if built is None:
             continue
         supersets, index = built

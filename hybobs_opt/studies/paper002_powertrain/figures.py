@@ -68,7 +68,7 @@ def reduced_pair_dimensions(analysis, tol: float = REGION_SLACK_TOL) -> dict[int
     projection is found with LPs: maximise and minimise ``c'x`` over ``R_ij`` for directions ``c``
     orthogonal to the extent found so far (scaled coordinates, extent threshold ``tol``).
     """
-    from hybobs_opt.regions.observability import pair_constraints
+    from hybobs_opt.regions.pair_sets import pair_constraints
 
     n = analysis.system.n
     scale, centre = horizon_scaling(analysis.system, analysis.T, copies_of_x=2)
