@@ -185,7 +185,7 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     eq = hull.equations
     S, G, g = hull.simplices, np.ascontiguousarray(eq[:, :-1]), -eq[:, -1]
     c = Y.mean(axis=0)
-    if d == 3:  # the same checks in one compiled call (numpy's ~50 small calls cost 3 x qhull's hull here)
+    if d >= 3:  # the same checks in one compiled call (numpy's ~50 small calls cost 3 x qhull's hull here)
         try:
             code, reps, tight, depth, volume = triangulation_kernel(
                 np.ascontiguousarray(Y, dtype=float), c, np.ascontiguousarray(S, dtype=np.int64), G, g,
