@@ -591,9 +591,14 @@ def _agrees(op: str, ans, ref, size: float) -> bool:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_polytope")
     parser.add_argument("--quick", action="store_true", help="small smoke run (d = 2, 4; one instance)")
-    parser.add_argument("--ops", default="vertices,redundancy,v_to_h,v_to_h_degenerate,volume,chebyshev,projection_2d")
+    parser.add_argument("--ops", "--only", dest="ops", default="vertices,redundancy,v_to_h,v_to_h_degenerate,volume,chebyshev,projection_2d")
+    parser.add_argument("--dims", default=None,
+                        help="comma-separated dimensions (a partial run: its per-dimension results are merged into "
+                             "results/polytope.json, each with the commit and load of its run; the others are kept)")
     args = parser.parse_args(argv)
     dims = (2, 4) if args.quick else DIMS
+    if args.dims:
+        dims = tuple(int(x) for x in args.dims.split(","))
     n_instances = 1 if args.quick else 3
     repeats = 3 if args.quick else 9
     try:
@@ -651,8 +656,19 @@ def main(argv: list[str] | None = None) -> int:
     out_dir = RESULTS / "quick" if args.quick else RESULTS
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "polytope.json"
+    if args.dims and not args.quick and path.exists():
+        # a partial run: merge its dimensions into the full run's record, each marked with its own run
+        part = {"ops": list(ops), "dims": list(dims), "git": record["git"], "wall_seconds": record["wall_seconds"],
+                "load_average_at_start": load_start, "load_average_at_end": record["machine"]["load_average_at_end"],
+                "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+        old = json.loads(path.read_text())
+        for op, per_dim in ops.items():
+            for d, entry in per_dim.items():
+                old.setdefault("operations", {}).setdefault(op, {})[d] = {**entry, "partial_run": part}
+        old.setdefault("partial_runs", []).append(part)
+        record = old
     path.write_text(json.dumps(record, indent=1, default=json_default))
-    log(f"wrote {path} in {record['wall_seconds']:.0f} s")
+    log(f"wrote {path} in {time.perf_counter() - t0:.0f} s")
     return 0
 
 

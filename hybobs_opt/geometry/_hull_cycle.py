@@ -44,6 +44,18 @@ from ..tolerances import (
     VERTEX_SAME_RTOL,
     VERTEX_TIGHT_RTOL,
 )
+from . import _vertex_kernels as _K
+from ._vertex_kernels import polygon_kernel, triangulation_kernel
+
+#: The kernel's answers that refuse the hull outright (the numpy path's messages, :func:`_facets`).
+_FACET_REASONS = {
+    _K.TRI_FEW: "fewer than d + 1 simplices",
+    _K.TRI_NOT_FINITE: "a plane is not finite",
+    _K.TRI_POINT_VIOLATES: "a point violates a facet's plane",
+    _K.TRI_OFF_PLANE: "a simplex's vertex is off its facet's plane",
+    _K.TRI_CENTROID_ON_FACET: "the centroid lies on a facet's plane",
+    _K.TRI_DUPLICATE_FACETS: "duplicate facets",
+}
 
 
 def _generic(n: int) -> np.ndarray:
@@ -136,7 +148,11 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     in coordinates of its plane, have their own checked hull (this function in ``d - 1``), each
     ridge found there must lie on a second facet (so the facets are closed under adjacency, and
     the facet graph of a polytope being connected, none is missing), and the volume is the sum of
-    the pyramids over the facets, ``depth * area / d``.
+    the pyramids over the facets, ``depth * area / d``.  In 2-D the hull is a monotone chain and
+    in 3-D qhull's triangulation is checked, both in one compiled call each
+    (:func:`~hybobs_opt.geometry._vertex_kernels.polygon_kernel`,
+    :func:`~hybobs_opt.geometry._vertex_kernels.triangulation_kernel`: the same checks as
+    :func:`_polygon`, :func:`_facets` and :func:`_cycle`, which answer where the kernel does not).
 
     Parameters
     ----------
@@ -156,6 +172,10 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     if n <= d:
         return "fewer than d + 1 points: not full-dimensional"
     if d == 2:
+        code, _, G, g, tight, area = polygon_kernel(np.ascontiguousarray(Y, dtype=float), FULL_DIMENSION_RTOL,
+                                                    FULL_SIMPLEX_RTOL, VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL)
+        if code == 0:
+            return CheckedHull(G, g, tight, area, "simplices")
         return _polygon(Y)
     try:
         with np.errstate(all="ignore"):
@@ -165,6 +185,21 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
     eq = hull.equations
     S, G, g = hull.simplices, np.ascontiguousarray(eq[:, :-1]), -eq[:, -1]
     c = Y.mean(axis=0)
+    if d >= 3:  # the same checks in one compiled call (numpy's ~50 small calls cost 3 x qhull's hull here)
+        try:
+            code, reps, tight, depth, volume = triangulation_kernel(
+                np.ascontiguousarray(Y, dtype=float), c, np.ascontiguousarray(S, dtype=np.int64), G, g,
+                _generic(d + 1), _generic(n), VERTEX_SAME_RTOL, VERTEX_CHECK_RTOL, VERTEX_TIGHT_RTOL,
+                FULL_DIMENSION_RTOL, FULL_SIMPLEX_RTOL)
+        except (ValueError, ZeroDivisionError, np.linalg.LinAlgError):  # a singular full simplex: not expected
+            code = _K.TRI_UNDECIDED
+            reps = None
+        if code == 0:
+            return CheckedHull(G[reps], g[reps], tight, volume, "simplices")
+        if code in _FACET_REASONS:
+            return _FACET_REASONS[code]
+        if code != _K.TRI_KEYS_TOO_LARGE and reps is not None:
+            return _ridge_closure(Y, G[reps], g[reps], tight, depth)
     facets = _facets(Y, c, S, G, g)
     if isinstance(facets, str):
         return facets

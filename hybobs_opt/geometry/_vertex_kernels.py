@@ -634,5 +634,426 @@ def check_enumeration(An, bn, X, full_dimension_rtol, zero_row_tol, check_rtol, 
             Yk, Tk, pts, fcode, frow, facet)
 
 
+@kernel(cache=True)
+def polygon_kernel(Y, full_dimension_rtol, full_simplex_rtol, check_rtol, tight_rtol):
+    """The 2-D hull of the points ``Y`` (monotone chain) and its check, in one compiled call.
+
+    Returns ``(code, V, G, g, tight, area)``.  The chain drops a middle point whose turn is
+    below ``full_simplex_rtol`` of its edges' lengths (collinear to rounding); the answer is then
+    checked as :func:`hybobs_opt.geometry._hull_cycle._polygon` checks qhull's: every turn
+    strictly to the left by that margin, the turns summing to one full turn, every point on the
+    inner side of every edge (``check_rtol``).  ``code``: 0 passed, 1 fewer than 3 hull vertices,
+    2 two vertices coincide or a turn is not strictly left, 3 winding not one, 4 a point violates
+    an edge.
+    """
+    n = Y.shape[0]
+    order = np.argsort(Y[:, 1], kind="mergesort")
+    order = order[np.argsort(Y[order, 0], kind="mergesort")]  # lexicographic (x, y)
+    H = np.empty(2 * n + 1, dtype=np.int64)
+    k = 0
+    for rnd in range(2):  # lower chain left to right, then upper chain right to left
+        start = k
+        for q in range(n):
+            i = order[q] if rnd == 0 else order[n - 1 - q]
+            while k >= start + 2:
+                a, b = H[k - 2], H[k - 1]
+                ux, uy = Y[b, 0] - Y[a, 0], Y[b, 1] - Y[a, 1]
+                vx, vy = Y[i, 0] - Y[b, 0], Y[i, 1] - Y[b, 1]
+                cr = ux * vy - uy * vx
+                if cr > full_simplex_rtol * np.sqrt((ux * ux + uy * uy) * (vx * vx + vy * vy)):
+                    break
+                k -= 1
+            H[k] = i
+            k += 1
+        k -= 1  # the last point of each chain starts the other
+        if rnd == 0:
+            start = k
+    m = k
+    V = np.empty((max(m, 0), 2))
+    G = np.empty((max(m, 0), 2))
+    g = np.empty(max(m, 0))
+    tight = np.zeros((max(m, 0), n), dtype=np.bool_)
+    if m < 3:
+        return 1, V, G, g, tight, 0.0
+    for j in range(m):
+        V[j, 0] = Y[H[j], 0]
+        V[j, 1] = Y[H[j], 1]
+    L = np.empty(m)
+    for j in range(m):
+        nx = j + 1 if j + 1 < m else 0
+        ex, ey = V[nx, 0] - V[j, 0], V[nx, 1] - V[j, 1]
+        L[j] = np.sqrt(ex * ex + ey * ey)
+        if not L[j] > full_dimension_rtol:
+            return 2, V, G, g, tight, 0.0
+        G[j, 0] = ey / L[j]
+        G[j, 1] = -ex / L[j]
+        g[j] = G[j, 0] * V[j, 0] + G[j, 1] * V[j, 1]
+    turn = 0.0
+    area = 0.0
+    for j in range(m):
+        nx = j + 1 if j + 1 < m else 0
+        nn = nx + 1 if nx + 1 < m else 0
+        ex, ey = V[nx, 0] - V[j, 0], V[nx, 1] - V[j, 1]
+        fx, fy = V[nn, 0] - V[nx, 0], V[nn, 1] - V[nx, 1]
+        cr = ex * fy - ey * fx
+        if not cr > full_simplex_rtol * L[j] * L[nx]:
+            return 2, V, G, g, tight, 0.0
+        turn += np.arctan2(cr, ex * fx + ey * fy)
+        area += V[j, 0] * V[nx, 1] - V[nx, 0] * V[j, 1]
+    if abs(turn - 2.0 * np.pi) > 1.0:
+        return 3, V, G, g, tight, 0.0
+    for j in range(m):
+        for i in range(n):
+            s = g[j] - G[j, 0] * Y[i, 0] - G[j, 1] * Y[i, 1]
+            if s < -check_rtol:
+                return 4, V, G, g, tight, 0.0
+            tight[j, i] = s <= tight_rtol
+    return 0, V, G, g, tight, 0.5 * area
+
+
+#: Result codes of :func:`triangulation_kernel` (0: passed).
+(TRI_FEW, TRI_NOT_FINITE, TRI_POINT_VIOLATES, TRI_OFF_PLANE, TRI_CENTROID_ON_FACET, TRI_DUPLICATE_FACETS,
+ TRI_ALL_DEGENERATE, TRI_KEYS_TOO_LARGE, TRI_SIMPLEX_TWICE, TRI_RIDGE_NOT_TWICE, TRI_NOT_CLOSED, TRI_COVERS_TWICE,
+ TRI_UNDECIDED) = range(1, 14)
+
+
+@kernel(cache=True)
+def triangulation_kernel(Y, c, S, G, g, wplane, wpoints, same_rtol, check_rtol, tight_rtol, full_dimension_rtol,
+                         full_simplex_rtol):
+    """Points 1-4 of :mod:`hybobs_opt.geometry._hull_cycle` (``_facets`` and ``_cycle``) in one compiled call.
+
+    The same decisions as the numpy functions, in the same order: simplices' planes grouped on the
+    grid of ``same_rtol`` by the generic key ``wplane`` (the first simplex of each group, groups in
+    key order, stands for the facet), the points against the facets, the simplices' vertices on
+    their facets, the centroid's depth, no two facets with the same tight points (key
+    ``wpoints``); full simplices by Hadamard's bound, every ridge in exactly two simplices with
+    opposite orientations (degenerate simplices oriented by their neighbours), one test ray
+    meeting one full simplex.  Returns ``(code, reps, tight, depth, volume)``; ``code`` is one of
+    the ``TRI_*`` constants or 0.
+    """
+    n, d = Y.shape
+    m = S.shape[0]
+    reps = np.empty(0, dtype=np.int64)
+    tight = np.zeros((0, n), dtype=np.bool_)
+    depth = np.empty(0)
+    if d < 2 or m < d + 1 or S.shape[1] != d:
+        return TRI_FEW, reps, tight, depth, 0.0
+    for j in range(m):
+        if not np.isfinite(g[j]):
+            return TRI_NOT_FINITE, reps, tight, depth, 0.0
+        for k in range(d):
+            if not np.isfinite(G[j, k]):
+                return TRI_NOT_FINITE, reps, tight, depth, 0.0
+    # point 1: the facets
+    key = np.empty(m)
+    for j in range(m):
+        v = 0.0
+        for k in range(d):
+            v += np.rint(G[j, k] / same_rtol) * wplane[k]
+        key[j] = v + np.rint(g[j] / same_rtol) * wplane[d]
+    order = np.argsort(key, kind="mergesort")
+    group = np.empty(m, dtype=np.int64)
+    nf = 0
+    for q in range(m):
+        if q == 0 or key[order[q]] != key[order[q - 1]]:
+            nf += 1
+        group[order[q]] = nf - 1
+    reps = np.empty(nf, dtype=np.int64)
+    f = -1
+    for q in range(m):
+        if q == 0 or key[order[q]] != key[order[q - 1]]:
+            f += 1
+            reps[f] = order[q]
+    tight = np.empty((nf, n), dtype=np.bool_)
+    depth = np.empty(nf)
+    for f in range(nf):
+        r = reps[f]
+        for i in range(n):
+            s = g[r]
+            for k in range(d):
+                s -= G[r, k] * Y[i, k]
+            if s < -check_rtol:
+                return TRI_POINT_VIOLATES, reps, tight, depth, 0.0
+            tight[f, i] = s <= tight_rtol
+    for j in range(m):
+        r = reps[group[j]]
+        for a in range(d):
+            s = g[r]
+            for k in range(d):
+                s -= Y[S[j, a], k] * G[r, k]
+            if abs(s) > tight_rtol:
+                return TRI_OFF_PLANE, reps, tight, depth, 0.0
+    for f in range(nf):
+        r = reps[f]
+        s = g[r]
+        for k in range(d):
+            s -= G[r, k] * c[k]
+        if s <= full_dimension_rtol:
+            return TRI_CENTROID_ON_FACET, reps, tight, depth, 0.0
+        depth[f] = s
+    tk = np.zeros(nf)
+    for f in range(nf):
+        for i in range(n):
+            if tight[f, i]:
+                tk[f] += wpoints[i]
+    tk.sort()
+    for f in range(1, nf):
+        if tk[f] == tk[f - 1]:
+            return TRI_DUPLICATE_FACETS, reps, tight, depth, 0.0
+    # points 2-4: the cycle
+    Ss = np.empty((m, d), dtype=np.int64)
+    for j in range(m):
+        for a in range(d):
+            Ss[j, a] = S[j, a]
+        Ss[j].sort()
+    W = np.empty((m, d, d))
+    det = np.empty(m)
+    full = np.zeros(m, dtype=np.bool_)
+    orient = np.zeros(m)
+    anyfull = False
+    for j in range(m):
+        had = 1.0
+        for a in range(d):
+            nn = 0.0
+            for k in range(d):
+                W[j, a, k] = Y[Ss[j, a], k] - c[k]
+                nn += W[j, a, k] * W[j, a, k]
+            had *= nn
+        det[j] = np.linalg.det(W[j])
+        if det[j] * det[j] > full_simplex_rtol * full_simplex_rtol * had:
+            full[j] = True
+            anyfull = True
+            orient[j] = 1.0 if det[j] > 0 else -1.0
+    if not anyfull:
+        return TRI_ALL_DEGENERATE, reps, tight, depth, 0.0
+    if float(n) ** d >= 2.0 ** 62:
+        return TRI_KEYS_TOO_LARGE, reps, tight, depth, 0.0
+    wts = np.empty(d, dtype=np.int64)
+    wts[d - 1] = 1
+    for a in range(d - 2, -1, -1):
+        wts[a] = wts[a + 1] * n
+    sk = np.empty(m, dtype=np.int64)
+    for j in range(m):
+        v = 0
+        for a in range(d):
+            v += Ss[j, a] * wts[a]
+        sk[j] = v
+    sk.sort()
+    for j in range(1, m):
+        if sk[j] == sk[j - 1]:
+            return TRI_SIMPLEX_TWICE, reps, tight, depth, 0.0
+    t = m * d
+    rk = np.empty(t, dtype=np.int64)
+    for j in range(m):
+        for kk in range(d):  # ridge kk of simplex j: vertex kk left out
+            v = 0
+            col = 0
+            for a in range(d):
+                if a != kk:
+                    v += Ss[j, a] * wts[col + 1]
+                    col += 1
+            rk[j * d + kk] = v
+    rorder = np.argsort(rk, kind="mergesort")
+    if t % 2:
+        return TRI_RIDGE_NOT_TWICE, reps, tight, depth, 0.0
+    for q in range(0, t, 2):
+        if rk[rorder[q]] != rk[rorder[q + 1]]:
+            return TRI_RIDGE_NOT_TWICE, reps, tight, depth, 0.0
+        if q + 2 < t and rk[rorder[q + 1]] == rk[rorder[q + 2]]:
+            return TRI_RIDGE_NOT_TWICE, reps, tight, depth, 0.0
+    h = t // 2
+    oa = np.empty(h, dtype=np.int64)
+    ob = np.empty(h, dtype=np.int64)
+    pa = np.empty(h)
+    pb = np.empty(h)
+    for q in range(h):
+        a_, b_ = rorder[2 * q], rorder[2 * q + 1]
+        oa[q], ob[q] = a_ // d, b_ // d
+        pa[q] = 1.0 if (a_ % d) % 2 == 0 else -1.0
+        pb[q] = 1.0 if (b_ % d) % 2 == 0 else -1.0
+    nzero = 0
+    for j in range(m):
+        if orient[j] == 0.0:
+            nzero += 1
+    while nzero > 0:  # degenerate simplices take the orientation their neighbours require
+        changed = True
+        while changed:
+            changed = False
+            new = orient.copy()
+            for q in range(h):
+                if orient[oa[q]] != 0.0 and orient[ob[q]] == 0.0:
+                    new[ob[q]] = -orient[oa[q]] * pa[q] * pb[q]
+                    changed = True
+                if orient[ob[q]] != 0.0 and orient[oa[q]] == 0.0:
+                    new[oa[q]] = -orient[ob[q]] * pa[q] * pb[q]
+                    changed = True
+            orient = new
+        nzero = 0
+        first = -1
+        for j in range(m):
+            if orient[j] == 0.0:
+                nzero += 1
+                if first < 0:
+                    first = j
+        if first >= 0:
+            orient[first] = 1.0
+            nzero -= 1
+    for q in range(h):
+        if orient[oa[q]] * pa[q] + orient[ob[q]] * pb[q] != 0.0:
+            return TRI_NOT_CLOSED, reps, tight, depth, 0.0
+    # point 4: one test ray, through the vertex mean of one of the five largest full simplices
+    nfull = 0
+    for j in range(m):
+        if full[j]:
+            nfull += 1
+    idx = np.empty(nfull, dtype=np.int64)
+    negvol = np.empty(nfull)
+    q = 0
+    for j in range(m):
+        if full[j]:
+            idx[q] = j
+            negvol[q] = -abs(det[j])
+            q += 1
+    cand = idx[np.argsort(negvol, kind="mergesort")]
+    margin = 1e-6
+    covers = 0
+    u = np.empty(d)
+    for ci in range(min(5, nfull)):
+        tt = cand[ci]
+        for k in range(d):
+            v = 0.0
+            for a in range(d):
+                v += W[tt, a, k]
+            u[k] = v / d
+        undecided = False
+        cnt = 0
+        for q in range(nfull):
+            lam = np.linalg.solve(W[idx[q]].T.copy(), u)
+            lo = lam.min()
+            if lo > -margin and lo <= margin:
+                undecided = True
+                break
+            if lo > margin:
+                cnt += 1
+        if undecided:
+            continue
+        covers = cnt
+        break
+    if covers != 1:
+        return (TRI_COVERS_TWICE if covers else TRI_UNDECIDED), reps, tight, depth, 0.0
+    vol = 0.0
+    for j in range(m):
+        if full[j]:
+            vol += abs(det[j])
+    fact = 1.0
+    for a in range(2, d + 1):
+        fact *= a
+    return 0, reps, tight, depth, vol / fact
+
+
+@kernel(cache=True)
+def facet_volume_3d(Y, A, b, tight, full_dimension_rtol, affine_rtol, full_simplex_rtol):
+    """Volume of a 3-polytope from its checked vertices ``Y`` and incidence ``tight`` (n, m), or a code.
+
+    Each facet (a row whose tight vertices span a plane; rows with the same tight vertices once)
+    is the convex polygon of its vertices: in coordinates of the row's plane they are taken in
+    angular order about their mean, every turn must be strictly to the left (by
+    ``full_simplex_rtol`` of the edges' lengths), and its shoelace area times the vertex mean's
+    depth, over 3, is its pyramid.  Euler's formula ``V - E + F = 2`` (``E`` half the polygons'
+    sides) must hold.  Returns ``(code, volume)``: 0 passed, 1 the vertex mean on a facet, 2 a
+    polygon not strictly convex in angular order, 3 Euler's formula fails.
+    """
+    n = Y.shape[0]
+    m = A.shape[0]
+    c = np.zeros(3)
+    for i in range(n):
+        for k in range(3):
+            c[k] += Y[i, k]
+    for k in range(3):
+        c[k] /= n
+    used = np.zeros((m, n), dtype=np.bool_)
+    nf = 0
+    sides = 0
+    volume = 0.0
+    idx = np.empty(n, dtype=np.int64)
+    for j in range(m):
+        q = 0
+        for i in range(n):
+            if tight[i, j]:
+                idx[q] = i
+                q += 1
+        if q < 3:
+            continue
+        dup = False
+        for f in range(nf):
+            same = True
+            for i in range(n):
+                if used[f, i] != tight[i, j]:
+                    same = False
+                    break
+            if same:
+                dup = True
+                break
+        if dup:
+            continue
+        a0, a1, a2 = A[j, 0], A[j, 1], A[j, 2]
+        # an orthonormal basis (e, f) of the row's plane: e across the normal's smallest coordinate
+        if abs(a0) <= abs(a1) and abs(a0) <= abs(a2):
+            e0, e1, e2 = 0.0, -a2, a1
+        elif abs(a1) <= abs(a2):
+            e0, e1, e2 = a2, 0.0, -a0
+        else:
+            e0, e1, e2 = -a1, a0, 0.0
+        en = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        e0, e1, e2 = e0 / en, e1 / en, e2 / en
+        f0, f1, f2 = a1 * e2 - a2 * e1, a2 * e0 - a0 * e2, a0 * e1 - a1 * e0
+        fn = np.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+        f0, f1, f2 = f0 / fn, f1 / fn, f2 / fn
+        Z = np.empty((q, 2))
+        mz0, mz1 = 0.0, 0.0
+        for r in range(q):
+            p = idx[r]
+            Z[r, 0] = e0 * Y[p, 0] + e1 * Y[p, 1] + e2 * Y[p, 2]
+            Z[r, 1] = f0 * Y[p, 0] + f1 * Y[p, 1] + f2 * Y[p, 2]
+            mz0 += Z[r, 0]
+            mz1 += Z[r, 1]
+        mz0 /= q
+        mz1 /= q
+        s00, s01, s11 = 0.0, 0.0, 0.0
+        ang = np.empty(q)
+        for r in range(q):
+            Z[r, 0] -= mz0
+            Z[r, 1] -= mz1
+            s00 += Z[r, 0] * Z[r, 0]
+            s01 += Z[r, 0] * Z[r, 1]
+            s11 += Z[r, 1] * Z[r, 1]
+            ang[r] = np.arctan2(Z[r, 1], Z[r, 0])
+        # singular values of Z: the square roots of the eigenvalues of Z'Z (a lower-dimensional face: no area)
+        tr, disc = s00 + s11, np.sqrt((s00 - s11) * (s00 - s11) + 4.0 * s01 * s01)
+        smax, smin = np.sqrt(max(0.5 * (tr + disc), 0.0)), np.sqrt(max(0.5 * (tr - disc), 0.0))
+        if smin <= affine_rtol * max(smax, 1.0):
+            continue
+        depth = b[j] - (A[j, 0] * c[0] + A[j, 1] * c[1] + A[j, 2] * c[2])
+        if depth <= full_dimension_rtol:
+            return 1, 0.0
+        order = np.argsort(ang, kind="mergesort")
+        area = 0.0
+        for r in range(q):
+            u, v, w = order[r], order[(r + 1) % q], order[(r + 2) % q]
+            ex, ey = Z[v, 0] - Z[u, 0], Z[v, 1] - Z[u, 1]
+            fx, fy = Z[w, 0] - Z[v, 0], Z[w, 1] - Z[v, 1]
+            if not ex * fy - ey * fx > full_simplex_rtol * np.sqrt((ex * ex + ey * ey) * (fx * fx + fy * fy)):
+                return 2, 0.0
+            area += Z[u, 0] * Z[v, 1] - Z[v, 0] * Z[u, 1]
+        for i in range(n):
+            used[nf, i] = tight[i, j]
+        nf += 1
+        sides += q
+        volume += depth * 0.5 * area / 3.0
+    if sides % 2 or n - sides // 2 + nf != 2:
+        return 3, 0.0
+    return 0, volume
+
+
 # numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
 _finalize_kernels(globals())
