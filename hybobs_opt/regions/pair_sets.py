@@ -104,6 +104,11 @@ class PairList(Sequence):
     ij : (k, 2) array_like of int
         The pairs, in the order they are to be read.
 
+    See Also
+    --------
+    PairSets : the pieces of ``B_T``, whose indices are a ``PairList``.
+    hybobs_opt.regions.ObservabilityAnalysis : its ``stats`` hold the left-out pair lists as ``PairList``.
+
     Examples
     --------
     >>> from hybobs_opt.regions import PairList
@@ -119,7 +124,13 @@ class PairList(Sequence):
 
     @classmethod
     def sorted(cls, ij) -> "PairList":
-        """The pairs in lexicographic order of ``(i, j)``."""
+        """The pairs in lexicographic order of ``(i, j)``.
+
+        Returns
+        -------
+        PairList
+            A new list; ``ij`` is not changed.
+        """
         a = _index_array(ij, "pairs")
         return cls(a[np.lexsort((a[:, 1], a[:, 0]))] if a.shape[0] > 1 else a)
 
@@ -175,6 +186,12 @@ class PairSets(Sequence):
     slacks : (k,) array_like of float
         Their Chebyshev radii (scaled, see :class:`PairSet`).
 
+    See Also
+    --------
+    PairSet : one piece, with its constraints.
+    PairList : the indices alone.
+    hybobs_opt.regions.analyse_observability : the analysis whose ``pairs`` this is.
+
     Examples
     --------
     >>> from hybobs_opt import get_example
@@ -198,7 +215,13 @@ class PairSets(Sequence):
 
     @classmethod
     def from_pairs(cls, regions, n: int, pairs) -> "PairSets":
-        """The compact form of pieces given as :class:`PairSet` objects (or anything with ``i, j, slack``)."""
+        """The compact form of pieces given as :class:`PairSet` objects (or anything with ``i, j, slack``).
+
+        Returns
+        -------
+        PairSets
+            The same pieces, in the same order; their constraints are rebuilt from ``regions`` when read.
+        """
         pairs = list(pairs)
         return cls(regions, n, [(p.i, p.j) for p in pairs], [p.slack for p in pairs])
 
@@ -213,8 +236,17 @@ class PairSets(Sequence):
         return self._slacks
 
     def subset(self, mask) -> "PairSets":
-        """The pieces where the boolean ``mask`` holds, in order."""
-        mask = np.asarray(mask, dtype=bool)
+        """The pieces where the boolean ``mask`` holds, in order.
+
+        Returns
+        -------
+        PairSets
+            A new collection over the same regions.
+        """
+        mask = np.asarray(mask)
+        if mask.dtype != bool or mask.shape != (len(self),):
+            raise ModelError("mask", f"a boolean array of {len(self)} entries, one per piece",
+                             f"{mask.dtype} array of shape {mask.shape}")
         return PairSets(self._regions, self._n, self._ij.array[mask], self._slacks[mask])
 
     def __len__(self) -> int:

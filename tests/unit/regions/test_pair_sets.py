@@ -108,3 +108,15 @@ def test_save_load_keeps_the_pieces(tmp_path, model17_T5):
     assert np.array_equal(b.pairs[7].G, a.pairs[7].G) and np.array_equal(b.pairs[7].e, a.pairs[7].e)
     c = pickle.loads(pickle.dumps(a.pairs))
     assert c.ij == a.pairs.ij and np.array_equal(c[3].g, a.pairs[3].g)
+
+
+def test_subset_takes_one_boolean_per_piece(model17_T5):
+    pairs = model17_T5.pairs
+    keep = np.arange(len(pairs)) % 3 == 0
+    sub = pairs.subset(keep)
+    assert list(sub.ij) == [p for p, k in zip(pairs.ij, keep) if k]
+    assert np.array_equal(sub.slacks, pairs.slacks[keep])
+    with pytest.raises(ModelError, match="mask"):
+        pairs.subset(keep[:-1])
+    with pytest.raises(ModelError, match="mask"):
+        pairs.subset(keep.astype(int))  # indices are not a mask
