@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
-from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError, cKDTree
+from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
 
 from ..defaults import VERTEX_DEGENERATE_MAX_SUBSETS
 from ..tolerances import (
@@ -59,7 +59,6 @@ from ._hull_cycle import checked_hull
 from ._vertex_kernels import (
     cdd_hull_rows,
     check_enumeration,
-    check_kernel,
     hull_check,
     points_to_box,
 )
