@@ -196,6 +196,11 @@ VERTEX_SAME_RTOL: float = 1e-7
 #: centroid): rounding changes ``det`` by ~1e-16 d of that bound, far below.
 FULL_SIMPLEX_RTOL: float = 1e-9
 
+#: Checking a hull's triangulation by one ray from the centroid: a simplex contains the ray when
+#: every barycentric weight of the test point exceeds this, misses it when one is below minus
+#: this; a weight in between leaves the candidate undecided (the next one is tried).
+HULL_RAY_WEIGHT_MARGIN: float = 1e-6
+
 
 #: Iterative-hull projection: a support point found beyond a facet of the current hull by more
 #: than this (target coordinates scaled to the image's bounding box) is added and the hull is

@@ -40,6 +40,7 @@ from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
     FULL_SIMPLEX_RTOL,
+    HULL_RAY_WEIGHT_MARGIN,
     VERTEX_CHECK_RTOL,
     VERTEX_SAME_RTOL,
     VERTEX_TIGHT_RTOL,
@@ -100,7 +101,7 @@ def _cover_count(W: np.ndarray, full: np.ndarray) -> int:
     ``-margin``; otherwise the next candidate is tried.  Returns ``0`` when no candidate is decided.
     """
     d = W.shape[1]
-    margin = 1e-6
+    margin = HULL_RAY_WEIGHT_MARGIN
     idx = np.nonzero(full)[0]
     vol = np.abs(np.linalg.det(W[idx]))
     for t in idx[np.argsort(-vol, kind="stable")][:5]:

@@ -13,6 +13,7 @@ import numpy as np
 
 from .._numba_cache import finalize_kernels as _finalize_kernels
 from .._numba_cache import kernel
+from ..tolerances import HULL_RAY_WEIGHT_MARGIN
 
 
 #: Result codes of :func:`check_kernel` (0: passed; the others name the first failure).
@@ -915,7 +916,7 @@ def triangulation_kernel(Y, c, S, G, g, wplane, wpoints, same_rtol, check_rtol, 
             negvol[q] = -abs(det[j])
             q += 1
     cand = idx[np.argsort(negvol, kind="mergesort")]
-    margin = 1e-6
+    margin = HULL_RAY_WEIGHT_MARGIN
     covers = 0
     u = np.empty(d)
     for ci in range(min(5, nfull)):
