@@ -230,9 +230,69 @@ def _singular_values_kernel(Ms, tol, max_sweeps):
     return out
 
 
+@kernel(cache=True)
+def _svd_tall_kernel(A, tol, max_sweeps):
+    """:func:`_svd_tall_numpy` in one compiled call: the same operations in the same order (the
+    scaling's power of two may differ, which changes no bit).  ``ok`` is False for a non-finite entry."""
+    m, k = A.shape
+    eps = np.finfo(np.float64).eps
+    big = 0.0
+    ok = True
+    for i in range(m):
+        for j in range(k):
+            a = abs(A[i, j])
+            if not np.isfinite(a):
+                ok = False
+            elif a > big:
+                big = a
+    U = np.zeros((m, m))
+    s = np.zeros(k)
+    V = np.eye(k)
+    if not ok:
+        return U, s, V, False
+    unit = math.ldexp(1.0, math.frexp(big)[1]) if big > 0.0 else 1.0
+    W = np.empty((m, k))
+    fro2 = 0.0
+    for i in range(m):
+        for j in range(k):
+            W[i, j] = A[i, j] / unit
+            fro2 += W[i, j] * W[i, j]
+    cut2 = (eps * max(m, k)) ** 2 * fro2
+    _jacobi_kernel(W, V, tol, cut2, max_sweeps)
+    for j in range(k):
+        s2 = 0.0
+        for i in range(m):
+            s2 += W[i, j] * W[i, j]
+        s[j] = np.sqrt(s2) if s2 > cut2 else 0.0
+    order = np.arange(k)
+    for j in range(1, k):  # stable insertion sort, descending
+        cur = order[j]
+        t = j
+        while t > 0 and s[order[t - 1]] < s[cur]:
+            order[t] = order[t - 1]
+            t -= 1
+        order[t] = cur
+    s_sorted = np.empty(k)
+    V_sorted = np.empty((k, k))
+    for j in range(k):
+        s_sorted[j] = s[order[j]]
+        for i in range(k):
+            V_sorted[i, j] = V[i, order[j]]
+    r = 0
+    while r < k and s_sorted[r] > 0.0:
+        c = order[r]
+        for i in range(m):
+            U[i, r] = W[i, c] / s_sorted[r]
+        r += 1
+    for j in range(k):
+        s_sorted[j] = s_sorted[j] * unit
+    _complete_kernel(U, r)
+    return U, s_sorted, V_sorted, True
+
+
 def _singular_values_numpy(Ms, tol, max_sweeps):
     """:func:`_singular_values_kernel` in NumPy, one matrix at a time."""
-    return np.array([_svd_tall(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
+    return np.array([_svd_tall_numpy(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
 
 
 COMPILED = finalize_kernels(globals())
@@ -240,6 +300,16 @@ _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
 _singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
+
+
+def _svd_tall(A: np.ndarray):
+    """:func:`_svd_tall_numpy`, compiled in one call when the kernels are."""
+    if not COMPILED:
+        return _svd_tall_numpy(A)
+    U, s, V, ok = _svd_tall_kernel(A, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    if not ok:
+        raise ValueError("svd: the matrix has a non-finite entry")
+    return U, s, V
 
 
 def _as2d(a) -> np.ndarray:
@@ -282,7 +352,7 @@ def row_norms(X) -> np.ndarray:
     return np.sqrt(acc)
 
 
-def _svd_tall(A: np.ndarray):
+def _svd_tall_numpy(A: np.ndarray):
     """SVD of ``A`` (``m >= k``): ``(U m x m, s k, V k x k)`` with ``A = U[:, :k] diag(s) V'``, ``s`` descending.
 
     ``A`` is scaled by a power of two (exact) so that its largest entry is about 1; singular
