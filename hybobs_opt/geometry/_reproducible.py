@@ -42,6 +42,49 @@ def _matmul_kernel(A, B):
     return C
 
 
+@kernel(cache=True)
+def _matvec_kernel(A, b):
+    """``A @ b`` (2-D times 1-D): :func:`_matmul_kernel`'s sums, without the reshaping around it."""
+    m, k = A.shape
+    c = np.zeros(m)
+    for i in range(m):
+        acc = 0.0
+        for t in range(k):
+            acc += A[i, t] * b[t]
+        c[i] = acc
+    return c
+
+
+@kernel(cache=True)
+def _vecmat_kernel(a, B):
+    """``a @ B`` (1-D times 2-D): :func:`_matmul_kernel`'s sums."""
+    k, n = B.shape
+    c = np.zeros(n)
+    for t in range(k):
+        at = a[t]
+        for j in range(n):
+            c[j] += at * B[t, j]
+    return c
+
+
+@kernel(cache=True)
+def _vecdot_kernel(a, b):
+    """``a @ b`` of two vectors: :func:`_matmul_kernel`'s sum."""
+    acc = 0.0
+    for t in range(a.shape[0]):
+        acc += a[t] * b[t]
+    return acc
+
+
+@kernel(cache=True)
+def _sumsq_kernel(v):
+    """``v[0]^2 + v[1]^2 + ...`` from first to last (:func:`norm`)."""
+    acc = 0.0
+    for t in range(v.shape[0]):
+        acc += v[t] * v[t]
+    return acc
+
+
 def _matmul_numpy(A, B):
     """:func:`_matmul_kernel` in NumPy: the same products, added in the same order."""
     C = np.zeros((A.shape[0], B.shape[1]))
@@ -317,9 +360,22 @@ def _as2d(a) -> np.ndarray:
     return a if a.ndim == 0 else np.ascontiguousarray(a)
 
 
+def _ready(a) -> np.ndarray:
+    return a if type(a) is np.ndarray and a.dtype == _F8 and a.flags.c_contiguous else _as2d(a)
+
+
+_F8 = np.dtype(np.float64)
+
+
 def matmul(a, b) -> np.ndarray:
     """``a @ b`` for 1-D and 2-D float arrays, the same bits on every CPU (see the module docstring)."""
-    A, B = _as2d(a), _as2d(b)
+    A, B = _ready(a), _ready(b)
+    if COMPILED and 1 <= A.ndim <= 2 and 1 <= B.ndim <= 2:
+        if A.shape[-1] != B.shape[0]:
+            raise ValueError(f"matmul: shapes {A.shape} and {B.shape} do not match")
+        if A.ndim == 2:
+            return _matmul_kernel(A, B) if B.ndim == 2 else _matvec_kernel(A, B)
+        return _vecmat_kernel(A, B) if B.ndim == 2 else np.float64(_vecdot_kernel(A, B))
     if A.ndim > 2 or B.ndim > 2 or A.ndim == 0 or B.ndim == 0:
         raise ValueError(f"matmul: 1-D or 2-D operands expected, got shapes {A.shape} and {B.shape}")
     C = _matmul(A.reshape(1, -1) if A.ndim == 1 else A, B.reshape(-1, 1) if B.ndim == 1 else B)
@@ -340,6 +396,8 @@ def dot(a, b) -> float:
 def norm(x) -> float:
     """Euclidean norm of a vector (all entries of an array), summed left to right."""
     v = np.ravel(np.asarray(x, dtype=float))
+    if COMPILED:
+        return float(np.sqrt(_sumsq_kernel(v)))
     return float(np.sqrt(_seq_sum(v * v)))
 
 
