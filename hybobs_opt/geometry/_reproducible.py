@@ -42,6 +42,49 @@ def _matmul_kernel(A, B):
     return C
 
 
+@kernel(cache=True)
+def _matvec_kernel(A, b):
+    """``A @ b`` (2-D times 1-D): :func:`_matmul_kernel`'s sums, without the reshaping around it."""
+    m, k = A.shape
+    c = np.zeros(m)
+    for i in range(m):
+        acc = 0.0
+        for t in range(k):
+            acc += A[i, t] * b[t]
+        c[i] = acc
+    return c
+
+
+@kernel(cache=True)
+def _vecmat_kernel(a, B):
+    """``a @ B`` (1-D times 2-D): :func:`_matmul_kernel`'s sums."""
+    k, n = B.shape
+    c = np.zeros(n)
+    for t in range(k):
+        at = a[t]
+        for j in range(n):
+            c[j] += at * B[t, j]
+    return c
+
+
+@kernel(cache=True)
+def _vecdot_kernel(a, b):
+    """``a @ b`` of two vectors: :func:`_matmul_kernel`'s sum."""
+    acc = 0.0
+    for t in range(a.shape[0]):
+        acc += a[t] * b[t]
+    return acc
+
+
+@kernel(cache=True)
+def _sumsq_kernel(v):
+    """``v[0]^2 + v[1]^2 + ...`` from first to last (:func:`norm`)."""
+    acc = 0.0
+    for t in range(v.shape[0]):
+        acc += v[t] * v[t]
+    return acc
+
+
 def _matmul_numpy(A, B):
     """:func:`_matmul_kernel` in NumPy: the same products, added in the same order."""
     C = np.zeros((A.shape[0], B.shape[1]))
@@ -230,9 +273,69 @@ def _singular_values_kernel(Ms, tol, max_sweeps):
     return out
 
 
+@kernel(cache=True)
+def _svd_tall_kernel(A, tol, max_sweeps):
+    """:func:`_svd_tall_numpy` in one compiled call: the same operations in the same order (the
+    scaling's power of two may differ, which changes no bit).  ``ok`` is False for a non-finite entry."""
+    m, k = A.shape
+    eps = np.finfo(np.float64).eps
+    big = 0.0
+    ok = True
+    for i in range(m):
+        for j in range(k):
+            a = abs(A[i, j])
+            if not np.isfinite(a):
+                ok = False
+            elif a > big:
+                big = a
+    U = np.zeros((m, m))
+    s = np.zeros(k)
+    V = np.eye(k)
+    if not ok:
+        return U, s, V, False
+    unit = math.ldexp(1.0, math.frexp(big)[1]) if big > 0.0 else 1.0
+    W = np.empty((m, k))
+    fro2 = 0.0
+    for i in range(m):
+        for j in range(k):
+            W[i, j] = A[i, j] / unit
+            fro2 += W[i, j] * W[i, j]
+    cut2 = (eps * max(m, k)) ** 2 * fro2
+    _jacobi_kernel(W, V, tol, cut2, max_sweeps)
+    for j in range(k):
+        s2 = 0.0
+        for i in range(m):
+            s2 += W[i, j] * W[i, j]
+        s[j] = np.sqrt(s2) if s2 > cut2 else 0.0
+    order = np.arange(k)
+    for j in range(1, k):  # stable insertion sort, descending
+        cur = order[j]
+        t = j
+        while t > 0 and s[order[t - 1]] < s[cur]:
+            order[t] = order[t - 1]
+            t -= 1
+        order[t] = cur
+    s_sorted = np.empty(k)
+    V_sorted = np.empty((k, k))
+    for j in range(k):
+        s_sorted[j] = s[order[j]]
+        for i in range(k):
+            V_sorted[i, j] = V[i, order[j]]
+    r = 0
+    while r < k and s_sorted[r] > 0.0:
+        c = order[r]
+        for i in range(m):
+            U[i, r] = W[i, c] / s_sorted[r]
+        r += 1
+    for j in range(k):
+        s_sorted[j] = s_sorted[j] * unit
+    _complete_kernel(U, r)
+    return U, s_sorted, V_sorted, True
+
+
 def _singular_values_numpy(Ms, tol, max_sweeps):
     """:func:`_singular_values_kernel` in NumPy, one matrix at a time."""
-    return np.array([_svd_tall(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
+    return np.array([_svd_tall_numpy(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
 
 
 COMPILED = finalize_kernels(globals())
@@ -242,14 +345,37 @@ _complete = _complete_kernel if COMPILED else _complete_numpy
 _singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
 
 
+def _svd_tall(A: np.ndarray):
+    """:func:`_svd_tall_numpy`, compiled in one call when the kernels are."""
+    if not COMPILED:
+        return _svd_tall_numpy(A)
+    U, s, V, ok = _svd_tall_kernel(A, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    if not ok:
+        raise ValueError("svd: the matrix has a non-finite entry")
+    return U, s, V
+
+
 def _as2d(a) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     return a if a.ndim == 0 else np.ascontiguousarray(a)
 
 
+def _ready(a) -> np.ndarray:
+    return a if type(a) is np.ndarray and a.dtype == _F8 and a.flags.c_contiguous else _as2d(a)
+
+
+_F8 = np.dtype(np.float64)
+
+
 def matmul(a, b) -> np.ndarray:
     """``a @ b`` for 1-D and 2-D float arrays, the same bits on every CPU (see the module docstring)."""
-    A, B = _as2d(a), _as2d(b)
+    A, B = _ready(a), _ready(b)
+    if COMPILED and 1 <= A.ndim <= 2 and 1 <= B.ndim <= 2:
+        if A.shape[-1] != B.shape[0]:
+            raise ValueError(f"matmul: shapes {A.shape} and {B.shape} do not match")
+        if A.ndim == 2:
+            return _matmul_kernel(A, B) if B.ndim == 2 else _matvec_kernel(A, B)
+        return _vecmat_kernel(A, B) if B.ndim == 2 else np.float64(_vecdot_kernel(A, B))
     if A.ndim > 2 or B.ndim > 2 or A.ndim == 0 or B.ndim == 0:
         raise ValueError(f"matmul: 1-D or 2-D operands expected, got shapes {A.shape} and {B.shape}")
     C = _matmul(A.reshape(1, -1) if A.ndim == 1 else A, B.reshape(-1, 1) if B.ndim == 1 else B)
@@ -270,6 +396,8 @@ def dot(a, b) -> float:
 def norm(x) -> float:
     """Euclidean norm of a vector (all entries of an array), summed left to right."""
     v = np.ravel(np.asarray(x, dtype=float))
+    if COMPILED:
+        return float(np.sqrt(_sumsq_kernel(v)))
     return float(np.sqrt(_seq_sum(v * v)))
 
 
@@ -282,7 +410,7 @@ def row_norms(X) -> np.ndarray:
     return np.sqrt(acc)
 
 
-def _svd_tall(A: np.ndarray):
+def _svd_tall_numpy(A: np.ndarray):
     """SVD of ``A`` (``m >= k``): ``(U m x m, s k, V k x k)`` with ``A = U[:, :k] diag(s) V'``, ``s`` descending.
 
     ``A`` is scaled by a power of two (exact) so that its largest entry is about 1; singular

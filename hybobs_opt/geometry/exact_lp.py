@@ -25,6 +25,7 @@ one exact pass over the rows per pivot, about a millisecond for the pair sets of
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -102,15 +103,23 @@ def _dot_int(a: list[int], b: list[int]) -> int:
 
 
 def _independent_rows(A: list[list[int]], order, d: int) -> list[int] | None:
-    """The first ``d`` rows in ``order`` that are linearly independent (exact), or ``None``."""
-    echelon: list[tuple[int, list[Fraction]]] = []  # (pivot column, row reduced)
+    """The first ``d`` rows in ``order`` that are linearly independent (exact), or ``None``.
+
+    Fraction-free elimination: a row is reduced against the echelon rows by integer
+    combinations (each divided by the gcd of its entries), which keeps its span membership exact.
+    """
+    echelon: list[tuple[int, list[int]]] = []  # (pivot column, row reduced)
     chosen = []
     for i in order:
-        v = [Fraction(x) for x in A[i]]
+        v = list(A[i])
         for col, row in echelon:
-            if v[col]:
-                f = v[col] / row[col]
-                v = [a - f * b for a, b in zip(v, row)]
+            f = v[col]
+            if f:
+                p = row[col]
+                v = [a * p - f * b for a, b in zip(v, row)]
+                g = math.gcd(*v)
+                if g > 1:
+                    v = [a // g for a in v]
         col = next((j for j, a in enumerate(v) if a), None)
         if col is None:
             continue
@@ -119,6 +128,44 @@ def _independent_rows(A: list[list[int]], order, d: int) -> list[int] | None:
         if len(chosen) == d:
             return chosen
     return None
+
+
+def _rows_above(Af: np.ndarray, absA: np.ndarray, bf: np.ndarray, Ai: list[list[int]], bi: list[int], v: list[int], q: int,
+                skip: set) -> list[int]:
+    """The rows ``i`` not in ``skip`` with ``A_i v / q > b_i`` (exact), in increasing order.
+
+    ``Ai``, ``bi`` are ``Af``, ``bf`` scaled row by row by powers of two (:func:`_integer_rows`),
+    ``v`` integers, ``q > 0``.
+
+    A floating-point pass decides every row whose value clears ``b_i`` by more than a rigorous
+    bound on its rounding (the point ``v / q`` correctly rounded, then a dot product of ``d``
+    terms: at most ``(d + 2) u sum |A_ij| |x_j|``, taken four times over, plus an absolute term
+    for underflow); only the rows inside that bound are compared in integers.
+    """
+    k, d = Af.shape
+    try:
+        x = np.array([p / q for p in v], dtype=float)  # int / int: correctly rounded
+    except OverflowError:
+        x = None
+    if x is None or not np.all(np.isfinite(x)):
+        return [i for i in range(k) if i not in skip and _dot_int(Ai[i], v) > bi[i] * q]
+    with np.errstate(over="ignore", invalid="ignore"):
+        val = Af @ x - bf
+        err = 4.0 * (d + 2) * _U * (absA @ np.abs(x)) + (d + 1) * _TINY * (1.0 + absA.sum(axis=1))
+    certain = val > err
+    unsure = ~certain & ~(val < -err)
+    out = []
+    for i in np.nonzero(certain | unsure)[0]:
+        i = int(i)
+        if i in skip:
+            continue
+        if certain[i] or _dot_int(Ai[i], v) > bi[i] * q:
+            out.append(i)
+    return out
+
+
+_U = float(np.finfo(float).eps) / 2.0
+_TINY = 2.0 ** -1000
 
 
 def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
@@ -165,6 +212,8 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
     cden = max(float(x).as_integer_ratio()[1] for x in c)
     ci = [p * (cden // q) for p, q in (float(x).as_integer_ratio() for x in c)]  # c = ci / cden
     basis = _independent_rows(Ai, order, d)
+    absA = np.abs(A)
+    zeros, zero_ints = np.zeros(k), [0] * k
     if basis is None:
         return None
     phase_one = None  # the real cost while phase 1 runs on an artificial one
@@ -178,7 +227,7 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
         v, q = sol
         y = dual[0]
         in_basis = set(basis)
-        violated = [i for i in range(k) if i not in in_basis and _dot_int(Ai[i], v) > bi[i] * q]
+        violated = _rows_above(A, absA, b, Ai, bi, v, q, in_basis)
         negative = [r for r in range(d) if y[r] < 0]
         if not violated and not negative and phase_one is None:
             return Fraction(_dot_int(ci, v), q * cden)
@@ -220,14 +269,11 @@ def exact_lp_optimum(c, A, b, hint, duals=None) -> Fraction | None:
             return None
         step = step_sol[0]
         best, best_t = None, None
-        for i in range(k):
-            if i in in_basis:
-                continue
+        for i in _rows_above(A, absA, zeros, Ai, zero_ints, step, 1, in_basis):  # the rows with rate > 0
             rate = _dot_int(Ai[i], step)
-            if rate > 0:
-                t = Fraction(bi[i] * q - _dot_int(Ai[i], v), rate * q)  # up to the common positive factor
-                if best_t is None or t < best_t:
-                    best, best_t = i, t
+            t = Fraction(bi[i] * q - _dot_int(Ai[i], v), rate * q)  # up to the common positive factor
+            if best_t is None or t < best_t:
+                best, best_t = i, t
         if best is None:
             return None  # unbounded along this edge
         basis[leave] = best

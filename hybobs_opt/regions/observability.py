@@ -67,7 +67,7 @@ from .verdicts import PairVerdict, PointClass
 PARALLEL_MIN_PAIRS = 6000
 #: Tasks per worker of the grouped pair tests (:func:`_chunks`): their blocks differ in cost by
 #: 10 x or more (model 17, T = 9), so the workers take many small tasks rather than one each.
-GROUPED_TASKS_PER_WORKER = 8
+GROUPED_TASKS_PER_WORKER = 24
 
 
 def _rank(M: np.ndarray) -> int:

@@ -158,3 +158,28 @@ def test_decide_above_counts_what_it_cannot_settle():
     assert decide_above(np.array([1.0, 1.0]), box, np.ones(4), np.ones(2), 2.0, maximise=True) is False  # max is 2
     assert decide_above(np.array([1.0, 1.0]), box, np.ones(4), np.ones(2), float(np.nextafter(2.0, 0.0)), maximise=True)
     assert EXACT.decided == 2
+
+
+def test_float_screen_of_the_row_tests_agrees_with_fractions_at_and_near_ties():
+    """The floating-point pass that spares most exact row tests decides every row as Fractions do:
+    rows exactly tight, one ulp either side, huge and tiny entries, a point not representable."""
+    from hybobs_opt.geometry.exact_lp import _integer_rows, _rows_above
+
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        d = int(rng.integers(1, 8))
+        A = rng.standard_normal((30, d)) * 10.0 ** rng.integers(-200, 200, size=(30, 1)) if trial % 4 == 0 else rng.standard_normal((30, d))
+        p = [int(x) for x in rng.integers(-10**15, 10**15, size=d)]
+        q = int(rng.integers(1, 10**12)) * (3 if trial % 2 else 1)
+        x = [Fraction(pi, q) for pi in p]
+        exact_vals = [sum(Fraction(float(a)) * xi for a, xi in zip(row, x)) for row in A]
+        b = np.array([float(v) for v in exact_vals])  # the nearest float: exactly tight or one rounding off
+        b[::3] = np.nextafter(b[::3], np.inf)
+        b[1::3] = np.nextafter(b[1::3], -np.inf)
+        b[2::5] -= np.abs(b[2::5]) + 1.0  # clearly below / above: decided by the float pass
+        b[4::5] += np.abs(b[4::5]) + 1.0
+        Ai, bi = _integer_rows(A, b)
+        skip = {0, 5}
+        got = _rows_above(A, np.abs(A), b, Ai, bi, p, q, skip)
+        want = [i for i in range(A.shape[0]) if i not in skip and exact_vals[i] > Fraction(float(b[i]))]
+        assert got == want

@@ -202,3 +202,35 @@ def test_same_bits_with_other_blas_kernels_and_thread_counts():
         assert proc.returncode == 0, proc.stderr[-2000:]
         answers[name] = json.loads(proc.stdout.strip().splitlines()[-1])
     assert len({json.dumps(v) for v in answers.values()}) == 1, answers
+
+
+def test_one_call_svd_kernel_is_the_mirror_bit_for_bit():
+    """The compiled SVD in one call gives the bits of the NumPy mirror (scaling, Jacobi, sorting with
+    ties, completion of a rank-deficient ``U``), graded, tiny, repeated and zero columns included."""
+    rng = np.random.default_rng(23)
+    cases = [_graded(rng, m, k) for m, k in ((19, 9), (7, 7), (12, 3), (5, 1))]
+    twin = _graded(rng, 8, 4)
+    twin[:, 2] = twin[:, 0]  # a repeated column: rank deficient
+    cases += [twin, np.zeros((4, 3)), 1e-200 * _graded(rng, 6, 4), np.eye(4)[:, [2, 0, 1]]]
+    for A in cases:
+        A = np.ascontiguousarray(A)
+        U1, s1, V1 = R._svd_tall_numpy(A)
+        U2, s2, V2, ok = R._svd_tall_kernel(A, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+        assert ok and np.array_equal(U1, U2) and np.array_equal(s1, s2) and np.array_equal(V1, V2)
+    assert not R._svd_tall_kernel(np.array([[1.0], [np.nan]]), JACOBI_TOL, JACOBI_MAX_SWEEPS)[3]
+
+
+def test_vector_products_and_norm_kernels_are_the_ordered_sums():
+    """matmul's matrix-vector, vector-matrix and vector-vector kernels, and norm, give the bits of the
+    2-D kernel / the ordered sum in NumPy on graded data with cancellation; mismatched shapes refuse."""
+    rng = np.random.default_rng(29)
+    A = _graded(rng, 9, 6)
+    x, y = rng.normal(size=6) * 10.0 ** rng.integers(-8, 8, size=6), rng.normal(size=9)
+    assert np.array_equal(R.matmul(A, x), R._matmul_numpy(A, x.reshape(-1, 1))[:, 0])
+    assert np.array_equal(R.matmul(y, A), R._matmul_numpy(y.reshape(1, -1), A)[0])
+    assert R.matmul(x, x[::-1].copy()) == R._matmul_numpy(x.reshape(1, -1), x[::-1].reshape(-1, 1))[0, 0]
+    assert isinstance(R.matmul(x, x), np.float64)
+    assert R.norm(A) == float(np.sqrt(np.cumsum(np.ravel(A) ** 2)[-1]))
+    assert R.norm(np.zeros(0)) == 0.0
+    with pytest.raises(ValueError, match="do not match"):
+        R.matmul(A, y)
