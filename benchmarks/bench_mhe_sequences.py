@@ -22,6 +22,12 @@ from the plant data by :mod:`benchmarks.mhe_peers`: Gurobi, one thread, ``MIPGap
   point simulated and its cost recomputed in numpy): ``above_peer`` counts windows where ours is
   higher by more than our certified gap plus the peer's resolution (``PEER_ATOL``), ``below_peer``
   where Gurobi's is higher (Gurobi missed the optimum by more than that).
+  ``with_uniqueness``: the same observer with the uniqueness test on (the default), stepped over
+  the same samples in the same run: its step times against the uniqueness-off run's
+  (``ratio_to_uniqueness_off``) and Gurobi's (``ratio_median``), how each verdict was reached
+  (``decided_by``: the sequence tree's LPs, or the later states' undecided directions on the
+  MILP), and every verdict against Gurobi's separated minimum posed from the plant data
+  (``uniqueness_check``, :func:`check_uniqueness`).
 * ``T10_noisy_highs``: solver ``"highs"`` (the MILP of eq. (10) on HiGHS) on the first steps of
   the same data, for the ratio of the old default.
 * ``T10_memory``: the noisy ``"sequences"`` run again in a fresh process; its peak resident set
@@ -33,7 +39,8 @@ from the plant data by :mod:`benchmarks.mhe_peers`: Gurobi, one thread, ``MIPGap
   to a leaf but not a window's search (the first window's refusal, a ``fallback`` whose reason
   names the setting).
 * ``T3_noisy``: solver ``"sequences"`` at T = 3 (eager tables; with the uniqueness test, the
-  default, and without) against Gurobi on the same windows (issue 39: 0.25x, keep).
+  default, and without) against Gurobi on the same windows (issue 39: 0.25x, keep); the
+  verdicts checked as at T = 10.
 """
 
 from __future__ import annotations
@@ -102,11 +109,16 @@ def run_ours(obs, U, Y, steps: int, time_cap: float | None = None) -> list[dict]
         if k < T - 1:
             continue
         info = est.info
+        uq = info.get("uniqueness") or {}
         out.append({"k": k, "seconds": est.seconds, "flag": est.flag, "certified": bool(info.get("certified_optimum")),
                     "cost": info.get("cost"), "gap_bound": info.get("gap_bound"),
                     "relative_gap": info.get("solver_relative_gap"), "lps": info.get("solver_sequence_lps"),
                     "nodes_made": info.get("solver_nodes_made"), "tree_bytes": info.get("solver_tree_bytes"),
-                    "reason": info.get("reason")})
+                    "reason": info.get("reason"), "uniqueness": str(uq["status"]) if uq else None,
+                    "uniqueness_s": uq.get("seconds"), "decided_by": uq.get("decided_by"),
+                    "milp_directions": uq.get("milp_directions", 0), "threshold": uq.get("threshold"),
+                    "decision_band": uq.get("decision_band"), "separated_lps": uq.get("sequence_lps"),
+                    "states": info.get("states")})
         if time_cap is not None and time.perf_counter() - t0 > time_cap:
             break
     return out
@@ -168,6 +180,66 @@ def compare(ours: list[dict], peer: list[dict]) -> dict:
     return out
 
 
+def check_uniqueness(plant, U, Y, T: int, ours: list[dict], delta: float) -> dict:
+    """Every window's uniqueness verdict against Gurobi's separated minimum
+    (:func:`benchmarks.mhe_peers.separated_minimum_gurobi`, posed from the plant data around our
+    optimum's states): ``unique`` must have Gurobi's proven bound above ``J* + epsilon`` (minus
+    :data:`PEER_ATOL`), ``alternative`` its minimum at most ``J* + epsilon`` (plus it).  A window
+    whose separated minimum lies within the decision band plus ``PEER_ATOL`` of the threshold is
+    a tie (not compared).  Also Gurobi's time for that question, beside ours."""
+    from .mhe_peers import PeerWindow, separated_minimum_gurobi
+
+    pw = PeerWindow(plant)
+    agree = disagree = ties = 0
+    bad, peer_s, ours_s = [], [], []
+    for o in ours:
+        if o["uniqueness"] not in ("unique", "alternative"):
+            continue
+        k = o["k"]
+        r = separated_minimum_gurobi(pw, U[k - T + 1:k + 1], Y[k - T + 1:k + 1], "1", o["states"], delta)
+        if r["status"] not in ("optimal", "infeasible"):
+            bad.append({"k": k, "peer": r})
+            continue
+        peer_s.append(r["seconds"])
+        ours_s.append(o["uniqueness_s"])
+        thr = o["threshold"]
+        if abs(r["minimum"] - thr) <= (o["decision_band"] or 0.0) + PEER_ATOL:
+            ties += 1
+            continue
+        ok = r["bound"] > thr if o["uniqueness"] == "unique" else r["minimum"] <= thr
+        agree += ok
+        disagree += not ok
+        if not ok:
+            bad.append({"k": k, "ours": o["uniqueness"], "threshold": thr, "peer_minimum": r["minimum"],
+                        "peer_bound": r["bound"]})
+    return {"windows": agree + disagree + ties, "agree": agree, "disagree": disagree, "ties": ties,
+            "problems": bad[:10], "peer_separated_s": stats(peer_s), "ours_uniqueness_s": stats(ours_s)}
+
+
+def uniqueness_summary(ours: list[dict], off: list[dict]) -> dict:
+    """The uniqueness-on run against the uniqueness-off run on the same windows: step medians
+    and their ratio, how the verdicts were reached, certified costs equal."""
+    by_k = {o["k"]: o for o in off}
+    # the two runs' certified costs, equal within their certified gaps (their LPs may return
+    # different points of the same optimum: the tree's warm multipliers differ)
+    same_cost = sum(1 for o in ours if o["k"] in by_k and o["cost"] is not None and by_k[o["k"]]["cost"] is not None
+                    and abs(o["cost"] - by_k[o["k"]]["cost"]) <= (o["gap_bound"] or 0.0)
+                    + (by_k[o["k"]]["gap_bound"] or 0.0) + 1e-12)
+    decided: dict = {}
+    for o in ours:
+        key = o["decided_by"] or f"({o['uniqueness']})"
+        key = key.split(";")[0] + ("; later states by the MILP" if o["milp_directions"] else "")
+        decided[key] = decided.get(key, 0) + 1
+    on, no = [o["seconds"] for o in ours], [o["seconds"] for o in off]
+    return {"ratio_to_uniqueness_off": float(np.median(on) / np.median(no)) if on and no else None,
+            "uniqueness_off_step_s": stats(no), "uniqueness_s": stats([o["uniqueness_s"] or 0.0 for o in ours]),
+            "decided_by": decided, "windows_with_milp": sum(1 for o in ours if o["milp_directions"]),
+            "milp_directions_total": int(sum(o["milp_directions"] for o in ours)),
+            "separated_lps": stats([o["separated_lps"] for o in ours if o["separated_lps"] is not None]),
+            "same_certified_cost_as_off": same_cost, "windows": len(ours),
+            "uniqueness_status": {u: sum(1 for o in ours if o["uniqueness"] == u) for u in {o["uniqueness"] for o in ours}}}
+
+
 def part_T10(noisy: bool, steps: int) -> dict:
     plant, U, Y = scenario(noisy)
     t0 = time.perf_counter()
@@ -175,8 +247,16 @@ def part_T10(noisy: bool, steps: int) -> dict:
     build = time.perf_counter() - t0
     ours = run_ours(obs, U, Y, steps)
     ours[0]["seconds"] += 0.0  # construction is reported apart (it is not a step)
+    on = observer(plant, 10, "sequences", noisy)
+    ours_on = run_ours(on, U, Y, steps)
     peer = run_peer(plant, U, Y, 10, [o["k"] for o in ours])
     res = compare(ours, peer)
+    wu = compare(ours_on, peer)
+    wu.update(uniqueness_summary(ours_on, ours))
+    wu["uniqueness_check"] = check_uniqueness(plant, U, Y, 10, ours_on, on.settings.uniqueness_delta)
+    wu["per_step"] = [{k: o[k] for k in ("k", "seconds", "flag", "uniqueness", "uniqueness_s", "milp_directions")}
+                      for o in ours_on]
+    res["with_uniqueness"] = wu
     res["construction_s"] = build
     res["lazy"] = bool(obs._sequences.lazy)
     res["nodes_total"] = len(obs._sequences.nodes)
@@ -259,10 +339,15 @@ def part_T3(steps: int) -> dict:
         ours = run_ours(obs, U, Y, steps)
         if key == "with_uniqueness":
             peer = run_peer(plant, U, Y, 3, [o["k"] for o in ours])
+            runs = {"on": ours, "delta": obs.settings.uniqueness_delta}
+        else:
+            runs["off"] = ours
         r = compare(ours, peer)
         r.pop("nodes_made", None)
         r["lazy"] = bool(obs._sequences.lazy)
         res[key] = r
+    res["with_uniqueness"].update(uniqueness_summary(runs["on"], runs["off"]))
+    res["with_uniqueness"]["uniqueness_check"] = check_uniqueness(plant, U, Y, 3, runs["on"], runs["delta"])
     return res
 
 
