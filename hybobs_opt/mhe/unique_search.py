@@ -239,7 +239,8 @@ def search_uniqueness(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, xs:
             L = len(seq)
             fixed = open_[d_k[open_] < L]
             still = open_
-            if fixed.size:
+            # a prefix with fewer residual rows than unknowns has a singular R'R: no direction bound
+            if fixed.size and (L == T or problem[0].shape[0] >= problem[0].shape[1]):
                 Ps, ps = _state_maps(model, seq, U, problem[0].shape[1], problem[4])
                 k, j, sg = d_k[fixed], d_j[fixed], d_sign[fixed]
                 C = sg[:, None] * Ps[k, j, :] / hx[j][:, None]
