@@ -192,9 +192,10 @@ def main(argv: list[str] | None = None) -> int:
         old.setdefault("rerun", {})[args.only] = {k: record[k] for k in ("created", "machine", "git", "versions",
                                                                         "seconds_total")}
         old["runs"].update(record["runs"])
-        record = old
+        total, record = record["seconds_total"], old
+        record["rerun"][args.only]["seconds_total"] = total
     path.write_text(json.dumps(record, indent=2, default=json_default) + "\n")
-    log(f"wrote {path} ({record['seconds_total']:.0f} s)")
+    log(f"wrote {path} ({time.perf_counter() - t_start:.0f} s)")
     return 0
 
 

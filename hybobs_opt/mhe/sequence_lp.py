@@ -45,9 +45,15 @@ every leaf whose bound is at most ``J* + epsilon`` gets the separated LPs
 ``theta_j >= theta*_j + delta`` / ``theta_j <= theta*_j - delta`` (as column bounds); a verified
 point at cost ``<= J* + epsilon`` is an alternative, and a unique window start needs every such
 LP closed above the threshold by a proven bound.  The later window states (the reported one
-among them) are then separated by the MILP of
-:class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` on HiGHS: a state after the window start is
-an affine map of ``theta`` that depends on the mode sequence, not a column bound.
+among them) are separated at the same leaves: a state after the window start is an affine map
+``a' theta`` of the sequence, so each of its directions is one more row ``a' theta >= beta`` on
+the leaf's LP.  Its bound comes first from multipliers at hand (``mu = R^+' a`` scaled into the
+dual ball, the leaf's own, the last separated LP's of that leaf and direction), each with the
+best multiplier of the row, found exactly (the weak-duality bound is concave and piecewise
+linear in it); a direction still open gets its separated LP (HiGHS, one model per leaf).  Only
+directions left undecided (a separated cost in the decision band, an LP without a checked
+answer) go to the MILP of :class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` on HiGHS,
+restricted to them.
 """
 
 from __future__ import annotations

@@ -19,6 +19,9 @@ set of open separation directions per node:
   ``l(theta^) - rho' Q^-1 rho / 4 + max(mu, 0)^2 c' Q^-1 c / 4`` with ``Q = R'R`` and
   ``mu = (2 (beta - c' theta^) + c' Q^-1 rho) / c' Q^-1 c``; it is lowered by a rounding allowance
   (:data:`~hybobs_opt.tolerances.MHE_DIRECTION_BOUND_RTOL` of its terms);
+* at a full mode sequence, a direction is also closed by :func:`residual_bounds` (no Hessian:
+  ``||R theta + r|| >= (beta + z'r - ||e||_1) / ||z||`` for ``R'z ~ c``, valid where ``R'R`` is
+  too ill-conditioned for the closed form);
 * at a full mode sequence, a direction still open gets the exact QP of that sequence with the
   separation row (its lower bound proven by weak duality,
   :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_qp` with ``robust``): above the threshold it

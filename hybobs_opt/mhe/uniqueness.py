@@ -247,7 +247,7 @@ class SeparatedProgram:
         lb = np.concatenate([lb0, np.zeros(nb)])
         ub = np.concatenate([ub0, np.ones(nb)])
         disc = np.concatenate([disc0, np.ones(nb, dtype=bool)])
-        # solver "sequences" separates the later window states on HiGHS's MILP (its LPs bound the start)
+        # solver "sequences" leaves the later-state directions its LPs cannot decide to HiGHS's MILP
         solver, opts = ("highs", {}) if self.solver == "sequences" else (self.solver, options)
         self.milp = milp_backend(solver, c, A, lb, ub, disc, opts, problem="uniqueness MILP of the MHE observer")
 
