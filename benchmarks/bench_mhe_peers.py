@@ -186,8 +186,16 @@ def main(argv: list[str] | None = None) -> int:
     record["machine"]["load_average_at_end"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
     record["seconds_total"] = time.perf_counter() - t_start
     path = out_dir / "mhe_peers.json"
+    if args.only and path.exists():
+        # one part re-run: the other parts' records are kept, this run's record is kept beside them
+        old = json.loads(path.read_text())
+        old.setdefault("rerun", {})[args.only] = {k: record[k] for k in ("created", "machine", "git", "versions",
+                                                                        "seconds_total")}
+        old["runs"].update(record["runs"])
+        total, record = record["seconds_total"], old
+        record["rerun"][args.only]["seconds_total"] = total
     path.write_text(json.dumps(record, indent=2, default=json_default) + "\n")
-    log(f"wrote {path} ({record['seconds_total']:.0f} s)")
+    log(f"wrote {path} ({time.perf_counter() - t_start:.0f} s)")
     return 0
 
 

@@ -312,8 +312,8 @@ class MHEObserver(Observer):
        backlash of model (16)), the QP of that sequence with the separation row, one per
        admissible direction; it can never prove uniqueness, which needs every mode sequence;
     2. norm 2: the branch and bound over mode prefixes of :mod:`hybobs_opt.mhe.unique_search`
-       (the optimum's node QPs re-used, a closed-form bound per separation direction, the exact
-       QP with the separation row at full sequences), which decides "unique" or a verified
+       (the optimum's node QPs re-used, a closed-form bound per separation direction and, at full
+       sequences, a bound without the Hessian, then the exact QP with the separation row), which decides "unique" or a verified
        alternative, and otherwise leaves the decision to
     3. the norm-2 MIQP (DAQP, its own workspace, proximal weight
        :data:`~hybobs_opt.tolerances.MHE_UNIQUENESS_PROX_WEIGHT`) with the objective cutoff

@@ -45,9 +45,15 @@ every leaf whose bound is at most ``J* + epsilon`` gets the separated LPs
 ``theta_j >= theta*_j + delta`` / ``theta_j <= theta*_j - delta`` (as column bounds); a verified
 point at cost ``<= J* + epsilon`` is an alternative, and a unique window start needs every such
 LP closed above the threshold by a proven bound.  The later window states (the reported one
-among them) are then separated by the MILP of
-:class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` on HiGHS: a state after the window start is
-an affine map of ``theta`` that depends on the mode sequence, not a column bound.
+among them) are separated at the same leaves: a state after the window start is an affine map
+``a' theta`` of the sequence, so each of its directions is one more row ``a' theta >= beta`` on
+the leaf's LP.  Its bound comes first from multipliers at hand (``mu = R^+' a`` scaled into the
+dual ball, the leaf's own, the last separated LP's of that leaf and direction), each with the
+best multiplier of the row, found exactly (the weak-duality bound is concave and piecewise
+linear in it); a direction still open gets its separated LP (HiGHS, one model per leaf).  Only
+directions left undecided (a separated cost in the decision band, an LP without a checked
+answer) go to the MILP of :class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` on HiGHS,
+restricted to them.
 """
 
 from __future__ import annotations
@@ -110,7 +116,7 @@ class _Node:
 
     __slots__ = ("modes", "parent", "R", "G", "blocks", "ks", "own", "prop", "children", "leaf", "Rinv", "K", "t",
                  "kbox", "null", "nbox", "lp", "daqp", "sep", "fruitless", "ufruitless", "index", "r_sl", "g_sl",
-                 "z_sl", "warm")
+                 "z_sl", "warm", "rowlp", "pinv")
 
     def __init__(self, modes, parent, R, G, blocks, ks, own):
         self.modes, self.parent, self.R, self.G, self.blocks = tuple(modes), parent, R, G, blocks
@@ -123,6 +129,8 @@ class _Node:
         self.null = self.nbox = None  # left null vectors of R scaled into the dual ball (rows), box terms
         self.lp = None
         self.daqp = None
+        self.rowlp = None  # a leaf's HiGHS LP with one more row: the separation of a later state
+        self.pinv = None  # a leaf's pseudo-inverse of R (the later states' structural multipliers)
         self.sep: dict = {}
         self.fruitless = 0  # windows since this prefix's LP last closed it (a prefix only)
         self.ufruitless = 0  # windows since this leaf's LP last closed it in the uniqueness test
@@ -604,14 +612,16 @@ class SequenceLPSolver:
         # the blocks (outputs, disturbances, arrival) are contiguous, in that order
         return float(np.maximum.reduceat(res, np.flatnonzero(np.r_[True, np.diff(nd.blocks) != 0])).sum())
 
-    def _lp_model(self, nd):
+    def _lp_model(self, nd, row: bool = False):
         """The node's persistent HiGHS LP in ``[theta; e]``: ``R theta - E e <= -r``,
-        ``R theta + E e >= -r``, ``G theta <= g``, ``lo <= theta <= hi``, ``e >= 0``."""
+        ``R theta + E e >= -r``, ``G theta <= g``, ``lo <= theta <= hi``, ``e >= 0``; with ``row``,
+        one more row ``a' theta >= beta`` (``nd.rowlp``; its coefficients set per direction)."""
         hs = self._hs
-        entries = (2 * nd.R.shape[0] + nd.G.shape[0]) * (nd.R.shape[0] + nd.R.shape[1])
+        kind = "rowlp" if row else "lp"
+        entries = (2 * nd.R.shape[0] + nd.G.shape[0] + row) * (nd.R.shape[0] + nd.R.shape[1])
         size = NODE_BYTES["highs"] + NODE_BYTES["per_entry"] * entries
         self._charge(size, f"the HiGHS LP of mode prefix {nd.modes}")
-        self._models[(nd.index, "lp")] = (nd, "lp", size, self._window)
+        self._models[(nd.index, kind)] = (nd, kind, size, self._window)
         with captured_native_output("highspy.Highs"):
             h = hs.Highs()
         for key, val in (("output_flag", False), ("presolve", "off"),
@@ -623,6 +633,8 @@ class SequenceLPSolver:
         E = np.eye(k) if self.norm == "1" else np.eye(int(nd.blocks.max()) + 1)[nd.blocks]
         ne = E.shape[1]
         A = np.block([[R, -E], [R, E], [G, np.zeros((G.shape[0], ne))]])
+        if row:
+            A = np.vstack([A, np.zeros((1, A.shape[1]))])
         inf = hs.kHighsInf
         lp = hs.HighsLp()
         nr, nc = A.shape
@@ -643,8 +655,9 @@ class SequenceLPSolver:
             raise SolverError(f"sequence LP of mode prefix {tuple(int(q) for q in nd.modes)} (solver 'sequences')",
                               "highs", "model refused by passModel",
                               hint="MHESettings(solver_options={'lp': 'daqp'}), or solver='highs' (the MILP of eq. (10))")
-        nd.lp = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
-        return nd.lp
+        model = (h, np.arange(nr, dtype=np.int32), k, np.arange(nt, dtype=np.int32))
+        setattr(nd, kind, model)
+        return model
 
     def _daqp_model(self, nd):
         """The node's persistent DAQP LP (``daqp.Model``, proximal point ``eps_prox``) in ``[theta; e]``:
@@ -1114,7 +1127,7 @@ class SequenceLPSolver:
         return out
 
     def _decide(self, U, Y, xbar, opt, ctx) -> dict:
-        sep, n = self.sep, self.n
+        sep, n, T = self.sep, self.n, self.T
         delta, eps = sep.delta, sep.epsilon
         thr = float(opt.cost) + eps
         # a cost within the band of thr decides nothing (a fallback): bounds must clear thr_hi,
@@ -1127,11 +1140,14 @@ class SequenceLPSolver:
         xi_s = xs[0]
         dirs = [(j, s) for j in range(n) for s in (1, -1)
                 if (xi_s[j] + delta <= sep._ubx[j] if s > 0 else xi_s[j] - delta >= sep._lbx[j])]
-        if not dirs:
-            return self._later_states(U, Y, xbar, opt, {**base, "status": UniquenessOutcome.UNIQUE,
-                                                         "decided_by": "box (no state of X is delta away)",
-                                                         "separated_cost_bound": np.inf})
+        # the later window states (the reported one among them): direction d = 2 (k n + j) (+ 1)
+        later = np.flatnonzero(sep.allowed(xs, range(1, T))) if T > 1 else np.zeros(0, dtype=int)
+        if not dirs and not later.size:
+            return {**base, "status": UniquenessOutcome.UNIQUE, "decided_by": "box (no state of X is delta away)",
+                    "separated_cost_bound": np.inf}
         lps0 = self.lp_solves
+        counts = {"row_lps": 0, "rows_closed_by_bound": 0}
+        undecided = np.zeros(2 * n * T, dtype=bool)  # later directions left to the MILP
         lowest = np.inf
         stack = list(reversed(self.roots))
         if self._last_alternative is not None:
@@ -1165,7 +1181,7 @@ class SequenceLPSolver:
             if not nd.leaf:
                 stack.extend(reversed(self._kids(nd)))
                 continue
-            closed = self._separated_structural(nd, ctx, xi_s, delta, dirs, thr_hi)
+            closed = self._separated_structural(nd, ctx, xi_s, delta, dirs, thr_hi) if dirs else None
             for d, (j, s) in enumerate(dirs):
                 if closed is not None and closed[d] > thr_hi:
                     lowest = min(lowest, closed[d])
@@ -1210,23 +1226,204 @@ class SequenceLPSolver:
                                       f"J* + epsilon = {thr:.6g} (decided to the safe side)"}
                 return {**base, "status": UniquenessOutcome.NOT_CERTIFIED,
                         "reason": f"the separated LP's point of modes {nd.modes} failed verification"}
+            if later.size:
+                alt, low = self._separate_later(nd, ctx, U, Y, xbar, xs, later, thr_lo, thr_hi, undecided, counts)
+                lowest = min(lowest, low)
+                if alt is not None:
+                    self._last_alternative = (nd, None)
+                    return {**base, "status": UniquenessOutcome.ALTERNATIVE, "decided_by": "sequence LPs",
+                            "separated_cost": alt["cost"], "alternative": alt,
+                            "sequence_lps": self.lp_solves - lps0, **counts}
         self._last_alternative = None
-        return self._later_states(U, Y, xbar, opt, {
-            **base, "status": UniquenessOutcome.UNIQUE,
-            "decided_by": "sequence LPs (every prefix and direction closed)",
-            "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0})
-
-    def _later_states(self, U, Y, xbar, opt, start: dict) -> dict:
-        """The window start is unique (``start``): the later window states -- the reported current
-        state among them -- are separated by the MILP of :class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram`."""
-        if self.T == 1:
+        start = {**base, "status": UniquenessOutcome.UNIQUE,
+                 "decided_by": "sequence LPs (every prefix and direction closed)",
+                 "separated_cost_bound": lowest, "sequence_lps": self.lp_solves - lps0, **counts}
+        if not undecided.any():
             return start
-        later = self.sep.decide(U, Y, xbar, opt, steps=range(1, self.T))
+        return self._later_states(U, Y, xbar, opt, start, undecided)
+
+    def _later_states(self, U, Y, xbar, opt, start: dict, undecided: np.ndarray) -> dict:
+        """Every sequence LP closed but the later-state directions ``undecided`` (a separated LP
+        within the decision band, or without a checked answer): those directions alone are
+        separated by the MILP of :class:`~hybobs_opt.mhe.uniqueness.SeparatedProgram` over every
+        mode sequence."""
+        later = self.sep.decide(U, Y, xbar, opt, steps=range(1, self.T), directions=undecided)
         later.pop("seconds", None)
+        extra = {k: start[k] for k in ("sequence_lps", "row_lps", "rows_closed_by_bound")}
+        extra["milp_directions"] = int(undecided.sum())
         if later["status"] == UniquenessOutcome.UNIQUE:
-            return {**start, "decided_by": f"{start['decided_by']}; later states: {later['decided_by']}",
+            return {**start, **extra, "decided_by": f"{start['decided_by']}; later states: {later['decided_by']}",
                     "separated_cost_bound": min(start["separated_cost_bound"], later["separated_cost_bound"])}
-        out = {**later, "sequence_lps": start.get("sequence_lps", 0)}
+        out = {**later, **extra}
         if later["status"] != UniquenessOutcome.ALTERNATIVE:
             out["reason"] = f"{later.get('reason', '?')} (later window states; the window start is unique)"
         return out
+
+    # ------------------------------------------------------------------ later window states
+    def _separate_later(self, nd, ctx, U, Y, xbar, xs, later, thr_lo, thr_hi, undecided, counts):
+        """The later-state directions ``later`` at the leaf ``nd`` (its own bound at most the
+        threshold): ``(alternative or None, least bound of the closed directions)``.
+
+        The state ``x_k`` of a full sequence is affine in ``theta``, so the direction ``d``
+        (step ``k``, coordinate ``j``, side ``s``) is the row ``a_d' theta >= beta_d`` on the
+        leaf's LP.  Its bound, by weak duality with any ``(mu, lam)`` and the best multiplier
+        ``nu >= 0`` of the row (:meth:`_row_bounds`), comes first from multipliers at hand: the
+        structural ``mu = R^+' a_d`` scaled into the dual ball (``R' mu = a_d``: the cost of moving
+        the least-squares fit across the row), the leaf's last LP's, and the last separated LP's
+        of this leaf and direction (an earlier window).  A direction they leave open gets its
+        separated LP (HiGHS, checked); a verified point at most ``thr_lo`` is an alternative, a
+        direction neither closed nor so answered is marked in ``undecided`` (left to the MILP)."""
+        r, g, _ = self._data(nd, ctx)
+        A, beta = self._later_rows(nd, U, xs, later)
+        D, kr, ng = later.size, r.size, g.size
+        if nd.pinv is None:
+            # the pseudo-inverse and, at most, one stored (mu, lam) per later direction
+            self._charge(8 * (nd.R.size + 2 * self.n * (self.T - 1) * (kr + ng + 1)) + NODE_BYTES["node"],
+                         f"the later-state separation of mode sequence {nd.modes}")
+            nd.pinv = np.linalg.pinv(nd.R)
+        MU = A @ nd.pinv
+        MU = MU * ((1.0 - 8 * np.finfo(float).eps) / np.maximum(self._dual_norms(nd, MU), 1e-300))[:, None]
+        best = self._row_bounds(nd, MU, np.zeros((D, ng)), r, g, A, beta)
+        if nd.warm is not None and not nd.warm[3]:
+            mu, lam = nd.warm[0], nd.warm[1]
+            best = np.maximum(best, self._row_bounds(nd, np.tile(mu, (D, 1)), np.tile(lam, (D, 1)), r, g, A, beta))
+        have = [i for i, d in enumerate(later) if ("row", int(d)) in nd.sep]
+        if have:
+            got = [nd.sep[("row", int(later[i]))] for i in have]
+            MUs = np.array([np.zeros(kr) if mu is None else mu for mu, _ in got])
+            LAMs = np.array([lam for _, lam in got])
+            b = self._row_bounds(nd, MUs, LAMs, r, g, A[have], beta[have])
+            ray = np.array([mu is None for mu, _ in got])
+            b = np.where(ray & (b > 0), np.inf, np.where(ray, -np.inf, b))
+            best[have] = np.maximum(best[have], b)
+        closed = best > thr_hi
+        counts["rows_closed_by_bound"] += int(closed.sum())
+        lowest = float(best[closed].min()) if closed.any() else np.inf
+        mdl, T, n = self.model, self.T, self.n
+        for i in np.flatnonzero(~closed):
+            d = int(later[i])
+            if undecided[d]:
+                continue  # the MILP decides this direction over every sequence anyway
+            counts["row_lps"] += 1
+            out = self._solve_row_lp(nd, r, g, A[i], beta[i])
+            if out is None:
+                undecided[d] = True
+                continue
+            bound, th, cost, mu, lam = out
+            nd.sep[("row", d)] = (mu, lam)
+            if bound > thr_hi:
+                lowest = min(lowest, bound)
+                continue
+            if th is None or cost > thr_hi:
+                undecided[d] = True
+                continue
+            x0 = mdl.cx + mdl.hx * th[:n]
+            W = (th[n:].reshape(T - 1, n) * mdl.hx) if self.dist else np.zeros((max(T - 1, 0), n))
+            alt = self.sep.alternative(x0, nd.modes, U, Y, xbar, W, xs)
+            if alt is not None and alt["cost"] <= thr_lo:
+                return alt, lowest
+            undecided[d] = True
+        return None, lowest
+
+    def _later_rows(self, nd, U, xs, later):
+        """The rows ``a_d' theta >= beta_d`` of the later-state directions ``later`` on the full
+        sequence ``nd.modes`` (``sign ((x_k,j - c_j) / h_j - xs_k,j) >= delta``)."""
+        from .unique_search import _state_maps
+
+        mdl, n = self.model, self.n
+        Ps, ps = _state_maps(mdl, nd.modes, U, self.nt, self.dist)
+        k, j = (later // 2) // n, (later // 2) % n
+        sg = np.where(later % 2 == 0, 1.0, -1.0)
+        hx, cx = mdl.hx, mdl.cx
+        A = sg[:, None] * Ps[k, j, :] / hx[j][:, None]
+        beta = self.sep.delta + sg * (xs[k, j] - (ps[k, j] - cx[j]) / hx[j])
+        return A, beta
+
+    def _dual_norms(self, nd, MU) -> np.ndarray:
+        """:meth:`_dual_norm` of each row of ``MU``."""
+        aM = np.abs(MU)
+        if self.norm == "1":
+            return aM.max(axis=1, initial=0.0)
+        B = np.zeros((nd.blocks.size, int(nd.blocks.max()) + 1))
+        B[np.arange(nd.blocks.size), nd.blocks] = 1.0
+        return (aM @ B).max(axis=1, initial=0.0)
+
+    def _row_bounds(self, nd, MU, LAM, r, g, A, beta) -> np.ndarray:
+        """Proven lower bounds of the node's LP with one more row ``A[d] theta >= beta[d]``, one
+        per row ``d``, from the multipliers ``MU[d], LAM[d]`` (made dual-feasible) and the best
+        ``nu >= 0`` of the row: every feasible ``theta`` has
+
+            ||R theta + r|| >= mu'r - lam'g + nu beta + sum_j min(c_j lo_j, c_j hi_j),
+            c = R'mu + G'lam - nu a,
+
+        concave and piecewise linear in ``nu``, maximal at ``0`` or a breakpoint ``c0_j / a_j``;
+        when the row is out of the box's reach (``beta > max a' theta`` over the box) it grows
+        without bound: ``inf``.  Minus the rounding allowance of :meth:`_dual_bound`."""
+        LAM = np.maximum(LAM, 0.0)
+        if self.norm == "1":
+            MU = np.clip(MU, -1.0, 1.0)
+        else:
+            MU = MU / np.maximum(self._dual_norms(nd, MU), 1.0)[:, None]
+        lo, hi = self.lo, self.hi
+        C0 = MU @ nd.R + LAM @ nd.G
+        base = MU @ r - LAM @ g
+        size0 = np.abs(MU) @ np.abs(r) + LAM @ np.abs(g)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            brk = C0 / A
+        brk = np.where(np.isfinite(brk) & (brk > 0), brk, 0.0)
+        NU = np.concatenate([np.zeros((A.shape[0], 1)), brk], axis=1)
+        C = C0[:, None, :] - NU[:, :, None] * A[:, None, :]
+        box = np.minimum(C * lo, C * hi)
+        val = base[:, None] + NU * beta[:, None] + box.sum(axis=2)
+        size = size0[:, None] + NU * np.abs(beta)[:, None] + np.abs(box).sum(axis=2)
+        out = (val - SEQUENCE_LP_BOUND_RTOL * size).max(axis=1)
+        reach = np.maximum(A * lo, A * hi)
+        far = beta - reach.sum(axis=1) > SEQUENCE_LP_BOUND_RTOL * (np.abs(beta) + np.abs(reach).sum(axis=1))
+        out[far] = np.inf
+        return out
+
+    def _solve_row_lp(self, nd, r, g, a, beta):
+        """The leaf's LP with the row ``a' theta >= beta`` on HiGHS (``nd.rowlp``), checked:
+        ``(bound, theta or None, cost or None, mu, lam)`` as :meth:`_solve_lp` (``mu = None``:
+        ``lam`` is a verified infeasibility ray), or ``None``."""
+        hs = self._hs
+        h, rows, k, cols = nd.rowlp if nd.rowlp is not None else self._lp_model(nd, row=True)
+        self._used(nd, "rowlp")
+        self.lp_solves += 1
+        inf = hs.kHighsInf
+        ng = g.size
+        srow = 2 * k + ng
+        for c in range(cols.size):
+            h.changeCoeff(srow, c, float(a[c]))
+        h.changeRowsBounds(rows.size, rows, np.r_[np.full(k, -inf), -r, np.full(ng, -inf), beta],
+                           np.r_[-r, np.full(k, inf), g, inf])
+        h.changeColsBounds(cols.size, cols, self.lo, self.hi)
+        h.run()
+        st = h.getModelStatus()
+        if st not in (hs.HighsModelStatus.kOptimal, hs.HighsModelStatus.kInfeasible):
+            h.clearSolver()
+            h.run()
+            st = h.getModelStatus()
+        one = lambda mu, lam: self._row_bounds(nd, mu[None, :], lam[None, :], r, g, a[None, :],  # noqa: E731
+                                                np.array([beta]))[0]
+        if st == hs.HighsModelStatus.kInfeasible:
+            _, ok, ray = h.getDualRay()
+            ray = np.asarray(ray, dtype=float) if ok and len(ray) == rows.size else None
+            for cand in ([] if ray is None else [-ray[2 * k:srow], ray[2 * k:srow]]):
+                if one(np.zeros(k), cand) > 0:  # homogeneous in (lam, nu): a positive value proves it
+                    return np.inf, None, None, None, cand
+            return None
+        if st != hs.HighsModelStatus.kOptimal:
+            return None
+        sol = h.getSolution()
+        x = np.asarray(sol.col_value, dtype=float)[: cols.size]
+        y = np.asarray(sol.row_dual, dtype=float)
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+            return None
+        lo, hi = self.lo, self.hi
+        if (np.max(nd.G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL)
+                or np.any(x > hi + MHE_FEASIBILITY_TOL) or a @ x < beta - MHE_FEASIBILITY_TOL):
+            return None
+        x = np.clip(x, lo, hi)
+        mu, lam = -(y[:k] + y[k:2 * k]), -y[2 * k:srow]
+        return one(mu, lam), x, self._cost(nd, x, r), mu, lam

@@ -19,6 +19,9 @@ set of open separation directions per node:
   ``l(theta^) - rho' Q^-1 rho / 4 + max(mu, 0)^2 c' Q^-1 c / 4`` with ``Q = R'R`` and
   ``mu = (2 (beta - c' theta^) + c' Q^-1 rho) / c' Q^-1 c``; it is lowered by a rounding allowance
   (:data:`~hybobs_opt.tolerances.MHE_DIRECTION_BOUND_RTOL` of its terms);
+* at a full mode sequence, a direction is also closed by :func:`residual_bounds` (no Hessian:
+  ``||R theta + r|| >= (beta + z'r - ||e||_1) / ||z||`` for ``R'z ~ c``, valid where ``R'R`` is
+  too ill-conditioned for the closed form);
 * at a full mode sequence, a direction still open gets the exact QP of that sequence with the
   separation row (its lower bound proven by weak duality,
   :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_qp` with ``robust``): above the threshold it
@@ -42,7 +45,7 @@ import numpy as np
 from ..tolerances import MHE_DIRECTION_BOUND_RTOL, MHE_DIRECTION_COND_MAX
 from .certify import node_qp
 
-__all__ = ["UniquenessSearch", "direction_bounds", "search_uniqueness"]
+__all__ = ["UniquenessSearch", "direction_bounds", "residual_bounds", "search_uniqueness"]
 
 
 @dataclass(frozen=True)
@@ -110,6 +113,41 @@ def direction_bounds(problem: tuple, theta: np.ndarray, lam: np.ndarray, C: np.n
     bound = J + comp - quad / 4.0 + extra
     allowance = MHE_DIRECTION_BOUND_RTOL * (abs(J) + abs(comp) + quad / 4.0 + extra)
     return bound - allowance
+
+
+def residual_bounds(problem: tuple, C: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Proven lower bounds of ``||R theta + r||^2`` over ``c_i' theta >= beta_i`` and
+    ``|theta_j| <= 1`` on the window-start state (``x0`` in the box of ``X``), one per row
+    ``c_i`` of ``C``, without the Hessian: for any ``z`` with ``e = R'z - c``,
+    ``c' theta = z'(R theta + r) - z'r - e' theta``, so by Cauchy-Schwarz
+    ``||R theta + r|| >= (beta + z'r - ||e||_1) / ||z||``; ``z`` solves ``R'z = c`` in least
+    squares.  Its error grows with ``cond(R)``, not ``cond(R'R)`` as in
+    :func:`direction_bounds`: it closes directions of full sequences whose ``R'R`` is too
+    ill-conditioned for the closed form (model (16) at T = 3: ``cond(R'R)`` about 8e7).  The
+    guards are relaxed (a lower bound stays one); ``0`` where the bound is not positive and
+    ``-inf`` everywhere with disturbance variables (no box bounds them).  Lowered by a rounding
+    allowance of :data:`~hybobs_opt.tolerances.MHE_DIRECTION_BOUND_RTOL` of the terms.
+
+    Parameters
+    ----------
+    problem : tuple
+        ``(R, r, G, g, dist)`` of :meth:`~hybobs_opt.mhe.window.WindowModel.sequence_problem`.
+    C : (nd, nt) array
+    beta : (nd,) array
+    """
+    R, r = problem[0], problem[1]
+    if problem[4] or R.shape[1] != C.shape[1]:
+        return np.full(C.shape[0], -np.inf)
+    Z = np.linalg.lstsq(R.T, C.T, rcond=None)[0]  # (k, nd)
+    E = np.abs(R.T @ Z - C.T).sum(axis=0)
+    zr = Z.T @ r
+    nz = np.sqrt(np.einsum("ij,ij->j", Z, Z))
+    allow = MHE_DIRECTION_BOUND_RTOL * (np.abs(beta) + np.abs(Z).T @ np.abs(r) + (np.abs(R.T) @ np.abs(Z)).sum(axis=0)
+                                        + np.abs(C).sum(axis=1) + E)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (beta + zr - E - allow) / (nz * (1.0 + MHE_DIRECTION_BOUND_RTOL))
+    s = np.where((nz > 0) & np.isfinite(s) & (s > 0), s, 0.0)
+    return s * s
 
 
 def _state_maps(model, seq: tuple, U: np.ndarray, nt: int, dist: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -204,12 +242,16 @@ def search_uniqueness(model, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, xs:
             L = len(seq)
             fixed = open_[d_k[open_] < L]
             still = open_
-            if fixed.size:
+            # a prefix with fewer residual rows than unknowns has a singular R'R: no direction bound
+            if fixed.size and (L == T or problem[0].shape[0] >= problem[0].shape[1]):
                 Ps, ps = _state_maps(model, seq, U, problem[0].shape[1], problem[4])
                 k, j, sg = d_k[fixed], d_j[fixed], d_sign[fixed]
                 C = sg[:, None] * Ps[k, j, :] / hx[j][:, None]
                 beta = delta + sg * (xs[k, j] - (ps[k, j] - cx[j]) / hx[j])
                 bounds = direction_bounds(problem, theta, lam, C, beta)
+                if L == T:
+                    res = residual_bounds(problem, C, beta)
+                    bounds = res if bounds is None else np.maximum(bounds, res)
                 if bounds is not None:
                     shut = bounds > thr_hi
                     closed += int(shut.sum())

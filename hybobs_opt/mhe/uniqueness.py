@@ -247,7 +247,7 @@ class SeparatedProgram:
         lb = np.concatenate([lb0, np.zeros(nb)])
         ub = np.concatenate([ub0, np.ones(nb)])
         disc = np.concatenate([disc0, np.ones(nb, dtype=bool)])
-        # solver "sequences" separates the later window states on HiGHS's MILP (its LPs bound the start)
+        # solver "sequences" leaves the later-state directions its LPs cannot decide to HiGHS's MILP
         solver, opts = ("highs", {}) if self.solver == "sequences" else (self.solver, options)
         self.milp = milp_backend(solver, c, A, lb, ub, disc, opts, problem="uniqueness MILP of the MHE observer")
 
@@ -264,7 +264,8 @@ class SeparatedProgram:
         self._H0 = H0
         self.miqp.set_hessian(H0 + 2.0 * self.prox_weight * np.eye(H0.shape[0]))
 
-    def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult, steps=None) -> dict:
+    def decide(self, U: np.ndarray, Y: np.ndarray, xbar: np.ndarray, opt: WindowResult, steps=None,
+               directions: np.ndarray | None = None) -> dict:
         """Is the window trajectory of the certified optimum ``opt`` unique (to ``delta``, ``epsilon``)?
 
         Returns a dict with ``status`` (a :class:`UniquenessOutcome`) ``"unique"`` (no admissible
@@ -288,6 +289,9 @@ class SeparatedProgram:
             The certified optimum of the window problem.
         steps : iterable of int, optional
             Window steps whose states are separated (default every one, ``0 .. T-1``).
+        directions : (2 n T,) bool ndarray, optional
+            Only these directions (:meth:`direction`) are separated, of those ``steps`` allows
+            (solver ``"sequences"`` passes the ones its separated LPs left undecided).
 
         Returns
         -------
@@ -298,7 +302,7 @@ class SeparatedProgram:
         """
         t0 = time.perf_counter()
         try:
-            out = self._decide(U, Y, xbar, opt, steps)
+            out = self._decide(U, Y, xbar, opt, steps, directions)
         except Exception as exc:  # a crashing solver must not stop the observer loop
             out = {"status": UniquenessOutcome.NOT_CERTIFIED, "reason": f"{type(exc).__name__}: {exc}"}
         out["seconds"] = time.perf_counter() - t0
@@ -436,7 +440,7 @@ class SeparatedProgram:
         return {"x_start": x0.copy(), "cost": cost, "modes": modes.copy(), "states": states, "w": W,
                 "distance": dist, "step": step}
 
-    def _decide(self, U, Y, xbar, opt: WindowResult, steps=None) -> dict:
+    def _decide(self, U, Y, xbar, opt: WindowResult, steps=None, directions=None) -> dict:
         enc, res = self.enc, self._res
         n, nv, nb, T = self.n, enc.n_vars, self._nb, self.T
         delta, eps = self.delta, self.epsilon
@@ -450,6 +454,8 @@ class SeparatedProgram:
                 "separated_cost_bound": None}
         xs = self.optimum_states(opt)
         allowed = self.allowed(xs, steps)
+        if directions is not None:
+            allowed &= np.asarray(directions, dtype=bool)
         if not allowed.any():
             return {**base, "status": UniquenessOutcome.UNIQUE, "decided_by": "box (no state of X is delta away)",
                     "separated_cost_bound": np.inf}

@@ -196,6 +196,27 @@ class WindowModel:
             gvec.append(Xb - XA @ px)
             if k < T - 1:
                 px = md.A @ px + md.B @ U[k] + md.a
+        static = self._static_rows(modes, dist, nt, step_rows, Grows) if self.extension is None else None
+        if static is not None:
+            # the rows that depend on the modes alone, stacked and normalised once per prefix; the
+            # same expressions as below on the same arrays, so the problem is bit-identical
+            R_steps, Gn, gnorm, nz = static
+            gg = np.concatenate(gvec)
+            if not np.any(gg[~nz] < 0):
+                Rrows = [R_steps]
+                if dist:
+                    Rw = np.zeros((n * (T - 1), nt))
+                    Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
+                    Rrows.append(Rw)
+                    rvec.append(np.zeros(n * (T - 1)))
+                if self.Wa is not None:
+                    Ra = np.zeros((n, nt))
+                    Ra[:, :n] = self.Wa @ np.diag(hx)
+                    Rrows.append(Ra)
+                    rvec.append(self.Wa @ (cx - xbar))
+                # copies: the solvers take writable buffers (DAQP's wrapper refuses read-only ones)
+                R = R_steps.copy() if len(Rrows) == 1 else np.vstack(Rrows)
+                return R, np.concatenate(rvec), Gn.copy(), gg[nz] / gnorm, dist
         if dist:
             Rw = np.zeros((n * (T - 1), nt))
             Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
@@ -217,6 +238,26 @@ class WindowModel:
         norm = np.where(bad, np.abs(gg), norm)
         keep = keep | bad
         return np.vstack(Rrows), np.concatenate(rvec), G[keep] / norm[keep, None], gg[keep] / norm[keep], dist
+
+    def _static_rows(self, modes, dist: bool, nt: int, step_rows: list, Grows: list):
+        """``(R of the steps, G normalised, its row norms, rows with coefficients)`` of
+        :meth:`sequence_problem` for ``modes``: they depend on the modes alone.  Cached beside
+        :meth:`_mode_rows` (the same key)."""
+        key = (tuple(int(q) for q in modes), dist, nt, id(self.Wy))
+        cache = self.__dict__.setdefault("_static_cache", {})
+        hit = cache.get(key)
+        if hit is None:
+            G = np.vstack(Grows)
+            norm = np.max(np.abs(G), axis=1)
+            nz = norm > 0
+            R_steps = np.vstack([rows[0] for rows in step_rows])
+            hit = (R_steps, G[nz] / norm[nz, None], norm[nz], nz)
+            for a in hit:
+                a.setflags(write=False)  # shared by every window's problem of these modes
+            if len(cache) >= MODE_ROWS_CACHE_SIZE:
+                cache.clear()
+            cache[key] = hit
+        return hit
 
     def _mode_rows(self, modes, dist: bool, nt: int) -> list:
         """Per step of ``modes``, the rows of :meth:`sequence_problem` that depend on the modes only:

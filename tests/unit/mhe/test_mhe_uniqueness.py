@@ -489,3 +489,31 @@ def test_a_weak_qp_bound_is_proven_again_for_the_uniqueness_test():
         theta, lower = model.sequence_qp((R, r, G, g, False), None, bound=True, robust=robust)
         assert lower <= ref.value * (1 + 1e-9) + 1e-18, (robust, lower, ref.value)  # a valid bound
     assert lower >= 0.99 * ref.value, (lower, ref.value)  # robust: tight
+
+
+def test_sequences_at_T10_never_flag_the_mirror_and_decide_in_the_tree(rotation_log):
+    """Solver ``"sequences"`` at T = 10 (a lazy tree of 2^10 sequences) on the rotation log: the
+    mirror trajectory fits exactly (the oracle: the model's symmetry), so no step whose mirror is
+    ``delta`` away at some window state may be flagged observable, also where it is within
+    ``delta`` at the window start; those steps are decided by the tree's LPs (no MILP)."""
+    system, U, X, Y = rotation_log
+    T = 10
+    obs = MHEObserver(system, T, norm="1", solver="sequences")
+    assert obs._sequences.lazy
+    delta, h1 = obs.settings.uniqueness_delta, 10.0
+    near_start = 0
+    for k in range(70):
+        est = obs.step(U[k], Y[k])
+        if est.flag == WARMING_UP:
+            continue
+        mirror_gap = np.abs(2.0 * X[k - T + 1:k + 1, 0]) / h1
+        if np.max(mirror_gap) > delta * 1.01:
+            assert est.flag == UNOBSERVABLE, (k, est.flag, est.info.get("reason"))
+            uq = est.info["uniqueness"]
+            assert uq["decided_by"] == "sequence LPs" and "milp_directions" not in uq, (k, uq)
+            alt = est.info["alternative"]
+            assert alt["distance"] >= delta * (1 - 1e-6) and 0 <= alt["step"] < T
+            if mirror_gap[0] < delta * 0.9:
+                near_start += 1
+                assert alt["step"] > 0, (k, alt["step"])
+    assert near_start >= 3, near_start

@@ -5,8 +5,9 @@ The reference is built here from the system matrices alone (it shares no code wi
 ``sequence_lp.py`` or ``window.py``): every mode sequence of the window is one LP in the
 window-start state, solved by ``scipy.optimize.linprog`` (HiGHS); the window's optimum is the best
 sequence.  Uniqueness: for every sequence whose least cost is within ``J* + epsilon``, the LPs with
-``+-(xi0_j - xi0*_j) >= delta`` (scaled by the half-widths of ``X``); the window is unique when none
-reaches ``J* + epsilon``.  Windows whose separated minimum lies within a small margin of the
+``+-(xi_k,j - xi*_k,j) >= delta`` at every window step ``k`` (scaled by the half-widths of ``X``:
+the window start, the reported state and those between); the window is unique when none reaches
+``J* + epsilon``.  Windows whose separated minimum lies within a small margin of the
 threshold (a tie no tolerance can decide) are counted and left out of the flag comparison.
 """
 
@@ -35,13 +36,17 @@ TIE = 1e-6
 
 def _sequence_lp(system, modes, U, Y, norm, extra=None):
     """``min ||y - y^||`` over the window-start state for the fixed ``modes`` (linprog, HiGHS):
-    ``(cost, x0)`` or ``(inf, None)`` when infeasible.  ``extra = (a, b)`` adds ``a' x0 >= b``."""
+    ``(cost, x0)`` or ``(inf, None)`` when infeasible.  ``extra = (k, a, b)`` adds ``a' x_k >= b``
+    on the window state ``x_k = Phi_k x0 + phi_k``."""
     n, p = system.n, system.p
     T = len(modes)
     Phi, phi = np.eye(n), np.zeros(n)
     Rrows, rvec, Arows, bvec = [], [], [], []
     XA, Xb = system.state_bounds.A, system.state_bounds.b
+    sep = None
     for k, q in enumerate(modes):
+        if extra is not None and extra[0] == k:
+            sep = (extra[1] @ Phi, extra[2] - extra[1] @ phi)
         md = system.modes[q]
         # residual y_k - C x_k - D u_k - c = -C Phi x0 + (y_k - C phi - D u_k - c)
         Rrows.append(-md.C @ Phi)
@@ -60,8 +65,8 @@ def _sequence_lp(system, modes, U, Y, norm, extra=None):
     # variables [x0; s]: R x0 + r <= E s, -(R x0 + r) <= E s, G x0 <= g
     A_ub = np.block([[R, -E], [-R, -E], [G, np.zeros((G.shape[0], ns))]])
     b_ub = np.concatenate([-r, r, g])
-    if extra is not None:
-        a, b = extra
+    if sep is not None:
+        a, b = sep
         A_ub = np.vstack([A_ub, np.r_[-a, np.zeros(ns)]])
         b_ub = np.r_[b_ub, -b]
     c = np.r_[np.zeros(n), np.ones(ns)]
@@ -72,9 +77,10 @@ def _sequence_lp(system, modes, U, Y, norm, extra=None):
     return float(out.fun), out.x[:n]
 
 
-def _reference(system, U, Y, norm, x_star, delta, eps, half):
-    """Brute force: the optimum over all sequences and whether a state ``delta`` away (scaled by
-    ``half``) reaches ``J* + eps`` (``None``: a tie within :data:`TIE`)."""
+def _reference(system, U, Y, norm, x_states, delta, eps, half):
+    """Brute force: the optimum over all sequences and whether a trajectory with a window state
+    ``delta`` away from ``x_states`` at the same step (scaled by ``half``) reaches ``J* + eps``
+    (``None``: a tie within :data:`TIE`)."""
     T = len(U)
     costs = {}
     for modes in itertools.product(range(system.n_modes), repeat=T):
@@ -85,14 +91,15 @@ def _reference(system, U, Y, norm, x_star, delta, eps, half):
     for modes, cost in sorted(costs.items(), key=lambda kv: kv[1]):
         if cost > thr + TIE:
             continue
-        for j in range(system.n):
-            for s in (1.0, -1.0):
-                a = np.zeros(system.n)
-                a[j] = s / half[j]
-                sep = _sequence_lp(system, modes, U, Y, norm, extra=(a, s * x_star[j] / half[j] + delta))[0]
-                lowest = min(lowest, sep)
-                if lowest < thr - TIE:
-                    return J, False  # an alternative: no need to look further
+        for k in range(T):
+            for j in range(system.n):
+                for s in (1.0, -1.0):
+                    a = np.zeros(system.n)
+                    a[j] = s / half[j]
+                    row = (k, a, s * x_states[k][j] / half[j] + delta)
+                    lowest = min(lowest, _sequence_lp(system, modes, U, Y, norm, extra=row)[0])
+                    if lowest < thr - TIE:
+                        return J, False  # an alternative: no need to look further
     if abs(lowest - thr) <= TIE:
         return J, None
     return J, bool(lowest > thr)
@@ -133,7 +140,7 @@ def _check_against_reference(plant, U, Y, T, norm, starts, compare_highs: bool):
         Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
         out = obs.solve_window(Uw, Yw, uniqueness=True)
         assert out.optimal, (k0, out.reason)
-        J, unique = _reference(plant, Uw, Yw, norm, out.x_start, obs.settings.uniqueness_delta, obs.uniqueness_epsilon,
+        J, unique = _reference(plant, Uw, Yw, norm, out.states, obs.settings.uniqueness_delta, obs.uniqueness_epsilon,
                                half)
         gap = _certified_gap(obs, J)
         assert abs(out.cost - J) <= gap, (k0, out.cost, J)
@@ -191,7 +198,7 @@ def test_deadzone_spring_exact_against_brute_force():
     for k0 in range(0, steps - T, 9):
         out = obs.solve_window(u[k0:k0 + T], Y[k0:k0 + T], uniqueness=True)
         assert out.optimal, (k0, out.reason)
-        J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.x_start, obs.settings.uniqueness_delta,
+        J, unique = _reference(plant, u[k0:k0 + T], Y[k0:k0 + T], "1", out.states, obs.settings.uniqueness_delta,
                                obs.uniqueness_epsilon, half)
         assert abs(out.cost - J) <= _certified_gap(obs, J), (k0, out.cost, J)
         if unique is not None:
@@ -403,3 +410,135 @@ def test_at_the_memory_budget_unused_solver_models_are_freed_and_the_optima_unch
             assert "memory_budget" in b.reason, b.reason
     assert free._sequences.tree_bytes > 12_000_000
     assert bounded._sequences.models_freed > 0 and certified >= 17
+
+
+# ------------------------------------------------------------------ later window states in the tree
+def _pruned_reference(system, U, Y, norm, x_states, delta, eps, half):
+    """:func:`_reference` for longer windows: the sequences whose prefix LPs (a lower bound of
+    every extension: the cost is a sum, or a max, over the samples) stay within the best leaf's
+    cost plus ``eps``, depth first; then every window state of those sequences separated."""
+    T = len(U)
+    leaves, stack, J = {}, [()], np.inf
+    while stack:
+        pre = stack.pop()
+        for q in range(system.n_modes):
+            seq = pre + (q,)
+            c = _sequence_lp(system, seq, U[:len(seq)], Y[:len(seq)], norm)[0]
+            if c > J + eps + TIE:
+                continue
+            if len(seq) == T:
+                leaves[seq] = c
+                J = min(J, c)
+            else:
+                stack.append(seq)
+    thr, lowest = J + eps, np.inf
+    for modes, cost in sorted(leaves.items(), key=lambda kv: kv[1]):
+        if cost > thr + TIE:
+            continue
+        for k, j, s in itertools.product(range(T), range(system.n), (1.0, -1.0)):
+            a = np.zeros(system.n)
+            a[j] = s / half[j]
+            lowest = min(lowest, _sequence_lp(system, modes, U, Y, norm, extra=(k, a, s * x_states[k][j] / half[j] + delta))[0])
+            if lowest < thr - TIE:
+                return J, False
+    return J, (None if abs(lowest - thr) <= TIE else bool(lowest > thr))
+
+
+def test_lazy_tree_separates_every_window_state_like_the_brute_force(bench):
+    """T = 6 (a lazy tree) on noisy windows of model (16), steady and through the backlash rattle:
+    the flag is the pruned brute force's over every window state, and it is decided in the tree
+    (no MILP), one window by an alternative."""
+    plant, U, Y = bench
+    T = 6
+    obs = MHEObserver(plant, T, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    assert obs._sequences.lazy
+    half = plant.scales()[0][: plant.n]
+    seen = []
+    for k0 in (300, 1290, 1420):
+        Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
+        out = obs.solve_window(Uw, Yw, uniqueness=True)
+        assert out.optimal, (k0, out.reason)
+        J, unique = _pruned_reference(plant, Uw, Yw, "1", out.states, obs.settings.uniqueness_delta,
+                                      obs.uniqueness_epsilon, half)
+        assert abs(out.cost - J) <= _certified_gap(obs, J), (k0, out.cost, J)
+        uq = out.uniqueness
+        assert unique is not None and (uq["status"] == "unique") == unique, (k0, uq, unique)
+        assert uq["status"] in ("unique", "alternative") and "milp_directions" not in uq, (k0, uq)
+        seen.append(uq["status"])
+    assert seen.count("alternative") >= 1 and seen.count("unique") >= 1, seen
+
+
+def test_row_bounds_are_valid_for_any_multipliers_and_tight_at_the_lp_duals(bench):
+    """The bound of a later state's separation row (weak duality, best row multiplier by line
+    search) never exceeds the separated LP's minimum computed independently (linprog on the
+    unscaled window-start state), for random multipliers in the dual ball and random ``lam >= 0``;
+    the separated LP's own answer bounds it to the LP's resolution."""
+    plant, U, Y = bench
+    T = 4
+    obs = MHEObserver(plant, T, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    sl = obs._sequences
+    half = plant.scales()[0][: plant.n]
+    rng = np.random.default_rng(3)
+    k0 = 1000
+    Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
+    out = obs.solve_window(Uw, Yw, uniqueness=False)
+    xs = obs._separated.optimum_states(out)
+    later = np.flatnonzero(obs._separated.allowed(xs, range(1, T)))
+    ctx = obs._sequences_ctx
+    checked = finite = 0
+    for modes in [tuple(out.modes), (0,) * T, (1,) * T, (2, 1, 1, 0)]:
+        nd = sl._path(modes)
+        if nd is None:
+            continue
+        r, g, _ = sl._data(nd, ctx)
+        A, beta = sl._later_rows(nd, Uw, xs, later)
+        for i, d in enumerate(later):
+            k, j = (d // 2) // plant.n, (d // 2) % plant.n
+            s = 1.0 if d % 2 == 0 else -1.0
+            a = np.zeros(plant.n)
+            a[j] = s / half[j]
+            ref = _sequence_lp(plant, modes, Uw, Yw, "1", extra=(k, a, s * out.states[k][j] / half[j]
+                                                                    + obs.settings.uniqueness_delta))[0]
+            MU = rng.uniform(-1, 1, size=(20, r.size))
+            LAM = rng.exponential(1.0, size=(20, g.size)) * (rng.random((20, g.size)) < 0.3)
+            b = sl._row_bounds(nd, MU, LAM, r, g, np.tile(A[i], (20, 1)), np.full(20, beta[i]))
+            assert np.all(b <= ref + 1e-9 * (1 + abs(ref))), (modes, d, b.max(), ref)
+            exact = sl._solve_row_lp(nd, r, g, A[i], beta[i])
+            assert exact is not None
+            assert exact[0] <= ref + 1e-9 * (1 + abs(ref)), (modes, d, exact[0], ref)
+            if np.isfinite(ref):
+                finite += 1
+                assert exact[0] >= ref - 1e-7 * (1 + ref) and abs(exact[2] - ref) <= 1e-7 * (1 + ref), (modes, d, exact, ref)
+            else:
+                assert exact[0] == np.inf, (modes, d, exact[0])
+            checked += 1
+    assert checked >= 50 and finite >= 10, (checked, finite)
+
+
+def test_later_directions_the_lps_leave_open_go_to_the_milp_alone(bench, monkeypatch):
+    """A separated LP without a checked answer leaves its direction undecided: those directions
+    alone go to the MILP over every sequence (``milp_directions``), which gives the brute-force
+    verdict."""
+    from hybobs_opt.mhe.sequence_lp import SequenceLPSolver
+
+    plant, U, Y = bench
+    T = 3
+    obs = MHEObserver(plant, T, norm="1", solver="sequences", fit_tolerance=NOISE_FIT_SIGMAS * NOISE)
+    half = plant.scales()[0][: plant.n]
+    monkeypatch.setattr(SequenceLPSolver, "_solve_row_lp", lambda self, *a: None)
+    real = SequenceLPSolver._row_bounds
+    monkeypatch.setattr(SequenceLPSolver, "_row_bounds",
+                        lambda self, nd, MU, *a: np.minimum(real(self, nd, MU, *a), -1.0))
+    sent = 0
+    for k0 in (300, 1010, 1420):
+        Uw, Yw = U[k0:k0 + T], Y[k0:k0 + T]
+        out = obs.solve_window(Uw, Yw, uniqueness=True)
+        uq = out.uniqueness
+        J, unique = _reference(plant, Uw, Yw, "1", out.states, obs.settings.uniqueness_delta, obs.uniqueness_epsilon,
+                               half)
+        if uq.get("milp_directions"):
+            sent += 1
+            assert uq["row_lps"] >= uq["milp_directions"] >= 1, uq
+        if unique is not None:
+            assert (uq["status"] == "unique") == unique, (k0, uq, unique)
+    assert sent >= 2, sent

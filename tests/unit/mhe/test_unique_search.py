@@ -19,7 +19,7 @@ from canonical import direction_pwa, mirror_system
 
 from hybobs_opt.mhe.mld import big_m_constants
 from hybobs_opt.mhe.observer import MHEObserver
-from hybobs_opt.mhe.unique_search import direction_bounds, search_uniqueness
+from hybobs_opt.mhe.unique_search import direction_bounds, residual_bounds, search_uniqueness
 from hybobs_opt.studies.paper002_powertrain.systems import powertrain3
 from hybobs_opt.tolerances import mhe_decision_band
 
@@ -68,6 +68,34 @@ def test_direction_bounds_are_lower_bounds_and_tight_at_the_optimum(seed):
     exact = np.array([least_squares_qp(R, r, np.vstack([G, -C[i]]), np.r_[far, -beta[i]])[0] for i in range(6)])
     b0 = direction_bounds((R, r, G, far), theta0, np.zeros(G.shape[0]), C, beta)
     assert np.allclose(b0, exact, rtol=1e-7, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_residual_bounds_are_lower_bounds_also_where_the_hessian_is_ill_conditioned(seed):
+    """The Cauchy-Schwarz bound of a full sequence (no Hessian) never exceeds the separated QP's
+    minimum over the box ``|theta| <= 1`` (Clarabel), for square and tall ``R`` with
+    ``cond(R'R)`` up to 1e12 (where the closed form refuses); with the exact fit inside the box
+    and far from the row it is close to that minimum."""
+    rng = np.random.default_rng(seed)
+    nt = 3
+    k = nt if seed % 2 == 0 else 5
+    U_, _, Vt = np.linalg.svd(rng.normal(size=(k, nt)), full_matrices=False)
+    R = U_ @ np.diag(np.logspace(0, -(seed + 1), nt)) @ Vt  # cond(R'R) = 10^(2 seed + 2)
+    theta_fit = rng.uniform(-0.5, 0.5, nt)
+    r = -R @ theta_fit + (0.0 if k == nt else 1e-3) * rng.normal(size=k)
+    G = np.vstack([np.eye(nt), -np.eye(nt), rng.normal(size=(3, nt))])
+    h = np.concatenate([np.ones(2 * nt), rng.uniform(0.5, 1.0, 3)])
+    C = rng.normal(size=(8, nt))
+    beta = C @ theta_fit + rng.uniform(-0.1, 0.3, 8)
+    true = np.array([least_squares_qp(R, r, np.vstack([G, -C[i]]), np.r_[h, -beta[i]])[0] for i in range(8)])
+    b = residual_bounds((R, r, G, h, False), C, beta)
+    assert np.all(b <= true + 1e-9 * (1 + np.abs(true))), (b, true)
+    assert np.any(b > 0)
+    if k == nt:  # square: a unique exact fit, the bound of a half-space alone is exact
+        free = np.array([least_squares_qp(R, r, -C[i][None, :], np.array([-beta[i]]))[0] for i in range(8)])
+        assert np.allclose(b, free, rtol=1e-5, atol=1e-10), (b, free)  # Clarabel resolves ~1e-11 here
+    # disturbance variables have no box: no bound
+    assert np.all(residual_bounds((R, r, G, h, True), C, beta) == -np.inf)
 
 
 def test_direction_bounds_refuse_a_singular_hessian():
@@ -175,3 +203,32 @@ def test_search_agrees_with_brute_force(name):
         assert not found.unique and found.alternative is not None, (name, ref, thr, found)
     if name == "mirror":
         assert found.alternative is not None  # the mirror image: the same outputs
+
+
+def test_clean_T3_window_of_model16_is_closed_by_bounds_without_separated_qps():
+    """Model (16) at T = 3 on noise-free data: ``cond(R'R)`` of the full sequences is about 8e7,
+    above the closed form's limit; the residual bound closes every direction, so no separated QP
+    is solved, and the verdict is the brute force's (unique: every separated minimum above
+    ``J* + epsilon``)."""
+    system = powertrain3()
+    T = 3
+    x = np.array([0.06, 39.0, 3.25])
+    U = np.full((T, 1), 40.0)
+    Y = np.empty((T, system.p))
+    for k in range(T):
+        Y[k] = system.output(x, U[k])
+        x = system.step(x, U[k])
+    obs = MHEObserver(system, T, big_m=big_m_constants(system))
+    opt = obs.solve_window(U, Y)
+    assert opt.optimal
+    sep = obs._separated
+    xs = sep.optimum_states(opt)
+    allowed = sep.allowed(xs)
+    thr = float(opt.cost) + sep.epsilon
+    band = mhe_decision_band(thr, sep.epsilon)
+    xbar = obs.model.cx
+    found = search_uniqueness(obs.model, U, Y, xbar, xs, allowed, sep.delta, thr - band, thr + band,
+                              alternative=lambda x0, modes, W: sep.alternative(x0, modes, U, Y, xbar, W, xs),
+                              max_nodes=10_000)
+    assert found.unique and found.separated_qps == 0 and found.closed_by_bound > 0, found
+    assert separated_minimum(system, U, Y, xs, sep.delta, allowed) > thr + band
