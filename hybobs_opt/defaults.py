@@ -437,3 +437,10 @@ EXACT_LABEL_SAMPLES: int = 300
 #: exists so that the worst case of a step is bounded, and an LP that reaches it answers
 #: "in ``B~_T``" (conservative).
 C_EXPORT_LP_PIVOTS_PER_LP: int = 2
+
+#: Kernel work (calls, weighted per module: NumPy versions 1, loop kernels 10) a process runs with
+#: the geometry kernels as Python before it loads their compiled versions (``hybobs_opt._numba_cache``,
+#: tiers).  Importing numba and its tables cost about 0.6 s of CPU; one powertrain3 analysis at T = 3
+#: (about 3,000 units) takes 0.1 s with the Python kernels, model (17) at T = 5 several seconds: below
+#: this a small analysis never imports numba, above it a large one pays the load once, early.
+KERNEL_TIER_UP_WORK: int = 10_000
