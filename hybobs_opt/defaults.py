@@ -440,7 +440,9 @@ C_EXPORT_LP_PIVOTS_PER_LP: int = 2
 
 #: Kernel work (calls, weighted per module: NumPy versions 1, loop kernels 10) a process runs with
 #: the geometry kernels as Python before it loads their compiled versions (``hybobs_opt._numba_cache``,
-#: tiers).  Importing numba and its tables cost about 0.6 s of CPU; one powertrain3 analysis at T = 3
-#: (about 3,000 units) takes 0.1 s with the Python kernels, model (17) at T = 5 several seconds: below
-#: this a small analysis never imports numba, above it a large one pays the load once, early.
-KERNEL_TIER_UP_WORK: int = 10_000
+#: tiers).  Loading numba and the kernels costs about 0.6 s of CPU once; the Python kernels cost
+#: about 8 us more per unit than the compiled ones on small analyses (powertrain3, T = 3: 3,100 units,
+#: 8,000 with the first system build) and 36-45 us on large ones (model (17), T = 5 and 6: 177,000 and
+#: 405,000 units).  At 20,000 a few small analyses never import numba, and a large one switches
+#: within its first tenth, having paid under a second for the wait.
+KERNEL_TIER_UP_WORK: int = 20_000

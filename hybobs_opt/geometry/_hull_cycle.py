@@ -34,8 +34,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
@@ -178,6 +178,7 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
         if code == 0:
             return CheckedHull(G, g, tight, area, "simplices")
         return _polygon(Y)
+    _spatial.bind(globals())
     try:
         with np.errstate(all="ignore"):
             hull = ConvexHull(Y, qhull_options=options)
@@ -220,6 +221,7 @@ def _polygon(Y: np.ndarray) -> CheckedHull | str:
     (winding number 1): the polygon is then convex, its vertices are points of ``Y`` and every
     point lies in it, so it is ``conv(Y)``, one row per edge.
     """
+    _spatial.bind(globals())
     try:
         with np.errstate(all="ignore"):
             hull = ConvexHull(Y)
@@ -442,3 +444,7 @@ def volume_by_facets(Y: np.ndarray, A: np.ndarray, b: np.ndarray, tight: np.ndar
             return f"facet {j}: {sub}"
         volume += depth[j] * sub.volume / d
     return volume
+
+
+def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
+    return _spatial.module_getattr(globals(), name)

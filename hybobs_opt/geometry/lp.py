@@ -170,12 +170,13 @@ def solve_lp(
         bounds = (None, None)
     t0 = time.perf_counter()
     sc = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds)
-    attempts = [(sc, method) for method in ("highs", "highs-ipm", "highs-ds")]
+    scaled = {LP_EQUILIBRATION_SWEEPS: sc}  # the last attempt's scaling is made when it is reached
+    attempts = [(LP_EQUILIBRATION_SWEEPS, method) for method in ("highs", "highs-ipm", "highs-ds")]
     # last: rows to unit norm only.  Column scaling can blow a rounding residue of a restricted row
     # (1e-27 where exact arithmetic gives 0) up or a real entry down below HiGHS's small-value
     # threshold (1e-9), and then every method solves another problem (model 17, T = 8, pair by
     # pair: a row violated by 4.4e-6 at each answer)
-    attempts.append((_equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps=0), "highs-ds"))
+    attempts.append((0, "highs-ds"))
     bad_ub = np.nonzero(sc.zero_ub < 0)[0]
     bad_eq = np.nonzero(sc.zero_eq != 0)[0]
     if bad_ub.size or bad_eq.size:  # a constant row 0 <= b < 0 (or 0 = e != 0): infeasible as posed
@@ -190,7 +191,10 @@ def solve_lp(
         return LPResult(Status.INFEASIBLE, None, None, "numpy", time.perf_counter() - t0, certificate=cert)
     messages = []
     last_exc: BaseException | None = None
-    for sc, method in attempts:
+    for sweeps, method in attempts:
+        if sweeps not in scaled:
+            scaled[sweeps] = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps=sweeps)
+        sc = scaled[sweeps]
         sb = sc.bounds()
         try:
             res = _call_highs(sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)

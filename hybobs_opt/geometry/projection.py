@@ -12,8 +12,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..defaults import HULL_MAX_SUPPORT_LPS
 from ..errors import ModelError, SolverError
 from ..tolerances import (
@@ -265,6 +265,7 @@ def _convex_hull(points: np.ndarray) -> ConvexHull:
     "dupridge" topology error; joggling by ~1e-11 (relative) avoids it, and the joggled facets of
     one true facet are merged again by the PROJECTION_HULL_RTOL plane comparison.
     """
+    _spatial.bind(globals())
     try:
         return ConvexHull(points)
     except QhullError:
@@ -348,3 +349,7 @@ def _fm_step(A: np.ndarray, b: np.ndarray, j: int, anc: np.ndarray) -> tuple[np.
 
 #: Old private name (kept for scripts that reached it).
 _image_of = image_of
+
+
+def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
+    return _spatial.module_getattr(globals(), name)

@@ -12,8 +12,8 @@ prefilter on the polar points (Fourier-Motzkin's thousands of rows) and Clarkson
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..errors import SolverError
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
@@ -140,6 +140,7 @@ def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) ->
     beta = ba - Aa @ centre  # >= radius > 0
     if polar and d <= FM_QHULL_MAX_DIM and d >= 2:
         polar_pts = np.vstack([Aa / beta[:, None], np.zeros((1, d))])
+        _spatial.bind(globals())
         try:
             hull = ConvexHull(polar_pts)
         except QhullError:
@@ -221,3 +222,7 @@ def facet_verdict(code: int, row: int, facet: np.ndarray, d: int) -> np.ndarray 
 
 #: Old private name (kept for scripts that reached it).
 _irredundant = irredundant
+
+
+def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
+    return _spatial.module_getattr(globals(), name)

@@ -40,8 +40,8 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
-from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
 
+from . import _spatial
 from ..defaults import VERTEX_DEGENERATE_MAX_SUBSETS
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
@@ -198,6 +198,7 @@ def _walk_degenerate(A, b, Y, keep, T, deg, d) -> np.ndarray | str:
     ray = ~np.isfinite(step)
     ends = Y[deg][EV[~ray]] + step[~ray, None] * ER[~ray]
     if ends.shape[0]:
+        _spatial.bind(globals())
         dist, _ = cKDTree(Y[keep]).query(ends, k=1, p=np.inf, distance_upper_bound=VERTEX_SAME_RTOL)
         missing = ~np.isfinite(dist)
         if missing.any():
@@ -342,6 +343,7 @@ def _qhull_points(A: np.ndarray, b: np.ndarray) -> _Raw | str:
     if ip is None:
         return "no interior point (empty or flat set)"
     centre, r = ip
+    _spatial.bind(globals())
     try:
         # qhull divides by each row's slack at the centre: its warnings are the check's business
         with warnings.catch_warnings(), np.errstate(all="ignore"):
@@ -665,3 +667,7 @@ def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> s
     if checked.Y.shape[0] != G.shape[0]:
         return "duplicate facets"
     return None
+
+
+def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
+    return _spatial.module_getattr(globals(), name)
