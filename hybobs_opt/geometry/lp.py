@@ -427,10 +427,13 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps: int = LP_EQUILIBRATI
             # single variable
             S = absM * r[:, None] * D[None, :]
             big, small = np.max(S, axis=1), np.min(np.where(nz, S, np.inf), axis=1)
-            r = r * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
-            S = absM * r[:, None] * D[None, :]
+            r_next = r * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            S = absM * r_next[:, None] * D[None, :]
             big, small = np.max(S, axis=0), np.min(np.where(nz, S, np.inf), axis=0)
-            D = D * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            D_next = D * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            if np.array_equal(r_next, r) and np.array_equal(D_next, D):
+                break  # a fixed point: every further sweep computes these same factors
+            r, D = r_next, D_next
         r = r * _pow2_inv(np.max(absM * r[:, None] * D[None, :], axis=1))
         r_ub, r_eq = r[:A.shape[0]], r[A.shape[0]:]
     cs = c * D
