@@ -246,6 +246,7 @@ def _finalize_tiered(namespace: dict, marked: dict, python: dict, weight: int) -
             return _target[0](*args)
 
         tiered.__name__, tiered.__qualname__, tiered.__doc__ = fn.__name__, fn.__qualname__, fn.__doc__
+        tiered.__module__ = fn.__module__
         tiered.__wrapped__ = fn
         tiered._hybobs_target = target
         trampolines[name] = namespace[name] = tiered

@@ -18,6 +18,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
+from .._native_output import captured_native_output
 from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, HIGHS_MODEL_STATUS, Status, is_optimal, map_status
@@ -481,8 +482,6 @@ _HIGHS = None  # the highspy module, imported at the first LP (it is not needed 
 def _highspy():
     global _HIGHS
     if _HIGHS is None:
-        from .._native_output import captured_native_output
-
         with captured_native_output("highspy"):  # a HiGHS build may print a banner when loaded
             import highspy
 
@@ -526,7 +525,8 @@ def _call_highs(c, A, b, E, e, bounds, method: str) -> _HighsAnswer:
         lp.a_matrix_.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
         lp.a_matrix_.index_ = np.nonzero(nz)[1].astype(np.int32)
         lp.a_matrix_.value_ = MT[nz]
-    h = hs.Highs()
+    with captured_native_output("highspy.Highs"):  # a HiGHS build may print a banner from C++ here
+        h = hs.Highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("log_to_console", False)
     h.setOptionValue("simplex_strategy", _HIGHS_DUAL_SIMPLEX)
