@@ -48,6 +48,8 @@ from ..tolerances import (
 from . import _vertex_kernels as _K
 from ._vertex_kernels import polygon_kernel, triangulation_kernel
 
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
+
 #: The kernel's answers that refuse the hull outright (the numpy path's messages, :func:`_facets`).
 _FACET_REASONS = {
     _K.TRI_FEW: "fewer than d + 1 simplices",
@@ -444,7 +446,3 @@ def volume_by_facets(Y: np.ndarray, A: np.ndarray, b: np.ndarray, tight: np.ndar
             return f"facet {j}: {sub}"
         volume += depth[j] * sub.volume / d
     return volume
-
-
-def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
-    return _spatial.module_getattr(globals(), name)

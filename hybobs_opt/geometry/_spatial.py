@@ -3,9 +3,9 @@
 Importing ``scipy.spatial`` costs about a quarter of a second of CPU (it loads ``scipy.sparse``,
 ``scipy.linalg``, ``scipy.special`` and, through scipy's array-API layer, ``numpy.f2py`` and
 ``numpy.testing``): more than a small observability analysis takes, which needs no hull.  The
-geometry modules that use qhull bind these names in their globals when a function first needs
-them (:func:`bind`) and resolve them as module attributes on request (:func:`module_getattr`), so
-``module.ConvexHull`` can still be read or replaced from outside (tests substitute faulty hulls).
+geometry modules that use qhull hold ``None`` under these names until a function first needs them
+(:func:`bind`), so ``module.ConvexHull`` still exists and can be replaced from outside (tests
+substitute faulty hulls): a replacement is kept.
 """
 
 from __future__ import annotations
@@ -15,18 +15,11 @@ NAMES = ("ConvexHull", "HalfspaceIntersection", "QhullError", "cKDTree")
 
 
 def bind(namespace: dict) -> None:
-    """Put the :data:`NAMES` not yet in ``namespace`` (a module's globals) there, from ``scipy.spatial``."""
-    if all(name in namespace for name in NAMES):
+    """Set the :data:`NAMES` that are ``None`` (or missing) in ``namespace`` (a module's globals) from ``scipy.spatial``."""
+    if all(namespace.get(name) is not None for name in NAMES):
         return
     import scipy.spatial
 
     for name in NAMES:
-        namespace.setdefault(name, getattr(scipy.spatial, name))
-
-
-def module_getattr(namespace: dict, name: str):
-    """A module's ``__getattr__`` for :data:`NAMES` (PEP 562): bound at the first request."""
-    if name in NAMES:
-        bind(namespace)
-        return namespace[name]
-    raise AttributeError(f"module {namespace.get('__name__')!r} has no attribute {name!r}")
+        if namespace.get(name) is None:
+            namespace[name] = getattr(scipy.spatial, name)

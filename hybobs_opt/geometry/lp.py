@@ -23,7 +23,7 @@ from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, HIGHS_MODEL_STATUS, Status, is_optimal, map_status
 from ..defaults import LP_EQUILIBRATION_SWEEPS
-from ..tolerances import (LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
+from ..tolerances import (LINPROG_CHECK_TOL, LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
                           LP_VERTEX_RTOL)
 from ..results import Certificate
 
@@ -447,9 +447,6 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps: int = LP_EQUILIBRATI
 #: ``method`` of :func:`solve_lp`'s attempts -> HiGHS's ``solver`` option (``None``: HiGHS chooses),
 #: the names and meanings of :func:`scipy.optimize.linprog`'s HiGHS methods.
 _HIGHS_SOLVER = {"highs": None, "highs-ipm": "ipm", "highs-ds": "simplex"}
-#: Absolute tolerance of scipy's last check of a HiGHS "optimal" point (``sqrt(1e-9) * 10``, its
-#: ``_check_result``): a point outside it is a numerical failure there, so here too (the next method runs).
-_LINPROG_CHECK_TOL = float(np.sqrt(1e-9) * 10)
 
 
 @dataclass
@@ -497,7 +494,7 @@ def _call_highs(c, A, b, E, e, bounds, method: str) -> _HighsAnswer:
     bounds as HiGHS's infinity, presolve on, dual simplex strategy, ``solver`` from
     :data:`_HIGHS_SOLVER`; row multipliers from the row duals, bound multipliers from the column
     duals of the columns at their lower or upper bound in the basis; an "optimal" point that breaks
-    a row or bound by more than :data:`_LINPROG_CHECK_TOL` is reported as a numerical failure.
+    a row or bound by more than :data:`LINPROG_CHECK_TOL` is reported as a numerical failure.
     """
     hs = _highspy()
     n = c.size
@@ -556,7 +553,7 @@ def _call_highs(c, A, b, E, e, bounds, method: str) -> _HighsAnswer:
         elif st == at_upper:
             marg[1, j] = col_dual[j]
     lam = np.array(sol.row_dual, dtype=float)
-    tol = _LINPROG_CHECK_TOL
+    tol = LINPROG_CHECK_TOL
     lo_f, hi_f = np.where(lo <= -inf, -np.inf, lo), np.where(hi >= inf, np.inf, hi)
     if (np.isnan(x).any() or np.isnan(fun) or np.isnan(slack).any() or np.any(x < lo_f - tol) or np.any(x > hi_f + tol)
             or np.any(slack[:k] < -tol) or np.any(np.abs(slack[k:]) > tol)):

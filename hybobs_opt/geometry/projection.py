@@ -25,6 +25,8 @@ from ..tolerances import (
 from ._common import _box, _lp, _nullspace, _row_normalised, _unit_box_map, _unit_rows
 from .redundancy import irredundant
 
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
+
 #: Target dimension up to which :meth:`Polytope.project` (``method="auto"``) uses the iterative
 #: convex-hull method; above it, Fourier-Motzkin elimination.  Qhull's cost grows quickly with the
 #: dimension, while the hull method needs only ~(facets + vertices) LPs; set this module attribute
@@ -349,7 +351,3 @@ def _fm_step(A: np.ndarray, b: np.ndarray, j: int, anc: np.ndarray) -> tuple[np.
 
 #: Old private name (kept for scripts that reached it).
 _image_of = image_of
-
-
-def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
-    return _spatial.module_getattr(globals(), name)

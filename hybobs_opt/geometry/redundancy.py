@@ -27,6 +27,8 @@ from ._common import _lp
 from ._vertex_kernels import facet_kernel
 from .lp import solve_lp
 
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
+
 #: Largest dimension in which Fourier-Motzkin's redundancy removal first drops rows by one qhull
 #: call on the polar points (thousands of rows in < 1 s up to 6-D; qhull slows sharply beyond).
 FM_QHULL_MAX_DIM: int = 6
@@ -222,7 +224,3 @@ def facet_verdict(code: int, row: int, facet: np.ndarray, d: int) -> np.ndarray 
 
 #: Old private name (kept for scripts that reached it).
 _irredundant = irredundant
-
-
-def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
-    return _spatial.module_getattr(globals(), name)

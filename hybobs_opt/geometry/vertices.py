@@ -63,6 +63,8 @@ from ._vertex_kernels import (
     points_to_box,
 )
 
+HalfspaceIntersection = QhullError = cKDTree = None  # scipy.spatial's, bound at their first use (_spatial.bind)
+
 log = logging.getLogger(__name__)
 
 #: Dimensions up to which cddlib enumerates vertices first (qhull second); above it qhull first.
@@ -667,7 +669,3 @@ def _check_hull(G: np.ndarray, g: np.ndarray, P: np.ndarray, c: np.ndarray) -> s
     if checked.Y.shape[0] != G.shape[0]:
         return "duplicate facets"
     return None
-
-
-def __getattr__(name: str):  # scipy.spatial's names, imported at their first use (see _spatial)
-    return _spatial.module_getattr(globals(), name)
