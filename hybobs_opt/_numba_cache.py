@@ -255,13 +255,14 @@ def _finalize_tiered(namespace: dict, marked: dict, python: dict, weight: int) -
     return True
 
 
-def tier_up() -> dict[str, bool]:
+def tier_up(background: bool = True) -> dict[str, bool]:
     """Load the compiled kernels of every tiered module now (see the module docstring).
 
     A runtime observer calls it when it is built, so that no step pays for it; an analysis reaches
     it through the kernel work count.  A module whose kernels turn out not to be in the cache (a
     record older than the cache's contents) keeps its Python kernels in this process and, in
-    ``auto``, starts the background compilation.  The kernel functions other package modules imported
+    ``auto`` with ``background``, starts the background compilation (the warm-up, which compiles
+    itself, passes False).  The kernel functions other package modules imported
     by name are replaced there by the compiled ones (a lookup of the module's globals, once).
     Returns :func:`kernels_compiled`.
     """
@@ -281,7 +282,7 @@ def tier_up() -> dict[str, bool]:
                 targets = {name: namespace[name] for name in marked}
             else:
                 _finalize_python(namespace, marked, "python", untrusted=False)
-                if mode == "auto" and background_warm_up_allowed():
+                if background and mode == "auto" and background_warm_up_allowed():
                     start_background_warm_up()
                 targets = {name: python.get(name, namespace[name]) for name in marked}
             for name, t in trampolines.items():

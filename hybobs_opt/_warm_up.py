@@ -51,7 +51,7 @@ def warm_up() -> dict:
     """
     import numpy as np
 
-    tier_up()  # kernel modules imported tiered load their compiled kernels (or say they cannot)
+    tier_up(background=False)  # tiered kernel modules load their compiled kernels (or stay Python: compiled below)
     if not all(kernels_compiled().values()) or os.environ.get(KERNELS_ENV, "auto").strip().lower() == "python":
         import subprocess
         import sys
