@@ -12,7 +12,11 @@ ratio), target at most 2.  Both with the caches warm, as after an install: numba
 (``python -m hybobs_opt._warm_up`` first, a no-op when warm) and Python's bytecode cache (a
 temporary ``PYTHONPYCACHEPREFIX``, written by one unmeasured run; the environment may set
 ``PYTHONDONTWRITEBYTECODE``, under which every process compiles the package's sources again:
-that variant is recorded too, ``no_bytecode_cache``).
+that variant is recorded too, ``no_bytecode_cache``).  With ``--baseline PATH`` (a checkout of
+another commit, e.g. the main branch) the same process and first/second probes also run with that
+checkout first on ``PYTHONPATH``, interleaved in the same rounds (its numba cache warmed the same
+way), and the medians and ours-over-baseline ratios are recorded under ``baseline``; each probe
+also records which heavy modules (numba, scipy.optimize, scipy.spatial) its process imported.
 
 ``first_calls`` (issue 19): in fresh processes, with numba's cache directory empty (``cold``: the
 kernels run as plain Python in that process while a background process compiles them into the
@@ -121,43 +125,68 @@ _ANALYSIS_PROBE = ("from hybobs_opt import analyse_observability, get_example\n"
                    "analyse_observability(get_example('powertrain3').build(), 3)\n")
 
 _RATIO_PROBE = r"""
-import json, time
+import json, sys, time
 wall, cpu = time.perf_counter, time.process_time
+c00 = cpu()
 from hybobs_opt import analyse_observability, get_example
-rec = {}
+rec = {"import_cpu_s": cpu() - c00}
 for k in ("first", "second"):
     w0, c0 = wall(), cpu()
     analyse_observability(get_example("powertrain3").build(), 3)
     rec[f"analysis_{k}_s"], rec[f"analysis_{k}_cpu_s"] = wall() - w0, cpu() - c0
+rec["imported"] = [m for m in ("numba", "scipy.optimize", "scipy.spatial", "highspy") if m in sys.modules]
+import hybobs_opt
+rec["package"] = hybobs_opt.__file__
 print(json.dumps(rec))
 """
 
 
-def _child(code: str, env: dict) -> tuple[float, float, str]:
-    """Wall time, CPU time (user + system, from ``getrusage``) and stdout of ``python -c code``."""
+def _child(code: str, env: dict, cwd: str | None = None) -> tuple[float, float, str]:
+    """Wall time, CPU time (user + system, from ``getrusage``) and stdout of ``python -c code``
+    (run in ``cwd``: ``python -c`` imports from its working directory first)."""
     import resource
 
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True, cwd=cwd).stdout
     wall = time.perf_counter() - t0
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (r1.ru_utime + r1.ru_stime) - (r0.ru_utime + r0.ru_stime), out
 
 
-def first_analysis(repeats: int) -> dict:
+def _git_commit(path: str) -> str | None:
+    try:
+        return subprocess.run(["git", "-C", path, "rev-parse", "HEAD"], check=True, capture_output=True,
+                              text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+
+
+def first_analysis(repeats: int, baseline: str | None = None) -> dict:
     """Issue 39's figures (module docstring): import + one analysis as a whole process, and the
-    first analysis of a process against its second, with numba's and Python's caches warm."""
+    first analysis of a process against its second, with numba's and Python's caches warm;
+    with ``baseline`` (a checkout's path) the same for that checkout, interleaved."""
     import os
     import tempfile
 
     load_start = list(os.getloadavg())
     base = {k: v for k, v in os.environ.items() if k not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX")}
+    ours_root = str(Path(__file__).resolve().parents[1])
+    base["PYTHONPATH"] = os.pathsep.join([ours_root, *[p for p in base.get("PYTHONPATH", "").split(os.pathsep) if p]])
     out: dict = {"target_s": 1.0, "target_first_over_second_at_most": 2.0, "repeats": repeats,
-                 "load_average_at_start": load_start}
-    with tempfile.TemporaryDirectory(prefix="hybobs-pycache-") as pycache:
+                 "load_average_at_start": load_start, "commit": _git_commit(ours_root)}
+    with tempfile.TemporaryDirectory(prefix="hybobs-pycache-") as pycache, \
+            tempfile.TemporaryDirectory(prefix="hybobs-pycache-base-") as pycache_base:
         warm = {**base, "PYTHONPYCACHEPREFIX": pycache}
         subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=warm, check=True, capture_output=True)
+        warm_base = None
+        if baseline:
+            warm_base = {**warm, "PYTHONPYCACHEPREFIX": pycache_base, "PYTHONPATH": str(Path(baseline).resolve())}
+            subprocess.run([sys.executable, "-m", "hybobs_opt._warm_up"], env=warm_base, check=True, capture_output=True,
+                           cwd=baseline)
+            _child(_ANALYSIS_PROBE, warm_base, baseline)
+        base_rows: dict[str, list] = {"process_s": [], "process_cpu_s": []}
+        base_ratios = []
         no_pyc = {k: v for k, v in base.items() if k != "PYTHONPYCACHEPREFIX"}
         no_pyc["PYTHONDONTWRITEBYTECODE"] = "1"  # the installed packages' own bytecode is still read
         _child(_ANALYSIS_PROBE, warm)  # writes the bytecode cache
@@ -175,6 +204,11 @@ def first_analysis(repeats: int) -> dict:
             rows["no_bytecode_cache_process_s"].append(w)
             rows["no_bytecode_cache_process_cpu_s"].append(c)
             ratios.append(json.loads(_child(_RATIO_PROBE, warm)[2].strip().splitlines()[-1]))
+            if warm_base is not None:
+                w, c, _out = _child(_ANALYSIS_PROBE, warm_base, baseline)
+                base_rows["process_s"].append(w)
+                base_rows["process_cpu_s"].append(c)
+                base_ratios.append(json.loads(_child(_RATIO_PROBE, warm_base, baseline)[2].strip().splitlines()[-1]))
     med = {k: statistics.median(v) for k, v in rows.items()}
     for k in ("analysis_first_s", "analysis_second_s", "analysis_first_cpu_s", "analysis_second_cpu_s"):
         med[k] = statistics.median(r[k] for r in ratios)
@@ -186,8 +220,26 @@ def first_analysis(repeats: int) -> dict:
         "first_over_second": first_over_second, "first_over_second_cpu": first_over_second_cpu,
         "process_target_met": med["process_s"] <= 1.0, "process_cpu_within_target": med["process_cpu_s"] <= 1.0,
         "first_over_second_target_met": first_over_second <= 2.0,
+        "import_cpu_s": statistics.median(r["import_cpu_s"] for r in ratios),
+        "imported": ratios[-1]["imported"], "package": ratios[-1]["package"],
         "load_average_at_end": list(os.getloadavg()),
     })
+    if baseline:
+        bmed = {k: statistics.median(v) for k, v in base_rows.items()}
+        for k in ("analysis_first_s", "analysis_second_s", "analysis_first_cpu_s", "analysis_second_cpu_s", "import_cpu_s"):
+            bmed[k] = statistics.median(r[k] for r in base_ratios)
+        out["baseline"] = {
+            "path": str(Path(baseline).resolve()), "commit": _git_commit(baseline), "medians": bmed,
+            "per_run": base_rows, "ratio_runs": base_ratios, "imported": base_ratios[-1]["imported"],
+            "package": base_ratios[-1]["package"],
+            "first_over_second": statistics.median(r["analysis_first_s"] / r["analysis_second_s"] for r in base_ratios),
+            "first_over_second_cpu": statistics.median(r["analysis_first_cpu_s"] / r["analysis_second_cpu_s"]
+                                                       for r in base_ratios),
+            # per round, ours over the baseline's (the same load on both), then the median
+            "process_over_baseline": statistics.median(a / b for a, b in zip(rows["process_s"], base_rows["process_s"])),
+            "process_cpu_over_baseline": statistics.median(a / b for a, b in zip(rows["process_cpu_s"],
+                                                                                 base_rows["process_cpu_s"])),
+        }
     return out
 
 
@@ -238,17 +290,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-first-calls", action="store_true", help="skip the first-call measurement (minutes cold)")
     parser.add_argument("--only-first-analysis", action="store_true",
                         help="only issue 39's two figures (first_analysis), kept with the rest of the last record")
+    parser.add_argument("--baseline", metavar="PATH",
+                        help="a checkout of another commit: first_analysis runs it too, interleaved (A/B)")
     args = parser.parse_args(argv)
     out_dir = RESULTS / "quick" if args.quick else RESULTS
     if args.only_first_analysis:
         path = out_dir / "startup.json"
         record = json.loads(path.read_text()) if path.exists() else {}
-        record["first_analysis"] = fa = first_analysis(3 if args.quick else 7)
+        record["first_analysis"] = fa = first_analysis(3 if args.quick else 7, args.baseline)
         out_dir.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(record, indent=2))
         print(json.dumps({k: fa[k] for k in ("medians", "process_over_pass", "first_over_second", "first_over_second_cpu",
-                                             "process_target_met", "first_over_second_target_met",
+                                             "process_target_met", "process_cpu_within_target",
+                                             "first_over_second_target_met", "imported",
                                              "load_average_at_start", "load_average_at_end")}, indent=2))
+        if "baseline" in fa:
+            print(json.dumps({k: v for k, v in fa["baseline"].items() if k not in ("per_run", "ratio_runs")}, indent=2))
         return 0
     repeats = 3 if args.quick else 5
     record: dict = {"benchmark": "hybobs start-up, cold processes", "command": " ".join(_hybobs()),
@@ -263,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
     floor = record["commands"]["python -c pass"]["median_s"]
     for label, rec in record["commands"].items():
         rec["above_interpreter_s"] = rec["median_s"] - floor
-    record["first_analysis"] = first_analysis(3 if args.quick else 7)
+    record["first_analysis"] = first_analysis(3 if args.quick else 7, args.baseline)
     if not args.no_first_calls:
         record["first_calls"] = first_calls(repeats)
         record["load_average_at_end"] = list(__import__("os").getloadavg())

@@ -7,8 +7,9 @@ variable                        effect
                                 ``$XDG_CACHE_HOME/hybobs_opt``, else ``~/.cache/hybobs_opt``
 ``HYBOBS_NO_CACHE``             ``1`` / ``true`` / ``yes``: the CLI neither reads nor writes the
                                 result cache (like ``--no-cache``)
-``HYBOBS_KERNELS``              ``auto`` (default), ``compiled`` or ``python``: how the numba kernels
-                                run (:mod:`hybobs_opt._numba_cache`)
+``HYBOBS_KERNELS``              ``auto`` (default: compiled when cached, the geometry kernels
+                                after enough work), ``compiled`` or ``python``: how the numba
+                                kernels run (:mod:`hybobs_opt._numba_cache`)
 ``HYBOBS_BACKGROUND_WARM_UP``   ``0``: ``auto`` never starts the background compilation
 ==============================  ==================================================================
 

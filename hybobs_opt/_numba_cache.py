@@ -26,6 +26,18 @@ the first kernel call of a process still pays numba's one-time set-up of its com
 (0.4-0.6 s here) and a few milliseconds per kernel loaded.  :func:`prepare_target` does that
 set-up when a kernel module is imported, so the first call costs what the next ones do; a
 background thread was measured too and gains nothing (the set-up holds the GIL).
+
+Tiers.  Importing numba and loading its tables cost about 0.6 s of CPU: more than a small analysis
+(powertrain3, T = 3) takes with the kernels as plain Python.  So the geometry kernel modules start
+*tiered* when the cache is known to hold their kernels (:func:`finalize_kernels` with
+``tiered=True``, the record :data:`WARM_RECORD` says so): their kernels run as Python, each call
+adds the module's weight to one per-process count, and when the count reaches
+:data:`~hybobs_opt.defaults.KERNEL_TIER_UP_WORK` every tiered module loads its compiled kernels
+(:func:`tier_up`) and the Python ones are not called again.  The count depends on the work only,
+so the switch comes at the same call on every machine, and the answers do not depend on it: the
+Python and compiled kernels give the same bits (``tests/unit/test_kernel_modes.py``,
+``scripts/check_reproducible.py``).  Runtime observers call :func:`tier_up` when they are built, so
+no step of theirs pays for the switch.
 :func:`hybobs_opt.warm_up` (:mod:`hybobs_opt._warm_up`) compiles or loads every kernel once: after an
 install, ``python -m hybobs_opt._warm_up``, or in a service's start-up.
 """
@@ -40,8 +52,8 @@ from ._environment import KERNELS_ENV, background_warm_up_allowed, cache_root, k
 #: numba's environment variable for its cache directory.
 NUMBA_CACHE_ENV = "NUMBA_CACHE_DIR"
 
-__all__ = ["NUMBA_CACHE_ENV", "cache_directory", "configure", "finalize_kernels", "kernel", "kernels_compiled", "numba_cache_dir",
-           "prepare_target"]
+__all__ = ["NUMBA_CACHE_ENV", "WARM_RECORD", "cache_directory", "configure", "finalize_kernels", "kernel", "kernels_compiled",
+           "numba_cache_dir", "prepare_target", "record_warm_kernels", "tier_up"]
 
 # HYBOBS_KERNELS -- ``auto`` (default): a kernel module whose compiled kernels are in the cache uses
 # them; one whose cache is empty or stale runs its kernels as plain Python in this process and, at
@@ -128,7 +140,7 @@ def _cache_has(fn) -> bool:
         return True
 
 
-def finalize_kernels(namespace: dict) -> bool:
+def finalize_kernels(namespace: dict, *, tiered: bool = False, python: dict | None = None, weight: int = 1) -> bool:
     """Turn the module's :func:`kernel` functions into numba dispatchers, or keep them Python.
 
     With ``HYBOBS_KERNELS=auto`` (the default) the module's kernels are compiled -- that is,
@@ -138,11 +150,21 @@ def finalize_kernels(namespace: dict) -> bool:
     process (``python -m hybobs_opt._warm_up``, lock file in the cache directory) compiles every
     kernel into the cache for the next processes.  The answers are the same either way (the same
     code; ``tests/unit/test_kernel_modes.py`` checks analyses and observers against each other).
-    Returns whether the kernels are compiled.
+
+    With ``tiered=True`` and ``auto``, a module whose kernels :data:`WARM_RECORD` vouches for (and
+    no :func:`tier_up` yet in this process) starts tiered (module docstring): each kernel name holds
+    a counting function that calls ``python[name]`` (default: the kernel itself) until
+    :func:`tier_up`, and the compiled kernel after it.  ``weight`` is what one call adds to the
+    count (a loop kernel costs more as Python than a NumPy one).
+
+    Returns whether the kernels are compiled or tiered (the namespace's kernel names will reach
+    compiled code), False when they stay Python.
     """
     marked = {name: fn for name, fn in namespace.items() if callable(fn) and hasattr(fn, "_hybobs_kernel")}
     mode = kernels_mode()
     untrusted = _untrusted_cache()
+    if tiered and mode == "auto" and not untrusted and not _TIER.done and _record_vouches(namespace):
+        return _finalize_tiered(namespace, marked, python or {}, weight)
     if untrusted:
         # numba's index files are pickles: a directory another user can write is never read
         # (compiled on request without the cache, else Python kernels and no background compilation)
@@ -153,36 +175,214 @@ def finalize_kernels(namespace: dict) -> bool:
         compiled = mode == "compiled" or (mode == "auto" and (any(_cache_has(fn) for fn in marked.values())
                                                               or not _cache_writable()))
     if compiled:
-        from numba import njit
+        ok = _compile(namespace, marked, mode, untrusted)
+        if ok and tiered and mode == "auto" and not untrusted:
+            record_warm_kernels([namespace])  # the cache holds them: the next processes may start tiered
+        return ok
+    return _finalize_python(namespace, marked, mode, untrusted)
 
-        configure()  # numba is imported now: its cache locator reads config.CACHE_DIR at njit
-        prepare_target()
-        try:
-            for name, fn in marked.items():
-                signatures, options = fn._hybobs_kernel
-                if untrusted:
-                    options = {**options, "cache": False}
-                # into the namespace at once: the next kernels call this one by its global name
-                namespace[name] = njit(*signatures, **options)(fn)
-                if not signatures and options.get("cache"):
-                    _tolerate_damaged_entries(namespace[name])
-        except Exception as exc:  # a damaged cache entry (truncated pickle, ...) read by an eager signature
-            import warnings
 
-            namespace.update(marked)  # the Python functions again, then one of the two ways below
-            dropped = _drop_cache_entries(marked.values())
-            warnings.warn(f"hybobs_opt: a kernel of {namespace.get('__name__', '?')} could not be loaded from the "
-                          f"cache ({type(exc).__name__}: {exc}); {dropped} damaged cache files removed, "
-                          + ("compiling again" if mode == "compiled" else "its kernels run as Python this time"),
-                          RuntimeWarning, stacklevel=2)
-            if mode != "compiled":
-                return _finalize_python(namespace, marked, mode, untrusted=False)
-            for name, fn in marked.items():
-                namespace[name] = njit(*fn._hybobs_kernel[0], **fn._hybobs_kernel[1])(fn)
-    else:
-        return _finalize_python(namespace, marked, mode, untrusted)
+def _compile(namespace: dict, marked: dict, mode: str, untrusted) -> bool:
+    """The module's kernels as numba dispatchers (loaded from the cache, or compiled on use)."""
+    from numba import njit
+
+    configure()  # numba is imported now: its cache locator reads config.CACHE_DIR at njit
+    prepare_target()
+    try:
+        for name, fn in marked.items():
+            signatures, options = fn._hybobs_kernel
+            if untrusted:
+                options = {**options, "cache": False}
+            # into the namespace at once: the next kernels call this one by its global name
+            namespace[name] = njit(*signatures, **options)(fn)
+            if not signatures and options.get("cache"):
+                _tolerate_damaged_entries(namespace[name])
+    except Exception as exc:  # a damaged cache entry (truncated pickle, ...) read by an eager signature
+        import warnings
+
+        namespace.update(marked)  # the Python functions again, then one of the two ways below
+        dropped = _drop_cache_entries(marked.values())
+        warnings.warn(f"hybobs_opt: a kernel of {namespace.get('__name__', '?')} could not be loaded from the "
+                      f"cache ({type(exc).__name__}: {exc}); {dropped} damaged cache files removed, "
+                      + ("compiling again" if mode == "compiled" else "its kernels run as Python this time"),
+                      RuntimeWarning, stacklevel=2)
+        if mode != "compiled":
+            return _finalize_python(namespace, marked, mode, untrusted=False)
+        for name, fn in marked.items():
+            namespace[name] = njit(*fn._hybobs_kernel[0], **fn._hybobs_kernel[1])(fn)
     _COMPILED[namespace.get("__name__", "?")] = True
     return True
+
+
+# ---------------------------------------------------------------------------------- kernel tiers
+class _TierState:
+    """The per-process count of tiered kernel work and the tiered modules (module docstring)."""
+
+    def __init__(self):
+        import threading
+
+        self.work = 0
+        self.done = False
+        self.modules: list[tuple[dict, dict, dict, dict]] = []  # (namespace, marked, python, trampolines)
+        self.lock = threading.RLock()
+
+
+_TIER = _TierState()
+
+
+def _finalize_tiered(namespace: dict, marked: dict, python: dict, weight: int) -> bool:
+    from .defaults import KERNEL_TIER_UP_WORK
+
+    tier = _TIER
+    trampolines = {}
+    for name, fn in marked.items():
+        target = [python.get(name, fn)]
+
+        def tiered(*args, _target=target):
+            if not tier.done:
+                tier.work += weight
+                if tier.work >= KERNEL_TIER_UP_WORK:
+                    tier_up()
+            return _target[0](*args)
+
+        tiered.__name__, tiered.__qualname__, tiered.__doc__ = fn.__name__, fn.__qualname__, fn.__doc__
+        tiered.__module__ = fn.__module__
+        tiered.__wrapped__ = fn
+        tiered._hybobs_target = target
+        trampolines[name] = namespace[name] = tiered
+    tier.modules.append((namespace, marked, python, trampolines))
+    _COMPILED[namespace.get("__name__", "?")] = False
+    return True
+
+
+def tier_up(background: bool = True) -> dict[str, bool]:
+    """Load the compiled kernels of every tiered module now (see the module docstring).
+
+    A runtime observer calls it when it is built, so that no step pays for it; an analysis reaches
+    it through the kernel work count.  A module whose kernels turn out not to be in the cache (a
+    record older than the cache's contents) keeps its Python kernels in this process and, in
+    ``auto`` with ``background``, starts the background compilation (the warm-up, which compiles
+    itself, passes False).  The kernel functions other package modules imported
+    by name are replaced there by the compiled ones (a lookup of the module's globals, once).
+    Returns :func:`kernels_compiled`.
+    """
+    tier = _TIER
+    with tier.lock:
+        if tier.done:
+            return kernels_compiled()
+        tier.done = True
+        if not tier.modules:
+            return kernels_compiled()
+        swap: dict[int, tuple] = {}
+        mode = kernels_mode()
+        for namespace, marked, python, trampolines in tier.modules:
+            for name, fn in marked.items():  # the Python kernels in the namespace while deciding
+                namespace[name] = fn
+            if any(_cache_has(fn) for fn in marked.values()) and _compile(namespace, marked, mode, None):
+                targets = {name: namespace[name] for name in marked}
+            else:
+                _finalize_python(namespace, marked, "python", untrusted=False)
+                if background and mode == "auto" and background_warm_up_allowed():
+                    start_background_warm_up()
+                targets = {name: python.get(name, namespace[name]) for name in marked}
+            for name, t in trampolines.items():
+                t._hybobs_target[0] = targets[name]
+                swap[id(t)] = (t, targets[name])
+        tier.modules.clear()
+        _swap_imported(swap)
+    return kernels_compiled()
+
+
+def _swap_imported(swap: dict[int, tuple]) -> None:
+    """Replace the tiered functions bound in the package's modules (``from ._lp_kernels import f``,
+    module aliases) by their targets: one call less per kernel call from then on."""
+    for mod in list(sys.modules.values()):
+        if not getattr(mod, "__name__", "").startswith("hybobs_opt"):
+            continue
+        try:
+            d = vars(mod)
+        except TypeError:
+            continue
+        for key, value in list(d.items()):
+            hit = swap.get(id(value))
+            if hit is not None and hit[0] is value:
+                d[key] = hit[1]
+
+
+#: The record, in the kernel cache directory, of the kernel modules whose compiled kernels the cache
+#: holds (JSON: path of its source file -> sha256 of that file; several checkouts may share a cache).  Written by the warm-up and by a process
+#: that found a module's kernels in the cache; read by :func:`finalize_kernels` to start a module
+#: tiered without importing numba (its cache index is numba's pickle).  A wrong record costs time
+#: only: :func:`tier_up` checks numba's own cache before it loads a kernel.
+WARM_RECORD = "hybobs-kernels.json"
+_SOURCE_DIGESTS: dict[str, str | None] = {}
+
+
+def _source_digest(namespace: dict) -> str | None:
+    path = namespace.get("__file__")
+    if not path:
+        return None
+    if path not in _SOURCE_DIGESTS:
+        import hashlib
+
+        try:
+            with open(path, "rb") as f:
+                _SOURCE_DIGESTS[path] = hashlib.sha256(f.read()).hexdigest()
+        except OSError:
+            _SOURCE_DIGESTS[path] = None
+    return _SOURCE_DIGESTS[path]
+
+
+def _read_record() -> dict:
+    import json
+
+    cache = cache_directory()
+    if not cache:
+        return {}
+    try:
+        with open(os.path.join(cache, WARM_RECORD), encoding="utf-8") as f:
+            data = json.load(f)
+    except (OSError, ValueError):
+        return {}
+    sources = data.get("sources") if isinstance(data, dict) else None
+    return sources if isinstance(sources, dict) else {}
+
+
+def _record_vouches(namespace: dict) -> bool:
+    digest = _source_digest(namespace)
+    return digest is not None and _read_record().get(namespace.get("__file__")) == digest
+
+
+def record_warm_kernels(namespaces=None) -> None:
+    """Add the given kernel modules (default: every module compiled in this process) to :data:`WARM_RECORD`.
+
+    Written atomically (a temporary file renamed); a cache directory that cannot be written is left alone.
+    """
+    import json
+
+    cache = cache_directory()
+    if not cache or _untrusted_cache():
+        return
+    if namespaces is None:
+        namespaces = [vars(sys.modules[m]) for m, ok in _COMPILED.items() if ok and m in sys.modules]
+    sources = _read_record()
+    changed = False
+    for ns in namespaces:
+        digest = _source_digest(ns)
+        name = ns.get("__file__")
+        if digest is not None and name and sources.get(name) != digest:
+            sources[name] = digest
+            changed = True
+    if not changed:
+        return
+    try:
+        os.makedirs(cache, exist_ok=True)
+        tmp = os.path.join(cache, f".{WARM_RECORD}.{os.getpid()}")
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump({"format": 1, "sources": sources}, f, indent=1, sort_keys=True)
+        os.replace(tmp, os.path.join(cache, WARM_RECORD))
+    except OSError:
+        pass
 
 
 def _tolerate_damaged_entries(dispatcher) -> None:

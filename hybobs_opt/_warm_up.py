@@ -10,7 +10,7 @@ import os
 import time
 
 from ._environment import BACKGROUND_ENV, KERNELS_ENV
-from ._numba_cache import NUMBA_CACHE_ENV, cache_directory, kernels_compiled
+from ._numba_cache import NUMBA_CACHE_ENV, cache_directory, kernels_compiled, record_warm_kernels, tier_up
 
 __all__ = ["warm_up"]
 
@@ -51,6 +51,7 @@ def warm_up() -> dict:
     """
     import numpy as np
 
+    tier_up(background=False)  # tiered kernel modules load their compiled kernels (or stay Python: compiled below)
     if not all(kernels_compiled().values()) or os.environ.get(KERNELS_ENV, "auto").strip().lower() == "python":
         import subprocess
         import sys
@@ -120,6 +121,7 @@ def warm_up() -> dict:
     Polytope.from_vertices(box.vertices())
     out["polytope"] = time.perf_counter() - t0
     out["kernels_compiled"] = kernels_compiled()
+    record_warm_kernels()  # the next processes may start their geometry kernels tiered
     return out
 
 

@@ -437,3 +437,12 @@ EXACT_LABEL_SAMPLES: int = 300
 #: exists so that the worst case of a step is bounded, and an LP that reaches it answers
 #: "in ``B~_T``" (conservative).
 C_EXPORT_LP_PIVOTS_PER_LP: int = 2
+
+#: Kernel work (calls, weighted per module: NumPy versions 1, loop kernels 10) a process runs with
+#: the geometry kernels as Python before it loads their compiled versions (``hybobs_opt._numba_cache``,
+#: tiers).  Loading numba and the kernels costs about 0.6 s of CPU once; the Python kernels cost
+#: about 8 us more per unit than the compiled ones on small analyses (powertrain3, T = 3: 3,100 units,
+#: 8,000 with the first system build) and 36-45 us on large ones (model (17), T = 5 and 6: 177,000 and
+#: 405,000 units).  At 20,000 a few small analyses never import numba, and a large one switches
+#: within its first tenth, having paid under a second for the wait.
+KERNEL_TIER_UP_WORK: int = 20_000

@@ -826,3 +826,9 @@ RK4_STEP_RADIUS: float = 0.5
 #: match, a row off by a fraction of a sample does not.  The absolute slack is this times ``1e-3 Ts``
 #: (the row at ``t = 0``).
 INPUT_TABLE_TIME_RTOL: float = 1e-9
+
+#: Absolute tolerance of the last check scipy's ``linprog`` makes of a HiGHS "optimal" point
+#: (``sqrt(1e-9) * 10``, its ``_check_result``): the LP layer poses its LPs to HiGHS as ``linprog``
+#: does (:func:`hybobs_opt.geometry.lp.solve_lp`), and a point outside it is a numerical failure
+#: there, so there too (the next HiGHS method runs) -- the same answers as through ``linprog``.
+LINPROG_CHECK_TOL: float = 0.00031622776601683794

@@ -34,8 +34,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..tolerances import (
     AFFINE_HULL_RTOL,
     FULL_DIMENSION_RTOL,
@@ -47,6 +47,8 @@ from ..tolerances import (
 )
 from . import _vertex_kernels as _K
 from ._vertex_kernels import polygon_kernel, triangulation_kernel
+
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
 
 #: The kernel's answers that refuse the hull outright (the numpy path's messages, :func:`_facets`).
 _FACET_REASONS = {
@@ -178,6 +180,7 @@ def checked_hull(Y: np.ndarray, options: str | None = None) -> CheckedHull | str
         if code == 0:
             return CheckedHull(G, g, tight, area, "simplices")
         return _polygon(Y)
+    _spatial.bind(globals())
     try:
         with np.errstate(all="ignore"):
             hull = ConvexHull(Y, qhull_options=options)
@@ -220,6 +223,7 @@ def _polygon(Y: np.ndarray) -> CheckedHull | str:
     (winding number 1): the polygon is then convex, its vertices are points of ``Y`` and every
     point lies in it, so it is ``conv(Y)``, one row per edge.
     """
+    _spatial.bind(globals())
     try:
         with np.errstate(all="ignore"):
             hull = ConvexHull(Y)

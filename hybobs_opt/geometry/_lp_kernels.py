@@ -280,4 +280,4 @@ def support_upper_bound(A, b, c, lam, radius_bound):
 
 
 # numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
-_finalize_kernels(globals())
+_finalize_kernels(globals(), tiered=True, weight=10)

@@ -338,7 +338,10 @@ def _singular_values_numpy(Ms, tol, max_sweeps):
     return np.array([_svd_tall_numpy(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
 
 
-COMPILED = finalize_kernels(globals())
+# tiered: the NumPy versions run until the process has done enough kernel work (see _numba_cache)
+COMPILED = finalize_kernels(globals(), tiered=True, weight=1,
+                            python={"_matmul_kernel": _matmul_numpy, "_jacobi_kernel": _jacobi_numpy,
+                                    "_complete_kernel": _complete_numpy, "_singular_values_kernel": _singular_values_numpy})
 _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy

@@ -1056,5 +1056,6 @@ def facet_volume_3d(Y, A, b, tight, full_dimension_rtol, affine_rtol, full_simpl
     return 0, volume
 
 
-# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
-_finalize_kernels(globals())
+# numba dispatchers when the cache holds them (tiered: after enough kernel work), else plain Python
+# in this process (see _numba_cache)
+_finalize_kernels(globals(), tiered=True, weight=10)

@@ -14,7 +14,7 @@ import numpy as np
 from .polytope import Polytope
 
 
-def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Polytope]:
+def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray, *, irredundant: bool = True) -> list[Polytope]:
     """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time.
 
     Parameters
@@ -26,12 +26,16 @@ def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Pol
     scale : (d,) ndarray
         Per-coordinate scale of the full-dimensionality tests
         (:meth:`Polytope.is_full_dimensional`).
+    irredundant : bool, default True
+        Remove the redundant rows of each piece (:meth:`Polytope.remove_redundant`).  ``False``
+        keeps ``R``'s rows and the reversed and kept rows of ``Q``: the same sets, for a caller that
+        only tests them (a partition proof), without the vertex enumeration of each piece.
 
     Returns
     -------
     list of Polytope
-        Irredundant pieces whose union is the closure of ``R \\ Q`` up to lower-dimensional
-        sets; ``[R]`` when ``R`` and ``Q`` share no interior.
+        Pieces (irredundant unless asked otherwise) whose union is the closure of ``R \\ Q`` up
+        to lower-dimensional sets; ``[R]`` when ``R`` and ``Q`` share no interior.
 
     See Also
     --------
@@ -58,5 +62,5 @@ def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray) -> list[Pol
         b = np.concatenate([R.b, -Q.b[i : i + 1], Q.b[:i]])
         piece = Polytope(A, b, R.names)
         if piece.is_full_dimensional(scale):
-            pieces.append(piece.remove_redundant(scale))
+            pieces.append(piece.remove_redundant(scale) if irredundant else piece)
     return pieces

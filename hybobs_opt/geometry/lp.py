@@ -1,7 +1,9 @@
 """The one small LP layer every linear program of the toolbox goes through.
 
-It solves ``min c'z  s.t.  A_ub z <= b_ub, A_eq z == b_eq, lo <= z <= hi`` with HiGHS (through
-:func:`scipy.optimize.linprog`), checks the status and turns it into one of three outcomes:
+It solves ``min c'z  s.t.  A_ub z <= b_ub, A_eq z == b_eq, lo <= z <= hi`` with HiGHS (through its
+own Python API, ``highspy``, posed as :func:`scipy.optimize.linprog` poses it: the LP layer does not
+import ``scipy.optimize``, a quarter of a second of a small analysis), checks the status and turns it
+into one of three outcomes:
 an optimal point, a certified "infeasible"/"unbounded" answer, or a :class:`SolverError` that
 names the problem and the solver.  The ``regions`` package adds a fast dense path (DAQP) in front
 of this robust one.
@@ -16,13 +18,12 @@ from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linprog
-
+from .._native_output import captured_native_output
 from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
-from ..status import DAQP_STATUS, LINPROG_STATUS, Status, is_optimal, map_status
+from ..status import DAQP_STATUS, HIGHS_MODEL_STATUS, Status, is_optimal, map_status
 from ..defaults import LP_EQUILIBRATION_SWEEPS
-from ..tolerances import (LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
+from ..tolerances import (LINPROG_CHECK_TOL, LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
                           LP_VERTEX_RTOL)
 from ..results import Certificate
 
@@ -170,12 +171,13 @@ def solve_lp(
         bounds = (None, None)
     t0 = time.perf_counter()
     sc = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds)
-    attempts = [(sc, method) for method in ("highs", "highs-ipm", "highs-ds")]
+    scaled = {LP_EQUILIBRATION_SWEEPS: sc}  # the last attempt's scaling is made when it is reached
+    attempts = [(LP_EQUILIBRATION_SWEEPS, method) for method in ("highs", "highs-ipm", "highs-ds")]
     # last: rows to unit norm only.  Column scaling can blow a rounding residue of a restricted row
     # (1e-27 where exact arithmetic gives 0) up or a real entry down below HiGHS's small-value
     # threshold (1e-9), and then every method solves another problem (model 17, T = 8, pair by
     # pair: a row violated by 4.4e-6 at each answer)
-    attempts.append((_equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps=0), "highs-ds"))
+    attempts.append((0, "highs-ds"))
     bad_ub = np.nonzero(sc.zero_ub < 0)[0]
     bad_eq = np.nonzero(sc.zero_eq != 0)[0]
     if bad_ub.size or bad_eq.size:  # a constant row 0 <= b < 0 (or 0 = e != 0): infeasible as posed
@@ -190,12 +192,15 @@ def solve_lp(
         return LPResult(Status.INFEASIBLE, None, None, "numpy", time.perf_counter() - t0, certificate=cert)
     messages = []
     last_exc: BaseException | None = None
-    for sc, method in attempts:
+    for sweeps, method in attempts:
+        if sweeps not in scaled:
+            scaled[sweeps] = _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps=sweeps)
+        sc = scaled[sweeps]
         sb = sc.bounds()
         try:
-            res = _call_linprog(sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
-            status = map_status(LINPROG_STATUS, res.status, solver=f"linprog/{method}")
-        except Exception as exc:  # HiGHS (or scipy around it) raised: try the next method
+            res = _call_highs(sc.c, sc.A, sc.b, sc.E, sc.e, sb, method)
+            status = res.status
+        except Exception as exc:  # HiGHS (or highspy around it) raised: try the next method
             last_exc = exc
             messages.append(f"{method}: raised {type(exc).__name__}: {exc}")
             continue
@@ -215,13 +220,14 @@ def solve_lp(
                 return LPResult(status, None, None, method, time.perf_counter() - t0, certificate=cert)
             messages.append(f"{method}: status {status} but no certificate of it verifies")
             continue
-        messages.append(f"{method}: {res.status} {getattr(res, 'message', '')}")
+        messages.append(f"{method}: {res.status} {res.message}")
     raise SolverError(
         problem,
-        "HiGHS (scipy.optimize.linprog: highs, highs-ipm, highs-ds; highs-ds on the rows scaled to unit norm only)",
+        "HiGHS (highspy: highs, highs-ipm, highs-ds as scipy.optimize.linprog names them; highs-ds on the rows "
+        "scaled to unit norm only)",
         "; ".join(messages),
         hint="rescale the data to the state/input bounds, or check for huge/small coefficients"
-             + ("; the solver itself raised (chained below): check the installed scipy/HiGHS" if last_exc is not None else ""),
+             + ("; the solver itself raised (chained below): check the installed highspy" if last_exc is not None else ""),
     ) from last_exc
 
 
@@ -422,10 +428,13 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps: int = LP_EQUILIBRATI
             # single variable
             S = absM * r[:, None] * D[None, :]
             big, small = np.max(S, axis=1), np.min(np.where(nz, S, np.inf), axis=1)
-            r = r * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
-            S = absM * r[:, None] * D[None, :]
+            r_next = r * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            S = absM * r_next[:, None] * D[None, :]
             big, small = np.max(S, axis=0), np.min(np.where(nz, S, np.inf), axis=0)
-            D = D * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            D_next = D * _pow2_inv(np.sqrt(big * np.where(np.isfinite(small), small, big)))
+            if np.array_equal(r_next, r) and np.array_equal(D_next, D):
+                break  # a fixed point: every further sweep computes these same factors
+            r, D = r_next, D_next
         r = r * _pow2_inv(np.max(absM * r[:, None] * D[None, :], axis=1))
         r_ub, r_eq = r[:A.shape[0]], r[A.shape[0]:]
     cs = c * D
@@ -435,14 +444,126 @@ def _equilibrate(c, A_ub, b_ub, A_eq, b_eq, bounds, sweeps: int = LP_EQUILIBRATI
                    lo / D, hi / D, D, r_ub, r_eq, cn, const_b, const_e, zero_ub)
 
 
-def _call_linprog(c, A, b, E, e, bounds, method: str):
-    return linprog(c, A_ub=A if A.shape[0] else None, b_ub=b if A.shape[0] else None,
-                   A_eq=E if E.shape[0] else None, b_eq=e if E.shape[0] else None, bounds=bounds, method=method)
+#: ``method`` of :func:`solve_lp`'s attempts -> HiGHS's ``solver`` option (``None``: HiGHS chooses),
+#: the names and meanings of :func:`scipy.optimize.linprog`'s HiGHS methods.
+_HIGHS_SOLVER = {"highs": None, "highs-ipm": "ipm", "highs-ds": "simplex"}
 
 
-def _marginals(res, name: str, size: int) -> np.ndarray | None:
-    part = getattr(res, name, None)
-    m = None if part is None else getattr(part, "marginals", None)
+@dataclass
+class _HighsAnswer:
+    """One HiGHS solve: the mapped status, the point and objective (``None`` unless optimal) and the
+    multipliers as :func:`scipy.optimize.linprog` reports them (``ineqlin``, ``eqlin``, ``lower``, ``upper``)."""
+
+    status: Status
+    message: str
+    x: np.ndarray | None = None
+    fun: float | None = None
+    marginals: dict = field(default_factory=dict)
+
+
+#: HiGHS's ``simplex_strategy`` value of the dual simplex (``kSimplexStrategyDual``), which scipy sets.
+_HIGHS_DUAL_SIMPLEX = 1
+
+
+def _highs_inf(v: np.ndarray, inf: float) -> np.ndarray:
+    """``v`` with its infinite entries as HiGHS's infinity of the same sign."""
+    v = np.array(v, dtype=float)
+    big = np.isinf(v)
+    v[big] = np.where(v[big] > 0, inf, -inf)
+    return v
+
+
+_HIGHS = None  # the highspy module, imported at the first LP (it is not needed to import the package)
+
+
+def _highspy():
+    global _HIGHS
+    if _HIGHS is None:
+        with captured_native_output("highspy"):  # a HiGHS build may print a banner when loaded
+            import highspy
+
+        _HIGHS = highspy
+    return _HIGHS
+
+
+def _call_highs(c, A, b, E, e, bounds, method: str) -> _HighsAnswer:
+    """``linprog(c, A_ub=A, b_ub=b, A_eq=E, b_eq=e, bounds=bounds, method=method)`` with HiGHS through highspy.
+
+    The model, options and answer are those of scipy's ``_linprog_highs``: the rows ``A; E`` in
+    compressed columns (exact zeros left out), ``-inf <= A z <= b``, ``e <= E z <= e``, infinite
+    bounds as HiGHS's infinity, presolve on, dual simplex strategy, ``solver`` from
+    :data:`_HIGHS_SOLVER`; row multipliers from the row duals, bound multipliers from the column
+    duals of the columns at their lower or upper bound in the basis; an "optimal" point that breaks
+    a row or bound by more than :data:`LINPROG_CHECK_TOL` is reported as a numerical failure.
+    """
+    hs = _highspy()
+    n = c.size
+    M = np.vstack([A, E]) if E.shape[0] else A
+    m, k = M.shape[0], A.shape[0]
+    inf = hs.kHighsInf
+    lo = np.empty(n)
+    hi = np.empty(n)
+    for j, (l, h) in enumerate(_bound_pairs(bounds, n)):
+        lo[j] = -inf if l is None or l == -np.inf else float(l)
+        hi[j] = inf if h is None or h == np.inf else float(h)
+    rhs = np.concatenate([b, e]) if E.shape[0] else np.array(b, dtype=float)
+    lhs = np.concatenate([np.full(k, -np.inf), e]) if E.shape[0] else np.full(k, -np.inf)
+    rhs_h, lhs_h = _highs_inf(rhs, inf), _highs_inf(lhs, inf)
+    lp = hs.HighsLp()
+    lp.num_col_, lp.num_row_ = n, m
+    lp.col_cost_ = np.asarray(c, dtype=float)
+    lp.col_lower_, lp.col_upper_ = lo, hi
+    lp.row_lower_, lp.row_upper_ = lhs_h, rhs_h
+    if m:
+        MT = M.T
+        nz = MT != 0.0
+        lp.a_matrix_.format_ = hs.MatrixFormat.kColwise
+        lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = n, m
+        lp.a_matrix_.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+        lp.a_matrix_.index_ = np.nonzero(nz)[1].astype(np.int32)
+        lp.a_matrix_.value_ = MT[nz]
+    with captured_native_output("highspy.Highs"):  # a HiGHS build may print a banner from C++ here
+        h = hs.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("log_to_console", False)
+    h.setOptionValue("simplex_strategy", _HIGHS_DUAL_SIMPLEX)
+    if _HIGHS_SOLVER[method] is not None:
+        h.setOptionValue("solver", _HIGHS_SOLVER[method])
+    if h.passModel(lp) == hs.HighsStatus.kError:
+        return _HighsAnswer(Status.SOLVER_ERROR, "HiGHS refused the model (passModel)")
+    if h.run() == hs.HighsStatus.kError:
+        ms = h.getModelStatus()
+        return _HighsAnswer(map_status(HIGHS_MODEL_STATUS, ms.name, solver=f"highspy/{method}"), h.modelStatusToString(ms))
+    ms = h.getModelStatus()
+    status = map_status(HIGHS_MODEL_STATUS, ms.name, solver=f"highspy/{method}")
+    message = h.modelStatusToString(ms)
+    if status != Status.OPTIMAL:
+        return _HighsAnswer(status, message)
+    sol, basis, info = h.getSolution(), h.getBasis(), h.getInfo()
+    x = np.array(sol.col_value, dtype=float)
+    fun = float(info.objective_function_value)
+    row_value = np.array(sol.row_value, dtype=float)
+    slack = rhs_h - row_value
+    at_lower, at_upper = hs.HighsBasisStatus.kLower, hs.HighsBasisStatus.kUpper
+    col_dual = sol.col_dual
+    marg = np.zeros((2, n))
+    for j, st in enumerate(basis.col_status):
+        if st == at_lower:
+            marg[0, j] = col_dual[j]
+        elif st == at_upper:
+            marg[1, j] = col_dual[j]
+    lam = np.array(sol.row_dual, dtype=float)
+    tol = LINPROG_CHECK_TOL
+    lo_f, hi_f = np.where(lo <= -inf, -np.inf, lo), np.where(hi >= inf, np.inf, hi)
+    if (np.isnan(x).any() or np.isnan(fun) or np.isnan(slack).any() or np.any(x < lo_f - tol) or np.any(x > hi_f + tol)
+            or np.any(slack[:k] < -tol) or np.any(np.abs(slack[k:]) > tol)):
+        return _HighsAnswer(Status.SOLVER_ERROR, f"{message}, but the point breaks a row or bound by more than {tol:.2e}")
+    return _HighsAnswer(Status.OPTIMAL, message, x, fun,
+                        {"ineqlin": lam[:k], "eqlin": lam[k:], "lower": marg[0], "upper": marg[1]})
+
+
+def _marginals(res: _HighsAnswer, name: str, size: int) -> np.ndarray | None:
+    m = res.marginals.get(name)
     if size == 0:
         return np.zeros(0)
     if m is None:
@@ -511,10 +632,11 @@ def _farkas(sc: _Scaled, problem: str, method: str) -> LPCertificate | None:
     rhs = np.zeros(n + 1)
     rhs[-1] = -1.0
     try:
-        res = linprog(np.zeros(k + q), A_eq=M, b_eq=rhs, bounds=[(0, None)] * k + [(None, None)] * q, method=method)
+        res = _call_highs(np.zeros(k + q), np.zeros((0, k + q)), np.zeros(0), M, rhs, [(0, None)] * k + [(None, None)] * q,
+                          method)
     except Exception:  # a crash of the auxiliary LP certifies nothing
         return None
-    if res.status != 0 or res.x is None:
+    if res.status != Status.OPTIMAL or res.x is None:
         return None
     v = np.asarray(res.x, dtype=float)
     cert = LPCertificate("farkas", problem, A, b, E, e, sc.c, y=np.maximum(v[:k], 0.0), w=v[k:])
@@ -527,11 +649,11 @@ def _ray(sc: _Scaled, problem: str, method: str) -> LPCertificate | None:
     E, e = sc.E, sc.e
     n = sc.c.size
     try:
-        feas = _call_linprog(np.zeros(n), A, b, E, e, (None, None), method)
-        if feas.status != 0 or feas.x is None:
+        feas = _call_highs(np.zeros(n), A, b, E, e, (None, None), method)
+        if feas.status != Status.OPTIMAL or feas.x is None:
             return None
-        ray = _call_linprog(sc.c, A, np.zeros(A.shape[0]), E, np.zeros(E.shape[0]), (-1.0, 1.0), method)
-        if ray.status != 0 or ray.x is None:
+        ray = _call_highs(sc.c, A, np.zeros(A.shape[0]), E, np.zeros(E.shape[0]), (-1.0, 1.0), method)
+        if ray.status != Status.OPTIMAL or ray.x is None:
             return None
     except Exception:
         return None

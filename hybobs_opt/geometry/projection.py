@@ -12,8 +12,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..defaults import HULL_MAX_SUPPORT_LPS
 from ..errors import ModelError, SolverError
 from ..tolerances import (
@@ -24,6 +24,8 @@ from ..tolerances import (
 )
 from ._common import _box, _lp, _nullspace, _row_normalised, _unit_box_map, _unit_rows
 from .redundancy import irredundant
+
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
 
 #: Target dimension up to which :meth:`Polytope.project` (``method="auto"``) uses the iterative
 #: convex-hull method; above it, Fourier-Motzkin elimination.  Qhull's cost grows quickly with the
@@ -265,6 +267,7 @@ def _convex_hull(points: np.ndarray) -> ConvexHull:
     "dupridge" topology error; joggling by ~1e-11 (relative) avoids it, and the joggled facets of
     one true facet are merged again by the PROJECTION_HULL_RTOL plane comparison.
     """
+    _spatial.bind(globals())
     try:
         return ConvexHull(points)
     except QhullError:

@@ -12,8 +12,8 @@ prefilter on the polar points (Fourier-Motzkin's thousands of rows) and Clarkson
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
+from . import _spatial
 from ..errors import SolverError
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
@@ -26,6 +26,8 @@ from ..tolerances import (
 from ._common import _lp
 from ._vertex_kernels import facet_kernel
 from .lp import solve_lp
+
+ConvexHull = QhullError = None  # scipy.spatial's, bound at their first use (_spatial.bind)
 
 #: Largest dimension in which Fourier-Motzkin's redundancy removal first drops rows by one qhull
 #: call on the polar points (thousands of rows in < 1 s up to 6-D; qhull slows sharply beyond).
@@ -140,6 +142,7 @@ def _prefilter(A: np.ndarray, b: np.ndarray, active: np.ndarray, polar: bool) ->
     beta = ba - Aa @ centre  # >= radius > 0
     if polar and d <= FM_QHULL_MAX_DIM and d >= 2:
         polar_pts = np.vstack([Aa / beta[:, None], np.zeros((1, d))])
+        _spatial.bind(globals())
         try:
             hull = ConvexHull(polar_pts)
         except QhullError:

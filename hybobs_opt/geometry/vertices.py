@@ -40,8 +40,8 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
-from scipy.spatial import HalfspaceIntersection, QhullError, cKDTree
 
+from . import _spatial
 from ..defaults import VERTEX_DEGENERATE_MAX_SUBSETS
 from ..tolerances import (
     FULL_DIMENSION_RTOL,
@@ -62,6 +62,8 @@ from ._vertex_kernels import (
     hull_check,
     points_to_box,
 )
+
+HalfspaceIntersection = QhullError = cKDTree = None  # scipy.spatial's, bound at their first use (_spatial.bind)
 
 log = logging.getLogger(__name__)
 
@@ -198,6 +200,7 @@ def _walk_degenerate(A, b, Y, keep, T, deg, d) -> np.ndarray | str:
     ray = ~np.isfinite(step)
     ends = Y[deg][EV[~ray]] + step[~ray, None] * ER[~ray]
     if ends.shape[0]:
+        _spatial.bind(globals())
         dist, _ = cKDTree(Y[keep]).query(ends, k=1, p=np.inf, distance_upper_bound=VERTEX_SAME_RTOL)
         missing = ~np.isfinite(dist)
         if missing.any():
@@ -342,6 +345,7 @@ def _qhull_points(A: np.ndarray, b: np.ndarray) -> _Raw | str:
     if ip is None:
         return "no interior point (empty or flat set)"
     centre, r = ip
+    _spatial.bind(globals())
     try:
         # qhull divides by each row's slack at the centre: its warnings are the check's business
         with warnings.catch_warnings(), np.errstate(all="ignore"):

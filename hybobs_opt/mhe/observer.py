@@ -419,6 +419,9 @@ class MHEObserver(Observer):
                  big_m: BigMConstants | None = None, analysis=None, fit_tolerance=None, extend=None, noise_std=None,
                  false_alarm: float = MHE_NOISE_FALSE_ALARM, initial_std=None, noise_bound=None,
                  verbose: bool | int = False, **kwargs: Any):
+        from .._numba_cache import tier_up
+
+        tier_up()  # the compiled kernels now, not in the middle of a run of steps
         verbose_level(verbose)  # refused before any work when it is not a level
         self.verbose = verbose
         self._set_problem(system, T, norm, solver, analysis)

@@ -223,6 +223,9 @@ class LookupObserver(Observer):
 
     def __init__(self, analysis, *, b_tilde: Sequence[Polytope] | str | None = None, variant: str = "table",
                  output_rtol: float = LOOKUP_OUTPUT_RTOL, progress: Callable[[int, int], None] | None = None):
+        from .._numba_cache import tier_up
+
+        tier_up()  # the compiled kernels now, not in the middle of a run of steps
         from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
 
         as_instance(analysis, "analysis", ObservabilityAnalysis,

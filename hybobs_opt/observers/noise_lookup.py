@@ -158,6 +158,9 @@ class NoiseAwareLookupObserver(Observer):
 
     def __init__(self, analysis, noise_std=None, *, noise_bound=None, input_noise_bound=None,
                  false_alarm: float = NOISE_LOOKUP_FALSE_ALARM, tolerance=None):
+        from .._numba_cache import tier_up
+
+        tier_up()  # the compiled kernels now, not in the middle of a run of steps
         from ..regions.observability import ObservabilityAnalysis  # lazy: regions sits beside observers
 
         as_instance(analysis, "analysis", ObservabilityAnalysis,

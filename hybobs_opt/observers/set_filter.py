@@ -228,6 +228,9 @@ class SetMembershipFilter(Observer):
     name = "set-filter"
 
     def __init__(self, system, noise_bound, *, tolerance=None, max_pieces: int = SET_FILTER_MAX_PIECES):
+        from .._numba_cache import tier_up
+
+        tier_up()  # the compiled kernels now, not in the middle of a run of steps
         from ..systems.pwa import PWASystem
 
         if not isinstance(system, PWASystem):

@@ -827,7 +827,8 @@ def _check_partition(system: PWASystem, overlaps: bool) -> None:
                         f"a common interior around {_point_text(system, centre)}")
     pieces = [domain]
     for guard in guards:
-        pieces = [piece for region in pieces for piece in polytope_difference(region, guard, scale)]
+        # only tested for an interior: kept with their redundant rows (no vertex enumeration per piece)
+        pieces = [piece for region in pieces for piece in polytope_difference(region, guard, scale, irredundant=False)]
         if not pieces:
             return
     centre, _ = pieces[0].chebyshev_ball(scale)

@@ -5,7 +5,7 @@ The solve entry points are monkeypatched to call the real solver and then corrup
 =========================  =====================================================================
 entry point                patched
 =========================  =====================================================================
-LP layer                   ``scipy.optimize.linprog`` as :mod:`hybobs_opt.geometry.lp` calls it
+LP layer                   HiGHS (``highspy``) as :mod:`hybobs_opt.geometry.lp` calls it
                            (HiGHS), and ``daqp.solve`` (the certified fast path of the regions)
 SDP (every LMI)            ``cvxpy.Problem.solve``, under :func:`hybobs_opt.lmi.solve.solve_problem`
 MHE backends               ``DaqpBackend.solve`` (MIQP) and ``HighspyBackend.solve`` (MILP)
@@ -92,11 +92,10 @@ def patched(obj, name: str, replacement):
 
 @contextlib.contextmanager
 def faulty_linprog(inj: Injector):
-    import scipy.optimize
-
     from hybobs_opt.geometry import lp as lp_module
+    from hybobs_opt.status import Status
 
-    real = scipy.optimize.linprog
+    real = lp_module._call_highs
 
     def fake(c, *args, **kwargs):
         if inj.now():
@@ -106,22 +105,22 @@ def faulty_linprog(inj: Injector):
             if f == "runtime-error":
                 raise RuntimeError("injected HiGHS crash")
             res = real(c, *args, **kwargs)
-            x = None if getattr(res, "x", None) is None else np.asarray(res.x, dtype=float)
+            x = None if res.x is None else np.asarray(res.x, dtype=float)
             c = np.asarray(c, dtype=float)
             if f == "wrong-infeasible":
-                res.status, res.x, res.fun, res.message = 2, None, None, "injected: infeasible"
+                res.status, res.x, res.fun, res.message = Status.INFEASIBLE, None, None, "injected: infeasible"
             elif f == "wrong-unbounded":
-                res.status, res.x, res.fun, res.message = 3, None, None, "injected: unbounded"
+                res.status, res.x, res.fun, res.message = Status.UNBOUNDED, None, None, "injected: unbounded"
             else:
                 x = np.zeros(c.size) if x is None else x
                 x = {"nan-point": np.full(c.size, np.nan), "moved": _moved(x), "moved-consistent": _moved(x),
                      "violated": -x - 1.0, "blown-up": 10.0 * x + 1.0, "zero-point": np.zeros(c.size)}[f]
-                res.x, res.status, res.success = x, 0, True
+                res.x, res.status = x, Status.OPTIMAL
                 res.fun = float(c @ x) if f in ("moved-consistent", "violated", "blown-up", "zero-point") else res.fun
             return res
         return real(c, *args, **kwargs)
 
-    with patched(lp_module, "linprog", fake):
+    with patched(lp_module, "_call_highs", fake):
         yield
 
 

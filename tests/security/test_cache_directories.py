@@ -40,6 +40,9 @@ def _index_files() -> list[tuple[str, str]]:
     from numba.core.caching import FunctionCache
     from numba.core.dispatcher import Dispatcher
 
+    from hybobs_opt._numba_cache import tier_up
+
+    tier_up()  # the geometry kernel modules start tiered: their dispatchers exist after this
     out = []
     for module in ("hybobs_opt.geometry._lp_kernels", "hybobs_opt.geometry._reproducible",
                    "hybobs_opt.geometry._vertex_kernels", "hybobs_opt.observers._lookup_kernels"):

@@ -17,8 +17,9 @@ tests check that the choice never changes an answer and that the machinery aroun
   (:func:`~hybobs_opt._numba_cache._typed_python`) must refuse exactly what numba refuses;
 * the background warm-up starts once per process, honours a fresh lock file and ignores a stale
   one; a bad ``HYBOBS_KERNELS`` value is an error naming the variable;
-* (slow) end to end, the background process really fills the cache, after which a fresh process
-  runs every kernel module compiled.
+* (slow) end to end, the background process really fills the cache and records it, after which a
+  fresh process starts the geometry kernel modules tiered and loads them all compiled;
+* tiered kernels switch from Python to compiled in the middle of an analysis and give the same answers.
 
 Every child gets ``NUMBA_CACHE_DIR`` set to an empty pytest ``tmp_path`` and
 ``HYBOBS_BACKGROUND_WARM_UP=0`` (except the end-to-end test), so nothing is compiled and the
@@ -38,8 +39,9 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-KERNEL_MODULES = ("hybobs_opt.geometry._lp_kernels", "hybobs_opt.geometry._reproducible",
-                  "hybobs_opt.geometry._vertex_kernels", "hybobs_opt.observers._lookup_kernels")
+GEOMETRY_KERNEL_MODULES = ("hybobs_opt.geometry._lp_kernels", "hybobs_opt.geometry._reproducible",
+                           "hybobs_opt.geometry._vertex_kernels")  # tiered (hybobs_opt._numba_cache)
+KERNEL_MODULES = (*GEOMETRY_KERNEL_MODULES, "hybobs_opt.observers._lookup_kernels")
 
 # The same computation runs in the child (Python kernels) and in this process (compiled kernels):
 # ``results()`` returns a JSON-able dict.
@@ -151,11 +153,13 @@ def python_mode(tmp_path_factory) -> dict:
 
 @pytest.fixture(scope="module")
 def compiled_mode() -> dict:
-    """``results()`` in this process, whose kernels are compiled (warm cache)."""
+    """``results()`` in this process, whose kernels are compiled (warm cache; tiered modules loaded first)."""
+    from hybobs_opt import _numba_cache as nc
+
+    nc.tier_up()
     ns: dict = {}
     exec(compile(PROBE, "<kernel-modes-probe>", "exec"), ns)
     out = ns["results"]()
-    from hybobs_opt import _numba_cache as nc
 
     out["compiled"] = nc.kernels_compiled()
     return out
@@ -389,7 +393,53 @@ def test_background_warm_up_fills_the_cache_end_to_end(tmp_path):
         time.sleep(1.0)
     assert not lock.exists(), "the background compilation did not finish within 240 s"
     assert any(tmp_path.rglob("*.nbi"))
-    code = ("import json, hybobs_opt._numba_cache as nc\n" + "".join(f"import {m}\n" for m in KERNEL_MODULES)
-            + "print(json.dumps(nc.kernels_compiled()))")
-    out = json.loads(_child(code, _env(tmp_path)).stdout.strip().splitlines()[-1])
+    assert (tmp_path / "hybobs-kernels.json").exists(), "the warm-up recorded no kernel module as cached"
+    code = ("import json, sys, hybobs_opt._numba_cache as nc\n" + "".join(f"import {m}\n" for m in GEOMETRY_KERNEL_MODULES)
+            + "before = ['numba' in sys.modules, nc.kernels_compiled()]\n"
+            + "import hybobs_opt.observers._lookup_kernels\n"
+            + "print(json.dumps([before, nc.tier_up()]))")
+    before, out = json.loads(_child(code, _env(tmp_path)).stdout.strip().splitlines()[-1])
+    # the geometry modules start tiered (Python, numba not imported); the lookup kernels compile at import
+    assert before == [False, {m: False for m in GEOMETRY_KERNEL_MODULES}]
     assert out == {m: True for m in KERNEL_MODULES}
+
+
+# ------------------------------------------------------------------ 7. tiers
+TIERED_CHILD = PROBE + r'''
+import sys
+import hybobs_opt._numba_cache as nc
+import hybobs_opt.geometry._vertex_kernels, hybobs_opt.geometry._lp_kernels, hybobs_opt.geometry._reproducible
+out = {"compiled_at_start": nc.kernels_compiled()}
+out["p3_T4"] = _analysis("powertrain3", 4)
+out["work_after_p3_T4"] = nc._TIER.work
+out["compiled_after_p3_T4"] = nc.kernels_compiled()
+out["polytope"] = _polytope()
+print(json.dumps(out))
+'''
+
+
+def test_tiered_kernels_switch_mid_analysis_with_the_same_answers(python_mode):
+    """A warm cache (this process's, recorded by the warm-up): the geometry kernels start as Python
+    without importing numba and switch to the compiled ones inside the first analysis (the work
+    threshold lowered to 3,000 so that the switch falls in the middle of it); the answers equal the
+    Python-mode child's, which never switched."""
+    from hybobs_opt import _numba_cache as nc
+
+    nc.record_warm_kernels()  # this process's compiled kernels are in its cache: say so for the child
+    code = "import hybobs_opt.defaults as d\nd.KERNEL_TIER_UP_WORK = 3000\n" + TIERED_CHILD
+    env = {**os.environ, "HYBOBS_BACKGROUND_WARM_UP": "0"}
+    env.pop("HYBOBS_KERNELS", None)
+    out = json.loads(_child(code, env).stdout.strip().splitlines()[-1])
+    assert {m: out["compiled_at_start"][m] for m in GEOMETRY_KERNEL_MODULES} == {m: False for m in GEOMETRY_KERNEL_MODULES}
+    assert out["work_after_p3_T4"] >= 3000
+    assert out["compiled_after_p3_T4"] == {m: True for m in KERNEL_MODULES}
+    for key in ("p3_T4", "polytope"):
+        assert out[key] == python_mode[key], key
+    # below the threshold (the default), a small analysis never imports numba
+    code = ("import json, sys\nfrom hybobs_opt import analyse_observability, get_example\n"
+            "import hybobs_opt._numba_cache as nc\n"
+            "analyse_observability(get_example('powertrain3').build(), 3)\n"
+            "print(json.dumps(['numba' in sys.modules, nc.kernels_compiled()]))")
+    numba_imported, compiled = json.loads(_child(code, env).stdout.strip().splitlines()[-1])
+    assert numba_imported is False
+    assert compiled == {m: False for m in GEOMETRY_KERNEL_MODULES}

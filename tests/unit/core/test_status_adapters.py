@@ -10,39 +10,38 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.optimize import OptimizeResult
 
 from hybobs_opt.errors import SolverError
-from hybobs_opt.status import DAQP_EXIT_FLAGS, Status
+from hybobs_opt.status import DAQP_EXIT_FLAGS, HIGHS_MODEL_STATUS, Status, map_status
 
 
-# ---------------------------------------------------------------------------- linprog (geometry.lp.solve_lp)
-@pytest.mark.parametrize("raw", [0, 1, 2, 3, 4])
-def test_solve_lp_accepts_only_linprog_status_0(raw, monkeypatch):
-    """HiGHS's real answer (point and multipliers) with the status replaced: only status 0 gives a
-    point; a limit (1) or numerical trouble (4) is an error after every HiGHS method; a claimed
-    infeasibility (2) or unboundedness (3) of this feasible, bounded LP has no certificate that
-    verifies, so it is an error too (issue 16: no verdict is trusted unchecked)."""
+# ---------------------------------------------------------------------------- HiGHS (geometry.lp.solve_lp)
+@pytest.mark.parametrize("raw", sorted(HIGHS_MODEL_STATUS))
+def test_solve_lp_accepts_only_highs_optimal(raw, monkeypatch):
+    """HiGHS's real answer (point and multipliers) with its model status replaced by every member of
+    ``HighsModelStatus``: only ``kOptimal`` gives a point; a limit or numerical trouble is an error
+    after every HiGHS method; a claimed infeasibility or unboundedness of this feasible, bounded LP has
+    no certificate that verifies, so it is an error too (issue 16: no verdict is trusted unchecked)."""
     from hybobs_opt.geometry import lp
 
     calls = []
-    real = lp.linprog
+    real = lp._call_highs
 
-    def fake(c, **kw):
-        calls.append(kw["method"])
-        out = real(c, **kw)
-        out.status, out.success, out.message = raw, raw == 0, f"status {raw}"
+    def fake(c, A, b, E, e, bounds, method):
+        calls.append(method)
+        out = real(c, A, b, E, e, bounds, method)
+        out.status, out.message = map_status(HIGHS_MODEL_STATUS, raw, solver="highspy"), f"status {raw}"
         return out
 
-    monkeypatch.setattr(lp, "linprog", fake)
+    monkeypatch.setattr(lp, "_call_highs", fake)
     A, b = np.array([[1.0], [-1.0]]), np.array([1.0, 1.0])
     try:
         res = lp.solve_lp(np.array([1.0]), A, b)
     except SolverError:
-        assert raw in (1, 2, 3, 4)
+        assert raw != "kOptimal"
         assert {"highs", "highs-ipm", "highs-ds"} <= set(calls)  # every method tried (and its certificate LPs)
         return
-    assert raw == 0 and res.status is Status.OPTIMAL
+    assert raw == "kOptimal" and res.status is Status.OPTIMAL
     np.testing.assert_allclose(res.x, [-1.0])
 
 

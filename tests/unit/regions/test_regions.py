@@ -294,15 +294,14 @@ def test_nan_solver_answers_are_never_certified(monkeypatch):
 
 def test_solve_lp_checks_the_returned_point(monkeypatch):
     """An "optimal" point that violates the constraints (moved by 1e-3) or is NaN is a SolverError."""
-    from scipy.optimize import OptimizeResult
-
     from hybobs_opt.geometry import lp
     from hybobs_opt.errors import SolverError
+    from hybobs_opt.status import Status
 
     good = lp.solve_lp(np.array([1.0, 1.0]), -np.eye(2), np.zeros(2), problem="toy")
     assert good.optimal and np.allclose(good.x, 0.0)
     for bad in (np.array([-1e-3, 0.0]), np.array([np.nan, 0.0])):
-        monkeypatch.setattr(lp, "linprog", lambda *a, _x=bad, **k: OptimizeResult(status=0, x=_x, fun=0.0, message="ok"))
+        monkeypatch.setattr(lp, "_call_highs", lambda *a, _x=bad: lp._HighsAnswer(Status.OPTIMAL, "ok", _x, 0.0))
         with pytest.raises(SolverError, match="toy"):
             lp.solve_lp(np.array([1.0, 1.0]), -np.eye(2), np.zeros(2), problem="toy")
 
