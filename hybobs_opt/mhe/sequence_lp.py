@@ -110,6 +110,21 @@ EAGER_MAX_NODES = 400
 NODE_BYTES = {"node": 4096, "daqp": 16384, "highs": 163840, "per_entry": 64}
 
 
+def _checked_highs_point(h, G: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, n_cols: int):
+    """``(x, y)``: the first ``n_cols`` entries of an optimal HiGHS point and its row duals, or ``None``
+    when either is not finite or the point breaks a row ``G x <= g`` or a bound by more than
+    ``MHE_FEASIBILITY_TOL`` (an answer is checked before it is trusted)."""
+    sol = h.getSolution()
+    x = np.asarray(sol.col_value, dtype=float)[:n_cols]
+    y = np.asarray(sol.row_dual, dtype=float)
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        return None
+    if (np.max(G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL)
+            or np.any(x > hi + MHE_FEASIBILITY_TOL)):
+        return None
+    return x, y
+
+
 class _Node:
     """One mode prefix: its matrices, the affine maps of its own sample's rows, the propagation
     state its children start from, and the last proven multipliers."""
@@ -759,15 +774,10 @@ class SequenceLPSolver:
             return None
         if st != hs.HighsModelStatus.kOptimal:
             return None
-        sol = h.getSolution()
-        x = np.asarray(sol.col_value, dtype=float)[: cols.size]
-        y = np.asarray(sol.row_dual, dtype=float)
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        got = _checked_highs_point(h, nd.G, g, lo, hi, cols.size)
+        if got is None:
             return None
-        if np.max(nd.G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL) or np.any(
-                x > hi + MHE_FEASIBILITY_TOL):
-            return None
-        x = np.clip(x, lo, hi)
+        x, y = np.clip(got[0], lo, hi), got[1]
         mu, lam = -(y[:k] + y[k:2 * k]), -y[2 * k:]
         bound = self._dual_bound(nd, mu, lam, r, g, lo, hi)
         return bound, x, self._cost(nd, x, r), mu, lam
@@ -1415,15 +1425,10 @@ class SequenceLPSolver:
             return None
         if st != hs.HighsModelStatus.kOptimal:
             return None
-        sol = h.getSolution()
-        x = np.asarray(sol.col_value, dtype=float)[: cols.size]
-        y = np.asarray(sol.row_dual, dtype=float)
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-            return None
         lo, hi = self.lo, self.hi
-        if (np.max(nd.G @ x - g, initial=0.0) > MHE_FEASIBILITY_TOL or np.any(x < lo - MHE_FEASIBILITY_TOL)
-                or np.any(x > hi + MHE_FEASIBILITY_TOL) or a @ x < beta - MHE_FEASIBILITY_TOL):
+        got = _checked_highs_point(h, nd.G, g, lo, hi, cols.size)
+        if got is None or a @ got[0] < beta - MHE_FEASIBILITY_TOL:
             return None
-        x = np.clip(x, lo, hi)
+        x, y = np.clip(got[0], lo, hi), got[1]
         mu, lam = -(y[:k] + y[k:2 * k]), -y[2 * k:srow]
         return one(mu, lam), x, self._cost(nd, x, r), mu, lam

@@ -163,6 +163,24 @@ class WindowModel:
             return float(sum(np.abs(r).sum() for r in parts)) + extra
         return float(sum(np.abs(r).max() for r in parts)) + extra
 
+    def _weight_rows(self, dist: bool, nt: int, xbar) -> tuple[list, list]:
+        """The residual rows of the disturbance and arrival-cost terms of eq. (10) in ``theta``
+        (the disturbances when ``dist``, the window-start state's distance to ``xbar`` when an
+        arrival weight is set), with their offsets."""
+        n, T, hx = self.n, self.T, self.hx
+        R, r = [], []
+        if dist:
+            Rw = np.zeros((n * (T - 1), nt))
+            Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
+            R.append(Rw)
+            r.append(np.zeros(n * (T - 1)))
+        if self.Wa is not None:
+            Ra = np.zeros((n, nt))
+            Ra[:, :n] = self.Wa @ np.diag(hx)
+            R.append(Ra)
+            r.append(self.Wa @ (self.cx - xbar))
+        return R, r
+
     def sequence_problem(self, modes, U, Y, xbar):
         """Condensed problem of one mode sequence: residual ``R theta + r`` and rows ``G theta <= g``.
 
@@ -177,7 +195,7 @@ class WindowModel:
         those on the variables it fixes (the lower bound stays valid: the rest are relaxed).
         """
         sysm, T, n = self.system, self.T, self.n
-        hx, cx = self.hx, self.cx
+        cx = self.cx
         dist = self.Ww is not None and T > 1
         nt = n + (n * (T - 1) if dist else 0)
         px = cx.copy()
@@ -196,6 +214,7 @@ class WindowModel:
             gvec.append(Xb - XA @ px)
             if k < T - 1:
                 px = md.A @ px + md.B @ U[k] + md.a
+        weight_R, weight_r = self._weight_rows(dist, nt, xbar)
         static = self._static_rows(modes, dist, nt, step_rows, Grows) if self.extension is None else None
         if static is not None:
             # the rows that depend on the modes alone, stacked and normalised once per prefix; the
@@ -203,30 +222,11 @@ class WindowModel:
             R_steps, Gn, gnorm, nz = static
             gg = np.concatenate(gvec)
             if not np.any(gg[~nz] < 0):
-                Rrows = [R_steps]
-                if dist:
-                    Rw = np.zeros((n * (T - 1), nt))
-                    Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
-                    Rrows.append(Rw)
-                    rvec.append(np.zeros(n * (T - 1)))
-                if self.Wa is not None:
-                    Ra = np.zeros((n, nt))
-                    Ra[:, :n] = self.Wa @ np.diag(hx)
-                    Rrows.append(Ra)
-                    rvec.append(self.Wa @ (cx - xbar))
                 # copies: the solvers take writable buffers (DAQP's wrapper refuses read-only ones)
-                R = R_steps.copy() if len(Rrows) == 1 else np.vstack(Rrows)
-                return R, np.concatenate(rvec), Gn.copy(), gg[nz] / gnorm, dist
-        if dist:
-            Rw = np.zeros((n * (T - 1), nt))
-            Rw[:, n:] = np.kron(np.eye(T - 1), self.Ww @ np.diag(hx))
-            Rrows.append(Rw)
-            rvec.append(np.zeros(n * (T - 1)))
-        if self.Wa is not None:
-            Ra = np.zeros((n, nt))
-            Ra[:, :n] = self.Wa @ np.diag(hx)
-            Rrows.append(Ra)
-            rvec.append(self.Wa @ (cx - xbar))
+                R = np.vstack([R_steps, *weight_R]) if weight_R else R_steps.copy()
+                return R, np.concatenate(rvec + weight_r), Gn.copy(), gg[nz] / gnorm, dist
+        Rrows += weight_R
+        rvec += weight_r
         if self.extension is not None:
             self._extension_rows(modes, U, Y, xbar, nt, dist, Rrows, rvec, Grows, gvec)
         G, gg = np.vstack(Grows), np.concatenate(gvec)
