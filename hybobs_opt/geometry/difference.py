@@ -9,12 +9,15 @@ the difference is exact up to sets of zero measure, as the unions of paper 002 n
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from .polytope import Polytope
 
 
-def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray, *, irredundant: bool = True) -> list[Polytope]:
+def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray, *, irredundant: bool = True,
+                        interior_test: Callable[[Polytope], bool] | None = None) -> list[Polytope]:
     """Full-dimensional pieces of ``R \\ Q`` (closures), by reversing ``Q``'s rows one at a time.
 
     Parameters
@@ -30,6 +33,10 @@ def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray, *, irredund
         Remove the redundant rows of each piece (:meth:`Polytope.remove_redundant`).  ``False``
         keeps ``R``'s rows and the reversed and kept rows of ``Q``: the same sets, for a caller that
         only tests them (a partition proof), without the vertex enumeration of each piece.
+    interior_test : callable, optional
+        ``interior_test(P) -> bool``: whether ``P`` is full-dimensional, for a caller with a
+        cheaper certified test of its own sets (the partition proof); default
+        ``P.is_full_dimensional(scale)``.
 
     Returns
     -------
@@ -54,13 +61,15 @@ def polytope_difference(R: Polytope, Q: Polytope, scale: np.ndarray, *, irredund
     >>> len(pieces), round(sum(piece.volume().value for piece in pieces), 6)
     (4, 3.0)
     """
-    if not R.intersect(Q).is_full_dimensional(scale):
+    if interior_test is None:
+        interior_test = lambda P: P.is_full_dimensional(scale)  # noqa: E731
+    if not interior_test(R.intersect(Q)):
         return [R]
     pieces = []
     for i in range(Q.n_constraints):
         A = np.vstack([R.A, -Q.A[i : i + 1], Q.A[:i]])
         b = np.concatenate([R.b, -Q.b[i : i + 1], Q.b[:i]])
         piece = Polytope(A, b, R.names)
-        if piece.is_full_dimensional(scale):
+        if interior_test(piece):
             pieces.append(piece.remove_redundant(scale) if irredundant else piece)
     return pieces

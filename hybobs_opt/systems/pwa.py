@@ -808,17 +808,60 @@ def _remember_partition(key: bytes, outcome: tuple | None) -> None:
         _PARTITION_OUTCOMES.popitem(last=False)
 
 
+#: Relative margin by which a certified bound of the slack LP must clear ``FULL_DIMENSION_RTOL`` to
+#: decide a piece's interior in the partition proof (the bounds are proofs; the margin keeps a
+#: DAQP answer that differs in its last digits between machines from flipping which path decides).
+_INTERIOR_MARGIN = 0.01
+
+
+def _interior_by_slack_lp(P: Polytope, scale: np.ndarray, radius_bound: float) -> bool | None:
+    """Whether ``P`` (a subset of ``X x U``) holds a ball of radius above ``FULL_DIMENSION_RTOL`` in
+    ``z / scale``, decided by the certified slack LP of the pair tests, or ``None``.
+
+    The slack LP (:func:`~hybobs_opt.geometry.lp.solve_slack_lp`: DAQP, certified in numpy, HiGHS
+    behind it) is the Chebyshev-ball LP with unit rows; every point of ``X x U`` has
+    ``||z / scale|| <= radius_bound``, which bounds its dual certificate.  It decides only when a
+    certified bound clears the threshold by :data:`_INTERIOR_MARGIN` of it (a ball that much larger
+    fits around its point, or the dual bound is that much below); otherwise ``None`` sends the caller to
+    :meth:`~hybobs_opt.geometry.Polytope.chebyshev_ball`, so near the threshold the decision is the
+    one that path always took.  The proof's sets are mostly flat or empty, where the Chebyshev
+    LP's vertex certificate fails on the degenerate optimum and HiGHS used to be called for each.
+    """
+    from ..geometry._lp_kernels import slack_lp_data
+    from ..geometry.lp import solve_slack_lp
+    from ..tolerances import SLACK_CAP, ZERO_ROW_TOL
+
+    A, bu, ok = slack_lp_data(np.ascontiguousarray(P.A * scale[None, :], dtype=float),
+                              np.ascontiguousarray(P.b, dtype=float), ZERO_ROW_TOL, SLACK_CAP)
+    if not ok or A.shape[0] == 1:
+        return None
+    res = solve_slack_lp(A, bu, radius_bound, FULL_DIMENSION_RTOL, "partition proof (interior of a piece)")
+    if res.lower > (1.0 + _INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
+        return True
+    if res.upper < (1.0 - _INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
+        return False
+    return None
+
+
 def _check_partition(system: PWASystem, overlaps: bool) -> None:
     from ..geometry.difference import polytope_difference
 
     domain = system.domain
     lo, hi = domain.bounding_box()
     scale = np.where(hi - lo > 0, hi - lo, 1.0)
+    radius_bound = float(np.linalg.norm(np.maximum(np.abs(lo), np.abs(hi)) / scale)) * (1.0 + 1e-9)
+
+    def has_interior(P: Polytope) -> bool:
+        decided = _interior_by_slack_lp(P, scale, radius_bound)
+        return P.is_full_dimensional(scale) if decided is None else decided
+
     guards = [mode.guard.intersect(domain) for mode in system.modes]
     if overlaps:
         for i in range(len(guards)):
             for j in range(i + 1, len(guards)):
                 common = guards[i].intersect(guards[j])
+                if _interior_by_slack_lp(common, scale, radius_bound) is False:
+                    continue
                 centre, radius = common.chebyshev_ball(scale)
                 if centre is not None and radius > FULL_DIMENSION_RTOL:
                     raise ModelError(
@@ -828,7 +871,8 @@ def _check_partition(system: PWASystem, overlaps: bool) -> None:
     pieces = [domain]
     for guard in guards:
         # only tested for an interior: kept with their redundant rows (no vertex enumeration per piece)
-        pieces = [piece for region in pieces for piece in polytope_difference(region, guard, scale, irredundant=False)]
+        pieces = [piece for region in pieces
+                  for piece in polytope_difference(region, guard, scale, irredundant=False, interior_test=has_interior)]
         if not pieces:
             return
     centre, _ = pieces[0].chebyshev_ball(scale)

@@ -296,3 +296,77 @@ def test_a_repeated_check_gives_the_first_verdict_and_a_changed_guard_is_checked
     for k in range(3):
         system([([[1, 0]], [0.1 * k]), ([[-1, 0]], [-0.1 * k])])
     assert len(pwa._PARTITION_OUTCOMES) == 2
+
+
+# ------------------------------------------------------------------ the proof's fast interior test
+
+def _scipy_chebyshev_radius(P, scale):
+    """The Chebyshev radius of ``P`` in ``z / scale`` by scipy's linprog (HiGHS through scipy, not
+    the toolbox's LP layer): the oracle of the certified slack-LP decisions."""
+    from scipy.optimize import linprog
+
+    A = P.A * scale[None, :]
+    norms = np.linalg.norm(A, axis=1)
+    res = linprog(np.r_[np.zeros(P.dim), -1.0], A_ub=np.c_[A, norms], b_ub=P.b,
+                  bounds=[(None, None)] * P.dim + [(None, 1.0)], method="highs")
+    assert res.status in (0, 2), res.message
+    return -np.inf if res.status == 2 else float(res.x[-1])
+
+
+def _proof_sets(sys_, monkeypatch):
+    """Every set the partition proof of ``sys_`` asks the fast test about, with its decision."""
+    import hybobs_opt.systems.pwa as pwa
+
+    seen = []
+    original = pwa._interior_by_slack_lp
+
+    def spy(P, scale, radius_bound):
+        decided = original(P, scale, radius_bound)
+        seen.append((P, scale.copy(), decided))
+        return decided
+
+    monkeypatch.setattr(pwa, "_interior_by_slack_lp", spy)
+    monkeypatch.setattr(pwa, "_PARTITION_OUTCOMES", type(pwa._PARTITION_OUTCOMES)())
+    try:
+        pwa.check_partition(sys_)
+    except ModelError:
+        pass
+    return seen
+
+
+def test_the_proofs_fast_interior_decisions_agree_with_scipy(monkeypatch):
+    """Every decision the certified slack LP takes in the partition proofs of both powertrains and
+    of the oracle's random partitions equals the Chebyshev radius from scipy's linprog compared
+    with the tolerance; the flat sets of shared boundaries are among them (and decided)."""
+    from hybobs_opt.studies.paper002_powertrain.systems import powertrain3, powertrain5
+    from hybobs_opt.tolerances import FULL_DIMENSION_RTOL
+
+    systems = [powertrain3(), powertrain5()] + [system(guards, partition="none") for guards in INSTANCES[:10]]
+    counts = {True: 0, False: 0, None: 0}
+    flat = 0
+    for sys_ in systems:
+        for P, scale, decided in _proof_sets(sys_, monkeypatch):
+            counts[decided] += 1
+            r = _scipy_chebyshev_radius(P, scale)
+            flat += decided is False and abs(r) < 1e-12
+            if decided is not None:
+                assert decided == (r > FULL_DIMENSION_RTOL), (decided, r)
+    assert counts[True] > 0 and counts[False] > 0 and flat > 0, (counts, flat)
+
+
+@pytest.mark.parametrize("half_width, expected", [
+    (0.0, False), (1e-9, False), (0.5e-7, False), (0.999e-7, None), (1.0e-7, None), (1.001e-7, None),
+    (2e-7, True), (1e-3, True), (-1e-3, False),
+])
+def test_the_fast_interior_test_decides_thin_slabs_only_with_a_margin(half_width, expected):
+    """A slab ``|x1| <= h`` of the unit box (scale 1): radius ``h`` in ``z / scale``, decided only when
+    it clears the threshold by the margin; the near-threshold slabs go to the exact path (None)."""
+    import hybobs_opt.systems.pwa as pwa
+
+    slab = Polytope(np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+                    np.array([half_width, half_width, 0.5, 0.5]))
+    decided = pwa._interior_by_slack_lp(slab, np.ones(2), float(np.sqrt(0.5)) * 1.01)
+    if expected is None:
+        assert decided is None
+    else:
+        assert decided is expected
