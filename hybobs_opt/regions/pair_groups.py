@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .pair_algebra import PairAlgebra, scaled_rows
+from .pair_algebra import PairAlgebra, distinct_ints, scaled_rows
 from .pair_geometry import classify_pair
 from .verdicts import PairVerdict
 
@@ -107,8 +107,10 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
         if li + 1 < len(levels):
             nxt = levels[li + 1]
             sub = nxt.index[caller[live]] * len(nxt.algebra.scaled) + nxt.index[other[live]]
-            pairs = np.unique(np.stack([inverse, sub]), axis=1)
-            n_children = np.bincount(pairs[0], minlength=groups.size)
+            # the distinct (group, subgroup) pairs, each encoded as one integer
+            width = np.int64(sub.max()) + 1
+            pairs = distinct_ints(inverse.astype(np.int64) * width + sub)
+            n_children = np.bincount(pairs // width, minlength=groups.size)
         else:
             n_children = counts
         order = np.argsort(inverse, kind="stable")

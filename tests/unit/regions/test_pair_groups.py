@@ -267,3 +267,19 @@ def test_map_shared_passes_the_common_argument_to_every_call(make):
 def test_group_tests_must_be_a_bool(bad):
     with pytest.raises(ModelError, match="group_tests"):
         analyse_observability(enumeration("powertrain3", 3), group_tests=bad)
+
+
+def test_distinct_ints_equals_numpy_unique_and_counts_children_as_before():
+    """``distinct_ints`` (no numpy.ma import) against ``np.unique``, and the children count of the
+    group tests (distinct (group, subgroup) pairs encoded as one integer) against ``np.unique(axis=1)``."""
+    from hybobs_opt.regions.pair_algebra import distinct_ints
+
+    rng = np.random.default_rng(3)
+    for size in (0, 1, 2, 7, 1000):
+        a = rng.integers(0, 9, size=size)
+        np.testing.assert_array_equal(distinct_ints(a), np.unique(a))
+        inverse, sub = rng.integers(0, 5, size=size), rng.integers(0, 40, size=size)
+        width = np.int64(sub.max()) + 1 if size else np.int64(1)
+        encoded = distinct_ints(inverse.astype(np.int64) * width + sub)
+        expected = np.unique(np.stack([inverse, sub]), axis=1) if size else np.zeros((2, 0), dtype=int)
+        np.testing.assert_array_equal(np.bincount(encoded // width, minlength=5), np.bincount(expected[0], minlength=5))
