@@ -23,6 +23,12 @@ MEMBERSHIP_RTOL: float = 1e-9
 #: box of its bounding box, exceeds this value.
 FULL_DIMENSION_RTOL: float = 1e-7
 
+#: Relative margin by which a certified bound of the slack LP must clear ``FULL_DIMENSION_RTOL`` for
+#: the partition proof of a PWA system's guards to decide a piece's interior from it (the bounds are
+#: proofs; the margin keeps a DAQP answer that differs in its last digits between machines from
+#: changing which path decides).  Inside the margin the Chebyshev-ball path decides.
+PARTITION_INTERIOR_MARGIN: float = 0.01
+
 #: A constraint row whose norm is below this is treated as zero (the constraint no longer depends
 #: on the variables: it holds or fails by its right-hand side alone).  Callers pass rows that were
 #: unit-norm in scaled coordinates before any restriction to a subspace, so this is relative.

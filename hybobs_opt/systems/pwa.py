@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry._reproducible import matmul as mm
-from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL
+from ..tolerances import FULL_DIMENSION_RTOL, MEMBERSHIP_RTOL, PARTITION_INTERIOR_MARGIN
 from ._model_io import ModelDictMixin
 from .._validate import as_int, as_items, as_matrix, as_names, as_real, as_text, as_vector, name_key, real_array
 from ..geometry.polytope import Polytope
@@ -808,12 +808,6 @@ def _remember_partition(key: bytes, outcome: tuple | None) -> None:
         _PARTITION_OUTCOMES.popitem(last=False)
 
 
-#: Relative margin by which a certified bound of the slack LP must clear ``FULL_DIMENSION_RTOL`` to
-#: decide a piece's interior in the partition proof (the bounds are proofs; the margin keeps a
-#: DAQP answer that differs in its last digits between machines from flipping which path decides).
-_INTERIOR_MARGIN = 0.01
-
-
 def _interior_by_slack_lp(P: Polytope, scale: np.ndarray, radius_bound: float) -> bool | None:
     """Whether ``P`` (a subset of ``X x U``) holds a ball of radius above ``FULL_DIMENSION_RTOL`` in
     ``z / scale``, decided by the certified slack LP of the pair tests, or ``None``.
@@ -821,8 +815,9 @@ def _interior_by_slack_lp(P: Polytope, scale: np.ndarray, radius_bound: float) -
     The slack LP (:func:`~hybobs_opt.geometry.lp.solve_slack_lp`: DAQP, certified in numpy, HiGHS
     behind it) is the Chebyshev-ball LP with unit rows; every point of ``X x U`` has
     ``||z / scale|| <= radius_bound``, which bounds its dual certificate.  It decides only when a
-    certified bound clears the threshold by :data:`_INTERIOR_MARGIN` of it (a ball that much larger
-    fits around its point, or the dual bound is that much below); otherwise ``None`` sends the caller to
+    certified bound clears the threshold by
+    :data:`~hybobs_opt.tolerances.PARTITION_INTERIOR_MARGIN` of it (a ball that much larger fits
+    around its point, or the dual bound is that much below); otherwise ``None`` sends the caller to
     :meth:`~hybobs_opt.geometry.Polytope.chebyshev_ball`, so near the threshold the decision is the
     one that path always took.  The proof's sets are mostly flat or empty, where the Chebyshev
     LP's vertex certificate fails on the degenerate optimum and HiGHS used to be called for each.
@@ -836,9 +831,9 @@ def _interior_by_slack_lp(P: Polytope, scale: np.ndarray, radius_bound: float) -
     if not ok or A.shape[0] == 1:
         return None
     res = solve_slack_lp(A, bu, radius_bound, FULL_DIMENSION_RTOL, "partition proof (interior of a piece)")
-    if res.lower > (1.0 + _INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
+    if res.lower > (1.0 + PARTITION_INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
         return True
-    if res.upper < (1.0 - _INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
+    if res.upper < (1.0 - PARTITION_INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
         return False
     return None
 
