@@ -810,27 +810,21 @@ def _remember_partition(key: bytes, outcome: tuple | None) -> None:
 
 def _interior_by_slack_lp(P: Polytope, scale: np.ndarray, radius_bound: float) -> bool | None:
     """Whether ``P`` (a subset of ``X x U``) holds a ball of radius above ``FULL_DIMENSION_RTOL`` in
-    ``z / scale``, decided by the certified slack LP of the pair tests, or ``None``.
+    ``z / scale``, decided by the certified max-slack LP, or ``None``.
 
-    The slack LP (:func:`~hybobs_opt.geometry.lp.solve_slack_lp`: DAQP, certified in numpy, HiGHS
-    behind it) is the Chebyshev-ball LP with unit rows; every point of ``X x U`` has
-    ``||z / scale|| <= radius_bound``, which bounds its dual certificate.  It decides only when a
-    certified bound clears the threshold by
-    :data:`~hybobs_opt.tolerances.PARTITION_INTERIOR_MARGIN` of it (a ball that much larger fits
+    :func:`~hybobs_opt.geometry.lp.max_slack` (DAQP, both bounds proven in numpy, HiGHS behind it)
+    solves the Chebyshev-ball LP; every point of ``X x U`` has ``||z / scale|| <= radius_bound``,
+    which bounds its dual certificate.  It decides only when a certified bound clears the threshold
+    by :data:`~hybobs_opt.tolerances.PARTITION_INTERIOR_MARGIN` of it (a ball that much larger fits
     around its point, or the dual bound is that much below); otherwise ``None`` sends the caller to
     :meth:`~hybobs_opt.geometry.Polytope.chebyshev_ball`, so near the threshold the decision is the
     one that path always took.  The proof's sets are mostly flat or empty, where the Chebyshev
     LP's vertex certificate fails on the degenerate optimum and HiGHS used to be called for each.
     """
-    from ..geometry._lp_kernels import slack_lp_data
-    from ..geometry.lp import solve_slack_lp
-    from ..tolerances import SLACK_CAP, ZERO_ROW_TOL
+    from ..geometry.lp import max_slack
 
-    A, bu, ok = slack_lp_data(np.ascontiguousarray(P.A * scale[None, :], dtype=float),
-                              np.ascontiguousarray(P.b, dtype=float), ZERO_ROW_TOL, SLACK_CAP)
-    if not ok or A.shape[0] == 1:
-        return None
-    res = solve_slack_lp(A, bu, radius_bound, FULL_DIMENSION_RTOL, "partition proof (interior of a piece)")
+    res = max_slack(P.A * scale[None, :], P.b, radius_bound=radius_bound, threshold=FULL_DIMENSION_RTOL,
+                    problem="partition proof (interior of a piece)")
     if res.lower > (1.0 + PARTITION_INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
         return True
     if res.upper < (1.0 - PARTITION_INTERIOR_MARGIN) * FULL_DIMENSION_RTOL:
@@ -844,7 +838,10 @@ def _check_partition(system: PWASystem, overlaps: bool) -> None:
     domain = system.domain
     lo, hi = domain.bounding_box()
     scale = np.where(hi - lo > 0, hi - lo, 1.0)
-    radius_bound = float(np.linalg.norm(np.maximum(np.abs(lo), np.abs(hi)) / scale)) * (1.0 + 1e-9)
+    # every point of X x U in z / scale lies in this ball; the factor covers the rounding of the
+    # norm's d squares, sum and square root (at most (d + 2) units in the last place, relative)
+    corner = np.maximum(np.abs(lo), np.abs(hi)) / scale
+    radius_bound = float(np.linalg.norm(corner)) * (1.0 + (corner.size + 2) * np.finfo(float).eps)
 
     def has_interior(P: Polytope) -> bool:
         decided = _interior_by_slack_lp(P, scale, radius_bound)
