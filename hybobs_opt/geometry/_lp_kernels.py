@@ -185,39 +185,52 @@ def implicit_row_bounds(G, g, lam, radius_bound, relax):
 
 
 @kernel(cache=True)
-def _restrict_rows(Hx, HU, h, N, w0, off, base, G, g):
-    """Rows ``Hx y + HU U <= h`` of one region (``y`` = ``w[off:off + n]``) written as ``G v <= g``
-    into rows ``base...`` of ``G, g``, for ``w = w0 + N v`` (``U`` = ``w[2n:]``)."""
+def restricted_region_rows(Hx, HU, N, off):
+    """The left-hand sides of one region's rows ``Hx y + HU U <= h`` (``y`` = ``w[off:off + n]``,
+    ``U`` = ``w[2n:]``) for ``w = w0 + N v``: ``Hx N[off:off + n] + HU N[2n:]``, summed over ``t``
+    in that order.  They depend on the region and the subspace only, so a region paired with many
+    regions of one output-map class shares them."""
     n = Hx.shape[1]
     mU = HU.shape[1]
     q = N.shape[1]
+    G = np.zeros((Hx.shape[0], q))
     for row in range(Hx.shape[0]):
-        acc = h[row]
-        Grow = G[base + row]
-        Grow[:] = 0.0
         # inner loops run along the rows of N (contiguous): LLVM vectorises them
         for t in range(n):
             a = Hx[row, t]
-            acc -= a * w0[off + t]
             for c in range(q):
-                Grow[c] += a * N[off + t, c]
+                G[row, c] += a * N[off + t, c]
         for t in range(mU):
             a = HU[row, t]
-            acc -= a * w0[2 * n + t]
             for c in range(q):
-                Grow[c] += a * N[2 * n + t, c]
+                G[row, c] += a * N[2 * n + t, c]
+    return G
+
+
+@kernel(cache=True)
+def _restrict_rhs(Hx, HU, h, w0, off, base, g):
+    """The right-hand sides ``h - Hx w0[off:off + n] - HU w0[2n:]`` of one region's rows into ``g[base:]``."""
+    n = Hx.shape[1]
+    mU = HU.shape[1]
+    for row in range(Hx.shape[0]):
+        acc = h[row]
+        for t in range(n):
+            acc -= Hx[row, t] * w0[off + t]
+        for t in range(mU):
+            acc -= HU[row, t] * w0[2 * n + t]
         g[base + row] = acc
 
 
 @kernel(cache=True)
-def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consistency_rtol):
+def restricted_pair_rows(HxI, HUI, hI, GI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consistency_rtol):
     """Constraints of ``R_ij`` restricted to its output-equality subspace ``w = w0 + N v``.
 
     ``HxI x + HUI U <= hI`` and ``HxJ x^ + HUJ U <= hJ`` are the rows of ``P_i`` and ``P_j``
     over ``w = (x, x^, U)`` (so the rows of ``P_i`` are zero on ``x^`` and those of ``P_j`` on
-    ``x``, which the loops skip); the equalities ``E w = e`` are given by the SVD
-    ``E = U diag(s) Vt`` of numerical rank ``r``, so ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``, and
-    ``N = Vt[r:]'`` is passed as a contiguous array.
+    ``x``, which the loops skip); ``GI`` is :func:`restricted_region_rows` of ``P_i`` (offset 0)
+    on ``N``.  The equalities ``E w = e`` are given by the SVD ``E = U diag(s) Vt`` of numerical
+    rank ``r``, so ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``, and ``N = Vt[r:]'`` is passed as a
+    contiguous array.
 
     Returns ``(G, g, w0, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
     ``consistent = False`` when ``e`` is not in ``range(E)`` (relative residual above
@@ -251,8 +264,10 @@ def restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consiste
     nI, nJ = HxI.shape[0], HxJ.shape[0]
     G = np.empty((nI + nJ, q))
     g = np.empty(nI + nJ)
-    _restrict_rows(HxI, HUI, hI, N, w0, 0, 0, G, g)
-    _restrict_rows(HxJ, HUJ, hJ, N, w0, n, nI, G, g)
+    G[:nI] = GI
+    G[nI:] = restricted_region_rows(HxJ, HUJ, N, n)
+    _restrict_rhs(HxI, HUI, hI, w0, 0, 0, g)
+    _restrict_rhs(HxJ, HUJ, hJ, w0, n, nI, g)
     return G, g, w0, True
 
 
@@ -279,5 +294,227 @@ def support_upper_bound(A, b, c, lam, radius_bound):
     return val + radius_bound * np.sqrt(np.sum(resid * resid))
 
 
-# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache)
-_finalize_kernels(globals(), tiered=True, weight=10)
+@kernel(cache=True)
+def _walk_step(A, b, c, sign, frac, point, basis, n_basis):
+    """One step of a walk of :func:`walk_width_lower_bound` from ``point`` (updated in place).
+
+    The step goes along the part of ``sign * c`` parallel to the rows that stopped the earlier
+    steps (``basis[:n_basis]``, orthonormal), ``frac`` of the way to the first row it would
+    cross, which then joins the basis (Gram-Schmidt, in the order met).  Returns the new basis
+    size, or ``-1`` when the walk is over: that part vanishes, no row stops it (an unbounded
+    direction: the point stays) or a row is already violated.
+    """
+    k, d = A.shape
+    cnorm = 0.0
+    for q in range(d):
+        cnorm += c[q] * c[q]
+    cnorm = np.sqrt(cnorm)
+    direction = np.empty(d)
+    for q in range(d):
+        direction[q] = sign * c[q]
+    for j in range(n_basis):
+        proj = 0.0
+        for q in range(d):
+            proj += basis[j, q] * direction[q]
+        for q in range(d):
+            direction[q] -= proj * basis[j, q]
+    dnorm = 0.0
+    for q in range(d):
+        dnorm += direction[q] * direction[q]
+    dnorm = np.sqrt(dnorm)
+    if not dnorm > 1e-9 * cnorm:
+        return -1
+    step = np.inf
+    block = -1
+    for r in range(k):
+        rate = 0.0
+        for q in range(d):
+            rate += A[r, q] * direction[q]
+        if rate > 1e-12 * dnorm:
+            slack = b[r]
+            for q in range(d):
+                slack -= A[r, q] * point[q]
+            if slack < 0.0:
+                return -1
+            ratio = slack / rate
+            if ratio < step:
+                step = ratio
+                block = r
+    if block < 0:
+        return -1
+    step *= frac
+    for q in range(d):
+        point[q] += step * direction[q]
+    if n_basis >= basis.shape[0]:
+        return -1
+    for q in range(d):
+        basis[n_basis, q] = A[block, q]
+    for j in range(n_basis):
+        proj = 0.0
+        for q in range(d):
+            proj += basis[j, q] * basis[n_basis, q]
+        for q in range(d):
+            basis[n_basis, q] -= proj * basis[j, q]
+    bnorm = 0.0
+    for q in range(d):
+        bnorm += basis[n_basis, q] * basis[n_basis, q]
+    bnorm = np.sqrt(bnorm)
+    if not bnorm > 1e-9:
+        return -1
+    for q in range(d):
+        basis[n_basis, q] /= bnorm
+    return n_basis + 1
+
+
+@kernel(cache=True)
+def _certified_feasible(A, b, x):
+    """Is ``A x <= b`` certain for the floating-point ``x``: every row's computed ``A_k x - b_k``
+    plus its rounding-error bound ``gamma_{d+2} (|A_k| |x| + |b_k|)`` at most zero?"""
+    k, d = A.shape
+    gamma = (d + 3) * 1.1102230246251565e-16
+    for r in range(k):
+        acc = -b[r]
+        scale = abs(b[r])
+        for q in range(d):
+            acc += A[r, q] * x[q]
+            scale += abs(A[r, q]) * abs(x[q])
+        if not acc + gamma * scale * 1.0000001 <= 0.0:
+            return False
+    return True
+
+
+@kernel(cache=True)
+def _proven_width(A, b, c, top, bottom):
+    """``c'(top - bottom)`` minus its rounding-error bound when both points are certified points of
+    ``{A v <= b}`` (:func:`_certified_feasible`), else ``-inf``: a lower bound on the set's width along ``c``."""
+    d = A.shape[1]
+    if not (_certified_feasible(A, b, top) and _certified_feasible(A, b, bottom)):
+        return -np.inf
+    width = 0.0
+    scale = 0.0
+    for q in range(d):
+        width += c[q] * (top[q] - bottom[q])
+        scale += abs(c[q]) * (abs(top[q]) + abs(bottom[q]))
+    return width - (d + 4) * 1.1102230246251565e-16 * scale * 1.0000001
+
+
+@kernel(cache=True)
+def walk_width_lower_bound(A, b, p, c, steps, frac, target):
+    """A proven lower bound on the width ``max c'v - min c'v`` of ``{A v <= b}``, with no LP.
+
+    Two walks start from the interior point ``p``, one along ``c`` and one along ``-c``, and
+    take their ratio-test steps in turn (:func:`_walk_step`: each ``frac`` of the way to the row
+    that stops it, later steps parallel to the rows met), up to ``steps`` each, until their end
+    points are more than ``target`` apart along ``c`` (in floating point) or neither can go on.
+    The two end points are then checked to satisfy every row with a rounding-error bound, so
+    they are points of the set, and ``c'(v+ - v-)`` minus its own rounding-error bound is at
+    most the width (:func:`_proven_width`).  Returns ``-inf`` when an end point is not certified
+    feasible or a number is not finite.
+
+    The walks are a cheap first try at the two LPs of a width test: a set that they prove wider
+    than the threshold needs neither LP, and a set they do not prove wide goes to the LPs.
+    """
+    d = A.shape[1]
+    for q in range(d):
+        if not (np.isfinite(p[q]) and np.isfinite(c[q])):
+            return -np.inf
+    top = p.copy()
+    bottom = p.copy()
+    basis_top = np.zeros((steps, d))
+    basis_bottom = np.zeros((steps, d))
+    n_top = 0
+    n_bottom = 0
+    for _ in range(steps):
+        if n_top >= 0:
+            n_top = _walk_step(A, b, c, 1.0, frac, top, basis_top, n_top)
+        if n_bottom >= 0:
+            n_bottom = _walk_step(A, b, c, -1.0, frac, bottom, basis_bottom, n_bottom)
+        apart = 0.0
+        for q in range(d):
+            apart += c[q] * (top[q] - bottom[q])
+        if apart > target or (n_top < 0 and n_bottom < 0):
+            break
+    return _proven_width(A, b, c, top, bottom)
+
+
+def _seq_sum(x: np.ndarray) -> float:
+    """``x[0] + x[1] + ...`` from first to last, as the kernels' loops add (``+ 0.0``: their sums start at +0)."""
+    return float(np.cumsum(x)[-1]) + 0.0 if x.size else 0.0
+
+
+def _walk_step_numpy(A, b, c, sign, frac, point, basis, n_basis):
+    """:func:`_walk_step` in NumPy: the same operations in the same order (rows vectorised)."""
+    k, d = A.shape
+    cnorm = np.sqrt(_seq_sum(c * c))
+    direction = sign * c
+    for j in range(n_basis):
+        direction = direction - _seq_sum(basis[j] * direction) * basis[j]
+    dnorm = np.sqrt(_seq_sum(direction * direction))
+    if not dnorm > 1e-9 * cnorm:
+        return -1
+    rate = np.zeros(k)
+    for q in range(d):
+        rate = rate + A[:, q] * direction[q]
+    rows = np.nonzero(rate > 1e-12 * dnorm)[0]
+    if rows.size == 0:
+        return -1
+    slack = b[rows].copy()
+    for q in range(d):
+        slack = slack - A[rows, q] * point[q]
+    if np.any(slack < 0.0):
+        return -1
+    ratio = slack / rate[rows]
+    first = int(np.argmin(ratio))
+    step, block = ratio[first] * frac, rows[first]
+    point[:] = point + step * direction
+    if n_basis >= basis.shape[0]:
+        return -1
+    row = A[block].copy()
+    for j in range(n_basis):
+        row = row - _seq_sum(basis[j] * row) * basis[j]
+    bnorm = np.sqrt(_seq_sum(row * row))
+    if not bnorm > 1e-9:
+        return -1
+    basis[n_basis] = row / bnorm
+    return n_basis + 1
+
+
+def _proven_width_numpy(A, b, c, top, bottom):
+    """:func:`_proven_width` in NumPy (the same sums, rows vectorised)."""
+    d = A.shape[1]
+    gamma = (d + 3) * 1.1102230246251565e-16
+    for x in (top, bottom):
+        acc, scale = -b, np.abs(b)
+        for q in range(d):
+            acc = acc + A[:, q] * x[q]
+            scale = scale + np.abs(A[:, q]) * abs(x[q])
+        if not np.all(acc + gamma * scale * 1.0000001 <= 0.0):
+            return -np.inf
+    width = _seq_sum(c * (top - bottom))
+    scale = _seq_sum(np.abs(c) * (np.abs(top) + np.abs(bottom)))
+    return width - (d + 4) * 1.1102230246251565e-16 * scale * 1.0000001
+
+
+def _walk_width_numpy(A, b, p, c, steps, frac, target):
+    """:func:`walk_width_lower_bound` in NumPy: the same operations in the same order, so the same bits."""
+    d = A.shape[1]
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(c))):
+        return -np.inf
+    top, bottom = p.copy(), p.copy()
+    basis_top, basis_bottom = np.zeros((steps, d)), np.zeros((steps, d))
+    n_top = n_bottom = 0
+    for _ in range(steps):
+        if n_top >= 0:
+            n_top = _walk_step_numpy(A, b, c, 1.0, frac, top, basis_top, n_top)
+        if n_bottom >= 0:
+            n_bottom = _walk_step_numpy(A, b, c, -1.0, frac, bottom, basis_bottom, n_bottom)
+        if _seq_sum(c * (top - bottom)) > target or (n_top < 0 and n_bottom < 0):
+            break
+    return _proven_width_numpy(A, b, c, top, bottom)
+
+
+# numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache);
+# tiered, the walk runs as NumPy until the switch (as Python loops it costs milliseconds a call)
+COMPILED = _finalize_kernels(globals(), tiered=True, weight=10, python={"walk_width_lower_bound": _walk_width_numpy})
+if not COMPILED:
+    walk_width_lower_bound = _walk_width_numpy  # noqa: F811 (the kernel's NumPy twin: same bits)

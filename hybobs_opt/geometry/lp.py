@@ -22,7 +22,7 @@ from .._native_output import captured_native_output
 from ..errors import ModelError, SolverError
 from ._reproducible import dot, matmul as mm, nnls, norm
 from ..status import DAQP_STATUS, HIGHS_MODEL_STATUS, Status, is_optimal, map_status
-from ..defaults import LP_EQUILIBRATION_SWEEPS
+from ..defaults import LP_EQUILIBRATION_SWEEPS, WIDTH_WALK_FRACTION, WIDTH_WALK_STEPS
 from ..tolerances import (LINPROG_CHECK_TOL, LP_CERTIFICATE_RTOL, LP_DUAL_RTOL, LP_POINT_RTOL, LP_SCALING_NOISE_RTOL, LP_VERTEX_MAX_COND,
                           LP_VERTEX_RTOL)
 from ..results import Certificate
@@ -788,7 +788,7 @@ def row_range(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound  # noqa: E402
+from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound, walk_width_lower_bound  # noqa: E402
 from ..tolerances import (DAQP_EPS_PROX, DAQP_POINT_RTOL, EXACT_DECISION_MARGIN, HIGHS_DECISION_BAND,  # noqa: E402
                           NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL)
 
@@ -1275,7 +1275,10 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     # row slack at that point (the LP's t may exceed it by the solver's primal tolerance).
     slack = float(min(res.x[d], np.min(bu[:k] - mm(A[:k, :d], w))))
     found = SlackResult(slack, slack, w, "highs")
-    if abs(slack - threshold) <= HIGHS_DECISION_BAND:  # HiGHS's point decides nothing this close
+    # `slack` is the value of a point of the set, a lower bound on the optimum up to the rounding
+    # of its own evaluation: above the threshold by the margin, that point proves "above".  Only
+    # "at most the threshold" needs the optimum itself, which HiGHS's point does not prove this close.
+    if abs(slack - threshold) <= HIGHS_DECISION_BAND and not slack > threshold + EXACT_DECISION_MARGIN:
         return _exact_slack(A, bu, res.x, threshold, found, t0, res.duals)
     return SlackResult(slack, slack, w, "highs", seconds=time.perf_counter() - t0)
 
@@ -1309,6 +1312,23 @@ def _exact_slack(A: np.ndarray, bu: np.ndarray, hint: np.ndarray, threshold: flo
     return SlackResult(f, f, found.w, found.solver + " (exact)", found.lam, time.perf_counter() - t0)
 
 
+def width_proven_above(A: np.ndarray, b: np.ndarray, c: np.ndarray, point: np.ndarray, width: float) -> bool:
+    """Is the width ``max c'v - min c'v`` of ``{A v <= b}`` proven above ``width`` without an LP?
+
+    Two walks from ``point`` (an interior or nearly feasible point) along ``c`` and ``-c``
+    (:func:`~hybobs_opt.geometry._lp_kernels.walk_width_lower_bound`) reach two points of the set,
+    each checked with a rounding-error bound; ``True`` when they lie more than ``width +
+    EXACT_DECISION_MARGIN`` apart along ``c``.  ``False`` proves nothing: the LPs decide then.
+    """
+    p = np.ascontiguousarray(point, dtype=float)
+    if p.shape != (A.shape[1],) or A.shape[0] == 0:
+        return False
+    lower = walk_width_lower_bound(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), p,
+                                   np.ascontiguousarray(c, dtype=float), WIDTH_WALK_STEPS, WIDTH_WALK_FRACTION,
+                                   width + 2.0 * EXACT_DECISION_MARGIN)
+    return bool(lower > width + EXACT_DECISION_MARGIN)
+
+
 def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius_bound: float, width: float,
                           point: np.ndarray | None = None) -> bool:
     """Is the width ``max c'v - min c'v`` of ``{A v <= b}`` certified to be at most ``width``?
@@ -1321,8 +1341,13 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     means "not certified" (wider, multipliers too loose to prove it narrower, a solve that did not
     finish, or an exact solve that could not settle it): callers must treat it as the safe answer.
     When DAQP fails (or returns non-finite numbers), HiGHS's duals are used for the same bound.
-    With a (nearly) feasible ``point``, the second LP is skipped when the first one's maximiser
-    is already more than ``width`` away from it along ``c``.
+    With a (nearly) feasible ``point``, two short walks from it along ``c`` and ``-c``
+    (:func:`~hybobs_opt.geometry._lp_kernels.walk_width_lower_bound`) first try to reach two
+    points of the set, checked with rounding-error bounds, more than ``width +
+    EXACT_DECISION_MARGIN`` apart along ``c``: then the width is proven larger and no LP is
+    solved (the answer the LPs would give, since their bound is never below the true width); and
+    the second LP is skipped when the first one's maximiser is already more than ``width`` away
+    from the point along ``c``.
 
     Parameters
     ----------
@@ -1363,6 +1388,8 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     >>> certified_width_below(A, b, c, radius_bound=10.0, width=1.5)
     False
     """
+    if point is not None and width_proven_above(A, b, c, point, width):
+        return False  # two points of the set are proven farther apart than `width`: no LP
     total = 0.0
     points = []
     for sign in (1.0, -1.0):

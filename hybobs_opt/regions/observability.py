@@ -765,7 +765,7 @@ def _task_state(data: PairTaskData) -> tuple[_PairAlgebra, list[GroupLevel]]:
     return state
 
 
-def _group_pass(levels: list[GroupLevel], i_list: list[int], per_i: list[_Candidates]) -> tuple[list[_Candidates], list, int, int]:
+def _group_pass(levels: list[GroupLevel], i_list: list[int], per_i: list[_Candidates]) -> tuple[list[_Candidates], np.ndarray, int, int]:
     """Run the group tests over all the candidate pairs of a task; returns the candidates with the
     wants they decided cleared, the pairs ruled out, the number of group tests and their LPs."""
     caller = np.concatenate([np.full(c.js.size, i, dtype=int) for i, c in zip(i_list, per_i)] + [np.zeros(0, dtype=int)])
@@ -796,7 +796,7 @@ def _pairs_task(task: PairTask, shared: PairTaskData, progress: Callable[[int, i
             per_i = [_candidates(algebra, rank_ok, i, task.blocks[top[i]][top]) for i in task.i_list]
         n_tested = sum(c.n_tested for c in per_i)
         n_skipped = sum(c.n_skipped_rank for c in per_i)
-        ruled: list = []
+        ruled = _pair_array(())
         n_group_tests = group_lps = 0
         exact0 = (EXACT.decided, EXACT.undecided)
         if levels:
@@ -844,8 +844,9 @@ def _chunks(I: list[int], n_regions: int, n_chunks: int, top_index: np.ndarray |
         blocks[c][k] = True
         load[c] += cost[k]
     out = []
+    I_arr = np.asarray(I, dtype=int)
     for c in sorted(range(n_chunks), key=lambda c: (-load[c], c)):
-        mine = [i for i in I if blocks[c][top_index[i]].any()]
+        mine = I_arr[blocks[c].any(axis=1)[top_index[I_arr]]].tolist()
         if mine:
             out.append(PairTask(mine, blocks[c], load[c]))
     return out

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry._lp_kernels import restricted_pair_rows
+from ..geometry._lp_kernels import restricted_pair_rows, restricted_region_rows
 from ..geometry._reproducible import matmul as mm, norm, numerical_rank, numerical_ranks, row_norms, singular_values, svd
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
 from .pair_geometry import SubspaceDirections
@@ -126,8 +126,14 @@ class PairAlgebra:
         """:meth:`screen` for the pairs ``(a, b)``, ``a`` in ``as_`` (``R_ji`` of a pair found from ``i``)."""
         fresh = ~self._screened[as_, b]
         if fresh.any():
-            for a in distinct_ints(as_[fresh]):
-                self.screen(int(a), np.array([b]))
+            # one batch for the column: the matrices :meth:`screen` would build for each (a, b),
+            # each SVD computed on its own, so the bits do not depend on the batch
+            new = distinct_ints(as_[fresh])
+            Cb, Db = self.C[b], self.D[b]
+            Mj = np.concatenate([np.broadcast_to(Cb, (new.size,) + Cb.shape), Db - self.D[new]], axis=2)
+            with_ci = np.concatenate([self.C[new], Mj], axis=2)
+            self._screen[new, b] = _batched_rank(Mj) == _batched_rank(with_ci)
+            self._screened[new, b] = True
         return self._screen[as_, b]
 
     def equality_svd(self, a: int, bs: np.ndarray) -> list[tuple]:
@@ -161,9 +167,13 @@ class PairAlgebra:
         HxI, HUI, hI, _, _, fI = self.scaled[i]
         radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
         out = []
-        for j, (U_, S_, Vt, r, N, directions) in zip(js, self.equality_svd(self.cls[i], self.cls[js])):
+        rows_i: dict[int, np.ndarray] = {}  # P_i's rows on the subspace of each class of j: shared by its regions
+        for j, cj, (U_, S_, Vt, r, N, directions) in zip(js, self.cls[js], self.equality_svd(self.cls[i], self.cls[js])):
             HxJ, HUJ, hJ, _, _, fJ = self.scaled[j]
-            Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
+            GI = rows_i.get(cj)
+            if GI is None:
+                GI = rows_i[cj] = restricted_region_rows(HxI, HUI, N, 0)
+            Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, GI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
                                                           EQUALITY_CONSISTENCY_RTOL)
             out.append(RestrictedPair(Gv, gv, w0, N, directions, radius0 + norm(w0)) if consistent else None)
         return out

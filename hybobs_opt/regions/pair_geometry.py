@@ -39,7 +39,7 @@ from ..errors import SolverError
 from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
 from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
 from ..geometry.exact_lp import decide_above
-from ..geometry.lp import certified_width_below, highs_lp, verified_lp
+from ..geometry.lp import certified_width_below, highs_lp, solve_slack_lp, verified_lp, width_proven_above
 from ..status import Status
 from ..tolerances import (
     BALL_WIDTH_RTOL,
@@ -104,8 +104,6 @@ def _slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold: flo
     called empty from a point at slack -3.4e-6.  One LP is counted per call, as
     ``solve_slack_lp`` does.
     """
-    from ..geometry.lp import solve_slack_lp
-
     try:
         res = solve_slack_lp(A, bu, radius_bound, threshold, problem, tight_attempt=_TIGHT)
     except SolverError:
@@ -318,6 +316,9 @@ class SubspaceDirections:
     full_rank: tuple[bool, bool]
     thinnest: tuple[np.ndarray, np.ndarray]
     same_state_directions: bool
+    #: ``|thinnest[k]|`` (ordered sums), and ``N_x - N_x^`` (how the frame moves the two states apart)
+    thinnest_norm: tuple[float, float] = (0.0, 0.0)
+    state_difference: np.ndarray | None = None
 
     @staticmethod
     def of(N: np.ndarray, n: int, equalities: tuple[np.ndarray, int] | None = None) -> "SubspaceDirections":
@@ -338,7 +339,8 @@ class SubspaceDirections:
             J = np.zeros((n, E.shape[1]))
             J[:, :n], J[:, n:2 * n] = np.eye(n), -np.eye(n)
             same = numerical_rank(svd(np.vstack([E, J]), compute_uv=False), RANK_RTOL) == rank
-        return SubspaceDirections((full[0], full[1]), (thin[0], thin[1]), same)
+        return SubspaceDirections((full[0], full[1]), (thin[0], thin[1]), same, (norm(thin[0]), norm(thin[1])),
+                                  N[:n] - N[n:2 * n])
 
 
 class _Frame:
@@ -376,7 +378,7 @@ class _Frame:
         if not thin_filter or A.shape[0] <= 1:
             return False
         c = self.directions.thinnest[part]
-        if self.ball * norm(c) > REGION_SLACK_TOL * (1.0 + BALL_WIDTH_RTOL):
+        if self.ball * self.directions.thinnest_norm[part] > REGION_SLACK_TOL * (1.0 + BALL_WIDTH_RTOL):
             # a ball of radius `ball` lies in the set, so its width along c is at least
             # 2 ball |c| > 2 REGION_SLACK_TOL: the width LPs could not certify thinness (no LP)
             return False
@@ -386,7 +388,7 @@ class _Frame:
     def distinct_states(self) -> bool:
         """Does the set hold a point with ``|x - x^| > DISTINCT_STATE_TOL`` (else certified not)?"""
         n = self.n
-        Dm = self.Nh[:n] - self.Nh[n:2 * n]
+        Dm = self.directions.state_difference
         d0 = self.wh[:n] - self.wh[n:2 * n]
         if self.directions.same_state_directions:
             return bool(np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
@@ -495,6 +497,8 @@ class _ThinCertifier:
         self.N, self.n, self.R = N, n, radius_bound
         A, bu = lp.A, lp.bu
         self.relaxed = (np.ascontiguousarray(A[:-1, :-1]), np.ascontiguousarray(bu[:-1] + CLOSED_SET_TOL)) if A.shape[0] > 1 else None
+        #: the first LP's point, where the walks of a width test start (inside the relaxed set, as a rule)
+        self.point = lp.centre if lp.centre is not None and np.shape(lp.centre) == (A.shape[1] - 1,) else None
         self.thin_found: set[int] = set()  # projections certified thin (a fact about the set, whatever the frame)
         self.tried: dict[int, list[np.ndarray]] = {}  # flat directions already measured, per projection
         self.tight: dict = {}  # the implicit equalities certified by the first LP, on the set `relaxed`
@@ -538,6 +542,8 @@ class _ThinCertifier:
         if "rows" in self.tight and _tight_width_bound(self.relaxed[0], self.tight["rows"], self.tight["slack"], c, self.R) \
                 <= 2.0 * REGION_SLACK_TOL - EXACT_DECISION_MARGIN:
             return True  # certified by the first LP's multipliers, no width LP (see _tight_width_bound)
+        if self.point is not None and width_proven_above(self.relaxed[0], self.relaxed[1], c, self.point, 2.0 * REGION_SLACK_TOL):
+            return False  # two points of the relaxed set are proven farther apart: no width LP
         return certified_width_below(self.relaxed[0], self.relaxed[1], c, radius_bound=self.R, width=2.0 * REGION_SLACK_TOL)
 
 
@@ -573,15 +579,18 @@ def _reduce_to_hull(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, radius_bound:
     for step in range(Gv.shape[1]):
         if lp.radius > REGION_SLACK_TOL:
             break
-        # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s)
-        red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), lp, radius_bound + norm(s0),
-                             tight=certifier.tight if step == 0 else None)
+        # |s| <= |v - s0| <= R + |s0| in the frame's coordinates s (v = s0 + M s); in the first
+        # frame (M = I, s0 = 0) the ordered products are Gv + 0.0 and 0, bit for bit, without the sums
+        if step == 0:
+            red = _affine_reduce(Gv + 0.0, gv - 0.0, lp, radius_bound + 0.0, tight=certifier.tight)
+        else:
+            red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), lp, radius_bound + norm(s0))
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
         if red is PairVerdict.EMPTY:
             return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
         M2, t0 = red
-        s0, M = s0 + mm(M, t0), mm(M, M2)
+        s0, M = (s0 + mm(M, t0), mm(M, M2)) if step else (t0 + 0.0, M2 + 0.0)  # M = I, s0 = 0: the same bits
         NM = mm(N, M)
         for k, p in enumerate(parts):
             if p is not None and not verdicts[k] and certifier.confirmed_thin(p, NM):

@@ -87,15 +87,15 @@ def group_level_data(enum, depths) -> list[GroupLevelRows]:
 
 
 def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.ndarray, want_ij: np.ndarray,
-                       want_ji: np.ndarray) -> tuple[list[tuple[int, int]], int]:
+                       want_ji: np.ndarray) -> tuple[np.ndarray, int]:
     """Run the group tests over the candidate pairs ``(caller[k], other[k])``; clears the wants they decide.
 
     ``want_ij[k]``: ``R_ij`` (projection on ``x`` of the caller's region) is still to be decided;
     ``want_ji[k]``: ``R_ji`` too (the same set, projected on ``x^``).  Both arrays are updated in
     place.  Returns the ordered pairs ruled out (``(i, j)`` for ``R_ij``, ``(j, i)`` for ``R_ji``)
-    and the number of groups tested.
+    as a ``(k, 2)`` int32 array, in the order the groups ruled them out, and the number of groups tested.
     """
-    ruled: list[tuple[int, int]] = []
+    ruled: list[np.ndarray] = []
     n_tests = 0
     for li, level in enumerate(levels):
         live = np.nonzero(want_ij | want_ji)[0]
@@ -140,13 +140,13 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
                     done_b = done_b or (ok_b and verdict.verdict_ji != PairVerdict.PIECE)
             if done_a:
                 hit = members[want_ij[members]]
-                ruled.extend((int(caller[k]), int(other[k])) for k in hit)
+                ruled.append(np.stack([caller[hit], other[hit]], axis=1))
                 want_ij[hit] = False
             if done_b:
                 hit = members[want_ji[members]]
-                ruled.extend((int(other[k]), int(caller[k])) for k in hit)
+                ruled.append(np.stack([other[hit], caller[hit]], axis=1))
                 want_ji[hit] = False
-    return ruled, n_tests
+    return (np.concatenate(ruled).astype(np.int32) if ruled else np.zeros((0, 2), dtype=np.int32)), n_tests
 
 
 __all__ = ["GroupLevel", "GroupLevelRows", "group_depths", "group_level_data", "rule_out_by_groups"]

@@ -202,11 +202,9 @@ def test_model17_T9_faces_found_lower_dimensional():
     (radius -1.2e-12), so the whole equality subspace was kept as the frame."""
     import importlib.util
 
-    from hybobs_opt.geometry._lp_kernels import restricted_pair_rows
     from hybobs_opt.regions import PairVerdict, enumerate_modes
     from hybobs_opt.regions.pair_algebra import PairAlgebra as _PairAlgebra, _scaled_regions
     from hybobs_opt.regions.pair_geometry import classify_pair
-    from hybobs_opt.tolerances import EQUALITY_CONSISTENCY_RTOL
 
     enum = enumerate_modes(get_example("powertrain5").build(), 9)
     n = enum.system.n
@@ -214,13 +212,9 @@ def test_model17_T9_faces_found_lower_dimensional():
     alg = _PairAlgebra(sc, n)
 
     def verdict(i, j, part):  # as _pair_lps decides R_ij (part 0) or R_ji (part 1)
-        HxI, HUI, hI, _, _, fI = sc[i]
-        HxJ, HUJ, hJ, _, _, fJ = sc[j]
-        U, S, Vt, r, N, dirs = alg.equality_svd(alg.cls[i], np.array([alg.cls[j]]))[0]
-        Gv, gv, w0, ok = restricted_pair_rows(HxI, HUI, hI, HxJ, HUJ, hJ, U, S, Vt, r, N, fJ - fI, EQUALITY_CONSISTENCY_RTOL)
-        assert ok
-        R = np.sqrt(2 * HxI.shape[1] + HUI.shape[1]) + np.linalg.norm(w0)
-        v = classify_pair(Gv, gv, N, w0, n, R, part == 0, part == 1, directions=dirs)
+        rows = alg.restricted_rows(i, [j])[0]
+        assert rows is not None
+        v = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, n, rows.radius_bound, part == 0, part == 1, directions=rows.directions)
         return v.verdict if part == 0 else v.verdict_ji
 
     assert verdict(583, 635, 0) is PairVerdict.LOWER_DIMENSIONAL
