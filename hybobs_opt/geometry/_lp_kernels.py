@@ -516,5 +516,6 @@ def _walk_width_numpy(A, b, p, c, steps, frac, target):
 # numba dispatchers when the cache holds them, else plain Python in this process (see _numba_cache);
 # tiered, the walk runs as NumPy until the switch (as Python loops it costs milliseconds a call)
 COMPILED = _finalize_kernels(globals(), tiered=True, weight=10, python={"walk_width_lower_bound": _walk_width_numpy})
-if not COMPILED:
-    walk_width_lower_bound = _walk_width_numpy  # noqa: F811 (the kernel's NumPy twin: same bits)
+#: What callers use: the kernel (tiered or compiled), or its NumPy twin (same bits) when the
+#: kernels stay Python in this process.
+walk_width = walk_width_lower_bound if COMPILED else _walk_width_numpy

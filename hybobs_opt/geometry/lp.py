@@ -788,7 +788,7 @@ def row_range(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound, walk_width_lower_bound  # noqa: E402
+from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound, walk_width  # noqa: E402
 from ..tolerances import (DAQP_EPS_PROX, DAQP_POINT_RTOL, EXACT_DECISION_MARGIN, HIGHS_DECISION_BAND,  # noqa: E402
                           NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL)
 
@@ -1323,9 +1323,8 @@ def width_proven_above(A: np.ndarray, b: np.ndarray, c: np.ndarray, point: np.nd
     p = np.ascontiguousarray(point, dtype=float)
     if p.shape != (A.shape[1],) or A.shape[0] == 0:
         return False
-    lower = walk_width_lower_bound(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), p,
-                                   np.ascontiguousarray(c, dtype=float), WIDTH_WALK_STEPS, WIDTH_WALK_FRACTION,
-                                   width + 2.0 * EXACT_DECISION_MARGIN)
+    lower = walk_width(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), p,
+                       np.ascontiguousarray(c, dtype=float), WIDTH_WALK_STEPS, WIDTH_WALK_FRACTION, width + 2.0 * EXACT_DECISION_MARGIN)
     return bool(lower > width + EXACT_DECISION_MARGIN)
 
 
