@@ -19,7 +19,9 @@ like the thin ones (``n_pairs_dropped_thin``).
 
 LPs.  The width of a face along the direction its implicit equalities flatten is bounded from
 the very multipliers that certified those equalities (``pair_geometry._tight_width_bound``, no
-LP); the thin test is skipped when a certified Chebyshev ball is already too wide for it;
+LP); the thin test is skipped when a certified Chebyshev ball is already too wide for it, and
+its two LPs when two ratio-test walks from the ball's centre prove the set wide
+(``geometry.lp.width_proven_above``);
 undecided Chebyshev LPs get one more DAQP solve with a tight primal tolerance before HiGHS
 (``pair_geometry._slack_lp``).  Grouped pair tests (the default): one test of the pair set of
 two mode-sequence prefixes' supersets rules out every pair below them when that set is empty,
