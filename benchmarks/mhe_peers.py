@@ -342,6 +342,16 @@ def _peer(system) -> PeerWindow:
     return system if isinstance(system, PeerWindow) else PeerWindow(system)
 
 
+def _gurobi_objective(prog: dict, x):
+    """``c'x + sum_i Q_i x_i^2`` of a window's program (``Q`` diagonal) over Gurobi's variables ``x``."""
+    Q = prog["Q"]
+    obj = prog["c"] @ x
+    if np.any(Q):
+        qi = np.nonzero(Q)[0]
+        obj = obj + (x[qi] * Q[qi]) @ x[qi]
+    return obj
+
+
 def solve_window_gurobi(system, U, Y, norm: str = "2", *, formulation: str = "bigm", threads: int = 1,
                         time_limit: float | None = None, params: dict | None = None) -> PeerResult:
     """One window of eq. (10) by Gurobi.  ``system``: a PWASystem or a :class:`PeerWindow` (reuse it:
@@ -398,12 +408,7 @@ def solve_window_gurobi(system, U, Y, norm: str = "2", *, formulation: str = "bi
                     mdl.addGenConstrIndicator(xs[b], True, con)
         else:
             raise ValueError(f"formulation must be 'bigm' or 'indicator', got {formulation!r}")
-        Q = prog["Q"]
-        obj = prog["c"] @ x
-        if np.any(Q):
-            qi = np.nonzero(Q)[0]
-            obj = obj + (x[qi] * Q[qi]) @ x[qi]
-        mdl.setObjective(obj, GRB.MINIMIZE)
+        mdl.setObjective(_gurobi_objective(prog, x), GRB.MINIMIZE)
         build = time.perf_counter() - t0
         mdl.optimize()
         st = mdl.Status
@@ -534,12 +539,7 @@ def separated_minimum_gurobi(system, U, Y, norm: str, states, delta: float, *, t
                 for side, sg in enumerate((1.0, -1.0)):
                     d = 2 * (k * n + j) + side
                     mdl.addConstr(sg * xsl[k * n + j] - M * bl[d] >= delta - M + sg * xs[k, j])
-        Q = prog["Q"]
-        obj = prog["c"] @ x
-        if np.any(Q):
-            qi = np.nonzero(Q)[0]
-            obj = obj + (x[qi] * Q[qi]) @ x[qi]
-        mdl.setObjective(obj, GRB.MINIMIZE)
+        mdl.setObjective(_gurobi_objective(prog, x), GRB.MINIMIZE)
         mdl.optimize()
         st = mdl.Status
         out = {"status": {GRB.OPTIMAL: "optimal", GRB.INFEASIBLE: "infeasible"}.get(st, f"gurobi status {st}"),

@@ -110,6 +110,20 @@ EAGER_MAX_NODES = 400
 NODE_BYTES = {"node": 4096, "daqp": 16384, "highs": 163840, "per_entry": 64}
 
 
+def _run_highs(h, hs):
+    """Run HiGHS (``hs``: the ``highspy`` module) on its model as it stands; returns the model status.
+
+    A status other than optimal or infeasible gets one more run from scratch: HiGHS ends some warm
+    re-solves of a degenerate LP with "unknown"."""
+    h.run()
+    st = h.getModelStatus()
+    if st not in (hs.HighsModelStatus.kOptimal, hs.HighsModelStatus.kInfeasible):
+        h.clearSolver()
+        h.run()
+        st = h.getModelStatus()
+    return st
+
+
 def _checked_highs_point(h, G: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, n_cols: int):
     """``(x, y)``: the first ``n_cols`` entries of an optimal HiGHS point and its row duals, or ``None``
     when either is not finite or the point breaks a row ``G x <= g`` or a bound by more than
@@ -758,13 +772,7 @@ class SequenceLPSolver:
         h.changeRowsBounds(rows.size, rows, np.r_[np.full(k, -inf), -r, np.full(ng, -inf)],
                            np.r_[-r, np.full(k, inf), g])
         h.changeColsBounds(cols.size, cols, lo, hi)
-        h.run()
-        st = h.getModelStatus()
-        if st not in (hs.HighsModelStatus.kOptimal, hs.HighsModelStatus.kInfeasible):
-            # HiGHS ends some warm re-solves of a degenerate LP with "unknown": once more from scratch
-            h.clearSolver()
-            h.run()
-            st = h.getModelStatus()
+        st = _run_highs(h, hs)
         if st == hs.HighsModelStatus.kInfeasible:
             _, ok, ray = h.getDualRay()
             ray = np.asarray(ray, dtype=float) if ok and len(ray) == rows.size else None
@@ -1408,12 +1416,7 @@ class SequenceLPSolver:
         h.changeRowsBounds(rows.size, rows, np.r_[np.full(k, -inf), -r, np.full(ng, -inf), beta],
                            np.r_[-r, np.full(k, inf), g, inf])
         h.changeColsBounds(cols.size, cols, self.lo, self.hi)
-        h.run()
-        st = h.getModelStatus()
-        if st not in (hs.HighsModelStatus.kOptimal, hs.HighsModelStatus.kInfeasible):
-            h.clearSolver()
-            h.run()
-            st = h.getModelStatus()
+        st = _run_highs(h, hs)
         one = lambda mu, lam: self._row_bounds(nd, mu[None, :], lam[None, :], r, g, a[None, :],  # noqa: E731
                                                 np.array([beta]))[0]
         if st == hs.HighsModelStatus.kInfeasible:
