@@ -338,10 +338,188 @@ def _singular_values_numpy(Ms, tol, max_sweeps):
     return np.array([_svd_tall_numpy(np.ascontiguousarray(M))[1] for M in Ms]).reshape(Ms.shape[0], Ms.shape[2])
 
 
+@kernel(cache=True)
+def _lstsq_columns_kernel(A, cols, p, b, tol, max_sweeps):
+    """:func:`lstsq` of ``A[:, cols[:p]]`` and ``b``, the same operations in the same order, in
+    ``(x, ok)`` (``x`` of length ``p``; ``ok`` False for a non-finite entry).  The wide case
+    (fewer rows than columns) is the SVD of the transpose, as :func:`svd` computes it."""
+    m = A.shape[0]
+    S = np.empty((m, p))
+    for i in range(m):
+        for c in range(p):
+            S[i, c] = A[i, cols[c]]
+    x = np.zeros(p)
+    if m == 0 or p == 0:
+        return x, True
+    if m >= p:
+        L, s, Rt, ok = _svd_tall_kernel(S, tol, max_sweeps)  # S = L[:, :p] diag(s) Rt'
+    else:
+        Rt, s, L, ok = _svd_tall_kernel(np.ascontiguousarray(S.T), tol, max_sweeps)  # S' = Rt[:, :m] diag(s) L'
+    if not ok:
+        return x, False
+    q = s.shape[0]
+    cut = np.finfo(np.float64).eps * max(m, p) * s[0]
+    r = 0
+    for a in range(q):
+        if s[a] > cut:
+            r += 1
+    coef = np.empty(r)
+    for a in range(r):
+        acc = 0.0
+        for t in range(m):
+            acc += L[t, a] * b[t]
+        coef[a] = acc / s[a]
+    for t in range(p):
+        acc = 0.0
+        for a in range(r):
+            acc += Rt[t, a] * coef[a]
+        x[t] = acc
+    return x, True
+
+
+@kernel(cache=True)
+def _nnls_kernel(A, b, limit, tol_jacobi, max_sweeps):
+    """:func:`_nnls_python` in one compiled call: the same operations in the same order.
+
+    Returns ``(x, residual norm, status)``: 0 solved, 1 the iteration limit, 2 a NaN or an
+    infinity met on the way (in the data or an iterate), where :func:`nnls` hands the problem to
+    :func:`_nnls_python`, whose NumPy reductions decide what a NaN does.
+    """
+    m, k = A.shape
+    eps = np.finfo(np.float64).eps
+    big = 0.0
+    for i in range(m):
+        if not np.isfinite(b[i]):
+            return np.zeros(k), 0.0, 2
+        for c in range(k):
+            if not np.isfinite(A[i, c]):
+                return np.zeros(k), 0.0, 2
+            if abs(A[i, c]) > big:
+                big = abs(A[i, c])
+    tol = 10.0 * eps * max(m, k) * max(big, 1.0)
+    x = np.zeros(k)
+    passive = np.zeros(k, dtype=np.bool_)
+    w = np.zeros(k)
+    resid = np.empty(m)
+    cols = np.empty(k, dtype=np.int64)
+    it = 0
+    for i in range(m):  # w = A' (b - A x)
+        acc = 0.0
+        for c in range(k):
+            acc += A[i, c] * x[c]
+        resid[i] = b[i] - acc
+    for c in range(k):
+        acc = 0.0
+        for i in range(m):
+            acc += A[i, c] * resid[i]
+        w[c] = acc
+    while True:
+        j = -1
+        best = -np.inf
+        for c in range(k):  # the first largest w of an inactive column
+            if not passive[c]:
+                if not np.isfinite(w[c]):
+                    return x, 0.0, 2
+                if w[c] > best:
+                    best = w[c]
+                    j = c
+        if j < 0 or not best > tol:
+            break
+        passive[j] = True
+        while True:
+            it += 1
+            if it > limit:
+                return x, 0.0, 1
+            p = 0
+            for c in range(k):
+                if passive[c]:
+                    cols[p] = c
+                    p += 1
+            zp, ok = _lstsq_columns_kernel(A, cols, p, b, tol_jacobi, max_sweeps)
+            z = np.zeros(k)
+            positive = True
+            for t in range(p):
+                if not (ok and np.isfinite(zp[t])):
+                    return x, 0.0, 2
+                z[cols[t]] = zp[t]
+                if not zp[t] > 0.0:
+                    positive = False
+            if positive:
+                x = z
+                break
+            alpha = np.inf
+            for t in range(p):
+                c = cols[t]
+                if z[c] <= 0.0:
+                    ratio = x[c] / (x[c] - z[c])
+                    if np.isnan(ratio):
+                        return x, 0.0, 2
+                    if ratio < alpha:
+                        alpha = ratio
+            for c in range(k):
+                x[c] = x[c] + alpha * (z[c] - x[c])
+            for c in range(k):
+                if passive[c] and x[c] <= tol:
+                    passive[c] = False
+                if not passive[c]:
+                    x[c] = 0.0
+        for i in range(m):
+            acc = 0.0
+            for c in range(k):
+                acc += A[i, c] * x[c]
+            resid[i] = b[i] - acc
+        for c in range(k):
+            acc = 0.0
+            for i in range(m):
+                acc += A[i, c] * resid[i]
+            w[c] = acc
+    ss = 0.0
+    for i in range(m):
+        acc = 0.0
+        for c in range(k):
+            acc += A[i, c] * x[c]
+        v = acc - b[i]
+        ss += v * v
+    return x, np.sqrt(ss), 0
+
+
+def _nnls_python(A: np.ndarray, b: np.ndarray, limit: int, tol_jacobi: float, max_sweeps: int):
+    """The active-set method of :func:`nnls` in NumPy: ``(x, residual norm, status)``, status 1 at
+    the iteration limit (``tol_jacobi`` and ``max_sweeps`` are :func:`svd`'s, which it calls)."""
+    m, k = A.shape
+    x = np.zeros(k)
+    passive = np.zeros(k, dtype=bool)
+    At = np.ascontiguousarray(A.T)
+    tol = 10.0 * np.finfo(float).eps * max(m, k) * max(float(np.max(np.abs(A), initial=0.0)), 1.0)
+    it = 0
+    w = matmul(At, b - matmul(A, x))
+    while not passive.all() and np.max(np.where(passive, -np.inf, w)) > tol:
+        j = int(np.argmax(np.where(passive, -np.inf, w)))
+        passive[j] = True
+        while True:
+            it += 1
+            if it > limit:
+                return x, 0.0, 1
+            idx = np.nonzero(passive)[0]
+            z = np.zeros(k)
+            z[idx] = lstsq(A[:, idx], b)
+            if np.all(z[idx] > 0.0):
+                x = z
+                break
+            neg = idx[z[idx] <= 0.0]
+            alpha = float(np.min(x[neg] / (x[neg] - z[neg])))
+            x = x + alpha * (z - x)
+            passive &= ~((x <= tol) & passive)
+            x[~passive] = 0.0
+        w = matmul(At, b - matmul(A, x))
+    return x, norm(matmul(A, x) - b), 0
+
+
 # tiered: the NumPy versions run until the process has done enough kernel work (see _numba_cache)
 COMPILED = finalize_kernels(globals(), tiered=True, weight=1,
                             python={"_matmul_kernel": _matmul_numpy, "_jacobi_kernel": _jacobi_numpy,
-                                    "_complete_kernel": _complete_numpy, "_singular_values_kernel": _singular_values_numpy})
+                                    "_complete_kernel": _complete_numpy, "_singular_values_kernel": _singular_values_numpy,
+                                    "_nnls_kernel": _nnls_python})
 _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
@@ -527,38 +705,22 @@ def nnls(a, b, max_iter: int | None = None) -> tuple[np.ndarray, float]:
     """``min |a x - b|, x >= 0`` by the active-set method of Lawson & Hanson (1974, ch. 23), as ``scipy.optimize.nnls``.
 
     Returns ``(x, residual norm)``; raises ``RuntimeError`` when the iteration limit
-    (``3 k`` by default, SciPy's) is reached, as SciPy does.
+    (``3 k`` by default, SciPy's) is reached, as SciPy does.  Compiled in one call when the
+    kernels are (the same bits: every sub-problem's least squares is :func:`lstsq`'s).
     """
-    A = _as2d(a)
-    b = np.asarray(b, dtype=float)
-    m, k = A.shape
-    limit = 3 * k if max_iter is None else max_iter
-    x = np.zeros(k)
-    passive = np.zeros(k, dtype=bool)
-    At = np.ascontiguousarray(A.T)
-    tol = 10.0 * np.finfo(float).eps * max(m, k) * max(float(np.max(np.abs(A), initial=0.0)), 1.0)
-    it = 0
-    w = matmul(At, b - matmul(A, x))
-    while not passive.all() and np.max(np.where(passive, -np.inf, w)) > tol:
-        j = int(np.argmax(np.where(passive, -np.inf, w)))
-        passive[j] = True
-        while True:
-            it += 1
-            if it > limit:
-                raise RuntimeError("nnls: iteration limit reached")
-            idx = np.nonzero(passive)[0]
-            z = np.zeros(k)
-            z[idx] = lstsq(A[:, idx], b)
-            if np.all(z[idx] > 0.0):
-                x = z
-                break
-            neg = idx[z[idx] <= 0.0]
-            alpha = float(np.min(x[neg] / (x[neg] - z[neg])))
-            x = x + alpha * (z - x)
-            passive &= ~((x <= tol) & passive)
-            x[~passive] = 0.0
-        w = matmul(At, b - matmul(A, x))
-    return x, norm(matmul(A, x) - b)
+    A = np.ascontiguousarray(_as2d(a))
+    b = np.ascontiguousarray(np.asarray(b, dtype=float))
+    if A.ndim != 2 or b.shape != (A.shape[0],):
+        raise ValueError(f"nnls: a 2-D matrix and a vector of its rows expected, got shapes {A.shape} and {b.shape}")
+    limit = 3 * A.shape[1] if max_iter is None else int(max_iter)
+    status = 2
+    if COMPILED:
+        x, rnorm, status = _nnls_kernel(A, b, limit, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    if status == 2:
+        x, rnorm, status = _nnls_python(A, b, limit, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    if status == 1:
+        raise RuntimeError("nnls: iteration limit reached")
+    return x, float(rnorm)
 
 
 __all__ = ["COMPILED", "dot", "lstsq", "matmul", "nnls", "norm", "numerical_rank", "pinv", "row_norms", "svd"]

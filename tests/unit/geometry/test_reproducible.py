@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from scipy.optimize import nnls as scipy_nnls
 
+from hybobs_opt._numba_cache import tier_up
 from hybobs_opt.defaults import JACOBI_MAX_SWEEPS
 from hybobs_opt.geometry import _reproducible as R
 from hybobs_opt.tolerances import JACOBI_TOL
@@ -174,6 +175,46 @@ def test_lstsq_and_nnls_against_numpy_and_scipy():
         grad = A.T @ (A @ x - b)
         assert np.all(grad >= -1e-9 * (1 + np.abs(A).T @ np.abs(b)))
         assert np.all(np.abs(grad[x > 0]) <= 1e-9 * (1 + np.abs(A).T @ np.abs(b))[x > 0])
+
+
+def _nnls_cases(rng):
+    """Random NNLS problems: tall, wide, rank-deficient, and the multiplier fits of the pair tests
+    (``[G_A'; 1] lam = e_last``: unit rows with a sum-to-one row)."""
+    for trial in range(400):
+        m, k = (int(v) for v in rng.integers(1, 16, size=2))
+        A, b = rng.normal(size=(m, k)) * 10.0 ** rng.integers(-3, 3), rng.normal(size=m)
+        if trial % 3 == 0 and k > 1:
+            A[:, -1] = A[:, 0]
+        if trial % 4 == 0:
+            G = rng.normal(size=(k, m))
+            G /= np.linalg.norm(G, axis=1, keepdims=True)
+            A, b = np.vstack([G.T, np.ones((1, k))]), np.append(np.zeros(m), 1.0)
+        yield np.ascontiguousarray(A), b
+
+
+def test_compiled_nnls_is_the_numpy_twin_bit_for_bit():
+    """The one-call NNLS kernel gives the bits of the NumPy active-set method (every iterate's least
+    squares by the reproducible SVD), its status at the iteration limit included; a NaN sends
+    :func:`nnls` to the NumPy method, whose answer it returns."""
+    tier_up()  # the kernel name reaches the compiled kernel (or the plain Python loops without numba's cache)
+    rng = np.random.default_rng(31)
+    n_limit = 0
+    for A, b in _nnls_cases(rng):
+        for limit in (3 * A.shape[1], 1):
+            got = R._nnls_kernel(A, b, limit, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+            want = R._nnls_python(A, b, limit, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+            assert got[2] == want[2] and np.array_equal(got[0], want[0]) and got[1] == want[1]
+            n_limit += want[2] == 1
+    assert n_limit > 50  # the limit was reached, and reported alike
+    with pytest.raises(RuntimeError, match="iteration limit"):
+        R.nnls(*next(_nnls_cases(np.random.default_rng(31))), max_iter=0)
+    A = np.array([[1.0, np.nan], [0.5, 2.0]])
+    assert R._nnls_kernel(A, np.ones(2), 6, JACOBI_TOL, JACOBI_MAX_SWEEPS)[2] == 2
+    x, res = R.nnls(A, np.ones(2))
+    want = R._nnls_python(A, np.ones(2), 6, JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    assert np.array_equal(x, want[0]) and (res == want[1] or (np.isnan(res) and np.isnan(want[1])))
+    with pytest.raises(ValueError, match="nnls"):
+        R.nnls(np.ones((3, 2)), np.ones(2))
 
 
 _CHILD = r"""
