@@ -195,15 +195,20 @@ def restricted_region_rows(Hx, HU, N, off):
     q = N.shape[1]
     G = np.zeros((Hx.shape[0], q))
     for row in range(Hx.shape[0]):
-        # inner loops run along the rows of N (contiguous): LLVM vectorises them
+        # inner loops run along the rows of N (contiguous): LLVM vectorises them.  A zero
+        # coefficient is skipped: its products are zeros, which leave every partial sum's bits
+        # as they are (a sum started at +0.0 never becomes -0.0), and a row of HU is zero on the
+        # inputs after its step.
         for t in range(n):
             a = Hx[row, t]
-            for c in range(q):
-                G[row, c] += a * N[off + t, c]
+            if a != 0.0:
+                for c in range(q):
+                    G[row, c] += a * N[off + t, c]
         for t in range(mU):
             a = HU[row, t]
-            for c in range(q):
-                G[row, c] += a * N[2 * n + t, c]
+            if a != 0.0:
+                for c in range(q):
+                    G[row, c] += a * N[2 * n + t, c]
     return G
 
 
@@ -222,53 +227,79 @@ def _restrict_rhs(Hx, HU, h, w0, off, base, g):
 
 
 @kernel(cache=True)
-def restricted_pair_rows(HxI, HUI, hI, GI, HxJ, HUJ, hJ, U, s, Vt, r, N, e, consistency_rtol):
-    """Constraints of ``R_ij`` restricted to its output-equality subspace ``w = w0 + N v``.
+def restricted_pairs_rows(HxI, HUI, hI, fI, GI, Hx, HU, h, F, offsets, js, U, s, Vt, r, N, consistency_rtol):
+    """Constraints of the pair sets ``R_ij``, ``j`` in ``js``, restricted to their output-equality subspace ``w = w0 + N v``.
 
-    ``HxI x + HUI U <= hI`` and ``HxJ x^ + HUJ U <= hJ`` are the rows of ``P_i`` and ``P_j``
-    over ``w = (x, x^, U)`` (so the rows of ``P_i`` are zero on ``x^`` and those of ``P_j`` on
-    ``x``, which the loops skip); ``GI`` is :func:`restricted_region_rows` of ``P_i`` (offset 0)
-    on ``N``.  The equalities ``E w = e`` are given by the SVD ``E = U diag(s) Vt`` of numerical
-    rank ``r``, so ``w0 = Vt[:r]' (U[:, :r]' e / s[:r])``, and ``N = Vt[r:]'`` is passed as a
-    contiguous array.
+    The regions ``j`` are of one output-map class, so the pairs share the equalities ``E w = e_j``
+    (``E = [C_i, -C_j, D_i - D_j]``, ``e_j = f_j - f_i``), given by the SVD ``E = U diag(s) Vt``
+    of numerical rank ``r``: ``w0 = Vt[:r]' (U[:, :r]' e_j / s[:r])`` and ``N = Vt[r:]'``
+    (contiguous).  ``HxI x + HUI U <= hI`` are the rows of ``P_i`` over ``w = (x, x^, U)`` (zero
+    on ``x^``), ``fI`` its output offsets and ``GI`` its :func:`restricted_region_rows` (offset
+    0) on ``N``; ``Hx, HU, h, F`` hold every region's rows and output offsets stacked (region
+    ``j``'s rows are ``offsets[j]:offsets[j + 1]``, zero on ``x``).
 
-    Returns ``(G, g, w0, consistent)``: ``G v <= g`` in the subspace coordinates ``v``, and
-    ``consistent = False`` when ``e`` is not in ``range(E)`` (relative residual above
-    ``consistency_rtol``), i.e. the outputs can never be equal.
+    Returns ``(G, g, W0, consistent, start, w0_norm)``: ``G v <= g`` of the ``t``-th pair are
+    the rows ``start[t]:start[t + 1]``, none when ``consistent[t]`` is False (``e_j`` not in
+    ``range(E)``: relative residual above ``consistency_rtol``, the outputs can never be equal);
+    ``W0[t]`` is its ``w0`` and ``w0_norm[t]`` that vector's norm (the sum of squares left to
+    right).
     """
+    k = js.shape[0]
     p = U.shape[0]
     dim = Vt.shape[0]
     n = HxI.shape[1]
     q = dim - r
+    nI = HxI.shape[0]
+    start = np.zeros(k + 1, dtype=np.int64)
+    for t in range(k):
+        start[t + 1] = start[t] + nI + offsets[js[t] + 1] - offsets[js[t]]
+    G = np.empty((start[k], q))
+    g = np.empty(start[k])
+    W0 = np.zeros((k, dim))
+    consistent = np.zeros(k, dtype=np.bool_)
+    w0_norm = np.zeros(k)
+    e = np.empty(p)
     coef = np.zeros(r)
-    for a in range(r):
-        acc = 0.0
+    end = 0
+    for t in range(k):
+        j = js[t]
         for b in range(p):
-            acc += U[b, a] * e[b]
-        coef[a] = acc
-    resid2 = 0.0
-    enorm2 = 0.0
-    for b in range(p):
-        acc = e[b]
+            e[b] = F[j, b] - fI[b]
         for a in range(r):
-            acc -= U[b, a] * coef[a]
-        resid2 += acc * acc
-        enorm2 += e[b] * e[b]
-    if np.sqrt(resid2) > consistency_rtol * (1.0 + np.sqrt(enorm2)):
-        return np.zeros((0, q)), np.zeros(0), np.zeros(dim), False
-    w0 = np.zeros(dim)
-    for a in range(r):
-        ca = coef[a] / s[a]
-        for t in range(dim):
-            w0[t] += Vt[a, t] * ca
-    nI, nJ = HxI.shape[0], HxJ.shape[0]
-    G = np.empty((nI + nJ, q))
-    g = np.empty(nI + nJ)
-    G[:nI] = GI
-    G[nI:] = restricted_region_rows(HxJ, HUJ, N, n)
-    _restrict_rhs(HxI, HUI, hI, w0, 0, 0, g)
-    _restrict_rhs(HxJ, HUJ, hJ, w0, n, nI, g)
-    return G, g, w0, True
+            acc = 0.0
+            for b in range(p):
+                acc += U[b, a] * e[b]
+            coef[a] = acc
+        resid2 = 0.0
+        enorm2 = 0.0
+        for b in range(p):
+            acc = e[b]
+            for a in range(r):
+                acc -= U[b, a] * coef[a]
+            resid2 += acc * acc
+            enorm2 += e[b] * e[b]
+        if np.sqrt(resid2) > consistency_rtol * (1.0 + np.sqrt(enorm2)):
+            start[t] = end  # no rows: the pairs after it move up
+            continue
+        consistent[t] = True
+        for a in range(r):
+            ca = coef[a] / s[a]
+            for c in range(dim):
+                W0[t, c] += Vt[a, c] * ca
+        lo, hi = offsets[j], offsets[j + 1]
+        G[end:end + nI] = GI
+        G[end + nI:end + nI + hi - lo] = restricted_region_rows(Hx[lo:hi], HU[lo:hi], N, n)
+        w0 = W0[t]
+        _restrict_rhs(HxI, HUI, hI, w0, 0, end, g)
+        _restrict_rhs(Hx[lo:hi], HU[lo:hi], h[lo:hi], w0, n, end + nI, g)
+        acc = 0.0
+        for c in range(dim):
+            acc += w0[c] * w0[c]
+        w0_norm[t] = np.sqrt(acc)
+        start[t] = end
+        end += nI + hi - lo
+    start[k] = end
+    return G[:end], g[:end], W0, consistent, start, w0_norm
 
 
 @kernel(cache=True)

@@ -8,12 +8,13 @@ output equalities of ``R_ij``, computed once per pair of output-map classes.
 from __future__ import annotations
 
 import pickle
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry._lp_kernels import restricted_pair_rows, restricted_region_rows
-from ..geometry._reproducible import matmul as mm, norm, numerical_rank, numerical_ranks, row_norms, singular_values, svd
+from ..geometry._lp_kernels import restricted_pairs_rows, restricted_region_rows
+from ..geometry._reproducible import matmul as mm, numerical_rank, numerical_ranks, row_norms, singular_values, svd
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
 from .pair_geometry import SubspaceDirections
 
@@ -40,8 +41,33 @@ def scaled_rows(regions, n: int, scale: np.ndarray, centre: np.ndarray):
     Cs, Ds = C * sx, D * su
     rows = np.cumsum([0] + [reg.H.shape[0] for reg in regions])
     outs = np.cumsum([0] + [reg.C.shape[0] for reg in regions])
+    if len({reg.C.shape[0] for reg in regions}) == 1:
+        k, p = len(regions), regions[0].C.shape[0]
+        return ScaledRows(rows, Hx, HU, h, Cs.reshape(k, p, -1), Ds.reshape(k, p, -1), f.reshape(k, p))
     return [(Hx[a:b], HU[a:b], h[a:b], Cs[p:q], Ds[p:q], f[p:q])
             for a, b, p, q in zip(rows[:-1], rows[1:], outs[:-1], outs[1:])]
+
+
+class ScaledRows(Sequence):
+    """The scaled rows and output maps of many regions (:func:`scaled_rows`), stacked.
+
+    Item ``k`` is ``(Hx, HU, h, C, D, f)`` of region ``k`` (views); the stacked arrays are
+    attributes: region ``k``'s rows are ``offsets[k]:offsets[k + 1]`` of ``Hx, HU, h``, its
+    output map ``C[k], D[k], f[k]`` (every region has as many outputs).  The pair tests pass the
+    stacks to one compiled call for many regions (:meth:`PairAlgebra.restricted_rows`).
+    """
+
+    def __init__(self, offsets, Hx, HU, h, C, D, f):
+        self.offsets = np.asarray(offsets, dtype=np.int64)
+        self.Hx, self.HU, self.h, self.C, self.D, self.f = Hx, HU, h, C, D, f
+        self._items = [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k])
+                       for k, (a, b) in enumerate(zip(self.offsets[:-1].tolist(), self.offsets[1:].tolist()))]
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, k):
+        return self._items[k]
 
 
 def _scaled_regions(enum):
@@ -105,6 +131,12 @@ class PairAlgebra:
             self.cls[k] = index[key]
         self.C = np.stack([scaled[k][3] for k in reps])
         self.D = np.stack([scaled[k][4] for k in reps])
+        if not isinstance(scaled, ScaledRows):
+            scaled = ScaledRows(np.cumsum([0] + [t[0].shape[0] for t in scaled]), np.vstack([t[0] for t in scaled]),
+                                np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
+                                np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]),
+                                np.stack([t[5] for t in scaled]))
+        self._stacked = (scaled.Hx, scaled.HU, scaled.h, scaled.f, scaled.offsets)
         n_cls = len(reps)
         self._screened = np.zeros((n_cls, n_cls), dtype=bool)
         self._screen = np.zeros((n_cls, n_cls), dtype=bool)
@@ -155,6 +187,10 @@ class PairAlgebra:
         (ranks and thinnest functionals of the projections on ``x`` and ``x^``, and whether the
         subspace moves them together), shared by every region pair of the two classes.
         """
+        a = int(a)
+        found = [self._svd.get((a, b)) for b in np.asarray(bs).tolist()]
+        if None not in found:
+            return found
         new = [b for b in distinct_ints(bs) if (a, int(b)) not in self._svd]
         if new:
             Ca, Da = self.C[a], self.D[a]
@@ -170,40 +206,49 @@ class PairAlgebra:
         """The rows of ``R_ij`` on its output-equality subspace, per ``j`` in ``js`` (scaled ``w = (x, x^, U)``).
 
         ``None`` where the output equalities ``C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i`` have
-        no solution, else a :class:`RestrictedPair`.
+        no solution, else a :class:`RestrictedPair`.  The subspace depends on the classes of ``i``
+        and ``j`` only: ``P_i``'s rows on it are computed once per class of ``j``, and the pairs
+        of one class in one compiled call (:func:`~hybobs_opt.geometry._lp_kernels.restricted_pairs_rows`).
         """
         js = np.asarray(js, dtype=int)
         if js.size == 0:
             return []
         HxI, HUI, hI, _, _, fI = self.scaled[i]
         radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
-        out = []
-        rows_i: dict[int, np.ndarray] = {}  # P_i's rows on the subspace of each class of j: shared by its regions
-        for j, cj, (U_, S_, Vt, r, N, directions) in zip(js, self.cls[js], self.equality_svd(self.cls[i], self.cls[js])):
-            HxJ, HUJ, hJ, _, _, fJ = self.scaled[j]
-            GI = rows_i.get(cj)
-            if GI is None:
-                GI = rows_i[cj] = restricted_region_rows(HxI, HUI, N, 0)
-            Gv, gv, w0, consistent = restricted_pair_rows(HxI, HUI, hI, GI, HxJ, HUJ, hJ, U_, S_, Vt, r, N, fJ - fI,
-                                                          EQUALITY_CONSISTENCY_RTOL)
-            out.append(RestrictedPair(Gv, gv, w0, N, directions, radius0 + norm(w0)) if consistent else None)
+        Hx, HU, h, F, offsets = self._stacked
+        out: list[RestrictedPair | None] = [None] * js.size
+        cls_js = self.cls[js]
+        classes = distinct_ints(cls_js) if js.size > 1 else cls_js
+        for cj, (U_, S_, Vt, r, N, directions) in zip(classes.tolist(), self.equality_svd(self.cls[i], classes)):
+            where = np.nonzero(cls_js == cj)[0] if classes.size > 1 else np.arange(js.size)
+            GI = restricted_region_rows(HxI, HUI, N, 0)
+            G, g, W0, consistent, start, w0_norm = restricted_pairs_rows(
+                HxI, HUI, hI, fI, GI, Hx, HU, h, F, offsets, js[where], U_, S_, Vt, r, N, EQUALITY_CONSISTENCY_RTOL)
+            bounds = start.tolist()
+            for t, k in enumerate(where.tolist()):
+                if consistent[t]:
+                    a, b = bounds[t], bounds[t + 1]
+                    out[k] = RestrictedPair(G[a:b], g[a:b], W0[t], N, directions, radius0 + w0_norm[t])
         return out
 
 
 def pack_scaled(scaled, n: int) -> bytes:
-    """What the pair tests need of an enumeration, as one pickle of nine arrays.
+    """What the pair tests need of an enumeration, as one pickle of eight arrays.
 
-    :func:`scaled_rows` concatenated over the regions (rows with offsets; output maps
-    stacked): the tasks of :func:`~hybobs_opt.regions.observability.analyse_observability` receive this instead of the pickled
-    :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every step, are not needed
-    here), and rebuild nothing but views.
+    :func:`scaled_rows` stacked over the regions (rows with offsets; output maps stacked): the
+    tasks of :func:`~hybobs_opt.regions.observability.analyse_observability` receive this
+    instead of the pickled :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every
+    step, are not needed here), and rebuild nothing but views.
     """
-    rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
-    packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
-              np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
+    if isinstance(scaled, ScaledRows):
+        packed = (n, scaled.offsets, scaled.Hx, scaled.HU, scaled.h, scaled.C, scaled.D, scaled.f)
+    else:
+        rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
+        packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
+                  np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
     return pickle.dumps(packed, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def unpack_scaled(payload: bytes):
     n, rows, Hx, HU, h, C, D, f = pickle.loads(payload)
-    return [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k]) for k, (a, b) in enumerate(zip(rows[:-1], rows[1:]))], n
+    return ScaledRows(rows, Hx, HU, h, C, D, f), n

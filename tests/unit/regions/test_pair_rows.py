@@ -1,0 +1,117 @@
+"""The rows of the pair sets ``R_ij`` on their output-equality subspaces (``PairAlgebra.restricted_rows``).
+
+Oracles: NumPy's products and least squares on the pair set written out over ``w = (x, x^, U)``
+(to rounding: another summation order), and plain Python float loops in the documented order
+(bit for bit: the restricted rows are defined as those sums).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybobs_opt import get_example
+from hybobs_opt._numba_cache import tier_up
+from hybobs_opt.geometry._lp_kernels import restricted_region_rows
+from hybobs_opt.regions import enumerate_modes
+from hybobs_opt.regions.pair_algebra import PairAlgebra, ScaledRows, _scaled_regions, pack_scaled, unpack_scaled
+
+
+@pytest.fixture(scope="module")
+def model17_T5():
+    enum = enumerate_modes(get_example("powertrain5").build(), 5)
+    return enum, _scaled_regions(enum)
+
+
+def _python_rows(Hx, HU, N, off):
+    """``Hx N[off:off + n] + HU N[2n:]``, each entry summed over the columns in order, every term kept."""
+    n, q = Hx.shape[1], N.shape[1]
+    G = np.zeros((Hx.shape[0], q))
+    for row in range(Hx.shape[0]):
+        for c in range(q):
+            acc = 0.0
+            for t in range(n):
+                acc += float(Hx[row, t]) * float(N[off + t, c])
+            for t in range(HU.shape[1]):
+                acc += float(HU[row, t]) * float(N[2 * n + t, c])
+            G[row, c] = acc
+    return G
+
+
+def test_restricted_region_rows_are_the_ordered_sums_bit_for_bit():
+    """Skipping the zero coefficients changes no bit: zeros of either sign, cancellations to zero."""
+    tier_up()
+    rng = np.random.default_rng(3)
+    n, mU, q = 3, 5, 4
+    Hx = rng.normal(size=(12, n))
+    HU = rng.normal(size=(12, mU))
+    HU[rng.random(HU.shape) < 0.6] = 0.0
+    HU[1, :2] = -0.0
+    Hx[2] = 0.0
+    N = rng.normal(size=(2 * n + mU, q))
+    N[2 * n] = -N[2 * n + 1]  # exact cancellations when both coefficients are equal
+    HU[3, :2] = 1.0
+    for off in (0, n):
+        got = restricted_region_rows(Hx, HU, N, off)
+        want = _python_rows(Hx, HU, N, off)
+        assert np.array_equal(got, want)
+        assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def test_scaled_rows_are_stacked_views_and_pack_round_trip(model17_T5):
+    enum, sc = model17_T5
+    assert isinstance(sc, ScaledRows) and len(sc) == len(enum.regions)
+    for k in (0, len(sc) // 2, len(sc) - 1):
+        Hx, HU, h, C, D, f = sc[k]
+        a, b = sc.offsets[k], sc.offsets[k + 1]
+        assert np.shares_memory(Hx, sc.Hx) and np.array_equal(Hx, sc.Hx[a:b]) and np.array_equal(C, sc.C[k])
+        assert Hx.shape[0] == enum.regions[k].H.shape[0]
+    back, n = unpack_scaled(pack_scaled(sc, enum.system.n))
+    assert n == enum.system.n and len(back) == len(sc)
+    for k in range(len(sc)):
+        assert all(np.array_equal(x, y) for x, y in zip(back[k], sc[k]))
+    # a plain list of tuples (an algebra built by hand) gives the same algebra
+    listed = PairAlgebra([sc[k] for k in range(len(sc))], n)
+    stacked = PairAlgebra(sc, n)
+    js = np.arange(1, len(sc), 7)
+    for r1, r2 in zip(listed.restricted_rows(0, js), stacked.restricted_rows(0, js)):
+        assert (r1 is None) == (r2 is None)
+        if r1 is not None:
+            assert np.array_equal(r1.Gv, r2.Gv) and np.array_equal(r1.gv, r2.gv) and r1.radius_bound == r2.radius_bound
+
+
+@pytest.mark.parametrize("i", [0, 17, 40])
+def test_restricted_rows_against_numpy_on_the_full_pair_set(model17_T5, i):
+    """Per ``j`` (every output-map class mixed in one call): ``None`` exactly when the output
+    equalities have no solution, else ``Gv = [P_i; P_j] N`` and ``gv = h - [P_i; P_j] w0`` with
+    ``E w0 = e``, ``E N = 0``, ``N`` orthonormal, and the radius bound ``sqrt(2n + mU) + |w0|``."""
+    tier_up()
+    enum, sc = model17_T5
+    n = enum.system.n
+    alg = PairAlgebra(sc, n)
+    i = min(i, len(sc) - 1)
+    js = np.array([j for j in range(len(sc)) if j != i])
+    HxI, HUI, hI, CI, DI, fI = sc[i]
+    n_consistent = 0
+    for j, rows in zip(js, alg.restricted_rows(i, js)):
+        HxJ, HUJ, hJ, CJ, DJ, fJ = sc[j]
+        E = np.hstack([CI, -CJ, DI - DJ])
+        e = fJ - fI
+        w_ls = np.linalg.lstsq(E, e, rcond=None)[0]
+        resid = np.linalg.norm(E @ w_ls - e)
+        if rows is None:
+            assert resid > 1e-9 * (1 + np.linalg.norm(e))
+            continue
+        n_consistent += 1
+        assert resid <= 1e-9 * (1 + np.linalg.norm(e))
+        N, w0 = rows.N, rows.w0
+        assert np.allclose(N.T @ N, np.eye(N.shape[1]), atol=1e-12)
+        assert np.max(np.abs(E @ N), initial=0.0) <= 1e-10
+        assert np.allclose(E @ w0, e, atol=1e-10)
+        assert np.allclose(w0, w_ls, atol=1e-9)  # the minimum-norm solution
+        mU = HUI.shape[1]
+        H = np.vstack([np.hstack([HxI, np.zeros_like(HxI), HUI]), np.hstack([np.zeros_like(HxJ), HxJ, HUJ])])
+        assert np.allclose(rows.Gv, H @ N, atol=1e-12)
+        assert np.allclose(rows.gv, np.concatenate([hI, hJ]) - H @ w0, atol=1e-12)
+        assert rows.radius_bound == pytest.approx(np.sqrt(2 * n + mU) + np.linalg.norm(w0), rel=1e-14)
+    assert n_consistent > 0
