@@ -84,6 +84,23 @@ def min_row_slack(A, bu, c):
 
 
 @kernel(cache=True)
+def max_abs_affine(M, c, c0):
+    """``max_k |M_k c + c0_k|`` with each product summed left to right (the bits of
+    ``np.max(np.abs(matmul(M, c) + c0))``); ``-inf`` for no rows, NaN when an entry is NaN."""
+    out = -np.inf
+    for r in range(M.shape[0]):
+        acc = 0.0
+        for q in range(M.shape[1]):
+            acc += M[r, q] * c[q]
+        v = abs(acc + c0[r])
+        if v > out or v != v:
+            out = v
+            if v != v:
+                return v
+    return out
+
+
+@kernel(cache=True)
 def slack_bounds(A, bu, x, lam, radius_bound, cap):
     """Certified ``(lower, upper)`` bounds on the max slack of the LP ``(A, bu)`` built above.
 

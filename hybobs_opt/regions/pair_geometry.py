@@ -36,7 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import SolverError
-from ..geometry._lp_kernels import implicit_row_bounds, min_row_slack, slack_lp_data, slack_lp_rows, support_upper_bound
+from ..geometry._lp_kernels import (implicit_row_bounds, max_abs_affine, min_row_slack, slack_lp_data, slack_lp_rows,
+                                    support_upper_bound)
 from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
 from ..geometry.exact_lp import decide_above
 from ..geometry.lp import certified_width_below, highs_lp, solve_slack_lp, verified_lp, width_proven_above
@@ -120,7 +121,9 @@ class _Chebyshev:
 
     ``radius``: decided against the LP's threshold, ``-inf`` when a constant row is violated;
     ``centre``: the LP's point; ``A, bu``: the DAQP data; ``lam``: its multipliers (``None`` if
-    HiGHS answered); ``keep``: the indices of the rows kept in ``A``.
+    HiGHS answered); ``keep``: the indices of the rows kept in ``A``; ``witnessed``: the point
+    is known to be a point of the closed set (what :func:`_witness` checks), because the LP's
+    certified lower bound is its smallest row slack and lies above ``-CLOSED_SET_TOL``.
     """
 
     radius: float
@@ -129,6 +132,12 @@ class _Chebyshev:
     bu: np.ndarray
     lam: np.ndarray | None
     keep: np.ndarray | None
+    witnessed: bool = False
+
+
+#: Solvers whose ``lower`` is ``min(SLACK_CAP, smallest row slack at w)``, computed at ``w`` itself
+#: (:func:`~hybobs_opt.geometry._lp_kernels.slack_bounds`): not HiGHS's, nor an exact re-decision's.
+_LOWER_AT_POINT = frozenset({"daqp", "daqp+nnls"})
 
 
 def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: float, problem: str) -> _Chebyshev:
@@ -140,7 +149,9 @@ def _chebyshev(Gs: np.ndarray, gs: np.ndarray, radius_bound: float, threshold: f
         return _Chebyshev(SLACK_CAP, np.zeros(Gs.shape[1]), A, bu, None, keep)
     res = _slack_lp(A, bu, radius_bound, threshold, problem)
     radius = res.lower if res.lower > threshold else res.upper
-    return _Chebyshev(radius, res.w, A, bu, res.lam, keep)
+    # lower = min(SLACK_CAP, the smallest row slack at the point), and SLACK_CAP > 0: above
+    # -CLOSED_SET_TOL, the point is in the closed set (no second pass over the rows)
+    return _Chebyshev(radius, res.w, A, bu, res.lam, keep, res.solver in _LOWER_AT_POINT and bool(res.lower > -CLOSED_SET_TOL))
 
 
 def _witness(centre, A: np.ndarray, bu: np.ndarray):
@@ -393,7 +404,7 @@ class _Frame:
         if self.directions.same_state_directions:
             return bool(np.max(np.abs(d0)) > DISTINCT_STATE_TOL)
         if self.centre is not None and self.centre.size == self.dim and \
-                np.max(np.abs(mm(Dm, self.centre) + d0)) > DISTINCT_STATE_TOL:
+                max_abs_affine(Dm, np.ascontiguousarray(self.centre, dtype=float), d0) > DISTINCT_STATE_TOL:
             return True
         A, bu = self.lp
         if A.shape[0] <= 1:
@@ -469,7 +480,7 @@ def _screen_in_subspace(frame: _Frame, lp: _Chebyshev, parts: list, thin_filter:
     a face only the rank one, since a projection flat in the subspace is flat in any smaller hull.
     Returns the verdicts: ``EMPTY`` for a projection not wanted, ``None`` for one undecided.
     """
-    frame.centre = _witness(lp.centre, lp.A, lp.bu)
+    frame.centre = lp.centre if lp.witnessed else _witness(lp.centre, lp.A, lp.bu)
     frame._lp = (lp.A, lp.bu)
     verdicts: list[PairVerdict | None] = [PairVerdict.EMPTY if p is None else None for p in parts]
     if lp.radius > REGION_SLACK_TOL:

@@ -84,3 +84,24 @@ def test_min_row_slack_and_implicit_row_bounds_equal_numpy(seed):
         fin = np.isfinite(want)
         assert np.allclose(got[fin], want[fin], rtol=1e-12, atol=0.0)
 
+
+
+def test_max_abs_affine_is_the_ordered_numpy_expression_bit_for_bit():
+    """The distinct-state check at a point: ``max |M c + c0|`` with the products summed in order
+    (the bits of ``matmul``), NaN propagated as NumPy's ``max`` does (a NaN never reads as "apart")."""
+    from hybobs_opt._numba_cache import tier_up
+    from hybobs_opt.geometry._lp_kernels import max_abs_affine
+    from hybobs_opt.geometry._reproducible import matmul
+
+    tier_up()
+    rng = np.random.default_rng(41)
+    for trial in range(60):
+        k, d = (int(v) for v in rng.integers(1, 12, size=2))
+        M = rng.normal(size=(k, d)) * 10.0 ** rng.integers(-9, 3, size=(k, d))
+        c, c0 = rng.normal(size=d), rng.normal(size=k) * 1e-8
+        if trial % 5 == 0:
+            c0 = -matmul(M, c)  # the point has x = x^ up to rounding: tiny gaps, decided by their bits
+        assert max_abs_affine(M, c, c0) == np.max(np.abs(matmul(M, c) + c0))
+    M, c = np.ones((3, 2)), np.array([1.0, np.nan])
+    assert np.isnan(max_abs_affine(M, c, np.zeros(3)))
+    assert max_abs_affine(np.zeros((0, 2)), np.zeros(2), np.zeros(0)) == -np.inf

@@ -115,3 +115,28 @@ def test_restricted_rows_against_numpy_on_the_full_pair_set(model17_T5, i):
         assert np.allclose(rows.gv, np.concatenate([hI, hJ]) - H @ w0, atol=1e-12)
         assert rows.radius_bound == pytest.approx(np.sqrt(2 * n + mU) + np.linalg.norm(w0), rel=1e-14)
     assert n_consistent > 0
+
+
+def test_chebyshev_point_witnessed_only_where_the_row_check_passes(model17_T5):
+    """The Chebyshev LP's point stands for the set without a second pass over the rows only when
+    DAQP's certified lower bound (its smallest row slack) clears ``-CLOSED_SET_TOL``: there the
+    row check of ``_witness`` passes, on every pair set of model (17) at ``T = 5``."""
+    from hybobs_opt.regions.pair_geometry import _chebyshev, _witness
+    from hybobs_opt.tolerances import CLOSED_SET_TOL
+
+    tier_up()
+    enum, sc = model17_T5
+    alg = PairAlgebra(sc, enum.system.n)
+    seen = {True: 0, False: 0}
+    for i in range(0, len(sc), 3):
+        js = np.arange(i + 1, len(sc))
+        for rows in alg.restricted_rows(i, js):
+            if rows is None:
+                continue
+            lp = _chebyshev(rows.Gv, rows.gv, rows.radius_bound, -CLOSED_SET_TOL, "test")
+            if lp.centre is None or lp.A.shape[0] <= 1:
+                continue
+            seen[lp.witnessed] += 1
+            if lp.witnessed:
+                assert _witness(lp.centre, lp.A, lp.bu) is not None
+    assert seen[True] > 100 and seen[False] > 10
