@@ -175,6 +175,18 @@ def answer_ok(A, b, x, lam, rtol):
 
 
 @kernel(cache=True)
+def checked_slack_bounds(A, b, x, lam, rtol, radius_bound, cap):
+    """:func:`answer_ok` and then :func:`slack_bounds` of a DAQP answer in one call: ``(ok, lower,
+    upper)``, ``ok`` False (and nothing certified) when the shapes or the checks fail."""
+    if x.shape[0] != A.shape[1] or lam.shape[0] != A.shape[0] or b.shape[0] != A.shape[0]:
+        return False, -np.inf, np.inf
+    if not answer_ok(A, b, x, lam, rtol):
+        return False, -np.inf, np.inf
+    lower, upper = slack_bounds(A, b, x, lam, radius_bound, cap)
+    return True, lower, upper
+
+
+@kernel(cache=True)
 def implicit_row_bounds(G, g, lam, radius_bound, relax):
     """Slack bounds of the rows of ``{G v <= g + relax}`` from multipliers ``lam`` (see
     :func:`hybobs_opt.regions.pair_geometry._certified_implicit_rows`): ``total / lam_k`` with

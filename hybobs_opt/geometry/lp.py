@@ -788,7 +788,7 @@ def row_range(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import answer_ok, slack_bounds, slack_lp_data, support_upper_bound, walk_width  # noqa: E402
+from ._lp_kernels import answer_ok, checked_slack_bounds, slack_bounds, slack_lp_data, support_upper_bound, walk_width  # noqa: E402
 from ..tolerances import (DAQP_EPS_PROX, DAQP_POINT_RTOL, EXACT_DECISION_MARGIN, HIGHS_DECISION_BAND,  # noqa: E402
                           NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL)
 
@@ -1234,9 +1234,14 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
         if out is None:
             break  # DAQP raised: HiGHS decides
         x, _, flag, info = out
-        if not _daqp_optimal(flag) or not daqp_answer_ok(A, bu, x, info.get("lam")):
+        lam = info.get("lam")
+        if not _daqp_optimal(flag) or lam is None:
             continue
-        lower, upper = slack_bounds(A, bu, x, info["lam"], radius_bound, SLACK_CAP)
+        # daqp_answer_ok's checks, then the certified bounds, in one compiled call
+        ok, lower, upper = checked_slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float),
+                                                DAQP_POINT_RTOL, radius_bound, SLACK_CAP)
+        if not ok:
+            continue
         w = np.asarray(x[:d], dtype=float)
         if lower > threshold + EXACT_DECISION_MARGIN or upper <= threshold - EXACT_DECISION_MARGIN:
             return SlackResult(lower, upper, w, "daqp", info["lam"], time.perf_counter() - t0)

@@ -141,6 +141,8 @@ class PairAlgebra:
         self._screened = np.zeros((n_cls, n_cls), dtype=bool)
         self._screen = np.zeros((n_cls, n_cls), dtype=bool)
         self._svd: dict[tuple[int, int], tuple] = {}  # see equality_svd
+        # P_i's rows on the subspace of each class of j, for the last i (see restricted_rows)
+        self._rows_i: tuple[int, dict[int, np.ndarray]] = (-1, {})
 
     def screen(self, a: int, bs: np.ndarray) -> np.ndarray:
         r"""For classes ``a`` (of ``i``) and ``bs`` (of ``j``): can ``Proj_x(R_ij)`` be full-dimensional?
@@ -207,8 +209,10 @@ class PairAlgebra:
 
         ``None`` where the output equalities ``C_i x - C_j x^ + (D_i - D_j) U = f_j - f_i`` have
         no solution, else a :class:`RestrictedPair`.  The subspace depends on the classes of ``i``
-        and ``j`` only: ``P_i``'s rows on it are computed once per class of ``j``, and the pairs
-        of one class in one compiled call (:func:`~hybobs_opt.geometry._lp_kernels.restricted_pairs_rows`).
+        and ``j`` only: ``P_i``'s rows on it are computed once per class of ``j`` (and kept for
+        the next call with the same ``i``: the group tests ask for one ``j`` at a time), and the
+        pairs of one class in one compiled call
+        (:func:`~hybobs_opt.geometry._lp_kernels.restricted_pairs_rows`).
         """
         js = np.asarray(js, dtype=int)
         if js.size == 0:
@@ -217,11 +221,16 @@ class PairAlgebra:
         radius0 = np.sqrt(2 * HxI.shape[1] + HUI.shape[1])
         Hx, HU, h, F, offsets = self._stacked
         out: list[RestrictedPair | None] = [None] * js.size
+        if self._rows_i[0] != i:
+            self._rows_i = (i, {})
+        rows_i = self._rows_i[1]
         cls_js = self.cls[js]
         classes = distinct_ints(cls_js) if js.size > 1 else cls_js
         for cj, (U_, S_, Vt, r, N, directions) in zip(classes.tolist(), self.equality_svd(self.cls[i], classes)):
             where = np.nonzero(cls_js == cj)[0] if classes.size > 1 else np.arange(js.size)
-            GI = restricted_region_rows(HxI, HUI, N, 0)
+            GI = rows_i.get(cj)
+            if GI is None:
+                GI = rows_i[cj] = restricted_region_rows(HxI, HUI, N, 0)
             G, g, W0, consistent, start, w0_norm = restricted_pairs_rows(
                 HxI, HUI, hI, fI, GI, Hx, HU, h, F, offsets, js[where], U_, S_, Vt, r, N, EQUALITY_CONSISTENCY_RTOL)
             bounds = start.tolist()

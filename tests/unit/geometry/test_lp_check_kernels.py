@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybobs_opt.geometry._lp_kernels import implicit_row_bounds, min_row_slack
+from hybobs_opt.geometry._lp_kernels import checked_slack_bounds, implicit_row_bounds, min_row_slack, slack_bounds
 from hybobs_opt.geometry.lp import daqp_answer_ok
 from hybobs_opt.tolerances import DAQP_POINT_RTOL
 
@@ -61,6 +61,14 @@ def test_daqp_answer_ok_equals_the_numpy_checks(seed):
         got, want = daqp_answer_ok(*args), numpy_answer_ok(*args)
         assert got == want, (seed, corruptions.index(corrupt))
         outcomes.append(got)
+        # the fused check of the slack LPs: the same verdict, then slack_bounds' bits
+        Ac, bc, xc, lc = (np.ascontiguousarray(v, dtype=float) for v in args)
+        ok, lower, upper = checked_slack_bounds(Ac, bc, xc, lc, DAQP_POINT_RTOL, 3.0, 5.0)
+        assert ok == want
+        if ok:
+            assert (lower, upper) == slack_bounds(Ac, bc, xc, lc, 3.0, 5.0)
+        else:
+            assert (lower, upper) == (-np.inf, np.inf)
     assert outcomes[0] and not outcomes[1] and not outcomes[2] and not outcomes[4]
 
 
