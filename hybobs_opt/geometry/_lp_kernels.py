@@ -15,15 +15,12 @@ from .._numba_cache import kernel
 
 
 @kernel(cache=True)
-def slack_lp_data(G, g, zero_tol, cap):
-    """``max t  s.t.  G_k w / |G_k| + t <= g_k / |G_k|,  t <= cap`` as DAQP data ``(A, bu)``.
-
-    Rows with ``|G_k| <= zero_tol`` are constant: dropped when they hold, and ``ok = False``
-    (the set is empty) when one reads ``0 <= g_k < -zero_tol``.
-    """
+def slack_lp_rows(G, g, zero_tol, cap):
+    """:func:`slack_lp_data` and the indices of the rows of ``G`` it kept (``keep``), from the same norms."""
     k, d = G.shape
     norms = np.empty(k)
-    keep = 0
+    keep = np.empty(k, dtype=np.int64)
+    n_keep = 0
     for r in range(k):
         s = 0.0
         for c in range(d):
@@ -32,40 +29,33 @@ def slack_lp_data(G, g, zero_tol, cap):
         norms[r] = s
         if s <= zero_tol:
             if g[r] < -zero_tol:
-                return np.zeros((0, d + 1)), np.zeros(0), False
+                return np.zeros((0, d + 1)), np.zeros(0), False, np.empty(0, dtype=np.int64)
         else:
-            keep += 1
-    A = np.zeros((keep + 1, d + 1))
-    bu = np.empty(keep + 1)
-    q = 0
-    for r in range(k):
-        if norms[r] > zero_tol:
-            inv = 1.0 / norms[r]
-            for c in range(d):
-                A[q, c] = G[r, c] * inv
-            A[q, d] = 1.0
-            bu[q] = g[r] * inv
-            q += 1
-    A[keep, d] = 1.0
-    bu[keep] = cap
-    return A, bu, True
+            keep[n_keep] = r
+            n_keep += 1
+    A = np.zeros((n_keep + 1, d + 1))
+    bu = np.empty(n_keep + 1)
+    for q in range(n_keep):
+        r = keep[q]
+        inv = 1.0 / norms[r]
+        for c in range(d):
+            A[q, c] = G[r, c] * inv
+        A[q, d] = 1.0
+        bu[q] = g[r] * inv
+    A[n_keep, d] = 1.0
+    bu[n_keep] = cap
+    return A, bu, True, keep[:n_keep]
 
 
 @kernel(cache=True)
-def slack_lp_rows(G, g, zero_tol, cap):
-    """:func:`slack_lp_data` and the indices of the rows of ``G`` it kept (``keep``), from the same norms."""
-    A, bu, ok = slack_lp_data(G, g, zero_tol, cap)
-    keep = np.empty(A.shape[0] - 1 if ok else 0, dtype=np.int64)
-    if ok:
-        q = 0
-        for r in range(G.shape[0]):
-            s = 0.0
-            for c in range(G.shape[1]):
-                s += G[r, c] * G[r, c]
-            if np.sqrt(s) > zero_tol:
-                keep[q] = r
-                q += 1
-    return A, bu, ok, keep
+def slack_lp_data(G, g, zero_tol, cap):
+    """``max t  s.t.  G_k w / |G_k| + t <= g_k / |G_k|,  t <= cap`` as DAQP data ``(A, bu)``.
+
+    Rows with ``|G_k| <= zero_tol`` are constant: dropped when they hold, and ``ok = False``
+    (the set is empty) when one reads ``0 <= g_k < -zero_tol``.
+    """
+    A, bu, ok, _ = slack_lp_rows(G, g, zero_tol, cap)
+    return A, bu, ok
 
 
 @kernel(cache=True)

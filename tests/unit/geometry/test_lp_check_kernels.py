@@ -113,3 +113,26 @@ def test_max_abs_affine_is_the_ordered_numpy_expression_bit_for_bit():
     M, c = np.ones((3, 2)), np.array([1.0, np.nan])
     assert np.isnan(max_abs_affine(M, c, np.zeros(3)))
     assert max_abs_affine(np.zeros((0, 2)), np.zeros(2), np.zeros(0)) == -np.inf
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_slack_lp_rows_against_the_normalised_rows(seed):
+    """The slack LP's data: the non-constant rows divided by their norms (``keep`` names them, in
+    order), a column of ones for ``t``, the cap row last; a violated constant row: empty."""
+    from hybobs_opt.geometry._lp_kernels import slack_lp_data, slack_lp_rows
+
+    rng = np.random.default_rng(300 + seed)
+    G, g = rng.normal(size=(25, 4)), rng.normal(size=25)
+    G[rng.random(25) < 0.2] = 0.0
+    g[np.all(G == 0.0, axis=1)] = np.abs(g[np.all(G == 0.0, axis=1)])  # constant rows that hold
+    A, bu, ok, keep = slack_lp_rows(G, g, 1e-12, 7.0)
+    nrm = np.linalg.norm(G, axis=1)
+    assert ok and keep.tolist() == np.nonzero(nrm > 1e-12)[0].tolist()
+    assert np.allclose(A[:-1, :-1], G[keep] / nrm[keep, None], rtol=1e-15, atol=0.0)
+    assert np.all(A[:, -1] == 1.0) and np.all(A[-1, :-1] == 0.0) and bu[-1] == 7.0
+    assert np.allclose(bu[:-1], g[keep] / nrm[keep], rtol=1e-15, atol=0.0)
+    A2, bu2, ok2 = slack_lp_data(G, g, 1e-12, 7.0)
+    assert ok2 and np.array_equal(A, A2) and np.array_equal(bu, bu2)
+    g[np.nonzero(nrm <= 1e-12)[0][:1]] = -1.0
+    if np.any(nrm <= 1e-12):
+        assert not slack_lp_rows(G, g, 1e-12, 7.0)[2] and not slack_lp_data(G, g, 1e-12, 7.0)[2]
