@@ -483,6 +483,83 @@ def _nnls_kernel(A, b, limit, tol_jacobi, max_sweeps):
     return x, np.sqrt(ss), 0
 
 
+@kernel(cache=True)
+def _svd_full_kernel(A, tol, max_sweeps):
+    """:func:`svd` of a finite ``A`` with ``min(m, k) > 0`` (``full_matrices=True``) in one call:
+    ``(U, s, Vt, ok)``, the wide case by the SVD of the transpose as :func:`svd` computes it."""
+    m, k = A.shape
+    if m >= k:
+        U, s, V, ok = _svd_tall_kernel(A, tol, max_sweeps)
+        return U, s, np.ascontiguousarray(V.T), ok
+    V, s, U, ok = _svd_tall_kernel(np.ascontiguousarray(A.T), tol, max_sweeps)
+    return U, s, np.ascontiguousarray(V.T), ok
+
+
+@kernel(cache=True)
+def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
+    """The equality subspace ``{w : E w = 0}`` and what it says about two blocks of ``n`` coordinates.
+
+    The bits of :func:`svd` and :func:`numerical_rank` on ``E`` (``E = U diag(s) Vt``, rank ``r``,
+    nullspace basis ``N = Vt[r:]'``), and, for the blocks ``w[:n]`` and ``w[n:2n]``: whether
+    ``N``'s block has rank ``n`` (its smallest singular value above ``rank_rtol``), the functional
+    ``N_block' u`` along the block's last left singular vector ``u`` and its norm, whether
+    appending the rows ``[I, -I, 0]`` to ``E`` leaves its numerical rank unchanged, and
+    ``N[:n] - N[n:2n]``.  ``ok`` is False for a non-finite entry (nothing else is meaningful then).
+    """
+    m, k = E.shape
+    tiny = np.finfo(np.float64).tiny
+    U, s, Vt, ok = _svd_full_kernel(E, tol, max_sweeps)
+    r = 0
+    if s.shape[0] > 0:
+        top = rank_rtol * max(s[0], tiny)
+        for a in range(s.shape[0]):
+            if s[a] > top:
+                r += 1
+    N = np.ascontiguousarray(Vt[r:].T)
+    q = k - r
+    full = np.zeros(2, dtype=np.bool_)
+    thin = np.zeros((2, q))
+    thin_norm = np.zeros(2)
+    for part in range(2):
+        if q < n:
+            continue
+        P = np.ascontiguousarray(N[part * n:(part + 1) * n])
+        Uu, sv, _, ok_part = _svd_full_kernel(P, tol, max_sweeps)
+        ok = ok and ok_part
+        full[part] = sv[sv.shape[0] - 1] > rank_rtol
+        acc2 = 0.0
+        for c in range(q):
+            acc = 0.0
+            for t in range(n):
+                acc += P[t, c] * Uu[t, n - 1]
+            thin[part, c] = acc
+            acc2 += acc * acc
+        thin_norm[part] = np.sqrt(acc2)
+    # [E; I -I 0], the identity's off-diagonal zeros negated as -np.eye gives them
+    EJ = np.zeros((m + n, k))
+    EJ[:m] = E
+    for a in range(n):
+        for c in range(n):
+            EJ[m + a, n + c] = -0.0
+        EJ[m + a, a] = 1.0
+        EJ[m + a, n + a] = -1.0
+    if m + n >= k:
+        _, s2, _, ok2 = _svd_tall_kernel(EJ, tol, max_sweeps)
+    else:
+        _, s2, _, ok2 = _svd_tall_kernel(np.ascontiguousarray(EJ.T), tol, max_sweeps)
+    r2 = 0
+    if s2.shape[0] > 0:
+        top2 = rank_rtol * max(s2[0], tiny)
+        for a in range(s2.shape[0]):
+            if s2[a] > top2:
+                r2 += 1
+    D = np.empty((n, q))
+    for a in range(n):
+        for c in range(q):
+            D[a, c] = N[a, c] - N[n + a, c]
+    return U, s, Vt, r, N, full, thin, thin_norm, r2 == r, D, ok and ok2
+
+
 def _nnls_python(A: np.ndarray, b: np.ndarray, limit: int, tol_jacobi: float, max_sweeps: int):
     """The active-set method of :func:`nnls` in NumPy: ``(x, residual norm, status)``, status 1 at
     the iteration limit (``tol_jacobi`` and ``max_sweeps`` are :func:`svd`'s, which it calls)."""
@@ -524,6 +601,17 @@ _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
 _singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
+
+
+def equality_subspace(E: np.ndarray, n: int, rank_rtol: float):
+    """:func:`_equality_subspace_kernel` of ``E``: ``(U, s, Vt, r, N, full, thin, thin_norm, same, D)``
+    with the bits of :func:`svd` and :func:`numerical_rank` and the products written out there, or
+    ``None`` when the kernels are not compiled in this process or ``E`` is not finite (the caller
+    then computes the same from :func:`svd`)."""
+    if not COMPILED:
+        return None
+    out = _equality_subspace_kernel(np.ascontiguousarray(E, dtype=float), int(n), float(rank_rtol), JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    return out[:-1] if out[-1] else None
 
 
 def _svd_tall(A: np.ndarray):

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry._lp_kernels import restricted_pairs_rows, restricted_region_rows
-from ..geometry._reproducible import matmul as mm, numerical_rank, numerical_ranks, row_norms, singular_values, svd
+from ..geometry._reproducible import (equality_subspace, matmul as mm, numerical_rank, numerical_ranks, row_norms, singular_values,
+                                      svd)
 from ..tolerances import EQUALITY_CONSISTENCY_RTOL, RANK_RTOL
 from .pair_geometry import SubspaceDirections
 
@@ -198,10 +199,17 @@ class PairAlgebra:
             Ca, Da = self.C[a], self.D[a]
             E = np.concatenate([np.broadcast_to(Ca, (len(new),) + Ca.shape), -self.C[new], Da - self.D[new]], axis=2)
             for k, b in enumerate(new):
-                U_, S_, Vt = svd(E[k], full_matrices=True)
-                r = numerical_rank(S_, RANK_RTOL)
-                N = np.ascontiguousarray(Vt[r:].T)
-                self._svd[(a, int(b))] = (U_, S_, Vt, r, N, SubspaceDirections.of(N, self.n, (E[k], r)))
+                fast = equality_subspace(E[k], self.n, RANK_RTOL)  # one compiled call, the same bits
+                if fast is not None:
+                    U_, S_, Vt, r, N, full, thin, thin_norm, same, D = fast
+                    directions = SubspaceDirections((bool(full[0]), bool(full[1])), (thin[0], thin[1]), bool(same),
+                                                    (float(thin_norm[0]), float(thin_norm[1])), D)
+                else:
+                    U_, S_, Vt = svd(E[k], full_matrices=True)
+                    r = numerical_rank(S_, RANK_RTOL)
+                    N = np.ascontiguousarray(Vt[r:].T)
+                    directions = SubspaceDirections.of(N, self.n, (E[k], r))
+                self._svd[(a, int(b))] = (U_, S_, Vt, int(r), N, directions)
         return [self._svd[(a, int(b))] for b in bs]
 
     def restricted_rows(self, i: int, js) -> list[RestrictedPair | None]:

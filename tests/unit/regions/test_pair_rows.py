@@ -140,3 +140,55 @@ def test_chebyshev_point_witnessed_only_where_the_row_check_passes(model17_T5):
             if lp.witnessed:
                 assert _witness(lp.centre, lp.A, lp.bu) is not None
     assert seen[True] > 100 and seen[False] > 10
+
+
+def _python_equality_subspace(E, n):
+    from hybobs_opt.geometry._reproducible import numerical_rank, svd
+    from hybobs_opt.regions.pair_geometry import SubspaceDirections
+    from hybobs_opt.tolerances import RANK_RTOL
+
+    U, s, Vt = svd(E, full_matrices=True)
+    r = numerical_rank(s, RANK_RTOL)
+    N = np.ascontiguousarray(Vt[r:].T)
+    return U, s, Vt, r, N, SubspaceDirections.of(N, n, (E, r))
+
+
+def _equality_cases(sc, n):
+    alg = PairAlgebra(sc, n)
+    for a in range(alg.C.shape[0]):
+        for b in range(0, alg.C.shape[0], 3):
+            yield np.hstack([alg.C[a], -alg.C[b], alg.D[a] - alg.D[b]])
+    rng = np.random.default_rng(8)
+    for p, k in ((3, 2 * n + 4), (2 * n + 6, 2 * n + 4), (1, 2 * n), (4, 2 * n + 1)):
+        E = rng.normal(size=(p, k))
+        E[-1] = E[0] * 2.0  # rank deficient
+        yield E
+
+
+def test_equality_subspace_in_one_call_is_the_svd_path_bit_for_bit(model17_T5):
+    """The compiled equality subspace of a class pair (SVD, rank, nullspace, the projections' ranks
+    and thinnest functionals, the same-state rank test) gives the bits of the path through ``svd``:
+    every class pair of model (17) at ``T = 5`` and random rank-deficient, tall and wide systems."""
+    from hybobs_opt.geometry._reproducible import COMPILED, equality_subspace
+    from hybobs_opt.tolerances import RANK_RTOL
+
+    tier_up()
+    enum, sc = model17_T5
+    n = enum.system.n
+    n_same = n_full = 0
+    for E in _equality_cases(sc, n):
+        got = equality_subspace(E, n, RANK_RTOL)
+        if not COMPILED:
+            assert got is None
+            continue
+        U, s, Vt, r, N, full, thin, thin_norm, same, D = got
+        U2, s2, Vt2, r2, N2, d2 = _python_equality_subspace(E, n)
+        assert np.array_equal(U, U2) and np.array_equal(s, s2) and np.array_equal(Vt, Vt2) and r == r2
+        assert np.array_equal(N, N2) and np.array_equal(D, d2.state_difference)
+        assert (bool(full[0]), bool(full[1])) == d2.full_rank and bool(same) == d2.same_state_directions
+        assert all(np.array_equal(thin[k], d2.thinnest[k]) for k in range(2))
+        assert (float(thin_norm[0]), float(thin_norm[1])) == d2.thinnest_norm
+        n_same += bool(same)
+        n_full += bool(full[0])
+    assert not COMPILED or (n_same > 0 and n_full > 0)
+    assert equality_subspace(np.array([[1.0, np.nan, 0.0, 0.0]]), 1, RANK_RTOL) is None
