@@ -403,17 +403,17 @@ def _nnls_kernel(A, b, limit, tol_jacobi, max_sweeps):
     resid = np.empty(m)
     cols = np.empty(k, dtype=np.int64)
     it = 0
-    for i in range(m):  # w = A' (b - A x)
-        acc = 0.0
-        for c in range(k):
-            acc += A[i, c] * x[c]
-        resid[i] = b[i] - acc
-    for c in range(k):
-        acc = 0.0
-        for i in range(m):
-            acc += A[i, c] * resid[i]
-        w[c] = acc
     while True:
+        for i in range(m):  # w = A' (b - A x)
+            acc = 0.0
+            for c in range(k):
+                acc += A[i, c] * x[c]
+            resid[i] = b[i] - acc
+        for c in range(k):
+            acc = 0.0
+            for i in range(m):
+                acc += A[i, c] * resid[i]
+            w[c] = acc
         j = -1
         best = -np.inf
         for c in range(k):  # the first largest w of an inactive column
@@ -463,16 +463,6 @@ def _nnls_kernel(A, b, limit, tol_jacobi, max_sweeps):
                     passive[c] = False
                 if not passive[c]:
                     x[c] = 0.0
-        for i in range(m):
-            acc = 0.0
-            for c in range(k):
-                acc += A[i, c] * x[c]
-            resid[i] = b[i] - acc
-        for c in range(k):
-            acc = 0.0
-            for i in range(m):
-                acc += A[i, c] * resid[i]
-            w[c] = acc
     ss = 0.0
     for i in range(m):
         acc = 0.0
@@ -496,6 +486,19 @@ def _svd_full_kernel(A, tol, max_sweeps):
 
 
 @kernel(cache=True)
+def _rank_kernel(s, rtol):
+    """:func:`numerical_rank` of descending singular values ``s``."""
+    if s.shape[0] == 0:
+        return 0
+    top = rtol * max(s[0], np.finfo(np.float64).tiny)
+    r = 0
+    for a in range(s.shape[0]):
+        if s[a] > top:
+            r += 1
+    return r
+
+
+@kernel(cache=True)
 def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
     """The equality subspace ``{w : E w = 0}`` and what it says about two blocks of ``n`` coordinates.
 
@@ -507,14 +510,8 @@ def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
     ``N[:n] - N[n:2n]``.  ``ok`` is False for a non-finite entry (nothing else is meaningful then).
     """
     m, k = E.shape
-    tiny = np.finfo(np.float64).tiny
     U, s, Vt, ok = _svd_full_kernel(E, tol, max_sweeps)
-    r = 0
-    if s.shape[0] > 0:
-        top = rank_rtol * max(s[0], tiny)
-        for a in range(s.shape[0]):
-            if s[a] > top:
-                r += 1
+    r = _rank_kernel(s, rank_rtol)
     N = np.ascontiguousarray(Vt[r:].T)
     q = k - r
     full = np.zeros(2, dtype=np.bool_)
@@ -547,12 +544,7 @@ def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
         _, s2, _, ok2 = _svd_tall_kernel(EJ, tol, max_sweeps)
     else:
         _, s2, _, ok2 = _svd_tall_kernel(np.ascontiguousarray(EJ.T), tol, max_sweeps)
-    r2 = 0
-    if s2.shape[0] > 0:
-        top2 = rank_rtol * max(s2[0], tiny)
-        for a in range(s2.shape[0]):
-            if s2[a] > top2:
-                r2 += 1
+    r2 = _rank_kernel(s2, rank_rtol)
     D = np.empty((n, q))
     for a in range(n):
         for c in range(q):
