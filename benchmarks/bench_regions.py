@@ -687,7 +687,9 @@ def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool 
     (1) At each ``T`` of ``Ts``, one enumeration, then ``rounds`` rounds of the pair tests
     (Algorithm 3.1) alternating serial, ``ProcessExecutor(2)`` and a Dask cluster of 2 worker
     processes joined by its scheduler address (``dask scheduler`` / ``dask worker`` started as
-    processes of their own, as on a user's cluster; start-up excluded): wall times (best of the rounds), load average before and after every run,
+    processes of their own, as on a user's cluster; start-up excluded; the workers' algebra of the
+    timed enumeration evicted before every parallel run, so that each run starts cold as the serial
+    one does): wall times (best of the rounds), load average before and after every run,
     the speed-up over serial, the pair lists' sha256 compared across executors and rounds, and a
     CPU account that a shared machine cannot distort: the calling process's CPU seconds (its
     serial part) plus the busiest worker's CPU seconds, against the serial run's CPU seconds
@@ -721,15 +723,22 @@ def bench_scaling(Ts: tuple[int, ...] = (7, 8, 9), rounds: int = 3, fresh: bool 
             continue
         out[f"{kind}_startup_seconds"] = time.perf_counter() - t0
     try:
-        for kind, ex in exes.items():  # warm the workers (imports, numba caches), not timed
+        # warm the workers (imports, numba caches), not timed; before every timed parallel run the
+        # workers analyse this other enumeration again, so that the class-pair algebra they keep
+        # between analyses of one enumeration (observability._WORKER_STATE) is not the timed one's:
+        # every run starts cold, as the serial one does
+        other = enumerate_modes(powertrain5(), 6)
+        for kind, ex in exes.items():
             if kind != "serial":
-                analyse_observability(enumerate_modes(powertrain5(), 6), executor=ex)
+                analyse_observability(other, executor=ex)
         for T in Ts:
             enum = enumerate_modes(powertrain5(), T)
             rec: dict = {"n_regions": len(enum.regions), "seconds_enumeration_serial": enum.seconds, "runs": {k: [] for k in exes}}
             for rnd in range(rounds):
                 for kind, ex in exes.items():
                     log(f"(f) model (17), T = {T}, {kind}, round {rnd + 1} of {rounds}")
+                    if kind != "serial":
+                        analyse_observability(other, executor=ex)  # evict the workers' algebra of `enum` (see above)
                     r: dict = {"load_average_before": _load()}
                     w0 = _worker_cpu(kind, ex)
                     c0, t0 = time.process_time(), time.perf_counter()

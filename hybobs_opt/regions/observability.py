@@ -68,8 +68,9 @@ from .verdicts import PairVerdict, PointClass
 #: calling process whatever the executor (model 16, T = 5: about 5,000 candidates, 0.1 s serial).
 PARALLEL_MIN_PAIRS = 6000
 #: Tasks per worker of the grouped pair tests (:func:`_chunks`): their blocks differ in cost by
-#: 10 x or more (model 17, T = 9), so the workers take many small tasks rather than one each.
-GROUPED_TASKS_PER_WORKER = 24
+#: 10 x or more (model 17, T = 9), so the workers take several tasks rather than one each; few,
+#: since every task repeats the candidate screens and the group pass of its callers.
+GROUPED_TASKS_PER_WORKER = 4
 
 
 def _rank(M: np.ndarray) -> int:
