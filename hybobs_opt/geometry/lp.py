@@ -788,7 +788,7 @@ def row_range(
 
 import daqp  # noqa: E402
 
-from ._lp_kernels import answer_ok, checked_slack_bounds, slack_bounds, slack_lp_data, support_upper_bound, walk_width  # noqa: E402
+from ._lp_kernels import answer_ok, checked_slack_bounds, slack_lp_data, support_upper_bound, walk_width  # noqa: E402
 from ..tolerances import (DAQP_EPS_PROX, DAQP_POINT_RTOL, EXACT_DECISION_MARGIN, HIGHS_DECISION_BAND,  # noqa: E402
                           NEAR_ACTIVE_TOL, SLACK_CAP, ZERO_ROW_TOL)
 
@@ -1261,9 +1261,11 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
         if out is not None:
             x, _, flag, info = out
             lam = info.get("lam") if isinstance(info, dict) else None
-            if lam is not None and _daqp_optimal(flag) and daqp_answer_ok(A, bu, x, lam):
-                lower, upper = slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float),
-                                            radius_bound, SLACK_CAP)
+            ok = False
+            if lam is not None and _daqp_optimal(flag):
+                ok, lower, upper = checked_slack_bounds(A, bu, np.asarray(x, dtype=float), np.asarray(lam, dtype=float),
+                                                        DAQP_POINT_RTOL, radius_bound, SLACK_CAP)
+            if ok:
                 found = SlackResult(lower, upper, np.asarray(x[:d], dtype=float), "daqp (tight)", None, 0.0)
                 if lower > threshold + EXACT_DECISION_MARGIN or upper <= threshold - EXACT_DECISION_MARGIN:
                     return SlackResult(lower, upper, found.w, found.solver, None, time.perf_counter() - t0)

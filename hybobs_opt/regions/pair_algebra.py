@@ -64,6 +64,15 @@ class ScaledRows(Sequence):
         self._items = [(Hx[a:b], HU[a:b], h[a:b], C[k], D[k], f[k])
                        for k, (a, b) in enumerate(zip(self.offsets[:-1].tolist(), self.offsets[1:].tolist()))]
 
+    @staticmethod
+    def of(scaled) -> "ScaledRows":
+        """``scaled`` as stacked rows: itself if it is, else its tuples stacked (one per region)."""
+        if isinstance(scaled, ScaledRows):
+            return scaled
+        return ScaledRows(np.cumsum([0] + [t[0].shape[0] for t in scaled]), np.vstack([t[0] for t in scaled]),
+                          np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
+                          np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
+
     def __len__(self) -> int:
         return len(self._items)
 
@@ -132,12 +141,8 @@ class PairAlgebra:
             self.cls[k] = index[key]
         self.C = np.stack([scaled[k][3] for k in reps])
         self.D = np.stack([scaled[k][4] for k in reps])
-        if not isinstance(scaled, ScaledRows):
-            scaled = ScaledRows(np.cumsum([0] + [t[0].shape[0] for t in scaled]), np.vstack([t[0] for t in scaled]),
-                                np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
-                                np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]),
-                                np.stack([t[5] for t in scaled]))
-        self._stacked = (scaled.Hx, scaled.HU, scaled.h, scaled.f, scaled.offsets)
+        stacked = ScaledRows.of(scaled)
+        self._stacked = (stacked.Hx, stacked.HU, stacked.h, stacked.f, stacked.offsets)
         n_cls = len(reps)
         self._screened = np.zeros((n_cls, n_cls), dtype=bool)
         self._screen = np.zeros((n_cls, n_cls), dtype=bool)
@@ -257,13 +262,8 @@ def pack_scaled(scaled, n: int) -> bytes:
     instead of the pickled :class:`ModeEnumeration` (its state maps, ``Phi``/``Gamma`` of every
     step, are not needed here), and rebuild nothing but views.
     """
-    if isinstance(scaled, ScaledRows):
-        packed = (n, scaled.offsets, scaled.Hx, scaled.HU, scaled.h, scaled.C, scaled.D, scaled.f)
-    else:
-        rows = np.cumsum([0] + [t[0].shape[0] for t in scaled])
-        packed = (n, rows, np.vstack([t[0] for t in scaled]), np.vstack([t[1] for t in scaled]), np.concatenate([t[2] for t in scaled]),
-                  np.stack([t[3] for t in scaled]), np.stack([t[4] for t in scaled]), np.stack([t[5] for t in scaled]))
-    return pickle.dumps(packed, protocol=pickle.HIGHEST_PROTOCOL)
+    s = ScaledRows.of(scaled)
+    return pickle.dumps((n, s.offsets, s.Hx, s.HU, s.h, s.C, s.D, s.f), protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def unpack_scaled(payload: bytes):
