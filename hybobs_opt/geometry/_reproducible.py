@@ -114,9 +114,11 @@ def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
 
     Cyclic order ``(0, 1), (0, 2), ..., (k-2, k-1)``; a pair with a column whose squared norm is
     at most ``negligible`` is left alone (that column is zero to working precision: its direction
-    is rounding, and rotating it against itself never converges).  Returns the sweeps done.
+    is rounding, and rotating it against itself never converges).  ``V`` with no rows accumulates
+    nothing (singular values only; ``W`` gets the same bits).  Returns the sweeps done.
     """
     m, k = W.shape
+    nv = V.shape[0]
     for sweep in range(max_sweeps):
         rotated = False
         for p in range(k - 1):
@@ -124,12 +126,14 @@ def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
                 alpha = 0.0
                 beta = 0.0
                 gamma = 0.0
+                # three sums, each in its own order (the bits of three loops); in one loop their
+                # dependency chains overlap
                 for i in range(m):
-                    alpha += W[i, p] * W[i, p]
-                for i in range(m):
-                    beta += W[i, q] * W[i, q]
-                for i in range(m):
-                    gamma += W[i, p] * W[i, q]
+                    wp = W[i, p]
+                    wq = W[i, q]
+                    alpha += wp * wp
+                    beta += wq * wq
+                    gamma += wp * wq
                 rotate, c, s = _jacobi_rotation(alpha, beta, gamma, tol, negligible)
                 if not rotate:
                     continue
@@ -139,7 +143,7 @@ def _jacobi_kernel(W, V, tol, negligible, max_sweeps):
                     wq = W[i, q]
                     W[i, p] = c * wp - s * wq
                     W[i, q] = s * wp + c * wq
-                for i in range(k):
+                for i in range(nv):
                     vp = V[i, p]
                     vq = V[i, q]
                     V[i, p] = c * vp - s * vq
@@ -259,8 +263,7 @@ def _singular_values_kernel(Ms, tol, max_sweeps):
                 W[i, j] = Ms[b, i, j] / unit
                 fro2 += W[i, j] * W[i, j]
         cut2 = (eps * max(m, k)) ** 2 * fro2
-        V = np.eye(k)
-        _jacobi_kernel(W, V, tol, cut2, max_sweeps)
+        _jacobi_kernel(W, np.zeros((0, k)), tol, cut2, max_sweeps)
         s = np.zeros(k)
         for j in range(k):
             s2 = 0.0

@@ -119,16 +119,29 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
         tested = np.nonzero((counts >= 2) & (n_children >= 2))[0]
         ca, cb = alg.cls[groups[tested] // n_sup], alg.cls[groups[tested] % n_sup]
         screen_a, screen_b = alg.screen_pairs(ca, cb), alg.screen_pairs(cb, ca)
+        # the groups of a level hold disjoint members, so what each still wants is known before
+        # the first test; the rows of the groups to test are computed in one call per prefix A
+        # (the groups are sorted by A)
+        starts = bounds[tested]
+        any_ij = np.logical_or.reduceat(want_ij[live[order]], starts) if tested.size else np.zeros(0, dtype=bool)
+        any_ji = np.logical_or.reduceat(want_ji[live[order]], starts) if tested.size else np.zeros(0, dtype=bool)
+        need = (any_ij & screen_a) | (any_ji & screen_b)
+        a_of, b_of = groups[tested] // n_sup, groups[tested] % n_sup
+        batch: dict[int, object] = {}
         for t, g in enumerate(tested):
             members = live[order[bounds[g]:bounds[g + 1]]]
-            a, b = divmod(int(groups[g]), n_sup)
-            wa, wb = bool(want_ij[members].any()), bool(want_ji[members].any())
+            a, b = int(a_of[t]), int(b_of[t])
+            wa, wb = bool(any_ij[t]), bool(any_ji[t])
             ok_a = wa and bool(screen_a[t])
             ok_b = wb and bool(screen_b[t])
             done_a, done_b = wa and not ok_a, wb and not ok_b  # rank: lower-dimensional, no LP
             if ok_a or ok_b:
                 n_tests += 1
-                rows = alg.restricted_rows(a, [b])[0]
+                if t not in batch:
+                    lo, hi = np.searchsorted(a_of, a, "left"), np.searchsorted(a_of, a, "right")
+                    same_a = lo + np.nonzero(need[lo:hi])[0]
+                    batch = dict(zip(same_a.tolist(), alg.restricted_rows(a, b_of[same_a])))
+                rows = batch[t]
                 if rows is None:  # the shared outputs can never be equal
                     done_a, done_b = wa, wb
                 else:
