@@ -345,16 +345,17 @@ def support_upper_bound(A, b, c, lam, radius_bound):
 
 
 @kernel(cache=True)
-def _walk_step(A, b, c, sign, frac, point, basis, n_basis):
+def _walk_step(AT, b, c, sign, frac, point, basis, n_basis, rate, slack):
     """One step of a walk of :func:`walk_width_lower_bound` from ``point`` (updated in place).
 
     The step goes along the part of ``sign * c`` parallel to the rows that stopped the earlier
     steps (``basis[:n_basis]``, orthonormal), ``frac`` of the way to the first row it would
     cross, which then joins the basis (Gram-Schmidt, in the order met).  Returns the new basis
     size, or ``-1`` when the walk is over: that part vanishes, no row stops it (an unbounded
-    direction: the point stays) or a row is already violated.
+    direction: the point stays) or a row is already violated.  ``AT`` is the rows transposed;
+    ``rate`` and ``slack`` are scratch of one entry per row.
     """
-    k, d = A.shape
+    d, k = AT.shape
     cnorm = 0.0
     for q in range(d):
         cnorm += c[q] * c[q]
@@ -374,19 +375,23 @@ def _walk_step(A, b, c, sign, frac, point, basis, n_basis):
     dnorm = np.sqrt(dnorm)
     if not dnorm > 1e-9 * cnorm:
         return -1
+    # A_r direction and b_r - A_r point for every row, each row's terms in the order of q
+    for r in range(k):
+        rate[r] = 0.0
+        slack[r] = b[r]
+    for q in range(d):
+        dq = direction[q]
+        pq = point[q]
+        for r in range(k):
+            rate[r] += AT[q, r] * dq
+            slack[r] -= AT[q, r] * pq
     step = np.inf
     block = -1
     for r in range(k):
-        rate = 0.0
-        for q in range(d):
-            rate += A[r, q] * direction[q]
-        if rate > 1e-12 * dnorm:
-            slack = b[r]
-            for q in range(d):
-                slack -= A[r, q] * point[q]
-            if slack < 0.0:
+        if rate[r] > 1e-12 * dnorm:
+            if slack[r] < 0.0:
                 return -1
-            ratio = slack / rate
+            ratio = slack[r] / rate[r]
             if ratio < step:
                 step = ratio
                 block = r
@@ -398,7 +403,7 @@ def _walk_step(A, b, c, sign, frac, point, basis, n_basis):
     if n_basis >= basis.shape[0]:
         return -1
     for q in range(d):
-        basis[n_basis, q] = A[block, q]
+        basis[n_basis, q] = AT[q, block]
     for j in range(n_basis):
         proj = 0.0
         for q in range(d):
@@ -417,35 +422,41 @@ def _walk_step(A, b, c, sign, frac, point, basis, n_basis):
 
 
 @kernel(cache=True)
-def _certified_feasible(A, b, x):
+def _certified_feasible(AT, b, x, acc, scale):
     """Is ``A x <= b`` certain for the floating-point ``x``: every row's computed ``A_k x - b_k``
-    plus its rounding-error bound ``gamma_{d+2} (|A_k| |x| + |b_k|)`` at most zero?"""
-    k, d = A.shape
+    plus its rounding-error bound ``gamma_{d+2} (|A_k| |x| + |b_k|)`` at most zero?  ``AT`` is
+    the rows transposed; ``acc``, ``scale`` scratch of one entry per row."""
+    d, k = AT.shape
     gamma = (d + 3) * 1.1102230246251565e-16
     for r in range(k):
-        acc = -b[r]
-        scale = abs(b[r])
-        for q in range(d):
-            acc += A[r, q] * x[q]
-            scale += abs(A[r, q]) * abs(x[q])
-        if not acc + gamma * scale * 1.0000001 <= 0.0:
+        acc[r] = -b[r]
+        scale[r] = abs(b[r])
+    for q in range(d):
+        xq = x[q]
+        ax = abs(xq)
+        for r in range(k):
+            acc[r] += AT[q, r] * xq
+            scale[r] += abs(AT[q, r]) * ax
+    for r in range(k):
+        if not acc[r] + gamma * scale[r] * 1.0000001 <= 0.0:
             return False
     return True
 
 
 @kernel(cache=True)
-def _proven_width(A, b, c, top, bottom):
+def _proven_width(AT, b, c, top, bottom, acc, scale):
     """``c'(top - bottom)`` minus its rounding-error bound when both points are certified points of
-    ``{A v <= b}`` (:func:`_certified_feasible`), else ``-inf``: a lower bound on the set's width along ``c``."""
-    d = A.shape[1]
-    if not (_certified_feasible(A, b, top) and _certified_feasible(A, b, bottom)):
+    ``{A v <= b}`` (:func:`_certified_feasible`, ``AT`` the rows transposed), else ``-inf``: a
+    lower bound on the set's width along ``c``."""
+    d = AT.shape[0]
+    if not (_certified_feasible(AT, b, top, acc, scale) and _certified_feasible(AT, b, bottom, acc, scale)):
         return -np.inf
     width = 0.0
-    scale = 0.0
+    scale_c = 0.0
     for q in range(d):
         width += c[q] * (top[q] - bottom[q])
-        scale += abs(c[q]) * (abs(top[q]) + abs(bottom[q]))
-    return width - (d + 4) * 1.1102230246251565e-16 * scale * 1.0000001
+        scale_c += abs(c[q]) * (abs(top[q]) + abs(bottom[q]))
+    return width - (d + 4) * 1.1102230246251565e-16 * scale_c * 1.0000001
 
 
 @kernel(cache=True)
@@ -463,11 +474,19 @@ def walk_width_lower_bound(A, b, p, c, steps, frac, target):
 
     The walks are a cheap first try at the two LPs of a width test: a set that they prove wider
     than the threshold needs neither LP, and a set they do not prove wide goes to the LPs.
+    The rows are transposed once: every pass over them then runs along contiguous memory, with
+    each row's sum in the order of its terms (the bits of one loop per row).
     """
-    d = A.shape[1]
+    k, d = A.shape
     for q in range(d):
         if not (np.isfinite(p[q]) and np.isfinite(c[q])):
             return -np.inf
+    AT = np.empty((d, k))
+    for r in range(k):
+        for q in range(d):
+            AT[q, r] = A[r, q]
+    u = np.empty(k)
+    w = np.empty(k)
     top = p.copy()
     bottom = p.copy()
     basis_top = np.zeros((steps, d))
@@ -476,15 +495,15 @@ def walk_width_lower_bound(A, b, p, c, steps, frac, target):
     n_bottom = 0
     for _ in range(steps):
         if n_top >= 0:
-            n_top = _walk_step(A, b, c, 1.0, frac, top, basis_top, n_top)
+            n_top = _walk_step(AT, b, c, 1.0, frac, top, basis_top, n_top, u, w)
         if n_bottom >= 0:
-            n_bottom = _walk_step(A, b, c, -1.0, frac, bottom, basis_bottom, n_bottom)
+            n_bottom = _walk_step(AT, b, c, -1.0, frac, bottom, basis_bottom, n_bottom, u, w)
         apart = 0.0
         for q in range(d):
             apart += c[q] * (top[q] - bottom[q])
         if apart > target or (n_top < 0 and n_bottom < 0):
             break
-    return _proven_width(A, b, c, top, bottom)
+    return _proven_width(AT, b, c, top, bottom, u, w)
 
 
 def _seq_sum(x: np.ndarray) -> float:

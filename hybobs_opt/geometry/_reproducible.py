@@ -85,6 +85,27 @@ def _sumsq_kernel(v):
     return acc
 
 
+@kernel(cache=True)
+def _row_norms_kernel(X):
+    """``sqrt(X[r, 0]^2 + X[r, 1]^2 + ...)`` of each row, summed first to last (:func:`row_norms`)."""
+    k, d = X.shape
+    out = np.zeros(k)
+    for t in range(d):
+        for r in range(k):
+            out[r] += X[r, t] * X[r, t]
+    for r in range(k):
+        out[r] = np.sqrt(out[r])
+    return out
+
+
+def _row_norms_numpy(X: np.ndarray) -> np.ndarray:
+    """:func:`_row_norms_kernel` in NumPy (the same sums, rows vectorised)."""
+    acc = np.zeros(X.shape[0])
+    for t in range(X.shape[1]):
+        acc = acc + X[:, t] * X[:, t]
+    return np.sqrt(acc)
+
+
 def _matmul_numpy(A, B):
     """:func:`_matmul_kernel` in NumPy: the same products, added in the same order."""
     C = np.zeros((A.shape[0], B.shape[1]))
@@ -381,6 +402,29 @@ def _lstsq_columns_kernel(A, cols, p, b, tol, max_sweeps):
 
 
 @kernel(cache=True)
+def _span_width_kernel(G, rows, slack, c, radius_bound, tol, max_sweeps):
+    """:func:`span_width_bound` in one call: ``(value, ok)``, ``ok`` False for a non-finite entry."""
+    p = rows.shape[0]
+    d = G.shape[1]
+    GKT = np.empty((d, p))
+    for a in range(p):
+        for q in range(d):
+            GKT[q, a] = G[rows[a], q]
+    cols = np.arange(p)
+    alpha, ok = _lstsq_columns_kernel(GKT, cols, p, c, tol, max_sweeps)
+    if not ok:
+        return np.inf, False
+    fit = _matvec_kernel(GKT, alpha)
+    rho = np.empty(d)
+    for q in range(d):
+        rho[q] = c[q] - fit[q]
+    spread = np.empty(p)
+    for a in range(p):
+        spread[a] = abs(alpha[a])
+    return _vecdot_kernel(spread, slack) + 2.0 * radius_bound * np.sqrt(_sumsq_kernel(rho)), True
+
+
+@kernel(cache=True)
 def _nnls_kernel(A, b, limit, tol_jacobi, max_sweeps):
     """:func:`_nnls_python` in one compiled call: the same operations in the same order.
 
@@ -555,6 +599,47 @@ def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
     return U, s, Vt, r, N, full, thin, thin_norm, r2 == r, D, ok and ok2
 
 
+@kernel(cache=True)
+def _affine_hull_kernel(E0, e0, rank_rtol, consistency_rtol, closed_tol, tol, max_sweeps):
+    """The affine set ``{s : E s = e}`` of equality rows ``E0 s = e0`` (each row normalised first).
+
+    The operations of :func:`affine_hull` written out: ``E``, ``e`` divided by the row norms
+    (:func:`row_norms`), ``E = U diag(s) Vt`` (:func:`svd`), rank ``r`` (singular values above
+    ``rank_rtol`` times the largest), ``t0 = Vt[:r]' (U[:, :r]' e / s[:r])`` (:func:`matmul`'s
+    sums) and the residual test ``|E t0 - e| > consistency_rtol (1 + |e|) + closed_tol``.
+    Returns ``(status, N, t0)``: status 2 with the basis ``N = Vt[r:]'`` and ``t0``, 1 when the
+    rows contradict each other, 0 when ``r = 0``, -1 when a row norm is zero or an entry not
+    finite (the caller computes in NumPy then).
+    """
+    m, d = E0.shape
+    nrm = _row_norms_kernel(E0)
+    for a in range(m):
+        if not (nrm[a] > 0.0 and np.isfinite(nrm[a]) and np.isfinite(e0[a])):
+            return -1, np.zeros((d, 0)), np.zeros(d)
+    E = np.empty((m, d))
+    e = np.empty(m)
+    for a in range(m):
+        for c in range(d):
+            E[a, c] = E0[a, c] / nrm[a]
+        e[a] = e0[a] / nrm[a]
+    U, s, Vt, ok = _svd_full_kernel(E, tol, max_sweeps)
+    if not ok:
+        return -1, np.zeros((d, 0)), np.zeros(d)
+    r = _rank_kernel(s, rank_rtol)
+    if r == 0:
+        return 0, np.zeros((d, 0)), np.zeros(d)
+    coef = _matvec_kernel(np.ascontiguousarray(U[:, :r].T), e)
+    for a in range(r):
+        coef[a] = coef[a] / s[a]
+    t0 = _matvec_kernel(np.ascontiguousarray(Vt[:r].T), coef)
+    resid = _matvec_kernel(E, t0)
+    for a in range(m):
+        resid[a] = resid[a] - e[a]
+    if np.sqrt(_sumsq_kernel(resid)) > consistency_rtol * (1.0 + np.sqrt(_sumsq_kernel(e))) + closed_tol:
+        return 1, np.zeros((d, 0)), t0
+    return 2, np.ascontiguousarray(Vt[r:].T), t0
+
+
 def _nnls_python(A: np.ndarray, b: np.ndarray, limit: int, tol_jacobi: float, max_sweeps: int):
     """The active-set method of :func:`nnls` in NumPy: ``(x, residual norm, status)``, status 1 at
     the iteration limit (``tol_jacobi`` and ``max_sweeps`` are :func:`svd`'s, which it calls)."""
@@ -591,11 +676,12 @@ def _nnls_python(A: np.ndarray, b: np.ndarray, limit: int, tol_jacobi: float, ma
 COMPILED = finalize_kernels(globals(), tiered=True, weight=1,
                             python={"_matmul_kernel": _matmul_numpy, "_jacobi_kernel": _jacobi_numpy,
                                     "_complete_kernel": _complete_numpy, "_singular_values_kernel": _singular_values_numpy,
-                                    "_nnls_kernel": _nnls_python})
+                                    "_nnls_kernel": _nnls_python, "_row_norms_kernel": _row_norms_numpy})
 _matmul = _matmul_kernel if COMPILED else _matmul_numpy
 _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
 _singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
+_row_norms = _row_norms_kernel if COMPILED else _row_norms_numpy
 
 
 def equality_subspace(E: np.ndarray, n: int, rank_rtol: float):
@@ -607,6 +693,60 @@ def equality_subspace(E: np.ndarray, n: int, rank_rtol: float):
         return None
     out = _equality_subspace_kernel(np.ascontiguousarray(E, dtype=float), int(n), float(rank_rtol), JACOBI_TOL, JACOBI_MAX_SWEEPS)
     return out[:-1] if out[-1] else None
+
+
+def span_width_bound(G: np.ndarray, rows: np.ndarray, slack: np.ndarray, c: np.ndarray, radius_bound: float) -> float:
+    """``sum_k |alpha_k| slack_k + 2 R |rho|`` for ``c = G[rows]' alpha + rho`` (``alpha`` by :func:`lstsq`).
+
+    The bound of :func:`~hybobs_opt.regions.pair_geometry._tight_width_bound` on the width of
+    ``c'v`` when each ``G_k v`` (``k`` in ``rows``) ranges over an interval of length ``slack_k``
+    and ``|v| <= R``; ``inf`` when it is not finite.  The bits of :func:`lstsq`, :func:`matmul`
+    and :func:`norm`, in one compiled call when the kernels are.
+    """
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    if rows.size == 0:
+        return np.inf
+    G = np.ascontiguousarray(G, dtype=float)
+    c = np.ascontiguousarray(c, dtype=float)
+    slack = np.ascontiguousarray(slack, dtype=float)
+    if COMPILED:
+        val, ok = _span_width_kernel(G, rows, slack, c, float(radius_bound), JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    else:
+        ok = False
+    if not ok:
+        GK = G[rows]
+        alpha = lstsq(GK.T, c)
+        rho = c - matmul(GK.T, alpha)
+        val = matmul(np.abs(alpha), slack) + 2.0 * radius_bound * norm(rho)
+    val = float(val)
+    return val if np.isfinite(val) else np.inf
+
+
+def affine_hull(E: np.ndarray, e: np.ndarray, rank_rtol: float, consistency_rtol: float, closed_tol: float):
+    """The affine set ``{s : E s = e}`` after normalising each row: ``(N, t0)`` (``s = t0 + N z``),
+    ``"empty"`` when the rows contradict each other (residual above ``consistency_rtol (1 +
+    |e|) + closed_tol``), ``None`` when the numerical rank (``rank_rtol``) is 0.
+
+    The bits of :func:`row_norms`, :func:`svd`, the rank and :func:`matmul` on the same data;
+    one compiled call (:func:`_affine_hull_kernel`) when the kernels are.
+    """
+    E = np.ascontiguousarray(E, dtype=float)
+    e = np.ascontiguousarray(e, dtype=float)
+    if COMPILED and E.ndim == 2 and E.shape[0] > 0 and E.shape[1] > 0:
+        status, N, t0 = _affine_hull_kernel(E, e, float(rank_rtol), float(consistency_rtol), float(closed_tol),
+                                            JACOBI_TOL, JACOBI_MAX_SWEEPS)
+        if status >= 0:
+            return (N, t0) if status == 2 else ("empty" if status == 1 else None)
+    nrm = row_norms(E)
+    E, e = E / nrm[:, None], e / nrm
+    U_, s, Vt = svd(E, full_matrices=True)
+    r = int(np.sum(s > rank_rtol * max(s[0], np.finfo(float).tiny))) if s.size else 0
+    if r == 0:
+        return None
+    t0 = matmul(Vt[:r].T, matmul(U_[:, :r].T, e) / s[:r])
+    if norm(matmul(E, t0) - e) > consistency_rtol * (1.0 + norm(e)) + closed_tol:
+        return "empty"
+    return Vt[r:].T, t0
 
 
 def _svd_tall(A: np.ndarray):
@@ -668,10 +808,9 @@ def norm(x) -> float:
 def row_norms(X) -> np.ndarray:
     """Euclidean norm of each row of a 2-D array."""
     X = _as2d(X)
-    acc = np.zeros(X.shape[0])
-    for t in range(X.shape[1]):
-        acc = acc + X[:, t] * X[:, t]
-    return np.sqrt(acc)
+    if X.ndim != 2:
+        raise ValueError(f"row_norms: a 2-D array expected, got shape {X.shape}")
+    return _row_norms(X)
 
 
 def _svd_tall_numpy(A: np.ndarray):

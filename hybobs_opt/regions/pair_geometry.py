@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry._lp_kernels import (implicit_row_bounds, max_abs_affine, min_row_slack, slack_lp_data, slack_lp_rows,
                                     support_upper_bound)
-from ..geometry._reproducible import dot, lstsq, matmul as mm, nnls, norm, numerical_rank, row_norms, svd
+from ..geometry._reproducible import affine_hull, dot, matmul as mm, nnls, norm, numerical_rank, span_width_bound, svd
 from ..geometry.exact_lp import decide_above
 from ..geometry.lp import certified_width_below, highs_lp, solve_slack_lp, verified_lp, width_proven_above
 from ..status import Status
@@ -203,19 +203,10 @@ def _affine_reduce(Gs: np.ndarray, gs: np.ndarray, lp: _Chebyshev, radius_bound:
         return None
     if tight is not None:
         tight["rows"], tight["slack"] = K, beta
-    E, e = Gs[keep[K]], gs[keep[K]]
-    nrm = row_norms(E)
-    E, e = E / nrm[:, None], e / nrm
-    U_, s, Vt = svd(E, full_matrices=True)
     # Two tight rows with opposite normals pin one direction, not two: their normals differ by
     # rounding (1e-8), and that sliver of a singular value pins nothing (see the tolerance).
-    r = int(np.sum(s > IMPLICIT_EQUALITY_RANK_RTOL * max(s[0], np.finfo(float).tiny))) if s.size else 0
-    if r == 0:
-        return None
-    t0 = mm(Vt[:r].T, mm(U_[:, :r].T, e) / s[:r])
-    if norm(mm(E, t0) - e) > EQUALITY_CONSISTENCY_RTOL * (1.0 + norm(e)) + CLOSED_SET_TOL:
-        return PairVerdict.EMPTY
-    return Vt[r:].T, t0
+    hull = affine_hull(Gs[keep[K]], gs[keep[K]], IMPLICIT_EQUALITY_RANK_RTOL, EQUALITY_CONSISTENCY_RTOL, CLOSED_SET_TOL)
+    return PairVerdict.EMPTY if hull == "empty" else hull
 
 
 def _highs_implicit_rows(G: np.ndarray, g: np.ndarray, A: np.ndarray, bu: np.ndarray, radius_bound: float):
@@ -263,13 +254,7 @@ def _tight_width_bound(G: np.ndarray, rows: np.ndarray, slack: np.ndarray, c: np
     ``c`` lies in the span of the implicit equalities just found (the flat direction of a face
     of ``R_ij``: half of the pair LPs of model 17 at ``T = 6`` are such width LPs).
     """
-    if rows.size == 0:
-        return np.inf
-    GK = G[rows]
-    alpha = lstsq(GK.T, c)
-    rho = c - mm(GK.T, alpha)
-    val = float(mm(np.abs(alpha), slack) + 2.0 * radius_bound * norm(rho))
-    return val if np.isfinite(val) else np.inf
+    return span_width_bound(G, rows, slack, c, radius_bound)
 
 
 def _nnls_multipliers(GA: np.ndarray) -> np.ndarray | None:
@@ -357,11 +342,17 @@ class SubspaceDirections:
 class _Frame:
     """An affine frame ``v = s0 + M s`` of the pair set (inside its equality subspace) and its tests."""
 
-    def __init__(self, Gv, gv, N, w0, M, s0, n: int, radius_bound: float, directions: "SubspaceDirections | None" = None):
+    def __init__(self, Gv, gv, N, w0, M, s0, n: int, radius_bound: float, directions: "SubspaceDirections | None" = None,
+                 products: tuple | None = None):
+        # products: (Gv M, gv - Gv s0, N M) when the caller has them
         self.n, self.R = n, radius_bound
         self.M, self.s0 = M, s0
-        self.Nh, self.wh = (N, w0) if M is None else (mm(N, M), w0 + mm(N, s0))
-        self.Gs, self.gs = (Gv, gv) if M is None else (mm(Gv, M), gv - mm(Gv, s0))
+        if M is None:
+            self.Nh, self.wh = N, w0
+            self.Gs, self.gs = Gv, gv
+        else:
+            self.Gs, self.gs, self.Nh = products or (mm(Gv, M), gv - mm(Gv, s0), mm(N, M))
+            self.wh = w0 + mm(N, s0)
         self.dim = self.Nh.shape[1]
         self.directions = directions or SubspaceDirections.of(self.Nh, n)
         self._lp = None
@@ -565,10 +556,15 @@ class _Hull:
     M: np.ndarray
     s0: np.ndarray
     lp: _Chebyshev
+    #: ``(Gv M, gv - Gv s0, N M, radius bound in the frame)`` when the reduction computed them
+    products: tuple | None = None
 
     def frame(self, Gv, gv, N, w0, n: int, radius_bound: float) -> _Frame:
         """The :class:`_Frame` of the hull, with the LP's point as its witness and its ball when certified."""
-        frame = _Frame(Gv, gv, N, w0, self.M, self.s0, n, radius_bound + norm(self.s0))
+        if self.products is None:
+            frame = _Frame(Gv, gv, N, w0, self.M, self.s0, n, radius_bound + norm(self.s0))
+        else:
+            frame = _Frame(Gv, gv, N, w0, self.M, self.s0, n, self.products[3], products=self.products[:3])
         centre = self.lp.centre
         frame.centre = _witness(centre, self.lp.A, self.lp.bu) if centre is not None and centre.size else centre
         if self.lp.radius > REGION_SLACK_TOL:  # the LP's threshold: then it is its certified lower bound
@@ -587,6 +583,7 @@ def _reduce_to_hull(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, radius_bound:
     decided on the way (empty, or every wanted projection thin).
     """
     M, s0 = np.eye(Gv.shape[1]), np.zeros(Gv.shape[1])
+    products = None  # (Gv M, gv - Gv s0, N M, R + |s0|) of the current frame after the first
     for step in range(Gv.shape[1]):
         if lp.radius > REGION_SLACK_TOL:
             break
@@ -595,7 +592,7 @@ def _reduce_to_hull(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, radius_bound:
         if step == 0:
             red = _affine_reduce(Gv + 0.0, gv - 0.0, lp, radius_bound + 0.0, tight=certifier.tight)
         else:
-            red = _affine_reduce(mm(Gv, M), gv - mm(Gv, s0), lp, radius_bound + norm(s0))
+            red = _affine_reduce(products[0], products[1], lp, products[3])
         if red is None:  # the implicit equalities are not certified: keep the frame (safe side)
             break
         if red is PairVerdict.EMPTY:
@@ -608,15 +605,16 @@ def _reduce_to_hull(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, radius_bound:
                 verdicts[k] = PairVerdict.LOWER_DIMENSIONAL
         if all(v for v in verdicts):
             return PairClassification(*verdicts, lp.radius, True)
+        products = (mm(Gv, M), gv - mm(Gv, s0), NM, radius_bound + norm(s0))
         if M.shape[1] == 0:
-            if np.min(gv - mm(Gv, s0), initial=np.inf) < -CLOSED_SET_TOL:
+            if np.min(products[1], initial=np.inf) < -CLOSED_SET_TOL:
                 return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
             lp = replace(lp, radius=0.0, centre=np.zeros(0))
             break
-        lp = _chebyshev(mm(Gv, M), gv - mm(Gv, s0), radius_bound + norm(s0), REGION_SLACK_TOL, problem + " (affine hull)")
+        lp = _chebyshev(products[0], products[1], products[3], REGION_SLACK_TOL, problem + " (affine hull)")
         if lp.radius == -np.inf:
             return PairClassification(PairVerdict.EMPTY, PairVerdict.EMPTY, -np.inf, True)
-    return _Hull(M, s0, lp)
+    return _Hull(M, s0, lp, products)
 
 
 def _decide_remaining(frame: _Frame, parts: list, verdicts: list, thin_filter: bool,

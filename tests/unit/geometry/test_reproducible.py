@@ -275,3 +275,81 @@ def test_vector_products_and_norm_kernels_are_the_ordered_sums():
     assert R.norm(np.zeros(0)) == 0.0
     with pytest.raises(ValueError, match="do not match"):
         R.matmul(A, y)
+
+
+def test_row_norms_kernel_is_the_numpy_twin_bit_for_bit():
+    """The compiled row norms (columns outermost) and the NumPy twin give the same bits, on graded
+    rows with cancellation-free squares spread over many decades, a zero row and no columns."""
+    tier_up()
+    rng = np.random.default_rng(31)
+    X = _graded(rng, 40, 14) * 10.0 ** rng.integers(-100, 100, size=(40, 1))
+    X[3] = 0.0
+    for M in (X, np.zeros((3, 0)), np.zeros((0, 4))):
+        assert np.array_equal(R.row_norms(M), R._row_norms_numpy(M))
+    with pytest.raises(ValueError, match="2-D"):
+        R.row_norms(np.ones(3))
+
+
+def _affine_hull_numpy(E, e, rank_rtol, consistency_rtol, closed_tol):
+    """The NumPy operations the affine-hull kernel writes out (row norms, svd, rank, matmul)."""
+    nrm = R._row_norms_numpy(E)
+    E, e = E / nrm[:, None], e / nrm
+    U, s, Vt = R.svd(E, full_matrices=True)
+    r = int(np.sum(s > rank_rtol * max(s[0], np.finfo(float).tiny)))
+    if r == 0:
+        return None
+    t0 = R.matmul(Vt[:r].T, R.matmul(U[:, :r].T, e) / s[:r])
+    if R.norm(R.matmul(E, t0) - e) > consistency_rtol * (1.0 + R.norm(e)) + closed_tol:
+        return "empty"
+    return Vt[r:].T, t0
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_affine_hull_kernel_is_the_numpy_operations_bit_for_bit(seed):
+    """One compiled call gives the bits of the NumPy operations it replaces, on tall, wide and
+    square row sets, with opposite normals (rank below the row count), consistent and contradicting
+    right-hand sides; a zero row or a NaN falls back to NumPy (the same answer)."""
+    tier_up()
+    rng = np.random.default_rng(100 + seed)
+    m, d = int(rng.integers(1, 9)), int(rng.integers(1, 14))
+    E = _graded(rng, m, d) + rng.normal(size=(m, d))
+    x = rng.normal(size=d)
+    e = E @ x
+    if m > 1 and seed % 3 == 0:
+        E[1], e[1] = -E[0] * (1 + 1e-9), -e[0]  # the opposite normal of row 0: one direction pinned
+    if seed % 4 == 1:
+        e = e + rng.normal(size=m) * 1e-3  # contradicting rows when they are dependent
+    for rtol in (1e-6, 1e-12):
+        got = R.affine_hull(E, e, rtol, 1e-9, 1e-9)
+        want = _affine_hull_numpy(E, e, rtol, 1e-9, 1e-9)
+        if want is None or isinstance(want, str):
+            assert got == want
+        else:
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+            assert np.allclose(E @ (got[1] + got[0] @ rng.normal(size=got[0].shape[1])), e, atol=1e-6 * (1 + np.abs(e).max()))
+    zero = E.copy()
+    zero[0] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        with pytest.raises(ValueError, match="non-finite"):  # 0 / 0 rows: NumPy's svd refuses, as before
+            R.affine_hull(zero, e, 1e-6, 1e-9, 1e-9)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_span_width_bound_is_the_numpy_operations_bit_for_bit(seed):
+    """The compiled bound ``sum |alpha| slack + 2 R |rho|`` gives the bits of lstsq, matmul and norm
+    (tall, wide, rank-deficient row sets); no rows bound nothing (``inf``)."""
+    tier_up()
+    rng = np.random.default_rng(200 + seed)
+    k, d = int(rng.integers(3, 30)), int(rng.integers(2, 14))
+    G = rng.normal(size=(k, d))
+    rows = np.sort(rng.choice(k, size=int(rng.integers(1, min(k, d + 3))), replace=False))
+    if rows.size > 1 and seed % 2:
+        G[rows[1]] = 3.0 * G[rows[0]]  # dependent rows
+    slack = rng.uniform(0, 1e-6, size=rows.size)
+    c = rng.normal(size=d) if seed % 3 else G[rows].T @ rng.normal(size=rows.size)
+    GK = G[rows]
+    alpha = R.lstsq(GK.T, c)
+    rho = c - R.matmul(GK.T, alpha)
+    want = float(R.matmul(np.abs(alpha), slack) + 2.0 * 5.0 * R.norm(rho))
+    assert R.span_width_bound(G, rows, slack, c, 5.0) == want
+    assert R.span_width_bound(G, rows[:0], slack[:0], c, 5.0) == np.inf
