@@ -262,12 +262,96 @@ def _complete_numpy(Q, r):
 
 
 @kernel(cache=True)
+def _jacobi_four_kernel(Ws, cut2, tol, max_sweeps):
+    """:func:`_jacobi_kernel` without ``V`` on the four matrices ``Ws[0].T, ..., Ws[3].T`` side by side.
+
+    ``Ws[g]`` holds matrix ``g`` transposed (``Ws[g, j]`` is its column ``j``, contiguous).  Each
+    matrix gets exactly the operations it gets alone (its rotations, and no sweep after the first
+    one without a rotation; the negligible threshold ``cut2[g]`` its own); the twelve column sums
+    of a pair ``(p, q)`` run in one loop, so that their dependency chains overlap.
+    """
+    k = Ws.shape[1]
+    m = Ws.shape[2]
+    active = np.ones(4, dtype=np.bool_)
+    rotated = np.zeros(4, dtype=np.bool_)
+    sums = np.zeros((4, 3))
+    for sweep in range(max_sweeps):
+        for g in range(4):
+            rotated[g] = False
+        for p in range(k - 1):
+            for q in range(p + 1, k):
+                a0 = 0.0
+                b0 = 0.0
+                c0 = 0.0
+                a1 = 0.0
+                b1 = 0.0
+                c1 = 0.0
+                a2 = 0.0
+                b2 = 0.0
+                c2 = 0.0
+                a3 = 0.0
+                b3 = 0.0
+                c3 = 0.0
+                for i in range(m):
+                    u = Ws[0, p, i]
+                    v = Ws[0, q, i]
+                    a0 += u * u
+                    b0 += v * v
+                    c0 += u * v
+                    u = Ws[1, p, i]
+                    v = Ws[1, q, i]
+                    a1 += u * u
+                    b1 += v * v
+                    c1 += u * v
+                    u = Ws[2, p, i]
+                    v = Ws[2, q, i]
+                    a2 += u * u
+                    b2 += v * v
+                    c2 += u * v
+                    u = Ws[3, p, i]
+                    v = Ws[3, q, i]
+                    a3 += u * u
+                    b3 += v * v
+                    c3 += u * v
+                sums[0, 0], sums[0, 1], sums[0, 2] = a0, b0, c0
+                sums[1, 0], sums[1, 1], sums[1, 2] = a1, b1, c1
+                sums[2, 0], sums[2, 1], sums[2, 2] = a2, b2, c2
+                sums[3, 0], sums[3, 1], sums[3, 2] = a3, b3, c3
+                for g in range(4):
+                    if not active[g]:
+                        continue
+                    rotate, c, s = _jacobi_rotation(sums[g, 0], sums[g, 1], sums[g, 2], tol, cut2[g])
+                    if not rotate:
+                        continue
+                    rotated[g] = True
+                    for i in range(m):
+                        wp = Ws[g, p, i]
+                        wq = Ws[g, q, i]
+                        Ws[g, p, i] = c * wp - s * wq
+                        Ws[g, q, i] = s * wp + c * wq
+        left = False
+        for g in range(4):
+            if active[g] and not rotated[g]:
+                active[g] = False
+            left = left or active[g]
+        if not left:
+            return
+
+
+@kernel(cache=True)
 def _singular_values_kernel(Ms, tol, max_sweeps):
     """Singular values (descending) of each tall matrix ``Ms[b]`` (``m >= k``): the operations of
-    :func:`_svd_tall` without its vectors, for a whole batch in one call."""
+    :func:`_svd_tall` without its vectors, for a whole batch in one call (four matrices at a
+    time side by side, :func:`_jacobi_four_kernel`: the same operations on each)."""
     nb, m, k = Ms.shape
     out = np.zeros((nb, k))
     eps = np.finfo(np.float64).eps
+    # the matrices transposed (columns contiguous), padded with zero matrices to a multiple of
+    # four: a zero matrix is never rotated, so it drops out after one sweep
+    n4 = (nb + 3) // 4 * 4
+    Ws = np.zeros((n4, k, m))
+    cut2 = np.zeros(n4)
+    units = np.empty(nb)
     for b in range(nb):
         big = 0.0
         for i in range(m):
@@ -277,23 +361,26 @@ def _singular_values_kernel(Ms, tol, max_sweeps):
                     big = a
         # any power of two gives the same bits (the scaling is exact); frexp's is one
         unit = math.ldexp(1.0, math.frexp(big)[1]) if big > 0.0 else 1.0
-        W = np.empty((m, k))
         fro2 = 0.0
         for i in range(m):
             for j in range(k):
-                W[i, j] = Ms[b, i, j] / unit
-                fro2 += W[i, j] * W[i, j]
-        cut2 = (eps * max(m, k)) ** 2 * fro2
-        _jacobi_kernel(W, np.zeros((0, k)), tol, cut2, max_sweeps)
+                w = Ms[b, i, j] / unit
+                Ws[b, j, i] = w
+                fro2 += w * w
+        cut2[b] = (eps * max(m, k)) ** 2 * fro2
+        units[b] = unit
+    for b in range(0, n4, 4):
+        _jacobi_four_kernel(Ws[b:b + 4], cut2[b:b + 4], tol, max_sweeps)
+    for b in range(nb):
         s = np.zeros(k)
         for j in range(k):
             s2 = 0.0
             for i in range(m):
-                s2 += W[i, j] * W[i, j]
-            s[j] = np.sqrt(s2) if s2 > cut2 else 0.0
+                s2 += Ws[b, j, i] * Ws[b, j, i]
+            s[j] = np.sqrt(s2) if s2 > cut2[b] else 0.0
         s = np.sort(s)[::-1]
         for j in range(k):
-            out[b, j] = s[j] * unit
+            out[b, j] = s[j] * units[b]
     return out
 
 

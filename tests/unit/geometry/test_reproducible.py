@@ -353,3 +353,21 @@ def test_span_width_bound_is_the_numpy_operations_bit_for_bit(seed):
     want = float(R.matmul(np.abs(alpha), slack) + 2.0 * 5.0 * R.norm(rho))
     assert R.span_width_bound(G, rows, slack, c, 5.0) == want
     assert R.span_width_bound(G, rows[:0], slack[:0], c, 5.0) == np.inf
+
+
+def test_batched_singular_values_side_by_side_keep_each_matrix_bits():
+    """Four matrices run their Jacobi sweeps side by side: one with orthogonal columns (no rotation,
+    done after one sweep), graded ones needing many sweeps, a rank-deficient and a zero one in the
+    same group of four, and a batch that is not a multiple of four; each gives :func:`svd`'s bits."""
+    rng = np.random.default_rng(37)
+    m, k = 19, 9
+    Q = np.linalg.qr(rng.normal(size=(m, k)))[0] * np.arange(1, k + 1)  # orthogonal columns
+    deficient = _graded(rng, m, k)
+    deficient[:, 4] = deficient[:, 1] - deficient[:, 2]
+    mats = [Q, _graded(rng, m, k), deficient, np.zeros((m, k)), _graded(rng, m, k) * 1e-150,
+            _graded(rng, m, k), Q[:, ::-1].copy(), _graded(rng, m, k) * 1e150, _graded(rng, m, k)]
+    for count in (9, 8, 7, 6, 5):
+        M = np.stack(mats[:count])
+        S = R.singular_values(M)
+        assert np.array_equal(S, np.array([R.svd(Mk, compute_uv=False) for Mk in M]))
+        assert np.array_equal(S, R._singular_values_numpy(M, JACOBI_TOL, JACOBI_MAX_SWEEPS))
