@@ -891,6 +891,26 @@ def highs_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, *, problem: str, repla
     return solve_lp(c, A, b, problem=problem)
 
 
+_SLACK_LP_COLUMNS: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+_SLACK_LP_ROWS: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _slack_lp_constants(rows: int, columns: int):
+    """``H = 0``, ``f = (0, ..., 0, -1)``, lower bounds ``-1e30`` and senses ``0`` of a slack LP of this
+    size, allocated once per size: DAQP reads them and writes none (its bindings copy ``sense``
+    before a warm start marks constraints active, and none is given here), and nothing else
+    touches them."""
+    by_columns = _SLACK_LP_COLUMNS.get(columns)
+    if by_columns is None:
+        f = np.zeros(columns)
+        f[-1] = -1.0
+        by_columns = _SLACK_LP_COLUMNS[columns] = (np.zeros((columns, columns)), f)
+    by_rows = _SLACK_LP_ROWS.get(rows)
+    if by_rows is None:
+        by_rows = _SLACK_LP_ROWS[rows] = (np.full(rows, -1e30), np.zeros(rows, dtype=np.int32))
+    return by_columns[0], by_columns[1], by_rows[0], by_rows[1]
+
+
 def _daqp_call(H, f, A, bu, lower, sense, **settings):
     """``daqp.solve``, with an exception of the solver reported as a failed solve (``None``)."""
     try:
@@ -1222,10 +1242,8 @@ def solve_slack_lp(A: np.ndarray, bu: np.ndarray, radius_bound: float, threshold
     t0 = time.perf_counter()
     k = A.shape[0] - 1
     d = A.shape[1] - 1
-    f = np.zeros(d + 1)
-    f[d] = -1.0
     _count(fast=1)
-    H, lower_bounds, sense = np.zeros((d + 1, d + 1)), np.full(k + 1, -1e30), np.zeros(k + 1, dtype=np.int32)
+    H, f, lower_bounds, sense = _slack_lp_constants(k + 1, d + 1)
     # DAQP_EPS_PROX first; on the rare cycling exit (0.2 % of model 17's pair LPs) DAQP's own
     # automatic regularisation usually finishes, then NNLS sharpens its multipliers.
     for eps_prox in (DAQP_EPS_PROX, None):

@@ -125,40 +125,37 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
         starts = bounds[tested]
         any_ij = np.logical_or.reduceat(want_ij[live[order]], starts) if tested.size else np.zeros(0, dtype=bool)
         any_ji = np.logical_or.reduceat(want_ji[live[order]], starts) if tested.size else np.zeros(0, dtype=bool)
-        need = (any_ij & screen_a) | (any_ji & screen_b)
+        ok_a, ok_b = any_ij & screen_a, any_ji & screen_b
+        done_a, done_b = any_ij & ~screen_a, any_ji & ~screen_b  # rank: lower-dimensional, no LP
+        need = np.nonzero(ok_a | ok_b)[0]
         a_of, b_of = groups[tested] // n_sup, groups[tested] % n_sup
         batch: dict[int, object] = {}
-        for t, g in enumerate(tested):
-            members = live[order[bounds[g]:bounds[g + 1]]]
-            a, b = int(a_of[t]), int(b_of[t])
-            wa, wb = bool(any_ij[t]), bool(any_ji[t])
-            ok_a = wa and bool(screen_a[t])
-            ok_b = wb and bool(screen_b[t])
-            done_a, done_b = wa and not ok_a, wb and not ok_b  # rank: lower-dimensional, no LP
-            if ok_a or ok_b:
-                n_tests += 1
-                if t not in batch:
-                    lo, hi = np.searchsorted(a_of, a, "left"), np.searchsorted(a_of, a, "right")
-                    same_a = lo + np.nonzero(need[lo:hi])[0]
-                    batch = dict(zip(same_a.tolist(), alg.restricted_rows(a, b_of[same_a])))
-                rows = batch[t]
-                if rows is None:  # the shared outputs can never be equal
-                    done_a, done_b = wa, wb
-                else:
-                    verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, alg.n, rows.radius_bound, ok_a, ok_b,
-                                            problem=f"group of pairs below prefixes {a}, {b} of length {level.depth} "
-                                                    "(Algorithm 3.1, grouped step 3.1.1)",
-                                            directions=rows.directions)
-                    done_a = done_a or (ok_a and verdict.verdict != PairVerdict.PIECE)
-                    done_b = done_b or (ok_b and verdict.verdict_ji != PairVerdict.PIECE)
-            if done_a:
-                hit = members[want_ij[members]]
-                ruled.append(np.stack([caller[hit], other[hit]], axis=1))
-                want_ij[hit] = False
-            if done_b:
-                hit = members[want_ji[members]]
-                ruled.append(np.stack([other[hit], caller[hit]], axis=1))
-                want_ji[hit] = False
+        n_tests += need.size
+        for t in need.tolist():
+            a = int(a_of[t])
+            if t not in batch:
+                lo, hi = np.searchsorted(a_of, a, "left"), np.searchsorted(a_of, a, "right")
+                same_a = need[np.searchsorted(need, lo):np.searchsorted(need, hi)]
+                batch = dict(zip(same_a.tolist(), alg.restricted_rows(a, b_of[same_a])))
+            rows = batch[t]
+            if rows is None:  # the shared outputs can never be equal
+                done_a[t], done_b[t] = any_ij[t], any_ji[t]
+                continue
+            verdict = classify_pair(rows.Gv, rows.gv, rows.N, rows.w0, alg.n, rows.radius_bound, bool(ok_a[t]), bool(ok_b[t]),
+                                    problem=f"group of pairs below prefixes {a}, {int(b_of[t])} of length {level.depth} "
+                                            "(Algorithm 3.1, grouped step 3.1.1)",
+                                    directions=rows.directions)
+            done_a[t] = ok_a[t] and verdict.verdict != PairVerdict.PIECE
+            done_b[t] = ok_b[t] and verdict.verdict_ji != PairVerdict.PIECE
+        # every pair still wanted in a group decided here: the groups hold disjoint members
+        for done, want, first, second in ((done_a, want_ij, caller, other), (done_b, want_ji, other, caller)):
+            decided = np.zeros(groups.size, dtype=bool)
+            decided[tested] = done
+            hit = live[decided[inverse]]
+            hit = hit[want[hit]]
+            if hit.size:
+                ruled.append(np.stack([first[hit], second[hit]], axis=1))
+                want[hit] = False
     return (np.concatenate(ruled).astype(np.int32) if ruled else np.zeros((0, 2), dtype=np.int32)), n_tests
 
 
