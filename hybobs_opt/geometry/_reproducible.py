@@ -633,21 +633,16 @@ def _rank_kernel(s, rtol):
 
 
 @kernel(cache=True)
-def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
-    """The equality subspace ``{w : E w = 0}`` and what it says about two blocks of ``n`` coordinates.
+def _subspace_directions_kernel(N, n, rank_rtol, tol, max_sweeps):
+    """What a basis ``N`` (columns) says of the blocks ``N[:n]`` (``x``) and ``N[n:2n]`` (``x^``).
 
-    The bits of :func:`svd` and :func:`numerical_rank` on ``E`` (``E = U diag(s) Vt``, rank ``r``,
-    nullspace basis ``N = Vt[r:]'``), and, for the blocks ``w[:n]`` and ``w[n:2n]``: whether
-    ``N``'s block has rank ``n`` (its smallest singular value above ``rank_rtol``), the functional
-    ``N_block' u`` along the block's last left singular vector ``u`` and its norm, whether
-    appending the rows ``[I, -I, 0]`` to ``E`` leaves its numerical rank unchanged, and
-    ``N[:n] - N[n:2n]``.  ``ok`` is False for a non-finite entry (nothing else is meaningful then).
+    Per block ``P``: whether it has rank ``n`` (the smallest singular value of :func:`svd`
+    above ``rank_rtol``), the functional ``P' u`` along its last left singular vector ``u`` and
+    that functional's norm (zero when ``P`` has fewer than ``n`` columns); and ``N[:n] -
+    N[n:2n]``.  Returns ``(full, thin, thin_norm, D, ok)``, ``ok`` False for a non-finite entry.
     """
-    m, k = E.shape
-    U, s, Vt, ok = _svd_full_kernel(E, tol, max_sweeps)
-    r = _rank_kernel(s, rank_rtol)
-    N = np.ascontiguousarray(Vt[r:].T)
-    q = k - r
+    q = N.shape[1]
+    ok = True
     full = np.zeros(2, dtype=np.bool_)
     thin = np.zeros((2, q))
     thin_norm = np.zeros(2)
@@ -666,6 +661,30 @@ def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
             thin[part, c] = acc
             acc2 += acc * acc
         thin_norm[part] = np.sqrt(acc2)
+    D = np.empty((n, q))
+    for a in range(n):
+        for c in range(q):
+            D[a, c] = N[a, c] - N[n + a, c]
+    return full, thin, thin_norm, D, ok
+
+
+@kernel(cache=True)
+def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
+    """The equality subspace ``{w : E w = 0}`` and what it says about two blocks of ``n`` coordinates.
+
+    The bits of :func:`svd` and :func:`numerical_rank` on ``E`` (``E = U diag(s) Vt``, rank ``r``,
+    nullspace basis ``N = Vt[r:]'``), and, for the blocks ``w[:n]`` and ``w[n:2n]``: whether
+    ``N``'s block has rank ``n`` (its smallest singular value above ``rank_rtol``), the functional
+    ``N_block' u`` along the block's last left singular vector ``u`` and its norm, whether
+    appending the rows ``[I, -I, 0]`` to ``E`` leaves its numerical rank unchanged, and
+    ``N[:n] - N[n:2n]``.  ``ok`` is False for a non-finite entry (nothing else is meaningful then).
+    """
+    m, k = E.shape
+    U, s, Vt, ok = _svd_full_kernel(E, tol, max_sweeps)
+    r = _rank_kernel(s, rank_rtol)
+    N = np.ascontiguousarray(Vt[r:].T)
+    full, thin, thin_norm, D, ok_parts = _subspace_directions_kernel(N, n, rank_rtol, tol, max_sweeps)
+    ok = ok and ok_parts
     # [E; I -I 0], the identity's off-diagonal zeros negated as -np.eye gives them
     EJ = np.zeros((m + n, k))
     EJ[:m] = E
@@ -679,10 +698,6 @@ def _equality_subspace_kernel(E, n, rank_rtol, tol, max_sweeps):
     else:
         _, s2, _, ok2 = _svd_tall_kernel(np.ascontiguousarray(EJ.T), tol, max_sweeps)
     r2 = _rank_kernel(s2, rank_rtol)
-    D = np.empty((n, q))
-    for a in range(n):
-        for c in range(q):
-            D[a, c] = N[a, c] - N[n + a, c]
     return U, s, Vt, r, N, full, thin, thin_norm, r2 == r, D, ok and ok2
 
 
@@ -769,6 +784,19 @@ _jacobi = _jacobi_kernel if COMPILED else _jacobi_numpy
 _complete = _complete_kernel if COMPILED else _complete_numpy
 _singular_values = _singular_values_kernel if COMPILED else _singular_values_numpy
 _row_norms = _row_norms_kernel if COMPILED else _row_norms_numpy
+
+
+def subspace_directions(N: np.ndarray, n: int, rank_rtol: float):
+    """:func:`_subspace_directions_kernel` of ``N``: ``(full, thin, thin_norm, D)`` with the bits of
+    :func:`svd`, :func:`matmul` and :func:`norm`, or ``None`` when the kernels are not compiled in
+    this process or ``N`` is not finite (the caller then computes the same from :func:`svd`)."""
+    if not COMPILED:
+        return None
+    N = np.ascontiguousarray(N, dtype=float)
+    if N.ndim != 2 or N.shape[0] < 2 * n or N.shape[1] == 0:
+        return None
+    full, thin, thin_norm, D, ok = _subspace_directions_kernel(N, int(n), float(rank_rtol), JACOBI_TOL, JACOBI_MAX_SWEEPS)
+    return (full, thin, thin_norm, D) if ok else None
 
 
 def equality_subspace(E: np.ndarray, n: int, rank_rtol: float):

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry._lp_kernels import (implicit_row_bounds, max_abs_affine, min_row_slack, slack_lp_data, slack_lp_rows,
                                     support_upper_bound)
-from ..geometry._reproducible import affine_hull, dot, matmul as mm, nnls, norm, numerical_rank, span_width_bound, svd
+from ..geometry._reproducible import affine_hull, dot, matmul as mm, nnls, norm, numerical_rank, span_width_bound, subspace_directions, svd
 from ..geometry.exact_lp import decide_above
 from ..geometry.lp import certified_width_below, highs_lp, solve_slack_lp, verified_lp, width_proven_above
 from ..status import Status
@@ -318,6 +318,12 @@ class SubspaceDirections:
 
     @staticmethod
     def of(N: np.ndarray, n: int, equalities: tuple[np.ndarray, int] | None = None) -> "SubspaceDirections":
+        fast = subspace_directions(N, n, RANK_RTOL) if equalities is None else None
+        if fast is not None:  # one compiled call, the same bits
+            full_k, thin_k, thin_norm, D = fast
+            same = bool(np.max(np.abs(D), initial=0.0) <= RANK_RTOL)
+            return SubspaceDirections((bool(full_k[0]), bool(full_k[1])), (thin_k[0], thin_k[1]), same,
+                                      (float(thin_norm[0]), float(thin_norm[1])), D)
         full, thin = [], []
         for part in (slice(0, n), slice(n, 2 * n)):
             P = N[part]

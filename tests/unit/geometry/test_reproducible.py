@@ -371,3 +371,28 @@ def test_batched_singular_values_side_by_side_keep_each_matrix_bits():
         S = R.singular_values(M)
         assert np.array_equal(S, np.array([R.svd(Mk, compute_uv=False) for Mk in M]))
         assert np.array_equal(S, R._singular_values_numpy(M, JACOBI_TOL, JACOBI_MAX_SWEEPS))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_subspace_directions_kernel_is_the_svd_path_bit_for_bit(seed):
+    """One compiled call gives what the pair tests computed from :func:`svd`, :func:`matmul` and
+    :func:`norm` per block of a frame's basis: rank of each block, its thinnest functional and that
+    functional's norm, the difference of the two blocks; fewer columns than states too."""
+    tier_up()
+    rng = np.random.default_rng(300 + seed)
+    n = int(rng.integers(1, 6))
+    q = int(rng.integers(1, 3 * n + 3))
+    N = np.linalg.qr(rng.normal(size=(2 * n + 7, q)))[0] if q <= 2 * n + 7 else rng.normal(size=(2 * n + 7, q))
+    if seed % 3 == 0 and q > 1:
+        N[:n, -1] = N[:n, 0]  # a block of lower rank
+    full, thin, thin_norm, D = R.subspace_directions(N, n, 1e-12)
+    for part in range(2):
+        P = N[part * n:(part + 1) * n]
+        if q < n:
+            assert not full[part] and np.array_equal(thin[part], np.zeros(q)) and thin_norm[part] == 0.0
+            continue
+        U, s, _ = R.svd(P)
+        assert bool(full[part]) == bool(s[-1] > 1e-12)
+        want = R.matmul(P.T, U[:, -1])
+        assert np.array_equal(thin[part], want) and thin_norm[part] == R.norm(want)
+    assert np.array_equal(D, N[:n] - N[n:2 * n])
