@@ -38,7 +38,8 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry._lp_kernels import (implicit_row_bounds, max_abs_affine, min_row_slack, slack_lp_data, slack_lp_rows,
                                     support_upper_bound)
-from ..geometry._reproducible import affine_hull, dot, matmul as mm, nnls, norm, numerical_rank, span_width_bound, subspace_directions, svd
+from ..geometry._reproducible import (affine_hull, dot, matmul as mm, nnls, norm, numerical_rank, span_width_bound,
+                                      subspace_directions, svd)
 from ..geometry.exact_lp import decide_above
 from ..geometry.lp import certified_width_below, highs_lp, solve_slack_lp, verified_lp, width_proven_above
 from ..status import Status
