@@ -1412,6 +1412,8 @@ def certified_width_below(A: np.ndarray, b: np.ndarray, c: np.ndarray, *, radius
     >>> certified_width_below(A, b, c, radius_bound=10.0, width=1.5)
     False
     """
+    # one layout for the kernels below (a view such as a slack LP's rows would compile another)
+    A, b = np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float)
     if point is not None and width_proven_above(A, b, c, point, width):
         return False  # two points of the set are proven farther apart than `width`: no LP
     total = 0.0

@@ -407,7 +407,7 @@ class _Frame:
         A, bu = self.lp
         if A.shape[0] <= 1:
             return True  # nothing bounds the frame's directions: the states can differ
-        G, g = A[:-1, :-1], bu[:-1]
+        G, g = np.ascontiguousarray(A[:-1, :-1]), bu[:-1]  # one layout for the kernels (see certified_width_below)
         return any(not _max_abs_certified_below(G, g, np.ascontiguousarray(Dm[k]), float(d0[k]), DISTINCT_STATE_TOL, self.R)
                    for k in range(n) if np.max(np.abs(Dm[k])) > RANK_RTOL or abs(d0[k]) > DISTINCT_STATE_TOL)
 
@@ -659,7 +659,7 @@ def fixed_state_witness(Gv: np.ndarray, gv: np.ndarray, N: np.ndarray, w0: np.nd
         res = _slack_lp(A, bu, radius_bound, -CLOSED_SET_TOL, problem)
         if res.lower <= -CLOSED_SET_TOL:
             return False
-    Gr, gr = A[:-1, :-1], bu[:-1] + CLOSED_SET_TOL
+    Gr, gr = np.ascontiguousarray(A[:-1, :-1]), bu[:-1] + CLOSED_SET_TOL  # one layout for the kernels
     Dm = N[:n]
     d0 = w0[:n] - x_scaled_offset
     if Gr.shape[0] == 0:
