@@ -111,7 +111,7 @@ def assemble_report(out_dir: str | Path, builders: list[tuple[str, SectionBuilde
         progress(key)
         try:
             section = builder(out, progress)
-            ok, err = True, ""
+            ok, err = not section.error, section.error
         except HybobsError as exc:
             section = ReportSection(key, f"<p class='error'>This section failed: {html.escape(str(exc))}</p>")
             ok, err = False, str(exc)

@@ -36,6 +36,9 @@ class ReportSection:
     body_html: str
     summary: dict[str, Any] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
+    #: Set when the section ran but could not do what it is for (its body says why): the report
+    #: keeps the section and marks it not ``ok``, with this message as its ``error``.
+    error: str = ""
 
 
 _SECTIONS: list[tuple[str, SectionBuilder]] = []

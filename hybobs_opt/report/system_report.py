@@ -101,7 +101,7 @@ def build_system_report(system, label: str, out_dir: str | Path, *, horizon: int
         except HybobsError as exc:  # e.g. a Zeno automaton before the default horizon: say so, keep the page
             return ReportSection("Simulation", f"<p>The run from the centre of the state bounds under the centre input "
                                  f"stopped: {html.escape(str(exc))}. Choose the run with <code>hybobs simulate SYSTEM "
-                                 f"--x0 ... --t-final ...</code>.</p>", {"error": str(exc)})
+                                 f"--x0 ... --t-final ...</code>.</p>", {"error": str(exc)}, error=str(exc))
         fig = f"simulation_{slug}.png"
         plot_trace(trace, out / fig, title=f"{label}: from the centre of the state bounds")
         alt = (f"Simulation of {label} from the centre of its state bounds over {trace.t[-1] - trace.t[0]:g} s: "

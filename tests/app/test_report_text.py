@@ -144,6 +144,26 @@ def test_page_has_a_sticky_contents_sidebar_with_every_section_and_subheading(tm
 
 
 @pytest.mark.slow
+def test_a_section_that_could_not_do_its_work_is_reported_failed_with_its_page(tmp_path):
+    """A section that ran but says it could not do its work (``ReportSection.error``) keeps its page
+    and is reported not ok with that message; a section that raised is reported the same way."""
+    from hybobs_opt.errors import ModelError
+    from hybobs_opt.report.html import assemble_report
+    from hybobs_opt.report.section import ReportSection
+
+    def stopped(out, progress):
+        return ReportSection("Simulation", "<p>The run stopped at t = 4.</p>", {"error": "stopped at t = 4"},
+                             error="stopped at t = 4")
+
+    def raised(out, progress):
+        raise ModelError("x0", "a state", "nothing")
+
+    res = assemble_report(tmp_path, [("fine", _fake_section("Fine", "<p>ok</p>")), ("sim", stopped), ("bad", raised)])
+    assert [(s["key"], s["ok"]) for s in res["sections"]] == [("fine", True), ("sim", False), ("bad", False)]
+    assert res["sections"][1]["error"] == "stopped at t = 4" and res["sections"][0]["error"] == ""
+    assert "The run stopped at t = 4." in (tmp_path / "index.html").read_text()
+
+
 @pytest.mark.parametrize("key", ["examples", "drift"])
 def test_section_reads_as_words_with_units(tmp_path, key):
     """A section built for real (a few seconds each), assembled into the page, passes every check."""
