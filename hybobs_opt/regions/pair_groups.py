@@ -145,8 +145,9 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
                                     problem=f"group of pairs below prefixes {a}, {int(b_of[t])} of length {level.depth} "
                                             "(Algorithm 3.1, grouped step 3.1.1)",
                                     directions=rows.directions)
-            done_a[t] = ok_a[t] and verdict.verdict != PairVerdict.PIECE
-            done_b[t] = ok_b[t] and verdict.verdict_ji != PairVerdict.PIECE
+            # a direction not tested here keeps what its rank screen decided
+            done_a[t] = done_a[t] or (ok_a[t] and verdict.verdict != PairVerdict.PIECE)
+            done_b[t] = done_b[t] or (ok_b[t] and verdict.verdict_ji != PairVerdict.PIECE)
         # every pair still wanted in a group decided here: the groups hold disjoint members
         for done, want, first, second in ((done_a, want_ij, caller, other), (done_b, want_ji, other, caller)):
             decided = np.zeros(groups.size, dtype=bool)

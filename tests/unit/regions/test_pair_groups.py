@@ -23,6 +23,8 @@ is checked, and why:
 * The process executor gives the same pieces, ruled-out pairs and LP counts as the serial run
   (the group tests must not depend on how the ``i`` are split into tasks).
 * ``group_tests`` other than a bool is a :class:`~hybobs_opt.errors.ModelError`.
+* A direction the rank screen rules out stays ruled out when the group's LP runs for the other
+  direction (scripted screens and verdicts: the pass marks the decided pairs after its tests).
 """
 
 import functools
@@ -283,3 +285,56 @@ def test_distinct_ints_equals_numpy_unique_and_counts_children_as_before():
         encoded = distinct_ints(inverse.astype(np.int64) * width + sub)
         expected = np.unique(np.stack([inverse, sub]), axis=1) if size else np.zeros((2, 0), dtype=int)
         np.testing.assert_array_equal(np.bincount(encoded // width, minlength=5), np.bincount(expected[0], minlength=5))
+
+
+class _ScriptedRows:
+    """Rows of a group's pair set; the scripted classify_pair below reads none of them."""
+
+    Gv = gv = N = w0 = directions = None
+    radius_bound = 1.0
+
+
+class _ScriptedAlgebra:
+    """The algebra of one level of two supersets: the rank screen passes one direction only."""
+
+    n = 1
+    scaled = [None, None]
+    cls = np.array([0, 1])
+
+    def __init__(self, screen_ab: bool, screen_ba: bool):
+        self.screens = {(0, 1): screen_ab, (1, 0): screen_ba}
+
+    def screen_pairs(self, ca, cb):
+        return np.array([self.screens[(int(a), int(b))] for a, b in zip(ca, cb)], dtype=bool)
+
+    def restricted_rows(self, a, bs):
+        return [_ScriptedRows() for _ in bs]
+
+
+@pytest.mark.parametrize("screen_ab, screen_ba", [(False, True), (True, False)])
+def test_a_direction_ruled_out_by_rank_stays_ruled_out_when_the_other_is_tested(monkeypatch, screen_ab, screen_ba):
+    """One group, both directions wanted: the rank screen rules out one direction (no LP), the group
+    LP is run for the other and finds a piece there.  The screened direction's pairs are ruled out,
+    the tested direction's stay to be tested one by one."""
+    from hybobs_opt.regions import pair_groups
+    from hybobs_opt.regions.pair_geometry import PairClassification
+    from hybobs_opt.regions.verdicts import PairVerdict
+
+    calls = []
+
+    def classify(*args, **kwargs):
+        calls.append(args[6:8])  # (want_ij, want_ji) as tested
+        return PairClassification(PairVerdict.PIECE, PairVerdict.PIECE, 1.0, False)
+
+    monkeypatch.setattr(pair_groups, "classify_pair", classify)
+    level = pair_groups.GroupLevel(3, _ScriptedAlgebra(screen_ab, screen_ba), np.array([0, 0, 1, 1]))
+    caller, other = np.array([0, 1]), np.array([2, 3])
+    want_ij, want_ji = np.ones(2, dtype=bool), np.ones(2, dtype=bool)
+    ruled, n_tests = pair_groups.rule_out_by_groups([level], caller, other, want_ij, want_ji)
+    assert n_tests == 1 and calls == [(screen_ab, screen_ba)]
+    if screen_ab:  # R_ij tested (a piece), R_ji lower-dimensional by rank
+        assert want_ij.tolist() == [True, True] and want_ji.tolist() == [False, False]
+        assert sorted(map(tuple, ruled.tolist())) == [(2, 0), (3, 1)]
+    else:
+        assert want_ij.tolist() == [False, False] and want_ji.tolist() == [True, True]
+        assert sorted(map(tuple, ruled.tolist())) == [(0, 2), (1, 3)]
