@@ -168,6 +168,16 @@ def simulate_hybrid(
         z0 = np.concatenate([x, ufn(t)]) if lifted else x
         active = inv.A @ z0 - inv.b
         offsets = np.where(active > -EVENT_OFFSET_RTOL * (1 + np.abs(inv.b)), EVENT_OFFSET_RTOL * (1 + np.abs(inv.b)), 0.0)
+        # A row the state already lies beyond by more than its offset (the jump admits states
+        # within EVENT_MEMBERSHIP_RTOL of an invariant) while the flow carries it further out:
+        # its event, an upward crossing, would never fire.  The state leaves the location at once
+        # (counted as an event, so that a Zeno execution meets max_events).
+        outside = np.nonzero(active - offsets > 0.0)[0]
+        if outside.size and np.any(inv.A[outside, :automaton.n] @ automaton.flow(q, x, ufn(t)) > 0.0):
+            q_new, x = _jump(automaton, q, x, ufn(t))
+            events.append({"t": t, "kind": "location change", "from": q, "to": q_new, "x": x.tolist()})
+            q = q_new
+            continue
 
         def make_event(k, inv=inv, lifted=lifted, t_last=t_last, offsets=offsets):
             a, b, offset = inv.A[k], inv.b[k], float(offsets[k])

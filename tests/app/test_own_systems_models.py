@@ -268,6 +268,28 @@ def test_tank_flows_invariants_and_guards_match_the_published_automaton(index):
         assert system.flow(q, X[0]).sum() == pytest.approx(W - V1 - V2)
 
 
+@pytest.mark.parametrize("index", range(2), ids=["toml", "builder"])
+def test_tank_run_stops_at_its_zeno_point_with_the_zeno_message(index):
+    """From (1, 1) the total volume falls at v1 + v2 - w = 0.25 and the switching accelerates until
+    both levels reach their thresholds: the Zeno time is (2 - r1 - r2) / 0.25 = 4 s (worked by
+    hand).  The run stops there and names Zeno behaviour; it used to integrate past it, to a
+    negative level, and report an invariant crossed twice at t = 10."""
+    from hybobs_opt.sim import simulate_hybrid
+    from hybobs_opt.sim.hybrid import SimulationError
+
+    system = sources("water_tanks")[index]
+    zeno = (2.0 - R1 - R2) / (V1 + V2 - W)
+    with pytest.raises(SimulationError, match="Zeno") as info:
+        simulate_hybrid(system, [1.0, 1.0], 10.0)
+    stopped = float(str(info.value).split("before t = ")[1].split(":")[0])
+    assert abs(stopped - zeno) < 1e-3
+    # before it: switches at t_k = 4 - 3 / 2^k (by hand: x2 reaches 0.5 at t = 1, then each stay
+    # lasts half the one before), the levels never below their thresholds
+    before = simulate_hybrid(system, [1.0, 1.0], zeno - 0.1)
+    np.testing.assert_allclose([e["t"] for e in before.events], [zeno - 3.0 / 2**k for k in range(5)], atol=1e-9)
+    assert np.all(before.x >= 0.5 - 1e-9)
+
+
 def test_tank_builder_parameters():
     system = builder("water_tanks", w=0.9, r1=0.25, measured=("x1", "x2"))
     x = np.array([1.0, 0.3])
