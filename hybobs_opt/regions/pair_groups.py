@@ -93,7 +93,8 @@ def rule_out_by_groups(levels: list[GroupLevel], caller: np.ndarray, other: np.n
     ``want_ij[k]``: ``R_ij`` (projection on ``x`` of the caller's region) is still to be decided;
     ``want_ji[k]``: ``R_ji`` too (the same set, projected on ``x^``).  Both arrays are updated in
     place.  Returns the ordered pairs ruled out (``(i, j)`` for ``R_ij``, ``(j, i)`` for ``R_ji``)
-    as a ``(k, 2)`` int32 array, in the order the groups ruled them out, and the number of groups tested.
+    as a ``(k, 2)`` int32 array, level by level (per level the ``R_ij``, then the ``R_ji``, in the
+    order of the candidates), and the number of groups tested.
     """
     ruled: list[np.ndarray] = []
     n_tests = 0

@@ -174,9 +174,7 @@ def simulate_hybrid(
         # (counted as an event, so that a Zeno execution meets max_events).
         outside = np.nonzero(active - offsets > 0.0)[0]
         if outside.size and np.any(inv.A[outside, :automaton.n] @ automaton.flow(q, x, ufn(t)) > 0.0):
-            q_new, x = _jump(automaton, q, x, ufn(t))
-            events.append({"t": t, "kind": "location change", "from": q, "to": q_new, "x": x.tolist()})
-            q = q_new
+            q, x = _jump_recorded(automaton, q, x, ufn(t), t, events)
             continue
 
         def make_event(k, inv=inv, lifted=lifted, t_last=t_last, offsets=offsets):
@@ -207,14 +205,20 @@ def simulate_hybrid(
                 "the invariant is crossed twice within one solver step; reduce the horizon between breakpoints"
             )
         if sol.status == 1:  # an invariant row became active: jump
-            q_new, x = _jump(automaton, q, x, ufn(t))
-            events.append({"t": t, "kind": "location change", "from": q, "to": q_new, "x": x.tolist()})
-            q = q_new
+            q, x = _jump_recorded(automaton, q, x, ufn(t), t, events)
 
     ys = np.array([automaton.output(qs[k], xs[k], ufn(grid[k])) for k in range(grid.size)]).reshape(grid.size, automaton.p)
     us = np.array([ufn(tk) for tk in grid]).reshape(grid.size, automaton.m)
     return Trace(grid, xs, qs, us, ys, automaton.state_names, automaton.input_names, automaton.output_names,
                  automaton.location_names, events)
+
+
+def _jump_recorded(automaton: HybridAutomaton, q: int, x: np.ndarray, u: np.ndarray, t: float,
+                   events: list[dict]) -> tuple[int, np.ndarray]:
+    """:func:`_jump` at time ``t``, the location change appended to ``events``."""
+    q_new, x_new = _jump(automaton, q, x, u)
+    events.append({"t": t, "kind": "location change", "from": q, "to": q_new, "x": x_new.tolist()})
+    return q_new, x_new
 
 
 def _jump(automaton: HybridAutomaton, q: int, x: np.ndarray, u: np.ndarray) -> tuple[int, np.ndarray]:
